@@ -1,0 +1,19 @@
+// Colour spaces: sRGB <-> linear <-> CIE XYZ (D65) <-> CIE L*u*v*, and the difference metrics the
+// evaluation uses.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "common.h"
+
+namespace montage {
+
+// sRGB in [0,1] (gamma encoded) to CIE L*u*v* with the D65 white point; L in [0,100].
+Vec3f srgbToLuv(const Vec3f& rgb);
+Vec3f luvToSrgb(const Vec3f& luv);
+// Whole-image conversion, CV_32FC3 RGB in [0,1] to CV_32FC3 L*u*v*.
+cv::Mat srgbToLuv(const cv::Mat& rgb);
+// Euclidean distance in L*u*v* (the CIE 1976 Delta E*uv) between two sRGB colours.
+float deltaEuv(const Vec3f& rgbA, const Vec3f& rgbB);
+
+}  // namespace montage

@@ -1,0 +1,35 @@
+// Evaluation of a textured result against a ground-truth textured mesh (`montage eval`).
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "model.h"
+
+namespace montage {
+
+struct EvalOptions {
+  int samples = 200000;  // random surface samples (area-weighted)
+  unsigned seed = 7;
+  int seamSamplesPerEdge = 4;
+};
+
+struct EvalResult {
+  int samples = 0, coveredSamples = 0;
+  double psnrAll = 0, psnrCovered = 0;      // dB, RGB in [0,255]
+  double deltaEAll = 0, deltaECovered = 0;  // mean CIE76 Delta E*uv
+  double coveragePhoto = 0, coverageInpainted = 0, coverageEmpty = 0;  // area fractions
+  int flippedTriangles = 0;
+  double stretchL2 = 0, stretchLinf = 0;    // Sander 2001, normalised: 1 = isometric up to scale
+  double seamMismatch = 0;                  // mean Delta E*uv across chart seams (0 when no seams)
+  int seamEdges = 0;
+  nlohmann::json toJson() const;
+  std::string summary() const;
+};
+
+// Samples the truth surface, finds the closest point on the result surface and compares colours.
+// The result may be refined or re-ordered; it must describe the same surface.
+EvalResult evaluate(const TexturedModel& result, const TexturedModel& truth, const EvalOptions& options = {});
+
+}  // namespace montage

@@ -1,0 +1,2 @@
+// implemented in progress
+namespace montage {}

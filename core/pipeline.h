@@ -1,0 +1,97 @@
+// The pipeline object: runs the stages of texturemontage.h in order, reports progress, honours a
+// cancel flag, keeps each stage's last output so an edit reruns only what it invalidates, and
+// records per-stage timings and counts for report.json.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mesh.h"
+#include "model.h"
+#include "photo.h"
+#include "project.h"
+#include "texture_map.h"
+
+namespace montage {
+
+// The stages, in pipeline order (paper Figure 2). Stages not yet built are listed in
+// texturemontage.h's comment, not here: every entry below runs.
+enum class StageId { Load, Map, Bake, Export };
+inline constexpr std::array<const char*, 4> kStageNames = {"load", "map", "bake", "export"};
+inline const char* stageName(StageId s) { return kStageNames[static_cast<int>(s)]; }
+
+// Progress reporting and cancellation for one job. Stages call progress() at convenient points;
+// it throws montage::Cancelled when the cancel flag is set.
+class JobControl {
+ public:
+  using Callback = std::function<void(StageId stage, double fraction, const std::string& what)>;
+  JobControl() = default;
+  JobControl(const std::atomic<bool>* cancel, Callback callback) : cancel_(cancel), callback_(std::move(callback)) {}
+  void progress(StageId stage, double fraction, const std::string& what = "") const;
+  void checkCancel() const;
+  bool cancelled() const { return cancel_ && cancel_->load(std::memory_order_relaxed); }
+
+ private:
+  const std::atomic<bool>* cancel_ = nullptr;
+  Callback callback_;
+};
+
+// The loaded inputs of a project: immutable once built, shared between runs and threads.
+struct Scene {
+  Project project;
+  std::shared_ptr<const Mesh> mesh;
+  MeshReport meshReport;
+  std::vector<std::shared_ptr<const Photo>> photos;
+};
+
+struct StageRecord {
+  StageId stage = StageId::Load;
+  bool cached = false;     // output reused from the previous run
+  double seconds = 0;      // wall time of this run (0 when cached)
+  nlohmann::json counts;   // stage-specific figures (faces, photos, mapped faces...)
+};
+
+struct PipelineResult {
+  std::shared_ptr<const Scene> scene;
+  std::shared_ptr<const TextureMap> map;
+  std::shared_ptr<const TexturedModel> model;
+  std::vector<StageRecord> stages;
+  std::vector<std::string> warnings;  // things the user should know (mesh caveats, unmapped regions)
+  nlohmann::json report() const;      // what report.json holds
+};
+
+// Stage functions (texturemontage.h lists them in order).
+// Load: reads the mesh and photos of a validated project and checks the project against them.
+std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
+// Map: correspondences -> texture map (partition, progressive mesh, coarse-to-fine). Until the
+// mapping lands this returns the all-empty map with a note saying so.
+TextureMap mapTexture(const Scene& scene, const JobControl& job = {});
+// Bake: texture map -> textured model (mapped faces textured from their photos; empty faces flat).
+TexturedModel bakeModel(const Scene& scene, const TextureMap& map, const JobControl& job = {});
+
+class Pipeline {
+ public:
+  // Runs every stage on `project` (already loaded by loadProject), reusing cached outputs whose
+  // inputs did not change. Throws montage::Error for bad input, montage::Cancelled when cancelled.
+  PipelineResult run(const Project& project, const JobControl& job = {});
+
+ private:
+  struct MeshKey;
+  std::shared_ptr<const Mesh> cachedMesh_;
+  MeshReport cachedMeshReport_;
+  std::string meshKey_;
+  std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> cachedPhotos_;  // key -> photo
+  std::string mapKey_;
+  std::shared_ptr<const TextureMap> cachedMap_;
+};
+
+// Writes DIR/model.obj (+ .mtl, textures), DIR/model.glb and DIR/report.json.
+void writeRunOutputs(const PipelineResult& result, const std::string& dir);
+
+}  // namespace montage

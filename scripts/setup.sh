@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages TextureMontage needs, and only those that are missing.
+# Safe to run twice: it asks dpkg first and calls apt-get only when something is absent.
+# Usage: scripts/setup.sh [--with-tools]   (--with-tools adds xvfb, assimp-utils and the armadillo data
+#                                           used by tests and benchmarks)
+set -euo pipefail
+
+BUILD_PKGS=(
+  build-essential cmake pkg-config
+  libglfw3-dev libimgui-dev libglm-dev libopenmesh-dev libeigen3-dev libstb-dev
+  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-photo-dev
+  nlohmann-json3-dev libcli11-dev libtinygltf-dev libgtest-dev
+  libgl-dev
+)
+TOOL_PKGS=(xvfb xauth assimp-utils libcgal-demo nodejs)
+
+want=("${BUILD_PKGS[@]}")
+if [[ "${1:-}" == "--with-tools" ]]; then want+=("${TOOL_PKGS[@]}"); fi
+
+missing=()
+for p in "${want[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "setup: all ${#want[@]} packages present"
+  exit 0
+fi
+
+echo "setup: installing ${missing[*]}"
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

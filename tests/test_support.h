@@ -1,0 +1,29 @@
+// Helpers shared by the tests: data locations and temporary folders.
+#pragma once
+
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace montage::test {
+
+// assets/ of the project (always present).
+std::string assetsDir();
+// ../shared/data, or "" when absent.
+std::string sharedDataDir();
+// Path of a file under ../shared/data; calls GTEST_SKIP-compatible logic: returns "" and prints
+// "SKIPPED: ../shared/data/<rel> is absent" when the shared data is not there.
+std::string sharedFile(const std::string& rel);
+// A fresh empty temporary folder, removed at process exit.
+std::string tempDir(const std::string& tag);
+// Path of the montage executable.
+std::string montageExe();
+// Runs a shell command, returns its exit status; output goes to `output` when given.
+int runCommand(const std::string& command, std::string* output = nullptr);
+
+}  // namespace montage::test
+
+// Skips the current test when a ../shared/data file is absent, with a clear message.
+#define TM_REQUIRE_SHARED(var, rel)                                                              \
+  const std::string var = ::montage::test::sharedFile(rel);                                          \
+  if (var.empty()) GTEST_SKIP() << "../shared/data/" << (rel) << " is absent: test needs the shared data"

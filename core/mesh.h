@@ -34,6 +34,9 @@ struct Mesh {
   std::vector<int> faceMaterial;
   std::vector<std::string> materialNames;  // OBJ material names, in order of first use
   std::string mtllib;                      // OBJ mtllib file name, as written in the file (may be empty)
+  // Optional per-face OBJ group index (`g` name; `o` when no `g`) into `groupNames`; empty when absent.
+  std::vector<int> faceGroup;
+  std::vector<std::string> groupNames;
   std::vector<int> faceOrigin;             // #F: index of the input face (after fan triangulation) of each face
 
   int numVertices() const { return static_cast<int>(tri.n_vertices()); }
@@ -91,6 +94,9 @@ struct LoadedMesh {
 
 struct MeshLoadOptions {
   bool splitNonManifoldVertices = true;  // duplicate a vertex per fan so the mesh is a 2-manifold
+  // Merge vertices with bit-identical positions before building (always done for STL, which has no
+  // shared vertices). Off by default so vertex ids match the file, which project files refer to.
+  bool weldIdenticalPositions = false;
 };
 
 // Reads OBJ, PLY (ascii, binary), OFF or STL (ascii, binary), by extension. Polygons are fan

@@ -3,7 +3,10 @@
 #pragma once
 
 #include <array>
+#include <limits>
 #include <vector>
+
+#include <Eigen/Geometry>
 
 #include "common.h"
 

@@ -1,2 +1,243 @@
-// implemented in progress
-namespace montage {}
+#include "pipeline.h"
+
+#include <chrono>
+#include <filesystem>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace montage {
+
+void JobControl::checkCancel() const {
+  if (cancelled()) throw Cancelled();
+}
+
+void JobControl::progress(StageId stage, double fraction, const std::string& what) const {
+  checkCancel();
+  if (callback_) callback_(stage, fraction, what);
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Identifies a file's current contents cheaply: path, size and modification time.
+std::string fileKey(const std::string& path) {
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
+  std::ostringstream key;
+  key << path << '|' << size << '|' << time;
+  return key.str();
+}
+
+std::string photoKey(const PhotoRef& ref) {
+  return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask));
+}
+
+std::vector<std::pair<int, int>> photoSizes(const std::vector<std::shared_ptr<const Photo>>& photos) {
+  std::vector<std::pair<int, int>> sizes;
+  for (const auto& p : photos) sizes.emplace_back(p->width, p->height);
+  return sizes;
+}
+
+// The photo as an RGBA8 texture (row 0 = top), alpha from the foreground.
+cv::Mat photoTexture(const Photo& photo) {
+  cv::Mat rgb8, alpha8, rgba;
+  photo.rgb.convertTo(rgb8, CV_8UC3, 255.0);
+  photo.alpha.convertTo(alpha8, CV_8UC1, 255.0);
+  std::vector<cv::Mat> channels;
+  cv::split(rgb8, channels);
+  channels.push_back(alpha8);
+  cv::merge(channels, rgba);
+  return rgba;
+}
+
+}  // namespace
+
+std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job) {
+  Pipeline pipeline;
+  bool cached = false;
+  return pipeline.loadScene(project, job, cached);
+}
+
+TextureMap mapTexture(const Scene& scene, const JobControl& job) {
+  job.progress(StageId::Map, 0.0);
+  TextureMap map = TextureMap::allEmpty(scene.mesh->numFaces());
+  if (scene.project.points.empty()) {
+    map.notes.push_back("no features: the whole mesh is one empty patch (paper section 3)");
+  } else {
+    map.notes.push_back("correspondence-driven mapping (paper sections 3-4) is not built yet: every face is empty");
+  }
+  job.progress(StageId::Map, 1.0);
+  return map;
+}
+
+TexturedModel bakeModel(const Scene& scene, const TextureMap& map, const JobControl& job) {
+  job.progress(StageId::Bake, 0.0);
+  const Mesh& mesh = *scene.mesh;
+  TexturedModel model;
+  model.mesh = mesh;
+  model.mesh.cornerUV.clear();  // the model's UVs are in `uv`; the mesh's own are not carried over
+  const int F = mesh.numFaces();
+  model.uv.assign(F, {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()});
+  model.faceMaterial.assign(F, 0);
+  model.faceSource.assign(F, kSourceEmpty);
+
+  Material empty;
+  empty.name = "empty";
+  model.materials.push_back(empty);
+  std::vector<int> photoMaterial(scene.photos.size(), -1);
+  for (int f = 0; f < F; ++f) {
+    const int p = map.facePhoto[f];
+    if (p == TextureMap::kEmpty) continue;
+    const Photo& photo = *scene.photos[p];
+    if (photoMaterial[p] < 0) {
+      Material m;
+      m.name = "photo" + std::to_string(p);
+      m.texture = photoTexture(photo);
+      photoMaterial[p] = static_cast<int>(model.materials.size());
+      model.materials.push_back(std::move(m));
+    }
+    model.faceMaterial[f] = photoMaterial[p];
+    model.faceSource[f] = p;
+    for (int k = 0; k < 3; ++k) {
+      const Vec2& px = map.cornerUV[f][k];
+      model.uv[f][k] = Vec2f(float(px.x() / photo.width), float(1.0 - px.y() / photo.height));
+    }
+  }
+  job.progress(StageId::Bake, 1.0);
+  return model;
+}
+
+std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const JobControl& job, bool& cached) {
+  // The mesh and each photo are reloaded only when their files changed.
+  auto scene = std::make_shared<Scene>();
+  scene->project = project;
+  const std::string meshKey = fileKey(project.mesh);
+  cached = meshKey == meshKey_ && cachedMesh_;
+  if (!cached) {
+    job.progress(StageId::Load, 0.0, "mesh " + fs::path(project.mesh).filename().string());
+    LoadedMesh loaded = loadMesh(project.mesh);
+    cachedMeshReport_ = loaded.report;
+    cachedMesh_ = requireUsable(std::move(loaded));
+    meshKey_ = meshKey;
+  }
+  scene->mesh = cachedMesh_;
+  scene->meshReport = cachedMeshReport_;
+  std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> photos;
+  for (size_t i = 0; i < project.photos.size(); ++i) {
+    const std::string key = photoKey(project.photos[i]);
+    std::shared_ptr<const Photo> photo;
+    for (const auto& [k, p] : cachedPhotos_)
+      if (k == key) photo = p;
+    if (!photo) {
+      job.progress(StageId::Load, double(i + 1) / (project.photos.size() + 1),
+                   "photo " + fs::path(project.photos[i].path).filename().string());
+      photo = std::make_shared<Photo>(loadPhoto(project.photos[i].path, project.photos[i].mask));
+      cached = false;
+    }
+    photos.emplace_back(key, photo);
+    scene->photos.push_back(photo);
+  }
+  cachedPhotos_ = std::move(photos);
+  validateProject(project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
+  return scene;
+}
+
+PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
+  PipelineResult result;
+
+  auto start = Clock::now();
+  StageRecord load{StageId::Load};
+  std::shared_ptr<const Scene> scene = loadScene(project, job, load.cached);
+  load.seconds = secondsSince(start);
+  load.counts = {{"vertices", scene->mesh->numVertices()},
+                 {"faces", scene->mesh->numFaces()},
+                 {"photos", scene->photos.size()},
+                 {"features", project.points.size()},
+                 {"chains", project.chains.size()}};
+  result.stages.push_back(load);
+  for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
+
+  // Map: reruns when the inputs it reads (mesh, photos, correspondences, options) changed.
+  start = Clock::now();
+  std::ostringstream key;
+  key << meshKey_;
+  for (const auto& [k, p] : cachedPhotos_) key << '#' << k;
+  nlohmann::json features = nlohmann::json::parse(projectToJson(project, ""));
+  key << features["points"].dump() << features["chains"].dump() << features["options"].dump();
+  StageRecord map{StageId::Map};
+  map.cached = key.str() == mapKey_ && cachedMap_;
+  if (!map.cached) {
+    cachedMap_ = std::make_shared<TextureMap>(mapTexture(*scene, job));
+    mapKey_ = key.str();
+  }
+  map.seconds = map.cached ? 0 : secondsSince(start);
+  map.counts = {{"faces", cachedMap_->numFaces()}, {"mapped_faces", cachedMap_->numMapped()}};
+  result.stages.push_back(map);
+  for (const auto& note : cachedMap_->notes) result.warnings.push_back("map: " + note);
+
+  // Bake.
+  start = Clock::now();
+  auto model = std::make_shared<TexturedModel>(bakeModel(*scene, *cachedMap_, job));
+  StageRecord bake{StageId::Bake};
+  bake.seconds = secondsSince(start);
+  bake.counts = {{"materials", model->materials.size()}};
+  result.stages.push_back(bake);
+
+  result.scene = scene;
+  result.map = cachedMap_;
+  result.model = model;
+  return result;
+}
+
+nlohmann::json PipelineResult::report() const {
+  nlohmann::json stagesJson = nlohmann::json::array();
+  double total = 0;
+  for (const auto& s : stages) {
+    stagesJson.push_back(
+        {{"stage", stageName(s.stage)}, {"seconds", s.seconds}, {"cached", s.cached}, {"counts", s.counts}});
+    total += s.seconds;
+  }
+  nlohmann::json j;
+  j["generator"] = "TextureMontage";
+  j["stages"] = stagesJson;
+  j["total_seconds"] = total;
+  j["warnings"] = warnings;
+  if (scene) {
+    j["project"] = scene->project.file;
+    j["mesh"] = {{"path", scene->meshReport.path},
+                 {"vertices", scene->meshReport.vertices},
+                 {"faces", scene->meshReport.faces},
+                 {"genus", scene->meshReport.genus},
+                 {"boundary_loops", scene->meshReport.boundaryLoops},
+                 {"components", scene->meshReport.components}};
+  }
+  if (map) j["map"] = {{"faces", map->numFaces()}, {"mapped_faces", map->numMapped()}, {"notes", map->notes}};
+  return j;
+}
+
+void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
+  TM_CHECK(result.model, "writeRunOutputs: no model to write");
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  TM_CHECK(!ec, located(dir, "cannot create output folder: " + ec.message()));
+  const auto start = Clock::now();
+  exportObj(*result.model, dir, "model");
+  exportGlb(*result.model, (fs::path(dir) / "model.glb").string());
+  nlohmann::json report = result.report();
+  const double seconds = secondsSince(start);
+  report["stages"].push_back({{"stage", stageName(StageId::Export)},
+                              {"seconds", seconds},
+                              {"cached", false},
+                              {"counts", {{"files", {"model.obj", "model.mtl", "model.glb"}}}}});
+  report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
+  writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
+}
+
+}  // namespace montage

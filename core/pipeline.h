@@ -80,9 +80,10 @@ class Pipeline {
   // Runs every stage on `project` (already loaded by loadProject), reusing cached outputs whose
   // inputs did not change. Throws montage::Error for bad input, montage::Cancelled when cancelled.
   PipelineResult run(const Project& project, const JobControl& job = {});
+  // The Load stage with this pipeline's cache; `cached` tells whether nothing had to be read.
+  std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job, bool& cached);
 
  private:
-  struct MeshKey;
   std::shared_ptr<const Mesh> cachedMesh_;
   MeshReport cachedMeshReport_;
   std::string meshKey_;

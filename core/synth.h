@@ -33,7 +33,8 @@ struct SynthOptions {
 };
 
 struct SynthScene {
-  std::vector<cv::Mat> photos;      // CV_8UC4 RGBA, alpha 0 = background
+  SynthOptions options;             // the options the scene was made with
+  std::vector<cv::Mat> photos;      // CV_8UC4 RGBA, alpha 0 = background; silhouette antialiased (2x2 supersampling)
   std::vector<Camera> cameras;
   std::vector<int> featureVertices; // in sampling order
   Project project;                  // photos named photo_<k>.png, mesh path as given

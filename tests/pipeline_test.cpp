@@ -1,1 +1,161 @@
+// The pipeline object (stages, caching, cancel, report) and the `montage` command line end to end.
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "model.h"
+#include "pipeline.h"
 #include "test_support.h"
+
+namespace fs = std::filesystem;
+using namespace montage;
+
+namespace {
+
+std::string demoProject() { return test::assetsDir() + "/demo/project.json"; }
+
+nlohmann::json readJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+}  // namespace
+
+TEST(Pipeline, RunsDemoAndReportsEveryStage) {
+  Project project = loadProject(demoProject());
+  Pipeline pipeline;
+  std::vector<StageId> seen;
+  JobControl job(nullptr, [&](StageId s, double, const std::string&) {
+    if (seen.empty() || seen.back() != s) seen.push_back(s);
+  });
+  PipelineResult result = pipeline.run(project, job);
+  ASSERT_EQ(result.stages.size(), 3u);
+  EXPECT_EQ(result.stages[0].stage, StageId::Load);
+  EXPECT_EQ(result.stages[1].stage, StageId::Map);
+  EXPECT_EQ(result.stages[2].stage, StageId::Bake);
+  EXPECT_EQ(seen, (std::vector<StageId>{StageId::Load, StageId::Map, StageId::Bake}));
+  ASSERT_TRUE(result.model);
+  EXPECT_EQ(result.model->mesh.numFaces(), result.scene->mesh->numFaces());
+  EXPECT_EQ(result.map->numFaces(), result.scene->mesh->numFaces());
+  EXPECT_EQ(result.stages[0].counts["photos"].get<int>(), static_cast<int>(project.photos.size()));
+  EXPECT_GT(project.points.size(), 0u);
+}
+
+TEST(Pipeline, SecondRunReusesOutputsAndAFeatureEditRerunsOnlyTheMap) {
+  Project project = loadProject(demoProject());
+  Pipeline pipeline;
+  PipelineResult first = pipeline.run(project);
+  EXPECT_FALSE(first.stages[0].cached);
+  EXPECT_FALSE(first.stages[1].cached);
+
+  PipelineResult second = pipeline.run(project);
+  EXPECT_TRUE(second.stages[0].cached);
+  EXPECT_TRUE(second.stages[1].cached);
+  EXPECT_EQ(second.scene->mesh.get(), first.scene->mesh.get());  // the very same loaded mesh
+
+  project.points.pop_back();
+  PipelineResult third = pipeline.run(project);
+  EXPECT_TRUE(third.stages[0].cached);
+  EXPECT_FALSE(third.stages[1].cached);
+}
+
+TEST(Pipeline, CancelStopsTheRun) {
+  Project project = loadProject(demoProject());
+  std::atomic<bool> cancel{true};
+  Pipeline pipeline;
+  EXPECT_THROW(pipeline.run(project, JobControl(&cancel, {})), Cancelled);
+  cancel = false;
+  EXPECT_NO_THROW(pipeline.run(project, JobControl(&cancel, {})));
+}
+
+TEST(Pipeline, NoFeaturesGivesOneEmptyPatchWithAReason) {
+  Project project = loadProject(demoProject());
+  project.points.clear();
+  project.chains.clear();
+  PipelineResult result = Pipeline().run(project);
+  EXPECT_EQ(result.map->numMapped(), 0);
+  ASSERT_FALSE(result.map->notes.empty());
+  EXPECT_NE(result.map->notes[0].find("no features"), std::string::npos);
+}
+
+TEST(Pipeline, BadVertexIdIsRejectedWithItsField) {
+  Project project = loadProject(demoProject());
+  ASSERT_FALSE(project.points.empty());
+  project.points[0].vertex = 10'000'000;
+  try {
+    Pipeline().run(project);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("points[0].vertex"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Pipeline, WritesModelAndReport) {
+  Project project = loadProject(demoProject());
+  PipelineResult result = Pipeline().run(project);
+  const std::string dir = test::tempDir("pipeline_out");
+  writeRunOutputs(result, dir);
+  for (const char* name : {"model.obj", "model.mtl", "model.glb", "report.json"})
+    EXPECT_TRUE(fs::exists(fs::path(dir) / name)) << name;
+  nlohmann::json report = readJson(dir + "/report.json");
+  ASSERT_EQ(report["stages"].size(), 4u);
+  EXPECT_EQ(report["stages"][3]["stage"], "export");
+  EXPECT_EQ(report["mesh"]["faces"].get<int>(), result.scene->mesh->numFaces());
+  TexturedModel back = loadModel(dir + "/model.glb");
+  EXPECT_EQ(back.mesh.numFaces(), result.scene->mesh->numFaces());
+}
+
+// The command line, end to end.
+TEST(MontageCli, RunInfoRenderOnTheDemo) {
+  const std::string out = test::tempDir("cli_run");
+  std::string log;
+  ASSERT_EQ(test::runCommand(test::montageExe() + " run " + demoProject() + " --out " + out, &log), 0) << log;
+  EXPECT_TRUE(fs::exists(out + "/report.json"));
+  ASSERT_EQ(test::runCommand(test::montageExe() + " info " + demoProject(), &log), 0) << log;
+  EXPECT_NE(log.find("project is valid"), std::string::npos) << log;
+  ASSERT_EQ(test::runCommand(test::montageExe() + " render " + out + "/model.obj --size 64 --out " + out + "/r.png", &log),
+            0)
+      << log;
+  EXPECT_TRUE(fs::exists(out + "/r.png"));
+}
+
+TEST(MontageCli, BadInputExitsNonZeroNamingTheFile) {
+  const std::string dir = test::tempDir("cli_bad");
+  const std::string bad = dir + "/broken.obj";
+  std::ofstream(bad) << "v 0 0 0\nv 1 0 0\nf 1 2 7\n";
+  std::string log;
+  EXPECT_NE(test::runCommand(test::montageExe() + " info " + bad, &log), 0);
+  EXPECT_NE(log.find("broken.obj"), std::string::npos) << log;
+  EXPECT_NE(test::runCommand(test::montageExe() + " run " + dir + "/missing.json --out " + dir, &log), 0);
+  EXPECT_NE(log.find("missing.json"), std::string::npos) << log;
+}
+
+TEST(MontageCli, EvalOfSpotAgainstItselfAndAgainstFlatGrey) {
+  TM_REQUIRE_SHARED(mesh, "meshes/spot/spot_triangulated.obj");
+  const std::string texture = test::sharedFile("meshes/spot/spot_texture.png");
+  const std::string dir = test::tempDir("cli_eval");
+  // The ground truth exported as a textured model, and a flat-grey copy of it.
+  LoadedMesh loaded = loadMesh(mesh);
+  cv::Mat bgr = cv::imread(texture, cv::IMREAD_COLOR), rgba;
+  cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);
+  exportObj(modelFromMesh(*loaded.mesh, rgba), dir + "/truth", "model");
+  exportObj(modelFromMesh(*loaded.mesh, cv::Mat(64, 64, CV_8UC4, cv::Scalar(128, 128, 128, 255))), dir + "/grey",
+            "model");
+  const std::string args = " --truth " + mesh + " --truth-texture " + texture + " --samples 50000 --json ";
+  std::string log;
+  ASSERT_EQ(test::runCommand(test::montageExe() + " eval --result " + dir + "/truth/model.obj" + args + dir + "/t.json",
+                             &log),
+            0)
+      << log;
+  ASSERT_EQ(test::runCommand(test::montageExe() + " eval --result " + dir + "/grey/model.obj" + args + dir + "/g.json",
+                             &log),
+            0)
+      << log;
+  nlohmann::json truth = readJson(dir + "/t.json"), grey = readJson(dir + "/g.json");
+  EXPECT_GE(truth["psnr_all"].get<double>(), 60.0) << truth.dump();
+  EXPECT_EQ(truth["flipped_triangles"].get<int>(), 0);
+  EXPECT_LT(grey["psnr_all"].get<double>(), 20.0) << grey.dump();
+}

@@ -1,1 +1,566 @@
+// Tests of core/project: save/load round trip, relative paths, atomic writes, and one test per
+// rejection, each checking that the message names the file, the field and the reason.
+#include "project.h"
+
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <csignal>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
 #include "test_support.h"
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using namespace montage;
+
+namespace {
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+void writeText(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+std::vector<std::string> listDir(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+template <class Fn>
+std::string errorOf(Fn fn) {
+  try {
+    fn();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected a montage::Error";
+  return "";
+}
+
+#define EXPECT_MESSAGE_HAS(message, part) \
+  EXPECT_NE((message).find(part), std::string::npos) << "message: " << (message) << "\nlacks: " << (part)
+
+// A folder with the files a project refers to: mesh.obj, photos/a.png with photos/a_mask.png, and
+// photos/b.png (photos 100x80 and 50x40).
+class ProjectTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = test::tempDir("project");
+    fs::create_directories(fs::path(dir) / "photos");
+    writeText(path("mesh.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    cv::imwrite(path("photos/a.png"), cv::Mat(80, 100, CV_8UC3, cv::Scalar(10, 20, 30)));
+    cv::imwrite(path("photos/a_mask.png"), cv::Mat(80, 100, CV_8UC1, cv::Scalar(255)));
+    cv::imwrite(path("photos/b.png"), cv::Mat(40, 50, CV_8UC3, cv::Scalar(30, 20, 10)));
+  }
+
+  std::string path(const std::string& rel) const { return (fs::path(dir) / rel).string(); }
+
+  // A project using every field, with non-default options and doubles that need all 17 digits.
+  Project sample() const {
+    Project p;
+    p.mesh = path("mesh.obj");
+    p.photos = {{path("photos/a.png"), path("photos/a_mask.png")}, {path("photos/b.png"), ""}};
+    p.points = {{12, {{0, 10.25, 20.5}, {1, 1.0 / 3, 2.0 / 7}}},
+                {5, {{0, 0.1, 79.99999999999999}}},
+                {7, {{0, 100, 0}, {1, 49.5, 39.5}}}};
+    p.chains = {{0, {0, 1, 2}, true}, {1, {2, 0}, false}};
+    p.strokes = {{{1, 2, 3}}, {{4, 5}}};
+    CloneOp clone;
+    clone.photo = 1;
+    clone.polygon = {Vec2(1, 1), Vec2(40.5, 2), Vec2(20, 30.125)};
+    clone.targetFaces = {0, 3, 4};
+    clone.anchorVertex = 3;
+    clone.anchor = Vec2(5.5, 6.25);
+    clone.pixelsPerUnit = 12.5;
+    clone.rotationDeg = -33.3;
+    p.clones = {clone};
+    p.options.backgroundThresholdPx = 3.5;
+    p.options.seamLambda = 0.25;
+    p.options.seamRounds = 12;
+    p.options.gradientWeight = 0.3;
+    p.options.inpaintMode = InpaintMode::Strokes;
+    p.options.atlasSize = 2048;
+    p.options.gutter = 8;
+    p.options.seed = 4000000000u;
+    return p;
+  }
+
+  // The sample as a JSON document, to be broken by the rejection tests.
+  json sampleJson() const { return json::parse(projectToJson(sample(), path("p.json"))); }
+
+  // Writes `document` as p.json and returns the message of loadProject's error.
+  std::string loadError(const json& document) const {
+    writeText(path("p.json"), document.dump(2));
+    const std::string message = errorOf([&] { loadProject(path("p.json")); });
+    EXPECT_MESSAGE_HAS(message, path("p.json"));
+    return message;
+  }
+
+  // The message of validateProject's error for the sample with 20 vertices and 10 faces.
+  static std::string validateError(const Project& p) {
+    return errorOf([&] { validateProject(p, 20, 10, {{100, 80}, {50, 40}}); });
+  }
+
+  std::string dir;
+};
+
+}  // namespace
+
+// ---- Round trip and format ----
+
+TEST_F(ProjectTest, SaveLoadRoundTrip) {
+  Project original = sample();
+  saveProject(original, path("p.json"));
+  EXPECT_EQ(original.file, path("p.json"));
+  const Project loaded = loadProject(path("p.json"));
+  EXPECT_TRUE(loaded.sameDocument(original));
+  EXPECT_EQ(loaded.file, path("p.json"));
+  EXPECT_EQ(loaded.points[0].at[1].x, 1.0 / 3);  // exact, not just close
+  EXPECT_EQ(loaded.points[1].at[0].y, 79.99999999999999);
+  EXPECT_EQ(loaded.options.seed, 4000000000u);
+  EXPECT_EQ(loaded.options.inpaintMode, InpaintMode::Strokes);
+
+  // Saving the loaded project gives the same text (deterministic output).
+  Project again = loaded;
+  saveProject(again, path("q.json"));
+  EXPECT_EQ(readFile(path("p.json")), readFile(path("q.json")));
+  EXPECT_EQ(projectToJson(loaded, path("p.json")), readFile(path("p.json")));
+  validateProject(loaded, 20, 10, {{100, 80}, {50, 40}});  // the sample is valid
+
+  // sameDocument looks at every field but `file`.
+  Project other = loaded;
+  other.file = "/elsewhere.json";
+  EXPECT_TRUE(other.sameDocument(loaded));
+  other.options.gutter = 9;
+  EXPECT_FALSE(other.sameDocument(loaded));
+  other = loaded;
+  other.clones[0].rotationDeg = 0;
+  EXPECT_FALSE(other.sameDocument(loaded));
+  other = loaded;
+  other.photos[0].mask.clear();
+  EXPECT_FALSE(other.sameDocument(loaded));
+}
+
+TEST_F(ProjectTest, FileIsPrettyVersionedJson) {
+  Project p = sample();
+  saveProject(p, path("p.json"));
+  const std::string text = readFile(path("p.json"));
+  EXPECT_NE(text.find("\n  \"version\": 1,"), std::string::npos) << text;  // two-space indent
+  const json j = json::parse(text);
+  EXPECT_EQ(j["format"], "texturemontage-project");
+  EXPECT_EQ(j["version"], Project::kVersion);
+  EXPECT_EQ(j["options"]["inpaintMode"], "strokes");
+  EXPECT_EQ(j["options"]["atlasSize"], 2048);
+  EXPECT_EQ(j["clones"][0]["anchor"], json::array({5.5, 6.25}));
+  EXPECT_EQ(j["chains"][0]["closed"], true);
+  EXPECT_FALSE(j["photos"][1].contains("mask"));  // no mask: no field
+}
+
+TEST_F(ProjectTest, PathsAreRelativeInTheFileAndAbsoluteAfterLoad) {
+  Project p = sample();
+  saveProject(p, path("p.json"));
+  json j = json::parse(readFile(path("p.json")));
+  EXPECT_EQ(j["mesh"], "mesh.obj");
+  EXPECT_EQ(j["photos"][0]["path"], "photos/a.png");
+  EXPECT_EQ(j["photos"][0]["mask"], "photos/a_mask.png");
+
+  // From a sub-folder the paths go up.
+  fs::create_directories(path("projects/v1"));
+  saveProject(p, path("projects/v1/../v1/p.json"));
+  EXPECT_EQ(p.file, path("projects/v1/p.json"));
+  j = json::parse(readFile(path("projects/v1/p.json")));
+  EXPECT_EQ(j["mesh"], "../../mesh.obj");
+  EXPECT_EQ(j["photos"][1]["path"], "../../photos/b.png");
+  const Project loaded = loadProject(path("projects/v1/p.json"));
+  EXPECT_EQ(loaded.mesh, path("mesh.obj"));
+  EXPECT_EQ(loaded.photos[1].path, path("photos/b.png"));
+  EXPECT_TRUE(fs::path(loaded.photos[0].mask).is_absolute());
+
+  // Hand-written paths are made lexically normal; absolute ones stay as they are.
+  j["mesh"] = "./../../photos/../mesh.obj";
+  j["photos"][0]["path"] = path("photos/a.png");
+  writeText(path("projects/v1/p.json"), j.dump());
+  const Project normal = loadProject(path("projects/v1/p.json"));
+  EXPECT_EQ(normal.mesh, path("mesh.obj"));
+  EXPECT_EQ(normal.photos[0].path, path("photos/a.png"));
+
+  // With no relativeTo, paths are written as they are.
+  EXPECT_EQ(json::parse(projectToJson(p, ""))["mesh"], path("mesh.obj"));
+}
+
+TEST_F(ProjectTest, MinimalFileGetsDefaultsAndUnknownFieldsAreIgnored) {
+  writeText(path("p.json"), R"({"format": "texturemontage-project", "version": 1, "mesh": "mesh.obj"})");
+  const Project minimal = loadProject(path("p.json"));
+  EXPECT_EQ(minimal.mesh, path("mesh.obj"));
+  EXPECT_TRUE(minimal.photos.empty() && minimal.points.empty() && minimal.chains.empty() && minimal.strokes.empty() &&
+              minimal.clones.empty());
+  EXPECT_EQ(minimal.options, PipelineOptions());
+
+  json j = sampleJson();
+  j["comment"] = "written by a later build";
+  j["points"][0]["label"] = "nose";
+  j["options"]["futureOption"] = 3;
+  j["options"].erase("gutter");  // absent option: default
+  j["chains"][1].erase("closed");
+  j["clones"][0].erase("rotationDeg");
+  writeText(path("p.json"), j.dump());
+  const Project loaded = loadProject(path("p.json"));
+  EXPECT_EQ(loaded.options.gutter, PipelineOptions().gutter);
+  EXPECT_EQ(loaded.options.atlasSize, 2048);
+  EXPECT_FALSE(loaded.chains[1].closed);
+  EXPECT_EQ(loaded.clones[0].rotationDeg, 0);
+  EXPECT_EQ(loaded.points, sample().points);
+}
+
+// ---- Atomic save ----
+
+TEST_F(ProjectTest, AtomicSaveLeavesNoTemporaryFiles) {
+  Project p = sample();
+  const auto before = listDir(dir);
+  saveProject(p, path("p.json"));
+  saveProject(p, path("p.json"));  // over an existing file
+  auto expected = before;
+  expected.push_back("p.json");
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(listDir(dir), expected);
+
+  writeFileAtomic(path("notes.txt"), "hello");
+  EXPECT_EQ(readFile(path("notes.txt")), "hello");
+  writeFileAtomic(path("notes.txt"), "");
+  EXPECT_EQ(readFile(path("notes.txt")), "");
+  EXPECT_EQ(listDir(dir).size(), expected.size() + 1);
+}
+
+TEST_F(ProjectTest, FailedSaveKeepsTheEarlierFile) {
+  Project p = sample();
+  saveProject(p, path("p.json"));
+  const std::string good = readFile(path("p.json"));
+  const auto files = listDir(dir);
+
+  // Serialisation fails: NaN cannot be written as JSON.
+  Project bad = sample();
+  bad.points[1].at[0].x = std::nan("");
+  std::string message = errorOf([&] { saveProject(bad, path("p.json")); });
+  EXPECT_MESSAGE_HAS(message, path("p.json") + ": points[1].at[0].x");
+  EXPECT_MESSAGE_HAS(message, "not a finite number");
+  EXPECT_EQ(bad.file, "");  // not saved
+  EXPECT_EQ(readFile(path("p.json")), good);
+
+  // Writing fails half way (a file size limit, like a full disk).
+  struct sigaction ignore {
+  }, previous{};
+  ignore.sa_handler = SIG_IGN;
+  sigaction(SIGXFSZ, &ignore, &previous);
+  rlimit limit{}, saved{};
+  getrlimit(RLIMIT_FSIZE, &saved);
+  limit = saved;
+  limit.rlim_cur = 64;
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &limit), 0);
+  message = errorOf([&] { writeFileAtomic(path("p.json"), std::string(1000, 'x')); });
+  setrlimit(RLIMIT_FSIZE, &saved);
+  sigaction(SIGXFSZ, &previous, nullptr);
+  EXPECT_MESSAGE_HAS(message, path("p.json"));
+  EXPECT_MESSAGE_HAS(message, "cannot write");
+  EXPECT_MESSAGE_HAS(message, std::strerror(EFBIG));
+  EXPECT_EQ(readFile(path("p.json")), good);
+  EXPECT_EQ(listDir(dir), files);  // the temporary file is gone
+
+  // The target cannot be replaced (a folder of that name).
+  fs::create_directories(path("taken.json/inner"));
+  message = errorOf([&] { writeFileAtomic(path("taken.json"), "x"); });
+  EXPECT_MESSAGE_HAS(message, path("taken.json"));
+  EXPECT_MESSAGE_HAS(message, "cannot replace");
+  EXPECT_EQ(listDir(dir).size(), files.size() + 1);
+
+  // The folder does not exist.
+  message = errorOf([&] { writeFileAtomic(path("missing/p.json"), "x"); });
+  EXPECT_MESSAGE_HAS(message, path("missing/p.json"));
+  EXPECT_MESSAGE_HAS(message, std::strerror(ENOENT));
+}
+
+TEST_F(ProjectTest, SaveIntoReadOnlyFolderKeepsTheEarlierFile) {
+  Project p = sample();
+  fs::create_directories(path("locked"));
+  saveProject(p, path("locked/p.json"));
+  const std::string good = readFile(path("locked/p.json"));
+  chmod(path("locked").c_str(), 0555);
+  if (access(path("locked").c_str(), W_OK) == 0) {  // root ignores permissions
+    chmod(path("locked").c_str(), 0755);
+    GTEST_SKIP()
+        << "running with permission to write into read-only folders (root); covered by FailedSaveKeepsTheEarlierFile";
+  }
+  p.options.gutter = 20;
+  const std::string message = errorOf([&] { saveProject(p, path("locked/p.json")); });
+  chmod(path("locked").c_str(), 0755);
+  EXPECT_MESSAGE_HAS(message, path("locked/p.json"));
+  EXPECT_MESSAGE_HAS(message, std::strerror(EACCES));
+  EXPECT_EQ(readFile(path("locked/p.json")), good);
+  EXPECT_EQ(listDir(path("locked")), std::vector<std::string>{"p.json"});
+}
+
+// ---- Rejections by loadProject ----
+
+TEST_F(ProjectTest, RejectsUnknownVersion) {
+  json j = sampleJson();
+  j["version"] = 2;
+  const std::string message = loadError(j);
+  EXPECT_MESSAGE_HAS(message, "version: 2 is not supported");
+  EXPECT_MESSAGE_HAS(message, "reads version 1");
+  j["version"] = "1";
+  EXPECT_MESSAGE_HAS(loadError(j), "version: must be an integer, not the string \"1\"");
+  j.erase("version");
+  EXPECT_MESSAGE_HAS(loadError(j), "version: missing");
+}
+
+TEST_F(ProjectTest, RejectsOtherDocuments) {
+  json j = sampleJson();
+  j["format"] = "something-else";
+  EXPECT_MESSAGE_HAS(loadError(j), "format: 'something-else' is not a TextureMontage project");
+  EXPECT_MESSAGE_HAS(loadError(json::array({1, 2})), "top level: must be an object, not an array");
+  EXPECT_MESSAGE_HAS(loadError(json{{"mesh", "mesh.obj"}}), "format: missing");
+  const std::string missing = path("absent.json");
+  const std::string message = errorOf([&] { loadProject(missing); });
+  EXPECT_MESSAGE_HAS(message, missing);
+  EXPECT_MESSAGE_HAS(message, "not found");
+}
+
+TEST_F(ProjectTest, RejectsMissingFiles) {
+  json j = sampleJson();
+  j["mesh"] = "meshes/gone.obj";
+  std::string message = loadError(j);
+  EXPECT_MESSAGE_HAS(message, "mesh: file 'meshes/gone.obj' not found");
+  EXPECT_MESSAGE_HAS(message, path("meshes/gone.obj"));  // resolved
+
+  j = sampleJson();
+  j["photos"][1]["path"] = "photos/c.png";
+  message = loadError(j);
+  EXPECT_MESSAGE_HAS(message, "photos[1].path: file 'photos/c.png' not found");
+  EXPECT_MESSAGE_HAS(message, path("photos/c.png"));
+
+  j = sampleJson();
+  j["photos"][0]["mask"] = "photos/nomask.png";
+  EXPECT_MESSAGE_HAS(loadError(j), "photos[0].mask: file 'photos/nomask.png' not found");
+
+  j = sampleJson();
+  j["mesh"] = "photos";
+  EXPECT_MESSAGE_HAS(loadError(j), "mesh: file 'photos' is not a regular file");
+  j["mesh"] = "";
+  EXPECT_MESSAGE_HAS(loadError(j), "mesh: must not be empty");
+  j.erase("mesh");
+  EXPECT_MESSAGE_HAS(loadError(j), "mesh: missing (required)");
+}
+
+TEST_F(ProjectTest, BadJsonNamesLineAndColumn) {
+  writeText(path("p.json"), "{\n  \"format\": \"texturemontage-project\",\n  \"version\": 1,,\n}\n");
+  std::string message = errorOf([&] { loadProject(path("p.json")); });
+  EXPECT_MESSAGE_HAS(message, path("p.json") + ": line 3, column 16: invalid JSON");
+  writeText(path("p.json"), "");
+  message = errorOf([&] { loadProject(path("p.json")); });
+  EXPECT_MESSAGE_HAS(message, "line 1, column 1: invalid JSON");
+  writeText(path("p.json"), "{\"format\": \"texturemontage-project\",\n\"version\": 1\n");  // unterminated
+  message = errorOf([&] { loadProject(path("p.json")); });
+  EXPECT_MESSAGE_HAS(message, "line 3, column 1: invalid JSON");
+}
+
+TEST_F(ProjectTest, RejectsWrongTypes) {
+  json j = sampleJson();
+  j["points"][0]["vertex"] = "12";
+  EXPECT_MESSAGE_HAS(loadError(j), "points[0].vertex: must be an integer, not the string \"12\"");
+  j = sampleJson();
+  j["points"][2]["vertex"] = 7.5;
+  EXPECT_MESSAGE_HAS(loadError(j), "points[2].vertex: must be an integer, not 7.5");
+  j = sampleJson();
+  j["points"][0]["at"][1]["x"] = nullptr;
+  EXPECT_MESSAGE_HAS(loadError(j), "points[0].at[1].x: must be a finite number, not null");
+  j = sampleJson();
+  j["points"][0]["at"][1].erase("photo");
+  EXPECT_MESSAGE_HAS(loadError(j), "points[0].at[1].photo: missing (required)");
+  j = sampleJson();
+  j["points"] = json::object();
+  EXPECT_MESSAGE_HAS(loadError(j), "points: must be an array, not an object");
+  j = sampleJson();
+  j["chains"][0]["closed"] = 1;
+  EXPECT_MESSAGE_HAS(loadError(j), "chains[0].closed: must be true or false, not 1");
+  j = sampleJson();
+  j["clones"][0]["polygon"][2] = json::array({1, 2, 3});
+  EXPECT_MESSAGE_HAS(loadError(j), "clones[0].polygon[2]: must be [x, y]");
+  j = sampleJson();
+  j["strokes"][1]["vertices"][0] = 1e12;
+  EXPECT_MESSAGE_HAS(loadError(j), "strokes[1].vertices[0]: must be an integer");
+  j = sampleJson();
+  j["strokes"][1]["vertices"][0] = 5000000000LL;
+  EXPECT_MESSAGE_HAS(loadError(j), "strokes[1].vertices[0]: 5000000000 is out of range");
+  j = sampleJson();
+  j["options"]["inpaintMode"] = "magic";
+  EXPECT_MESSAGE_HAS(loadError(j),
+                     "options.inpaintMode: 'magic' is not an inpainting mode (one of 'harmonic', 'rbf', 'strokes')");
+  j = sampleJson();
+  j["options"]["seed"] = -1;
+  EXPECT_MESSAGE_HAS(loadError(j), "options.seed: -1 is out of range 0..4294967295");
+}
+
+TEST_F(ProjectTest, RejectsOptionsOutOfRange) {
+  json j = sampleJson();
+  j["options"]["atlasSize"] = 512;
+  EXPECT_MESSAGE_HAS(loadError(j), "options.atlasSize: 512 is out of range 1024..8192");
+  j = sampleJson();
+  j["options"]["gutter"] = 65;
+  EXPECT_MESSAGE_HAS(loadError(j), "options.gutter: 65 is out of range 0..64");
+  j = sampleJson();
+  j["options"]["seamLambda"] = 1.5;
+  EXPECT_MESSAGE_HAS(loadError(j), "options.seamLambda: 1.5 is out of range 0..1");
+  j = sampleJson();
+  j["options"]["backgroundThresholdPx"] = -0.5;
+  EXPECT_MESSAGE_HAS(loadError(j), "options.backgroundThresholdPx: -0.5 is out of range");
+}
+
+TEST_F(ProjectTest, RejectsIndicesOutOfRange) {
+  json j = sampleJson();
+  j["points"][1]["at"][0]["photo"] = 2;
+  EXPECT_MESSAGE_HAS(loadError(j), "points[1].at[0].photo: 2 is out of range: the project has 2 photos (0..1)");
+  j = sampleJson();
+  j["chains"][1]["points"][1] = 3;
+  EXPECT_MESSAGE_HAS(loadError(j), "chains[1].points[1]: 3 is out of range: the project has 3 points (0..2)");
+  j = sampleJson();
+  j["chains"][0]["points"][0] = -1;
+  EXPECT_MESSAGE_HAS(loadError(j), "chains[0].points[0]: -1 must be >= 0");
+  j = sampleJson();
+  j["chains"][0]["photo"] = 5;
+  EXPECT_MESSAGE_HAS(loadError(j), "chains[0].photo: 5 is out of range");
+  j = sampleJson();
+  j["points"][1]["vertex"] = -3;
+  EXPECT_MESSAGE_HAS(loadError(j), "points[1].vertex: -3 must be >= 0");
+  j = sampleJson();
+  j["clones"][0]["photo"] = 9;
+  EXPECT_MESSAGE_HAS(loadError(j), "clones[0].photo: 9 is out of range");
+}
+
+TEST_F(ProjectTest, RejectsChainPointWithoutPositionInTheChainPhoto) {
+  json j = sampleJson();
+  j["chains"][1]["points"] = json::array({2, 1});  // point 1 (vertex 5) is only in photo 0
+  EXPECT_MESSAGE_HAS(loadError(j),
+                     "chains[1].points[1]: point 1 (vertex 5) has no position in the chain's photo 1 'b.png'");
+}
+
+TEST_F(ProjectTest, RejectsTheSameVertexTwiceInOnePhoto) {
+  json j = sampleJson();
+  j["points"][1]["vertex"] = 12;  // points[0] is vertex 12 too, and both are in photo 0
+  std::string message = loadError(j);
+  EXPECT_MESSAGE_HAS(message, "points[1].at[0].photo: vertex 12 is given two points in photo 0 'a.png'");
+  EXPECT_MESSAGE_HAS(message, "points[0].at[0] and points[1].at[0]");
+
+  j = sampleJson();
+  j["points"][0]["at"][1]["photo"] = 0;  // one point listing photo 0 twice
+  message = loadError(j);
+  EXPECT_MESSAGE_HAS(message, "points[0].at[1].photo: vertex 12 is given two points in photo 0");
+
+  // The same vertex in two different photos is fine, also as two points.
+  j = sampleJson();
+  j["points"].push_back({{"vertex", 5}, {"at", {{{"photo", 1}, {"x", 1.5}, {"y", 2.5}}}}});
+  writeText(path("p.json"), j.dump());
+  EXPECT_NO_THROW(loadProject(path("p.json")));
+}
+
+// ---- Rejections by validateProject (needs the mesh and photo sizes) ----
+
+TEST_F(ProjectTest, ValidateRejectsVertexIdsOutOfRange) {
+  Project p = sample();
+  p.file = path("p.json");
+  p.points[1].vertex = 20;
+  std::string message = validateError(p);
+  EXPECT_MESSAGE_HAS(message,
+                     path("p.json") + ": points[1].vertex: 20 is out of range: the mesh has 20 vertices (0..19)");
+  p = sample();
+  p.strokes[1].vertices[1] = 25;
+  EXPECT_MESSAGE_HAS(validateError(p), "project: strokes[1].vertices[1]: 25 is out of range: the mesh has 20 vertices");
+  p = sample();
+  p.clones[0].anchorVertex = 20;
+  EXPECT_MESSAGE_HAS(validateError(p), "clones[0].anchorVertex: 20 is out of range");
+  p = sample();
+  p.clones[0].targetFaces[2] = 10;
+  EXPECT_MESSAGE_HAS(validateError(p), "clones[0].targetFaces[2]: 10 is out of range: the mesh has 10 faces (0..9)");
+}
+
+TEST_F(ProjectTest, ValidateRejectsPointsOutsideTheirPhoto) {
+  Project p = sample();
+  p.points[2].at[1].x = 50.5;  // photo 1 is 50 wide
+  EXPECT_MESSAGE_HAS(validateError(p), "points[2].at[1].x: 50.5 is outside photo 1 'b.png' (width 50)");
+  p = sample();
+  p.points[0].at[0].y = -0.25;
+  EXPECT_MESSAGE_HAS(validateError(p), "points[0].at[0].y: -0.25 is outside photo 0 'a.png' (height 80)");
+  p = sample();
+  p.clones[0].polygon[1] = Vec2(60, 2);
+  EXPECT_MESSAGE_HAS(validateError(p), "clones[0].polygon[1].x: 60 is outside photo 1 'b.png' (width 50)");
+  // The border itself is inside.
+  p = sample();
+  p.points[0].at[0] = {0, 100, 80};
+  EXPECT_NO_THROW(validateProject(p, 20, 10, {{100, 80}, {50, 40}}));
+}
+
+TEST_F(ProjectTest, ValidateRejectsDegenerateShapes) {
+  Project p = sample();
+  p.clones[0].polygon = {Vec2(1, 1), Vec2(2, 2), Vec2(3, 3)};
+  EXPECT_MESSAGE_HAS(validateError(p), "clones[0].polygon: has zero area");
+  p.clones[0].polygon.pop_back();
+  EXPECT_MESSAGE_HAS(validateError(p), "clones[0].polygon: needs at least 3 points, not 2");
+  p = sample();
+  p.clones[0].targetFaces.clear();
+  EXPECT_MESSAGE_HAS(validateError(p), "clones[0].targetFaces: must name at least one face");
+  p = sample();
+  p.chains[0].points = {0, 1};
+  EXPECT_MESSAGE_HAS(validateError(p), "chains[0].points: a closed chain (polygon) needs at least 3 points, not 2");
+  p = sample();
+  p.strokes[0].vertices = {4};
+  EXPECT_MESSAGE_HAS(validateError(p), "strokes[0].vertices: a stroke needs at least 2 vertices, not 1");
+}
+
+TEST_F(ProjectTest, ValidateRechecksEditsInMemory) {
+  Project p = sample();
+  p.points[2].vertex = 5;  // points[1] is vertex 5 in photo 0 too
+  EXPECT_MESSAGE_HAS(validateError(p), "vertex 5 is given two points in photo 0");
+  p = sample();
+  p.chains[1].points.push_back(1);
+  EXPECT_MESSAGE_HAS(validateError(p),
+                     "chains[1].points[2]: point 1 (vertex 5) has no position in the chain's photo 1");
+  p = sample();
+  p.options.atlasSize = 9000;
+  EXPECT_MESSAGE_HAS(validateError(p), "options.atlasSize: 9000 is out of range 1024..8192");
+  p = sample();
+  EXPECT_MESSAGE_HAS(errorOf([&] { validateProject(p, 20, 10, {{100, 80}}); }), "1 photo sizes given for 2 photos");
+}
+
+// The example in docs/project-format.md loads, is valid, and is exactly what saving it writes.
+TEST_F(ProjectTest, DocumentedExampleIsWhatSaveWrites) {
+  const std::string doc = readFile((fs::path(test::assetsDir()) / ".." / "docs" / "project-format.md").string());
+  ASSERT_FALSE(doc.empty()) << "docs/project-format.md is missing";
+  const size_t begin = doc.find("```json\n{\n  \"format\"");
+  ASSERT_NE(begin, std::string::npos) << "no example in docs/project-format.md";
+  const size_t start = doc.find('\n', begin) + 1;
+  const std::string example = doc.substr(start, doc.find("```", start) - start);
+
+  fs::create_directories(path("meshes"));
+  writeText(path("meshes/cat.obj"), "v 0 0 0\n");
+  for (const char* photo : {"photos/front.png", "photos/front_mask.png", "photos/side.jpg"}) writeText(path(photo), "");
+  writeText(path("example.json"), example);
+  Project project = loadProject(path("example.json"));
+  EXPECT_EQ(project.photos[0].mask, path("photos/front_mask.png"));
+  EXPECT_TRUE(project.chains[0].closed);
+  validateProject(project, 2000, 1000, {{1024, 768}, {640, 480}});
+  saveProject(project, path("example.json"));
+  EXPECT_EQ(readFile(path("example.json")), example);
+}

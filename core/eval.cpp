@@ -237,7 +237,9 @@ EvalResult evaluate(const TexturedModel& result, const TexturedModel& truth, con
     Vec3 lo, hi;
     rmesh.bounds(lo, hi);
     const double area3Eps = 1e-14 * std::max((hi - lo).squaredNorm(), 1e-300);
-    const double uvAreaEps = 1e-12;  // texels^2: collinear or coincident texture corners
+    // A texture triangle smaller than a tenth of a texel is degenerate (a sliver whose orientation
+    // cannot show); it is counted apart from flips and left out of the stretch.
+    const auto uvAreaEps = [&](int f) { return texelScale(result, f) == Vec2(1, 1) ? 1e-12 : 0.1; };
     std::vector<std::array<Vec2, 3>> texel(rfaces);
     std::vector<double> uvArea(rfaces);  // signed, texels^2
     std::vector<double> chartVote(rfaces, 0.0);
@@ -246,14 +248,13 @@ EvalResult evaluate(const TexturedModel& result, const TexturedModel& truth, con
       for (int k = 0; k < 3; ++k) texel[f][k] = result.uv[f][k].cast<double>().cwiseProduct(scale);
       const Vec2 e1 = texel[f][1] - texel[f][0], e2 = texel[f][2] - texel[f][0];
       uvArea[f] = 0.5 * (e1.x() * e2.y() - e1.y() * e2.x());
-      if (std::abs(uvArea[f]) > uvAreaEps) chartVote[chart[f]] += uvArea[f] > 0 ? area3[f] : -area3[f];
+      if (std::abs(uvArea[f]) > uvAreaEps(f)) chartVote[chart[f]] += uvArea[f] > 0 ? area3[f] : -area3[f];
     }
     double sumA2 = 0, sumA3 = 0, sumL2 = 0, maxGamma = 0;
     for (int f = 0; f < rfaces; ++f) {
       const double sign = chartVote[chart[f]] >= 0 ? 1 : -1;  // the chart's majority orientation
-      const bool zeroUv = std::abs(uvArea[f]) <= uvAreaEps;
-      if (zeroUv) {
-        if (area3[f] > area3Eps) ++out.flippedTriangles;
+      if (std::abs(uvArea[f]) <= uvAreaEps(f)) {
+        if (area3[f] > area3Eps) ++out.degenerateUvTriangles;
         continue;
       }
       if ((uvArea[f] > 0 ? 1 : -1) != sign) {
@@ -321,6 +322,7 @@ nlohmann::json EvalResult::toJson() const {
                         {"coverage_inpainted", coverageInpainted},
                         {"coverage_empty", coverageEmpty},
                         {"flipped_triangles", flippedTriangles},
+                        {"degenerate_uv_triangles", degenerateUvTriangles},
                         {"stretch_l2", stretchL2},
                         {"stretch_linf", stretchLinf},
                         {"seam_mismatch", seamMismatch},
@@ -334,11 +336,11 @@ std::string EvalResult::summary() const {
                 "PSNR               %.2f dB all, %.2f dB covered\n"
                 "Delta E*uv (mean)  %.3f all, %.3f covered\n"
                 "coverage           %.2f%% photo, %.2f%% inpainted, %.2f%% empty\n"
-                "flipped triangles  %d\n"
+                "flipped triangles  %d (and %d degenerate texture triangles)\n"
                 "stretch (Sander)   L2 %.4f, Linf %.4f (1 = isometric up to scale)\n"
                 "seam mismatch      %.3f Delta E*uv over %d seam edges\n",
                 samples, coveredSamples, psnrAll, psnrCovered, deltaEAll, deltaECovered, 100 * coveragePhoto,
-                100 * coverageInpainted, 100 * coverageEmpty, flippedTriangles, stretchL2, stretchLinf, seamMismatch,
+                100 * coverageInpainted, 100 * coverageEmpty, flippedTriangles, degenerateUvTriangles, stretchL2, stretchLinf, seamMismatch,
                 seamEdges);
   return buf;
 }

@@ -20,7 +20,8 @@ struct EvalResult {
   double psnrAll = 0, psnrCovered = 0;      // dB, RGB in [0,255]
   double deltaEAll = 0, deltaECovered = 0;  // mean CIE76 Delta E*uv
   double coveragePhoto = 0, coverageInpainted = 0, coverageEmpty = 0;  // area fractions
-  int flippedTriangles = 0;
+  int flippedTriangles = 0;      // texture triangles oriented against their chart
+  int degenerateUvTriangles = 0; // texture area under 0.1 texel^2 (untextured: 1e-12) while the 3D area is not
   double stretchL2 = 0, stretchLinf = 0;    // Sander 2001, normalised: 1 = isometric up to scale
   double seamMismatch = 0;                  // mean Delta E*uv across chart seams (0 when no seams)
   int seamEdges = 0;

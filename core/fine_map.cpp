@@ -1,11 +1,15 @@
 #include "fine_map.h"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <random>
 #include <string>
+#include <cstdio>
+#include <cstdlib>
 
 #include "partition.h"
 #include "pipeline.h"
@@ -18,6 +22,11 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kMargin = 1e-6;  // relative margin kept from the kernel border along a search line
+// Rounds of line searches per vertex optimisation: another round follows while the last one lowered
+// the energy by more than kRoundGain (relative), as Sander et al. iterate until convergence.
+constexpr int kMaxRounds = 8;
+constexpr double kPull = 0.1;  // fallback: fraction of the way from the nearest kernel point to the centroid
+constexpr double kRoundGain = 1e-3;
 
 // Orientation of the texture triangle (x, a, b): twice its signed area, > 0 when counter-clockwise.
 // All texture positions below live in the flipped frame (x, -y) of the photo's pixels, in which a
@@ -47,6 +56,7 @@ struct Fan {
   bool usable = true;        // a closed fan, or an open one with exactly two border neighbours
   Vec2 lineFrom, lineTo;     // open fan: UVs of the two border neighbours
   double scale = 0;          // largest distance from the vertex to a fan corner (for unbounded kernels)
+  Eigen::Matrix2d shape = Eigen::Matrix2d::Identity();  // square root of the ring's covariance
 };
 
 class FineMapper {
@@ -94,7 +104,8 @@ class FineMapper {
   bool onForeground(int photo, const Vec2& x) const;
   bool feasible(const Fan& fan, const Vec2& x) const;
   double maxStep(const Fan& fan, const Vec2& x, const Vec2& d) const;
-  bool kernelCentroid(const Fan& fan, Vec2& out) const;
+  bool kernelPoints(const Fan& fan, const Vec2& x, Vec2& centroid, Vec2& nearest) const;
+  bool leaveBackground(int v, int photo, const Fan& fan, bool alongLine, Vec2& x, double& e);
   Vec2 randomDirection(const Fan& fan);
 
   // Max and mean L-infinity stretch over mapped faces whose corners all have UVs; counts flips.
@@ -227,6 +238,16 @@ Fan FineMapper::buildFan(int v, int photo) const {
     bump(a, +1);
     bump(b, -1);
   }
+  if (!fan.ab.empty()) {
+    Vec2 mean = Vec2::Zero();
+    for (const auto& [a, b] : fan.ab) mean += a + b;
+    mean /= 2.0 * fan.ab.size();
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    for (const auto& [a, b] : fan.ab) cov += (a - mean) * (a - mean).transpose() + (b - mean) * (b - mean).transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+    const Vec2 sd = eig.eigenvalues().cwiseMax(1e-12 * std::max(eig.eigenvalues().maxCoeff(), 1e-300)).cwiseSqrt();
+    fan.shape = eig.eigenvectors() * sd.asDiagonal() * eig.eigenvectors().transpose();
+  }
   int start = -1, end = -1, loose = 0;
   for (const auto& [w, n] : count) {
     if (n == 0) continue;
@@ -284,9 +305,9 @@ double FineMapper::maxStep(const Fan& fan, const Vec2& x, const Vec2& d) const {
 // Sander et al. 2002, as the paper recommends for a flipping initial position: the centroid of the
 // kernel of the one-ring polygon, i.e. of the intersection of the half-planes of the ring edges
 // (for an open fan, of its curve segment). Returns false when the kernel is empty.
-bool FineMapper::kernelCentroid(const Fan& fan, Vec2& out) const {
+bool FineMapper::kernelPoints(const Fan& fan, const Vec2& x, Vec2& centroid, Vec2& nearest) const {
   if (fan.ab.empty()) return false;
-  if (fan.open) {
+  if (fan.open && fan.usable) {
     // Interval of s in (0, 1) on lineFrom + s (lineTo - lineFrom) where every face stays positive.
     const Vec2 d = fan.lineTo - fan.lineFrom;
     double lo = 0, hi = 1;
@@ -298,7 +319,10 @@ bool FineMapper::kernelCentroid(const Fan& fan, Vec2& out) const {
       else if (!(g0 > 0)) return false;
     }
     if (!(lo < hi)) return false;
-    out = fan.lineFrom + 0.5 * (lo + hi) * d;
+    centroid = fan.lineFrom + 0.5 * (lo + hi) * d;
+    const double len2 = d.squaredNorm();
+    const double sx = std::clamp(len2 > 0 ? (x - fan.lineFrom).dot(d) / len2 : 0.5, lo, hi);
+    nearest = fan.lineFrom + (sx + kPull * (0.5 * (lo + hi) - sx)) * d;
     return true;
   }
   // Convex clipping of a box around the ring by each half-plane orient(x, a, b) >= 0.
@@ -333,7 +357,48 @@ bool FineMapper::kernelCentroid(const Fan& fan, Vec2& out) const {
     c += w * (p + q);
   }
   if (!(area > 0)) return false;
-  out = c / (3 * area);
+  centroid = c / (3 * area);
+  // The kernel point nearest to x, moved a little towards the centroid to be strictly inside.
+  Vec2 near = poly[0];
+  double best = kInf;
+  for (size_t i = 0; i < poly.size(); ++i) {
+    const Vec2& p = poly[i];
+    const Vec2 e = poly[(i + 1) % poly.size()] - p;
+    const double t = std::clamp(e.squaredNorm() > 0 ? (x - p).dot(e) / e.squaredNorm() : 0.0, 0.0, 1.0);
+    const double dist = (p + t * e - x).squaredNorm();
+    if (dist < best) best = dist, near = p + t * e;
+  }
+  nearest = near + kPull * (centroid - near);
+  return true;
+}
+
+// Samples rays from x through the kernel (along the curve only, or in all directions) for the
+// foreground point of lowest energy; moves x there. False when every sample is on the background.
+bool FineMapper::leaveBackground(int v, int photo, const Fan& fan, bool alongLine, Vec2& x, double& e) {
+  const int directions = alongLine ? 2 : std::max(16, 2 * options_.lineSearches);
+  const int samples = alongLine ? 64 : 24;
+  const double offset = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng_);
+  double bestE = kInf;
+  Vec2 best = x;
+  for (int i = 0; i < directions; ++i) {
+    Vec2 d;
+    if (alongLine) {
+      d = (fan.lineTo - fan.lineFrom).normalized() * (i == 0 ? 1.0 : -1.0);
+    } else {
+      const double angle = offset + 2 * M_PI * i / directions;
+      d = Vec2(std::cos(angle), std::sin(angle));
+    }
+    const double tmax = maxStep(fan, x, d);
+    for (int j = 1; j <= samples; ++j) {
+      const Vec2 y = x + (tmax * j / (samples + 1)) * d;
+      if (!onForeground(photo, y)) continue;
+      const double ey = energy(v, photo, fan, y);
+      if (ey < bestE) bestE = ey, best = y;
+    }
+  }
+  if (!(bestE < kInf)) return false;
+  x = best;
+  e = bestE;
   return true;
 }
 
@@ -343,7 +408,8 @@ Vec2 FineMapper::randomDirection(const Fan& fan) {
     return (rng_() & 1u) ? d : Vec2(-d);
   }
   const double angle = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng_);
-  return Vec2(std::cos(angle), std::sin(angle));
+  if (getenv("NOSHAPE")) return Vec2(std::cos(angle), std::sin(angle));
+  return (fan.shape * Vec2(std::cos(angle), std::sin(angle))).normalized();
 }
 
 void FineMapper::insertVertex(const CollapseRecord& r, FineMapStats& stats) {
@@ -403,8 +469,14 @@ void FineMapper::insertVertex(const CollapseRecord& r, FineMapStats& stats) {
       x = fan.lineFrom + s * d;
     }
     if (!feasible(fan, x)) {
-      Vec2 c;
-      if (kernelCentroid(fan, c)) x = c;
+      if (getenv("TMDBG")) std::fprintf(stderr, "DBG fallback split %d v=%d (%g,%g) open=%d faces=%zu x=(%.2f,%.2f)\n", stats.splits, v, partition_.mesh.position(v).x(), partition_.mesh.position(v).y(), fan.open, fan.ab.size(), x.x(), -x.y());
+      Vec2 c, near;
+      if (kernelPoints(fan, x, c, near)) {
+        const int mode = getenv("FALLBACK") ? atoi(getenv("FALLBACK")) : 0;
+        if (mode == 0) x = c;
+        else if (mode == 1) x = near;
+        else x = energy(v, p, fan, near) < energy(v, p, fan, c) ? near : c;
+      }
       ++stats.centroidFallbacks;
     }
     setUV(v, p, x);
@@ -427,35 +499,18 @@ void FineMapper::optimiseVertexInPhoto(int v, int photo) {
   double e = energy(v, photo, fan, x);
 
   if (!onForeground(photo, x)) {
-    // The current position is on the background: move to the best foreground point of the kernel
-    // found by sampling rays, whatever its energy.
-    const int directions = fan.open ? 2 : std::max(16, 2 * options_.lineSearches), samples = 16;
-    const double offset = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng_);
-    double bestE = kInf;
-    Vec2 best = x;
-    for (int i = 0; i < directions; ++i) {
-      Vec2 d;
-      if (fan.open) {
-        d = (fan.lineTo - fan.lineFrom).normalized() * (i == 0 ? 1.0 : -1.0);
-      } else {
-        const double angle = offset + 2 * M_PI * i / directions;
-        d = Vec2(std::cos(angle), std::sin(angle));
-      }
-      const double tmax = maxStep(fan, x, d);
-      for (int j = 1; j <= samples; ++j) {
-        const Vec2 y = x + (tmax * j / (samples + 1)) * d;
-        if (!onForeground(photo, y)) continue;
-        const double ey = energy(v, photo, fan, y);
-        if (ey < bestE) bestE = ey, best = y;
-      }
-    }
-    if (!(bestE < kInf)) return;  // no foreground point found in the kernel: left for the final count
-    x = best;
-    e = bestE;
+    // The current position is on the background: move to the best foreground point of the kernel,
+    // whatever its energy; a vertex that finds none on its curve may leave the curve.
+    if (!leaveBackground(v, photo, fan, fan.open, x, e) && !(false && fan.open && leaveBackground(v, photo, fan, false, x, e)))
+      return;  // no foreground point in the kernel: left for the final count
+    if (getenv("TMDBG")) std::fprintf(stderr, "DBG rescue v=%d (%g,%g) open=%d -> (%.2f,%.2f)\n", v, partition_.mesh.position(v).x(), partition_.mesh.position(v).y(), fan.open, x.x(), -x.y());
     setUV(v, photo, x);
   }
 
   constexpr double kGolden = 0.6180339887498949;
+  const int maxRounds = getenv("ROUNDS") ? atoi(getenv("ROUNDS")) : kMaxRounds;
+  for (int round = 0; round < maxRounds; ++round) {
+  const double before = e;
   for (int s = 0; s < options_.lineSearches; ++s) {
     const Vec2 d = randomDirection(fan);
     const double tmax = maxStep(fan, x, d);
@@ -486,6 +541,8 @@ void FineMapper::optimiseVertexInPhoto(int v, int photo) {
       x += t * d;
       e = et;
     }
+  }
+  if (!(e < before * (1 - kRoundGain))) break;
   }
   setUV(v, photo, x);
 }
@@ -548,10 +605,12 @@ TextureMap FineMapper::run(FineMapStats& stats) {
     insertVertex(r, stats);
     optimiseVertex(r.removed);
     for (int w : r.ring) optimiseVertex(w);
+    if (getenv("TMDBG2")) { double mx, mn; int fl; measure(mx, mn, fl); std::fprintf(stderr, "DBG split %d v=%d (%g,%g) ring %zu path %d max %.4f mean %.4f\n", stats.splits, r.removed, partition_.mesh.position(r.removed).x(), partition_.mesh.position(r.removed).y(), r.ring.size(), r.pathA, mx, mn); }
     if (stats.splits % 256 == 0)
       job_.progress(StageId::Map, 0.9 * stats.splits / std::max(total, 1), "coarse-to-fine");
   }
 
+  if (getenv("TMDBG")) { double mx, mn; int fl; measure(mx, mn, fl); std::fprintf(stderr, "DBG after splits max %.4f mean %.4f flips %d\n", mx, mn, fl); }
   // Final sweeps at full resolution, in a seeded random order.
   std::vector<int> order;
   for (int v = 0; v < numV; ++v)
@@ -560,6 +619,7 @@ TextureMap FineMapper::run(FineMapStats& stats) {
     job_.progress(StageId::Map, 0.9 + 0.1 * sweep / options_.finalSweeps, "coarse-to-fine: final sweep");
     std::shuffle(order.begin(), order.end(), rng_);
     for (int v : order) optimiseVertex(v);
+    if (getenv("TMDBG")) { double mx, mn; int fl; measure(mx, mn, fl); std::fprintf(stderr, "DBG sweep %d max %.4f mean %.4f flips %d\n", sweep, mx, mn, fl); }
   }
 
   // Output over Partition::mesh's faces, pixel coordinates (y down).

@@ -384,8 +384,17 @@ TexturedModel loadObjModel(const std::string& path) {
       model.materials.push_back(mat);
     }
     model.faceMaterial = faceMaterial;
-    for (int& fm : model.faceMaterial)
-      if (fm < 0 || fm >= static_cast<int>(model.materials.size())) fm = 0;
+    // Faces before the first usemtl (or with an unknown index) get a default material.
+    const int count = static_cast<int>(model.materials.size());
+    for (int& fm : model.faceMaterial) {
+      if (fm >= 0 && fm < count) continue;
+      if (static_cast<int>(model.materials.size()) == count) {
+        Material def;
+        def.name = "default";
+        model.materials.push_back(def);
+      }
+      fm = count;
+    }
   }
   if (m.hasUV()) model.uv = floatUV(m.cornerUV);
 

@@ -30,7 +30,7 @@ using EdgeHandle = TriMesh::EdgeHandle;
 using FaceHandle = TriMesh::FaceHandle;
 
 constexpr size_t kMaxRejected = 100000;  // entries kept in Partition::rejected
-constexpr int kNearFeatures = 8;         // "no common photo" is reported only among this many nearest features
+constexpr int kNearFeatures = 8;         // all-pairs rejections are kept among this many nearest features
 constexpr int kProgressEvery = 256;      // queue pops between progress reports
 constexpr double kMaxSectorDetour = 2;   // longest sector-respecting path, relative to the shortest free one
 
@@ -64,9 +64,11 @@ struct SearchScratch {
 };
 
 // A* along mesh edges with the Euclidean distance to `to` as heuristic (consistent, so the result is
-// a shortest path). stepOk(h) tells whether the walk may follow outgoing halfedge h.
+// a shortest path). stepOk(h) tells whether the walk may follow outgoing halfedge h. Gives up (empty
+// result) when every path would be longer than maxLength.
 template <class StepOk>
-std::vector<int> aStar(const TriMesh& tri, int from, int to, const StepOk& stepOk, SearchScratch& s) {
+std::vector<int> aStar(const TriMesh& tri, int from, int to, const StepOk& stepOk, SearchScratch& s,
+                       double maxLength = std::numeric_limits<double>::infinity()) {
   if (from == to) return {from};
   const size_t n = tri.n_vertices();
   if (s.seen.size() < n) {
@@ -89,8 +91,9 @@ std::vector<int> aStar(const TriMesh& tri, int from, int to, const StepOk& stepO
   s.heap.emplace_back((pointOf(tri, from) - goal).norm(), from);
   while (!s.heap.empty()) {
     std::pop_heap(s.heap.begin(), s.heap.end(), greater);
-    const int u = s.heap.back().second;
+    const auto [estimate, u] = s.heap.back();
     s.heap.pop_back();
+    if (estimate > maxLength) break;
     if (s.closed[u] == s.stamp) continue;
     s.closed[u] = s.stamp;
     if (u == to) {
@@ -114,6 +117,15 @@ std::vector<int> aStar(const TriMesh& tri, int from, int to, const StepOk& stepO
     }
   }
   return {};
+}
+
+// Step rule of a search over unblocked vertices (the target is always allowed).
+template <class Blocked>
+auto freeSteps(const TriMesh& tri, int to, const Blocked& blocked) {
+  return [&tri, to, &blocked](HalfedgeHandle h) {
+    const int w = tri.to_vertex_handle(h).idx();
+    return w == to || !blocked(w);
+  };
 }
 
 // ---- Image geometry -------------------------------------------------------------------------------------
@@ -272,7 +284,7 @@ class Partitioner {
         // Sharing one end point s: only a collinear overlap counts.
         const bool sharedA = c.a == a || c.a == b;
         const Vec2& s = sharedA ? c.pa : c.pb;
-        const Vec2& w = sharedA ? c.pb : c.pa;                // the curve's other end
+        const Vec2& w = sharedA ? c.pb : c.pa;                 // the curve's other end
         const Vec2& u = (sharedA ? c.a : c.b) == a ? pb : pa;  // the new segment's other end
         meets = cross(u - s, w - s) == 0 && (u - s).dot(w - s) > 0;
       } else {
@@ -410,18 +422,19 @@ class Partitioner {
   }
 
   // The photos of `photos` in which a path a -> b along `vertices` keeps the cyclic order at both
-  // ends (test e); the others are rejected into `why`. `skip`: the pair's own path, if any.
+  // ends (test e); the others are rejected into `why` when given. `skip`: the pair's own path, if any.
   std::vector<int> orderedPhotos(int a, int b, const std::vector<int>& vertices, const std::vector<int>& photos,
-                                 int skip, std::vector<RejectedPair>& why) const {
+                                 int skip, std::vector<RejectedPair>* why) const {
     std::vector<int> kept;
     const int va = vertices.front(), vb = vertices.back();
     for (int p : photos) {
       const bool okA = cyclicOrderHolds(va, a, b, p, vertices[1], skip);
       if (okA && cyclicOrderHolds(vb, b, a, p, vertices[vertices.size() - 2], skip)) {
         kept.push_back(p);
-      } else {
+      } else if (why) {
         reject(a, b, p, RejectReason::CyclicOrder,
-               "around vertex " + std::to_string(okA ? vb : va) + " the order of the pairs differs from the mesh", why);
+               "around vertex " + std::to_string(okA ? vb : va) + " the order of the pairs differs from the mesh",
+               *why);
       }
     }
     return kept;
@@ -463,25 +476,26 @@ class Partitioner {
 
   // ---- Mesh-side tests (d) ----
 
-  // Shortest path from a to b leaving and entering through the sectors, over free vertices only.
-  std::vector<int> search(const Sector& sa, const Sector& sb) {
+  // Shortest path from a to b leaving and entering through the sectors, over free vertices only, if
+  // one is at most maxLength long.
+  std::vector<int> searchInSectors(const Sector& sa, const Sector& sb, double maxLength) {
     const auto stepOk = [&](HalfedgeHandle h) {
       const int u = tri_.from_vertex_handle(h).idx(), w = tri_.to_vertex_handle(h).idx();
       if (u == sa.v && !sa.allows(h)) return false;
       if (w == sb.v) return sb.allows(tri_.opposite_halfedge_handle(h));
       return !blocked(w);
     };
-    return aStar(tri_, sa.v, sb.v, stepOk, scratch_);
+    return aStar(tri_, sa.v, sb.v, stepOk, scratch_, maxLength);
   }
 
-  // Shortest path over free vertices, in any direction.
-  std::vector<int> searchFree(int from, int to) {
-    return aStar(
-        tri_, from, to,
-        [&](HalfedgeHandle h) {
-          return !blocked(tri_.to_vertex_handle(h).idx()) || tri_.to_vertex_handle(h).idx() == to;
-        },
-        scratch_);
+  // Shortest path over free vertices, in any direction. The last result is kept: the queue's length
+  // estimate of a pair is usually followed by its full test.
+  const std::vector<int>& searchFree(int from, int to) {
+    if (lastFree_.from != from || lastFree_.to != to || lastFree_.version != version_) {
+      const auto isBlocked = [this](int v) { return blocked(v); };
+      lastFree_ = {from, to, version_, aStar(tri_, from, to, freeSteps(tri_, to, isBlocked), scratch_)};
+    }
+    return lastFree_.path;
   }
 
   // The sector of s has a first step: a free neighbour, or the other end through its own sector.
@@ -567,7 +581,7 @@ class Partitioner {
     if (existing >= 0) {
       // The pair already has a path (another chain's photo): add the curves whose cyclic order holds.
       const MeshPath& path = out_.paths[existing];
-      for (int p : orderedPhotos(path.fromPoint, path.toPoint, path.vertices, photos, existing, why))
+      for (int p : orderedPhotos(path.fromPoint, path.toPoint, path.vertices, photos, existing, &why))
         addCurve(existing, p);
       return;
     }
@@ -583,13 +597,10 @@ class Partitioner {
         break;
       ++steiner;
     }
-    // The path leaves and enters through the photos' sectors (Praun et al. 2001, Kraevoy et al. 2003)
-    // unless that makes it more than kMaxSectorDetour times longer than the shortest free path: then
-    // the shortest one is tried, and the photos whose order it breaks are rejected.
-    std::vector<int> path = search(sa, sb);
-    const std::vector<int> shortest = searchFree(sa.v, sb.v);
-    if (!shortest.empty() && (path.empty() || pathLength(tri_, path) > kMaxSectorDetour * pathLength(tri_, shortest)))
-      path = shortest;
+    // The shortest free path, if it keeps every photo's cyclic order; else the shortest one leaving and
+    // entering through the photos' sectors (Praun et al. 2001, Kraevoy et al. 2003), unless that is
+    // more than kMaxSectorDetour times longer: then the photos whose order is broken are rejected.
+    std::vector<int> path = searchFree(sa.v, sb.v);
     if (path.empty()) {
       reject(a, b, -1, RejectReason::NoPath,
              "no mesh path from vertex " + std::to_string(sa.v) + " to " + std::to_string(sb.v) +
@@ -597,7 +608,11 @@ class Partitioner {
              why);
       return;
     }
-    const std::vector<int> kept = orderedPhotos(a, b, path, photos, -1, why);
+    if (orderedPhotos(a, b, path, photos, -1, nullptr).size() < photos.size()) {
+      std::vector<int> inSectors = searchInSectors(sa, sb, kMaxSectorDetour * pathLength(tri_, path));
+      if (!inSectors.empty()) path = std::move(inSectors);
+    }
+    const std::vector<int> kept = orderedPhotos(a, b, path, photos, -1, &why);
     if (kept.empty()) return;
 
     // Accept, then split the bridges next to the new path (bounded by maxSteinerPerPath).
@@ -673,24 +688,14 @@ class Partitioner {
       bool operator>(const Entry& o) const { return key != o.key ? key > o.key : a != o.a ? a > o.a : b > o.b; }
     };
     std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
-    const int nf = int(features_.size());
-    std::vector<double> nearRadius(nf, std::numeric_limits<double>::infinity());
-    std::vector<double> d(nf);
-    for (int i = 0; i < nf; ++i) {
-      for (int j = 0; j < nf; ++j) d[j] = j == i ? std::numeric_limits<double>::infinity() : distance(i, j);
-      if (nf > kNearFeatures + 1) {
-        std::nth_element(d.begin(), d.begin() + kNearFeatures - 1, d.end());
-        nearRadius[i] = d[kNearFeatures - 1];
-      }
-    }
-    for (int i = 0; i < nf; ++i)
-      for (int j = i + 1; j < nf; ++j) {
+    findNearRadii();
+    for (size_t i = 0; i < features_.size(); ++i)
+      for (size_t j = i + 1; j < features_.size(); ++j) {
         const int a = features_[i], b = features_[j];
-        if (!commonPhotos(a, b).empty()) {
-          queue.push({distance(i, j), a, b, false, -1});
-        } else if (distance(i, j) <= std::max(nearRadius[i], nearRadius[j]) && out_.rejected.size() < kMaxRejected) {
-          out_.rejected.push_back({a, b, -1, RejectReason::NoCommonPhoto, "no photo shows both points"});
-        }
+        if (!commonPhotos(a, b).empty())
+          queue.push({distance(a, b), a, b, false, -1});
+        else if (near(a, b))
+          record({{a, b, -1, RejectReason::NoCommonPhoto, "no photo shows both points"}});
       }
 
     const double total = double(queue.size());
@@ -705,11 +710,8 @@ class Partitioner {
       std::vector<RejectedPair> why;
       std::vector<int> pass = imageTests(e.a, e.b, photos, false, why);
       if (!pass.empty() && pathOf(e.a, e.b) < 0 && (!e.exact || e.version != version_)) {
-        // Defer the pair while its current path is longer than the next key.
-        Sector sa, sb;
-        std::vector<int> photosForEstimate = pass;
-        sectors(e.a, e.b, photosForEstimate, sa, sb, nullptr);
-        const std::vector<int> path = photosForEstimate.empty() ? std::vector<int>() : search(sa, sb);
+        // Defer the pair while its shortest free path is longer than the next key.
+        const std::vector<int>& path = searchFree(vertexOf(e.a), vertexOf(e.b));
         if (!path.empty() && !queue.empty()) {
           const double length = pathLength(tri_, path);
           if (length > queue.top().key) {
@@ -721,16 +723,30 @@ class Partitioner {
       if (!pass.empty()) connect(e.a, e.b, pass, false, why);
       ++finished;
       done_.insert(pairKey(e.a, e.b));
-      record(why);
+      if (near(e.a, e.b)) record(why);
       // A rejected pair of neighbouring features no longer needs its edge: it becomes a bridge.
       const HalfedgeHandle direct = tri_.find_halfedge(VertexHandle(vertexOf(e.a)), VertexHandle(vertexOf(e.b)));
       if (direct.is_valid() && isBridge(direct)) splitEdge(tri_.edge_handle(direct));
     }
   }
 
-  double distance(int i, int j) const {
-    return (pointOf(tri_, vertexOf(features_[i])) - pointOf(tri_, vertexOf(features_[j]))).norm();
+  double distance(int a, int b) const { return (pointOf(tri_, vertexOf(a)) - pointOf(tri_, vertexOf(b))).norm(); }
+
+  // Rejections of the all-pairs queue are kept for near pairs only: one is among the other's
+  // kNearFeatures nearest features (3D distance). Far pairs fail by the thousand, as expected.
+  void findNearRadii() {
+    nearRadius_.assign(scene_.project.points.size(), std::numeric_limits<double>::infinity());
+    if (features_.size() <= size_t(kNearFeatures) + 1) return;
+    std::vector<double> d;
+    for (int a : features_) {
+      d.clear();
+      for (int b : features_)
+        if (b != a) d.push_back(distance(a, b));
+      std::nth_element(d.begin(), d.begin() + kNearFeatures - 1, d.end());
+      nearRadius_[a] = d[kNearFeatures - 1];
+    }
   }
+  bool near(int a, int b) const { return distance(a, b) <= std::max(nearRadius_[a], nearRadius_[b]); }
 
   // ---- Cells ----
 
@@ -768,6 +784,7 @@ class Partitioner {
   std::vector<int> features_;              // canonical points, in point order
   std::vector<Vec2> pos_;                  // [point * numPhotos + photo]; NaN where the point has no position
   std::vector<int> vertexPoint_;           // per input vertex: its canonical point, -1 if none
+  std::vector<double> nearRadius_;         // per point: distance to its kNearFeatures-th nearest feature
   std::vector<char> feature_;              // per vertex
   std::vector<char> onPath_;               // per vertex: inner vertex of an accepted path
   std::vector<char> edgeOnPath_;           // per edge
@@ -777,6 +794,10 @@ class Partitioner {
   std::unordered_set<uint64_t> done_;                 // pairs settled by the all-pairs queue
   std::set<std::pair<uint64_t, int>> chainTried_;     // (pair, photo) tried as a chain segment
   int version_ = 0;                                   // bumped at every change of paths or mesh
+  struct {
+    int from = -1, to = -1, version = -1;
+    std::vector<int> path;
+  } lastFree_;  // see searchFree
   SearchScratch scratch_;
 };
 
@@ -795,11 +816,8 @@ std::vector<int> shortestPath(const Mesh& mesh, int from, int to, const std::vec
                                                            std::to_string(from < 0 || from >= n ? from : to) +
                                                            " is not a vertex of the mesh (" + std::to_string(n) + ")");
   SearchScratch scratch;
-  const auto stepOk = [&](HalfedgeHandle h) {
-    const int w = mesh.tri.to_vertex_handle(h).idx();
-    return w == to || w >= int(blocked.size()) || !blocked[w];
-  };
-  return aStar(mesh.tri, from, to, stepOk, scratch);
+  const auto isBlocked = [&](int v) { return v < int(blocked.size()) && blocked[v]; };
+  return aStar(mesh.tri, from, to, freeSteps(mesh.tri, to, isBlocked), scratch);
 }
 
 }  // namespace montage

@@ -72,7 +72,7 @@ struct Partition {
 };
 
 // Runs the partition on a loaded scene (its project's points and chains, its photos' distance
-// maps). Throws tm::Cancelled when the job is cancelled.
+// maps). Throws montage::Cancelled when the job is cancelled.
 Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job);
 
 // Shortest path along mesh edges between two vertices (Dijkstra with edge lengths), avoiding the

@@ -12,18 +12,19 @@
 //    and no two faces would get the same three vertices (closed tetrahedron);
 //  - for each removed face (u, v, o) the edges (v, o) and (u, o), which merge, are not both labelled
 //    (two paths, or a path and the border, never merge; a path never loses its last edge);
+//  - no new unlabelled edge joins two vertices of one path (or of the border): such a shortcut could
+//    never go away and would keep the path from shrinking to one edge;
 //  - no moved face becomes degenerate or turns by more than maxNormalFlipDeg from its current or
 //    its original normal.
 // Under these rules labelled edges map to labelled edges of the same path, so every face stays in
 // its cell and the path network keeps its topology.
 #include "simplify.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <queue>
-
-#include <Eigen/Geometry>
 
 #include "partition.h"
 #include "pipeline.h"
@@ -35,8 +36,12 @@ constexpr int kNoLabel = -1;
 constexpr int kBorder = -2;  // a mesh border edge that is on no path
 constexpr double kPi = 3.14159265358979323846;
 
-double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
-double angle3(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+double cross2(const Vec2& a, const Vec2& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+double angle3(const Vec3& a, const Vec3& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
 
 // Normalises to sum 1; false when that is impossible or anything is not finite and positive.
 bool normalisePositive(std::vector<double>& w) {
@@ -146,6 +151,9 @@ std::vector<double> polygonCoordinates(const std::vector<Vec2>& polygon, const V
 
 namespace {
 
+// Why a collapse is refused.
+enum class Block { None, Pinned, Path, Link, Merge, Degenerate, Turn, TurnFromOriginal, Shortcut };
+
 // The collapse search over the progressive mesh's arrays during construction.
 class Simplifier {
  public:
@@ -215,18 +223,18 @@ class Simplifier {
   }
 
   // Checks the collapse v -> u; fills the connectivity part of the record when legal.
-  bool legal(int v, int u, CollapseRecord& r) {
-    if (pinned_[v] || vertexFaces_[v].empty() || vertexFaces_[u].empty()) return false;
+  Block check(int v, int u, CollapseRecord& r) {
+    if (pinned_[v] || vertexFaces_[v].empty() || vertexFaces_[u].empty()) return Block::Pinned;
     bool closed = true;
-    if (!ring(v, ring_, closed)) return false;
+    if (!ring(v, ring_, closed)) return Block::Pinned;
     const auto& pe = pathEdges_[v];
     if (pe.empty()) {
-      if (!closed) return false;  // a border vertex always has its border edges labelled
+      if (!closed) return Block::Path;  // a border vertex always has its border edges labelled
     } else {
-      if (pe.size() != 2 || pe[0].second != pe[1].second) return false;  // junction or two paths
-      if (pe[0].first != u && pe[1].first != u) return false;           // only along the path
+      if (pe.size() != 2 || pe[0].second != pe[1].second) return Block::Pinned;  // junction or two paths
+      if (pe[0].first != u && pe[1].first != u) return Block::Path;              // only along the path
     }
-    if (std::find(ring_.begin(), ring_.end(), u) == ring_.end()) return false;
+    if (std::find(ring_.begin(), ring_.end(), u) == ring_.end()) return Block::Link;
 
     // Faces of uv disappear; the others of v move their v corner to u.
     r = CollapseRecord();
@@ -246,8 +254,8 @@ class Simplifier {
         r.movedCorners.emplace_back(f, k);
       }
     }
-    if (r.removedFaces.size() != (closed ? 2u : 1u)) return false;
-    if (!closed && ring_.front() != u && ring_.back() != u) return false;
+    if (r.removedFaces.size() != (closed ? 2u : 1u)) return Block::Link;
+    if (!closed && ring_.front() != u && ring_.back() != u) return Block::Path;
 
     // Link condition: the common neighbours of u and v are the opposite vertices.
     ++stamp_;
@@ -256,11 +264,22 @@ class Simplifier {
     for (int f : vertexFaces_[u])
       for (int x : faces_[f])
         if (x != u && x != v && mark_[x] == stamp_) mark_[x] = -stamp_, ++common;  // count once
-    if (common != static_cast<int>(opposite.size())) return false;
+    if (common != static_cast<int>(opposite.size())) return Block::Link;
 
     // Labels of merging edges (v, o) and (u, o).
     for (int o : opposite)
-      if (label(v, o) != kNoLabel && label(u, o) != kNoLabel) return false;
+      if (label(v, o) != kNoLabel && label(u, o) != kNoLabel) return Block::Merge;
+
+    // No shortcut: a new edge (u, x) on no path must not join two vertices of one path (or of the
+    // border) that are not consecutive on it; it could never go away, and the link condition would
+    // then keep the path from shrinking to one edge.
+    const int along = pe.empty() ? -1 : (pe[0].first == u ? pe[1].first : pe[0].first);
+    for (int x : ring_) {
+      if (x == u || x == along || std::find(opposite.begin(), opposite.end(), x) != opposite.end()) continue;
+      for (const auto& eu : pathEdges_[u])
+        for (const auto& ex : pathEdges_[x])
+          if (eu.second == ex.second) return Block::Shortcut;
+    }
 
     // Moved faces: no duplicate of a face of u, no degeneracy, no flip.
     for (const auto& [f, k] : r.movedCorners) {
@@ -269,7 +288,8 @@ class Simplifier {
       for (int g : vertexFaces_[u]) {
         if (std::find(r.removedFaces.begin(), r.removedFaces.end(), g) != r.removedFaces.end()) continue;
         const auto& s = faces_[g];
-        if (std::find(s.begin(), s.end(), x) != s.end() && std::find(s.begin(), s.end(), y) != s.end()) return false;
+        if (std::find(s.begin(), s.end(), x) != s.end() && std::find(s.begin(), s.end(), y) != s.end())
+          return Block::Link;
       }
       const Vec3 before = normal(t);
       t[k] = u;
@@ -277,11 +297,12 @@ class Simplifier {
       const double len = after.norm();
       double maxEdge2 = 0;
       for (int c = 0; c < 3; ++c) maxEdge2 = std::max(maxEdge2, (pos_[t[c]] - pos_[t[(c + 1) % 3]]).squaredNorm());
-      if (!(len > 1e-8 * maxEdge2)) return false;
-      if (!turnOk(after, len, before) || !turnOk(after, len, originalNormal_[f])) return false;
+      if (!(len > 1e-8 * maxEdge2)) return Block::Degenerate;
+      if (!turnOk(after, len, before)) return Block::Turn;
+      if (!turnOk(after, len, originalNormal_[f])) return Block::TurnFromOriginal;
     }
     ringClosed_ = closed;
-    return true;
+    return Block::None;
   }
 
   // The geometric part of the record (section 3.2): ring, coordinates, path split.
@@ -335,9 +356,7 @@ class Simplifier {
       r.weights = r.left, ++stats_.weights[static_cast<int>(CoordinateKind::OnEdge)];
   }
 
-  Vec3 normal(const std::array<int, 3>& t) const {
-    return (pos_[t[1]] - pos_[t[0]]).cross(pos_[t[2]] - pos_[t[0]]);
-  }
+  Vec3 normal(const std::array<int, 3>& t) const { return (pos_[t[1]] - pos_[t[0]]).cross(pos_[t[2]] - pos_[t[0]]); }
 
  private:
   bool turnOk(const Vec3& after, double afterLen, const Vec3& reference) const {
@@ -464,64 +483,76 @@ ProgressiveMesh::ProgressiveMesh(const Partition& partition, const SimplifyOptio
       if (s.label(v, x) == kNoLabel) pathEdges_[v].emplace_back(x, kBorder);
   }
 
-  // Shortest half-edge first, lazily invalidated by per-vertex versions.
+  // Shortest half-edge first. Positions never change and an edge between two alive vertices never
+  // disappears, so each half-edge is queued once; one found illegal is parked at both ends and
+  // queued again when the neighbourhood of either end changes.
   struct Candidate {
     double length;
-    int v, u, versionV, versionU;
+    int v, u;
     bool operator<(const Candidate& o) const { return length > o.length; }
   };
   std::priority_queue<Candidate> queue;
-  std::vector<int> version(nv, 0);
-  std::vector<int> seen(nv, -1);
-  auto movable = [&](int v) {
-    if (pinned[v] || !vertexAlive_[v] || vertexFaces_[v].empty()) return false;
-    const auto& pe = pathEdges_[v];
-    return pe.empty() || (pe.size() == 2 && pe[0].second == pe[1].second);
-  };
-  auto push = [&](int v, int u) {
-    if (!movable(v)) return;
-    const auto& pe = pathEdges_[v];
-    if (!pe.empty() && pe[0].first != u && pe[1].first != u) return;
-    queue.push({(pos[v] - pos[u]).norm(), v, u, version[v], version[u]});
-  };
-  int stamp = 0;
-  auto neighbours = [&](int v, std::vector<int>& out) {
-    out.clear();
-    ++stamp;
-    for (int f : vertexFaces_[v])
-      for (int x : faces_[f])
-        if (x != v && seen[x] != stamp) seen[x] = stamp, out.push_back(x);
-  };
-  std::vector<int> nb;
+  std::vector<Candidate> parked;               // by park id
+  std::vector<char> parkedWaiting;             // by park id: not queued again yet
+  std::vector<std::vector<int>> parkedAt(nv);  // park ids per end vertex
+  // A vertex that can ever move: static, as collapses keep the labelled edges of a vertex (two of
+  // one path or of the border, or none).
+  std::vector<char> movable(nv, 0);
   int movableCount = 0;
   for (int v = 0; v < nv; ++v) {
-    if (!movable(v)) continue;
-    ++movableCount;
-    neighbours(v, nb);
-    for (int u : nb) push(v, u);
+    const auto& pe = pathEdges_[v];
+    movable[v] =
+        !pinned[v] && !vertexFaces_[v].empty() && (pe.empty() || (pe.size() == 2 && pe[0].second == pe[1].second));
+    movableCount += movable[v];
+  }
+  auto push = [&](int v, int u) {
+    if (movable[v]) queue.push({(pos[v] - pos[u]).norm(), v, u});
+  };
+  std::vector<int> seen(nv, -1);
+  for (int v = 0; v < nv; ++v) {
+    if (!movable[v]) continue;
+    for (int f : vertexFaces_[v])
+      for (int x : faces_[f])
+        if (x != v && seen[x] != v) seen[x] = v, push(v, x);
   }
 
   CollapseRecord record;
-  std::vector<int> touched, nb2;
+  std::vector<int> opposite;
   while (!queue.empty()) {
     const Candidate c = queue.top();
     queue.pop();
-    if (!vertexAlive_[c.v] || !vertexAlive_[c.u] || version[c.v] != c.versionV || version[c.u] != c.versionU) continue;
-    if (!s.legal(c.v, c.u, record)) continue;
+    if (!vertexAlive_[c.v] || !vertexAlive_[c.u]) continue;
+    if (s.check(c.v, c.u, record) != Block::None) {
+      const int id = static_cast<int>(parked.size());
+      parked.push_back(c);
+      parkedWaiting.push_back(1);
+      parkedAt[c.v].push_back(id);
+      parkedAt[c.u].push_back(id);
+      continue;
+    }
     s.fillCoordinates(record);
     records_.push_back(std::move(record));
     apply(records_.back());
     const auto& r = records_.back();
-    // Everything whose neighbourhood changed gets new candidates.
-    touched = r.ring;
-    for (int x : touched) ++version[x];
-    for (int x : touched) {
-      neighbours(x, nb);
-      for (int y : nb) {
-        push(x, y);
-        if (std::find(touched.begin(), touched.end(), y) == touched.end()) push(y, x);
-      }
+    // The ring of the removed vertex (the kept one included) changed: its parked half-edges are
+    // queued again; the edges (u, x) that did not exist before are queued for the first time.
+    for (int x : r.ring) {
+      for (int id : parkedAt[x])
+        if (parkedWaiting[id]) {
+          parkedWaiting[id] = 0;
+          if (vertexAlive_[parked[id].v] && vertexAlive_[parked[id].u]) queue.push(parked[id]);
+        }
+      parkedAt[x].clear();
     }
+    opposite.clear();
+    for (int f : r.removedFaces)
+      for (int x : faces_[f])
+        if (x != r.removed && x != r.kept) opposite.push_back(x);
+    for (int x : r.ring)
+      if (x != r.kept && std::find(opposite.begin(), opposite.end(), x) == opposite.end()) {
+        push(r.kept, x);
+        push(x, r.kept);
+      }
     if (records_.size() % 2000 == 0) {
       job.checkCancel();
       job.progress(StageId::Map, std::min(0.99, static_cast<double>(records_.size()) / std::max(1, movableCount)),

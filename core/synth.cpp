@@ -8,12 +8,12 @@
 // colour = premultiplied average / alpha (the straight-alpha colour PNG stores).
 #include "synth.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <limits>
-#include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -286,8 +286,8 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
   };
   if (options.views < 1) throw fail("views", "must be >= 1 (got " + std::to_string(options.views) + ")");
   if (options.features < 0) throw fail("features", "must be >= 0 (got " + std::to_string(options.features) + ")");
-  if (options.size < 16 || options.size > 4096)
-    throw fail("size", "must be in [16, 4096] pixels (got " + std::to_string(options.size) + ")");
+  if (options.size < 16 || options.size > 8192)
+    throw fail("size", "must be in [16, 8192] pixels (got " + std::to_string(options.size) + ")");
   if (!(options.fovYDeg > 1 && options.fovYDeg < 170))
     throw fail("fovYDeg", "must be in (1, 170) degrees (got " + std::to_string(options.fovYDeg) + ")");
   if (!(options.borderPx >= 0 && options.borderPx <= options.size / 4.0))
@@ -330,41 +330,24 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
   std::vector<std::vector<PhotoPoint>> seen(scene.featureVertices.size());
 
   const std::vector<Vec3> dirs = viewDirections(options.views, options.seed);
+  // The supersampled image is rendered in bands of whole photo rows, each with a camera shifted by
+  // the band's first row, so memory stays bounded for large photos (about 16M samples per band).
+  const int fineSize = 2 * size;
+  const int bandRows = std::max(2, std::min(fineSize, (1 << 24) / fineSize) / 2 * 2);
   for (int k = 0; k < options.views; ++k) {
     const Vec3 eye = centre + distance * dirs[k];
     const Camera camera = Camera::lookAt(eye, centre, up, options.fovYDeg, size, size);
-    Camera fine = camera;  // 2x2 supersampling camera: same view, twice the intrinsics
-    fine.width = 2 * size;
-    fine.height = 2 * size;
-    fine.fx *= 2;
-    fine.fy *= 2;
-    fine.cx *= 2;
-    fine.cy *= 2;
-    const RasterBuffers raster = rasterize(mesh, fine);
 
-    cv::Mat photo(size, size, CV_8UC4, cv::Scalar(0, 0, 0, 0));
-    for (int y = 0; y < size; ++y) {
-      auto* row = photo.ptr<cv::Vec4b>(y);
-      for (int x = 0; x < size; ++x) {
-        Vec3 sum = Vec3::Zero();
-        int covered = 0;
-        for (int sy = 0; sy < 2; ++sy)
-          for (int sx = 0; sx < 2; ++sx) {
-            const int i = raster.index(2 * x + sx, 2 * y + sy);
-            const int f = raster.face[i];
-            if (f < 0) continue;
-            const Vec3f c = color(f, raster.bary[i].cast<double>());
-            sum += c.cast<double>().cwiseMax(0.0).cwiseMin(1.0);
-            ++covered;
-          }
-        if (covered == 0) continue;
-        const Vec3 rgb = sum / covered;
-        row[x] = cv::Vec4b(cv::saturate_cast<uchar>(rgb.x() * 255.0), cv::saturate_cast<uchar>(rgb.y() * 255.0),
-                           cv::saturate_cast<uchar>(rgb.z() * 255.0), cv::saturate_cast<uchar>(covered * 255.0 / 4.0));
-      }
-    }
-
-    // Features visible in this view.
+    // Candidate features: in front, facing the camera, far enough from the image border.
+    struct Candidate {
+      size_t feature;
+      Vec2 pixel;
+      double depth;
+      int fineX, fineY;  // the supersample holding the point
+      int face = -1;     // what the z-buffer shows there
+      float zbuffer = 0;
+    };
+    std::vector<Candidate> candidates;
     for (size_t i = 0; i < scene.featureVertices.size(); ++i) {
       const int v = scene.featureVertices[i];
       const Vec3 p = mesh.position(v);
@@ -373,30 +356,72 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
       if (!camera.project(p, pixel, &depth)) continue;  // behind the camera
       if (normals[v].dot((eye - p).normalized()) < options.minFacing) continue;
       const double x = pixel.x(), y = pixel.y();
-      if (x < options.borderPx || y < options.borderPx || x > size - options.borderPx || y > size - options.borderPx ||
-          x < 0 || y < 0 || x >= size || y >= size)
+      if (!(x >= options.borderPx && y >= options.borderPx && x <= size - options.borderPx &&
+            y <= size - options.borderPx && x < size && y < size))
         continue;
+      candidates.push_back(Candidate{i, pixel, depth, std::min(fineSize - 1, static_cast<int>(std::floor(2 * x))),
+                                     std::min(fineSize - 1, static_cast<int>(std::floor(2 * y)))});
+    }
+
+    cv::Mat photo(size, size, CV_8UC4, cv::Scalar(0, 0, 0, 0));
+    for (int band = 0; band < fineSize; band += bandRows) {
+      const int rows = std::min(bandRows, fineSize - band);
+      Camera fine = camera;  // 2x2 supersampling camera: same view, twice the intrinsics
+      fine.width = fineSize;
+      fine.height = rows;
+      fine.fx *= 2;
+      fine.fy *= 2;
+      fine.cx *= 2;
+      fine.cy = 2 * camera.cy - band;
+      const RasterBuffers raster = rasterize(mesh, fine);
+      for (int y = band / 2; y < (band + rows) / 2; ++y) {
+        auto* row = photo.ptr<cv::Vec4b>(y);
+        for (int x = 0; x < size; ++x) {
+          Vec3 sum = Vec3::Zero();
+          int covered = 0;
+          for (int sy = 0; sy < 2; ++sy)
+            for (int sx = 0; sx < 2; ++sx) {
+              const int i = raster.index(2 * x + sx, 2 * y + sy - band);
+              const int f = raster.face[i];
+              if (f < 0) continue;
+              const Vec3f c = color(f, raster.bary[i].cast<double>());
+              sum += c.cast<double>().cwiseMax(0.0).cwiseMin(1.0);
+              ++covered;
+            }
+          if (covered == 0) continue;
+          const Vec3 rgb = sum / covered;
+          row[x] =
+              cv::Vec4b(cv::saturate_cast<uchar>(rgb.x() * 255.0), cv::saturate_cast<uchar>(rgb.y() * 255.0),
+                        cv::saturate_cast<uchar>(rgb.z() * 255.0), cv::saturate_cast<uchar>(covered * 255.0 / 4.0));
+        }
+      }
+      for (Candidate& c : candidates)
+        if (c.fineY >= band && c.fineY < band + rows) {
+          const int i = raster.index(c.fineX, c.fineY - band);
+          c.face = raster.face[i];
+          c.zbuffer = raster.depth[i];
+        }
+    }
+
+    for (const Candidate& c : candidates) {
+      const int v = scene.featureVertices[c.feature];
+      const double x = c.pixel.x(), y = c.pixel.y();
       // Every pixel whose centre lies within borderPx (and the pixel holding the point) is foreground.
       const int px = static_cast<int>(std::floor(x)), py = static_cast<int>(std::floor(y));
       bool inside = true;
       for (int r = py - border - 1; r <= py + border + 1 && inside; ++r)
-        for (int c = px - border - 1; c <= px + border + 1 && inside; ++c) {
-          const double dx = c + 0.5 - x, dy = r + 0.5 - y;
-          if (!(r == py && c == px) && dx * dx + dy * dy > borderSq) continue;
-          if (r < 0 || c < 0 || r >= size || c >= size || photo.at<cv::Vec4b>(r, c)[3] == 0) inside = false;
+        for (int col = px - border - 1; col <= px + border + 1 && inside; ++col) {
+          const double dx = col + 0.5 - x, dy = r + 0.5 - y;
+          if (!(r == py && col == px) && dx * dx + dy * dy > borderSq) continue;
+          if (r < 0 || col < 0 || r >= size || col >= size || photo.at<cv::Vec4b>(r, col)[3] == 0) inside = false;
         }
-      if (!inside) continue;
-      // Not occluded: the surface seen at the point (fine z-buffer) is one of the vertex's faces
-      // or lies at the vertex's depth.
-      const int fx = std::min(2 * size - 1, static_cast<int>(std::floor(2 * x)));
-      const int fy = std::min(2 * size - 1, static_cast<int>(std::floor(2 * y)));
-      const int idx = raster.index(fx, fy);
-      const int f = raster.face[idx];
-      if (f < 0) continue;
-      const auto corners = mesh.faceVertices(f);
+      if (!inside || c.face < 0) continue;
+      // Not occluded: the surface seen at the point (supersampled z-buffer) is one of the vertex's
+      // faces or lies at the vertex's depth.
+      const auto corners = mesh.faceVertices(c.face);
       const bool ownFace = corners[0] == v || corners[1] == v || corners[2] == v;
-      if (!ownFace && depth > raster.depth[idx] + depthTolerance) continue;
-      seen[i].push_back(PhotoPoint{k, x, y});
+      if (!ownFace && c.depth > c.zbuffer + depthTolerance) continue;
+      seen[c.feature].push_back(PhotoPoint{k, x, y});
     }
 
     scene.photos.push_back(photo);

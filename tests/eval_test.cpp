@@ -5,11 +5,10 @@
 #include <algorithm>
 #include <map>
 #include <numeric>
-#include <random>
-#include <set>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
+#include <set>
 
 #include "mesh.h"
 #include "model.h"
@@ -89,6 +88,9 @@ bool sameEdgeUv(const TexturedModel& m, int f, int g, int a, int b) {
   return true;
 }
 
+// Inverted triangles in spot's own atlas, above the degenerate threshold (see SelfEvaluationIsPerfect).
+constexpr int kSpotOwnFlips = 0;
+
 TexturedModel withTexture(const TexturedModel& model, const cv::Mat& texture) {
   TexturedModel copy = model;
   for (auto& material : copy.materials) material.texture = texture;
@@ -103,7 +105,10 @@ TEST_F(EvalSpot, SelfEvaluationIsPerfect) {
   EXPECT_GE(r.psnrCovered, 60.0);
   EXPECT_LT(r.deltaEAll, 0.5);
   EXPECT_LT(r.deltaECovered, 0.5);
-  EXPECT_EQ(r.flippedTriangles, 0);
+  // spot's own atlas has one inverted sliver, face 4413 (area -0.03 texel^2, inside a chart of
+  // positive orientation; its mirror twin, face 2957, is fine): degenerate, not a visible flip.
+  EXPECT_EQ(r.flippedTriangles, kSpotOwnFlips);
+  EXPECT_EQ(r.degenerateUvTriangles, 1);
   EXPECT_NEAR(r.coveragePhoto, 1.0, 1e-12);
   EXPECT_NEAR(r.coverageInpainted, 0.0, 1e-12);
   EXPECT_NEAR(r.coverageEmpty, 0.0, 1e-12);
@@ -117,7 +122,7 @@ TEST_F(EvalSpot, FlatGreyScoresPoorly) {
   const EvalResult r = evaluate(withTexture(spot(), grey), spot(), fast());
   EXPECT_LT(r.psnrAll, 20.0);
   EXPECT_GT(r.deltaEAll, 10.0);
-  EXPECT_EQ(r.flippedTriangles, 0);
+  EXPECT_EQ(r.flippedTriangles, kSpotOwnFlips);  // same UVs
 }
 
 TEST_F(EvalSpot, HueShiftRaisesDeltaE) {
@@ -168,7 +173,7 @@ TEST_F(EvalSpot, MirroredUvsAreReportedFlipped) {
   }
   ASSERT_EQ(mirrored, wanted);
   const EvalResult r = evaluate(model, spot(), fast());
-  EXPECT_EQ(r.flippedTriangles, mirrored);
+  EXPECT_EQ(r.flippedTriangles, kSpotOwnFlips + mirrored);
   EXPECT_LT(r.psnrAll, 60.0);  // the mirrored faces show the wrong texels
 }
 
@@ -208,8 +213,8 @@ TEST_F(EvalSpot, SeamMismatch) {
   std::printf("spot's own seams: %d edges, mean Delta E*uv %.3f\n", self.seamEdges, self.seamMismatch);
   EXPECT_GT(self.seamEdges, 0);  // spot's atlas has seams
   // Colours on both sides of spot's seams come from different texels, so they do not agree
-  // exactly; its atlas is painted with care, so they agree to a couple of Delta E units.
-  EXPECT_LT(self.seamMismatch, 3.0);
+  // exactly; its atlas is painted with care across seams (measured: 0.015 Delta E*uv over 288 edges).
+  EXPECT_LT(self.seamMismatch, 0.5);
 
   // Shift the texture of the largest chart: its whole border becomes a visible seam.
   TexturedModel model = spot();
@@ -245,13 +250,14 @@ TEST_F(EvalSpot, SeamMismatch) {
   ASSERT_GT(largestSize, 100);
   for (int f = 0; f < mesh.numFaces(); ++f)
     if (chart[f] == largest)
-      for (auto& t : model.uv[f]) t += Vec2f(0.013f, -0.021f);
+      for (auto& t : model.uv[f]) t += Vec2f(0.25f, -0.1f);
   const EvalResult shifted = evaluate(model, spot(), fast());
   std::printf("shifted chart (%d faces): %d seam edges, mean Delta E*uv %.3f\n", largestSize, shifted.seamEdges,
               shifted.seamMismatch);
-  EXPECT_EQ(shifted.seamEdges, self.seamEdges);  // same charts, only the texture moved
-  EXPECT_GT(shifted.seamMismatch, 2 * self.seamMismatch + 1.0);
-  EXPECT_EQ(shifted.flippedTriangles, 0);
+  EXPECT_EQ(shifted.seamEdges, self.seamEdges);             // same charts, only the texture moved
+  EXPECT_GT(shifted.seamMismatch, 10 * self.seamMismatch);  // measured: 2.2
+  EXPECT_GT(shifted.seamMismatch, 1.0);
+  EXPECT_EQ(shifted.flippedTriangles, kSpotOwnFlips);
 }
 
 TEST_F(EvalSpot, FaceSourcesGiveCoverage) {
@@ -283,10 +289,11 @@ TEST_F(EvalSpot, JsonAndSummary) {
   const EvalResult r = evaluate(spot(), spot(), o);
   const nlohmann::json j = r.toJson();
   for (const char* key : {"samples", "covered_samples", "psnr_all", "psnr_covered", "delta_e_all", "delta_e_covered",
-                          "coverage_photo", "coverage_inpainted", "coverage_empty", "flipped_triangles", "stretch_l2",
+                          "coverage_photo", "coverage_inpainted", "coverage_empty", "flipped_triangles", "degenerate_uv_triangles",
+                          "stretch_l2",
                           "stretch_linf", "seam_mismatch", "seam_edges"})
     EXPECT_TRUE(j.contains(key)) << key;
-  EXPECT_EQ(j.size(), 14u);
+  EXPECT_EQ(j.size(), 15u);
   EXPECT_EQ(j["samples"].get<int>(), 5000);
   EXPECT_DOUBLE_EQ(j["psnr_all"].get<double>(), r.psnrAll);
   EXPECT_EQ(j["seam_edges"].get<int>(), r.seamEdges);
@@ -304,7 +311,7 @@ std::unique_ptr<Mesh> grid(int n, double xScale, double uvScale) {
   for (int y = 0; y <= n; ++y)
     for (int x = 0; x <= n; ++x) vertices.emplace_back(x * xScale / n, static_cast<double>(y) / n, 0.0);
   auto id = [n](int x, int y) { return y * (n + 1) + x; };
-  auto uvOf = [&](int v) { return Vec2(vertices[v].x() / xScale, vertices[v].y()) * uvScale; };
+  auto uvOf = [&](int v) -> Vec2 { return Vec2(vertices[v].x() / xScale, vertices[v].y()) * uvScale; };
   for (int y = 0; y < n; ++y)
     for (int x = 0; x < n; ++x) {
       for (const std::array<int, 3> t : {std::array<int, 3>{id(x, y), id(x + 1, y), id(x + 1, y + 1)},
@@ -349,6 +356,24 @@ TEST(Eval, StretchOfIsometricGridIsOne) {
     EXPECT_NEAR(r.stretchL2, std::sqrt(1.25), 1e-6);
     EXPECT_NEAR(r.stretchLinf, std::sqrt(2.0), 1e-6);
   }
+}
+
+TEST(Eval, UntexturedResultIsEmpty) {
+  const cv::Mat texture(16, 16, CV_8UC4, cv::Scalar(200, 100, 50, 255));
+  const auto mesh = grid(4, 1.0, 1.0);
+  const TexturedModel truth = modelFromMesh(*mesh, texture);
+  TexturedModel plain = truth;
+  plain.uv.clear();  // no texture coordinates: the material's diffuse colour everywhere
+  EvalOptions o;
+  o.samples = 1000;
+  const EvalResult r = evaluate(plain, truth, o);
+  EXPECT_EQ(r.coveredSamples, 0);
+  EXPECT_EQ(r.psnrCovered, 0.0);
+  EXPECT_NEAR(r.coverageEmpty, 1.0, 1e-12);
+  EXPECT_EQ(r.coveragePhoto, 0.0);
+  EXPECT_EQ(r.flippedTriangles, 0);
+  EXPECT_EQ(r.stretchL2, 0.0);
+  EXPECT_LT(r.psnrAll, 40.0);  // diffuse grey is not the texture's orange
 }
 
 TEST(Eval, RejectsInconsistentModels) {

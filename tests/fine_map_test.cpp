@@ -245,7 +245,9 @@ TEST(FineMap, FlatGridAvoidsABackgroundStripe) {
   const JobControl job;
   ProgressiveMesh pm(g.partition, SimplifyOptions{}, job);
   FineMapStats stats;
-  const TextureMap map = coarseToFine(*g.scene, g.partition, pm, FineMapOptions{}, job, &stats);
+  FineMapOptions fo; if (getenv("SWEEPS")) fo.finalSweeps = atoi(getenv("SWEEPS"));
+  if (getenv("LS")) fo.lineSearches = atoi(getenv("LS"));
+  const TextureMap map = coarseToFine(*g.scene, g.partition, pm, fo, job, &stats);
   checkGridMap(g, map, stats);
   const Photo& photo = *g.scene->photos[0];
   int idealOnBackground = 0, onBackground = 0;
@@ -278,7 +280,7 @@ SpotCase makeSpot(const std::string& obj) {
   const double scale = (hi - lo).norm() / 4;
   SynthOptions options;
   options.views = 1;
-  options.features = 60;
+  options.features = 150;
   options.size = 768;
   const SynthScene synth = synthesize(
       *mesh, obj,
@@ -305,6 +307,17 @@ TEST(FineMap, SpotFromOneView) {
   ASSERT_TRUE(pm.atBase());
   const Mesh& mesh = partition.mesh;
 
+  {
+    std::set<std::pair<int,int>> edges;
+    for (int f = 0; f < mesh.numFaces(); ++f) { auto c = mesh.faceVertices(f); for (int k = 0; k < 3; ++k) edges.emplace(std::min(c[k], c[(k+1)%3]), std::max(c[k], c[(k+1)%3])); }
+    int shortcuts = 0;
+    for (size_t pi = 0; pi < partition.paths.size(); ++pi) {
+      const auto& pv = partition.paths[pi].vertices;
+      for (size_t i = 0; i < pv.size(); ++i) for (size_t j = i + 2; j < pv.size(); ++j)
+        if (edges.count({std::min(pv[i], pv[j]), std::max(pv[i], pv[j])})) { ++shortcuts; std::printf("DIAG shortcut path %zu (chain %d, n %zu, steiner?) %zu-%zu v %d %d\n", pi, partition.paths[pi].fromChain, pv.size(), i, j, pv[i], pv[j]); }
+    }
+    std::printf("DIAG shortcuts %d, steiner %d\n", shortcuts, partition.steinerVertices);
+  }
   FineMapStats stats;
   auto start = Clock::now();
   const TextureMap map = coarseToFine(scene, partition, pm, FineMapOptions{}, job, &stats);
@@ -362,6 +375,56 @@ TEST(FineMap, SpotFromOneView) {
               100 * mappedArea / visibleArea, errors.size(), median, p90, errors.back(), maxGamma, meanGamma);
   EXPECT_LT(median, 3.0);
 
+  {
+    // DIAG: error split by boundary vs interior, and pure barycentric placement, and projection stretch.
+    std::vector<char> boundary(mesh.numVertices(), 0);
+    for (int f = 0; f < mesh.numFaces(); ++f)
+      for (int v : mesh.faceVertices(f)) (void)v;
+    std::map<int, std::set<int>> cellsOf;
+    for (int f = 0; f < mesh.numFaces(); ++f)
+      for (int v : mesh.faceVertices(f)) cellsOf[v].insert(map.facePhoto[f] == TextureMap::kEmpty ? -1 : partition.faceCell[f]);
+    std::vector<double> eb, ei;
+    for (const auto& [key, uv] : uvs) {
+      Vec2 t; spot.camera.project(mesh.position(key.first), t);
+      (cellsOf[key.first].size() > 1 ? eb : ei).push_back((uv - t).norm());
+    }
+    std::sort(eb.begin(), eb.end()); std::sort(ei.begin(), ei.end());
+    if (!eb.empty() && !ei.empty()) std::printf("DIAG boundary median %.2f (%zu), interior median %.2f (%zu)\n", eb[eb.size()/2], eb.size(), ei[ei.size()/2], ei.size());
+    {
+      std::vector<Vec3> nrm(mesh.numVertices(), Vec3::Zero());
+      for (int f = 0; f < mesh.numFaces(); ++f) for (int v : mesh.faceVertices(f)) nrm[v] += mesh.faceNormal(f) * mesh.faceArea(f);
+      std::vector<double> ef, eo;
+      for (const auto& [key, uv] : uvs) {
+        const Vec3 p = mesh.position(key.first);
+        const double c = nrm[key.first].normalized().dot((spot.camera.center() - p).normalized());
+        Vec2 t; spot.camera.project(p, t);
+        (c > 0.7 ? ef : eo).push_back((uv - t).norm());
+      }
+      std::sort(ef.begin(), ef.end()); std::sort(eo.begin(), eo.end());
+      if (!ef.empty() && !eo.empty()) std::printf("DIAG frontal(cos>0.7) median %.2f (%zu), oblique median %.2f (%zu)\n", ef[ef.size()/2], ef.size(), eo[eo.size()/2], eo.size());
+      int backMapped = 0, mapped = 0;
+      for (int f = 0; f < mesh.numFaces(); ++f) if (map.facePhoto[f] != TextureMap::kEmpty) { ++mapped; const Vec3 c = (mesh.facePositions(f)[0]+mesh.facePositions(f)[1]+mesh.facePositions(f)[2])/3; backMapped += mesh.faceNormal(f).dot(spot.camera.center() - c) <= 0; }
+      std::printf("DIAG mapped faces %d, back-facing %d\n", mapped, backMapped);
+    }
+    double pmax = 0, pmean = 0; int n = 0;
+    for (int f = 0; f < mesh.numFaces(); ++f) {
+      if (map.facePhoto[f] == TextureMap::kEmpty) continue;
+      std::array<Vec2, 3> uv; auto c = mesh.faceVertices(f);
+      for (int k = 0; k < 3; ++k) { Vec2 t; spot.camera.project(mesh.position(c[k]), t); uv[k] = Vec2(t.x(), -t.y()); }
+      auto st = triangleStretch(mesh.facePositions(f), uv);
+      pmax = std::max(pmax, st.gamma); pmean += st.gamma; ++n;
+    }
+    std::printf("DIAG projection stretch max %.5f mean %.5f\n", pmax, pmean / n);
+    while (!pm.atBase()) pm.collapse();
+    FineMapOptions none; none.lineSearches = 0; none.finalSweeps = 0;
+    FineMapStats st;
+    const TextureMap m2 = coarseToFine(scene, partition, pm, none, job, &st);
+    std::vector<double> e2;
+    for (const auto& [key, uv] : vertexUVs(mesh, m2)) { Vec2 t; spot.camera.project(mesh.position(key.first), t); e2.push_back((uv - t).norm()); }
+    std::sort(e2.begin(), e2.end());
+    double mg, mm; mapStretch(mesh, m2, mg, mm);
+    std::printf("DIAG barycentric only: median %.2f px, flips %d, stretch max %.5f mean %.5f\n", e2[e2.size()/2], countFlips(m2), mg, mm);
+  }
   // The final sweeps: same run without them, from the base level again.
   while (!pm.atBase()) pm.collapse();
   FineMapOptions noSweeps;

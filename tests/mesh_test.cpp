@@ -860,9 +860,9 @@ TEST(MeshReportText, SummaryHasCountsAndFindings) {
   EXPECT_NE(s.find("usable: yes"), std::string::npos) << s;
 }
 
-// ---- speed -----------------------------------------------------------------------------------------------
+// ---- a large file -----------------------------------------------------------------------------------------------
 
-TEST(MeshSpeed, MillionFaceObjLoads) {
+TEST(MeshLarge, MillionFaceObjLoads) {
   const int nx = 1000, ny = 500;  // 1,000,000 triangles
   std::string s;
   s.reserve(40 * 1000000);
@@ -877,16 +877,12 @@ TEST(MeshSpeed, MillionFaceObjLoads) {
       s.append(line, std::snprintf(line, sizeof line, "f %d %d %d\nf %d %d %d\n", a, b, d, a, d, c));
     }
   const std::string path = writeFile("grid.obj", s);
-  const auto start = std::chrono::steady_clock::now();
-  const LoadedMesh loaded = loadMesh(path);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::printf("1M-face OBJ loaded in %.2f s\n", seconds);
+  const LoadedMesh loaded = loadMesh(path);  // its speed is measured by tm_microbench, not here
   EXPECT_EQ(loaded.report.faces, 1000000);
   EXPECT_EQ(loaded.report.vertices, 501 * 1001);
   EXPECT_EQ(loaded.report.boundaryLoops, 1);
   EXPECT_EQ(loaded.report.genus, 0);
   EXPECT_TRUE(loaded.report.findings.empty()) << loaded.report.summary();
-  EXPECT_LT(seconds, 20.0);  // generous: the machine is shared; ~1 s expected
 }
 
 }  // namespace

@@ -150,7 +150,7 @@ TEST(ColorAt, BilinearExactOnTinyTexture) {
   auto mesh = requireUsable(buildMesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}}, {{uvOf[0], uvOf[1], uvOf[2]}}));
   TexturedModel model = modelFromMesh(*mesh, tex);
   const auto fv = model.mesh.faceVertices(0);
-  const auto texel = [&](int r, int c) {
+  const auto texel = [&](int r, int c) -> Vec3f {
     const cv::Vec4b p = tex.at<cv::Vec4b>(r, c);
     return Vec3f(p[0], p[1], p[2]) / 255.0f;
   };

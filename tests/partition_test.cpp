@@ -194,6 +194,11 @@ void expectRefinement(const Partition& part, const Mesh& input) {
   }
   EXPECT_NEAR(total, totalInput, 1e-9 * totalInput);
   EXPECT_TRUE(part.mesh.cornerUV.empty());
+  if (!input.faceOrigin.empty()) {
+    ASSERT_EQ(int(part.mesh.faceOrigin.size()), part.mesh.numFaces());
+    for (int f = 0; f < part.mesh.numFaces(); ++f)
+      EXPECT_EQ(part.mesh.faceOrigin[f], input.faceOrigin[part.faceParent[f]]);
+  }
 }
 
 // Paths run along edges between their feature vertices, share no vertex but end points and no edge,
@@ -213,8 +218,12 @@ void expectValidPaths(const Partition& part, const Scene& scene) {
     std::set<int> photos;
     for (const Curve& c : p.curves) {
       EXPECT_TRUE(photos.insert(c.photo).second);
-      const auto& at = scene.project.points[p.fromPoint].at;
-      EXPECT_TRUE(std::any_of(at.begin(), at.end(), [&](const PhotoPoint& q) { return q.photo == c.photo; }));
+      // Some point with the path's first vertex has a position in the curve's photo, at c.from.
+      bool found = false;
+      for (const FeaturePoint& q : scene.project.points)
+        for (const PhotoPoint& at : q.at)
+          found = found || (q.vertex == p.vertices.front() && at.photo == c.photo && Vec2(at.x, at.y) == c.from);
+      EXPECT_TRUE(found) << "curve of path " << p.fromPoint << "-" << p.toPoint << " in photo " << c.photo;
     }
     for (size_t k = 0; k < p.vertices.size(); ++k) {
       if (k > 0) {
@@ -233,8 +242,8 @@ void expectValidPaths(const Partition& part, const Scene& scene) {
   for (auto e : tri.edges()) {
     const auto f0 = tri.face_handle(tri.halfedge_handle(e, 0)), f1 = tri.face_handle(tri.halfedge_handle(e, 1));
     if (!f0.is_valid() || !f1.is_valid()) continue;
-    const auto ends = std::minmax(tri.from_vertex_handle(tri.halfedge_handle(e, 0)).idx(),
-                                  tri.to_vertex_handle(tri.halfedge_handle(e, 0)).idx());
+    const std::pair<int, int> ends = std::minmax(tri.from_vertex_handle(tri.halfedge_handle(e, 0)).idx(),
+                                                 tri.to_vertex_handle(tri.halfedge_handle(e, 0)).idx());
     if (!edges.count(ends)) EXPECT_EQ(part.faceCell[f0.idx()], part.faceCell[f1.idx()]);
   }
 }
@@ -417,6 +426,29 @@ TEST(Partition, CyclicOrderInversionIsRejected) {
   expectCyclicOrder(fine);
 }
 
+TEST(Partition, PhotosWithAConflictingOrderAreDropped) {
+  const Grid grid = makeGrid(21);
+  // As above, with two photos: photo 0 shows the true order, photo 1 has B mirrored.
+  const auto both = [&](int i, int j, int mirroredJ) {
+    return FeaturePoint{
+        grid.vertex(i, j),
+        {{0, topView(i, j).x(), topView(i, j).y()}, {1, topView(i, mirroredJ).x(), topView(i, mirroredJ).y()}}};
+  };
+  const std::vector<FeaturePoint> points = {both(10, 10, 10), both(13, 10, 10), both(10, 7, 13), both(7, 10, 10)};
+  Scene scene = makeScene(grid.mesh, points, {makePhoto(240, 240), makePhoto(240, 240)});
+  const Partition part = partitionMesh(scene, {}, {});
+  const int id = findPath(part, 0, 3);
+  ASSERT_GE(id, 0) << describe(part);
+  ASSERT_EQ(part.paths[id].curves.size(), 1u);
+  EXPECT_EQ(part.paths[id].curves[0].photo, 0);
+  const RejectedPair* r = findRejection(part, 0, 3, RejectReason::CyclicOrder);
+  ASSERT_TRUE(r) << describe(part);
+  EXPECT_EQ(r->photo, 1);
+  EXPECT_EQ(part.paths[findPath(part, 0, 1)].curves.size(), 2u);
+  expectValidPaths(part, scene);
+  expectCyclicOrder(part);
+}
+
 TEST(Partition, CurvesOverTheBackgroundAreRejected) {
   // A foreground disc of radius 100 px around (200, 200); the grid maps pixel (x, y) to vertex (x/10, y/10).
   cv::Mat disc = cv::Mat::zeros(400, 400, CV_8UC1);
@@ -457,8 +489,8 @@ TEST(Partition, CurvesOverTheBackgroundAreRejected) {
 TEST(Partition, SteinerVerticesMakeRoomOnACoarseMesh) {
   // Octahedron with all six vertices as features: T (top), E0..E3 (equator), B (bottom). The photo is
   // a top view of T and the equator with B drawn beyond the T-E0-E1 face; its foreground is the
-  // spokes T-Ek and T-B, so only they are valid curves. T-B must pass between two spokes, where the
-  // mesh has no free vertex.
+  // spokes T-Ek and T-B, so only they are valid curves. T-B must leave T between two spokes, where
+  // the input mesh has no free vertex: it runs through the Steiner vertex on edge E0-E1.
   const std::vector<Vec3> v = {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
   const std::vector<std::array<int, 3>> f = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 1},
                                              {5, 2, 1}, {5, 3, 2}, {5, 4, 3}, {5, 1, 4}};
@@ -482,7 +514,7 @@ TEST(Partition, SteinerVerticesMakeRoomOnACoarseMesh) {
   expectValidPaths(part, scene);
   expectCyclicOrder(part);
 
-  // With no Steiner budget T-B finds no room.
+  // With no Steiner budget per path T-B is refused (it would leave bridges next to the spokes).
   PartitionOptions none;
   none.maxSteinerPerPath = 0;
   const Partition stuck = partitionMesh(scene, none, {});
@@ -567,6 +599,33 @@ TEST(Partition, ChainsEnterBeforeShorterPairs) {
   EXPECT_EQ(findPath(plain, 0, 1), -1) << describe(plain);
 }
 
+TEST(Partition, ChainSegmentsRepeatedOrInAnotherPhoto) {
+  const Grid grid = makeGrid(21);
+  const auto at = [&](int i, int j) {
+    return FeaturePoint{grid.vertex(i, j),
+                        {{0, topView(i, j).x(), topView(i, j).y()}, {1, topView(i, j).x(), topView(i, j).y()}}};
+  };
+  const std::vector<FeaturePoint> points = {at(4, 4), at(12, 4), at(12, 12)};
+  // A line 0-1-2 in photo 0, the segment 0-1 again in photo 0 and in photo 1.
+  const std::vector<FeatureChain> chains = {{0, {0, 1, 2}, false}, {0, {1, 0}, false}, {1, {0, 1}, false}};
+  Scene scene = makeScene(grid.mesh, points, {makePhoto(240, 240), makePhoto(240, 240)}, chains);
+  const Partition part = partitionMesh(scene, {}, {});
+  ASSERT_EQ(findPath(part, 0, 1), 0) << describe(part);
+  EXPECT_EQ(findPath(part, 1, 2), 1) << describe(part);
+  const MeshPath& p01 = part.paths[0];
+  ASSERT_EQ(p01.curves.size(), 2u);  // photo 0 from the first chain, photo 1 from the third
+  EXPECT_EQ(p01.curves[1].photo, 1);
+  const RejectedPair* r = findRejection(part, 0, 1, RejectReason::Duplicate);
+  ASSERT_TRUE(r) << describe(part);
+  EXPECT_EQ(r->photo, 0);
+  // The all-pairs queue adds photo 1 to 1-2 and does not report the chain pairs again.
+  EXPECT_EQ(part.paths[1].curves.size(), 2u);
+  EXPECT_EQ(std::count_if(part.rejected.begin(), part.rejected.end(),
+                          [](const RejectedPair& x) { return x.reason == RejectReason::Duplicate; }),
+            1);
+  expectValidPaths(part, scene);
+}
+
 // ---- Robustness ------------------------------------------------------------------------------------
 
 TEST(Partition, NoFeaturesGivesOneCellPerComponent) {
@@ -596,7 +655,7 @@ TEST(Partition, LonelyPointsAndPhotosDoNotBreakAnything) {
   const auto at = [&](int i, int j, int photo) {
     return point(grid.vertex(i, j), topView(i, j).x(), topView(i, j).y(), photo);
   };
-  // Point 0 alone in photo 0; points 1 and 2 share photo 1 only... and point 3 is in photo 2 alone.
+  // Point 0 alone in photo 0, points 1 and 2 share photo 1, point 3 alone in photo 2.
   const std::vector<FeaturePoint> points = {at(2, 2, 0), at(5, 5, 1), at(8, 8, 1), at(2, 8, 2)};
   Scene scene = makeScene(grid.mesh, points, {makePhoto(140, 140), makePhoto(140, 140), makePhoto(140, 140)});
   const Partition part = partitionMesh(scene, {}, {});
@@ -612,6 +671,19 @@ TEST(Partition, LonelyPointsAndPhotosDoNotBreakAnything) {
   const Partition lone = partitionMesh(single, {}, {});
   EXPECT_TRUE(lone.paths.empty());
   EXPECT_EQ(lone.numCells, 1);
+}
+
+TEST(Partition, BadIndicesAreUserErrors) {
+  const Grid grid = makeGrid(5);
+  Scene scene = makeScene(grid.mesh, {point(3, 10, 10), point(99, 20, 20)}, {makePhoto(40, 40)});
+  try {
+    partitionMesh(scene, {}, {});
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("points[1].vertex: 99"), std::string::npos) << e.what();
+  }
+  scene.project.points[1] = point(4, 20, 20, 3);
+  EXPECT_THROW(partitionMesh(scene, {}, {}), Error);
 }
 
 TEST(Partition, PointsSharingAVertexAreMerged) {
@@ -659,11 +731,34 @@ TEST(Partition, ReportsProgressAndHonoursCancel) {
 
 // ---- A realistic case --------------------------------------------------------------------------------
 
-TEST(Partition, SpotSideViewWithFortyFeatures) {
-  TM_REQUIRE_SHARED(path, "meshes/spot/spot_triangulated.obj");
-  const std::shared_ptr<const Mesh> mesh(requireUsable(loadMesh(path)));
-  const int size = 1024;
-  // Orthographic view from +x: image right = -z, image down = -y.
+// 1-to-4 midpoint subdivision (flat), to get a denser mesh of the same shape.
+std::shared_ptr<const Mesh> subdivide(const Mesh& mesh) {
+  std::vector<Vec3> v;
+  for (int k = 0; k < mesh.numVertices(); ++k) v.push_back(mesh.position(k));
+  std::map<std::pair<int, int>, int> mid;
+  const auto midpoint = [&](int a, int b) {
+    const auto key = std::minmax(a, b);
+    const auto it = mid.find(key);
+    if (it != mid.end()) return it->second;
+    v.push_back(0.5 * (v[a] + v[b]));
+    return mid[key] = static_cast<int>(v.size()) - 1;
+  };
+  std::vector<std::array<int, 3>> f;
+  for (int k = 0; k < mesh.numFaces(); ++k) {
+    const auto c = mesh.faceVertices(k);
+    const int a = midpoint(c[0], c[1]), b = midpoint(c[1], c[2]), d = midpoint(c[2], c[0]);
+    f.push_back({c[0], a, d});
+    f.push_back({c[1], b, a});
+    f.push_back({c[2], d, b});
+    f.push_back({a, b, d});
+  }
+  return makeMesh(v, f);
+}
+
+// An orthographic side view (from +x: image right = -z, down = -y) of `mesh` in a size x size photo
+// whose foreground is the projected faces, with `count` features spread over the visible vertices
+// (farthest-point order, at least 8 px inside the silhouette) at their projected positions.
+Scene sideViewScene(std::shared_ptr<const Mesh> mesh, int count, int size = 1024) {
   Vec3 lo, hi;
   mesh->bounds(lo, hi);
   const double scale = 0.9 * size / std::max(hi.z() - lo.z(), hi.y() - lo.y());
@@ -672,7 +767,7 @@ TEST(Partition, SpotSideViewWithFortyFeatures) {
     return Vec2(0.5 * size - scale * (p.z() - mid.z()), 0.5 * size - scale * (p.y() - mid.y()));
   };
   // Orthographic z-buffer (depth = x, nearer is larger) for the mask and vertex visibility.
-  std::vector<double> depth(size * size, -kInf);
+  std::vector<double> depth(size_t(size) * size, -kInf);
   cv::Mat mask = cv::Mat::zeros(size, size, CV_8UC1);
   for (int fi = 0; fi < mesh->numFaces(); ++fi) {
     const auto p = mesh->facePositions(fi);
@@ -693,11 +788,10 @@ TEST(Partition, SpotSideViewWithFortyFeatures) {
     if (inside.at<float>(y, x) > 8 && mesh->position(v).x() > depth[size_t(y) * size + x] - 0.01)
       candidates.push_back(v);
   }
-  ASSERT_GT(candidates.size(), 100u);
-  // Farthest-point spread of 40 visible vertices.
+  EXPECT_GT(int(candidates.size()), 2 * count);
   std::vector<int> chosen = {candidates.front()};
   std::vector<double> far(candidates.size(), kInf);
-  while (chosen.size() < 40) {
+  while (int(chosen.size()) < count) {
     size_t best = 0;
     for (size_t k = 0; k < candidates.size(); ++k) {
       far[k] = std::min(far[k], (mesh->position(candidates[k]) - mesh->position(chosen.back())).norm());
@@ -710,27 +804,50 @@ TEST(Partition, SpotSideViewWithFortyFeatures) {
     const Vec2 q = project(mesh->position(v));
     points.push_back(point(v, q.x(), q.y()));
   }
-  Scene scene = makeScene(mesh, points, {makePhoto(size, size, mask)});
+  return makeScene(std::move(mesh), points, {makePhoto(size, size, mask)});
+}
 
+// Runs the partition, prints its figures and checks every invariant; returns it with its time.
+Partition runAndCheck(const Scene& scene, const std::string& name, double& seconds) {
   const auto start = std::chrono::steady_clock::now();
-  const Partition part = partitionMesh(scene, {}, {});
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
+  Partition part = partitionMesh(scene, {}, {});
+  seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::map<RejectReason, int> reasons;
   for (const RejectedPair& r : part.rejected) ++reasons[r.reason];
-  std::printf("spot: 40 features, %zu paths accepted, %zu rejections (", part.paths.size(), part.rejected.size());
+  std::printf("%s: %d vertices, %zu features, %zu paths accepted, %zu rejections (", name.c_str(),
+              scene.mesh->numVertices(), scene.project.points.size(), part.paths.size(), part.rejected.size());
   for (const auto& [reason, count] : reasons) std::printf(" %s: %d;", kRejectReasonNames[int(reason)], count);
   std::printf(" ), %d cells, %d Steiner vertices, %.3f s\n", part.numCells, part.steinerVertices, seconds);
+  for (const RejectedPair& r : part.rejected)
+    if (r.reason == RejectReason::NoPath || r.reason == RejectReason::CyclicOrder)
+      std::printf("  %d-%d photo %d: %s: %s\n", r.fromPoint, r.toPoint, r.photo, kRejectReasonNames[int(r.reason)],
+                  r.detail.c_str());
 
-  EXPECT_GE(part.paths.size(), 60u);  // a near-triangulation of 40 points has ~100 edges
-  EXPECT_GT(part.numCells, 20);
-  EXPECT_LT(seconds, 3.0);
   const Photo& photo = *scene.photos[0];
   for (const MeshPath& p : part.paths)
     for (const Curve& c : p.curves) EXPECT_LE(meanDistance(photo, c.from, c.to), 2.1);
-  expectRefinement(part, *mesh);
+  expectRefinement(part, *scene.mesh);
   expectValidPaths(part, scene);
   expectCyclicOrder(part);
+  return part;
+}
+
+TEST(Partition, SpotSideViewWithFortyFeatures) {
+  TM_REQUIRE_SHARED(path, "meshes/spot/spot_triangulated.obj");
+  const Scene scene = sideViewScene(std::shared_ptr<const Mesh>(requireUsable(loadMesh(path))), 40);
+  double seconds = 0;
+  const Partition part = runAndCheck(scene, "spot", seconds);
+  EXPECT_GE(part.paths.size(), 80u);  // a triangulation of 40 points in the plane has up to 111 edges
+  EXPECT_GT(part.numCells, 40);
+}
+
+TEST(Partition, DenseSpotWith350FeaturesScales) {
+  TM_REQUIRE_SHARED(path, "meshes/spot/spot_triangulated.obj");
+  const std::unique_ptr<Mesh> spot = requireUsable(loadMesh(path));
+  const Scene scene = sideViewScene(subdivide(*subdivide(*spot)), 350, 2048);  // 46.8k vertices
+  double seconds = 0;
+  const Partition part = runAndCheck(scene, "spot subdivided twice", seconds);
+  EXPECT_GE(part.paths.size(), 700u);
 }
 
 }  // namespace

@@ -444,59 +444,6 @@ TEST(Bvh, RaycastBothSidesAndEdges) {
   EXPECT_NEAR((cp.point - Vec3(0.5, 0.1, 0)).norm(), 0, 1e-12);
 }
 
-// CPU time of the calling thread in milliseconds (wall time is meaningless on a loaded machine).
-double threadCpuMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
-// Best of `runs` CPU times of fn().
-template <class Fn>
-double bestCpuMs(int runs, Fn&& fn) {
-  double best = std::numeric_limits<double>::infinity();
-  for (int r = 0; r < runs; ++r) {
-    const double t0 = threadCpuMs();
-    fn();
-    best = std::min(best, threadCpuMs() - t0);
-  }
-  return best;
-}
-
-TEST(Timings, RasterizeAndBvh) {
-  std::string name;
-  const auto mesh = spotOrSphere(&name);
-  const auto big = icosphere(6);  // 81920 faces
-
-  const Camera cam = Camera::lookAt(Vec3(0, 0.2, 2.5), Vec3(0, 0.1, 0.2), Vec3(0, 1, 0), 45, 1024, 1024);
-  RasterBuffers rb;
-  const double spotMs = bestCpuMs(5, [&] { rb = rasterize(*mesh, cam); });
-  EXPECT_GT(std::count_if(rb.face.begin(), rb.face.end(), [](int f) { return f >= 0; }), 100000);
-  const Camera bigCam = Camera::lookAt(Vec3(0, 0, 2.6), Vec3::Zero(), Vec3(0, 1, 0), 45, 1024, 1024);
-  const double bigMs = bestCpuMs(5, [&] { rb = rasterize(*big, bigCam); });
-
-  std::unique_ptr<TriangleBvh> bvh;
-  const double buildMs = bestCpuMs(3, [&] { bvh = std::make_unique<TriangleBvh>(*mesh); });
-  Vec3 lo, hi;
-  mesh->bounds(lo, hi);
-  std::mt19937 rng(1);
-  std::uniform_real_distribution<double> u(0, 1);
-  const int queries = 1000000;
-  std::vector<Vec3> points(queries);
-  for (Vec3& p : points) p = lo + Vec3(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo);
-  double sum = 0;
-  const double queryMs = bestCpuMs(1, [&] {
-    for (const Vec3& p : points) sum += bvh->closest(p).distance;
-  });
-  EXPECT_GT(sum, 0);
-  std::printf("[ TIMING ] rasterize %s (%d faces) at 1024^2: %.1f ms; icosphere (%d faces): %.1f ms (CPU time)\n",
-              name.c_str(), mesh->numFaces(), spotMs, big->numFaces(), bigMs);
-  std::printf("[ TIMING ] BVH build %.2f ms, %d closest-point queries %.0f ms (%.2f us/query, CPU time)\n", buildMs,
-              queries, queryMs, 1000 * queryMs / queries);
-  // Targets: well under 100 ms for 52k faces at 1024^2 (bounds leave room for slow machines).
-  EXPECT_LT(bigMs, 100);
-  EXPECT_LT(queryMs, 5000);
-}
 
 // ----------------------------------------------------------------------------------------------
 // Texture stretch

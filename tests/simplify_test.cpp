@@ -1,7 +1,11 @@
 // Progressive mesh (paper section 3.2): constrained collapses down to a base mesh whose edges are
 // the paths, exact replay of splits/collapses, and the barycentric coordinates of removed vertices.
 // Partitions are built by hand (grid lines, a Dijkstra written here), never by partitionMesh().
+#include "simplify.h"
+
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -11,11 +15,8 @@
 #include <random>
 #include <set>
 
-#include <Eigen/Geometry>
-
 #include "partition.h"
 #include "pipeline.h"
-#include "simplify.h"
 #include "test_support.h"
 
 namespace montage {
@@ -43,8 +44,8 @@ std::unique_ptr<Mesh> gridMesh(int n) {
 // Unit icosphere; vertices 0..11 are the icosahedron's.
 std::unique_ptr<Mesh> icosphere(int levels) {
   const double g = (1 + std::sqrt(5.0)) / 2;
-  std::vector<Vec3> v = {{-1, g, 0}, {1, g, 0}, {-1, -g, 0}, {1, -g, 0}, {0, -1, g}, {0, 1, g},
-                         {0, -1, -g}, {0, 1, -g}, {g, 0, -1}, {g, 0, 1}, {-g, 0, -1}, {-g, 0, 1}};
+  std::vector<Vec3> v = {{-1, g, 0},  {1, g, 0},  {-1, -g, 0}, {1, -g, 0}, {0, -1, g},  {0, 1, g},
+                         {0, -1, -g}, {0, 1, -g}, {g, 0, -1},  {g, 0, 1},  {-g, 0, -1}, {-g, 0, 1}};
   for (auto& p : v) p.normalize();
   std::vector<std::array<int, 3>> t = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
                                        {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
@@ -133,7 +134,8 @@ bool addPath(Partition& p, const std::vector<std::vector<int>>& adj, std::vector
   MeshPath mp;
   mp.fromPoint = a, mp.toPoint = b;
   mp.vertices = path;
-  for (size_t i = 1; i < path.size(); ++i) mp.length += (p.mesh.position(path[i]) - p.mesh.position(path[i - 1])).norm();
+  for (size_t i = 1; i < path.size(); ++i)
+    mp.length += (p.mesh.position(path[i]) - p.mesh.position(path[i - 1])).norm();
   p.paths.push_back(mp);
   return true;
 }
@@ -300,16 +302,19 @@ BaseSummary checkBase(const ProgressiveMesh& pm, const Partition& part, bool clo
   const auto baseCell = cells(pm, baseCount);
   std::map<int, std::set<int>> baseToOriginal, originalToBase;
   for (int f = 0; f < pm.numFaces(); ++f)
-    if (pm.faceAlive(f)) baseToOriginal[baseCell[f]].insert(originalCell[f]), originalToBase[originalCell[f]].insert(baseCell[f]);
+    if (pm.faceAlive(f))
+      baseToOriginal[baseCell[f]].insert(originalCell[f]), originalToBase[originalCell[f]].insert(baseCell[f]);
   for (const auto& [c, set] : baseToOriginal) EXPECT_EQ(set.size(), 1u) << "base cell " << c << " mixes original cells";
   for (const auto& [c, set] : originalToBase) EXPECT_EQ(set.size(), 1u) << "original cell " << c << " was split";
-  std::printf("  base: %d vertices (%d not features), %d faces, %d of %zu paths not a single edge, %d cells, "
-              "%zu collapses\n",
-              s.vertices, s.extraVertices, s.faces, s.longPaths, part.paths.size(), baseCount, pm.records().size());
+  std::printf(
+      "  base: %d vertices (%d not features), %d faces, %d of %zu paths not a single edge, %d cells, "
+      "%zu collapses\n",
+      s.vertices, s.extraVertices, s.faces, s.longPaths, part.paths.size(), baseCount, pm.records().size());
   const auto& st = pm.stats();
-  std::printf("  weights: %d on edge, %d Meyer, %d mean value, %d mean value 3D, %d uniform; sides: %d on edge, %d other\n",
-              st.weights[0], st.weights[1], st.weights[2], st.weights[3], st.weights[4], st.sides[0],
-              st.sides[1] + st.sides[2] + st.sides[3] + st.sides[4]);
+  std::printf(
+      "  weights: %d on edge, %d Meyer, %d mean value, %d mean value 3D, %d uniform; sides: %d on edge, %d other\n",
+      st.weights[0], st.weights[1], st.weights[2], st.weights[3], st.weights[4], st.sides[0],
+      st.sides[1] + st.sides[2] + st.sides[3] + st.sides[4]);
   return s;
 }
 
@@ -323,6 +328,8 @@ void checkReplay(ProgressiveMesh& pm, const Partition& part, int originalEuler) 
     std::sort(vf.begin(), vf.end());
     baseVertexFaces.push_back(vf);
   }
+  // Every 1000th level, more often on small meshes.
+  const int every = std::clamp(static_cast<int>(pm.records().size()) / 50, 1, 1000);
   int ringMismatches = 0;
   while (!pm.atFull()) {
     const CollapseRecord& r = pm.split();
@@ -333,22 +340,22 @@ void checkReplay(ProgressiveMesh& pm, const Partition& part, int originalEuler) 
       if (it != ring.end()) std::rotate(ring.begin(), it, ring.end());
     }
     ringMismatches += ring != r.ring;
-    if (pm.level() % 1000 == 0) ASSERT_EQ(eulerCharacteristic(pm), originalEuler) << "level " << pm.level();
+    if (pm.level() % every == 0) ASSERT_EQ(eulerCharacteristic(pm), originalEuler) << "level " << pm.level();
   }
   EXPECT_EQ(ringMismatches, 0);
   EXPECT_EQ(pm.aliveVertices(), part.mesh.numVertices());
   EXPECT_EQ(pm.aliveFaces(), part.mesh.numFaces());
   int cornerMismatches = 0;
-  for (int f = 0; f < pm.numFaces(); ++f) cornerMismatches += !pm.faceAlive(f) || pm.face(f) != part.mesh.faceVertices(f);
+  for (int f = 0; f < pm.numFaces(); ++f)
+    cornerMismatches += !pm.faceAlive(f) || pm.face(f) != part.mesh.faceVertices(f);
   EXPECT_EQ(cornerMismatches, 0);
+  std::vector<std::vector<int>> expected(pm.numVertices());
+  for (int f = 0; f < part.mesh.numFaces(); ++f)
+    for (int v : part.mesh.faceVertices(f)) expected[v].push_back(f);
   for (int v = 0; v < pm.numVertices(); ++v) {
-    std::vector<int> expected, got = pm.vertexFaces(v);
-    for (int f = 0; f < part.mesh.numFaces(); ++f) {
-      const auto t = part.mesh.faceVertices(f);
-      if (std::find(t.begin(), t.end(), v) != t.end()) expected.push_back(f);
-    }
+    auto got = pm.vertexFaces(v);
     std::sort(got.begin(), got.end());
-    ASSERT_EQ(got, expected) << "vertexFaces of " << v;
+    ASSERT_EQ(got, expected[v]) << "vertexFaces of " << v;
   }
   for (int p = 0; p < static_cast<int>(part.paths.size()); ++p) {
     const auto& pv = part.paths[p].vertices;
@@ -356,7 +363,7 @@ void checkReplay(ProgressiveMesh& pm, const Partition& part, int originalEuler) 
   }
   while (!pm.atBase()) {
     pm.collapse();
-    if (pm.level() % 1000 == 0) ASSERT_EQ(eulerCharacteristic(pm), originalEuler) << "level " << pm.level();
+    if (pm.level() % every == 0) ASSERT_EQ(eulerCharacteristic(pm), originalEuler) << "level " << pm.level();
   }
   EXPECT_EQ(facesOf(pm), base);
   for (int v = 0; v < pm.numVertices(); ++v) {
@@ -401,10 +408,10 @@ struct Run {
 };
 
 // Builds the PM of a partition and runs every structural check.
-Run buildAndCheck(const Partition& part, bool closedMesh) {
+Run buildAndCheck(const Partition& part, bool closedMesh, const JobControl& job = {}) {
   const auto positions = positionsOf(part.mesh);
   Run run;
-  run.pm = std::make_unique<ProgressiveMesh>(part, SimplifyOptions{}, JobControl{});
+  run.pm = std::make_unique<ProgressiveMesh>(part, SimplifyOptions{}, job);
   ProgressiveMesh& pm = *run.pm;
   // Original Euler characteristic and cells, from the full level.
   while (!pm.atFull()) pm.split();
@@ -496,7 +503,8 @@ TEST(ProgressiveMesh, GridWithBorderPathsReducesToTwoTriangles) {
   auto part = makePartition(gridMesh(n), {0, n - 1, n * n - 1, n * n - n});
   const auto adj = adjacency(part.mesh);
   std::vector<char> used(n * n, 0);
-  for (auto [a, b] : std::vector<Edge>{{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}}) ASSERT_TRUE(addPath(part, adj, used, a, b));
+  for (auto [a, b] : std::vector<Edge>{{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}})
+    ASSERT_TRUE(addPath(part, adj, used, a, b));
   ASSERT_EQ(part.paths[4].vertices.size(), static_cast<size_t>(n));  // the straight diagonal
   auto run = buildAndCheck(part, false);
   EXPECT_EQ(run.base.vertices, 4);
@@ -512,7 +520,8 @@ TEST(ProgressiveMesh, GridWithInnerQuadKeepsFewBorderVertices) {
   auto part = makePartition(gridMesh(n), {4 * n + 4, 4 * n + 16, 16 * n + 16, 16 * n + 4});
   const auto adj = adjacency(part.mesh);
   std::vector<char> used(n * n, 0);
-  for (auto [a, b] : std::vector<Edge>{{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}}) ASSERT_TRUE(addPath(part, adj, used, a, b));
+  for (auto [a, b] : std::vector<Edge>{{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}})
+    ASSERT_TRUE(addPath(part, adj, used, a, b));
   auto run = buildAndCheck(part, false);
   EXPECT_EQ(run.base.longPaths, 0);
   EXPECT_GE(run.base.extraVertices, 3);  // the border triangle
@@ -523,13 +532,15 @@ TEST(ProgressiveMesh, GridWithInnerQuadKeepsFewBorderVertices) {
 // a path vertex lies on the segment of its path neighbours at the ratio of the coordinates.
 TEST(ProgressiveMesh, FlatGridCoordinatesReproduceTheRemovedVertex) {
   const int n = 21;
-  auto part = makePartition(gridMesh(n), {0, n - 1, n * n - 1, n * n - n, 10 * n + 10});
+  // Corners, the centre and a point (15, 3); the diagonal through the centre, and a staircase
+  // path from the centre to (15, 3) that ends inside a cell.
+  auto part = makePartition(gridMesh(n), {0, n - 1, n * n - 1, n * n - n, 10 * n + 10, 3 * n + 15});
   const auto adj = adjacency(part.mesh);
   std::vector<char> used(n * n, 0);
-  for (auto [a, b] : std::vector<Edge>{{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 4}, {4, 2}, {1, 4}})
+  for (auto [a, b] : std::vector<Edge>{{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 4}, {4, 2}, {4, 5}})
     ASSERT_TRUE(addPath(part, adj, used, a, b));
   ProgressiveMesh pm(part, {}, {});
-  int interior = 0, onPath = 0;
+  int interior = 0, onPath = 0, straight = 0;
   for (const auto& r : pm.records()) {
     const Vec3 v = part.mesh.position(r.removed);
     Vec3 q = Vec3::Zero();
@@ -539,6 +550,10 @@ TEST(ProgressiveMesh, FlatGridCoordinatesReproduceTheRemovedVertex) {
     if (r.pathA < 0) continue;
     ++onPath;
     const int m = static_cast<int>(r.ring.size());
+    // On a straight path (the border, the diagonal) the side coordinates reproduce v in 3D too.
+    const Vec3 a = part.mesh.position(r.ring[r.pathA]), b = part.mesh.position(r.ring[r.pathB]);
+    if ((a - v).cross(b - v).norm() > 1e-12) continue;
+    ++straight;
     for (const auto* side : {&r.left, &r.right}) {
       if (side->empty()) continue;
       const int from = side == &r.left ? r.pathA : r.pathB;
@@ -550,6 +565,9 @@ TEST(ProgressiveMesh, FlatGridCoordinatesReproduceTheRemovedVertex) {
   const auto& st = pm.stats();
   EXPECT_GT(interior, 100);
   EXPECT_GT(onPath, 40);
+  EXPECT_GT(straight, 40);
+  EXPECT_LT(straight, onPath);            // the staircase is not straight
+  checkRecordCoordinates(pm, part.mesh);  // distance ratio on every path, straight or not
   EXPECT_GT(st.weights[static_cast<int>(CoordinateKind::Meyer)], 0);
   EXPECT_EQ(st.weights[static_cast<int>(CoordinateKind::MeanValue3d)], 0);  // flat: never needed
   EXPECT_EQ(st.weights[static_cast<int>(CoordinateKind::Uniform)], 0);
@@ -610,24 +628,69 @@ TEST(ProgressiveMesh, SpotWithFeatures) {
   EXPECT_LE(run.base.extraVertices, 10);
 }
 
-// ~50k faces, ~350 features: construction time, with progress reports.
-TEST(ProgressiveMesh, TimingOnALargeMesh) {
+// Without features everything may go, down to the smallest complex of the same topology: a
+// tetrahedron for a closed sphere (one more collapse would give two faces on the same three
+// vertices), one triangle for a disk (the border never merges with itself).
+TEST(ProgressiveMesh, WithoutFeaturesStopsAtATetrahedronOrATriangle) {
+  const std::vector<Vec3> octahedron = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  const std::vector<std::array<int, 3>> octFaces = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                                                    {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  auto oct = makePartition(requireUsable(buildMesh(octahedron, octFaces)), {});
+  auto run = buildAndCheck(oct, true);
+  EXPECT_EQ(run.base.vertices, 4);
+  EXPECT_EQ(run.base.faces, 4);
+
+  auto square =
+      makePartition(requireUsable(buildMesh({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}, {{0, 1, 2}, {0, 2, 3}})), {});
+  run = buildAndCheck(square, false);
+  EXPECT_EQ(run.base.vertices, 3);
+  EXPECT_EQ(run.base.faces, 1);
+
+  auto grid = makePartition(gridMesh(11), {});
+  run = buildAndCheck(grid, false);
+  EXPECT_LE(run.base.vertices, 6);
+}
+
+// A torus keeps its genus: near the end its tube is three edges around, a cycle that is no face,
+// and only the link condition stops the collapse that would pinch it.
+TEST(ProgressiveMesh, TorusKeepsItsGenus) {
+  const int n = 24, m = 12;
+  std::vector<Vec3> v;
+  std::vector<std::array<int, 3>> t;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) {
+      const double a = 2 * kPi * i / n, b = 2 * kPi * j / m;
+      v.emplace_back((1 + 0.4 * std::cos(b)) * std::cos(a), (1 + 0.4 * std::cos(b)) * std::sin(a), 0.4 * std::sin(b));
+      const int p = i * m + j, q = ((i + 1) % n) * m + j, r = ((i + 1) % n) * m + (j + 1) % m, s = i * m + (j + 1) % m;
+      t.push_back({p, q, r});
+      t.push_back({p, r, s});
+    }
+  auto part = makePartition(requireUsable(buildMesh(v, t)), {});
+  auto run = buildAndCheck(part, true);
+  EXPECT_GE(run.base.vertices, 7);  // the smallest torus triangulation
+  EXPECT_LE(run.base.vertices, 20);
+}
+
+TEST(ProgressiveMesh, CancelStopsTheConstruction) {
+  auto part = makePartition(icosphere(4), {0, 1, 2, 3});
+  std::atomic<bool> cancel{true};
+  EXPECT_THROW(ProgressiveMesh(part, {}, JobControl(&cancel, nullptr)), Cancelled);
+}
+
+// ~50k faces, ~350 features: invariants and progress reports (its time is in `montage bench`).
+TEST(ProgressiveMesh, LargeMeshWithProgress) {
   std::unique_ptr<Mesh> mesh;
+  bool closed = true;
   const std::string armadillo = "/tmp/tm_simplify_test/data/meshes/armadillo.off";
   if (!std::filesystem::exists(armadillo) && std::filesystem::exists("/usr/share/doc/libcgal-dev/data.tar.gz"))
-    test::runCommand("mkdir -p /tmp/tm_simplify_test && tar -xzf /usr/share/doc/libcgal-dev/data.tar.gz -C "
-                     "/tmp/tm_simplify_test data/meshes/armadillo.off");
+    test::runCommand(
+        "mkdir -p /tmp/tm_simplify_test && tar -xzf /usr/share/doc/libcgal-dev/data.tar.gz -C "
+        "/tmp/tm_simplify_test data/meshes/armadillo.off");
   if (std::filesystem::exists(armadillo)) {
     auto loaded = loadMesh(armadillo);
-    if (loaded.report.usable() && loaded.report.boundaryLoops == 0) mesh = std::move(loaded.mesh);
-    if (!mesh) {
-      MeshLoadOptions weld;
-      weld.weldIdenticalPositions = true;
-      auto welded = loadMesh(armadillo, weld);
-      if (welded.report.usable()) mesh = std::move(welded.mesh);
-    }
+    if (loaded.report.usable()) closed = loaded.report.boundaryLoops == 0, mesh = std::move(loaded.mesh);
   }
-  const bool isArmadillo = mesh != nullptr;
+  std::string name = mesh ? "armadillo" : "icosphere level 6";
   if (!mesh) mesh = icosphere(6);
   const auto features = farthestPoints(*mesh, 350, 0);
   auto part = makePartition(std::move(mesh), features);
@@ -644,24 +707,19 @@ TEST(ProgressiveMesh, TimingOnALargeMesh) {
     lastFraction = fraction;
     ++progressCalls;
   });
-  const auto t1 = std::chrono::steady_clock::now();
-  ProgressiveMesh pm(part, {}, job);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-  std::printf("  %s: %d vertices, %d faces, %zu features, %zu paths (%.2f s)\n", isArmadillo ? "armadillo" : "icosphere 6",
-              part.mesh.numVertices(), part.mesh.numFaces(), part.featureVertex.size(), part.paths.size(), pathSeconds);
+  std::printf("  %s: %d vertices, %d faces, %zu features, %zu paths (%.2f s)\n", name.c_str(), part.mesh.numVertices(),
+              part.mesh.numFaces(), part.featureVertex.size(), part.paths.size(), pathSeconds);
+  auto run = buildAndCheck(part, closed, job);
+  const auto& pm = *run.pm;
   std::printf("  PM build %.3f s, %zu collapses, base %d vertices (%d not features), %d faces, %d progress calls\n",
-              seconds, pm.records().size(), pm.aliveVertices(), pm.stats().baseExtraVertices, pm.aliveFaces(),
+              pm.stats().seconds, pm.records().size(), run.base.vertices, run.base.extraVertices, run.base.faces,
               progressCalls);
-  EXPECT_LT(seconds, 2.0);
   EXPECT_GT(progressCalls, 5);
   EXPECT_TRUE(monotone);
   EXPECT_DOUBLE_EQ(lastFraction, 1.0);
-  int longPaths = 0;
-  for (int p = 0; p < static_cast<int>(part.paths.size()); ++p)
-    longPaths += pm.pathOfEdge(part.paths[p].vertices.front(), part.paths[p].vertices.back()) != p;
-  std::printf("  %d paths not a single edge at the base\n", longPaths);
-  for (int f : part.featureVertex) EXPECT_TRUE(pm.vertexAlive(f));
-  for (const auto& [e, count] : edgeFaceCounts(pm)) EXPECT_TRUE(count == 1 || count == 2);
+  // A few vertices may stay where the link condition or a face turn blocks every collapse.
+  EXPECT_LE(run.base.extraVertices, 10);
+  EXPECT_LE(run.base.longPaths, 10);
 }
 
 }  // namespace

@@ -38,19 +38,6 @@ const WhitePoint& white() {
 constexpr double kEpsilon = 216.0 / 24389.0;  // (6/29)^3: below it L* is linear in Y
 constexpr double kKappa = 24389.0 / 27.0;     // (29/3)^3
 
-// Odd extensions keep out-of-gamut (negative) values invertible.
-double srgbToLinear(double c) {
-  const double a = std::abs(c);
-  const double l = a <= 0.04045 ? a / 12.92 : std::pow((a + 0.055) / 1.055, 2.4);
-  return std::copysign(l, c);
-}
-
-double linearToSrgb(double l) {
-  const double a = std::abs(l);
-  const double c = a <= 0.0031308 ? 12.92 * a : 1.055 * std::pow(a, 1 / 2.4) - 0.055;
-  return std::copysign(c, l);
-}
-
 Eigen::Vector3d toLuv(const Vec3f& rgb) {
   const Eigen::Vector3d lin(srgbToLinear(rgb.x()), srgbToLinear(rgb.y()), srgbToLinear(rgb.z()));
   const Eigen::Vector3d xyz = rgbToXyz() * lin;
@@ -64,6 +51,19 @@ Eigen::Vector3d toLuv(const Vec3f& rgb) {
 }
 
 }  // namespace
+
+// Odd extensions keep out-of-gamut (negative) values invertible.
+double srgbToLinear(double c) {
+  const double a = std::abs(c);
+  const double l = a <= 0.04045 ? a / 12.92 : std::pow((a + 0.055) / 1.055, 2.4);
+  return std::copysign(l, c);
+}
+
+double linearToSrgb(double l) {
+  const double a = std::abs(l);
+  const double c = a <= 0.0031308 ? 12.92 * a : 1.055 * std::pow(a, 1 / 2.4) - 0.055;
+  return std::copysign(c, l);
+}
 
 Vec3f srgbToLuv(const Vec3f& rgb) {
   return toLuv(rgb).cast<float>();

@@ -8,6 +8,11 @@
 
 namespace montage {
 
+// sRGB transfer function, one channel: gamma-encoded value to linear light (odd extension below 0).
+double srgbToLinear(double c);
+// Inverse of srgbToLinear: linear light to gamma-encoded sRGB (odd extension below 0, no clamping).
+double linearToSrgb(double l);
+
 // sRGB in [0,1] (gamma encoded) to CIE L*u*v* with the D65 white point; L in [0,100].
 Vec3f srgbToLuv(const Vec3f& rgb);
 Vec3f luvToSrgb(const Vec3f& luv);

@@ -1,15 +1,32 @@
+// Coarse map (section 3.2) and coarse-to-fine map construction (section 4.1).
+//
+// Choices, beyond what the paper says:
+// - Frames: photos are y-down, so a face seen by a camera is clockwise in pixels. Every orientation,
+//   stretch and kernel computation works in the flipped frame (x, -y); UVs are stored in it and
+//   flipped back (exactly: a negation) on output.
+// - Photo of a base triangle mappable in several photos: the smallest L-infinity stretch of the
+//   base triangle (Sander et al. 2001), i.e. the most frontal view.
+// - A vertex on the border of its photo's region (a path paired with a curve, one side mapped to
+//   that photo) slides along the curve: it is placed on the line through its two path neighbours
+//   and searched along it only. Otherwise an L-infinity optimum with a free border pushes the
+//   border outwards (bigger texture triangles, smaller stretch) until the background stops it.
+//   When no foreground point exists on the curve, the vertex may leave it as a last resort.
+// - Line search: each search spans the whole chord of the kernel through the vertex (both sides),
+//   its random direction is drawn uniformly and then shaped by the ring's covariance (thin kernels
+//   are searched along their long axis), and rounds of options.lineSearches searches repeat while
+//   a round lowers the energy by more than 0.1% (at most 8 rounds). Half-edge collapses leave long,
+//   thin fans (whole grid rows collapsed into one vertex); with one round of 8 plain one-sided
+//   searches the errors there cascade through the following splits (flat grid with a background
+//   stripe: mean stretch 0.3-0.6 instead of 0.103).
+
 #include "fine_map.h"
 
 #include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <random>
 #include <string>
-#include <cstdio>
-#include <cstdlib>
 
 #include "partition.h"
 #include "pipeline.h"
@@ -25,7 +42,6 @@ constexpr double kMargin = 1e-6;  // relative margin kept from the kernel border
 // Rounds of line searches per vertex optimisation: another round follows while the last one lowered
 // the energy by more than kRoundGain (relative), as Sander et al. iterate until convergence.
 constexpr int kMaxRounds = 8;
-constexpr double kPull = 0.1;  // fallback: fraction of the way from the nearest kernel point to the centroid
 constexpr double kRoundGain = 1e-3;
 
 // Orientation of the texture triangle (x, a, b): twice its signed area, > 0 when counter-clockwise.
@@ -34,7 +50,9 @@ constexpr double kRoundGain = 1e-3;
 double orient(const Vec2& x, const Vec2& a, const Vec2& b) {
   return (a.x() - x.x()) * (b.y() - x.y()) - (a.y() - x.y()) * (b.x() - x.x());
 }
-Vec2 flipY(const Vec2& p) { return Vec2(p.x(), -p.y()); }
+Vec2 flipY(const Vec2& p) {
+  return Vec2(p.x(), -p.y());
+}
 
 // One UV of a vertex: the photo and the position in the flipped frame. A vertex on a boundary
 // between patches of different photos holds one per photo (section 4.1, third category).
@@ -51,11 +69,11 @@ struct PhotoUV {
 struct Fan {
   std::vector<std::array<Vec3, 3>> q;
   std::vector<std::pair<Vec2, Vec2>> ab;
-  bool complete = true;      // every corner has a UV in the photo
-  bool open = false;         // the faces do not close around the vertex
-  bool usable = true;        // a closed fan, or an open one with exactly two border neighbours
-  Vec2 lineFrom, lineTo;     // open fan: UVs of the two border neighbours
-  double scale = 0;          // largest distance from the vertex to a fan corner (for unbounded kernels)
+  bool complete = true;   // every corner has a UV in the photo
+  bool open = false;      // the faces do not close around the vertex
+  bool usable = true;     // a closed fan, or an open one with exactly two border neighbours
+  Vec2 lineFrom, lineTo;  // open fan: UVs of the two border neighbours
+  double scale = 0;       // largest distance from the vertex to a fan corner (for unbounded kernels)
   Eigen::Matrix2d shape = Eigen::Matrix2d::Identity();  // square root of the ring's covariance
 };
 
@@ -104,8 +122,9 @@ class FineMapper {
   bool onForeground(int photo, const Vec2& x) const;
   bool feasible(const Fan& fan, const Vec2& x) const;
   double maxStep(const Fan& fan, const Vec2& x, const Vec2& d) const;
-  bool kernelPoints(const Fan& fan, const Vec2& x, Vec2& centroid, Vec2& nearest) const;
+  bool kernelCentroid(const Fan& fan, bool alongCurve, Vec2& centroid) const;
   bool leaveBackground(int v, int photo, const Fan& fan, bool alongLine, Vec2& x, double& e);
+  void searchLine(int v, int photo, const Fan& fan, const Vec2& d, Vec2& x, double& e);
   Vec2 randomDirection(const Fan& fan);
 
   // Max and mean L-infinity stretch over mapped faces whose corners all have UVs; counts flips.
@@ -302,27 +321,27 @@ double FineMapper::maxStep(const Fan& fan, const Vec2& x, const Vec2& d) const {
   return std::max(0.0, t * (1 - kMargin));
 }
 
-// Sander et al. 2002, as the paper recommends for a flipping initial position: the centroid of the
-// kernel of the one-ring polygon, i.e. of the intersection of the half-planes of the ring edges
-// (for an open fan, of its curve segment). Returns false when the kernel is empty.
-bool FineMapper::kernelPoints(const Fan& fan, const Vec2& x, Vec2& centroid, Vec2& nearest) const {
+// Section 4.1 after Sander et al. 2002, for a flipping initial position: the centroid of the kernel
+// of the one-ring polygon, i.e. of the intersection of the half-planes of the ring edges (alongCurve:
+// of its part of an open fan's curve segment). False when the kernel is empty.
+bool FineMapper::kernelCentroid(const Fan& fan, bool alongCurve, Vec2& centroid) const {
   if (fan.ab.empty()) return false;
-  if (fan.open && fan.usable) {
+  if (alongCurve) {
     // Interval of s in (0, 1) on lineFrom + s (lineTo - lineFrom) where every face stays positive.
     const Vec2 d = fan.lineTo - fan.lineFrom;
     double lo = 0, hi = 1;
     for (const auto& [a, b] : fan.ab) {
       const double g0 = orient(fan.lineFrom, a, b);
       const double dg = (b - a).x() * d.y() - (b - a).y() * d.x();
-      if (dg > 0) lo = std::max(lo, -g0 / dg);
-      else if (dg < 0) hi = std::min(hi, g0 / -dg);
-      else if (!(g0 > 0)) return false;
+      if (dg > 0)
+        lo = std::max(lo, -g0 / dg);
+      else if (dg < 0)
+        hi = std::min(hi, g0 / -dg);
+      else if (!(g0 > 0))
+        return false;
     }
     if (!(lo < hi)) return false;
     centroid = fan.lineFrom + 0.5 * (lo + hi) * d;
-    const double len2 = d.squaredNorm();
-    const double sx = std::clamp(len2 > 0 ? (x - fan.lineFrom).dot(d) / len2 : 0.5, lo, hi);
-    nearest = fan.lineFrom + (sx + kPull * (0.5 * (lo + hi) - sx)) * d;
     return true;
   }
   // Convex clipping of a box around the ring by each half-plane orient(x, a, b) >= 0.
@@ -358,17 +377,6 @@ bool FineMapper::kernelPoints(const Fan& fan, const Vec2& x, Vec2& centroid, Vec
   }
   if (!(area > 0)) return false;
   centroid = c / (3 * area);
-  // The kernel point nearest to x, moved a little towards the centroid to be strictly inside.
-  Vec2 near = poly[0];
-  double best = kInf;
-  for (size_t i = 0; i < poly.size(); ++i) {
-    const Vec2& p = poly[i];
-    const Vec2 e = poly[(i + 1) % poly.size()] - p;
-    const double t = std::clamp(e.squaredNorm() > 0 ? (x - p).dot(e) / e.squaredNorm() : 0.0, 0.0, 1.0);
-    const double dist = (p + t * e - x).squaredNorm();
-    if (dist < best) best = dist, near = p + t * e;
-  }
-  nearest = near + kPull * (centroid - near);
   return true;
 }
 
@@ -408,7 +416,6 @@ Vec2 FineMapper::randomDirection(const Fan& fan) {
     return (rng_() & 1u) ? d : Vec2(-d);
   }
   const double angle = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng_);
-  if (getenv("NOSHAPE")) return Vec2(std::cos(angle), std::sin(angle));
   return (fan.shape * Vec2(std::cos(angle), std::sin(angle))).normalized();
 }
 
@@ -469,14 +476,11 @@ void FineMapper::insertVertex(const CollapseRecord& r, FineMapStats& stats) {
       x = fan.lineFrom + s * d;
     }
     if (!feasible(fan, x)) {
-      if (getenv("TMDBG")) std::fprintf(stderr, "DBG fallback split %d v=%d (%g,%g) open=%d faces=%zu x=(%.2f,%.2f)\n", stats.splits, v, partition_.mesh.position(v).x(), partition_.mesh.position(v).y(), fan.open, fan.ab.size(), x.x(), -x.y());
-      Vec2 c, near;
-      if (kernelPoints(fan, x, c, near)) {
-        const int mode = getenv("FALLBACK") ? atoi(getenv("FALLBACK")) : 0;
-        if (mode == 0) x = c;
-        else if (mode == 1) x = near;
-        else x = energy(v, p, fan, near) < energy(v, p, fan, c) ? near : c;
-      }
+      // A vertex whose curve crosses no point of the kernel (e.g. a face with three corners on the
+      // path) leaves the curve rather than flip a face.
+      Vec2 c;
+      const bool onCurve = fan.open && fan.usable;
+      if (kernelCentroid(fan, onCurve, c) || (onCurve && kernelCentroid(fan, false, c))) x = c;
       ++stats.centroidFallbacks;
     }
     setUV(v, p, x);
@@ -491,60 +495,58 @@ void FineMapper::optimiseVertex(int v) {
 }
 
 // Sander et al. 2001 random line search, restricted to the kernel (no flip) and to the foreground.
+// Rounds of options.lineSearches searches are repeated while they still gain (see kMaxRounds).
 void FineMapper::optimiseVertexInPhoto(int v, int photo) {
   const Fan fan = buildFan(v, photo);
   if (!fan.complete || !fan.usable || fan.ab.empty()) return;
   Vec2 x = *uvOf(v, photo);
   if (!feasible(fan, x)) return;
   double e = energy(v, photo, fan, x);
-
   if (!onForeground(photo, x)) {
-    // The current position is on the background: move to the best foreground point of the kernel,
-    // whatever its energy; a vertex that finds none on its curve may leave the curve.
-    if (!leaveBackground(v, photo, fan, fan.open, x, e) && !(false && fan.open && leaveBackground(v, photo, fan, false, x, e)))
-      return;  // no foreground point in the kernel: left for the final count
-    if (getenv("TMDBG")) std::fprintf(stderr, "DBG rescue v=%d (%g,%g) open=%d -> (%.2f,%.2f)\n", v, partition_.mesh.position(v).x(), partition_.mesh.position(v).y(), fan.open, x.x(), -x.y());
-    setUV(v, photo, x);
+    // On the background (the initial position, or a curve crossing the background): move to the
+    // best foreground point of the kernel, whatever its energy; as a last resort off the curve.
+    if (!leaveBackground(v, photo, fan, fan.open, x, e) && !(fan.open && leaveBackground(v, photo, fan, false, x, e)))
+      return;  // no foreground point in the kernel: counted at the end
   }
-
-  constexpr double kGolden = 0.6180339887498949;
-  const int maxRounds = getenv("ROUNDS") ? atoi(getenv("ROUNDS")) : kMaxRounds;
-  for (int round = 0; round < maxRounds; ++round) {
-  const double before = e;
-  for (int s = 0; s < options_.lineSearches; ++s) {
-    const Vec2 d = randomDirection(fan);
-    const double tmax = maxStep(fan, x, d);
-    if (!(tmax > 0)) continue;
-    // Golden-section search of the stretch on [0, tmax]: quasi-convex along a line in the kernel.
-    auto f = [&](double t) { return energy(v, photo, fan, x + t * d); };
-    double a = 0, b = tmax;
-    double c = b - kGolden * (b - a), dd = a + kGolden * (b - a);
-    double fc = f(c), fd = f(dd);
-    for (int k = 0; k < options_.searchSteps; ++k) {
-      if (fc < fd) {
-        b = dd, dd = c, fd = fc;
-        c = b - kGolden * (b - a);
-        fc = f(c);
-      } else {
-        a = c, c = dd, fc = fd;
-        dd = a + kGolden * (b - a);
-        fd = f(dd);
-      }
-    }
-    double t = fc < fd ? c : dd, et = std::min(fc, fd);
-    // Background restriction: a candidate on the background is pulled back towards x.
-    for (int k = 0; k < 4 && et < e && !onForeground(photo, x + t * d); ++k) {
-      t *= 0.5;
-      et = f(t);
-    }
-    if (et < e && onForeground(photo, x + t * d)) {
-      x += t * d;
-      e = et;
-    }
-  }
-  if (!(e < before * (1 - kRoundGain))) break;
+  for (int round = 0; round < kMaxRounds; ++round) {
+    const double before = e;
+    for (int s = 0; s < options_.lineSearches; ++s) searchLine(v, photo, fan, randomDirection(fan), x, e);
+    if (!(e < before * (1 - kRoundGain))) break;
   }
   setUV(v, photo, x);
+}
+
+// One line search: golden-section minimisation of the energy over the chord of the kernel through x
+// along d (Sander's stretch is quasi-convex along a line inside the kernel); x moves only when the
+// minimum is an improvement on the foreground.
+void FineMapper::searchLine(int v, int photo, const Fan& fan, const Vec2& d, Vec2& x, double& e) {
+  constexpr double kGolden = 0.6180339887498949;
+  double a = -maxStep(fan, x, -d), b = maxStep(fan, x, d);
+  if (!(b > a)) return;
+  auto f = [&](double t) { return energy(v, photo, fan, x + t * d); };
+  double c = b - kGolden * (b - a), m = a + kGolden * (b - a);
+  double fc = f(c), fm = f(m);
+  for (int k = 0; k < options_.searchSteps; ++k) {
+    if (fc < fm) {
+      b = m, m = c, fm = fc;
+      c = b - kGolden * (b - a);
+      fc = f(c);
+    } else {
+      a = c, c = m, fc = fm;
+      m = a + kGolden * (b - a);
+      fm = f(m);
+    }
+  }
+  double t = fc < fm ? c : m, et = std::min(fc, fm);
+  // Background restriction: a candidate on the background is pulled back towards x.
+  for (int k = 0; k < 4 && et < e && !onForeground(photo, x + t * d); ++k) {
+    t *= 0.5;
+    et = f(t);
+  }
+  if (et < e && onForeground(photo, x + t * d)) {
+    x += t * d;
+    e = et;
+  }
 }
 
 void FineMapper::measure(double& maxGamma, double& meanGamma, int& flipped) const {
@@ -559,8 +561,7 @@ void FineMapper::measure(double& maxGamma, double& meanGamma, int& flipped) cons
     const Vec2 *a = uvOf(c[0], p), *b = uvOf(c[1], p), *d = uvOf(c[2], p);
     if (!a || !b || !d) continue;
     const TriangleStretch s = triangleStretch(
-        {partition_.mesh.position(c[0]), partition_.mesh.position(c[1]), partition_.mesh.position(c[2])},
-        {*a, *b, *d});
+        {partition_.mesh.position(c[0]), partition_.mesh.position(c[1]), partition_.mesh.position(c[2])}, {*a, *b, *d});
     if (s.flipped) {
       ++flipped;
       continue;
@@ -605,12 +606,9 @@ TextureMap FineMapper::run(FineMapStats& stats) {
     insertVertex(r, stats);
     optimiseVertex(r.removed);
     for (int w : r.ring) optimiseVertex(w);
-    if (getenv("TMDBG2")) { double mx, mn; int fl; measure(mx, mn, fl); std::fprintf(stderr, "DBG split %d v=%d (%g,%g) ring %zu path %d max %.4f mean %.4f\n", stats.splits, r.removed, partition_.mesh.position(r.removed).x(), partition_.mesh.position(r.removed).y(), r.ring.size(), r.pathA, mx, mn); }
-    if (stats.splits % 256 == 0)
-      job_.progress(StageId::Map, 0.9 * stats.splits / std::max(total, 1), "coarse-to-fine");
+    if (stats.splits % 256 == 0) job_.progress(StageId::Map, 0.9 * stats.splits / std::max(total, 1), "coarse-to-fine");
   }
 
-  if (getenv("TMDBG")) { double mx, mn; int fl; measure(mx, mn, fl); std::fprintf(stderr, "DBG after splits max %.4f mean %.4f flips %d\n", mx, mn, fl); }
   // Final sweeps at full resolution, in a seeded random order.
   std::vector<int> order;
   for (int v = 0; v < numV; ++v)
@@ -619,7 +617,6 @@ TextureMap FineMapper::run(FineMapStats& stats) {
     job_.progress(StageId::Map, 0.9 + 0.1 * sweep / options_.finalSweeps, "coarse-to-fine: final sweep");
     std::shuffle(order.begin(), order.end(), rng_);
     for (int v : order) optimiseVertex(v);
-    if (getenv("TMDBG")) { double mx, mn; int fl; measure(mx, mn, fl); std::fprintf(stderr, "DBG sweep %d max %.4f mean %.4f flips %d\n", sweep, mx, mn, fl); }
   }
 
   // Output over Partition::mesh's faces, pixel coordinates (y down).
@@ -638,7 +635,8 @@ TextureMap FineMapper::run(FineMapStats& stats) {
     map.cornerUV[f] = {flipY(*a), flipY(*b), flipY(*d)};
   }
   if (missing > 0)
-    map.notes.push_back(std::to_string(missing) + " faces of mapped cells left empty: a corner got no texture coordinate");
+    map.notes.push_back(std::to_string(missing) +
+                        " faces of mapped cells left empty: a corner got no texture coordinate");
 
   double meanGamma = 0;
   measure(stats.maxStretch, meanGamma, stats.flippedFaces);

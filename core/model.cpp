@@ -1,13 +1,10 @@
 #include "model.h"
 
-#include <fcntl.h>
 #include <tiny_gltf.h>
-#include <unistd.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -23,6 +20,10 @@
 #include <sstream>
 #include <tuple>
 #include <unordered_map>
+
+#include "color.h"
+#include "fileio.h"
+#include "photo.h"
 
 namespace fs = std::filesystem;
 
@@ -58,92 +59,6 @@ std::string number(T value) {
   char buf[64];
   const auto res = std::to_chars(buf, buf + sizeof buf, value);
   return std::string(buf, res.ptr);
-}
-
-// Writes `bytes` to `path` atomically: a temporary file in the same folder, fsync, rename, fsync of
-// the folder. A crash leaves either the old file or the new one, never a partial file.
-void writeAtomic(const std::string& path, const std::string& bytes) {
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  const std::string tmp = (dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()))).string();
-  const auto fail = [&](const std::string& what) {
-    const std::string reason = std::strerror(errno);
-    ::unlink(tmp.c_str());
-    return Error(located(path, what + ": " + reason));
-  };
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(located(path, std::string("cannot create file: ") + std::strerror(errno)));
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      ::close(fd);
-      throw fail("cannot write");
-    }
-    done += static_cast<size_t>(n);
-  }
-  if (::fsync(fd) != 0) {
-    ::close(fd);
-    throw fail("cannot flush to disk");
-  }
-  if (::close(fd) != 0) throw fail("cannot close");
-  if (::rename(tmp.c_str(), path.c_str()) != 0) throw fail("cannot replace");
-  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd >= 0) {
-    ::fsync(dfd);
-    ::close(dfd);
-  }
-}
-
-double srgbToLinear(double c) {
-  return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-}
-double linearToSrgb(double c) {
-  c = std::clamp(c, 0.0, 1.0);
-  return c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1 / 2.4) - 0.055;
-}
-
-// Any 8- or 16-bit image with 1 to 4 channels in `order` (as cv::imread gives them: BGR(A)) to CV_8UC4 RGBA.
-cv::Mat toRgba8(const cv::Mat& image, bool bgr, const std::string& where) {
-  cv::Mat img8;
-  switch (image.depth()) {
-    case CV_8U:
-      img8 = image;
-      break;
-    case CV_16U:
-      image.convertTo(img8, CV_8U, 1.0 / 257.0);
-      break;
-    case CV_32F:
-      image.convertTo(img8, CV_8U, 255.0);
-      break;
-    default:
-      throw Error(located(where, "unsupported image pixel depth (expected 8 or 16 bits per channel)"));
-  }
-  cv::Mat rgba;
-  switch (img8.channels()) {
-    case 1:
-      cv::cvtColor(img8, rgba, cv::COLOR_GRAY2RGBA);
-      break;
-    case 2: {
-      std::vector<cv::Mat> ch;
-      cv::split(img8, ch);
-      cv::merge(std::vector<cv::Mat>{ch[0], ch[0], ch[0], ch[1]}, rgba);
-      break;
-    }
-    case 3:
-      cv::cvtColor(img8, rgba, bgr ? cv::COLOR_BGR2RGBA : cv::COLOR_RGB2RGBA);
-      break;
-    case 4:
-      if (bgr)
-        cv::cvtColor(img8, rgba, cv::COLOR_BGRA2RGBA);
-      else
-        rgba = img8.clone();
-      break;
-    default:
-      throw Error(located(where, "unsupported image with " + std::to_string(img8.channels()) + " channels"));
-  }
-  return rgba;
 }
 
 // Checks that the per-face arrays of a model agree with its mesh before writing it.
@@ -262,10 +177,15 @@ cv::Mat readTexture(const fs::path& file, const std::string& where, const std::s
   std::error_code ec;
   TM_CHECK(fs::is_regular_file(file, ec),
            located(where, "map_Kd texture " + quote(written) + " not found (looked for " + file.string() + ")"));
-  const cv::Mat raw = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-  TM_CHECK(!raw.empty(),
-           located(where, "map_Kd texture " + quote(written) + " (" + file.string() + ") cannot be read as an image"));
-  return toRgba8(raw, true, file.string());
+  try {
+    return readImageRgba8(file.string());
+  } catch (const Error& e) {
+    // The reason without the file name it starts with, which the message already gives.
+    std::string reason = e.what();
+    if (const std::string prefix = file.string() + ": "; reason.rfind(prefix, 0) == 0) reason.erase(0, prefix.size());
+    throw Error(located(
+        where, "map_Kd texture " + quote(written) + " (" + file.string() + ") cannot be read as an image: " + reason));
+  }
 }
 
 // The file name of a map_Kd statement: options (-bm 1, -o u v w, ...) are skipped.
@@ -604,8 +524,9 @@ Material gltfMaterial(const tinygltf::Model& gm, int index, const std::string& p
   out.name = mat.name.empty() ? "material_" + std::to_string(index) : mat.name;
   const auto& f = mat.pbrMetallicRoughness.baseColorFactor;
   if (f.size() >= 3)
-    out.diffuse = Vec3f(static_cast<float>(linearToSrgb(f[0])), static_cast<float>(linearToSrgb(f[1])),
-                        static_cast<float>(linearToSrgb(f[2])));
+    out.diffuse = Vec3f(static_cast<float>(linearToSrgb(std::clamp(f[0], 0.0, 1.0))),
+                        static_cast<float>(linearToSrgb(std::clamp(f[1], 0.0, 1.0))),
+                        static_cast<float>(linearToSrgb(std::clamp(f[2], 0.0, 1.0))));
   out.texture = gltfBaseColorTexture(gm, mat, path + ": materials[" + std::to_string(index) + "]", out.textureFile);
   return out;
 }
@@ -945,11 +866,11 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
       cv::cvtColor(mat->texture, bgra, cv::COLOR_RGBA2BGRA);
       std::vector<unsigned char> bytes;
       TM_CHECK(cv::imencode(".png", bgra, bytes), located((folder / png).string(), "cannot encode PNG"));
-      writeAtomic((folder / png).string(), std::string(bytes.begin(), bytes.end()));
+      writeFileAtomic((folder / png).string(), std::string(bytes.begin(), bytes.end()));
       mtl += "map_Kd " + png + "\n";
     }
   }
-  writeAtomic((folder / (base + ".mtl")).string(), mtl);
+  writeFileAtomic((folder / (base + ".mtl")).string(), mtl);
 
   std::string obj;
   obj.reserve(static_cast<size_t>(mesh.numVertices()) * 40 + static_cast<size_t>(nf) * 60);
@@ -997,7 +918,7 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
     }
     obj += "\n";
   }
-  writeAtomic(objPath, obj);
+  writeFileAtomic(objPath, obj);
 }
 
 void exportGlb(const TexturedModel& model, const std::string& path) {
@@ -1120,7 +1041,7 @@ void exportGlb(const TexturedModel& model, const std::string& path) {
   std::error_code ec;
   const fs::path parent = fs::path(path).parent_path();
   if (!parent.empty()) fs::create_directories(parent, ec);
-  writeAtomic(path, out.str());
+  writeFileAtomic(path, out.str());
 }
 
 }  // namespace montage

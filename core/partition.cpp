@@ -703,7 +703,7 @@ class Partitioner {
     while (!queue.empty()) {
       const Entry e = queue.top();
       queue.pop();
-      if (++pops % kProgressEvery == 0) job_.progress(StageId::Map, finished / total, "partition");
+      if (++pops % kProgressEvery == 0) job_.progress(StageId::Partition, finished / total, "partition");
       std::vector<int> photos;
       for (int p : commonPhotos(e.a, e.b))
         if (!triedInChain(e.a, e.b, p)) photos.push_back(p);

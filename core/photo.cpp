@@ -153,10 +153,8 @@ void checkSize(const std::string& path, cv::Size size) {
                              " pixels; at most " + std::to_string(kMaxSide) + " pixels a side are supported"));
 }
 
-cv::Mat decode(const std::string& path) {
-  requireFile(path);
-  // Refuse oversized images before allocating them, when the header tells the size.
-  if (auto size = headerSize(path)) checkSize(path, *size);
+// cv::imread with IMREAD_UNCHANGED of an existing file; failures become montage::Error.
+cv::Mat readUnchanged(const std::string& path) {
   cv::Mat image;
   try {
     image = cv::imread(path, cv::IMREAD_UNCHANGED);
@@ -164,6 +162,14 @@ cv::Mat decode(const std::string& path) {
     throw Error(located(path, "cannot decode image: " + e.msg));
   }
   TM_CHECK(!image.empty(), located(path, "not a readable image (unsupported format or damaged file)"));
+  return image;
+}
+
+cv::Mat decode(const std::string& path) {
+  requireFile(path);
+  // Refuse oversized images before allocating them, when the header tells the size.
+  if (auto size = headerSize(path)) checkSize(path, *size);
+  cv::Mat image = readUnchanged(path);
   checkSize(path, image.size());
   return image;
 }
@@ -269,6 +275,52 @@ cv::Size readImageSize(const std::string& path) {
     return *size;
   }
   return decode(path).size();
+}
+
+cv::Mat readImageRgba8(const std::string& path) {
+  requireFile(path);
+  return toRgba8(readUnchanged(path), true, path);
+}
+
+cv::Mat toRgba8(const cv::Mat& image, bool bgr, const std::string& where) {
+  cv::Mat img8;
+  switch (image.depth()) {
+    case CV_8U:
+      img8 = image;
+      break;
+    case CV_16U:
+      image.convertTo(img8, CV_8U, 1.0 / 257.0);
+      break;
+    case CV_32F:
+      image.convertTo(img8, CV_8U, 255.0);
+      break;
+    default:
+      throw Error(located(where, "unsupported image pixel depth (expected 8 or 16 bits per channel)"));
+  }
+  cv::Mat rgba;
+  switch (img8.channels()) {
+    case 1:
+      cv::cvtColor(img8, rgba, cv::COLOR_GRAY2RGBA);
+      break;
+    case 2: {
+      std::vector<cv::Mat> ch;
+      cv::split(img8, ch);
+      cv::merge(std::vector<cv::Mat>{ch[0], ch[0], ch[0], ch[1]}, rgba);
+      break;
+    }
+    case 3:
+      cv::cvtColor(img8, rgba, bgr ? cv::COLOR_BGR2RGBA : cv::COLOR_RGB2RGBA);
+      break;
+    case 4:
+      if (bgr)
+        cv::cvtColor(img8, rgba, cv::COLOR_BGRA2RGBA);
+      else
+        rgba = img8.clone();
+      break;
+    default:
+      throw Error(located(where, "unsupported image with " + std::to_string(img8.channels()) + " channels"));
+  }
+  return rgba;
 }
 
 bool Photo::isForeground(double x, double y) const {

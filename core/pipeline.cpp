@@ -3,6 +3,8 @@
 #include <chrono>
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
+
+#include "simplify.h"
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -65,21 +67,35 @@ std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl&
   return pipeline.loadScene(project, job, cached);
 }
 
-TextureMap mapTexture(const Scene& scene, const JobControl& job) {
-  job.progress(StageId::Map, 0.0);
-  TextureMap map = TextureMap::allEmpty(scene.mesh->numFaces());
-  if (scene.project.points.empty()) {
-    map.notes.push_back("no features: the whole mesh is one empty patch (paper section 3)");
-  } else {
-    map.notes.push_back("correspondence-driven mapping (paper sections 3-4) is not built yet: every face is empty");
-  }
-  job.progress(StageId::Map, 1.0);
-  return map;
+Mapping mapTexture(const Scene& scene, const JobControl& job) {
+  Mapping out;
+  auto start = Clock::now();
+  PartitionOptions partitionOptions;
+  partitionOptions.backgroundThresholdPx = scene.project.options.backgroundThresholdPx;
+  out.partition = partitionMesh(scene, partitionOptions, job);
+  out.partitionSeconds = secondsSince(start);
+
+  start = Clock::now();
+  ProgressiveMesh pm(out.partition, SimplifyOptions{}, job);
+  out.simplifySeconds = secondsSince(start);
+  out.collapses = static_cast<int>(pm.records().size());
+  out.baseVertices = pm.aliveVertices();
+  out.baseFaces = pm.aliveFaces();
+
+  start = Clock::now();
+  FineMapOptions fineOptions;
+  fineOptions.seed = scene.project.options.seed;
+  out.map = coarseToFine(scene, out.partition, pm, fineOptions, job, &out.stats);
+  out.mapSeconds = secondsSince(start);
+  if (scene.project.points.empty())
+    out.map.notes.insert(out.map.notes.begin(), "no features: the whole mesh is one empty patch (paper section 3)");
+  return out;
 }
 
-TexturedModel bakeModel(const Scene& scene, const TextureMap& map, const JobControl& job) {
+TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const JobControl& job) {
   job.progress(StageId::Bake, 0.0);
-  const Mesh& mesh = *scene.mesh;
+  const Mesh& mesh = mapping.partition.mesh;
+  const TextureMap& map = mapping.map;
   TexturedModel model;
   model.mesh = mesh;
   model.mesh.cornerUV.clear();  // the model's UVs are in `uv`; the mesh's own are not carried over
@@ -164,34 +180,51 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   result.stages.push_back(load);
   for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
 
-  // Map: reruns when the inputs it reads (mesh, photos, correspondences, options) changed.
-  start = Clock::now();
+  // Partition, Simplify, Map: rerun when what they read (mesh, photos, correspondences, options) changed.
   std::ostringstream key;
   key << meshKey_;
   for (const auto& [k, p] : cachedPhotos_) key << '#' << k;
-  nlohmann::json features = nlohmann::json::parse(projectToJson(project, ""));
-  key << features["points"].dump() << features["chains"].dump() << features["options"].dump();
-  StageRecord map{StageId::Map};
-  map.cached = key.str() == mapKey_ && cachedMap_;
-  if (!map.cached) {
-    cachedMap_ = std::make_shared<TextureMap>(mapTexture(*scene, job));
+  const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
+  key << document["points"].dump() << document["chains"].dump() << document["options"].dump();
+  const bool mapCached = key.str() == mapKey_ && cachedMapping_;
+  if (!mapCached) {
+    cachedMapping_ = std::make_shared<const Mapping>(mapTexture(*scene, job));
     mapKey_ = key.str();
   }
-  map.seconds = map.cached ? 0 : secondsSince(start);
-  map.counts = {{"faces", cachedMap_->numFaces()}, {"mapped_faces", cachedMap_->numMapped()}};
-  result.stages.push_back(map);
-  for (const auto& note : cachedMap_->notes) result.warnings.push_back("map: " + note);
+  const Mapping& mapping = *cachedMapping_;
+  nlohmann::json rejected = nlohmann::json::object();
+  for (const RejectedPair& r : mapping.partition.rejected) {
+    const std::string reason = kRejectReasonNames[static_cast<int>(r.reason)];
+    rejected[reason] = rejected.value(reason, 0) + 1;
+  }
+  result.stages.push_back({StageId::Partition, mapCached, mapCached ? 0 : mapping.partitionSeconds,
+                           {{"paths", mapping.partition.paths.size()},
+                            {"rejected", rejected},
+                            {"cells", mapping.partition.numCells},
+                            {"steiner_vertices", mapping.partition.steinerVertices}}});
+  result.stages.push_back({StageId::Simplify, mapCached, mapCached ? 0 : mapping.simplifySeconds,
+                           {{"collapses", mapping.collapses},
+                            {"base_vertices", mapping.baseVertices},
+                            {"base_faces", mapping.baseFaces}}});
+  result.stages.push_back({StageId::Map, mapCached, mapCached ? 0 : mapping.mapSeconds,
+                           {{"faces", mapping.map.numFaces()},
+                            {"mapped_faces", mapping.map.numMapped()},
+                            {"base_mapped_faces", mapping.stats.baseMappedFaces},
+                            {"centroid_fallbacks", mapping.stats.centroidFallbacks},
+                            {"flipped_faces", mapping.stats.flippedFaces},
+                            {"max_stretch", mapping.stats.maxStretch}}});
+  for (const auto& note : mapping.map.notes) result.warnings.push_back("map: " + note);
 
   // Bake.
   start = Clock::now();
-  auto model = std::make_shared<TexturedModel>(bakeModel(*scene, *cachedMap_, job));
+  auto model = std::make_shared<TexturedModel>(bakeModel(*scene, mapping, job));
   StageRecord bake{StageId::Bake};
   bake.seconds = secondsSince(start);
   bake.counts = {{"materials", model->materials.size()}};
   result.stages.push_back(bake);
 
   result.scene = scene;
-  result.map = cachedMap_;
+  result.mapping = cachedMapping_;
   result.model = model;
   return result;
 }
@@ -218,7 +251,9 @@ nlohmann::json PipelineResult::report() const {
                  {"boundary_loops", scene->meshReport.boundaryLoops},
                  {"components", scene->meshReport.components}};
   }
-  if (map) j["map"] = {{"faces", map->numFaces()}, {"mapped_faces", map->numMapped()}, {"notes", map->notes}};
+  if (mapping)
+    j["map"] = {{"faces", mapping->map.numFaces()}, {"mapped_faces", mapping->map.numMapped()},
+                {"notes", mapping->map.notes}};
   return j;
 }
 

@@ -12,18 +12,21 @@
 
 #include <nlohmann/json.hpp>
 
+#include "fine_map.h"
 #include "mesh.h"
 #include "model.h"
+#include "partition.h"
 #include "photo.h"
 #include "project.h"
 #include "texture_map.h"
 
 namespace montage {
 
-// The stages, in pipeline order (paper Figure 2). Stages not yet built are listed in
-// texturemontage.h's comment, not here: every entry below runs.
-enum class StageId { Load, Map, Bake, Export };
-inline constexpr std::array<const char*, 4> kStageNames = {"load", "map", "bake", "export"};
+// The stages, in pipeline order (paper Figure 2): load, partition (3.1), simplify (3.2), map
+// (coarse map 3.2 + coarse-to-fine 4.1), bake, export. Stages not yet built (seams 4.2, inpainting 5,
+// atlas) are not listed: every entry below runs.
+enum class StageId { Load, Partition, Simplify, Map, Bake, Export };
+inline constexpr std::array<const char*, 6> kStageNames = {"load", "partition", "simplify", "map", "bake", "export"};
 inline const char* stageName(StageId s) { return kStageNames[static_cast<int>(s)]; }
 
 // Progress reporting and cancellation for one job. Stages call progress() at convenient points;
@@ -57,9 +60,19 @@ struct StageRecord {
   nlohmann::json counts;   // stage-specific figures (faces, photos, mapped faces...)
 };
 
+// What the mapping stages produce together: the partition (whose mesh, with its Steiner vertices,
+// is the mesh every later stage works on), the texture map over that mesh, and their figures.
+struct Mapping {
+  Partition partition;
+  TextureMap map;
+  int collapses = 0, baseVertices = 0, baseFaces = 0;
+  FineMapStats stats;
+  double partitionSeconds = 0, simplifySeconds = 0, mapSeconds = 0;
+};
+
 struct PipelineResult {
   std::shared_ptr<const Scene> scene;
-  std::shared_ptr<const TextureMap> map;
+  std::shared_ptr<const Mapping> mapping;
   std::shared_ptr<const TexturedModel> model;
   std::vector<StageRecord> stages;
   std::vector<std::string> warnings;  // things the user should know (mesh caveats, unmapped regions)
@@ -69,11 +82,11 @@ struct PipelineResult {
 // Stage functions (texturemontage.h lists them in order).
 // Load: reads the mesh and photos of a validated project and checks the project against them.
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
-// Map: correspondences -> texture map (partition, progressive mesh, coarse-to-fine). Until the
-// mapping lands this returns the all-empty map with a note saying so.
-TextureMap mapTexture(const Scene& scene, const JobControl& job = {});
-// Bake: texture map -> textured model (mapped faces textured from their photos; empty faces flat).
-TexturedModel bakeModel(const Scene& scene, const TextureMap& map, const JobControl& job = {});
+// Partition, Simplify, Map: correspondences -> partition -> progressive mesh -> texture map.
+Mapping mapTexture(const Scene& scene, const JobControl& job = {});
+// Bake: texture map -> textured model over the partition's mesh (mapped faces textured from their
+// photos, one material per photo; empty faces flat grey).
+TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const JobControl& job = {});
 
 class Pipeline {
  public:
@@ -89,7 +102,7 @@ class Pipeline {
   std::string meshKey_;
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> cachedPhotos_;  // key -> photo
   std::string mapKey_;
-  std::shared_ptr<const TextureMap> cachedMap_;
+  std::shared_ptr<const Mapping> cachedMapping_;
 };
 
 // Writes DIR/model.obj (+ .mtl, textures), DIR/model.glb and DIR/report.json.

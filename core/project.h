@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "common.h"
+#include "fileio.h"  // writeFileAtomic, which callers of saveProject use too
 #include "options.h"
 
 namespace montage {
@@ -33,9 +34,7 @@ struct FeatureChain {
   int photo = 0;
   std::vector<int> points;  // indices into Project::points
   bool closed = false;
-  bool operator==(const FeatureChain& o) const {
-    return photo == o.photo && points == o.points && closed == o.closed;
-  }
+  bool operator==(const FeatureChain& o) const { return photo == o.photo && points == o.points && closed == o.closed; }
 };
 
 // An inpainting guidance stroke drawn on the surface: a polyline through mesh vertices; its
@@ -48,16 +47,15 @@ struct Stroke {
 // Seamless cloning of a photo region onto the surface (paper section 5).
 struct CloneOp {
   int photo = 0;
-  std::vector<Vec2> polygon;    // source region in the photo, pixel coordinates, >= 3 points
-  std::vector<int> targetFaces; // target region on the mesh (face indices)
-  int anchorVertex = 0;         // this vertex receives the photo point `anchor`
-  Vec2 anchor = Vec2::Zero();   // pixel coordinates
-  double pixelsPerUnit = 0;     // scale: photo pixels per model unit (0 = fit the polygon to the region)
-  double rotationDeg = 0;       // rotation of the photo around the anchor, degrees
+  std::vector<Vec2> polygon;     // source region in the photo, pixel coordinates, >= 3 points
+  std::vector<int> targetFaces;  // target region on the mesh (face indices)
+  int anchorVertex = 0;          // this vertex receives the photo point `anchor`
+  Vec2 anchor = Vec2::Zero();    // pixel coordinates
+  double pixelsPerUnit = 0;      // scale: photo pixels per model unit (0 = fit the polygon to the region)
+  double rotationDeg = 0;        // rotation of the photo around the anchor, degrees
   bool operator==(const CloneOp& o) const {
-    return photo == o.photo && polygon == o.polygon && targetFaces == o.targetFaces &&
-           anchorVertex == o.anchorVertex && anchor == o.anchor && pixelsPerUnit == o.pixelsPerUnit &&
-           rotationDeg == o.rotationDeg;
+    return photo == o.photo && polygon == o.polygon && targetFaces == o.targetFaces && anchorVertex == o.anchorVertex &&
+           anchor == o.anchor && pixelsPerUnit == o.pixelsPerUnit && rotationDeg == o.rotationDeg;
   }
 };
 
@@ -70,8 +68,8 @@ struct PhotoRef {
 struct Project {
   static constexpr int kVersion = 1;  // format version written by this build
 
-  std::string file;   // where it was loaded from / last saved to (absolute); empty for a new project
-  std::string mesh;   // absolute path
+  std::string file;  // where it was loaded from / last saved to (absolute); empty for a new project
+  std::string mesh;  // absolute path
   std::vector<PhotoRef> photos;
   std::vector<FeaturePoint> points;
   std::vector<FeatureChain> chains;
@@ -92,7 +90,8 @@ Project loadProject(const std::string& path);
 // photo, the same vertex not given two points in one photo, chains whose points have a position
 // in the chain's photo, stroke and clone indices in range. `photoSizes[i]` is photo i's size.
 // Throws montage::Error naming the project file, the field and the reason.
-void validateProject(const Project& project, int numVertices, int numFaces, const std::vector<std::pair<int, int>>& photoSizes);
+void validateProject(const Project& project, int numVertices, int numFaces,
+                     const std::vector<std::pair<int, int>>& photoSizes);
 
 // Serialises to JSON text (paths relative to `relativeTo`'s folder when given).
 std::string projectToJson(const Project& project, const std::string& relativeTo);
@@ -100,8 +99,5 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
 // Writes the project atomically: temporary file in the same folder, fsync, rename, fsync of the
 // folder. Sets project.file. Throws montage::Error on failure, leaving any earlier file untouched.
 void saveProject(Project& project, const std::string& path);
-
-// Writes `contents` to `path` atomically (see saveProject). Throws montage::Error on failure.
-void writeFileAtomic(const std::string& path, const std::string& contents);
 
 }  // namespace montage

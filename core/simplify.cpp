@@ -555,14 +555,14 @@ ProgressiveMesh::ProgressiveMesh(const Partition& partition, const SimplifyOptio
       }
     if (records_.size() % 2000 == 0) {
       job.checkCancel();
-      job.progress(StageId::Map, std::min(0.99, static_cast<double>(records_.size()) / std::max(1, movableCount)),
+      job.progress(StageId::Simplify, std::min(0.99, static_cast<double>(records_.size()) / std::max(1, movableCount)),
                    "simplify");
     }
   }
   level_ = static_cast<int>(records_.size());
   for (int v = 0; v < nv; ++v) stats_.baseExtraVertices += vertexAlive_[v] && !vertexFaces_[v].empty() && !isFeature[v];
   stats_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  job.progress(StageId::Map, 1.0, "simplify");
+  job.progress(StageId::Simplify, 1.0, "simplify");
 }
 
 void ProgressiveMesh::apply(const CollapseRecord& r) {

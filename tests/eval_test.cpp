@@ -5,30 +5,17 @@
 #include <algorithm>
 #include <map>
 #include <numeric>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <set>
 
 #include "mesh.h"
 #include "model.h"
+#include "photo.h"
 #include "test_support.h"
 
 namespace montage {
 namespace {
-
-cv::Mat readRgba(const std::string& path) {
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty()) throw std::runtime_error("cannot read " + path);
-  cv::Mat rgba;
-  if (image.channels() == 4)
-    cv::cvtColor(image, rgba, cv::COLOR_BGRA2RGBA);
-  else if (image.channels() == 3)
-    cv::cvtColor(image, rgba, cv::COLOR_BGR2RGBA);
-  else
-    cv::cvtColor(image, rgba, cv::COLOR_GRAY2RGBA);
-  return rgba;
-}
 
 // spot, its mesh and its texture, loaded once for the whole file.
 struct Spot {
@@ -46,7 +33,7 @@ class EvalSpot : public ::testing::Test {
       spot_ = std::make_unique<Spot>();
       spot_->mesh = requireUsable(loadMesh(obj));
       ASSERT_TRUE(spot_->mesh->hasUV());
-      spot_->texture = readRgba(png);
+      spot_->texture = readImageRgba8(png);
       spot_->model = modelFromMesh(*spot_->mesh, spot_->texture);
     }
   }
@@ -289,9 +276,8 @@ TEST_F(EvalSpot, JsonAndSummary) {
   const EvalResult r = evaluate(spot(), spot(), o);
   const nlohmann::json j = r.toJson();
   for (const char* key : {"samples", "covered_samples", "psnr_all", "psnr_covered", "delta_e_all", "delta_e_covered",
-                          "coverage_photo", "coverage_inpainted", "coverage_empty", "flipped_triangles", "degenerate_uv_triangles",
-                          "stretch_l2",
-                          "stretch_linf", "seam_mismatch", "seam_edges"})
+                          "coverage_photo", "coverage_inpainted", "coverage_empty", "flipped_triangles",
+                          "degenerate_uv_triangles", "stretch_l2", "stretch_linf", "seam_mismatch", "seam_edges"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j.size(), 15u);
   EXPECT_EQ(j["samples"].get<int>(), 5000);

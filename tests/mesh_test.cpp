@@ -39,17 +39,7 @@ int countSeverity(const MeshReport& report, Severity s) {
   return n;
 }
 
-// Message of the montage::Error thrown by fn (fails the test when none is thrown).
-template <class F>
-std::string errorOf(F fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no montage::Error thrown";
-  return "";
-}
+using test::errorOf;
 
 // The unit cube: vertex i at (i&1, i>>1&1, i>>2&1), six outward quads.
 const std::vector<Vec3> kCubeV = [] {

@@ -15,6 +15,7 @@
 
 #include "bvh.h"
 #include "mesh.h"
+#include "photo.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -28,30 +29,13 @@ void writeText(const std::string& path, const std::string& text) {
   ASSERT_TRUE(out.good()) << path;
 }
 
-// Message of the montage::Error `fn` throws ("" when it throws nothing).
-template <class Fn>
-std::string errorOf(Fn&& fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
-
-cv::Mat readRgba(const std::string& path) {
-  const cv::Mat raw = cv::imread(path, cv::IMREAD_UNCHANGED);
-  EXPECT_FALSE(raw.empty()) << path;
-  cv::Mat rgba;
-  if (!raw.empty()) cv::cvtColor(raw, rgba, raw.channels() == 4 ? cv::COLOR_BGRA2RGBA : cv::COLOR_BGR2RGBA);
-  return rgba;
-}
+using test::errorOf;
 
 // Spot with its texture, some faces from photo 0, some from photo 3, some inpainted, some empty.
 TexturedModel spotModel(const std::string& obj) {
   auto mesh = requireUsable(loadMesh(obj));
   TexturedModel model =
-      modelFromMesh(*mesh, readRgba((fs::path(obj).parent_path() / "spot_texture.png").string()), "spot");
+      modelFromMesh(*mesh, readImageRgba8((fs::path(obj).parent_path() / "spot_texture.png").string()), "spot");
   const int sources[4] = {0, 3, kSourceInpainted, kSourceEmpty};
   model.faceSource.resize(model.mesh.numFaces());
   for (int f = 0; f < model.mesh.numFaces(); ++f) model.faceSource[f] = sources[(f / 97) % 4];

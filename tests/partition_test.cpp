@@ -13,6 +13,7 @@
 
 #include "pipeline.h"
 #include "raster.h"
+#include "shapes.h"
 #include "test_support.h"
 
 namespace montage {
@@ -49,38 +50,6 @@ Grid makeGrid(int n, double zNoise = 0, unsigned seed = 1) {
       f.push_back({a, d, b});
     }
   return {n, makeMesh(v, f)};
-}
-
-// Icosphere with `levels` subdivisions, radius 1.
-std::shared_ptr<Mesh> icosphere(int levels) {
-  const double t = (1 + std::sqrt(5.0)) / 2;
-  std::vector<Vec3> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  for (Vec3& p : v) p.normalize();
-  std::vector<std::array<int, 3>> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                                       {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                       {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                                       {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  for (int l = 0; l < levels; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    const auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      const auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      v.push_back((v[a] + v[b]).normalized());
-      return mid[key] = static_cast<int>(v.size()) - 1;
-    };
-    std::vector<std::array<int, 3>> next;
-    for (const auto& tri : f) {
-      const int a = midpoint(tri[0], tri[1]), b = midpoint(tri[1], tri[2]), c = midpoint(tri[2], tri[0]);
-      next.push_back({tri[0], a, c});
-      next.push_back({tri[1], b, a});
-      next.push_back({tri[2], c, b});
-      next.push_back({a, b, c});
-    }
-    f = std::move(next);
-  }
-  return makeMesh(v, f);
 }
 
 // A photo whose foreground is the non-zero pixels of `foreground` (CV_8UC1); all foreground when empty.
@@ -362,7 +331,7 @@ TEST(ShortestPath, MatchesFloydWarshallOnAGrid) {
 }
 
 TEST(ShortestPath, MatchesFloydWarshallOnAnIcosphere) {
-  const std::shared_ptr<Mesh> sphere = icosphere(3);  // 642 vertices
+  const std::shared_ptr<Mesh> sphere = makeIcosphere(3);  // 642 vertices
   expectShortestPaths(*sphere, {}, 3);
   std::vector<char> blocked(sphere->numVertices(), 0);
   for (int v = 0; v < sphere->numVertices(); ++v) blocked[v] = std::abs(sphere->position(v).z()) < 0.12;  // equator
@@ -709,7 +678,7 @@ TEST(Partition, ReportsProgressAndHonoursCancel) {
   double last = -1;
   bool monotone = true;
   JobControl job(nullptr, [&](StageId stage, double fraction, const std::string& what) {
-    EXPECT_EQ(stage, StageId::Map);
+    EXPECT_EQ(stage, StageId::Partition);
     EXPECT_EQ(what, "partition");
     monotone = monotone && fraction >= last && fraction <= 1;
     last = fraction;

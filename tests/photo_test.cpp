@@ -23,17 +23,7 @@ std::string write(const std::string& dir, const std::string& name, const cv::Mat
   return path;
 }
 
-// The message of the montage::Error thrown by `fn`, or "" (and a test failure) when none is thrown.
-template <class Fn>
-std::string errorOf(Fn fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected a montage::Error";
-  return "";
-}
+using montage::test::errorOf;
 
 // A 64x48 BGRA image: transparent black background, opaque red disc of radius 10 around pixel (32, 24).
 cv::Mat discImage() {

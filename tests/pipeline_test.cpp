@@ -32,14 +32,19 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
     if (seen.empty() || seen.back() != s) seen.push_back(s);
   });
   PipelineResult result = pipeline.run(project, job);
-  ASSERT_EQ(result.stages.size(), 3u);
-  EXPECT_EQ(result.stages[0].stage, StageId::Load);
-  EXPECT_EQ(result.stages[1].stage, StageId::Map);
-  EXPECT_EQ(result.stages[2].stage, StageId::Bake);
-  EXPECT_EQ(seen, (std::vector<StageId>{StageId::Load, StageId::Map, StageId::Bake}));
+  const std::vector<StageId> order = {StageId::Load, StageId::Partition, StageId::Simplify, StageId::Map,
+                                      StageId::Bake};
+  ASSERT_EQ(result.stages.size(), order.size());
+  for (size_t i = 0; i < order.size(); ++i) EXPECT_EQ(result.stages[i].stage, order[i]);
+  EXPECT_EQ(seen, order);
   ASSERT_TRUE(result.model);
-  EXPECT_EQ(result.model->mesh.numFaces(), result.scene->mesh->numFaces());
-  EXPECT_EQ(result.map->numFaces(), result.scene->mesh->numFaces());
+  ASSERT_TRUE(result.mapping);
+  // Later stages work on the partition's mesh: the input plus its Steiner vertices.
+  const Mesh& mesh = result.mapping->partition.mesh;
+  EXPECT_GE(mesh.numVertices(), result.scene->mesh->numVertices());
+  EXPECT_EQ(result.model->mesh.numFaces(), mesh.numFaces());
+  EXPECT_EQ(result.mapping->map.numFaces(), mesh.numFaces());
+  EXPECT_GT(result.mapping->map.numMapped(), 0);
   EXPECT_EQ(result.stages[0].counts["photos"].get<int>(), static_cast<int>(project.photos.size()));
   EXPECT_GT(project.points.size(), 0u);
 }
@@ -52,14 +57,13 @@ TEST(Pipeline, SecondRunReusesOutputsAndAFeatureEditRerunsOnlyTheMap) {
   EXPECT_FALSE(first.stages[1].cached);
 
   PipelineResult second = pipeline.run(project);
-  EXPECT_TRUE(second.stages[0].cached);
-  EXPECT_TRUE(second.stages[1].cached);
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(second.stages[i].cached) << stageName(second.stages[i].stage);
   EXPECT_EQ(second.scene->mesh.get(), first.scene->mesh.get());  // the very same loaded mesh
 
   project.points.pop_back();
   PipelineResult third = pipeline.run(project);
   EXPECT_TRUE(third.stages[0].cached);
-  EXPECT_FALSE(third.stages[1].cached);
+  for (int i = 1; i < 4; ++i) EXPECT_FALSE(third.stages[i].cached) << stageName(third.stages[i].stage);
 }
 
 TEST(Pipeline, CancelStopsTheRun) {
@@ -76,9 +80,9 @@ TEST(Pipeline, NoFeaturesGivesOneEmptyPatchWithAReason) {
   project.points.clear();
   project.chains.clear();
   PipelineResult result = Pipeline().run(project);
-  EXPECT_EQ(result.map->numMapped(), 0);
-  ASSERT_FALSE(result.map->notes.empty());
-  EXPECT_NE(result.map->notes[0].find("no features"), std::string::npos);
+  EXPECT_EQ(result.mapping->map.numMapped(), 0);
+  ASSERT_FALSE(result.mapping->map.notes.empty());
+  EXPECT_NE(result.mapping->map.notes[0].find("no features"), std::string::npos);
 }
 
 TEST(Pipeline, BadVertexIdIsRejectedWithItsField) {
@@ -101,11 +105,11 @@ TEST(Pipeline, WritesModelAndReport) {
   for (const char* name : {"model.obj", "model.mtl", "model.glb", "report.json"})
     EXPECT_TRUE(fs::exists(fs::path(dir) / name)) << name;
   nlohmann::json report = readJson(dir + "/report.json");
-  ASSERT_EQ(report["stages"].size(), 4u);
-  EXPECT_EQ(report["stages"][3]["stage"], "export");
+  ASSERT_EQ(report["stages"].size(), 6u);
+  EXPECT_EQ(report["stages"][5]["stage"], "export");
   EXPECT_EQ(report["mesh"]["faces"].get<int>(), result.scene->mesh->numFaces());
   TexturedModel back = loadModel(dir + "/model.glb");
-  EXPECT_EQ(back.mesh.numFaces(), result.scene->mesh->numFaces());
+  EXPECT_EQ(back.mesh.numFaces(), result.model->mesh.numFaces());
 }
 
 // The command line, end to end.

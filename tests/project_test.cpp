@@ -41,16 +41,7 @@ std::vector<std::string> listDir(const std::string& dir) {
   return names;
 }
 
-template <class Fn>
-std::string errorOf(Fn fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected a montage::Error";
-  return "";
-}
+using montage::test::errorOf;
 
 #define EXPECT_MESSAGE_HAS(message, part) \
   EXPECT_NE((message).find(part), std::string::npos) << "message: " << (message) << "\nlacks: " << (part)

@@ -12,6 +12,7 @@
 #include "bvh.h"
 #include "mesh.h"
 #include "stretch.h"
+#include "shapes.h"
 #include "test_support.h"
 
 namespace montage {
@@ -35,38 +36,6 @@ Camera identityCamera(int width, int height, double f) {
   return cam;
 }
 
-// Icosphere with `levels` subdivisions (20 * 4^levels faces), radius 1.
-std::unique_ptr<Mesh> icosphere(int levels) {
-  const double t = (1 + std::sqrt(5.0)) / 2;
-  std::vector<Vec3> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  for (Vec3& p : v) p.normalize();
-  std::vector<std::array<int, 3>> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                                       {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                       {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                                       {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  for (int l = 0; l < levels; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    const auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      const auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      v.push_back((v[a] + v[b]).normalized());
-      return mid[key] = static_cast<int>(v.size()) - 1;
-    };
-    std::vector<std::array<int, 3>> next;
-    for (const auto& tri : f) {
-      const int a = midpoint(tri[0], tri[1]), b = midpoint(tri[1], tri[2]), c = midpoint(tri[2], tri[0]);
-      next.push_back({tri[0], a, c});
-      next.push_back({tri[1], b, a});
-      next.push_back({tri[2], c, b});
-      next.push_back({a, b, c});
-    }
-    f = std::move(next);
-  }
-  return makeMesh(v, f);
-}
-
 // The spot mesh when the shared data is there, an icosphere otherwise.
 std::unique_ptr<Mesh> spotOrSphere(std::string* name) {
   const std::string spot = test::sharedFile("meshes/spot/spot_triangulated.obj");
@@ -75,7 +44,7 @@ std::unique_ptr<Mesh> spotOrSphere(std::string* name) {
     return requireUsable(loadMesh(spot));
   }
   *name = "icosphere (shared data absent)";
-  return icosphere(4);
+  return makeIcosphere(4);
 }
 
 // ----------------------------------------------------------------------------------------------

@@ -17,6 +17,7 @@
 
 #include "partition.h"
 #include "pipeline.h"
+#include "shapes.h"
 #include "test_support.h"
 
 namespace montage {
@@ -25,53 +26,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 // ---- Meshes and hand-made partitions ----
-
-// n x n vertices in the z = 0 plane, unit spacing, id = j * n + i, diagonals (i, j)-(i+1, j+1).
-std::unique_ptr<Mesh> gridMesh(int n) {
-  std::vector<Vec3> v;
-  std::vector<std::array<int, 3>> t;
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) v.emplace_back(i, j, 0);
-  for (int j = 0; j + 1 < n; ++j)
-    for (int i = 0; i + 1 < n; ++i) {
-      const int a = j * n + i, b = a + 1, c = a + n + 1, d = a + n;
-      t.push_back({a, b, c});
-      t.push_back({a, c, d});
-    }
-  return requireUsable(buildMesh(v, t));
-}
-
-// Unit icosphere; vertices 0..11 are the icosahedron's.
-std::unique_ptr<Mesh> icosphere(int levels) {
-  const double g = (1 + std::sqrt(5.0)) / 2;
-  std::vector<Vec3> v = {{-1, g, 0},  {1, g, 0},  {-1, -g, 0}, {1, -g, 0}, {0, -1, g},  {0, 1, g},
-                         {0, -1, -g}, {0, 1, -g}, {g, 0, -1},  {g, 0, 1},  {-g, 0, -1}, {-g, 0, 1}};
-  for (auto& p : v) p.normalize();
-  std::vector<std::array<int, 3>> t = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                                       {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                       {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                                       {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  for (int l = 0; l < levels; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      v.push_back((v[a] + v[b]).normalized());
-      return mid[key] = static_cast<int>(v.size()) - 1;
-    };
-    std::vector<std::array<int, 3>> next;
-    for (const auto& f : t) {
-      const int ab = midpoint(f[0], f[1]), bc = midpoint(f[1], f[2]), ca = midpoint(f[2], f[0]);
-      next.push_back({f[0], ab, ca});
-      next.push_back({f[1], bc, ab});
-      next.push_back({f[2], ca, bc});
-      next.push_back({ab, bc, ca});
-    }
-    t = std::move(next);
-  }
-  return requireUsable(buildMesh(v, t));
-}
 
 std::vector<std::vector<int>> adjacency(const Mesh& mesh) {
   std::vector<std::set<int>> s(mesh.numVertices());
@@ -500,7 +454,7 @@ TEST(PolygonCoordinates, PointOnAnEdgeGetsLinearCoordinates) {
 // triangular cells, so the base is exactly two triangles.
 TEST(ProgressiveMesh, GridWithBorderPathsReducesToTwoTriangles) {
   const int n = 21;
-  auto part = makePartition(gridMesh(n), {0, n - 1, n * n - 1, n * n - n});
+  auto part = makePartition(makeGrid(n, n), {0, n - 1, n * n - 1, n * n - n});
   const auto adj = adjacency(part.mesh);
   std::vector<char> used(n * n, 0);
   for (auto [a, b] : std::vector<Edge>{{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}})
@@ -517,7 +471,7 @@ TEST(ProgressiveMesh, GridWithBorderPathsReducesToTwoTriangles) {
 // vertices (a border loop cannot shrink below a triangle).
 TEST(ProgressiveMesh, GridWithInnerQuadKeepsFewBorderVertices) {
   const int n = 21;
-  auto part = makePartition(gridMesh(n), {4 * n + 4, 4 * n + 16, 16 * n + 16, 16 * n + 4});
+  auto part = makePartition(makeGrid(n, n), {4 * n + 4, 4 * n + 16, 16 * n + 16, 16 * n + 4});
   const auto adj = adjacency(part.mesh);
   std::vector<char> used(n * n, 0);
   for (auto [a, b] : std::vector<Edge>{{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}})
@@ -534,7 +488,7 @@ TEST(ProgressiveMesh, FlatGridCoordinatesReproduceTheRemovedVertex) {
   const int n = 21;
   // Corners, the centre and a point (15, 3); the diagonal through the centre, and a staircase
   // path from the centre to (15, 3) that ends inside a cell.
-  auto part = makePartition(gridMesh(n), {0, n - 1, n * n - 1, n * n - n, 10 * n + 10, 3 * n + 15});
+  auto part = makePartition(makeGrid(n, n), {0, n - 1, n * n - 1, n * n - n, 10 * n + 10, 3 * n + 15});
   const auto adj = adjacency(part.mesh);
   std::vector<char> used(n * n, 0);
   for (auto [a, b] : std::vector<Edge>{{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 4}, {4, 2}, {4, 5}})
@@ -596,7 +550,7 @@ TEST(ProgressiveMesh, FlatGridCoordinatesReproduceTheRemovedVertex) {
 // Icosphere with the icosahedron's vertices as features and its 30 edges as paths: the base is the
 // icosahedron.
 TEST(ProgressiveMesh, IcosphereReducesToTheIcosahedron) {
-  auto part = makePartition(icosphere(4), {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11});
+  auto part = makePartition(makeIcosphere(4), {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11});
   connectNearest(part, 5);
   ASSERT_EQ(part.paths.size(), 30u);
   auto run = buildAndCheck(part, true);
@@ -607,7 +561,7 @@ TEST(ProgressiveMesh, IcosphereReducesToTheIcosahedron) {
 
 // Irregular features and paths between near ones: cells of any shape, some not closed by paths.
 TEST(ProgressiveMesh, IcosphereWithScatteredFeatures) {
-  auto mesh = icosphere(4);
+  auto mesh = makeIcosphere(4);
   const auto features = farthestPoints(*mesh, 10, 17);
   auto part = makePartition(std::move(mesh), features);
   connectNearest(part, 3);
@@ -646,7 +600,7 @@ TEST(ProgressiveMesh, WithoutFeaturesStopsAtATetrahedronOrATriangle) {
   EXPECT_EQ(run.base.vertices, 3);
   EXPECT_EQ(run.base.faces, 1);
 
-  auto grid = makePartition(gridMesh(11), {});
+  auto grid = makePartition(makeGrid(11, 11), {});
   run = buildAndCheck(grid, false);
   EXPECT_LE(run.base.vertices, 6);
 }
@@ -672,7 +626,7 @@ TEST(ProgressiveMesh, TorusKeepsItsGenus) {
 }
 
 TEST(ProgressiveMesh, CancelStopsTheConstruction) {
-  auto part = makePartition(icosphere(4), {0, 1, 2, 3});
+  auto part = makePartition(makeIcosphere(4), {0, 1, 2, 3});
   std::atomic<bool> cancel{true};
   EXPECT_THROW(ProgressiveMesh(part, {}, JobControl(&cancel, nullptr)), Cancelled);
 }
@@ -691,7 +645,7 @@ TEST(ProgressiveMesh, LargeMeshWithProgress) {
     if (loaded.report.usable()) closed = loaded.report.boundaryLoops == 0, mesh = std::move(loaded.mesh);
   }
   std::string name = mesh ? "armadillo" : "icosphere level 6";
-  if (!mesh) mesh = icosphere(6);
+  if (!mesh) mesh = makeIcosphere(6);
   const auto features = farthestPoints(*mesh, 350, 0);
   auto part = makePartition(std::move(mesh), features);
   const auto t0 = std::chrono::steady_clock::now();
@@ -701,7 +655,7 @@ TEST(ProgressiveMesh, LargeMeshWithProgress) {
   double lastFraction = -1;
   bool monotone = true;
   JobControl job(nullptr, [&](StageId stage, double fraction, const std::string& what) {
-    EXPECT_EQ(stage, StageId::Map);
+    EXPECT_EQ(stage, StageId::Simplify);
     EXPECT_EQ(what, "simplify");
     monotone &= fraction >= lastFraction;
     lastFraction = fraction;

@@ -25,14 +25,6 @@ namespace fs = std::filesystem;
 namespace montage {
 namespace {
 
-cv::Mat readRgba(const std::string& path) {
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty()) throw std::runtime_error("cannot read " + path);
-  cv::Mat rgba;
-  cv::cvtColor(image, rgba, image.channels() == 4 ? cv::COLOR_BGRA2RGBA : cv::COLOR_BGR2RGBA);
-  return rgba;
-}
-
 // RGB in [0, 1] as CV_32FC3, for sampleBilinear3.
 cv::Mat toFloatRgb(const cv::Mat& rgba) {
   cv::Mat rgb, f;
@@ -103,7 +95,7 @@ class SynthSpot : public ::testing::Test {
       spot_ = std::make_unique<SpotScene>();
       spot_->path = obj;
       spot_->mesh = requireUsable(loadMesh(obj));
-      spot_->model = modelFromMesh(*spot_->mesh, readRgba(png));
+      spot_->model = modelFromMesh(*spot_->mesh, readImageRgba8(png));
       spot_->options.views = 4;
       spot_->options.features = 150;
       spot_->options.size = 512;

@@ -1,9 +1,11 @@
-// Helpers shared by the tests: data locations and temporary folders.
+// Helpers shared by the tests: data locations, temporary folders and error messages.
 #pragma once
+
+#include <gtest/gtest.h>
 
 #include <string>
 
-#include <gtest/gtest.h>
+#include "common.h"
 
 namespace montage::test {
 
@@ -21,9 +23,21 @@ std::string montageExe();
 // Runs a shell command, returns its exit status; output goes to `output` when given.
 int runCommand(const std::string& command, std::string* output = nullptr);
 
+// The message of the montage::Error thrown by `fn`, or "" (and a test failure) when none is thrown.
+template <class Fn>
+std::string errorOf(Fn fn) {
+  try {
+    fn();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected a montage::Error";
+  return "";
+}
+
 }  // namespace montage::test
 
 // Skips the current test when a ../shared/data file is absent, with a clear message.
-#define TM_REQUIRE_SHARED(var, rel)                                                              \
-  const std::string var = ::montage::test::sharedFile(rel);                                          \
+#define TM_REQUIRE_SHARED(var, rel)                         \
+  const std::string var = ::montage::test::sharedFile(rel); \
   if (var.empty()) GTEST_SKIP() << "../shared/data/" << (rel) << " is absent: test needs the shared data"

@@ -1,0 +1,16 @@
+// Writing files safely: a crash or a failure leaves either the old file or the new one, never a
+// partial file.
+#pragma once
+
+#include <string>
+
+#include "common.h"
+
+namespace montage {
+
+// Writes `contents` to `path` atomically: temporary file in the same folder, fsync, rename, fsync of
+// the folder. An existing file keeps its permissions; a symbolic link is followed (the file it names
+// is replaced, not the link). Throws montage::Error on failure, leaving any earlier file untouched.
+void writeFileAtomic(const std::string& path, const std::string& contents);
+
+}  // namespace montage

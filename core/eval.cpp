@@ -240,6 +240,11 @@ EvalResult evaluate(const TexturedModel& result, const TexturedModel& truth, con
     // A texture triangle smaller than a tenth of a texel is degenerate (a sliver whose orientation
     // cannot show); it is counted apart from flips and left out of the stretch.
     const auto uvAreaEps = [&](int f) { return texelScale(result, f) == Vec2(1, 1) ? 1e-12 : 0.1; };
+    // Where some materials carry a texture, faces of untextured materials (e.g. the flat "empty"
+    // material of unmapped faces) have no texture coordinates worth judging.
+    bool anyTexture = false;
+    for (const auto& m : result.materials) anyTexture |= !m.texture.empty();
+    const auto judged = [&](int f) { return !anyTexture || texelScale(result, f) != Vec2(1, 1); };
     std::vector<std::array<Vec2, 3>> texel(rfaces);
     std::vector<double> uvArea(rfaces);  // signed, texels^2
     std::vector<double> chartVote(rfaces, 0.0);
@@ -248,10 +253,11 @@ EvalResult evaluate(const TexturedModel& result, const TexturedModel& truth, con
       for (int k = 0; k < 3; ++k) texel[f][k] = result.uv[f][k].cast<double>().cwiseProduct(scale);
       const Vec2 e1 = texel[f][1] - texel[f][0], e2 = texel[f][2] - texel[f][0];
       uvArea[f] = 0.5 * (e1.x() * e2.y() - e1.y() * e2.x());
-      if (std::abs(uvArea[f]) > uvAreaEps(f)) chartVote[chart[f]] += uvArea[f] > 0 ? area3[f] : -area3[f];
+      if (judged(f) && std::abs(uvArea[f]) > uvAreaEps(f)) chartVote[chart[f]] += uvArea[f] > 0 ? area3[f] : -area3[f];
     }
     double sumA2 = 0, sumA3 = 0, sumL2 = 0, maxGamma = 0;
     for (int f = 0; f < rfaces; ++f) {
+      if (!judged(f)) continue;
       const double sign = chartVote[chart[f]] >= 0 ? 1 : -1;  // the chart's majority orientation
       if (std::abs(uvArea[f]) <= uvAreaEps(f)) {
         if (area3[f] > area3Eps) ++out.degenerateUvTriangles;

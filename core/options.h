@@ -13,6 +13,8 @@ inline constexpr std::array<const char*, 3> kInpaintModeNames = {"harmonic", "rb
 
 struct PipelineOptions {
   double backgroundThresholdPx = 2.0;  // partition: max mean distance (px) of a curve to the foreground
+  int stretchSearches = 4;  // coarse-to-fine: random line searches per vertex (paper 4.1); 0 keeps the
+                            // barycentric placement (closer to the photo, more stretch: docs/pipeline.md)
   double seamLambda = 0.1;             // seams: weight of geometric stretch vs texture mismatch (paper 4.2)
   int seamRounds = 30;                 // seams: alternating optimisation rounds (paper 4.2)
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
@@ -22,7 +24,8 @@ struct PipelineOptions {
   unsigned seed = 1;                   // random line searches: seed, so runs are repeatable
 
   bool operator==(const PipelineOptions& o) const {
-    return backgroundThresholdPx == o.backgroundThresholdPx && seamLambda == o.seamLambda &&
+    return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
+           seamLambda == o.seamLambda &&
            seamRounds == o.seamRounds && gradientWeight == o.gradientWeight && inpaintMode == o.inpaintMode &&
            atlasSize == o.atlasSize && gutter == o.gutter && seed == o.seed;
   }

@@ -85,6 +85,8 @@ Mapping mapTexture(const Scene& scene, const JobControl& job) {
   start = Clock::now();
   FineMapOptions fineOptions;
   fineOptions.seed = scene.project.options.seed;
+  fineOptions.lineSearches = scene.project.options.stretchSearches;
+  if (fineOptions.lineSearches == 0) fineOptions.finalSweeps = 0;
   out.map = coarseToFine(scene, out.partition, pm, fineOptions, job, &out.stats);
   out.mapSeconds = secondsSince(start);
   if (scene.project.points.empty())
@@ -169,7 +171,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   PipelineResult result;
 
   auto start = Clock::now();
-  StageRecord load{StageId::Load};
+  StageRecord load;
+  load.stage = StageId::Load;
   std::shared_ptr<const Scene> scene = loadScene(project, job, load.cached);
   load.seconds = secondsSince(start);
   load.counts = {{"vertices", scene->mesh->numVertices()},
@@ -218,7 +221,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   // Bake.
   start = Clock::now();
   auto model = std::make_shared<TexturedModel>(bakeModel(*scene, mapping, job));
-  StageRecord bake{StageId::Bake};
+  StageRecord bake;
+  bake.stage = StageId::Bake;
   bake.seconds = secondsSince(start);
   bake.counts = {{"materials", model->materials.size()}};
   result.stages.push_back(bake);

@@ -179,6 +179,7 @@ void fromJson(const Field& f, CloneOp& c) {
 template <class Options, class Visit>
 void forEachOption(Options& o, Visit&& visit) {
   visit("backgroundThresholdPx", o.backgroundThresholdPx, 0.0, 1000.0);
+  visit("stretchSearches", o.stretchSearches, 0, 64);
   visit("seamLambda", o.seamLambda, 0.0, 1.0);
   visit("seamRounds", o.seamRounds, 0, 1000);
   visit("gradientWeight", o.gradientWeight, 0.0, 1.0);

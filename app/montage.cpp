@@ -115,11 +115,7 @@ int cmdInfo(const std::string& file) {
 TexturedModel loadTruth(const std::string& meshPath, const std::string& texturePath) {
   auto mesh = requireUsable(loadMesh(meshPath));
   TM_CHECK(mesh->hasUV(), located(meshPath, "has no texture coordinates (vt): a ground truth or --texture needs them"));
-  Photo texture = loadPhoto(texturePath);
-  cv::Mat rgb8, rgba;
-  texture.rgb.convertTo(rgb8, CV_8UC3, 255.0);
-  cv::cvtColor(rgb8, rgba, cv::COLOR_RGB2RGBA);
-  return modelFromMesh(*mesh, rgba);
+  return modelFromMesh(*mesh, readImageRgba8(texturePath));
 }
 
 struct SynthArgs {

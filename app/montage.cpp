@@ -8,12 +8,11 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-
-#include <CLI/CLI.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -78,10 +77,11 @@ int cmdInfo(const std::string& file) {
   const std::string ext = lowerExtension(file);
   if (ext == ".json") {
     Project project = loadProject(file);
-    std::printf("project %s\n  mesh: %s\n  photos: %zu\n  feature points: %zu\n  chains: %zu\n  strokes: %zu\n"
-                "  clones: %zu\n",
-                file.c_str(), project.mesh.c_str(), project.photos.size(), project.points.size(),
-                project.chains.size(), project.strokes.size(), project.clones.size());
+    std::printf(
+        "project %s\n  mesh: %s\n  photos: %zu\n  feature points: %zu\n  chains: %zu\n  strokes: %zu\n"
+        "  clones: %zu\n",
+        file.c_str(), project.mesh.c_str(), project.photos.size(), project.points.size(), project.chains.size(),
+        project.strokes.size(), project.clones.size());
     auto scene = loadScene(project);
     std::printf("%s", scene->meshReport.summary().c_str());
     for (size_t i = 0; i < scene->photos.size(); ++i)
@@ -232,7 +232,8 @@ int main(int argc, char** argv) {
 
   std::string infoFile;
   auto* info = app.add_subcommand("info", "Validation report of a mesh, photo, model or project");
-  info->add_option("FILE", infoFile, "mesh (.obj .ply .off .stl), photo (.png .jpg .tif .bmp), model (.glb) or project (.json)")
+  info->add_option("FILE", infoFile,
+                   "mesh (.obj .ply .off .stl), photo (.png .jpg .tif .bmp), model (.glb) or project (.json)")
       ->required();
 
   SynthArgs synth;
@@ -240,7 +241,8 @@ int main(int argc, char** argv) {
   synthCmd->add_option("--mesh", synth.mesh, "mesh to render")->required();
   synthCmd->add_option("--texture", synth.texture, "its texture (needs UVs); default: a 3D solid pattern");
   synthCmd->add_option("--views", synth.options.views, "number of photos")->check(CLI::Range(1, 64));
-  synthCmd->add_option("--features", synth.options.features, "number of feature vertices")->check(CLI::Range(0, 100000));
+  synthCmd->add_option("--features", synth.options.features, "number of feature vertices")
+      ->check(CLI::Range(0, 100000));
   synthCmd->add_option("--seed", synth.options.seed, "random seed");
   synthCmd->add_option("--size", synth.options.size, "photo size in pixels")->check(CLI::Range(16, 8192));
   synthCmd->add_option("--out", synth.out, "output folder")->required();
@@ -269,7 +271,8 @@ int main(int argc, char** argv) {
   run->add_option("--out", runOut, "output folder")->required();
 
   BenchArgs bench;
-  auto* benchCmd = app.add_subcommand("bench", "Synthesise a scene, run the pipeline, print stage times and peak memory");
+  auto* benchCmd =
+      app.add_subcommand("bench", "Synthesise a scene, run the pipeline, print stage times and peak memory");
   benchCmd->add_option("--mesh", bench.mesh, "mesh (default: the bundled demo mesh)");
   benchCmd->add_option("--texture", bench.texture, "its texture (default: solid pattern)");
   benchCmd->add_option("--views", bench.synth.views, "photos");

@@ -80,8 +80,8 @@ int main() {
     for (int i = 0; i < queries; ++i) sum += bvh->closest(Vec3(n(rng), n(rng), n(rng)).normalized() * r(rng)).distance;
   });
   std::printf("BVH build 82k faces         %8.1f ms\n", buildMs);
-  std::printf("BVH 1M closest points       %8.1f ms  (%.2f us each, checksum %.3f)\n", queryMs, 1000 * queryMs / queries,
-              sum);
+  std::printf("BVH 1M closest points       %8.1f ms  (%.2f us each, checksum %.3f)\n", queryMs,
+              1000 * queryMs / queries, sum);
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   std::printf("peak memory                 %8.1f MiB\n", usage.ru_maxrss / 1024.0);

@@ -28,6 +28,7 @@
 #include <random>
 #include <string>
 
+#include "geometry.h"
 #include "partition.h"
 #include "pipeline.h"
 #include "simplify.h"
@@ -44,12 +45,8 @@ constexpr double kMargin = 1e-6;  // relative margin kept from the kernel border
 constexpr int kMaxRounds = 8;
 constexpr double kRoundGain = 1e-3;
 
-// Orientation of the texture triangle (x, a, b): twice its signed area, > 0 when counter-clockwise.
 // All texture positions below live in the flipped frame (x, -y) of the photo's pixels, in which a
-// face seen by a camera is counter-clockwise like on the mesh.
-double orient(const Vec2& x, const Vec2& a, const Vec2& b) {
-  return (a.x() - x.x()) * (b.y() - x.y()) - (a.y() - x.y()) * (b.x() - x.x());
-}
+// face seen by a camera is counter-clockwise like on the mesh (orient2 > 0).
 Vec2 flipY(const Vec2& p) {
   return Vec2(p.x(), -p.y());
 }
@@ -304,17 +301,17 @@ bool FineMapper::onForeground(int photo, const Vec2& x) const {
 
 bool FineMapper::feasible(const Fan& fan, const Vec2& x) const {
   for (const auto& [a, b] : fan.ab)
-    if (!(orient(x, a, b) > 0)) return false;
+    if (!(orient2(x, a, b) > 0)) return false;
   return true;
 }
 
-// The largest step t along d from x (feasible) that flips no face: orient(x + t d, a, b) is linear
+// The largest step t along d from x (feasible) that flips no face: orient2(x + t d, a, b) is linear
 // in t, so each ring edge bounds t analytically. Open fans without a bound are capped at the fan size.
 double FineMapper::maxStep(const Fan& fan, const Vec2& x, const Vec2& d) const {
   double t = kInf;
   for (const auto& [a, b] : fan.ab) {
-    const double g0 = orient(x, a, b);
-    const double dg = (b - a).x() * d.y() - (b - a).y() * d.x();  // d/dt orient(x + t d, a, b)
+    const double g0 = orient2(x, a, b);
+    const double dg = (b - a).x() * d.y() - (b - a).y() * d.x();  // d/dt orient2(x + t d, a, b)
     if (dg < 0) t = std::min(t, g0 / -dg);
   }
   if (!std::isfinite(t)) t = 2 * fan.scale / std::max(d.norm(), 1e-300);
@@ -331,7 +328,7 @@ bool FineMapper::kernelCentroid(const Fan& fan, bool alongCurve, Vec2& centroid)
     const Vec2 d = fan.lineTo - fan.lineFrom;
     double lo = 0, hi = 1;
     for (const auto& [a, b] : fan.ab) {
-      const double g0 = orient(fan.lineFrom, a, b);
+      const double g0 = orient2(fan.lineFrom, a, b);
       const double dg = (b - a).x() * d.y() - (b - a).y() * d.x();
       if (dg > 0)
         lo = std::max(lo, -g0 / dg);
@@ -344,7 +341,7 @@ bool FineMapper::kernelCentroid(const Fan& fan, bool alongCurve, Vec2& centroid)
     centroid = fan.lineFrom + 0.5 * (lo + hi) * d;
     return true;
   }
-  // Convex clipping of a box around the ring by each half-plane orient(x, a, b) >= 0.
+  // Convex clipping of a box around the ring by each half-plane orient2(x, a, b) >= 0.
   Vec2 lo(kInf, kInf), hi(-kInf, -kInf);
   for (const auto& [a, b] : fan.ab) {
     lo = lo.cwiseMin(a).cwiseMin(b);
@@ -359,7 +356,7 @@ bool FineMapper::kernelCentroid(const Fan& fan, bool alongCurve, Vec2& centroid)
     for (size_t i = 0; i < poly.size(); ++i) {
       const Vec2& p = poly[i];
       const Vec2& q = poly[(i + 1) % poly.size()];
-      const double gp = orient(p, a, b), gq = orient(q, a, b);
+      const double gp = orient2(p, a, b), gq = orient2(q, a, b);
       if (gp >= 0) next.push_back(p);
       if ((gp >= 0) != (gq >= 0)) next.push_back(p + (gp / (gp - gq)) * (q - p));
     }

@@ -17,6 +17,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "geometry.h"
 #include "photo.h"
 #include "pipeline.h"
 
@@ -130,22 +131,15 @@ auto freeSteps(const TriMesh& tri, int to, const Blocked& blocked) {
 
 // ---- Image geometry -------------------------------------------------------------------------------------
 
-double cross(const Vec2& a, const Vec2& b) {
-  return a.x() * b.y() - a.y() * b.x();
-}
-double orient(const Vec2& a, const Vec2& b, const Vec2& c) {
-  return cross(b - a, c - a);
-}
-
 // c lies on the closed segment ab (exact collinearity).
 bool onSegment(const Vec2& a, const Vec2& b, const Vec2& c) {
-  return orient(a, b, c) == 0 && std::min(a.x(), b.x()) <= c.x() && c.x() <= std::max(a.x(), b.x()) &&
+  return orient2(a, b, c) == 0 && std::min(a.x(), b.x()) <= c.x() && c.x() <= std::max(a.x(), b.x()) &&
          std::min(a.y(), b.y()) <= c.y() && c.y() <= std::max(a.y(), b.y());
 }
 
 // Closed segments ab and cd meet (proper crossing, touching or collinear overlap).
 bool segmentsMeet(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
-  const double o1 = orient(a, b, c), o2 = orient(a, b, d), o3 = orient(c, d, a), o4 = orient(c, d, b);
+  const double o1 = orient2(a, b, c), o2 = orient2(a, b, d), o3 = orient2(c, d, a), o4 = orient2(c, d, b);
   if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0))) return true;
   return onSegment(a, b, c) || onSegment(a, b, d) || onSegment(c, d, a) || onSegment(c, d, b);
 }
@@ -286,7 +280,7 @@ class Partitioner {
         const Vec2& s = sharedA ? c.pa : c.pb;
         const Vec2& w = sharedA ? c.pb : c.pa;                 // the curve's other end
         const Vec2& u = (sharedA ? c.a : c.b) == a ? pb : pa;  // the new segment's other end
-        meets = cross(u - s, w - s) == 0 && (u - s).dot(w - s) > 0;
+        meets = cross2(u - s, w - s) == 0 && (u - s).dot(w - s) > 0;
       } else {
         meets = segmentsMeet(pa, pb, c.pa, c.pb);
       }

@@ -3,9 +3,9 @@
 #include <chrono>
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 
 #include "simplify.h"
-#include <sstream>
 
 namespace fs = std::filesystem;
 
@@ -200,16 +200,21 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
     const std::string reason = kRejectReasonNames[static_cast<int>(r.reason)];
     rejected[reason] = rejected.value(reason, 0) + 1;
   }
-  result.stages.push_back({StageId::Partition, mapCached, mapCached ? 0 : mapping.partitionSeconds,
+  result.stages.push_back({StageId::Partition,
+                           mapCached,
+                           mapCached ? 0 : mapping.partitionSeconds,
                            {{"paths", mapping.partition.paths.size()},
                             {"rejected", rejected},
                             {"cells", mapping.partition.numCells},
                             {"steiner_vertices", mapping.partition.steinerVertices}}});
-  result.stages.push_back({StageId::Simplify, mapCached, mapCached ? 0 : mapping.simplifySeconds,
-                           {{"collapses", mapping.collapses},
-                            {"base_vertices", mapping.baseVertices},
-                            {"base_faces", mapping.baseFaces}}});
-  result.stages.push_back({StageId::Map, mapCached, mapCached ? 0 : mapping.mapSeconds,
+  result.stages.push_back(
+      {StageId::Simplify,
+       mapCached,
+       mapCached ? 0 : mapping.simplifySeconds,
+       {{"collapses", mapping.collapses}, {"base_vertices", mapping.baseVertices}, {"base_faces", mapping.baseFaces}}});
+  result.stages.push_back({StageId::Map,
+                           mapCached,
+                           mapCached ? 0 : mapping.mapSeconds,
                            {{"faces", mapping.map.numFaces()},
                             {"mapped_faces", mapping.map.numMapped()},
                             {"base_mapped_faces", mapping.stats.baseMappedFaces},
@@ -256,8 +261,8 @@ nlohmann::json PipelineResult::report() const {
                  {"components", scene->meshReport.components}};
   }
   if (mapping)
-    j["map"] = {{"faces", mapping->map.numFaces()}, {"mapped_faces", mapping->map.numMapped()},
-                {"notes", mapping->map.notes}};
+    j["map"] = {
+        {"faces", mapping->map.numFaces()}, {"mapped_faces", mapping->map.numMapped()}, {"notes", mapping->map.notes}};
   return j;
 }
 

@@ -7,10 +7,9 @@
 #include <atomic>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "fine_map.h"
 #include "mesh.h"
@@ -27,7 +26,9 @@ namespace montage {
 // atlas) are not listed: every entry below runs.
 enum class StageId { Load, Partition, Simplify, Map, Bake, Export };
 inline constexpr std::array<const char*, 6> kStageNames = {"load", "partition", "simplify", "map", "bake", "export"};
-inline const char* stageName(StageId s) { return kStageNames[static_cast<int>(s)]; }
+inline const char* stageName(StageId s) {
+  return kStageNames[static_cast<int>(s)];
+}
 
 // Progress reporting and cancellation for one job. Stages call progress() at convenient points;
 // it throws montage::Cancelled when the cancel flag is set.
@@ -55,9 +56,9 @@ struct Scene {
 
 struct StageRecord {
   StageId stage = StageId::Load;
-  bool cached = false;     // output reused from the previous run
-  double seconds = 0;      // wall time of this run (0 when cached)
-  nlohmann::json counts;   // stage-specific figures (faces, photos, mapped faces...)
+  bool cached = false;    // output reused from the previous run
+  double seconds = 0;     // wall time of this run (0 when cached)
+  nlohmann::json counts;  // stage-specific figures (faces, photos, mapped faces...)
 };
 
 // What the mapping stages produce together: the partition (whose mesh, with its Steiner vertices,

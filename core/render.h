@@ -10,12 +10,12 @@
 namespace montage {
 
 struct RenderOptions {
-  int size = 1024;         // image width and height, pixels
-  double yawDeg = 30;      // orbit angle around the model's up axis (+Y), degrees
-  double pitchDeg = 20;    // elevation above the horizontal plane, degrees
-  double fovYDeg = 30;     // vertical field of view
-  bool shading = true;     // modulate colours by a head light (ambient 0.35 + diffuse 0.65)
-  int supersample = 2;     // samples per pixel side (anti-aliasing)
+  int size = 1024;                              // image width and height, pixels
+  double yawDeg = 30;                           // orbit angle around the model's up axis (+Y), degrees
+  double pitchDeg = 20;                         // elevation above the horizontal plane, degrees
+  double fovYDeg = 30;                          // vertical field of view
+  bool shading = true;                          // modulate colours by a head light (ambient 0.35 + diffuse 0.65)
+  int supersample = 2;                          // samples per pixel side (anti-aliasing)
   cv::Vec4b background = {235, 235, 235, 255};  // RGBA
 };
 

@@ -26,6 +26,7 @@
 #include <cmath>
 #include <queue>
 
+#include "geometry.h"
 #include "partition.h"
 #include "pipeline.h"
 
@@ -36,9 +37,6 @@ constexpr int kNoLabel = -1;
 constexpr int kBorder = -2;  // a mesh border edge that is on no path
 constexpr double kPi = 3.14159265358979323846;
 
-double cross2(const Vec2& a, const Vec2& b) {
-  return a.x() * b.y() - a.y() * b.x();
-}
 double angle3(const Vec3& a, const Vec3& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
 }

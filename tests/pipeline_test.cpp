@@ -1,14 +1,14 @@
 // The pipeline object (stages, caching, cancel, report) and the `montage` command line end to end.
+#include "pipeline.h"
+
 #include <filesystem>
 #include <fstream>
-
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "eval.h"
 #include "model.h"
-#include "pipeline.h"
 #include "synth.h"
 #include "test_support.h"
 
@@ -17,7 +17,9 @@ using namespace montage;
 
 namespace {
 
-std::string demoProject() { return test::assetsDir() + "/demo/project.json"; }
+std::string demoProject() {
+  return test::assetsDir() + "/demo/project.json";
+}
 
 nlohmann::json readJson(const std::string& path) {
   std::ifstream in(path);
@@ -122,8 +124,8 @@ TEST(MontageCli, RunInfoRenderOnTheDemo) {
   EXPECT_TRUE(fs::exists(out + "/report.json"));
   ASSERT_EQ(test::runCommand(test::montageExe() + " info " + demoProject(), &log), 0) << log;
   EXPECT_NE(log.find("project is valid"), std::string::npos) << log;
-  ASSERT_EQ(test::runCommand(test::montageExe() + " render " + out + "/model.obj --size 64 --out " + out + "/r.png", &log),
-            0)
+  ASSERT_EQ(
+      test::runCommand(test::montageExe() + " render " + out + "/model.obj --size 64 --out " + out + "/r.png", &log), 0)
       << log;
   EXPECT_TRUE(fs::exists(out + "/r.png"));
 }
@@ -156,9 +158,9 @@ TEST(MontageCli, EvalOfSpotAgainstItselfAndAgainstFlatGrey) {
                              &log),
             0)
       << log;
-  ASSERT_EQ(test::runCommand(test::montageExe() + " eval --result " + dir + "/grey/model.obj" + args + dir + "/g.json",
-                             &log),
-            0)
+  ASSERT_EQ(
+      test::runCommand(test::montageExe() + " eval --result " + dir + "/grey/model.obj" + args + dir + "/g.json", &log),
+      0)
       << log;
   nlohmann::json truth = readJson(dir + "/t.json"), grey = readJson(dir + "/g.json");
   EXPECT_GE(truth["psnr_all"].get<double>(), 60.0) << truth.dump();

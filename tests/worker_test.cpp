@@ -1,7 +1,8 @@
 // The editor's background worker: newest snapshot wins, errors come back as messages, the worker
 // survives them.
-#include "test_support.h"
 #include "worker.h"
+
+#include "test_support.h"
 
 using namespace montage;
 

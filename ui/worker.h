@@ -19,9 +19,9 @@ namespace montage {
 struct WorkerStatus {
   bool busy = false;
   StageId stage = StageId::Load;
-  double fraction = 0;   // of the current stage
-  std::string what;      // what the stage is doing
-  long generation = 0;   // snapshot being worked on (or last finished)
+  double fraction = 0;  // of the current stage
+  std::string what;     // what the stage is doing
+  long generation = 0;  // snapshot being worked on (or last finished)
 };
 
 // What one run produced: a result or an error message, for snapshot `generation`.
@@ -58,7 +58,7 @@ class PipelineWorker {
   WorkerStatus status_;
   std::atomic<bool> cancel_{false};
   bool quit_ = false;
-  Pipeline pipeline_;  // owned and used by the worker thread only
+  Pipeline pipeline_;   // owned and used by the worker thread only
   std::thread thread_;  // last: started after every other member exists
 };
 

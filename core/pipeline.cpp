@@ -260,9 +260,22 @@ nlohmann::json PipelineResult::report() const {
                  {"boundary_loops", scene->meshReport.boundaryLoops},
                  {"components", scene->meshReport.components}};
   }
-  if (mapping)
-    j["map"] = {
-        {"faces", mapping->map.numFaces()}, {"mapped_faces", mapping->map.numMapped()}, {"notes", mapping->map.notes}};
+  if (mapping) {
+    // Rejected pairs with their reasons, so a user can see why a region stayed empty (first 1000).
+    nlohmann::json rejected = nlohmann::json::array();
+    for (const RejectedPair& r : mapping->partition.rejected) {
+      if (rejected.size() == 1000) break;
+      rejected.push_back({{"points", {r.fromPoint, r.toPoint}},
+                          {"photo", r.photo},
+                          {"reason", kRejectReasonNames[static_cast<int>(r.reason)]},
+                          {"detail", r.detail}});
+    }
+    j["map"] = {{"faces", mapping->map.numFaces()},
+                {"mapped_faces", mapping->map.numMapped()},
+                {"notes", mapping->map.notes},
+                {"rejected_pairs", rejected},
+                {"rejected_total", mapping->partition.rejected.size()}};
+  }
   return j;
 }
 

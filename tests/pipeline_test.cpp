@@ -112,6 +112,10 @@ TEST(Pipeline, WritesModelAndReport) {
   ASSERT_EQ(report["stages"].size(), 6u);
   EXPECT_EQ(report["stages"][5]["stage"], "export");
   EXPECT_EQ(report["mesh"]["faces"].get<int>(), result.scene->mesh->numFaces());
+  // The rejected pairs and their reasons reach the user.
+  EXPECT_EQ(report["map"]["rejected_total"].get<size_t>(), result.mapping->partition.rejected.size());
+  ASSERT_FALSE(report["map"]["rejected_pairs"].empty());
+  EXPECT_FALSE(report["map"]["rejected_pairs"][0]["reason"].get<std::string>().empty());
   TexturedModel back = loadModel(dir + "/model.glb");
   EXPECT_EQ(back.mesh.numFaces(), result.model->mesh.numFaces());
 }

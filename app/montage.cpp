@@ -245,6 +245,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 100000));
   synthCmd->add_option("--seed", synth.options.seed, "random seed");
   synthCmd->add_option("--size", synth.options.size, "photo size in pixels")->check(CLI::Range(16, 8192));
+  synthCmd->add_option("--exposure", synth.options.exposures, "exposure gain per view on linear colour (cycled)")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
   synthCmd->add_option("--out", synth.out, "output folder")->required();
 
   std::string evalResult, evalTruth, evalTexture, evalJson;

@@ -314,6 +314,14 @@ EvalResult evaluate(const TexturedModel& result, const TexturedModel& truth, con
   if (!seams.empty())
     out.seamMismatch =
         std::accumulate(seamSum.begin(), seamSum.end(), 0.0) / (static_cast<double>(seams.size()) * perEdge);
+  if (!result.faceSource.empty()) {
+    double sum = 0;
+    for (size_t i = 0; i < seams.size(); ++i) {
+      const int sf = result.faceSource[edges[seams[i]].f], sg = result.faceSource[edges[seams[i]].g];
+      if (sf >= 0 && sg >= 0 && sf != sg) sum += seamSum[i], out.photoSeamEdges++;
+    }
+    if (out.photoSeamEdges) out.photoSeamMismatch = sum / (static_cast<double>(out.photoSeamEdges) * perEdge);
+  }
   return out;
 }
 
@@ -332,7 +340,9 @@ nlohmann::json EvalResult::toJson() const {
                         {"stretch_l2", stretchL2},
                         {"stretch_linf", stretchLinf},
                         {"seam_mismatch", seamMismatch},
-                        {"seam_edges", seamEdges}};
+                        {"seam_edges", seamEdges},
+                        {"photo_seam_mismatch", photoSeamMismatch},
+                        {"photo_seam_edges", photoSeamEdges}};
 }
 
 std::string EvalResult::summary() const {
@@ -344,10 +354,10 @@ std::string EvalResult::summary() const {
                 "coverage           %.2f%% photo, %.2f%% inpainted, %.2f%% empty\n"
                 "flipped triangles  %d (and %d degenerate texture triangles)\n"
                 "stretch (Sander)   L2 %.4f, Linf %.4f (1 = isometric up to scale)\n"
-                "seam mismatch      %.3f Delta E*uv over %d seam edges\n",
+                "seam mismatch      %.3f Delta E*uv over %d seam edges (%.3f over the %d between photos)\n",
                 samples, coveredSamples, psnrAll, psnrCovered, deltaEAll, deltaECovered, 100 * coveragePhoto,
-                100 * coverageInpainted, 100 * coverageEmpty, flippedTriangles, degenerateUvTriangles, stretchL2, stretchLinf, seamMismatch,
-                seamEdges);
+                100 * coverageInpainted, 100 * coverageEmpty, flippedTriangles, degenerateUvTriangles, stretchL2,
+                stretchLinf, seamMismatch, seamEdges, photoSeamMismatch, photoSeamEdges);
   return buf;
 }
 

@@ -1,9 +1,8 @@
 // Evaluation of a textured result against a ground-truth textured mesh (`montage eval`).
 #pragma once
 
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "model.h"
 
@@ -17,14 +16,18 @@ struct EvalOptions {
 
 struct EvalResult {
   int samples = 0, coveredSamples = 0;
-  double psnrAll = 0, psnrCovered = 0;      // dB, RGB in [0,255]
-  double deltaEAll = 0, deltaECovered = 0;  // mean CIE76 Delta E*uv
+  double psnrAll = 0, psnrCovered = 0;                                 // dB, RGB in [0,255]
+  double deltaEAll = 0, deltaECovered = 0;                             // mean CIE76 Delta E*uv
   double coveragePhoto = 0, coverageInpainted = 0, coverageEmpty = 0;  // area fractions
-  int flippedTriangles = 0;      // texture triangles oriented against their chart
-  int degenerateUvTriangles = 0; // texture area under 0.1 texel^2 (untextured: 1e-12) while the 3D area is not
-  double stretchL2 = 0, stretchLinf = 0;    // Sander 2001, normalised: 1 = isometric up to scale
-  double seamMismatch = 0;                  // mean Delta E*uv across chart seams (0 when no seams)
+  int flippedTriangles = 0;                                            // texture triangles oriented against their chart
+  int degenerateUvTriangles = 0;          // texture area under 0.1 texel^2 (untextured: 1e-12) while the 3D area is not
+  double stretchL2 = 0, stretchLinf = 0;  // Sander 2001, normalised: 1 = isometric up to scale
+  double seamMismatch = 0;                // mean Delta E*uv across chart seams (0 when no seams)
   int seamEdges = 0;
+  // The same over the seams between faces textured from two different photos (source tags), which
+  // seam levelling works on; 0 when the result carries no source tags.
+  double photoSeamMismatch = 0;
+  int photoSeamEdges = 0;
   nlohmann::json toJson() const;
   std::string summary() const;
 };

@@ -1,6 +1,8 @@
 // Mesh geometry queries, building the half-edge mesh from a triangle soup, and the validation report.
 #include "mesh.h"
 
+#include "util.h"
+
 #include <Eigen/Geometry>
 #include <OpenMesh/Core/System/omstream.hh>
 #include <algorithm>
@@ -125,18 +127,6 @@ void addFinding(MeshReport& report, MeshFinding::Severity severity, const IdList
     report.findings.push_back({severity, std::to_string(list.count) + " " + what, list.ids, list.count});
 }
 
-struct UnionFind {
-  std::vector<int> parent;
-  explicit UnionFind(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  int find(int x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void unite(int a, int b) {
-    a = find(a), b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
 
 // For each point, the first point with a bit-identical position (itself when none); -0 equals +0.
 std::vector<int> firstWithSamePosition(const std::vector<Vec3>& points) {

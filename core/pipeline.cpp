@@ -5,7 +5,9 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "raster.h"
 #include "simplify.h"
+#include "util.h"
 
 namespace fs = std::filesystem;
 
@@ -21,11 +23,6 @@ void JobControl::progress(StageId stage, double fraction, const std::string& wha
 }
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Identifies a file's current contents cheaply: path, size and modification time.
 std::string fileKey(const std::string& path) {
@@ -94,10 +91,160 @@ Mapping mapTexture(const Scene& scene, const JobControl& job) {
   return out;
 }
 
-TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const JobControl& job) {
+SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job) {
+  SurfaceColors out;
+  const PipelineOptions& o = scene.project.options;
+  std::vector<const Photo*> photos;
+  for (const auto& p : scene.photos) photos.push_back(p.get());
+  job.progress(StageId::Level, 0.0);
+  out.levelling = levelSeams(mapping.partition.mesh, mapping.map, photos, o.seamLevelling, job);
+  InpaintInput in;
+  in.mesh = &mapping.partition.mesh;
+  in.map = &mapping.map;
+  in.photos = photos;
+  in.levelling = &out.levelling;
+  in.faceParent = mapping.partition.faceParent;
+  in.strokes = scene.project.strokes;
+  in.clones = scene.project.clones;
+  in.holeModes = scene.project.holeModes;
+  in.where = scene.project.file;
+  in.options.mode = o.inpaintMode;
+  in.options.maxRefinedVertices = o.maxInpaintVertices;
+  job.progress(StageId::Inpaint, 0.0);
+  out.inpaint = inpaintSurface(in, job, &out.warnings);
+  return out;
+}
+
+namespace {
+
+// The photo with the levelling offsets added over its faces. The offsets are rasterised at texel
+// centres and then grown by two texels, so that bilinear lookups at a patch's border read levelled
+// texels too.
+cv::Mat levelledTexture(const Photo& photo, int p, const Mesh& mesh, const TextureMap& map,
+                        const SeamLevelling& levelling) {
+  cv::Mat texture = photoTexture(photo);
+  if (levelling.cornerOffset.empty()) return texture;
+  cv::Mat offset(photo.height, photo.width, CV_32FC3, cv::Scalar::all(0));
+  cv::Mat mask(photo.height, photo.width, CV_8UC1, cv::Scalar(0));
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    if (map.facePhoto[f] != p) continue;
+    const auto& o = levelling.cornerOffset[f];
+    scanTriangle(map.cornerUV[f], photo.width, photo.height, [&](int x, int y, const Vec3& b) {
+      const Vec3f v = float(b[0]) * o[0] + float(b[1]) * o[1] + float(b[2]) * o[2];
+      offset.at<cv::Vec3f>(y, x) = cv::Vec3f(v.x(), v.y(), v.z());
+      mask.at<uchar>(y, x) = 1;
+    });
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    cv::Mat grown = mask.clone();
+    for (int y = 0; y < photo.height; ++y)
+      for (int x = 0; x < photo.width; ++x) {
+        if (mask.at<uchar>(y, x)) continue;
+        cv::Vec3f sum(0, 0, 0);
+        int n = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int xx = x + dx, yy = y + dy;
+            if (xx < 0 || yy < 0 || xx >= photo.width || yy >= photo.height || !mask.at<uchar>(yy, xx)) continue;
+            sum += offset.at<cv::Vec3f>(yy, xx), ++n;
+          }
+        if (n) offset.at<cv::Vec3f>(y, x) = sum / n, grown.at<uchar>(y, x) = 1;
+      }
+    mask = grown;
+  }
+  for (int y = 0; y < photo.height; ++y)
+    for (int x = 0; x < photo.width; ++x) {
+      if (!mask.at<uchar>(y, x)) continue;
+      auto& px = texture.at<cv::Vec4b>(y, x);
+      const cv::Vec3f& d = offset.at<cv::Vec3f>(y, x);
+      for (int c = 0; c < 3; ++c) px[c] = cv::saturate_cast<uchar>(px[c] + 255.0f * d[c]);
+    }
+  return texture;
+}
+
+// Inpainted faces until the atlas exists: each face gets a square cell of a texture, its corners at
+// three corners of the cell, and the refined triangles inside it are drawn with their vertex colours.
+cv::Mat inpaintedTexture(const Mesh& mesh, const InpaintResult& inpaint, std::vector<std::array<Vec2f, 3>>& uv) {
+  std::vector<int> faces;
+  std::vector<double> texels;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    if (inpaint.faceRegion[f] < 0) continue;
+    faces.push_back(f);
+    const auto p = mesh.facePositions(f);
+    const double longest = std::max({(p[1] - p[0]).norm(), (p[2] - p[1]).norm(), (p[0] - p[2]).norm()});
+    texels.push_back(longest * inpaint.regions[inpaint.faceRegion[f]].texelsPerUnit);
+  }
+  if (faces.empty()) return {};
+  std::nth_element(texels.begin(), texels.begin() + texels.size() / 2, texels.end());
+  const int n = static_cast<int>(faces.size());
+  const int cols = static_cast<int>(std::ceil(std::sqrt(double(n))));
+  const int rows = (n + cols - 1) / cols;
+  int cell = std::clamp(int(std::ceil(texels[texels.size() / 2])) + 2, 4, 32);
+  while (cell > 4 && std::max(cols, rows) * cell > 8192) --cell;
+  const int width = cols * cell, height = rows * cell;
+  cv::Mat texture(height, width, CV_8UC4, cv::Scalar(128, 128, 128, 255));
+  cv::Mat written(height, width, CV_8UC1, cv::Scalar(0));
+  std::vector<int> slot(mesh.numFaces(), -1);
+  std::vector<std::array<Vec2, 3>> corner(n);
+  for (int i = 0; i < n; ++i) {
+    slot[faces[i]] = i;
+    const double x0 = (i % cols) * cell, y0 = (i / cols) * cell;
+    corner[i] = {Vec2(x0 + 1, y0 + 1), Vec2(x0 + cell - 1, y0 + 1), Vec2(x0 + 1, y0 + cell - 1)};
+    for (int k = 0; k < 3; ++k)
+      uv[faces[i]][k] = Vec2f(float(corner[i][k].x() / width), float(1.0 - corner[i][k].y() / height));
+  }
+  const RefinedSurface& rs = inpaint.refined;
+  for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
+    const int i = slot[rs.parentFace[t]];
+    if (i < 0) continue;
+    std::array<Vec2, 3> q;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3& b = rs.parentBary[t][k];
+      q[k] = b[0] * corner[i][0] + b[1] * corner[i][1] + b[2] * corner[i][2];
+    }
+    const auto& tri = rs.mesh.triangles[t];
+    scanTriangle(q, width, height, [&](int x, int y, const Vec3& b) {
+      const Eigen::RowVector3f c = float(b[0]) * inpaint.colors.row(tri[0]) + float(b[1]) * inpaint.colors.row(tri[1]) +
+                                   float(b[2]) * inpaint.colors.row(tri[2]);
+      auto& px = texture.at<cv::Vec4b>(y, x);
+      for (int ch = 0; ch < 3; ++ch) px[ch] = cv::saturate_cast<uchar>(255.0f * c[ch]);
+      written.at<uchar>(y, x) = 1;
+    });
+  }
+  // Grow each cell's texels outwards by two so bilinear lookups at a triangle's edge stay inside it.
+  for (int pass = 0; pass < 2; ++pass) {
+    cv::Mat next = written.clone();
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x) {
+        if (written.at<uchar>(y, x)) continue;
+        cv::Vec4i sum(0, 0, 0, 0);
+        int k = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int xx = x + dx, yy = y + dy;
+            if (xx < 0 || yy < 0 || xx >= width || yy >= height || !written.at<uchar>(yy, xx)) continue;
+            if (xx / cell != x / cell || yy / cell != y / cell) continue;  // stay in the cell
+            const auto& s = texture.at<cv::Vec4b>(yy, xx);
+            sum += cv::Vec4i(s[0], s[1], s[2], s[3]), ++k;
+          }
+        if (k) {
+          texture.at<cv::Vec4b>(y, x) = cv::Vec4b(uchar(sum[0] / k), uchar(sum[1] / k), uchar(sum[2] / k), 255);
+          next.at<uchar>(y, x) = 1;
+        }
+      }
+    written = next;
+  }
+  return texture;
+}
+
+}  // namespace
+
+TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
+                        const JobControl& job) {
   job.progress(StageId::Bake, 0.0);
   const Mesh& mesh = mapping.partition.mesh;
   const TextureMap& map = mapping.map;
+  const InpaintResult& inpaint = colors.inpaint;
   TexturedModel model;
   model.mesh = mesh;
   model.mesh.cornerUV.clear();  // the model's UVs are in `uv`; the mesh's own are not carried over
@@ -110,14 +257,15 @@ TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const JobCon
   empty.name = "empty";
   model.materials.push_back(empty);
   std::vector<int> photoMaterial(scene.photos.size(), -1);
+  const bool hasInpaint = static_cast<int>(inpaint.faceRegion.size()) == F;
   for (int f = 0; f < F; ++f) {
     const int p = map.facePhoto[f];
-    if (p == TextureMap::kEmpty) continue;
+    if (p == TextureMap::kEmpty || (hasInpaint && inpaint.faceRegion[f] >= 0)) continue;
     const Photo& photo = *scene.photos[p];
     if (photoMaterial[p] < 0) {
       Material m;
       m.name = "photo" + std::to_string(p);
-      m.texture = photoTexture(photo);
+      m.texture = levelledTexture(photo, p, mesh, map, colors.levelling);
       photoMaterial[p] = static_cast<int>(model.materials.size());
       model.materials.push_back(std::move(m));
     }
@@ -126,6 +274,19 @@ TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const JobCon
     for (int k = 0; k < 3; ++k) {
       const Vec2& px = map.cornerUV[f][k];
       model.uv[f][k] = Vec2f(float(px.x() / photo.width), float(1.0 - px.y() / photo.height));
+    }
+  }
+  job.progress(StageId::Bake, 0.5);
+  if (hasInpaint) {
+    cv::Mat texture = inpaintedTexture(mesh, inpaint, model.uv);
+    if (!texture.empty()) {
+      Material m;
+      m.name = "inpainted";
+      m.texture = texture;
+      const int id = static_cast<int>(model.materials.size());
+      model.materials.push_back(std::move(m));
+      for (int f = 0; f < F; ++f)
+        if (inpaint.faceRegion[f] >= 0) model.faceMaterial[f] = id, model.faceSource[f] = kSourceInpainted;
     }
   }
   job.progress(StageId::Bake, 1.0);
@@ -188,7 +349,9 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   key << meshKey_;
   for (const auto& [k, p] : cachedPhotos_) key << '#' << k;
   const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
-  key << document["points"].dump() << document["chains"].dump() << document["options"].dump();
+  const nlohmann::json& opts = document["options"];
+  key << document["points"].dump() << document["chains"].dump() << opts["backgroundThresholdPx"].dump()
+      << opts["stretchSearches"].dump() << opts["seed"].dump();
   const bool mapCached = key.str() == mapKey_ && cachedMapping_;
   if (!mapCached) {
     cachedMapping_ = std::make_shared<const Mapping>(mapTexture(*scene, job));
@@ -223,9 +386,49 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                             {"max_stretch", mapping.stats.maxStretch}}});
   for (const auto& note : mapping.map.notes) result.warnings.push_back("map: " + note);
 
+  // Level + Inpaint: rerun when the mapping or what they read (strokes, clones, hole modes, their
+  // options) changed.
+  key << document["strokes"].dump() << document["clones"].dump() << document["holeModes"].dump()
+      << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump();
+  const bool colorCached = mapCached && key.str() == colorKey_ && cachedColors_;
+  if (!colorCached) {
+    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, mapping, job));
+    colorKey_ = key.str();
+  }
+  const SurfaceColors& colors = *cachedColors_;
+  const SeamLevelling& lev = colors.levelling;
+  result.stages.push_back({StageId::Level,
+                           colorCached,
+                           colorCached ? 0 : lev.seconds,
+                           {{"mode", kLevelModeNames[size_t(project.options.seamLevelling)]},
+                            {"seams", lev.seams},
+                            {"mean_mismatch_before", lev.meanMismatchBefore},
+                            {"mean_mismatch_after", lev.meanMismatchAfter}}});
+  const InpaintResult& inp = colors.inpaint;
+  nlohmann::json regions = nlohmann::json::array();
+  for (const InpaintRegion& r : inp.regions)
+    regions.push_back({{"kind", r.kind == InpaintRegion::Kind::Hole ? "hole" : "clone"},
+                       {"mode", kInpaintModeNames[size_t(r.mode)]},
+                       {"clone", r.clone},
+                       {"base_faces", r.baseFaces},
+                       {"refined_vertices", r.refinedVertices},
+                       {"unknowns", r.unknowns},
+                       {"texels_per_unit", r.texelsPerUnit},
+                       {"guidance_seconds", r.guidanceSeconds},
+                       {"factor_seconds", r.factorSeconds},
+                       {"solve_seconds", r.solveSeconds},
+                       {"note", r.note}});
+  result.stages.push_back({StageId::Inpaint,
+                           colorCached,
+                           colorCached ? 0 : inp.seconds,
+                           {{"regions", regions},
+                            {"refined_vertices", inp.refined.mesh.numVertices()},
+                            {"refined_triangles", inp.refined.mesh.numTriangles()}}});
+  for (const auto& w : colors.warnings) result.warnings.push_back("inpaint: " + w);
+
   // Bake.
   start = Clock::now();
-  auto model = std::make_shared<TexturedModel>(bakeModel(*scene, mapping, job));
+  auto model = std::make_shared<TexturedModel>(bakeModel(*scene, mapping, colors, job));
   StageRecord bake;
   bake.stage = StageId::Bake;
   bake.seconds = secondsSince(start);
@@ -234,6 +437,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
 
   result.scene = scene;
   result.mapping = cachedMapping_;
+  result.colors = cachedColors_;
   result.model = model;
   return result;
 }

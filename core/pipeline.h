@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "fine_map.h"
+#include "inpaint.h"
 #include "mesh.h"
 #include "model.h"
 #include "partition.h"
@@ -22,10 +23,12 @@
 namespace montage {
 
 // The stages, in pipeline order (paper Figure 2): load, partition (3.1), simplify (3.2), map
-// (coarse map 3.2 + coarse-to-fine 4.1), bake, export. Stages not yet built (seams 4.2, inpainting 5,
-// atlas) are not listed: every entry below runs.
-enum class StageId { Load, Partition, Simplify, Map, Bake, Export };
-inline constexpr std::array<const char*, 6> kStageNames = {"load", "partition", "simplify", "map", "bake", "export"};
+// (coarse map 3.2 + coarse-to-fine 4.1), level (seam levelling, end of 5), inpaint (5: holes,
+// strokes, clones), bake, export. Stages not yet built (seams 4.2, atlas) are not listed: every entry
+// below runs.
+enum class StageId { Load, Partition, Simplify, Map, Level, Inpaint, Bake, Export };
+inline constexpr std::array<const char*, 8> kStageNames = {"load",  "partition", "simplify", "map",
+                                                           "level", "inpaint",   "bake",     "export"};
 inline const char* stageName(StageId s) {
   return kStageNames[static_cast<int>(s)];
 }
@@ -71,9 +74,17 @@ struct Mapping {
   double partitionSeconds = 0, simplifySeconds = 0, mapSeconds = 0;
 };
 
+// What the colour stages add to a mapping: seam levelling offsets and the inpainted/cloned regions.
+struct SurfaceColors {
+  SeamLevelling levelling;
+  InpaintResult inpaint;
+  std::vector<std::string> warnings;
+};
+
 struct PipelineResult {
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const Mapping> mapping;
+  std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const TexturedModel> model;
   std::vector<StageRecord> stages;
   std::vector<std::string> warnings;  // things the user should know (mesh caveats, unmapped regions)
@@ -85,9 +96,13 @@ struct PipelineResult {
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
 // Partition, Simplify, Map: correspondences -> partition -> progressive mesh -> texture map.
 Mapping mapTexture(const Scene& scene, const JobControl& job = {});
-// Bake: texture map -> textured model over the partition's mesh (mapped faces textured from their
-// photos, one material per photo; empty faces flat grey).
-TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const JobControl& job = {});
+// Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h).
+SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {});
+// Bake: texture map -> textured model over the partition's mesh: mapped faces textured from their
+// (levelled) photos, one material per photo; inpainted and cloned faces from one texture of
+// per-face cells; faces left empty flat grey.
+TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
+                        const JobControl& job = {});
 
 class Pipeline {
  public:
@@ -104,6 +119,8 @@ class Pipeline {
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> cachedPhotos_;  // key -> photo
   std::string mapKey_;
   std::shared_ptr<const Mapping> cachedMapping_;
+  std::string colorKey_;
+  std::shared_ptr<const SurfaceColors> cachedColors_;
 };
 
 // Writes DIR/model.obj (+ .mtl, textures), DIR/model.glb and DIR/report.json.

@@ -125,17 +125,19 @@ void fromJson(const Field& f, double& v) {
 void fromJson(const Field& f, std::string& v) {
   v = f.require([](const json& j) { return j.is_string(); }, "a string").get<std::string>();
 }
-void fromJson(const Field& f, InpaintMode& v) {
+// Enums are written by name (options.h's tables).
+template <class E, class = decltype(EnumNames<E>::names)>
+void fromJson(const Field& f, E& v) {
   const std::string name = f.as<std::string>();
   std::string names;
-  for (size_t i = 0; i < kInpaintModeNames.size(); ++i) {
-    if (name == kInpaintModeNames[i]) {
-      v = InpaintMode(i);
+  for (size_t i = 0; i < EnumNames<E>::names.size(); ++i) {
+    if (name == EnumNames<E>::names[i]) {
+      v = E(i);
       return;
     }
-    names += std::string(i ? ", " : "") + inQuotes(kInpaintModeNames[i]);
+    names += std::string(i ? ", " : "") + inQuotes(EnumNames<E>::names[i]);
   }
-  f.fail(inQuotes(name) + " is not an inpainting mode (one of " + names + ")");
+  f.fail(inQuotes(name) + " is not " + EnumNames<E>::what + " (one of " + names + ")");
 }
 // A 2D point is [x, y].
 void fromJson(const Field& f, Vec2& v) {
@@ -175,6 +177,11 @@ void fromJson(const Field& f, CloneOp& c) {
   c.rotationDeg = f["rotationDeg"].as(0.0);
 }
 
+void fromJson(const Field& f, HoleMode& h) {
+  h.face = f["face"].as<int>();
+  h.mode = f["mode"].as<InpaintMode>();
+}
+
 // The options table: name, field and allowed range, shared by reading, writing and checking.
 template <class Options, class Visit>
 void forEachOption(Options& o, Visit&& visit) {
@@ -183,7 +190,9 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("seamLambda", o.seamLambda, 0.0, 1.0);
   visit("seamRounds", o.seamRounds, 0, 1000);
   visit("gradientWeight", o.gradientWeight, 0.0, 1.0);
-  visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Strokes);
+  visit("seamLevelling", o.seamLevelling, LevelMode::Off, LevelMode::Vertex);
+  visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Off);
+  visit("maxInpaintVertices", o.maxInpaintVertices, 1000, 20000000);
   visit("atlasSize", o.atlasSize, 1024, 8192);
   visit("gutter", o.gutter, 0, 64);
   visit("seed", o.seed, 0u, UINT_MAX);
@@ -213,6 +222,8 @@ class DocumentCheck {
     checkChains();
     checkStrokes();
     checkClones();
+    for (size_t i = 0; i < p_.holeModes.size(); ++i)
+      index("holeModes[" + std::to_string(i) + "].face", p_.holeModes[i].face, faces(), "faces", "mesh");
   }
 
  private:
@@ -255,8 +266,8 @@ class DocumentCheck {
         if (!std::isfinite(value)) fail(std::string("options.") + name, "must be a finite number");
       }
       if (value < lo || value > hi) {
-        if constexpr (std::is_same_v<T, InpaintMode>)
-          fail(std::string("options.") + name, std::to_string(int(value)) + " is not an inpainting mode");
+        if constexpr (std::is_enum_v<T>)
+          fail(std::string("options.") + name, std::to_string(int(value)) + " is not " + EnumNames<T>::what);
         else
           fail(std::string("options.") + name,
                number(double(value)) + " is out of range " + number(double(lo)) + ".." + number(double(hi)));
@@ -360,11 +371,12 @@ ojson toJson(const Vec2& v) {
 ojson toJson(const PipelineOptions& o) {
   ojson j = ojson::object();
   forEachOption(o, [&](const char* name, const auto& value, auto, auto) {
-    if constexpr (std::is_same_v<std::decay_t<decltype(value)>, InpaintMode>) {
+    using T = std::decay_t<decltype(value)>;
+    if constexpr (std::is_enum_v<T>) {
       const size_t i = size_t(value);
-      TM_CHECK(i < kInpaintModeNames.size(),
-               "options.inpaintMode: " + std::to_string(i) + " is not an inpainting mode");
-      j[name] = kInpaintModeNames[i];
+      TM_CHECK(i < EnumNames<T>::names.size(),
+               std::string("options.") + name + ": " + std::to_string(i) + " is not " + EnumNames<T>::what);
+      j[name] = EnumNames<T>::names[i];
     } else {
       j[name] = value;
     }
@@ -436,7 +448,7 @@ std::string resolveFile(const Field& f, const fs::path& dir) {
 
 bool Project::sameDocument(const Project& o) const {
   return mesh == o.mesh && photos == o.photos && points == o.points && chains == o.chains && strokes == o.strokes &&
-         clones == o.clones && options == o.options;
+         clones == o.clones && holeModes == o.holeModes && options == o.options;
 }
 
 Project loadProject(const std::string& path) {
@@ -470,6 +482,7 @@ Project loadProject(const std::string& path) {
   project.chains = root["chains"].as(project.chains);
   project.strokes = root["strokes"].as(project.strokes);
   project.clones = root["clones"].as(project.clones);
+  project.holeModes = root["holeModes"].as(project.holeModes);
   if (root["options"].present()) project.options = root["options"].as<PipelineOptions>();
   DocumentCheck(project, path, nullptr).run();
   return project;
@@ -520,6 +533,9 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
                            {"pixelsPerUnit", clone.pixelsPerUnit},
                            {"rotationDeg", clone.rotationDeg}});
   }
+  j["holeModes"] = ojson::array();
+  for (const HoleMode& h : project.holeModes)
+    j["holeModes"].push_back({{"face", h.face}, {"mode", kInpaintModeNames.at(size_t(h.mode))}});
   j["options"] = toJson(project.options);
   requireFinite(j, "");
   return j.dump(2) + "\n";

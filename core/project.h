@@ -59,6 +59,14 @@ struct CloneOp {
   }
 };
 
+// The guidance chosen for one hole (a connected region no photo covers): the hole is the one that
+// contains `face` (a mesh face id); the others follow options.inpaintMode.
+struct HoleMode {
+  int face = 0;
+  InpaintMode mode = InpaintMode::Rbf;
+  bool operator==(const HoleMode& o) const { return face == o.face && mode == o.mode; }
+};
+
 struct PhotoRef {
   std::string path;  // absolute once loaded; written relative to the project file
   std::string mask;  // optional foreground mask image; same rules
@@ -75,6 +83,7 @@ struct Project {
   std::vector<FeatureChain> chains;
   std::vector<Stroke> strokes;
   std::vector<CloneOp> clones;
+  std::vector<HoleMode> holeModes;
   PipelineOptions options;
 
   // Document equality (ignores `file`): what save + load must preserve.

@@ -21,6 +21,7 @@
 #include <random>
 #include <utility>
 
+#include "color.h"
 #include "mesh.h"
 
 namespace fs = std::filesystem;
@@ -363,6 +364,8 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
                                      std::min(fineSize - 1, static_cast<int>(std::floor(2 * y)))});
     }
 
+    const double exposure = options.exposures.empty() ? 1.0 : options.exposures[k % options.exposures.size()];
+    TM_CHECK(exposure > 0 && std::isfinite(exposure), "synth: exposure " + std::to_string(exposure) + " must be > 0");
     cv::Mat photo(size, size, CV_8UC4, cv::Scalar(0, 0, 0, 0));
     for (int band = 0; band < fineSize; band += bandRows) {
       const int rows = std::min(bandRows, fineSize - band);
@@ -389,7 +392,9 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
               ++covered;
             }
           if (covered == 0) continue;
-          const Vec3 rgb = sum / covered;
+          Vec3 rgb = sum / covered;
+          if (exposure != 1.0)
+            for (int ch = 0; ch < 3; ++ch) rgb[ch] = linearToSrgb(std::min(1.0, exposure * srgbToLinear(rgb[ch])));
           row[x] =
               cv::Vec4b(cv::saturate_cast<uchar>(rgb.x() * 255.0), cv::saturate_cast<uchar>(rgb.y() * 255.0),
                         cv::saturate_cast<uchar>(rgb.z() * 255.0), cv::saturate_cast<uchar>(covered * 255.0 / 4.0));

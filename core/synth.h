@@ -4,10 +4,9 @@
 #pragma once
 
 #include <functional>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "common.h"
 #include "project.h"
@@ -23,21 +22,24 @@ struct Mesh;
 Vec3f solidPattern(const Vec3& p, double scale);
 
 struct SynthOptions {
-  int views = 4;         // number of cameras, spread around the mesh
-  int features = 150;    // number of feature vertices (farthest-point sampling)
-  unsigned seed = 1;     // seeds the first sample and the camera jitter
-  int size = 1024;       // photo width and height in pixels
-  double fovYDeg = 35;   // camera field of view
-  double minFacing = 0.3;   // a feature is written for a view only if cos(normal, view dir) >= this
-  double borderPx = 3;      // ...and it lies this far from the silhouette and the image border
+  int views = 4;           // number of cameras, spread around the mesh
+  int features = 150;      // number of feature vertices (farthest-point sampling)
+  unsigned seed = 1;       // seeds the first sample and the camera jitter
+  int size = 1024;         // photo width and height in pixels
+  double fovYDeg = 35;     // camera field of view
+  double minFacing = 0.3;  // a feature is written for a view only if cos(normal, view dir) >= this
+  double borderPx = 3;     // ...and it lies this far from the silhouette and the image border
+  // Exposure gain per view on linear colour (view k uses exposures[k % size]; empty = 1): photos of one
+  // subject taken with different exposures, for seam levelling tests.
+  std::vector<double> exposures;
 };
 
 struct SynthScene {
-  SynthOptions options;             // the options the scene was made with
-  std::vector<cv::Mat> photos;      // CV_8UC4 RGBA, alpha 0 = background; silhouette antialiased (2x2 supersampling)
+  SynthOptions options;         // the options the scene was made with
+  std::vector<cv::Mat> photos;  // CV_8UC4 RGBA, alpha 0 = background; silhouette antialiased (2x2 supersampling)
   std::vector<Camera> cameras;
-  std::vector<int> featureVertices; // in sampling order
-  Project project;                  // photos named photo_<k>.png, mesh path as given
+  std::vector<int> featureVertices;  // in sampling order
+  Project project;                   // photos named photo_<k>.png, mesh path as given
 };
 
 // The ground-truth colour function of the surface: colour at a point of face f with barycentrics b.

@@ -1,0 +1,531 @@
+// Surface texture inpainting, cloning and seam levelling (core/inpaint.h, paper section 5).
+#include "inpaint.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <unordered_map>
+
+#include "color.h"
+#include "mesh.h"
+#include "photo.h"
+#include "pipeline.h"
+#include "project.h"
+#include "shapes.h"
+#include "synth.h"
+#include "test_support.h"
+
+using namespace montage;
+
+namespace {
+
+// An in-memory photo whose pixel (c, r) has the colour fn(c + 0.5, r + 0.5).
+Photo makePhoto(int w, int h, const std::function<Vec3f(double, double)>& fn) {
+  Photo p;
+  p.width = w, p.height = h;
+  p.rgb.create(h, w, CV_32FC3);
+  for (int r = 0; r < h; ++r)
+    for (int c = 0; c < w; ++c) {
+      const Vec3f v = fn(c + 0.5, r + 0.5);
+      p.rgb.at<cv::Vec3f>(r, c) = cv::Vec3f(v.x(), v.y(), v.z());
+    }
+  p.alpha = cv::Mat(h, w, CV_32FC1, cv::Scalar(1));
+  p.distance = cv::Mat(h, w, CV_32FC1, cv::Scalar(0));
+  return p;
+}
+
+// Every face of `mesh` mapped to photo 0 by uv = offset + scale * (x, y).
+TextureMap planarMap(const Mesh& mesh, double scale, double offset) {
+  TextureMap map;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    const auto p = mesh.facePositions(f);
+    map.facePhoto.push_back(0);
+    map.facePatch.push_back(0);
+    map.cornerUV.push_back({Vec2(offset + scale * p[0].x(), offset + scale * p[0].y()),
+                            Vec2(offset + scale * p[1].x(), offset + scale * p[1].y()),
+                            Vec2(offset + scale * p[2].x(), offset + scale * p[2].y())});
+  }
+  return map;
+}
+
+// Empties the faces whose centroid is within `radius` of `centre`; returns how many.
+int cutHole(const Mesh& mesh, TextureMap& map, const Vec3& centre, double radius) {
+  int n = 0;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    const auto p = mesh.facePositions(f);
+    if (((p[0] + p[1] + p[2]) / 3 - centre).norm() < radius) map.facePhoto[f] = TextureMap::kEmpty, ++n;
+  }
+  return n;
+}
+
+// Position of refined vertex v, with the refined triangle and corner that first uses it.
+struct VertexSite {
+  int triangle = -1, corner = -1;
+};
+std::vector<VertexSite> vertexSites(const RefinedSurface& rs) {
+  std::vector<VertexSite> s(rs.mesh.numVertices());
+  for (int t = 0; t < rs.mesh.numTriangles(); ++t)
+    for (int k = 0; k < 3; ++k)
+      if (s[rs.mesh.triangles[t][k]].triangle < 0) s[rs.mesh.triangles[t][k]] = {t, k};
+  return s;
+}
+
+// Refined vertices that no mapped triangle touches (the ones inpainting solved for).
+std::vector<char> solvedVertices(const RefinedSurface& rs, const TextureMap& map) {
+  std::vector<char> solved(rs.mesh.numVertices(), 1);
+  for (int t = 0; t < rs.mesh.numTriangles(); ++t)
+    if (map.facePhoto[rs.parentFace[t]] >= 0)
+      for (int v : rs.mesh.triangles[t]) solved[v] = 0;
+  return solved;
+}
+
+InpaintInput inputFor(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
+                      InpaintMode mode) {
+  InpaintInput in;
+  in.mesh = &mesh;
+  in.map = &map;
+  in.photos = photos;
+  in.options.mode = mode;
+  in.where = "test.json";
+  return in;
+}
+
+std::unique_ptr<Mesh> unitSquare(int n) {
+  auto mesh = makeGrid(n, n, 1.0 / (n - 1));
+  return mesh;
+}
+
+}  // namespace
+
+TEST(Refine, BisectionIsConformingOnTheSurfaceAndShortEnough) {
+  const auto mesh = makeIcosphere(1);  // curved: new vertices must stay on the flat triangles
+  std::vector<int> label(mesh->numFaces(), -2);
+  std::vector<double> maxEdge(mesh->numFaces(), 1.0);
+  for (int f = 0; f < mesh->numFaces(); ++f) {
+    if (f % 3 == 0) continue;  // leave some faces out
+    label[f] = f % 2 ? 0 : -1;
+    maxEdge[f] = f % 2 ? 0.05 : 0.1;
+  }
+  std::vector<int> baseVertex;
+  const RefinedSurface rs = refineFaces(*mesh, label, maxEdge, &baseVertex);
+  const TriangleMesh& m = rs.mesh;
+  ASSERT_EQ(rs.parentFace.size(), m.triangles.size());
+  double refinedArea = 0, baseArea = 0;
+  std::vector<double> areaPerParent(mesh->numFaces(), 0);
+  std::unordered_map<uint64_t, int> edgeUse;
+  for (int t = 0; t < m.numTriangles(); ++t) {
+    const auto& tri = m.triangles[t];
+    const int f = rs.parentFace[t];
+    ASSERT_GE(label[f], -1);
+    EXPECT_EQ(rs.region[t], label[f]);
+    const auto bp = mesh->facePositions(f);
+    for (int k = 0; k < 3; ++k) {
+      // The stored barycentrics give the vertex position: every vertex lies on its parent triangle.
+      const Vec3& b = rs.parentBary[t][k];
+      EXPECT_NEAR(b.sum(), 1.0, 1e-12);
+      EXPECT_GE(b.minCoeff(), -1e-12);
+      EXPECT_LT((b[0] * bp[0] + b[1] * bp[1] + b[2] * bp[2] - m.positions[tri[k]]).norm(), 1e-12);
+      const int a = tri[k], c = tri[(k + 1) % 3];
+      const double len = (m.positions[a] - m.positions[c]).norm();
+      EXPECT_LE(len, maxEdge[f] + 1e-12) << "triangle " << t;
+      edgeUse[(uint64_t(std::min(a, c)) << 32) | uint32_t(std::max(a, c))]++;
+    }
+    const double area =
+        0.5 * (m.positions[tri[1]] - m.positions[tri[0]]).cross(m.positions[tri[2]] - m.positions[tri[0]]).norm();
+    refinedArea += area;
+    areaPerParent[f] += area;
+  }
+  for (int f = 0; f < mesh->numFaces(); ++f)
+    if (label[f] >= -1) {
+      baseArea += mesh->faceArea(f);
+      EXPECT_NEAR(areaPerParent[f], mesh->faceArea(f), 1e-12) << "face " << f;
+    }
+  EXPECT_NEAR(refinedArea, baseArea, 1e-9);
+  // Conforming: no edge has more than two triangles, and no T-junction (an edge used once whose
+  // midpoint is a vertex would be one; equivalently, every once-used edge lies on a refined face's
+  // border: its two ends have the same set of parent faces' border). Count once-used edges: they must
+  // be exactly the border of the refined set.
+  int once = 0;
+  for (const auto& [key, n] : edgeUse) {
+    EXPECT_LE(n, 2);
+    once += n == 1;
+  }
+  double borderLength = 0;
+  for (const auto& [key, n] : edgeUse)
+    if (n == 1) borderLength += (m.positions[key >> 32] - m.positions[key & 0xffffffffu]).norm();
+  double baseBorder = 0;
+  for (const auto eh : mesh->tri.edges()) {
+    const auto h = mesh->tri.halfedge_handle(eh, 0);
+    const int f0 = mesh->tri.face_handle(h).idx(), f1 = mesh->tri.opposite_face_handle(h).idx();
+    const bool in0 = f0 >= 0 && label[f0] >= -1, in1 = f1 >= 0 && label[f1] >= -1;
+    if (in0 != in1) baseBorder += mesh->tri.calc_edge_length(eh);
+  }
+  EXPECT_NEAR(borderLength, baseBorder, 1e-9) << once << " border edges";
+  EXPECT_GT(m.numVertices(), 1000);
+  for (int v = 0; v < mesh->numVertices(); ++v)
+    if (baseVertex[v] >= 0) EXPECT_LT((m.positions[baseVertex[v]] - mesh->position(v)).norm(), 1e-15);
+}
+
+TEST(Refine, RejectsBadLimits) {
+  const auto mesh = makeGrid(3, 3);
+  std::vector<int> label(mesh->numFaces(), 0);
+  EXPECT_NE(test::errorOf([&] { refineFaces(*mesh, label, std::vector<double>(mesh->numFaces(), 0.0)); }), "");
+  EXPECT_NE(test::errorOf([&] { refineFaces(*mesh, label, std::vector<double>(2, 1.0)); }), "");
+}
+
+// Flat square, linear colour ramp in the photo: harmonic and RBF inpainting reproduce it.
+TEST(Inpaint, FlatSquareReproducesLinearRamp) {
+  const auto mesh = unitSquare(21);
+  const Photo photo = makePhoto(600, 600, [](double x, double y) {
+    return Vec3f(float(0.1 + 0.0012 * x), float(0.9 - 0.001 * y), float(0.2 + 0.0005 * x + 0.0006 * y));
+  });
+  TextureMap map = planarMap(*mesh, 500, 50);
+  const int holeFaces = cutHole(*mesh, map, Vec3(0.5, 0.5, 0), 0.3);
+  ASSERT_GT(holeFaces, 100);
+  for (InpaintMode mode : {InpaintMode::Harmonic, InpaintMode::Rbf}) {
+    std::vector<std::string> warnings;
+    const InpaintResult res = inpaintSurface(inputFor(*mesh, map, {&photo}, mode), {}, &warnings);
+    ASSERT_EQ(res.regions.size(), 1u);
+    EXPECT_EQ(res.regions[0].mode, mode);
+    EXPECT_NEAR(res.regions[0].texelsPerUnit, 500, 1);
+    const auto solved = solvedVertices(res.refined, map);
+    double maxErr = 0;
+    int n = 0;
+    for (int v = 0; v < res.refined.mesh.numVertices(); ++v) {
+      if (!solved[v]) continue;
+      const Vec3& p = res.refined.mesh.positions[v];
+      const Vec3f truth = [&] {
+        const double x = 50 + 500 * p.x(), y = 50 + 500 * p.y();
+        return Vec3f(float(0.1 + 0.0012 * x), float(0.9 - 0.001 * y), float(0.2 + 0.0005 * x + 0.0006 * y));
+      }();
+      maxErr = std::max(maxErr, double((res.colors.row(v).transpose() - truth).cwiseAbs().maxCoeff()));
+      ++n;
+    }
+    // One to two refined vertices per texel: the hole covers pi 0.3^2 of the unit square at 500 px/unit.
+    const double texels = M_PI * 0.09 * 500 * 500;
+    std::printf("%s: %d solved vertices for %.0f texels, max error %.2g\n", kInpaintModeNames[size_t(mode)], n, texels,
+                maxErr);
+    EXPECT_GT(n, 0.6 * texels);
+    EXPECT_LT(n, 2.0 * texels);
+    EXPECT_LT(maxErr, 1e-3) << kInpaintModeNames[size_t(mode)];
+  }
+}
+
+// Poisson on refined surfaces: d = Laplacian of a smooth function reproduces it, error shrinking.
+TEST(Inpaint, PoissonOnRefinedSquareConverges) {
+  const auto square = makeGrid(2, 2, 1.0);  // two triangles
+  auto fn = [](const Vec3& p) { return std::sin(M_PI * p.x()) * std::cos(2 * p.y()) + p.x() * p.y(); };
+  auto lap = [](const Vec3& p) { return -(M_PI * M_PI + 4) * std::sin(M_PI * p.x()) * std::cos(2 * p.y()); };
+  double prev = 0;
+  for (double h : {0.1, 0.05, 0.025, 0.0125}) {
+    const RefinedSurface rs = refineFaces(*square, std::vector<int>(2, 0), std::vector<double>(2, h));
+    const TriangleMesh& m = rs.mesh;
+    const int nv = m.numVertices();
+    std::vector<char> fixed(nv, 0);
+    Eigen::MatrixXd d(nv, 1), exact(nv, 1);
+    for (int v = 0; v < nv; ++v) {
+      const Vec3& p = m.positions[v];
+      fixed[v] = p.x() < 1e-12 || p.y() < 1e-12 || p.x() > 1 - 1e-12 || p.y() > 1 - 1e-12;
+      d(v, 0) = lap(p);
+      exact(v, 0) = fn(p);
+    }
+    const Eigen::MatrixXd f = PoissonSolver(m, fixed).solve(d, exact);
+    const double err = (f - exact).cwiseAbs().maxCoeff();
+    std::printf("h = %.4f: %d vertices, max error %.3g\n", h, nv, err);
+    if (prev > 0) EXPECT_LT(err, 0.6 * prev) << "h = " << h;
+    prev = err;
+  }
+  EXPECT_LT(prev, 1e-3);
+}
+
+// Spot with regions of several sizes cut out: inpaint, compare with the ground-truth texture.
+TEST(Inpaint, SpotCutOutsRbfNotWorseThanHarmonic) {
+  TM_REQUIRE_SHARED(meshPath, "meshes/spot/spot_triangulated.obj");
+  TM_REQUIRE_SHARED(texPath, "meshes/spot/spot_texture.png");
+  const auto mesh = requireUsable(loadMesh(meshPath));
+  const Photo photo = loadPhoto(texPath);
+  TextureMap truth;
+  for (int f = 0; f < mesh->numFaces(); ++f) {
+    truth.facePhoto.push_back(0);
+    truth.facePatch.push_back(0);
+    std::array<Vec2, 3> uv;
+    for (int k = 0; k < 3; ++k)
+      uv[k] = Vec2(mesh->cornerUV[f][k].x() * photo.width, (1 - mesh->cornerUV[f][k].y()) * photo.height);
+    truth.cornerUV.push_back(uv);
+  }
+  Vec3 lo, hi;
+  mesh->bounds(lo, hi);
+  const double size = (hi - lo).norm();
+  const std::vector<int> centres = {120, 1500, 2400, 700};
+  double sumHarmonic = 0, sumRbf = 0;
+  for (double radius : {0.03, 0.06, 0.1}) {
+    for (int c : centres) {
+      TextureMap map = truth;
+      const int faces = cutHole(*mesh, map, mesh->position(c), radius * size);
+      if (faces == 0) continue;
+      double meanDe[2] = {0, 0};
+      int n = 0;
+      for (int m = 0; m < 2; ++m) {
+        const InpaintMode mode = m ? InpaintMode::Rbf : InpaintMode::Harmonic;
+        InpaintInput in = inputFor(*mesh, map, {&photo}, mode);
+        const InpaintResult res = inpaintSurface(in, {}, nullptr);
+        const auto solved = solvedVertices(res.refined, map);
+        const auto sites = vertexSites(res.refined);
+        double sum = 0;
+        n = 0;
+        for (int v = 0; v < res.refined.mesh.numVertices(); ++v) {
+          if (!solved[v]) continue;
+          const int t = sites[v].triangle;
+          const Vec3f want = mappedColor(truth, {&photo}, nullptr, res.refined.parentFace[t],
+                                         res.refined.parentBary[t][sites[v].corner]);
+          sum += deltaEuv(res.colors.row(v).transpose(), want);
+          ++n;
+        }
+        meanDe[m] = sum / std::max(n, 1);
+      }
+      std::printf("radius %.2f around vertex %d: %d faces, %d solved vertices: mean dE harmonic %.2f, rbf %.2f\n",
+                  radius, c, faces, n, meanDe[0], meanDe[1]);
+      sumHarmonic += meanDe[0];
+      sumRbf += meanDe[1];
+    }
+  }
+  std::printf("mean over all cut-outs: harmonic %.3f, rbf %.3f\n", sumHarmonic, sumRbf);
+  EXPECT_LE(sumRbf, sumHarmonic * 1.01);
+}
+
+// Stripes running along x; a hole in the middle; a stroke along x continues the stripes, where the
+// harmonic fill blurs them.
+TEST(Inpaint, StrokeAlongStripesBeatsHarmonic) {
+  const auto mesh = unitSquare(31);
+  auto stripes = [](double y) {
+    const float s = float(0.5 + 0.4 * std::sin(2 * M_PI * y / 80.0));
+    return Vec3f(s, 0.5f, 1 - s);
+  };
+  const Photo photo = makePhoto(500, 500, [&](double, double y) { return stripes(y); });
+  TextureMap map = planarMap(*mesh, 400, 50);
+  cutHole(*mesh, map, Vec3(0.5, 0.5, 0), 0.25);
+  // A stroke through the hole along +x: vertices of row j = 15 (y = 0.5), columns 10..20.
+  Stroke stroke;
+  for (int i = 10; i <= 20; ++i) stroke.vertices.push_back(15 * 31 + i);
+  double mean[2];
+  for (int m = 0; m < 2; ++m) {
+    InpaintInput in = inputFor(*mesh, map, {&photo}, InpaintMode::Harmonic);
+    if (m) in.strokes = {stroke};
+    std::vector<std::string> warnings;
+    const InpaintResult res = inpaintSurface(in, {}, &warnings);
+    ASSERT_EQ(res.regions.size(), 1u);
+    EXPECT_EQ(res.regions[0].mode, m ? InpaintMode::Strokes : InpaintMode::Harmonic);
+    if (m) std::printf("strokes: %s\n", res.regions[0].note.c_str());
+    const auto solved = solvedVertices(res.refined, map);
+    double sum = 0;
+    int n = 0;
+    for (int v = 0; v < res.refined.mesh.numVertices(); ++v) {
+      if (!solved[v]) continue;
+      sum += deltaEuv(res.colors.row(v).transpose(), stripes(50 + 400 * res.refined.mesh.positions[v].y()));
+      ++n;
+    }
+    mean[m] = sum / n;
+  }
+  std::printf("stripes: mean dE harmonic %.2f, strokes %.2f\n", mean[0], mean[1]);
+  EXPECT_LT(mean[1], 0.5 * mean[0]);
+}
+
+// Cloning a photo region onto a flat target keeps the source's gradients inside the polygon, and
+// matches the surroundings at its border (unlike the projection preview).
+TEST(Inpaint, CloneReproducesSourceGradients) {
+  const auto mesh = unitSquare(21);
+  const Photo grey = makePhoto(300, 300, [](double, double) { return Vec3f(0.3f, 0.3f, 0.3f); });
+  auto pattern = [](double x, double y) {
+    return Vec3f(float(0.5 + 0.3 * std::sin(x / 9.0) * std::cos(y / 7.0)), float(0.6 + 0.002 * x), 0.4f);
+  };
+  const Photo source = makePhoto(400, 400, pattern);
+  TextureMap map = planarMap(*mesh, 250, 25);
+  CloneOp clone;
+  clone.photo = 1;
+  clone.polygon = {Vec2(100, 100), Vec2(300, 100), Vec2(300, 300), Vec2(100, 300)};
+  for (int f = 0; f < mesh->numFaces(); ++f) {
+    const auto p = mesh->facePositions(f);
+    const Vec3 c = (p[0] + p[1] + p[2]) / 3;
+    if (c.x() > 0.15 && c.x() < 0.85 && c.y() > 0.15 && c.y() < 0.85) clone.targetFaces.push_back(f);
+  }
+  clone.anchorVertex = 10 * 21 + 10;  // (0.5, 0.5)
+  clone.anchor = Vec2(200, 200);
+  clone.pixelsPerUnit = 400;  // the polygon spans 0.5 units: inside the target (0.7 units)
+  InpaintInput in = inputFor(*mesh, map, {&grey, &source}, InpaintMode::Rbf);
+  in.clones = {clone};
+  const InpaintResult res = inpaintSurface(in, {}, nullptr);
+  ASSERT_EQ(res.regions.size(), 1u);
+  EXPECT_EQ(res.regions[0].kind, InpaintRegion::Kind::Clone);
+  EXPECT_GT(res.regions[0].unknowns, 10000);
+  const CloneProjection proj = projectClone(*mesh, {}, clone, "test.json");
+  EXPECT_DOUBLE_EQ(proj.pixelsPerUnit, 400);
+  // The projection: anchor vertex at the anchor pixel; photo x along +x, photo y along -y.
+  auto pixelOf = [&](const Vec3& p) { return Vec2(200 + 400 * (p.x() - 0.5), 200 - 400 * (p.y() - 0.5)); };
+  for (size_t i = 0; i < proj.faces.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      EXPECT_LT((proj.cornerPixel[i][k] - pixelOf(mesh->facePositions(proj.faces[i])[k])).norm(), 1e-9);
+
+  // Gradients along x and y between neighbouring refined vertices in the polygon's inner half.
+  const TriangleMesh& m = res.refined.mesh;
+  double errSum = 0, gradSum = 0, borderJump = 0, previewJump = 0;
+  int borderN = 0;
+  for (const auto& tri : m.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = tri[k], b = tri[(k + 1) % 3];
+      const Vec2 pa = pixelOf(m.positions[a]), pb = pixelOf(m.positions[b]);
+      const Eigen::RowVector3f df = res.colors.row(b) - res.colors.row(a);
+      const Vec3f dg = pattern(pb.x(), pb.y()) - pattern(pa.x(), pa.y());
+      const bool inner =
+          (pa - Vec2(200, 200)).cwiseAbs().maxCoeff() < 50 && (pb - Vec2(200, 200)).cwiseAbs().maxCoeff() < 50;
+      if (inner) errSum += (df.transpose() - dg).norm(), gradSum += dg.norm();
+      // Just outside the polygon the colour is the grey surface; just inside it must be close to it.
+      if (std::abs(pa.x() - 100) < 1.0 && pa.y() > 120 && pa.y() < 280)
+        borderJump += (res.colors.row(a).transpose() - Vec3f(0.3f, 0.3f, 0.3f)).norm(), ++borderN,
+            previewJump += (pattern(pa.x(), pa.y()) - Vec3f(0.3f, 0.3f, 0.3f)).norm();
+    }
+  std::printf(
+      "clone: relative gradient error in the inner half %.3f; mean |colour - surround| at the polygon's "
+      "border %.4f (projection preview %.4f, %d samples)\n",
+      errSum / gradSum, borderJump / std::max(borderN, 1), previewJump / std::max(borderN, 1), borderN);
+  EXPECT_LT(errSum / gradSum, 0.1);
+  ASSERT_GT(borderN, 50);
+  EXPECT_LT(borderJump, 0.25 * previewJump);
+  // The photo's colour itself is not kept (the mean shifts towards the surroundings): it is Poisson.
+  const Eigen::RowVector3f centre = res.colors.row([&] {
+    int best = 0;
+    for (int v = 0; v < m.numVertices(); ++v)
+      if ((m.positions[v] - Vec3(0.5, 0.5, 0)).norm() < (m.positions[best] - Vec3(0.5, 0.5, 0)).norm()) best = v;
+    return best;
+  }());
+  EXPECT_GT((centre.transpose() - pattern(200, 200)).norm(), 0.05);
+}
+
+TEST(Inpaint, BadStrokesAndClonesGetClearErrors) {
+  const auto mesh = unitSquare(11);
+  const Photo photo = makePhoto(100, 100, [](double, double) { return Vec3f(0.5f, 0.5f, 0.5f); });
+  TextureMap map = planarMap(*mesh, 80, 10);
+  cutHole(*mesh, map, Vec3(0.5, 0.5, 0), 0.2);
+  CloneOp clone;
+  clone.photo = 0;
+  clone.polygon = {Vec2(10, 10), Vec2(20, 10), Vec2(20, 20)};
+  clone.targetFaces = {0, 1, 2};
+  clone.anchorVertex = 0;
+  clone.anchor = Vec2(500, 500);  // the polygon lands far off the target
+  clone.pixelsPerUnit = 100;
+  auto run = [&](const InpaintInput& in) { inpaintSurface(in, {}, nullptr); };
+  InpaintInput in = inputFor(*mesh, map, {&photo}, InpaintMode::Rbf);
+  in.clones = {clone};
+  std::string msg = test::errorOf([&] { run(in); });
+  EXPECT_NE(msg.find("test.json: clones[0]: the polygon maps onto no vertex"), std::string::npos) << msg;
+  in.clones[0].anchorVertex = 60;  // not a corner of faces 0..2
+  msg = test::errorOf([&] { run(in); });
+  EXPECT_NE(msg.find("clones[0].anchorVertex: vertex 60 is not a corner of any target face"), std::string::npos) << msg;
+  in.clones[0].photo = 3;
+  msg = test::errorOf([&] { run(in); });
+  EXPECT_NE(msg.find("clones[0].photo: photo 3 does not exist"), std::string::npos) << msg;
+  in.clones[0] = clone;
+  in.clones[0].targetFaces = {9999};
+  msg = test::errorOf([&] { run(in); });
+  EXPECT_NE(msg.find("target faces are not on the mesh"), std::string::npos) << msg;
+  in.clones.clear();
+  in.strokes = {Stroke{{5, 99999}}};
+  msg = test::errorOf([&] { run(in); });
+  EXPECT_NE(msg.find("strokes[0].vertices[1]: vertex 99999 is not on the mesh"), std::string::npos) << msg;
+  // A stroke that crosses no hole is a warning, not an error.
+  in.strokes = {Stroke{{0, 1}}};
+  std::vector<std::string> warnings;
+  inpaintSurface(in, {}, &warnings);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("strokes[0] crosses no hole"), std::string::npos);
+}
+
+TEST(Inpaint, WholeMeshEmptyGetsOneColourAndOffLeavesHoles) {
+  const auto mesh = makeIcosphere(2);
+  const TextureMap map = TextureMap::allEmpty(mesh->numFaces());
+  std::vector<std::string> warnings;
+  InpaintInput in = inputFor(*mesh, map, {}, InpaintMode::Rbf);
+  in.options.maxRefinedVertices = 20000;
+  const InpaintResult res = inpaintSurface(in, {}, &warnings);
+  ASSERT_EQ(res.regions.size(), 1u);
+  EXPECT_LE(res.refined.mesh.numVertices(), 20000 * 1.3);
+  EXPECT_NE(res.regions[0].note.find("mean colour"), std::string::npos);
+  in.options.mode = InpaintMode::Off;
+  const InpaintResult off = inpaintSurface(in, {}, nullptr);
+  EXPECT_TRUE(off.regions.empty());
+  for (int r : off.faceRegion) EXPECT_EQ(r, -1);
+}
+
+// Two photos with different exposures: levelling lowers the mismatch across their seams.
+TEST(SeamLevelling, LowersMismatchBetweenExposuresWithoutBlurring) {
+  const auto mesh = unitSquare(41);
+  auto texture = [](double x, double y) {
+    return Vec3f(float(0.4 + 0.2 * std::sin(x / 5.0)), float(0.5 + 0.2 * std::cos(y / 4.0)), 0.5f);
+  };
+  const Photo a = makePhoto(500, 500, texture);
+  const Photo b = makePhoto(500, 500, [&](double x, double y) { return Vec3f(0.7f * texture(x, y)); });
+  TextureMap map = planarMap(*mesh, 400, 50);
+  for (int f = 0; f < mesh->numFaces(); ++f) {
+    const auto p = mesh->facePositions(f);
+    if ((p[0] + p[1] + p[2]).x() / 3 > 0.5 + 0.2 * std::sin(6 * p[0].y())) map.facePhoto[f] = 1;
+  }
+  for (LevelMode mode : {LevelMode::Seam, LevelMode::Vertex}) {
+    const SeamLevelling lev = levelSeams(*mesh, map, {&a, &b}, mode, {});
+    std::printf("%s levelling: %d seam(s), mismatch %.4f -> %.4f\n", kLevelModeNames[size_t(mode)], lev.seams,
+                lev.meanMismatchBefore, lev.meanMismatchAfter);
+    EXPECT_EQ(lev.seams, 1);
+    EXPECT_GT(lev.meanMismatchBefore, 0.08);
+    EXPECT_LT(lev.meanMismatchAfter, 0.3 * lev.meanMismatchBefore);
+    // No blurring: the offsets are smooth, a tiny fraction of the texture's own variation per edge.
+    double offsetStep = 0, textureStep = 0;
+    for (int f = 0; f < mesh->numFaces(); ++f) {
+      const auto& o = lev.cornerOffset[f];
+      offsetStep = std::max({offsetStep, double((o[1] - o[0]).norm()), double((o[2] - o[0]).norm())});
+      const auto& uv = map.cornerUV[f];
+      textureStep =
+          std::max(textureStep, double((texture(uv[1].x(), uv[1].y()) - texture(uv[0].x(), uv[0].y())).norm()));
+    }
+    std::printf("  largest offset change across an edge %.4f, texture change %.4f\n", offsetStep, textureStep);
+    EXPECT_LT(offsetStep, 0.1 * textureStep);
+  }
+  const SeamLevelling off = levelSeams(*mesh, map, {&a, &b}, LevelMode::Off, {});
+  EXPECT_TRUE(off.cornerOffset.empty());
+  EXPECT_EQ(off.meanMismatchAfter, off.meanMismatchBefore);
+}
+
+// End to end: a synthetic two-photo scene with exposures 1 and 0.55; `montage eval` measures the
+// seam mismatch of the exported model with and without levelling.
+TEST(SeamLevelling, MontageEvalSeamMismatchDropsOnTwoExposureScene) {
+  TM_REQUIRE_SHARED(meshPath, "meshes/spot/spot_triangulated.obj");
+  TM_REQUIRE_SHARED(texPath, "meshes/spot/spot_texture.png");
+  const std::string dir = test::tempDir("levelling");
+  const std::string exe = test::montageExe();
+  ASSERT_EQ(test::runCommand(exe + " synth --mesh " + meshPath + " --texture " + texPath +
+                             " --views 4 --features 150 --seed 3 --size 768 --exposure 1,0.55 --out " + dir + "/scene"),
+            0);
+  double mismatch[3] = {0, 0, 0};
+  const char* modes[3] = {"off", "seam", "vertex"};
+  for (int m = 0; m < 3; ++m) {
+    Project project = loadProject(dir + "/scene/project.json");
+    project.options.seamLevelling = LevelMode(m);
+    saveProject(project, dir + "/scene/project_" + modes[m] + ".json");
+    const std::string out = dir + "/out_" + modes[m];
+    ASSERT_EQ(test::runCommand(exe + " run " + dir + "/scene/project_" + modes[m] + ".json --out " + out), 0);
+    ASSERT_EQ(test::runCommand(exe + " eval --result " + out + "/model.obj --truth " + meshPath + " --truth-texture " +
+                               texPath + " --json " + out + "/eval.json"),
+              0);
+    std::ifstream in(out + "/eval.json");
+    const auto j = nlohmann::json::parse(in);
+    mismatch[m] = j.at("photo_seam_mismatch").get<double>();
+    std::printf("levelling %s: seam mismatch %.3f dE over %d seam edges between photos (all seams: %.3f over %d)\n",
+                modes[m], mismatch[m], j.at("photo_seam_edges").get<int>(), j.at("seam_mismatch").get<double>(),
+                j.at("seam_edges").get<int>());
+    ASSERT_GT(j.at("photo_seam_edges").get<int>(), 20);
+  }
+  EXPECT_LT(mismatch[1], 0.8 * mismatch[0]);
+  EXPECT_LT(mismatch[2], 0.8 * mismatch[0]);
+}

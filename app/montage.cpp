@@ -173,10 +173,15 @@ int cmdRender(const std::string& modelPath, const std::string& out, const Render
   return 0;
 }
 
+// One line per stage; long lists (per-region figures) are shown as their length, report.json has them.
 void printStages(const PipelineResult& result) {
-  for (const auto& s : result.stages)
-    std::printf("  %-8s %8.3f s%s  %s\n", stageName(s.stage), s.seconds, s.cached ? " (cached)" : "",
-                s.counts.dump().c_str());
+  for (const auto& s : result.stages) {
+    nlohmann::json counts = s.counts;
+    for (auto& [key, value] : counts.items())
+      if (value.is_array() && value.dump().size() > 80) value = std::to_string(value.size()) + " items";
+    std::printf("  %-9s %8.3f s%s  %s\n", stageName(s.stage), s.seconds, s.cached ? " (cached)" : "",
+                counts.dump().c_str());
+  }
 }
 
 int cmdRun(const std::string& projectPath, const std::string& out) {

@@ -105,16 +105,6 @@ class Dijkstra {
   std::vector<int> touched_;
 };
 
-bool insidePolygon(const std::vector<Vec2>& poly, const Vec2& p) {
-  bool in = false;
-  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
-    const Vec2 &a = poly[i], &b = poly[j];
-    if ((a.y() > p.y()) != (b.y() > p.y()) && p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x())
-      in = !in;
-  }
-  return in;
-}
-
 // A sub-mesh of the refined surface: some of its triangles, renumbered vertices.
 struct SubMesh {
   TriangleMesh mesh;

@@ -14,6 +14,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
@@ -895,10 +896,18 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
         vt[f][k] = it->second;
       }
   }
-  // Faces in model order; a group or material statement wherever the source or material changes.
+  // Faces ordered by (source, material), model order within each, so that every group and material
+  // appears once: tools list one object per group (the model's own order interleaves them).
+  std::vector<int> order(nf);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    const int sa = model.faceSource.empty() ? 0 : model.faceSource[a];
+    const int sb = model.faceSource.empty() ? 0 : model.faceSource[b];
+    return sa != sb ? sa < sb : materialOf(model, a) < materialOf(model, b);
+  });
   bool firstGroup = true;
   int group = 0, material = -1;
-  for (int f = 0; f < nf; ++f) {
+  for (int f : order) {
     if (!model.faceSource.empty() && (firstGroup || model.faceSource[f] != group)) {
       group = model.faceSource[f];
       firstGroup = false;

@@ -5,7 +5,6 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "raster.h"
 #include "simplify.h"
 #include "util.h"
 
@@ -42,18 +41,6 @@ std::vector<std::pair<int, int>> photoSizes(const std::vector<std::shared_ptr<co
   std::vector<std::pair<int, int>> sizes;
   for (const auto& p : photos) sizes.emplace_back(p->width, p->height);
   return sizes;
-}
-
-// The photo as an RGBA8 texture (row 0 = top), alpha from the foreground.
-cv::Mat photoTexture(const Photo& photo) {
-  cv::Mat rgb8, alpha8, rgba;
-  photo.rgb.convertTo(rgb8, CV_8UC3, 255.0);
-  photo.alpha.convertTo(alpha8, CV_8UC1, 255.0);
-  std::vector<cv::Mat> channels;
-  cv::split(rgb8, channels);
-  channels.push_back(alpha8);
-  cv::merge(channels, rgba);
-  return rgba;
 }
 
 }  // namespace
@@ -115,182 +102,21 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   return out;
 }
 
-namespace {
-
-// The photo with the levelling offsets added over its faces. The offsets are rasterised at texel
-// centres and then grown by two texels, so that bilinear lookups at a patch's border read levelled
-// texels too.
-cv::Mat levelledTexture(const Photo& photo, int p, const Mesh& mesh, const TextureMap& map,
-                        const SeamLevelling& levelling) {
-  cv::Mat texture = photoTexture(photo);
-  if (levelling.cornerOffset.empty()) return texture;
-  cv::Mat offset(photo.height, photo.width, CV_32FC3, cv::Scalar::all(0));
-  cv::Mat mask(photo.height, photo.width, CV_8UC1, cv::Scalar(0));
-  for (int f = 0; f < mesh.numFaces(); ++f) {
-    if (map.facePhoto[f] != p) continue;
-    const auto& o = levelling.cornerOffset[f];
-    scanTriangle(map.cornerUV[f], photo.width, photo.height, [&](int x, int y, const Vec3& b) {
-      const Vec3f v = float(b[0]) * o[0] + float(b[1]) * o[1] + float(b[2]) * o[2];
-      offset.at<cv::Vec3f>(y, x) = cv::Vec3f(v.x(), v.y(), v.z());
-      mask.at<uchar>(y, x) = 1;
-    });
-  }
-  for (int pass = 0; pass < 2; ++pass) {
-    cv::Mat grown = mask.clone();
-    for (int y = 0; y < photo.height; ++y)
-      for (int x = 0; x < photo.width; ++x) {
-        if (mask.at<uchar>(y, x)) continue;
-        cv::Vec3f sum(0, 0, 0);
-        int n = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int xx = x + dx, yy = y + dy;
-            if (xx < 0 || yy < 0 || xx >= photo.width || yy >= photo.height || !mask.at<uchar>(yy, xx)) continue;
-            sum += offset.at<cv::Vec3f>(yy, xx), ++n;
-          }
-        if (n) offset.at<cv::Vec3f>(y, x) = sum / n, grown.at<uchar>(y, x) = 1;
-      }
-    mask = grown;
-  }
-  for (int y = 0; y < photo.height; ++y)
-    for (int x = 0; x < photo.width; ++x) {
-      if (!mask.at<uchar>(y, x)) continue;
-      auto& px = texture.at<cv::Vec4b>(y, x);
-      const cv::Vec3f& d = offset.at<cv::Vec3f>(y, x);
-      for (int c = 0; c < 3; ++c) px[c] = cv::saturate_cast<uchar>(px[c] + 255.0f * d[c]);
-    }
-  return texture;
-}
-
-// Inpainted faces until the atlas exists: each face gets a square cell of a texture, its corners at
-// three corners of the cell, and the refined triangles inside it are drawn with their vertex colours.
-cv::Mat inpaintedTexture(const Mesh& mesh, const InpaintResult& inpaint, std::vector<std::array<Vec2f, 3>>& uv) {
-  std::vector<int> faces;
-  std::vector<double> texels;
-  for (int f = 0; f < mesh.numFaces(); ++f) {
-    if (inpaint.faceRegion[f] < 0) continue;
-    faces.push_back(f);
-    const auto p = mesh.facePositions(f);
-    const double longest = std::max({(p[1] - p[0]).norm(), (p[2] - p[1]).norm(), (p[0] - p[2]).norm()});
-    texels.push_back(longest * inpaint.regions[inpaint.faceRegion[f]].texelsPerUnit);
-  }
-  if (faces.empty()) return {};
-  std::nth_element(texels.begin(), texels.begin() + texels.size() / 2, texels.end());
-  const int n = static_cast<int>(faces.size());
-  const int cols = static_cast<int>(std::ceil(std::sqrt(double(n))));
-  const int rows = (n + cols - 1) / cols;
-  int cell = std::clamp(int(std::ceil(texels[texels.size() / 2])) + 2, 4, 32);
-  while (cell > 4 && std::max(cols, rows) * cell > 8192) --cell;
-  const int width = cols * cell, height = rows * cell;
-  cv::Mat texture(height, width, CV_8UC4, cv::Scalar(128, 128, 128, 255));
-  cv::Mat written(height, width, CV_8UC1, cv::Scalar(0));
-  std::vector<int> slot(mesh.numFaces(), -1);
-  std::vector<std::array<Vec2, 3>> corner(n);
-  for (int i = 0; i < n; ++i) {
-    slot[faces[i]] = i;
-    const double x0 = (i % cols) * cell, y0 = (i / cols) * cell;
-    corner[i] = {Vec2(x0 + 1, y0 + 1), Vec2(x0 + cell - 1, y0 + 1), Vec2(x0 + 1, y0 + cell - 1)};
-    for (int k = 0; k < 3; ++k)
-      uv[faces[i]][k] = Vec2f(float(corner[i][k].x() / width), float(1.0 - corner[i][k].y() / height));
-  }
-  const RefinedSurface& rs = inpaint.refined;
-  for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
-    const int i = slot[rs.parentFace[t]];
-    if (i < 0) continue;
-    std::array<Vec2, 3> q;
-    for (int k = 0; k < 3; ++k) {
-      const Vec3& b = rs.parentBary[t][k];
-      q[k] = b[0] * corner[i][0] + b[1] * corner[i][1] + b[2] * corner[i][2];
-    }
-    const auto& tri = rs.mesh.triangles[t];
-    scanTriangle(q, width, height, [&](int x, int y, const Vec3& b) {
-      const Eigen::RowVector3f c = float(b[0]) * inpaint.colors.row(tri[0]) + float(b[1]) * inpaint.colors.row(tri[1]) +
-                                   float(b[2]) * inpaint.colors.row(tri[2]);
-      auto& px = texture.at<cv::Vec4b>(y, x);
-      for (int ch = 0; ch < 3; ++ch) px[ch] = cv::saturate_cast<uchar>(255.0f * c[ch]);
-      written.at<uchar>(y, x) = 1;
-    });
-  }
-  // Grow each cell's texels outwards by two so bilinear lookups at a triangle's edge stay inside it.
-  for (int pass = 0; pass < 2; ++pass) {
-    cv::Mat next = written.clone();
-    for (int y = 0; y < height; ++y)
-      for (int x = 0; x < width; ++x) {
-        if (written.at<uchar>(y, x)) continue;
-        cv::Vec4i sum(0, 0, 0, 0);
-        int k = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int xx = x + dx, yy = y + dy;
-            if (xx < 0 || yy < 0 || xx >= width || yy >= height || !written.at<uchar>(yy, xx)) continue;
-            if (xx / cell != x / cell || yy / cell != y / cell) continue;  // stay in the cell
-            const auto& s = texture.at<cv::Vec4b>(yy, xx);
-            sum += cv::Vec4i(s[0], s[1], s[2], s[3]), ++k;
-          }
-        if (k) {
-          texture.at<cv::Vec4b>(y, x) = cv::Vec4b(uchar(sum[0] / k), uchar(sum[1] / k), uchar(sum[2] / k), 255);
-          next.at<uchar>(y, x) = 1;
-        }
-      }
-    written = next;
-  }
-  return texture;
-}
-
-}  // namespace
-
-TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
-                        const JobControl& job) {
-  job.progress(StageId::Bake, 0.0);
+BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors, const JobControl& job) {
+  job.progress(StageId::Bake, 0.0, "charts");
   const Mesh& mesh = mapping.partition.mesh;
-  const TextureMap& map = mapping.map;
-  const InpaintResult& inpaint = colors.inpaint;
-  TexturedModel model;
-  model.mesh = mesh;
-  model.mesh.cornerUV.clear();  // the model's UVs are in `uv`; the mesh's own are not carried over
-  const int F = mesh.numFaces();
-  model.uv.assign(F, {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()});
-  model.faceMaterial.assign(F, 0);
-  model.faceSource.assign(F, kSourceEmpty);
-
-  Material empty;
-  empty.name = "empty";
-  model.materials.push_back(empty);
-  std::vector<int> photoMaterial(scene.photos.size(), -1);
-  const bool hasInpaint = static_cast<int>(inpaint.faceRegion.size()) == F;
-  for (int f = 0; f < F; ++f) {
-    const int p = map.facePhoto[f];
-    if (p == TextureMap::kEmpty || (hasInpaint && inpaint.faceRegion[f] >= 0)) continue;
-    const Photo& photo = *scene.photos[p];
-    if (photoMaterial[p] < 0) {
-      Material m;
-      m.name = "photo" + std::to_string(p);
-      m.texture = levelledTexture(photo, p, mesh, map, colors.levelling);
-      photoMaterial[p] = static_cast<int>(model.materials.size());
-      model.materials.push_back(std::move(m));
-    }
-    model.faceMaterial[f] = photoMaterial[p];
-    model.faceSource[f] = p;
-    for (int k = 0; k < 3; ++k) {
-      const Vec2& px = map.cornerUV[f][k];
-      model.uv[f][k] = Vec2f(float(px.x() / photo.width), float(1.0 - px.y() / photo.height));
-    }
-  }
-  job.progress(StageId::Bake, 0.5);
-  if (hasInpaint) {
-    cv::Mat texture = inpaintedTexture(mesh, inpaint, model.uv);
-    if (!texture.empty()) {
-      Material m;
-      m.name = "inpainted";
-      m.texture = texture;
-      const int id = static_cast<int>(model.materials.size());
-      model.materials.push_back(std::move(m));
-      for (int f = 0; f < F; ++f)
-        if (inpaint.faceRegion[f] >= 0) model.faceMaterial[f] = id, model.faceSource[f] = kSourceInpainted;
-    }
-  }
+  const InpaintResult* inpaint = colors.inpaint.faceRegion.empty() ? nullptr : &colors.inpaint;
+  AtlasOptions options;
+  options.size = scene.project.options.atlasSize;
+  options.gutter = scene.project.options.gutter;
+  BakeResult out;
+  out.atlas = buildAtlas(mesh, atlasInput(mesh, mapping.map, scene.photos, inpaint), options,
+                         [&](double f) { job.progress(StageId::Bake, 0.6 * f, "charts, LSCM, packing"); });
+  job.progress(StageId::Bake, 0.6, "baking");
+  out.image = bakeAtlas(out.atlas, mesh, scene.photos, &colors.levelling, inpaint, options);
+  out.model = atlasModel(mesh, out.atlas, out.image);
   job.progress(StageId::Bake, 1.0);
-  return model;
+  return out;
 }
 
 std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const JobControl& job, bool& cached) {
@@ -428,17 +254,19 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
 
   // Bake.
   start = Clock::now();
-  auto model = std::make_shared<TexturedModel>(bakeModel(*scene, mapping, colors, job));
+  auto baked = std::make_shared<const BakeResult>(bakeModel(*scene, mapping, colors, job));
   StageRecord bake;
   bake.stage = StageId::Bake;
   bake.seconds = secondsSince(start);
-  bake.counts = {{"materials", model->materials.size()}};
+  bake.counts = baked->atlas.stats();
+  bake.counts["bake_seconds"] = baked->image.seconds;
   result.stages.push_back(bake);
 
   result.scene = scene;
   result.mapping = cachedMapping_;
   result.colors = cachedColors_;
-  result.model = model;
+  result.baked = baked;
+  result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
   return result;
 }
 
@@ -491,12 +319,17 @@ void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
   const auto start = Clock::now();
   exportObj(*result.model, dir, "model");
   exportGlb(*result.model, (fs::path(dir) / "model.glb").string());
+  std::vector<std::string> files = {"model.obj", "model.mtl", "model.glb"};
+  for (const Material& m : result.model->materials)
+    if (!m.texture.empty()) files.push_back("model_" + m.name + ".png");
+  if (result.baked) {
+    writeAtlasLayers(result.baked->atlas, result.baked->image, dir, "model");
+    files.insert(files.end(), {"model_atlas_source.png", "model_atlas_holes.png"});
+  }
   nlohmann::json report = result.report();
   const double seconds = secondsSince(start);
-  report["stages"].push_back({{"stage", stageName(StageId::Export)},
-                              {"seconds", seconds},
-                              {"cached", false},
-                              {"counts", {{"files", {"model.obj", "model.mtl", "model.glb"}}}}});
+  report["stages"].push_back(
+      {{"stage", stageName(StageId::Export)}, {"seconds", seconds}, {"cached", false}, {"counts", {{"files", files}}}});
   report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
   writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
 }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "atlas.h"
 #include "fine_map.h"
 #include "inpaint.h"
 #include "mesh.h"
@@ -24,8 +25,8 @@ namespace montage {
 
 // The stages, in pipeline order (paper Figure 2): load, partition (3.1), simplify (3.2), map
 // (coarse map 3.2 + coarse-to-fine 4.1), level (seam levelling, end of 5), inpaint (5: holes,
-// strokes, clones), bake, export. Stages not yet built (seams 4.2, atlas) are not listed: every entry
-// below runs.
+// strokes, clones), bake (atlas: charts, LSCM, packing, baking), export. Seam optimisation (4.2) is
+// not built yet; every entry below runs.
 enum class StageId { Load, Partition, Simplify, Map, Level, Inpaint, Bake, Export };
 inline constexpr std::array<const char*, 8> kStageNames = {"load",  "partition", "simplify", "map",
                                                            "level", "inpaint",   "bake",     "export"};
@@ -81,11 +82,20 @@ struct SurfaceColors {
   std::vector<std::string> warnings;
 };
 
+// Bake (paper section 2, step 5): charts, LSCM, packing and baking into one texture atlas (atlas.h),
+// and the model over the partition's mesh that carries it (one material "atlas").
+struct BakeResult {
+  Atlas atlas;
+  AtlasImage image;  // image.rgba is the model's texture (shared, not copied)
+  TexturedModel model;
+};
+
 struct PipelineResult {
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const Mapping> mapping;
   std::shared_ptr<const SurfaceColors> colors;
-  std::shared_ptr<const TexturedModel> model;
+  std::shared_ptr<const BakeResult> baked;
+  std::shared_ptr<const TexturedModel> model;  // baked->model
   std::vector<StageRecord> stages;
   std::vector<std::string> warnings;  // things the user should know (mesh caveats, unmapped regions)
   nlohmann::json report() const;      // what report.json holds
@@ -98,11 +108,9 @@ std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl&
 Mapping mapTexture(const Scene& scene, const JobControl& job = {});
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h).
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {});
-// Bake: texture map -> textured model over the partition's mesh: mapped faces textured from their
-// (levelled) photos, one material per photo; inpainted and cloned faces from one texture of
-// per-face cells; faces left empty flat grey.
-TexturedModel bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
-                        const JobControl& job = {});
+// Bake: see BakeResult.
+BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
+                     const JobControl& job = {});
 
 class Pipeline {
  public:
@@ -123,7 +131,9 @@ class Pipeline {
   std::shared_ptr<const SurfaceColors> cachedColors_;
 };
 
-// Writes DIR/model.obj (+ .mtl, textures), DIR/model.glb and DIR/report.json.
+// Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers
+// DIR/model_atlas_source.png and DIR/model_atlas_holes.png (when the result has an atlas) and
+// DIR/report.json.
 void writeRunOutputs(const PipelineResult& result, const std::string& dir);
 
 }  // namespace montage

@@ -106,7 +106,8 @@ TEST(Pipeline, WritesModelAndReport) {
   PipelineResult result = Pipeline().run(project);
   const std::string dir = test::tempDir("pipeline_out");
   writeRunOutputs(result, dir);
-  for (const char* name : {"model.obj", "model.mtl", "model.glb", "report.json"})
+  for (const char* name : {"model.obj", "model.mtl", "model_atlas.png", "model_atlas_source.png",
+                           "model_atlas_holes.png", "model.glb", "report.json"})
     EXPECT_TRUE(fs::exists(fs::path(dir) / name)) << name;
   nlohmann::json report = readJson(dir + "/report.json");
   ASSERT_EQ(report["stages"].size(), 8u);
@@ -123,8 +124,18 @@ TEST(Pipeline, WritesModelAndReport) {
   EXPECT_EQ(report["map"]["rejected_total"].get<size_t>(), result.mapping->partition.rejected.size());
   ASSERT_FALSE(report["map"]["rejected_pairs"].empty());
   EXPECT_FALSE(report["map"]["rejected_pairs"][0]["reason"].get<std::string>().empty());
-  TexturedModel back = loadModel(dir + "/model.glb");
-  EXPECT_EQ(back.mesh.numFaces(), result.model->mesh.numFaces());
+  // One atlas: a single textured material, every face's UVs inside [0,1]^2.
+  ASSERT_EQ(result.model->materials.size(), 1u);
+  EXPECT_EQ(result.model->materials[0].texture.cols, project.options.atlasSize);
+  for (const auto& uv : result.model->uv)
+    for (const Vec2f& t : uv) EXPECT_TRUE(t.minCoeff() >= 0 && t.maxCoeff() <= 1) << t.transpose();
+  EXPECT_GT(report["stages"][6]["counts"]["utilisation"].get<double>(), 0.3);
+  for (const char* name : {"model.glb", "model.obj"}) {
+    TexturedModel back = loadModel(dir + "/" + name);
+    EXPECT_EQ(back.mesh.numFaces(), result.model->mesh.numFaces()) << name;
+    ASSERT_EQ(back.materials.size(), 1u) << name;
+    EXPECT_EQ(back.materials[0].texture.cols, project.options.atlasSize) << name;
+  }
 }
 
 // The command line, end to end.

@@ -1,5 +1,9 @@
 #include "worker.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <chrono>
 
 namespace montage {
@@ -44,6 +48,10 @@ bool PipelineWorker::waitIdle(double timeoutSeconds) {
 }
 
 void PipelineWorker::loop() {
+  // The UI thread (and Mesa's rendering threads) must win the CPU over the pipeline: the worker
+  // thread, and any thread a stage starts from it, runs at a lower priority (Linux nice is per
+  // thread and inherited). Best effort: failing leaves the default priority.
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
     wake_.wait(lock, [this] { return quit_ || pending_; });

@@ -1,0 +1,321 @@
+#include "document.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace montage {
+
+namespace {
+
+void checkIndex(const char* op, const char* what, int index, size_t size) {
+  TM_CHECK(index >= 0 && static_cast<size_t>(index) < size, std::string(op) + ": " + what + " " +
+                                                                std::to_string(index) + " does not exist (there are " +
+                                                                std::to_string(size) + ")");
+}
+
+size_t minChainSize(const FeatureChain& chain) {
+  return chain.closed ? 3 : 2;
+}
+
+bool hasPosition(const FeaturePoint& point, int photo) {
+  return std::any_of(point.at.begin(), point.at.end(), [&](const PhotoPoint& a) { return a.photo == photo; });
+}
+
+}  // namespace
+
+void detachPointFromChains(Project& project, int point, int photo, bool erase) {
+  std::vector<FeatureChain> kept;
+  for (FeatureChain chain : project.chains) {
+    if (photo < 0 || chain.photo == photo)
+      chain.points.erase(std::remove(chain.points.begin(), chain.points.end(), point), chain.points.end());
+    if (erase)
+      for (int& p : chain.points)
+        if (p > point) --p;
+    // A chain that lost a point but still has enough stays; one too short to be a line or polygon
+    // goes, since the pipeline would reject it.
+    if (chain.points.size() >= minChainSize(chain)) kept.push_back(std::move(chain));
+  }
+  project.chains = std::move(kept);
+}
+
+Document::Document(Project project) : current_(std::make_shared<const Project>(std::move(project))) {
+  file_ = current_->file;
+  saved_ = current_->file.empty() ? nullptr : current_;
+}
+
+std::shared_ptr<const Project> Document::withFile(std::shared_ptr<const Project> state) const {
+  if (state->file == file_) return state;
+  auto copy = std::make_shared<Project>(*state);
+  copy->file = file_;
+  return copy;
+}
+
+bool Document::modified() const {
+  if (!saved_) return !current_->file.empty() || revision_ > 0;
+  return current_ != saved_ && !current_->sameDocument(*saved_);
+}
+
+void Document::markSaved(const std::string& file) {
+  // The file name is not part of the document's history: undoing past a "save as" keeps the new
+  // file, so states taken from the history get the current name (withFile).
+  file_ = file;
+  current_ = withFile(current_);
+  saved_ = current_;
+}
+
+void Document::reset(Project project, bool modified) {
+  current_ = std::make_shared<const Project>(std::move(project));
+  file_ = current_->file;
+  saved_ = modified ? nullptr : current_;
+  history_.clear();
+  position_ = 0;
+  groupOpen_ = false;
+  groupBefore_.reset();
+  ++revision_;
+}
+
+void Document::beginGroup(const std::string& label) {
+  if (groupOpen_) return;
+  groupOpen_ = true;
+  groupLabel_ = label;
+  groupBefore_ = current_;
+}
+
+void Document::endGroup() {
+  if (!groupOpen_) return;
+  groupOpen_ = false;
+  auto before = std::move(groupBefore_);
+  groupBefore_.reset();
+  if (current_ == before || current_->sameDocument(*before)) {
+    current_ = before;  // nothing changed in the end (a drag that came back): no step
+    return;
+  }
+  history_.resize(position_);
+  history_.push_back({groupLabel_, before, current_});
+  if (static_cast<int>(history_.size()) > kMaxUndoSteps) history_.erase(history_.begin());
+  position_ = static_cast<int>(history_.size());
+}
+
+void Document::commit(const std::string& label, std::shared_ptr<const Project> next) {
+  if (next->sameDocument(*current_)) return;  // a no-op edit leaves no step and no new revision
+  ++revision_;
+  if (groupOpen_) {
+    current_ = std::move(next);
+    return;
+  }
+  history_.resize(position_);
+  history_.push_back({label, current_, next});
+  if (static_cast<int>(history_.size()) > kMaxUndoSteps) history_.erase(history_.begin());
+  position_ = static_cast<int>(history_.size());
+  current_ = std::move(next);
+}
+
+template <class Change>
+void Document::apply(const std::string& label, Change&& change) {
+  auto next = std::make_shared<Project>(*current_);
+  change(*next);  // throws before anything is committed
+  commit(label, std::move(next));
+}
+
+void Document::undo() {
+  if (!canUndo()) return;
+  --position_;
+  current_ = withFile(history_[position_].before);
+  ++revision_;
+}
+
+void Document::redo() {
+  if (!canRedo()) return;
+  current_ = withFile(history_[position_].after);
+  ++position_;
+  ++revision_;
+}
+
+void Document::jumpTo(int position) {
+  position = std::clamp(position, 0, static_cast<int>(history_.size()));
+  while (position_ > position && canUndo()) undo();
+  while (position_ < position && canRedo()) redo();
+}
+
+int Document::pointAt(int vertex, int photo) const {
+  const auto& points = current_->points;
+  for (size_t i = 0; i < points.size(); ++i)
+    if (points[i].vertex == vertex && hasPosition(points[i], photo)) return static_cast<int>(i);
+  return -1;
+}
+
+int Document::pointOfVertex(int vertex) const {
+  const auto& points = current_->points;
+  for (size_t i = 0; i < points.size(); ++i)
+    if (points[i].vertex == vertex) return static_cast<int>(i);
+  return -1;
+}
+
+int Document::setPosition(int vertex, int photo, double x, double y) {
+  TM_CHECK(vertex >= 0, "set position: vertex " + std::to_string(vertex) + " is not a vertex id");
+  checkIndex("set position", "photo", photo, current_->photos.size());
+  TM_CHECK(std::isfinite(x) && std::isfinite(y), "set position: the coordinates must be finite");
+  int index = pointAt(vertex, photo);
+  if (index >= 0) {
+    movePosition(index, photo, x, y);
+    return index;
+  }
+  // A vertex has at most one feature point per photo; reuse the vertex's point when it has none here.
+  index = pointOfVertex(vertex);
+  const bool added = index < 0;
+  apply((added ? "Add point (vertex " : "Add position (vertex ") + std::to_string(vertex) + ", photo " +
+            std::to_string(photo) + ")",
+        [&](Project& p) {
+          if (added) {
+            p.points.push_back(FeaturePoint{vertex, {}});
+            index = static_cast<int>(p.points.size()) - 1;
+          }
+          p.points[index].at.push_back(PhotoPoint{photo, x, y});
+        });
+  return index;
+}
+
+void Document::movePosition(int point, int photo, double x, double y) {
+  checkIndex("move point", "point", point, current_->points.size());
+  TM_CHECK(std::isfinite(x) && std::isfinite(y), "move point: the coordinates must be finite");
+  apply("Move point " + std::to_string(point), [&](Project& p) {
+    for (PhotoPoint& a : p.points[point].at)
+      if (a.photo == photo) {
+        a.x = x;
+        a.y = y;
+        return;
+      }
+    throw Error("move point: point " + std::to_string(point) + " has no position in photo " + std::to_string(photo));
+  });
+}
+
+void Document::removePosition(int point, int photo) {
+  checkIndex("remove position", "point", point, current_->points.size());
+  apply("Remove point " + std::to_string(point) + " from photo " + std::to_string(photo), [&](Project& p) {
+    auto& at = p.points[point].at;
+    const auto it = std::find_if(at.begin(), at.end(), [&](const PhotoPoint& a) { return a.photo == photo; });
+    TM_CHECK(it != at.end(),
+             "remove position: point " + std::to_string(point) + " has no position in photo " + std::to_string(photo));
+    at.erase(it);
+    detachPointFromChains(p, point, photo, false);
+    if (at.empty()) {
+      // A feature point with no position says nothing: it goes, and chain indices shift down.
+      p.points.erase(p.points.begin() + point);
+      detachPointFromChains(p, point, -1, true);
+    }
+  });
+}
+
+void Document::removePoint(int point) {
+  checkIndex("remove point", "point", point, current_->points.size());
+  apply("Remove point " + std::to_string(point), [&](Project& p) {
+    p.points.erase(p.points.begin() + point);
+    detachPointFromChains(p, point, -1, true);
+  });
+}
+
+int Document::addChain(const FeatureChain& chain) {
+  checkIndex("add chain", "photo", chain.photo, current_->photos.size());
+  TM_CHECK(chain.points.size() >= minChainSize(chain),
+           std::string("add chain: a feature ") +
+               (chain.closed ? "polygon needs at least 3" : "line needs at least 2") + " points, got " +
+               std::to_string(chain.points.size()));
+  for (size_t k = 0; k < chain.points.size(); ++k) {
+    const int pt = chain.points[k];
+    checkIndex("add chain", "point", pt, current_->points.size());
+    TM_CHECK(std::find(chain.points.begin(), chain.points.begin() + k, pt) == chain.points.begin() + k,
+             "add chain: point " + std::to_string(pt) + " appears twice in the chain");
+    TM_CHECK(hasPosition(current_->points[pt], chain.photo),
+             "add chain: point " + std::to_string(pt) + " has no position in photo " + std::to_string(chain.photo));
+  }
+  int index = -1;
+  apply(std::string(chain.closed ? "Add polygon (" : "Add line (") + std::to_string(chain.points.size()) + " points)",
+        [&](Project& p) {
+          p.chains.push_back(chain);
+          index = static_cast<int>(p.chains.size()) - 1;
+        });
+  return index;
+}
+
+void Document::removeChain(int chain) {
+  checkIndex("remove chain", "chain", chain, current_->chains.size());
+  apply("Remove chain " + std::to_string(chain), [&](Project& p) { p.chains.erase(p.chains.begin() + chain); });
+}
+
+int Document::addStroke(const Stroke& stroke) {
+  TM_CHECK(stroke.vertices.size() >= 2,
+           "add stroke: a stroke needs at least 2 vertices, got " + std::to_string(stroke.vertices.size()));
+  int index = -1;
+  apply("Add stroke (" + std::to_string(stroke.vertices.size()) + " vertices)", [&](Project& p) {
+    p.strokes.push_back(stroke);
+    index = static_cast<int>(p.strokes.size()) - 1;
+  });
+  return index;
+}
+
+void Document::removeStroke(int stroke) {
+  checkIndex("remove stroke", "stroke", stroke, current_->strokes.size());
+  apply("Remove stroke " + std::to_string(stroke), [&](Project& p) { p.strokes.erase(p.strokes.begin() + stroke); });
+}
+
+int Document::addClone(const CloneOp& clone) {
+  checkIndex("add clone", "photo", clone.photo, current_->photos.size());
+  TM_CHECK(clone.polygon.size() >= 3, "add clone: the source polygon needs at least 3 points");
+  TM_CHECK(!clone.targetFaces.empty(), "add clone: the target region on the mesh is empty");
+  int index = -1;
+  apply("Add clone (" + std::to_string(clone.targetFaces.size()) + " faces)", [&](Project& p) {
+    p.clones.push_back(clone);
+    index = static_cast<int>(p.clones.size()) - 1;
+  });
+  return index;
+}
+
+void Document::removeClone(int clone) {
+  checkIndex("remove clone", "clone", clone, current_->clones.size());
+  apply("Remove clone " + std::to_string(clone), [&](Project& p) { p.clones.erase(p.clones.begin() + clone); });
+}
+
+void Document::setOptions(const PipelineOptions& options, const std::string& label) {
+  apply(label, [&](Project& p) { p.options = options; });
+}
+
+int Document::addPhotos(const std::vector<PhotoRef>& photos) {
+  const int first = static_cast<int>(current_->photos.size());
+  apply(photos.size() == 1 ? "Add photo" : "Add " + std::to_string(photos.size()) + " photos",
+        [&](Project& p) { p.photos.insert(p.photos.end(), photos.begin(), photos.end()); });
+  return first;
+}
+
+void Document::removePhoto(int photo) {
+  checkIndex("remove photo", "photo", photo, current_->photos.size());
+  apply("Remove photo " + std::to_string(photo), [&](Project& p) {
+    p.photos.erase(p.photos.begin() + photo);
+    // Chains and clones in the photo go; positions in it go (and points left with none).
+    std::vector<FeatureChain> chains;
+    for (FeatureChain& c : p.chains)
+      if (c.photo != photo) {
+        if (c.photo > photo) --c.photo;
+        chains.push_back(std::move(c));
+      }
+    p.chains = std::move(chains);
+    std::vector<CloneOp> clones;
+    for (CloneOp& c : p.clones)
+      if (c.photo != photo) {
+        if (c.photo > photo) --c.photo;
+        clones.push_back(std::move(c));
+      }
+    p.clones = std::move(clones);
+    for (int i = static_cast<int>(p.points.size()) - 1; i >= 0; --i) {
+      auto& at = p.points[i].at;
+      at.erase(std::remove_if(at.begin(), at.end(), [&](const PhotoPoint& a) { return a.photo == photo; }), at.end());
+      for (PhotoPoint& a : at)
+        if (a.photo > photo) --a.photo;
+      if (at.empty()) {
+        p.points.erase(p.points.begin() + i);
+        detachPointFromChains(p, i, -1, true);
+      }
+    }
+  });
+}
+
+}  // namespace montage

@@ -1,0 +1,315 @@
+// The TextureMontage editor: a GLFW window with Dear ImGui panels (3D view, image panes, feature
+// list, tools, history, pipeline report, status bar) over the GL-free Document, with the pipeline in
+// a background PipelineWorker. One Editor object owns all editor state (no function-local statics);
+// its members are destroyed in reverse order of declaration, GL objects before the GL context.
+//
+// Frame order (docs/editor.md): poll events; synthetic script input; build the UI (the only place
+// the document changes); take the worker's finished result; submit the newest snapshot; autosave;
+// upload dirty GPU buffers; render the 3D view; render ImGui; screenshots; swap.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <future>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "autosave.h"
+#include "bvh.h"
+#include "document.h"
+#include "file_dialog.h"
+#include "script.h"
+#include "view_math.h"
+#include "worker.h"
+
+struct GLFWwindow;
+struct ImGuiIO;
+struct ImVec2;
+
+namespace montage {
+
+class ShaderProgram;
+class Texture;
+class Framebuffer;
+class VertexBuffer;
+
+struct EditorOptions {
+  std::string file;              // project (.json) or mesh to open; empty: start empty
+  std::string screenshot;        // save the window as PNG after `frames` frames, then exit
+  int frames = 3;                // frames rendered before the screenshot
+  bool waitWorker = true;        // --screenshot: wait for the worker's result first
+  std::string script;            // script of UI actions (docs/editor.md)
+  double autosaveSeconds = 120;  // autosave interval
+  int width = 1280, height = 800;
+  std::string benchOrbit;    // mesh: orbit benchmark
+  bool benchWorker = false;  // with `file`: UI frame times while the worker runs
+  int benchFrames = 240;
+  bool vsync = true;
+};
+
+enum class Tool { Point, Line, Polygon, Stroke, Clone };
+inline constexpr std::array<const char*, 5> kToolNames = {"point", "line", "polygon", "stroke", "clone"};
+
+// Colour faces of the 3D view by...
+enum class FaceColoring { None, Patches, Empty, Stretch, SeamError };
+inline constexpr std::array<const char*, 5> kFaceColoringNames = {"none", "patches (photo)", "empty faces",
+                                                                  "stretch heatmap", "seam error heatmap"};
+
+// One keyboard shortcut, for the Help window and docs/editor.md.
+struct Shortcut {
+  const char* keys;
+  const char* action;
+};
+const std::vector<Shortcut>& editorShortcuts();
+
+class Editor {
+ public:
+  explicit Editor(EditorOptions options);  // creates the window; throws montage::Error when it cannot
+  ~Editor();
+  Editor(const Editor&) = delete;
+  Editor& operator=(const Editor&) = delete;
+  // Runs until quit; returns the exit status (non-zero when a script failed).
+  int run();
+
+ private:
+  // --- Loaded inputs the UI edits against (independent of the pipeline, which may fail).
+  struct PhotoSlot {
+    std::string key;                     // path + mask: reloaded when it changes
+    std::shared_ptr<const Photo> photo;  // null when it failed to load
+    std::string error;
+    std::unique_ptr<Texture> texture, mask;
+    PaneView tabView, gridView;
+  };
+  struct InputMesh {
+    std::string path;
+    std::shared_ptr<const Mesh> mesh;
+    std::unique_ptr<TriangleBvh> bvh;
+    std::vector<Vec3> faceCentroids;
+    Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();
+    std::string error;
+  };
+  // Synthetic input of one frame (scripts), or an action to run at that point of the queue.
+  struct InputStep {
+    bool hasPointer = false;
+    double x = 0, y = 0;
+    std::array<bool, 3> buttons = {false, false, false};
+    float wheel = 0;
+    std::vector<int> keys;
+    bool ctrl = false, shift = false, alt = false;
+    std::function<void()> call;  // run instead of input when set
+  };
+  struct Rect {
+    double x = 0, y = 0, w = 0, h = 0;
+    bool contains(double px, double py) const { return px >= x && py >= y && px < x + w && py < y + h; }
+  };
+
+  // Lifecycle and frame (editor.cpp).
+  void initWindow();
+  void shutdownWindow();
+  void frame();
+  void buildUi();
+  void menuBar();
+  void statusBar(const Rect& r);
+  void toolsPanel();
+  void listsPanel();
+  void featuresTab();
+  void chainsTab();
+  void strokesClonesTab();
+  void historyTab();
+  void pipelineTab();
+  void errorsWindow();
+  void helpWindow();
+  void modals();
+  void shortcuts();
+  void pollWorker();
+  void autosaveTick();
+  void syncInputs();  // load the mesh / photos the document names
+  void validateSelection();
+  bool button(const char* label, const ImVec2* size = nullptr);  // ImGui::Button that scripts can click
+
+  // Files (editor.cpp).
+  bool openFile(const std::string& path);
+  void requestOpen();
+  bool saveTo(const std::string& path);
+  void save();
+  void requestSaveAs();
+  bool exportTo(const std::string& path);
+  void addPhotosFrom(const std::string& path);
+  void requestClose();
+  void guardUnsaved(std::function<void()> then);  // asks when there are unsaved changes
+  void reportError(const std::string& message);
+  void setStatus(const std::string& message);
+  std::string autosavePath() const;
+  void checkRecovery();
+
+  // Edits (editor.cpp): every document change goes through these, catching montage::Error.
+  template <class Fn>
+  bool edit(Fn&& fn) {
+    try {
+      fn();
+      return true;
+    } catch (const Error& e) {
+      // A refused edit leaves the document as it was (Document applies edits to a copy).
+      setStatus(e.what());
+      reportError(e.what());
+      return false;
+    }
+  }
+  void undo();
+  void redo();
+  void deleteSelection();
+  void finishChain();
+  void cancelInProgress();
+  void selectVertex(int vertex);
+
+  // 3D view (editor_view.cpp).
+  void view3d();
+  void view3dInput(const Rect& r);
+  void renderScene();
+  void uploadMesh();
+  void uploadOverlay();
+  void uploadLines();
+  void drawViewLabels(const Rect& r);
+  Camera viewCamera() const;
+  VertexPick pickAt(double screenX, double screenY) const;
+  void strokeAt(double screenX, double screenY);
+  void paintCloneAt(double screenX, double screenY, bool erase);
+  void updateClonePreview();
+  CloneOp currentCloneOp() const;  // the clone tool's operation as set up so far
+  bool resultUsable() const;  // a result for the document's mesh
+
+  // Image panes (editor_panes.cpp).
+  void photosPanel();
+  void photoCanvas(int photo, const Rect& r, PaneView& view, bool showName);
+  int hitPosition(int photo, const PaneView& view, double sx, double sy, double radius) const;
+
+  // Scripts, screenshots, benchmarks (editor_script.cpp).
+  void applySyntheticInput(ImGuiIO& io);
+  void scriptStep();
+  void runAction(const ScriptAction& action);
+  void waitFor(const std::string& what, double seconds, std::function<bool()> condition);
+  void queueClick(double x, double y, int button = 0);
+  void queueDrag(double x0, double y0, double x1, double y1, int button, int steps = 8);
+  void queueKey(const KeyCombo& combo);
+  void writeState(const std::string& path) const;
+  void takeScreenshot(const std::string& path);
+  void benchOrbitStep();
+  void benchReport();
+  bool resultCurrent() const;
+
+  EditorOptions options_;
+  GLFWwindow* window_ = nullptr;
+  bool imguiReady_ = false;
+  int exitStatus_ = 0;
+  bool quit_ = false;
+  long frameNumber_ = 0;
+  double lastFrameSeconds_ = 0, frameMs_ = 0;
+
+  // GL objects (destroyed in shutdownWindow, before the context).
+  std::unique_ptr<ShaderProgram> meshShader_, lineShader_, textureShader_;
+  std::unique_ptr<Framebuffer> viewFbo_;
+  std::unique_ptr<VertexBuffer> meshVbo_, lineVbo_, pointVbo_, selectionVbo_, cloneVbo_;
+  std::map<std::uint64_t, std::unique_ptr<Texture>> textureCache_;   // material textures by content hash
+  std::vector<unsigned> materialTextureIds_;                         // per material: GL texture or 0
+  std::vector<std::pair<int, std::pair<int, int>>> materialRanges_;  // material, [first vertex, count)
+  std::vector<int> gpuFaceOrder_;                                    // faces in upload order (sorted by material)
+  int lineVertices_ = 0, pathLineVertices_ = 0, pointVertices_ = 0, cloneVertices_ = 0;
+
+  // Document and pipeline.
+  Document doc_;
+  std::unique_ptr<PipelineWorker> worker_;
+  long submittedRevision_ = -1, submittedGeneration_ = 0;
+  std::shared_ptr<const PipelineResult> result_;
+  long resultGeneration_ = 0;
+  std::vector<long> outcomeGenerations_;  // every outcome taken, in order (tests: the newest wins)
+  std::map<long, long> generationRevision_;
+  std::string lastError_;
+  long lastErrorGeneration_ = 0;
+  std::vector<std::string> errors_;  // shown in the Errors window, newest last
+  bool showErrors_ = false, showHelp_ = false;
+  std::string status_;
+  double statusTime_ = 0;
+
+  InputMesh input_;
+  std::vector<PhotoSlot> photos_;
+  std::vector<double> stretch_;  // per model face, from the result (NaN: empty)
+
+  // Tools and selection.
+  Tool tool_ = Tool::Point;
+  int selectedVertex_ = -1, selectedPoint_ = -1;
+  int activePhoto_ = 0;
+  int shownTab_ = -1;  // the photo tab ImGui showed last frame
+  bool gridPanes_ = false;
+  std::vector<int> chain_;  // chain in progress (point indices)
+  int chainPhoto_ = -1;
+  std::vector<int> stroke_;  // stroke in progress (vertices)
+  std::vector<Vec2> clonePolygon_;
+  int clonePhoto_ = -1;
+  bool clonePolygonClosed_ = false;
+  std::set<int> cloneFaces_;
+  int cloneAnchorVertex_ = -1;
+  double cloneRotationDeg_ = 0, clonePixelsPerUnit_ = 0;
+  float cloneBrush_ = 0.06f;  // brush radius as a fraction of the mesh's bounding-box diagonal
+  bool cloneDirty_ = false;
+  int dragPoint_ = -1, dragPhoto_ = -1;
+  bool dragging_ = false;
+  double pressX_ = 0, pressY_ = 0;
+  bool viewPressed_ = false;
+  int viewPressButton_ = -1;
+  bool viewDragged_ = false;
+
+  // Display.
+  OrbitCamera camera_;
+  bool textured_ = true, wireframe_ = false, showPaths_ = true, showFeatures_ = true, showIds_ = true;
+  bool showMask_ = true, showCurves_ = true, showRejected_ = true, showPaneIds_ = true;
+  FaceColoring coloring_ = FaceColoring::None;
+  bool meshDirty_ = true, overlayDirty_ = true, linesDirty_ = true;
+  const void* uploadedModel_ = nullptr;  // what the mesh buffer holds (model or input mesh)
+  long linesRevision_ = -1;
+  long uploadCount_ = 0;  // buffers uploaded so far: part of the scene key
+  std::string sceneKey_;  // what the 3D view's framebuffer shows; redraw when it changes
+  Rect viewRect_, paneRect_, windowRect_;
+  std::map<int, Rect> canvasRects_;  // per photo, last frame
+  std::map<std::string, Rect> buttonRects_;
+  std::vector<char> featureVisible_;  // per feature point, recomputed when the camera or document changes
+  std::string visibilityKey_;
+
+  // Files.
+  FileDialogs dialogs_;
+  RecentFiles recent_;
+  AutosaveClock autosaveClock_;
+  std::future<std::string> autosaveJob_;  // error text ("" on success)
+  long autosaveJobRevision_ = -1;
+  long autosavedRevision_ = -1;
+  std::string lastAutosavePath_;
+  std::vector<RecoveryCandidate> recovery_;
+  bool recoveryPopup_ = false;
+  std::function<void()> afterUnsaved_;
+  bool unsavedPopup_ = false;
+  std::string exportFormat_ = ".glb";
+
+  // Scripts and benchmarks.
+  std::vector<ScriptAction> script_;
+  size_t scriptPos_ = 0;
+  bool scripted_ = false;
+  std::deque<InputStep> inputQueue_;
+  InputStep frameInput_;          // this frame's synthetic input
+  double heldX_ = 0, heldY_ = 0;  // synthetic pointer position, kept between steps
+  std::vector<int> syntheticKeys_;
+  std::function<bool()> waitUntil_;
+  double waitDeadline_ = 0;
+  std::string waitWhat_;
+  std::string pendingScreenshot_;
+  bool benchOrbit_ = false;
+  std::vector<double> benchTimes_, benchBusyTimes_;
+  int benchFrame_ = 0;
+  bool benchWasBusy_ = false;
+};
+
+}  // namespace montage

@@ -1,0 +1,494 @@
+// Scripts (synthetic input through ImGui's IO, so a script clicks exactly where a user would),
+// screenshots, the state dump tests read, and the frame-time benchmarks.
+#include <imgui.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <numeric>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "editor.h"
+#include "gl.h"
+#include "gl_util.h"
+
+namespace fs = std::filesystem;
+
+namespace montage {
+
+namespace {
+
+double now() {
+  return glfwGetTime();
+}
+
+int glfwKeyOf(const std::string& key) {
+  if (key.size() == 1 && std::isalpha(static_cast<unsigned char>(key[0]))) return GLFW_KEY_A + (key[0] - 'a');
+  if (key.size() == 1 && std::isdigit(static_cast<unsigned char>(key[0]))) return GLFW_KEY_0 + (key[0] - '0');
+  static const std::pair<const char*, int> kNamed[] = {
+      {"delete", GLFW_KEY_DELETE}, {"enter", GLFW_KEY_ENTER}, {"escape", GLFW_KEY_ESCAPE},
+      {"tab", GLFW_KEY_TAB},       {"space", GLFW_KEY_SPACE}, {"backspace", GLFW_KEY_BACKSPACE},
+      {"home", GLFW_KEY_HOME},     {"end", GLFW_KEY_END},     {"left", GLFW_KEY_LEFT},
+      {"right", GLFW_KEY_RIGHT},   {"up", GLFW_KEY_UP},       {"down", GLFW_KEY_DOWN}};
+  for (const auto& [name, code] : kNamed)
+    if (key == name) return code;
+  if (key.size() >= 2 && key[0] == 'f') return GLFW_KEY_F1 + std::stoi(key.substr(1)) - 1;
+  return GLFW_KEY_UNKNOWN;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
+}
+
+bool optionFlag(const std::string& value, const std::string& where) {
+  if (value == "on" || value == "1" || value == "true") return true;
+  if (value == "off" || value == "0" || value == "false") return false;
+  throw Error(where + ": expected on or off, not '" + value + "'");
+}
+
+}  // namespace
+
+// --- Synthetic input -----------------------------------------------------------------------------
+
+void Editor::queueClick(double x, double y, int button) {
+  InputStep move;
+  move.hasPointer = true;
+  move.x = x;
+  move.y = y;
+  InputStep press = move;
+  press.buttons[button] = true;
+  inputQueue_.push_back(move);
+  inputQueue_.push_back(press);
+  inputQueue_.push_back(move);
+  inputQueue_.push_back(move);  // one more frame so the release is handled before the next action
+}
+
+void Editor::queueDrag(double x0, double y0, double x1, double y1, int button, int steps) {
+  InputStep s;
+  s.hasPointer = true;
+  s.x = x0;
+  s.y = y0;
+  inputQueue_.push_back(s);
+  s.buttons[button] = true;
+  inputQueue_.push_back(s);
+  for (int k = 1; k <= steps; ++k) {
+    s.x = x0 + (x1 - x0) * k / steps;
+    s.y = y0 + (y1 - y0) * k / steps;
+    inputQueue_.push_back(s);
+  }
+  s.buttons[button] = false;
+  inputQueue_.push_back(s);
+  inputQueue_.push_back(s);
+}
+
+void Editor::queueKey(const KeyCombo& combo) {
+  InputStep down;
+  down.keys.push_back(glfwKeyOf(combo.key));
+  down.ctrl = combo.ctrl;
+  down.shift = combo.shift;
+  down.alt = combo.alt;
+  inputQueue_.push_back(down);
+  inputQueue_.push_back(InputStep{});  // release
+  inputQueue_.push_back(InputStep{});
+}
+
+void Editor::scriptStep() {
+  frameInput_ = InputStep{};
+  // The first frames load the document's mesh and photos and lay out the panels that actions refer to.
+  if (frameNumber_ < 2) return;
+  for (;;) {
+    // A wait blocks everything after it, including queued input.
+    if (waitUntil_) {
+      if (!waitUntil_()) {
+        if (now() > waitDeadline_) {
+          waitUntil_ = nullptr;
+          throw Error(waitWhat_ + ": timed out");
+        }
+        return;
+      }
+      waitUntil_ = nullptr;
+    }
+    if (!inputQueue_.empty()) {
+      InputStep step = std::move(inputQueue_.front());
+      inputQueue_.pop_front();
+      if (step.call) {
+        step.call();
+        continue;
+      }
+      frameInput_ = std::move(step);
+      return;
+    }
+    if (scriptPos_ >= script_.size()) {
+      scripted_ = false;  // the script ended without quit: the editor goes on, interactive
+      return;
+    }
+    runAction(script_[scriptPos_++]);
+    if (quit_) return;
+  }
+}
+
+void Editor::applySyntheticInput(ImGuiIO& io) {
+  if (frameInput_.hasPointer) {
+    heldX_ = frameInput_.x;
+    heldY_ = frameInput_.y;
+  }
+  io.MousePos = ImVec2(float(heldX_), float(heldY_));
+  for (int b = 0; b < 3; ++b) io.MouseDown[b] = frameInput_.buttons[b];
+  io.MouseWheel += frameInput_.wheel;
+  for (int key : syntheticKeys_) io.KeysDown[key] = false;
+  syntheticKeys_.clear();
+  for (int key : frameInput_.keys)
+    if (key >= 0 && key < 512) {
+      io.KeysDown[key] = true;
+      syntheticKeys_.push_back(key);
+    }
+  io.KeyCtrl = frameInput_.ctrl;
+  io.KeyShift = frameInput_.shift;
+  io.KeyAlt = frameInput_.alt;
+}
+
+// --- Script actions -------------------------------------------------------------------------------
+
+void Editor::waitFor(const std::string& what, double seconds, std::function<bool()> condition) {
+  waitWhat_ = what;
+  waitDeadline_ = now() + seconds;
+  waitUntil_ = std::move(condition);
+}
+
+void Editor::runAction(const ScriptAction& a) {
+  const std::string where = a.where();
+  const Project& p = doc_.project();
+  auto requireMesh = [&] { TM_CHECK(input_.mesh, where + ": no mesh is loaded"); };
+  auto requireVertex = [&](int v) {
+    requireMesh();
+    TM_CHECK(v >= 0 && v < input_.mesh->numVertices(), where + ": vertex " + std::to_string(v) +
+                                                           " is not in the mesh (" +
+                                                           std::to_string(input_.mesh->numVertices()) + " vertices)");
+  };
+  auto requirePhoto = [&](int photo) {
+    TM_CHECK(photo >= 0 && photo < static_cast<int>(p.photos.size()), where + ": photo " + std::to_string(photo) +
+                                                                          " does not exist (" +
+                                                                          std::to_string(p.photos.size()) + " photos)");
+  };
+  const double timeout = a.args.empty() ? 0 : (a.verb.rfind("wait_", 0) == 0 ? a.number(0) : 0);
+
+  if (a.verb == "wait_frames") {
+    const long target = frameNumber_ + a.integer(0);
+    waitFor(where, std::numeric_limits<double>::infinity(), [this, target] { return frameNumber_ >= target; });
+  } else if (a.verb == "wait_worker") {
+    waitFor(where + " (the worker did not finish)", a.args.empty() ? 300 : timeout, [this] {
+      if (doc_.project().mesh.empty()) return true;
+      if (doc_.inGroup() || submittedRevision_ != doc_.revision() || worker_->status().busy) return false;
+      // Done when the newest submission came back (a result, or an error) and its buffers are uploaded.
+      const bool answered = resultGeneration_ == submittedGeneration_ || lastErrorGeneration_ == submittedGeneration_;
+      return answered && !meshDirty_ && uploadedModel_ != nullptr;
+    });
+  } else if (a.verb == "wait_busy") {
+    waitFor(where + " (the worker never started)", a.args.empty() ? 60 : timeout, [this] {
+      const WorkerStatus s = worker_->status();
+      return s.busy && s.generation == submittedGeneration_;
+    });
+  } else if (a.verb == "wait_autosave") {
+    waitFor(where + " (no autosave was written)", a.args.empty() ? 300 : timeout,
+            [this] { return autosavedRevision_ == doc_.revision(); });
+  } else if (a.verb == "sleep") {
+    const double until = now() + a.number(0);
+    waitFor(where, a.number(0) + 1, [this, until] { return now() >= until; });
+  } else if (a.verb == "tool") {
+    const auto it = std::find(kToolNames.begin(), kToolNames.end(), a.text(0));
+    TM_CHECK(it != kToolNames.end(),
+             where + ": unknown tool '" + a.text(0) + "' (point, line, polygon, stroke, clone)");
+    cancelInProgress();
+    tool_ = Tool(it - kToolNames.begin());
+  } else if (a.verb == "view") {
+    const std::string& what = a.text(0);
+    const bool on = a.args.size() < 2 || optionFlag(a.text(1), where);
+    if (what == "textured")
+      textured_ = on;
+    else if (what == "shaded")
+      textured_ = !on;
+    else if (what == "wireframe")
+      wireframe_ = on;
+    else if (what == "paths")
+      showPaths_ = on;
+    else if (what == "features")
+      showFeatures_ = on;
+    else if (what == "patches")
+      coloring_ = on ? FaceColoring::Patches : FaceColoring::None;
+    else if (what == "empty")
+      coloring_ = on ? FaceColoring::Empty : FaceColoring::None;
+    else if (what == "stretch")
+      coloring_ = on ? FaceColoring::Stretch : FaceColoring::None;
+    else if (what == "seams")
+      coloring_ = on ? FaceColoring::SeamError : FaceColoring::None;
+    else if (what == "grid")
+      gridPanes_ = on;
+    else
+      throw Error(where + ": unknown display setting '" + what + "'");
+    overlayDirty_ = true;
+  } else if (a.verb == "view_vertex") {
+    const int v = a.integer(0);
+    requireVertex(v);
+    const std::vector<Vec3f> normals = vertexNormals(*input_.mesh);
+    camera_.lookFrom(input_.mesh->position(v), normals[v].cast<double>());
+  } else if (a.verb == "frame") {
+    requireMesh();
+    camera_.frame(input_.lo, input_.hi);
+  } else if (a.verb == "click_vertex") {
+    const int v = a.integer(0);
+    requireVertex(v);
+    Vec2 px;
+    const Camera cam = viewCamera();
+    TM_CHECK(cam.project(input_.mesh->position(v), px) && px.x() >= 0 && px.y() >= 0 && px.x() < cam.width &&
+                 px.y() < cam.height,
+             where + ": vertex " + std::to_string(v) + " is outside the 3D view (try view_vertex " + std::to_string(v) +
+                 ")");
+    const double x = viewRect_.x + px.x(), y = viewRect_.y + px.y();
+    queueClick(x, y);
+    InputStep check;
+    check.call = [this, v, x, y, where] {
+      TM_CHECK(selectedVertex_ == v, where + ": the click at (" + std::to_string(x) + ", " + std::to_string(y) +
+                                         ") picked vertex " + std::to_string(selectedVertex_) + ", not " +
+                                         std::to_string(v) + " (hidden? try view_vertex first)");
+    };
+    inputQueue_.push_back(std::move(check));
+  } else if (a.verb == "click_3d" || a.verb == "drag_3d" || a.verb == "scroll_3d") {
+    requireMesh();
+    if (a.verb == "click_3d") {
+      queueClick(viewRect_.x + a.number(0), viewRect_.y + a.number(1));
+    } else if (a.verb == "drag_3d") {
+      int button = 0;
+      if (a.args.size() > 4) {
+        const std::string& b = a.text(4);
+        TM_CHECK(b == "left" || b == "right" || b == "middle", where + ": button must be left, right or middle");
+        button = b == "left" ? 0 : b == "right" ? 1 : 2;
+      }
+      queueDrag(viewRect_.x + a.number(0), viewRect_.y + a.number(1), viewRect_.x + a.number(2),
+                viewRect_.y + a.number(3), button);
+    } else {
+      InputStep s;
+      s.hasPointer = true;
+      s.x = viewRect_.x + viewRect_.w / 2;
+      s.y = viewRect_.y + viewRect_.h / 2;
+      inputQueue_.push_back(s);
+      s.wheel = static_cast<float>(a.number(0));
+      inputQueue_.push_back(s);
+    }
+  } else if (a.verb == "photo" || a.verb == "click_photo" || a.verb == "drag_photo") {
+    const int photo = a.integer(0);
+    requirePhoto(photo);
+    activePhoto_ = photo;
+    if (a.verb == "photo") return;
+    std::vector<double> xy;
+    for (size_t k = 1; k < a.args.size(); ++k) xy.push_back(a.number(k));
+    // The pane shows the photo a frame or two after it is chosen (tab switch); then click.
+    waitFor(where + " (the photo pane did not appear)", 10, [this, photo] {
+      return canvasRects_.count(photo) && photos_[photo].photo && (gridPanes_ || shownTab_ == photo) &&
+             (gridPanes_ ? photos_[photo].gridView : photos_[photo].tabView).fitted;
+    });
+    InputStep call;
+    call.call = [this, photo, xy, where, drag = a.verb == "drag_photo"] {
+      const PaneView& view = gridPanes_ ? photos_[photo].gridView : photos_[photo].tabView;
+      const Rect& r = canvasRects_.at(photo);
+      std::vector<Vec2> screen;
+      for (size_t k = 0; k + 1 < xy.size(); k += 2) {
+        screen.push_back(view.toScreen(Vec2(xy[k], xy[k + 1])));
+        TM_CHECK(r.contains(screen.back().x(), screen.back().y()), where + ": photo point (" + std::to_string(xy[k]) +
+                                                                       ", " + std::to_string(xy[k + 1]) +
+                                                                       ") is not visible in the pane");
+      }
+      // Insert the clicks right here in the queue, before whatever follows.
+      std::deque<InputStep> rest;
+      rest.swap(inputQueue_);
+      if (drag) {
+        queueDrag(screen[0].x(), screen[0].y(), screen[1].x(), screen[1].y(), 0);
+      } else {
+        queueClick(screen[0].x(), screen[0].y());
+      }
+      inputQueue_.insert(inputQueue_.end(), rest.begin(), rest.end());
+    };
+    inputQueue_.push_back(std::move(call));
+  } else if (a.verb == "key") {
+    queueKey(parseKeyCombo(a.text(0)));
+  } else if (a.verb == "click_button") {
+    const std::string label = a.text(0);
+    waitFor(where + " (no button '" + label + "' on screen)", 10,
+            [this, label] { return buttonRects_.count(label) > 0; });
+    InputStep call;
+    call.call = [this, label] {
+      const Rect r = buttonRects_.at(label);
+      std::deque<InputStep> rest;
+      rest.swap(inputQueue_);
+      queueClick(r.x + r.w / 2, r.y + r.h / 2);
+      inputQueue_.insert(inputQueue_.end(), rest.begin(), rest.end());
+    };
+    inputQueue_.push_back(std::move(call));
+  } else if (a.verb == "select_vertex") {
+    const int v = a.integer(0);
+    requireVertex(v);
+    selectVertex(v);
+  } else if (a.verb == "set_option") {
+    // The same names as the project file's "options" object (docs/project-format.md).
+    auto json = nlohmann::json::parse(projectToJson(p, ""));
+    auto& options = json["options"];
+    const std::string& name = a.text(0);
+    TM_CHECK(options.contains(name), where + ": unknown option '" + name + "'");
+    if (options[name].is_string()) {
+      options[name] = a.text(1);
+    } else if (options[name].is_number_integer()) {
+      options[name] = a.integer(1);
+    } else {
+      options[name] = a.number(1);
+    }
+    // Round-trip through the project reader, so the option's range is checked as in a file.
+    const std::string tmp = (fs::temp_directory_path() / ("tm_option_" + std::to_string(getpid()) + ".json")).string();
+    writeFileAtomic(tmp, json.dump());
+    Project parsed;
+    try {
+      parsed = loadProject(tmp);
+    } catch (const Error& e) {
+      fs::remove(tmp);
+      throw Error(where + ": " + e.what());
+    }
+    fs::remove(tmp);
+    TM_CHECK(edit([&] { doc_.setOptions(parsed.options, "Change option " + name); }), where + ": refused");
+  } else if (a.verb == "open") {
+    TM_CHECK(openFile(a.text(0)), where + ": " + (errors_.empty() ? "failed" : errors_.back()));
+    checkRecovery();
+  } else if (a.verb == "add_photos") {
+    const size_t before = p.photos.size();
+    addPhotosFrom(a.text(0));
+    TM_CHECK(doc_.project().photos.size() > before,
+             where + ": " + (errors_.empty() ? "no photo added" : errors_.back()));
+  } else if (a.verb == "save") {
+    const std::string path = a.args.empty() ? p.file : a.text(0);
+    TM_CHECK(!path.empty(), where + ": the project has no file yet: give a path");
+    TM_CHECK(saveTo(path), where + ": " + (errors_.empty() ? "failed" : errors_.back()));
+  } else if (a.verb == "export") {
+    TM_CHECK(exportTo(a.text(0)), where + ": " + (errors_.empty() ? "failed" : errors_.back()));
+  } else if (a.verb == "screenshot") {
+    pendingScreenshot_ = a.text(0);
+    waitFor(where, 30, [this] { return pendingScreenshot_.empty(); });
+  } else if (a.verb == "state") {
+    writeState(a.text(0));
+  } else if (a.verb == "close") {
+    requestClose();
+  } else if (a.verb == "quit") {
+    quit_ = true;
+  } else {
+    throw Error(where + ": not implemented");
+  }
+}
+
+// --- State, screenshots -------------------------------------------------------------------------
+
+void Editor::writeState(const std::string& path) const {
+  using nlohmann::json;
+  const Project& p = doc_.project();
+  auto rect = [](const Rect& r) { return json{{"x", r.x}, {"y", r.y}, {"w", r.w}, {"h", r.h}}; };
+  json state;
+  state["pid"] = static_cast<long long>(getpid());
+  state["frame"] = frameNumber_;
+  state["file"] = p.file;
+  state["mesh"] = p.mesh;
+  state["revision"] = doc_.revision();
+  state["modified"] = doc_.modified();
+  state["counts"] = {{"photos", p.photos.size()},
+                     {"points", p.points.size()},
+                     {"chains", p.chains.size()},
+                     {"strokes", p.strokes.size()},
+                     {"clones", p.clones.size()}};
+  state["history"] = {{"steps", doc_.history().size()}, {"position", doc_.position()}};
+  state["selected_vertex"] = selectedVertex_;
+  state["selected_point"] = selectedPoint_;
+  state["tool"] = kToolNames[static_cast<int>(tool_)];
+  const WorkerStatus ws = worker_->status();
+  state["worker"] = {{"busy", ws.busy},
+                     {"submitted_generation", submittedGeneration_},
+                     {"result_generation", resultGeneration_},
+                     {"outcome_generations", outcomeGenerations_},
+                     {"last_error", lastError_}};
+  if (result_) {
+    json stages = json::array();
+    for (const StageRecord& s : result_->stages)
+      stages.push_back({{"stage", stageName(s.stage)}, {"seconds", s.seconds}, {"cached", s.cached}});
+    state["result"] = {{"matches_document", resultCurrent()},
+                       {"project", json::parse(projectToJson(result_->scene->project, ""))},
+                       {"faces", result_->model ? result_->model->mesh.numFaces() : 0},
+                       {"stages", stages},
+                       {"warnings", result_->warnings}};
+  } else {
+    state["result"] = nullptr;
+  }
+  state["errors"] = errors_;
+  state["layout"] = {{"window", rect(windowRect_)}, {"view3d", rect(viewRect_)}, {"photos", rect(paneRect_)}};
+  state["autosave"] = {{"path", autosavePath()}, {"written_revision", autosavedRevision_}};
+  if (fs::path(path).has_parent_path()) fs::create_directories(fs::path(path).parent_path());
+  writeFileAtomic(path, state.dump(2) + "\n");
+}
+
+void Editor::takeScreenshot(const std::string& path) {
+  int w = 0, h = 0;
+  glfwGetFramebufferSize(window_, &w, &h);
+  cv::Mat rgba = readWindowPixels(w, h), bgra;
+  cv::cvtColor(rgba, bgra, cv::COLOR_RGBA2BGR);
+  std::error_code ec;
+  if (fs::path(path).has_parent_path()) fs::create_directories(fs::path(path).parent_path(), ec);
+  TM_CHECK(cv::imwrite(path, bgra), located(path, "cannot write the screenshot"));
+  std::printf("wrote %s (%dx%d)\n", path.c_str(), w, h);
+}
+
+// --- Benchmarks -----------------------------------------------------------------------------------
+
+void Editor::benchOrbitStep() {
+  const int warmup = 10;
+  if (!input_.mesh) return;
+  ++benchFrame_;
+  if (benchFrame_ <= warmup) return;
+  // The previous frame, complete (the frame loop glFinish-es in benchmark mode).
+  const bool busy = worker_->status().busy;
+  if (benchFrame_ > warmup + 1) {
+    benchTimes_.push_back(lastFrameSeconds_ * 1000);
+    if (benchWasBusy_) benchBusyTimes_.push_back(lastFrameSeconds_ * 1000);
+  }
+  benchWasBusy_ = busy;
+  camera_.yawDeg += 360.0 / std::max(1, options_.benchFrames);
+  if (options_.benchWorker && !busy && submittedRevision_ == doc_.revision() && !doc_.inGroup()) {
+    // Keep the worker busy: a new seed reruns the mapping stages, like an edit would.
+    PipelineOptions o = doc_.project().options;
+    o.seed += 1;
+    doc_.setOptions(o, "benchmark: new seed");
+  }
+  const bool enough = options_.benchWorker ? static_cast<int>(benchBusyTimes_.size()) >= options_.benchFrames ||
+                                                 benchFrame_ > 40 * options_.benchFrames
+                                           : static_cast<int>(benchTimes_.size()) >= options_.benchFrames;
+  if (enough) quit_ = true;
+}
+
+void Editor::benchReport() {
+  auto report = [](const char* what, const std::vector<double>& t) {
+    if (t.empty()) {
+      std::printf("%s: no frames\n", what);
+      return;
+    }
+    const double mean = std::accumulate(t.begin(), t.end(), 0.0) / t.size();
+    std::printf("%s: %zu frames, mean %.2f ms (%.1f fps), median %.2f ms, p95 %.2f ms, max %.2f ms\n", what, t.size(),
+                mean, 1000 / mean, percentile(t, 0.5), percentile(t, 0.95), *std::max_element(t.begin(), t.end()));
+  };
+  int w = 0, h = 0;
+  glfwGetFramebufferSize(window_, &w, &h);
+  const char* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  std::printf("bench: %s, window %dx%d, 3D view %.0fx%.0f, %d faces, renderer %s\n", doc_.project().mesh.c_str(), w, h,
+              viewRect_.w, viewRect_.h, input_.mesh ? input_.mesh->numFaces() : 0, renderer ? renderer : "?");
+  report("orbit, all frames", benchTimes_);
+  if (options_.benchWorker) report("orbit while the worker runs", benchBusyTimes_);
+}
+
+}  // namespace montage

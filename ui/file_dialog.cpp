@@ -1,0 +1,207 @@
+#include "file_dialog.h"
+
+#include <imgui.h>
+#include <imgui_stdlib.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+namespace fs = std::filesystem;
+
+namespace montage {
+
+namespace {
+
+// Single-quotes an argument for /bin/sh.
+std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+bool onPath(const char* program) {
+  const char* path = std::getenv("PATH");
+  if (!path) return false;
+  std::string dirs = path;
+  size_t start = 0;
+  while (start <= dirs.size()) {
+    const size_t end = std::min(dirs.find(':', start), dirs.size());
+    const fs::path candidate = fs::path(dirs.substr(start, end - start)) / program;
+    std::error_code ec;
+    if (fs::is_regular_file(candidate, ec)) return true;
+    start = end + 1;
+  }
+  return false;
+}
+
+bool matches(const std::string& name, const std::vector<FileFilter>& filters) {
+  if (filters.empty()) return true;
+  std::string lower = name;
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (const auto& f : filters)
+    for (const auto& p : f.patterns) {
+      if (p == "*") return true;
+      const std::string ext = p.substr(p.find('.') == std::string::npos ? 0 : p.find('.'));
+      if (lower.size() >= ext.size() && lower.compare(lower.size() - ext.size(), ext.size(), ext) == 0) return true;
+    }
+  return false;
+}
+
+}  // namespace
+
+FileDialogs::FileDialogs() {
+  const char* no = std::getenv("TM_NO_ZENITY");
+  zenity_ = !(no && *no && std::string(no) != "0") && onPath("zenity");
+}
+
+bool FileDialogs::request(DialogKind kind, const std::string& title, const std::vector<FileFilter>& filters,
+                          const std::string& purpose, const std::string& startDir) {
+  if (active_) return false;
+  active_ = true;
+  kind_ = kind;
+  title_ = title;
+  filters_ = filters;
+  purpose_ = purpose;
+  std::error_code ec;
+  dir_ = !startDir.empty() && fs::is_directory(startDir, ec) ? startDir : fs::current_path(ec).string();
+  name_.clear();
+  error_.clear();
+  chosen_.reset();
+  done_ = false;
+  if (zenity_) {
+    std::string cmd = "zenity --file-selection --title=" + shellQuote(title);
+    if (kind == DialogKind::SaveFile) cmd += " --save --confirm-overwrite";
+    if (kind == DialogKind::OpenFolder) cmd += " --directory";
+    cmd += " --filename=" + shellQuote(dir_ + "/");
+    for (const auto& f : filters) {
+      std::string spec = f.name + " |";
+      for (const auto& p : f.patterns) spec += " " + p;
+      cmd += " --file-filter=" + shellQuote(spec);
+    }
+    cmd += " 2>/dev/null";
+    // zenity blocks until the user answers: it runs on its own thread so the editor keeps drawing
+    // (and the worker's results keep arriving) meanwhile.
+    pending_ = std::async(std::launch::async, [cmd]() -> std::optional<std::string> {
+      FILE* pipe = popen(cmd.c_str(), "r");
+      if (!pipe) return std::nullopt;
+      std::string out;
+      char buffer[4096];
+      while (size_t n = std::fread(buffer, 1, sizeof(buffer), pipe)) out.append(buffer, n);
+      const int status = pclose(pipe);
+      while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
+      if (status != 0 || out.empty()) return std::nullopt;  // cancelled
+      return out;
+    });
+  } else {
+    openPopup_ = true;
+  }
+  return true;
+}
+
+std::optional<DialogResult> FileDialogs::frame() {
+  if (!active_) return std::nullopt;
+  if (zenity_) {
+    if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+      active_ = false;
+      if (auto path = pending_.get()) return DialogResult{purpose_, fs::absolute(*path).lexically_normal().string()};
+    }
+    return std::nullopt;
+  }
+  drawBrowser();
+  if (done_) {
+    active_ = false;
+    done_ = false;
+    if (chosen_) return DialogResult{purpose_, fs::absolute(*chosen_).lexically_normal().string()};
+  }
+  return std::nullopt;
+}
+
+void FileDialogs::drawBrowser() {
+  const char* popupId = "##tm_file_browser";
+  if (openPopup_) {
+    ImGui::OpenPopup(popupId);
+    openPopup_ = false;
+  }
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowSize(ImVec2(std::min(720.f, display.x * 0.9f), std::min(520.f, display.y * 0.85f)),
+                           ImGuiCond_Appearing);
+  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y * 0.5f), ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
+  if (!ImGui::BeginPopupModal(popupId, nullptr, ImGuiWindowFlags_NoSavedSettings)) {
+    // Closed some other way (Escape): a cancel.
+    done_ = true;
+    return;
+  }
+  ImGui::TextUnformatted(title_.c_str());
+  ImGui::Separator();
+  if (ImGui::Button("Up")) dir_ = fs::path(dir_).parent_path().string();
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(-1);
+  ImGui::InputText("##dir", &dir_);
+
+  const float footer = ImGui::GetFrameHeightWithSpacing() * (kind_ == DialogKind::OpenFolder ? 2.2f : 3.2f);
+  ImGui::BeginChild("##entries", ImVec2(0, -footer), true);
+  std::error_code ec;
+  std::vector<fs::directory_entry> entries;
+  for (fs::directory_iterator it(dir_, ec), end; !ec && it != end; it.increment(ec)) entries.push_back(*it);
+  if (ec) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "cannot list %s: %s", dir_.c_str(), ec.message().c_str());
+  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) {
+    std::error_code e;
+    const bool da = a.is_directory(e), db = b.is_directory(e);
+    return da != db ? da : a.path().filename() < b.path().filename();
+  });
+  for (const auto& entry : entries) {
+    const std::string name = entry.path().filename().string();
+    if (!name.empty() && name[0] == '.') continue;
+    std::error_code e;
+    const bool isDir = entry.is_directory(e);
+    if (!isDir && (kind_ == DialogKind::OpenFolder || !matches(name, filters_))) continue;
+    const std::string label = (isDir ? "[dir] " : "      ") + name;
+    if (ImGui::Selectable(label.c_str(), !isDir && name == name_, ImGuiSelectableFlags_AllowDoubleClick)) {
+      if (isDir) {
+        if (ImGui::IsMouseDoubleClicked(0)) dir_ = entry.path().string();
+      } else {
+        name_ = name;
+        if (ImGui::IsMouseDoubleClicked(0)) {
+          chosen_ = entry.path().string();
+          done_ = true;
+        }
+      }
+    }
+  }
+  ImGui::EndChild();
+
+  if (kind_ != DialogKind::OpenFolder) {
+    ImGui::SetNextItemWidth(-1);
+    ImGui::InputTextWithHint("##name", "file name", &name_);
+  }
+  if (!error_.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error_.c_str());
+  const char* ok = kind_ == DialogKind::SaveFile ? "Save" : kind_ == DialogKind::OpenFolder ? "Choose folder" : "Open";
+  if (ImGui::Button(ok, ImVec2(120, 0)) || (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Enter)) && !done_)) {
+    if (kind_ == DialogKind::OpenFolder) {
+      chosen_ = dir_;
+      done_ = true;
+    } else if (name_.empty()) {
+      error_ = "type or choose a file name";
+    } else {
+      const fs::path path = fs::path(name_).is_absolute() ? fs::path(name_) : fs::path(dir_) / name_;
+      std::error_code e;
+      if (kind_ == DialogKind::OpenFile && !fs::is_regular_file(path, e)) {
+        error_ = path.string() + ": no such file";
+      } else {
+        chosen_ = path.string();
+        done_ = true;
+      }
+    }
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("Cancel", ImVec2(120, 0)) || ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape))) {
+    chosen_.reset();
+    done_ = true;
+  }
+  if (done_) ImGui::CloseCurrentPopup();
+  ImGui::EndPopup();
+}
+
+}  // namespace montage

@@ -1,0 +1,53 @@
+// File dialogs: zenity when it is installed (the desktop's own dialog, run on a helper thread so that
+// the editor keeps drawing), otherwise a built-in Dear ImGui browser. One dialog at a time.
+#pragma once
+
+#include <future>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace montage {
+
+enum class DialogKind { OpenFile, SaveFile, OpenFolder };
+
+struct FileFilter {
+  std::string name;                   // "Projects"
+  std::vector<std::string> patterns;  // {"*.json"}
+};
+
+struct DialogResult {
+  std::string purpose;  // what the caller asked the dialog for ("open", "save_as", ...)
+  std::string path;     // chosen path (absolute)
+};
+
+class FileDialogs {
+ public:
+  FileDialogs();
+  // Opens a dialog unless one is open already (returns false then).
+  bool request(DialogKind kind, const std::string& title, const std::vector<FileFilter>& filters,
+               const std::string& purpose, const std::string& startDir);
+  bool active() const { return active_; }
+  // Draws the built-in browser when it is the one in use (call once per frame inside the ImGui
+  // frame) and returns the chosen path once, when the user has chosen; cancelling returns nothing.
+  std::optional<DialogResult> frame();
+  bool usesZenity() const { return zenity_; }
+  // Forces the built-in browser (tests, TM_NO_ZENITY=1).
+  void disableZenity() { zenity_ = false; }
+
+ private:
+  void drawBrowser();
+  bool zenity_ = false;
+  bool active_ = false;
+  bool openPopup_ = false;
+  DialogKind kind_ = DialogKind::OpenFile;
+  std::string title_, purpose_;
+  std::vector<FileFilter> filters_;
+  std::future<std::optional<std::string>> pending_;  // zenity's answer
+  // Built-in browser state.
+  std::string dir_, name_, error_;
+  std::optional<std::string> chosen_;
+  bool done_ = false;
+};
+
+}  // namespace montage

@@ -32,7 +32,6 @@ namespace montage {
 
 namespace {
 
-
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 double signedArea2(const std::array<Vec2, 3>& p) {

@@ -1,8 +1,6 @@
 // Mesh geometry queries, building the half-edge mesh from a triangle soup, and the validation report.
 #include "mesh.h"
 
-#include "util.h"
-
 #include <Eigen/Geometry>
 #include <OpenMesh/Core/System/omstream.hh>
 #include <algorithm>
@@ -12,6 +10,8 @@
 #include <numeric>
 #include <sstream>
 #include <tuple>
+
+#include "util.h"
 
 namespace montage {
 
@@ -126,7 +126,6 @@ void addFinding(MeshReport& report, MeshFinding::Severity severity, const IdList
   if (list.count > 0)
     report.findings.push_back({severity, std::to_string(list.count) + " " + what, list.ids, list.count});
 }
-
 
 // For each point, the first point with a bit-identical position (itself when none); -0 equals +0.
 std::vector<int> firstWithSamePosition(const std::vector<Vec3>& points) {

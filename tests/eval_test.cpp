@@ -275,10 +275,10 @@ TEST_F(EvalSpot, JsonAndSummary) {
   o.samples = 5000;
   const EvalResult r = evaluate(spot(), spot(), o);
   const nlohmann::json j = r.toJson();
-  for (const char* key : {"samples", "covered_samples", "psnr_all", "psnr_covered", "delta_e_all", "delta_e_covered",
-                          "coverage_photo", "coverage_inpainted", "coverage_empty", "flipped_triangles",
-                          "degenerate_uv_triangles", "stretch_l2", "stretch_linf", "seam_mismatch", "seam_edges",
-                          "photo_seam_mismatch", "photo_seam_edges"})
+  for (const char* key :
+       {"samples", "covered_samples", "psnr_all", "psnr_covered", "delta_e_all", "delta_e_covered", "coverage_photo",
+        "coverage_inpainted", "coverage_empty", "flipped_triangles", "degenerate_uv_triangles", "stretch_l2",
+        "stretch_linf", "seam_mismatch", "seam_edges", "photo_seam_mismatch", "photo_seam_edges"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j.size(), 17u);
   EXPECT_EQ(j["samples"].get<int>(), 5000);

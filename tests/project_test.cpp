@@ -398,8 +398,9 @@ TEST_F(ProjectTest, RejectsWrongTypes) {
   EXPECT_MESSAGE_HAS(loadError(j), "strokes[1].vertices[0]: 5000000000 is out of range");
   j = sampleJson();
   j["options"]["inpaintMode"] = "magic";
-  EXPECT_MESSAGE_HAS(loadError(j),
-                     "options.inpaintMode: 'magic' is not an inpainting mode (one of 'harmonic', 'rbf', 'strokes', 'off')");
+  EXPECT_MESSAGE_HAS(
+      loadError(j),
+      "options.inpaintMode: 'magic' is not an inpainting mode (one of 'harmonic', 'rbf', 'strokes', 'off')");
   j = sampleJson();
   j["options"]["seed"] = -1;
   EXPECT_MESSAGE_HAS(loadError(j), "options.seed: -1 is out of range 0..4294967295");

@@ -182,7 +182,7 @@ class Editor {
   void paintCloneAt(double screenX, double screenY, bool erase);
   void updateClonePreview();
   CloneOp currentCloneOp() const;  // the clone tool's operation as set up so far
-  bool resultUsable() const;  // a result for the document's mesh
+  bool resultUsable() const;       // a result for the document's mesh
 
   // Image panes (editor_panes.cpp).
   void photosPanel();

@@ -30,16 +30,6 @@ using namespace montage;
 
 namespace {
 
-std::string lowerExtension(const std::string& path) {
-  std::string ext = fs::path(path).extension().string();
-  for (auto& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
-bool isImage(const std::string& ext) {
-  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" || ext == ".bmp";
-}
-
 // A one-line progress display on stderr: rewritten in place on a terminal, one line per stage
 // otherwise (so logs stay readable).
 class ProgressLine {
@@ -90,7 +80,7 @@ int cmdInfo(const std::string& file) {
     std::printf("project is valid\n");
     return 0;
   }
-  if (isImage(ext)) {
+  if (isImageExtension(ext)) {
     Photo photo = loadPhoto(file);
     const double fg = cv::countNonZero(photo.alpha > 0) / double(photo.width * photo.height);
     double maxDistance = 0;
@@ -296,10 +286,7 @@ int main(int argc, char** argv) {
     if (*render) return cmdRender(renderModelPath, renderOut, renderOptions);
     if (*run) return cmdRun(runProject, runOut);
     if (*benchCmd) return cmdBench(bench);
-  } catch (const Error& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
-  } catch (const std::exception& e) {
+  } catch (const std::exception& e) {  // montage::Error and anything else: one line, exit status 1
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;
   }

@@ -44,10 +44,7 @@ int main(int argc, char** argv) {
     TM_CHECK(!options.benchWorker || !options.file.empty(), "--bench-worker: give the project to run (FILE)");
     Editor editor(options);
     return editor.run();
-  } catch (const Error& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
-  } catch (const std::exception& e) {
+  } catch (const std::exception& e) {  // montage::Error and anything else: one line, exit status 1
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;
   }

@@ -13,4 +13,9 @@ namespace montage {
 // is replaced, not the link). Throws montage::Error on failure, leaving any earlier file untouched.
 void writeFileAtomic(const std::string& path, const std::string& contents);
 
+// The file's extension in lower case, with its dot (".png"), or "" when it has none.
+std::string lowerExtension(const std::string& path);
+// Whether the extension (from lowerExtension) is one of the photo formats we read.
+bool isImageExtension(const std::string& ext);
+
 }  // namespace montage

@@ -234,8 +234,8 @@ struct FlowStats {
 };
 
 Eigen::MatrixXd strokeGuidance(const SubMesh& sub, const Graph& graph, const std::vector<char>& fixed,
-                               const std::vector<char>& isBoundary, const Eigen::MatrixXd& boundaryD,
-                               const std::vector<StrokeSample>& samples, FlowStats& stats) {
+                               const Eigen::MatrixXd& boundaryD, const std::vector<StrokeSample>& samples,
+                               FlowStats& stats) {
   const TriangleMesh& m = sub.mesh;
   const int nv = m.numVertices(), nt = m.numTriangles();
   const auto& P = m.positions;
@@ -353,7 +353,7 @@ Eigen::MatrixXd strokeGuidance(const SubMesh& sub, const Graph& graph, const std
       const int next = across[t][exitK];
       if (next < 0) {
         // Reached the region's border. Its d is that of the fixed end(s) of the edge crossed.
-        const bool fa = isBoundary[a], fb = isBoundary[b];
+        const bool fa = fixed[a], fb = fixed[b];
         if (!fa && !fb) return false;  // an open border of the mesh: no colour to continue
         if (fa && fb)
           endD = (wa * boundaryD.row(a) + wb * boundaryD.row(b)) / std::max(wa + wb, 1e-300);
@@ -933,7 +933,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
           if (it != local.end()) samples.push_back({it->second, dir});
         }
         FlowStats stats;
-        d = strokeGuidance(sub, subGraph, fixed, fixed, bd, samples, stats);
+        d = strokeGuidance(sub, subGraph, fixed, bd, samples, stats);
         reg.note = std::to_string(stats.traced) + " flow lines: " + std::to_string(stats.bothEnds) +
                    " reach the border at both ends, " + std::to_string(stats.oneEnd) + " at one, " +
                    std::to_string(stats.noEnd) + " at none (d = 0)";

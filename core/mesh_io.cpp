@@ -13,6 +13,7 @@
 #include <string_view>
 #include <unordered_map>
 
+#include "fileio.h"
 #include "mesh.h"
 
 namespace montage {
@@ -724,8 +725,7 @@ void appendNumber(std::string& out, double x) {
 }  // namespace
 
 LoadedMesh loadMesh(const std::string& path, const MeshLoadOptions& options) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::string ext = lowerExtension(path);
   if (!ext.empty()) ext.erase(0, 1);
   using Reader = void (*)(const std::string&, Soup&);
   static const std::pair<const char*, Reader> readers[] = {

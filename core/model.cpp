@@ -37,12 +37,6 @@ const Vec3f kDefaultDiffuse(0.7f, 0.7f, 0.7f);
 // ---------------------------------------------------------------------------------------------
 // Small utilities
 
-std::string lowerExtension(const std::string& path) {
-  std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
-
 std::string trim(const std::string& s) {
   const size_t b = s.find_first_not_of(" \t\r\n");
   if (b == std::string::npos) return "";

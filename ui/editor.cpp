@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 
+#include "fileio.h"
 #include "gl.h"
 #include "gl_util.h"
 #include "model.h"
@@ -60,16 +61,6 @@ namespace {
 
 double now() {
   return glfwGetTime();
-}
-
-std::string lowerExt(const std::string& path) {
-  std::string ext = fs::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
-bool isImageExt(const std::string& ext) {
-  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" || ext == ".bmp";
 }
 
 std::string timeText(std::time_t t) {
@@ -437,7 +428,7 @@ void Editor::setStatus(const std::string& message) {
 bool Editor::openFile(const std::string& path) {
   try {
     const std::string abs = fs::absolute(path).lexically_normal().string();
-    const std::string ext = lowerExt(abs);
+    const std::string ext = lowerExtension(abs);
     Project project;
     if (ext == ".json") {
       project = loadProject(abs);
@@ -515,7 +506,7 @@ bool Editor::exportTo(const std::string& path) {
   try {
     TM_CHECK(resultUsable(), "export: there is no result yet (the pipeline has not finished on this document)");
     const std::string abs = fs::absolute(path).lexically_normal().string();
-    const std::string ext = lowerExt(abs);
+    const std::string ext = lowerExtension(abs);
     if (ext == ".glb") {
       exportGlb(*result_->model, abs);
     } else if (ext == ".obj") {
@@ -538,14 +529,15 @@ void Editor::addPhotosFrom(const std::string& path) {
   if (fs::is_directory(abs, ec)) {
     std::vector<std::string> files;
     for (fs::directory_iterator it(abs, ec), end; !ec && it != end; it.increment(ec))
-      if (it->is_regular_file() && isImageExt(lowerExt(it->path().string()))) files.push_back(it->path().string());
+      if (it->is_regular_file() && isImageExtension(lowerExtension(it->path().string())))
+        files.push_back(it->path().string());
     std::sort(files.begin(), files.end());
     for (const auto& f : files) refs.push_back(PhotoRef{f, ""});
     if (refs.empty()) {
       reportError(located(abs, "no images (.png .jpg .jpeg .tif .tiff .bmp) in this folder"));
       return;
     }
-  } else if (fs::is_regular_file(abs, ec) && isImageExt(lowerExt(abs))) {
+  } else if (fs::is_regular_file(abs, ec) && isImageExtension(lowerExtension(abs))) {
     refs.push_back(PhotoRef{abs, ""});
   } else {
     reportError(located(abs, "not an image file or a folder of images"));

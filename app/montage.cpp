@@ -16,14 +16,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "eval.h"
-#include "mesh.h"
-#include "model.h"
-#include "photo.h"
+#include "io/mesh_io.h"
+#include "bench/eval.h"
+#include "geometry/mesh.h"
+#include "io/model.h"
+#include "image/photo.h"
 #include "pipeline.h"
-#include "project.h"
-#include "render.h"
-#include "synth.h"
+#include "io/project.h"
+#include "bench/render.h"
+#include "bench/synth.h"
 
 namespace fs = std::filesystem;
 using namespace montage;

@@ -13,10 +13,10 @@
 #include <opencv2/imgproc.hpp>
 #include <string>
 
-#include "atlas.h"
-#include "model.h"
+#include "atlas/atlas.h"
+#include "io/model.h"
 #include "pipeline.h"
-#include "project.h"
+#include "io/project.h"
 
 using namespace montage;
 

@@ -9,10 +9,10 @@
 #include <cstdlib>
 #include <vector>
 
-#include "inpaint.h"
-#include "photo.h"
+#include "surface/inpaint.h"
+#include "image/photo.h"
 #include "pipeline.h"
-#include "shapes.h"
+#include "geometry/shapes.h"
 
 using namespace montage;
 

@@ -11,10 +11,11 @@
 #include <random>
 #include <string>
 
-#include "bvh.h"
-#include "mesh.h"
-#include "raster.h"
-#include "shapes.h"
+#include "io/mesh_io.h"
+#include "geometry/bvh.h"
+#include "geometry/mesh.h"
+#include "geometry/raster.h"
+#include "geometry/shapes.h"
 
 using namespace montage;
 namespace fs = std::filesystem;

@@ -5,21 +5,13 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "simplify.h"
-#include "util.h"
+#include "base/util.h"
+#include "io/mesh_io.h"
+#include "mapping/simplify.h"
 
 namespace fs = std::filesystem;
 
 namespace montage {
-
-void JobControl::checkCancel() const {
-  if (cancelled()) throw Cancelled();
-}
-
-void JobControl::progress(StageId stage, double fraction, const std::string& what) const {
-  checkCancel();
-  if (callback_) callback_(stage, fraction, what);
-}
 
 namespace {
 

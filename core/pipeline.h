@@ -1,4 +1,4 @@
-// The pipeline object: runs the stages of texturemontage.h in order, reports progress, honours a
+// The pipeline object: runs the stages (listed below in paper order) in order, reports progress, honours a
 // cancel flag, keeps each stage's last output so an edit reruns only what it invalidates, and
 // records per-stage timings and counts for report.json.
 #pragma once
@@ -11,52 +11,19 @@
 #include <string>
 #include <vector>
 
-#include "atlas.h"
-#include "fine_map.h"
-#include "inpaint.h"
-#include "mesh.h"
-#include "model.h"
-#include "partition.h"
-#include "photo.h"
-#include "project.h"
-#include "texture_map.h"
+#include "atlas/atlas.h"
+#include "base/job.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "io/model.h"
+#include "io/project.h"
+#include "io/scene.h"
+#include "mapping/fine_map.h"
+#include "mapping/partition.h"
+#include "mapping/texture_map.h"
+#include "surface/inpaint.h"
 
 namespace montage {
-
-// The stages, in pipeline order (paper Figure 2): load, partition (3.1), simplify (3.2), map
-// (coarse map 3.2 + coarse-to-fine 4.1), level (seam levelling, end of 5), inpaint (5: holes,
-// strokes, clones), bake (atlas: charts, LSCM, packing, baking), export. Seam optimisation (4.2) is
-// not built yet; every entry below runs.
-enum class StageId { Load, Partition, Simplify, Map, Level, Inpaint, Bake, Export };
-inline constexpr std::array<const char*, 8> kStageNames = {"load",  "partition", "simplify", "map",
-                                                           "level", "inpaint",   "bake",     "export"};
-inline const char* stageName(StageId s) {
-  return kStageNames[static_cast<int>(s)];
-}
-
-// Progress reporting and cancellation for one job. Stages call progress() at convenient points;
-// it throws montage::Cancelled when the cancel flag is set.
-class JobControl {
- public:
-  using Callback = std::function<void(StageId stage, double fraction, const std::string& what)>;
-  JobControl() = default;
-  JobControl(const std::atomic<bool>* cancel, Callback callback) : cancel_(cancel), callback_(std::move(callback)) {}
-  void progress(StageId stage, double fraction, const std::string& what = "") const;
-  void checkCancel() const;
-  bool cancelled() const { return cancel_ && cancel_->load(std::memory_order_relaxed); }
-
- private:
-  const std::atomic<bool>* cancel_ = nullptr;
-  Callback callback_;
-};
-
-// The loaded inputs of a project: immutable once built, shared between runs and threads.
-struct Scene {
-  Project project;
-  std::shared_ptr<const Mesh> mesh;
-  MeshReport meshReport;
-  std::vector<std::shared_ptr<const Photo>> photos;
-};
 
 struct StageRecord {
   StageId stage = StageId::Load;
@@ -101,7 +68,7 @@ struct PipelineResult {
   nlohmann::json report() const;      // what report.json holds
 };
 
-// Stage functions (texturemontage.h lists them in order).
+// Stage functions, in pipeline order.
 // Load: reads the mesh and photos of a validated project and checks the project against them.
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
 // Partition, Simplify, Map: correspondences -> partition -> progressive mesh -> texture map.

@@ -2,7 +2,8 @@
 // footprints, the gutter), LSCM charts of closed and higher-genus regions, baking (photo resampling,
 // seam levelling, inpainted colours, flat empty faces, gutter fill), the spot ground truth re-rendered
 // through the atlas (PSNR in `montage eval`), the glTF validator and assimp, and bad input.
-#include "atlas.h"
+#include "io/mesh_io.h"
+#include "atlas/atlas.h"
 
 #include <cstdio>
 #include <filesystem>
@@ -12,13 +13,13 @@
 #include <regex>
 #include <set>
 
-#include "inpaint.h"
-#include "mesh.h"
-#include "photo.h"
+#include "surface/inpaint.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
 #include "pipeline.h"
-#include "project.h"
-#include "raster.h"
-#include "shapes.h"
+#include "io/project.h"
+#include "geometry/raster.h"
+#include "geometry/shapes.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;

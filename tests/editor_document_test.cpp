@@ -7,13 +7,13 @@
 #include <thread>
 
 #include "autosave.h"
-#include "bvh.h"
+#include "geometry/bvh.h"
 #include "document.h"
-#include "geometry.h"
-#include "inpaint.h"
+#include "geometry/predicates.h"
+#include "surface/inpaint.h"
 #include "overlays.h"
 #include "script.h"
-#include "shapes.h"
+#include "geometry/shapes.h"
 #include "test_support.h"
 #include "view_math.h"
 

@@ -14,7 +14,7 @@
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
-#include "project.h"
+#include "io/project.h"
 #include "test_support.h"
 
 using namespace montage;

@@ -1,6 +1,7 @@
 // Tests of the evaluation (core/eval.h): self-evaluation is perfect, wrong colours, flipped UVs,
 // stretch and seams are measured, and the result's face order does not matter.
-#include "eval.h"
+#include "io/mesh_io.h"
+#include "bench/eval.h"
 
 #include <algorithm>
 #include <map>
@@ -9,9 +10,9 @@
 #include <random>
 #include <set>
 
-#include "mesh.h"
-#include "model.h"
-#include "photo.h"
+#include "geometry/mesh.h"
+#include "io/model.h"
+#include "image/photo.h"
 #include "test_support.h"
 
 namespace montage {

@@ -3,7 +3,8 @@
 // photo, a background stripe across it, two photos meeting on a path (category-3 vertices), the
 // choice of the most frontal photo, a mirrored view. Then the Spot cow seen by a synthetic camera,
 // compared with the true projection (needs ../shared/data), with timings.
-#include "fine_map.h"
+#include "io/mesh_io.h"
+#include "mapping/fine_map.h"
 
 #include <algorithm>
 #include <chrono>
@@ -12,14 +13,14 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
-#include "mesh.h"
-#include "partition.h"
-#include "photo.h"
+#include "geometry/mesh.h"
+#include "mapping/partition.h"
+#include "image/photo.h"
 #include "pipeline.h"
-#include "raster.h"
-#include "simplify.h"
-#include "stretch.h"
-#include "synth.h"
+#include "geometry/raster.h"
+#include "mapping/simplify.h"
+#include "geometry/stretch.h"
+#include "bench/synth.h"
 #include "test_support.h"
 
 namespace montage {

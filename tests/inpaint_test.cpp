@@ -1,5 +1,6 @@
 // Surface texture inpainting, cloning and seam levelling (core/inpaint.h, paper section 5).
-#include "inpaint.h"
+#include "io/mesh_io.h"
+#include "surface/inpaint.h"
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -11,13 +12,13 @@
 #include <opencv2/imgproc.hpp>
 #include <unordered_map>
 
-#include "color.h"
-#include "mesh.h"
-#include "photo.h"
+#include "image/color.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
 #include "pipeline.h"
-#include "project.h"
-#include "shapes.h"
-#include "synth.h"
+#include "io/project.h"
+#include "geometry/shapes.h"
+#include "bench/synth.h"
 #include "test_support.h"
 
 using namespace montage;

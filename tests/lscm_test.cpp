@@ -1,14 +1,14 @@
 // Tests of the LSCM flattening: a flat disc is recovered up to a similarity, a hemisphere flattens
 // without flips, zero-area faces do not break it, the topology checks, and errors on bad input.
-#include "lscm.h"
+#include "atlas/lscm.h"
 
 #include <Eigen/Geometry>
 #include <cmath>
 #include <complex>
 #include <random>
 
-#include "mesh.h"
-#include "shapes.h"
+#include "geometry/mesh.h"
+#include "geometry/shapes.h"
 #include "test_support.h"
 
 namespace montage {

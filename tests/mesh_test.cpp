@@ -1,5 +1,6 @@
 // Mesh loading (OBJ, OFF, PLY, STL), building and validation.
-#include "mesh.h"
+#include "io/mesh_io.h"
+#include "geometry/mesh.h"
 
 #include <chrono>
 #include <cmath>

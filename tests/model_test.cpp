@@ -1,6 +1,7 @@
 // Tests of textured models: colour lookup, OBJ/MTL and glTF loading and export, round trips, error
 // messages, and the exported files checked by the Khronos glTF validator and assimp.
-#include "model.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
 
 #include <tiny_gltf.h>
 
@@ -13,9 +14,9 @@
 #include <regex>
 #include <set>
 
-#include "bvh.h"
-#include "mesh.h"
-#include "photo.h"
+#include "geometry/bvh.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;

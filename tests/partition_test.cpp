@@ -1,6 +1,7 @@
 // Tests of the mesh/photo partition (paper 3.1): shortest paths, the validity tests of a path-curve
 // pair, Steiner vertices, chains, and a realistic run on spot.
-#include "partition.h"
+#include "io/mesh_io.h"
+#include "mapping/partition.h"
 
 #include <algorithm>
 #include <atomic>
@@ -12,8 +13,8 @@
 #include <set>
 
 #include "pipeline.h"
-#include "raster.h"
-#include "shapes.h"
+#include "geometry/raster.h"
+#include "geometry/shapes.h"
 #include "test_support.h"
 
 namespace montage {

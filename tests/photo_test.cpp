@@ -1,6 +1,6 @@
 // Tests of core/photo and core/color: loading every supported format and layout, the foreground and
 // distance maps, the error messages, bilinear sampling and the L*u*v* conversion.
-#include "photo.h"
+#include "image/photo.h"
 
 #include <cmath>
 #include <filesystem>
@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
-#include "color.h"
+#include "image/color.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;

@@ -1,4 +1,5 @@
 // The pipeline object (stages, caching, cancel, report) and the `montage` command line end to end.
+#include "io/mesh_io.h"
 #include "pipeline.h"
 
 #include <filesystem>
@@ -7,9 +8,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "eval.h"
-#include "model.h"
-#include "synth.h"
+#include "bench/eval.h"
+#include "io/model.h"
+#include "bench/synth.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;

@@ -1,12 +1,12 @@
 // Poisson / harmonic interpolation on meshes (core/poisson.h).
-#include "poisson.h"
+#include "geometry/poisson.h"
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <cstdio>
 #include <random>
 
-#include "shapes.h"
+#include "geometry/shapes.h"
 #include "test_support.h"
 
 using namespace montage;

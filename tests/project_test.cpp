@@ -1,6 +1,6 @@
 // Tests of core/project: save/load round trip, relative paths, atomic writes, and one test per
 // rejection, each checking that the message names the file, the field and the reason.
-#include "project.h"
+#include "io/project.h"
 
 #include <sys/resource.h>
 #include <sys/stat.h>

@@ -1,5 +1,6 @@
 // Tests of the CPU rasterizer (cameras, z-buffer, fill rule), the triangle BVH and texture stretch.
-#include "raster.h"
+#include "io/mesh_io.h"
+#include "geometry/raster.h"
 
 #include <time.h>
 
@@ -9,10 +10,10 @@
 #include <map>
 #include <random>
 
-#include "bvh.h"
-#include "mesh.h"
-#include "stretch.h"
-#include "shapes.h"
+#include "geometry/bvh.h"
+#include "geometry/mesh.h"
+#include "geometry/stretch.h"
+#include "geometry/shapes.h"
 #include "test_support.h"
 
 namespace montage {

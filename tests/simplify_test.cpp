@@ -1,7 +1,8 @@
 // Progressive mesh (paper section 3.2): constrained collapses down to a base mesh whose edges are
 // the paths, exact replay of splits/collapses, and the barycentric coordinates of removed vertices.
 // Partitions are built by hand (grid lines, a Dijkstra written here), never by partitionMesh().
-#include "simplify.h"
+#include "io/mesh_io.h"
+#include "mapping/simplify.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -15,9 +16,9 @@
 #include <random>
 #include <set>
 
-#include "partition.h"
+#include "mapping/partition.h"
 #include "pipeline.h"
-#include "shapes.h"
+#include "geometry/shapes.h"
 #include "test_support.h"
 
 namespace montage {

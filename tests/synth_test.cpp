@@ -1,6 +1,7 @@
 // Tests of synthetic ground-truth scenes (core/synth.h): photos, feature visibility and positions,
 // farthest-point sampling, determinism, the solid pattern and the files written.
-#include "synth.h"
+#include "io/mesh_io.h"
+#include "bench/synth.h"
 
 #include <algorithm>
 #include <filesystem>
@@ -14,10 +15,10 @@
 #include <random>
 #include <set>
 
-#include "mesh.h"
-#include "model.h"
-#include "photo.h"
-#include "project.h"
+#include "geometry/mesh.h"
+#include "io/model.h"
+#include "image/photo.h"
+#include "io/project.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;

@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "common.h"
+#include "base/common.h"
 
 namespace montage::test {
 

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "project.h"
+#include "io/project.h"
 
 namespace montage {
 

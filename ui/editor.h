@@ -21,9 +21,10 @@
 #include <vector>
 
 #include "autosave.h"
-#include "bvh.h"
 #include "document.h"
 #include "file_dialog.h"
+#include "geometry/bvh.h"
+#include "io/mesh_io.h"
 #include "script.h"
 #include "view_math.h"
 #include "worker.h"

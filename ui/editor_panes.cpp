@@ -11,8 +11,8 @@
 
 #include "editor.h"
 #include "gl_util.h"
-#include "partition.h"
-#include "photo.h"
+#include "image/photo.h"
+#include "mapping/partition.h"
 
 namespace fs = std::filesystem;
 

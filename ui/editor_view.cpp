@@ -8,12 +8,13 @@
 #include <cstdint>
 
 #include "editor.h"
-#include "geometry.h"
+#include "geometry/predicates.h"
 #include "gl.h"
 #include "gl_util.h"
-#include "inpaint.h"
+#include "io/mesh_io.h"
+#include "mapping/partition.h"
 #include "overlays.h"
-#include "partition.h"
+#include "surface/inpaint.h"
 
 namespace montage {
 

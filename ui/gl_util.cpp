@@ -2,7 +2,7 @@
 
 #include <utility>
 
-#include "common.h"
+#include "base/common.h"
 
 namespace montage {
 

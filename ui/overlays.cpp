@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-#include "stretch.h"
+#include "geometry/stretch.h"
 
 namespace montage {
 

@@ -6,9 +6,9 @@
 #include <optional>
 #include <vector>
 
-#include "model.h"
-#include "project.h"
-#include "texture_map.h"
+#include "io/model.h"
+#include "io/project.h"
+#include "mapping/texture_map.h"
 
 namespace montage {
 

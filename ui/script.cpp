@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "common.h"
+#include "base/common.h"
 
 namespace montage {
 

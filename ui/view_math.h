@@ -6,9 +6,9 @@
 
 #include <array>
 
-#include "bvh.h"
-#include "mesh.h"
-#include "raster.h"
+#include "geometry/bvh.h"
+#include "geometry/mesh.h"
+#include "geometry/raster.h"
 
 namespace montage {
 

@@ -1,0 +1,42 @@
+// Progress reporting and cancellation of a pipeline job, and the names of the pipeline's stages. Every
+// stage takes a JobControl; it lives here, below the stages, so that nothing under core/ includes the
+// pipeline that sits on top of them.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <functional>
+#include <string>
+
+#include "base/common.h"
+
+namespace montage {
+
+// The stages, in pipeline order (paper Figure 2): load, partition (3.1), simplify (3.2), map
+// (coarse map 3.2 + coarse-to-fine 4.1), level (seam levelling, end of 5), inpaint (5: holes,
+// strokes, clones), bake (atlas: charts, LSCM, packing, baking), export. Seam optimisation (4.2) is
+// not built yet; every entry below runs.
+enum class StageId { Load, Partition, Simplify, Map, Level, Inpaint, Bake, Export };
+inline constexpr std::array<const char*, 8> kStageNames = {"load",  "partition", "simplify", "map",
+                                                           "level", "inpaint",   "bake",     "export"};
+inline const char* stageName(StageId s) {
+  return kStageNames[static_cast<int>(s)];
+}
+
+// Progress reporting and cancellation for one job. Stages call progress() at convenient points;
+// it throws montage::Cancelled when the cancel flag is set.
+class JobControl {
+ public:
+  using Callback = std::function<void(StageId stage, double fraction, const std::string& what)>;
+  JobControl() = default;
+  JobControl(const std::atomic<bool>* cancel, Callback callback) : cancel_(cancel), callback_(std::move(callback)) {}
+  void progress(StageId stage, double fraction, const std::string& what = "") const;
+  void checkCancel() const;
+  bool cancelled() const { return cancel_ && cancel_->load(std::memory_order_relaxed); }
+
+ private:
+  const std::atomic<bool>* cancel_ = nullptr;
+  Callback callback_;
+};
+
+}  // namespace montage

@@ -1,0 +1,60 @@
+// Synthetic ground-truth scenes: a UV-textured (or solid-patterned) mesh rendered from K cameras
+// into photos with a transparent background, with feature correspondences picked by farthest-point
+// sampling. They make any mesh a benchmark whose right answer is known.
+#pragma once
+
+#include <functional>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "base/common.h"
+#include "geometry/raster.h"
+#include "io/project.h"
+
+namespace montage {
+
+struct Mesh;
+
+// A deterministic 3D solid colour pattern (sRGB [0,1]) with structure at several scales: used when
+// a mesh has no texture, so every surface point has a known, non-trivial colour. `scale` is the
+// size of the largest structure in model units.
+Vec3f solidPattern(const Vec3& p, double scale);
+
+struct SynthOptions {
+  int views = 4;           // number of cameras, spread around the mesh
+  int features = 150;      // number of feature vertices (farthest-point sampling)
+  unsigned seed = 1;       // seeds the first sample and the camera jitter
+  int size = 1024;         // photo width and height in pixels
+  double fovYDeg = 35;     // camera field of view
+  double minFacing = 0.3;  // a feature is written for a view only if cos(normal, view dir) >= this
+  double borderPx = 3;     // ...and it lies this far from the silhouette and the image border
+  // Exposure gain per view on linear colour (view k uses exposures[k % size]; empty = 1): photos of one
+  // subject taken with different exposures, for seam levelling tests.
+  std::vector<double> exposures;
+};
+
+struct SynthScene {
+  SynthOptions options;         // the options the scene was made with
+  std::vector<cv::Mat> photos;  // CV_8UC4 RGBA, alpha 0 = background; silhouette antialiased (2x2 supersampling)
+  std::vector<Camera> cameras;
+  std::vector<int> featureVertices;  // in sampling order
+  Project project;                   // photos named photo_<k>.png, mesh path as given
+};
+
+// The ground-truth colour function of the surface: colour at a point of face f with barycentrics b.
+using SurfaceColor = std::function<Vec3f(int face, const Vec3& bary)>;
+
+// Renders and samples a scene. `color` gives the surface colour (texture lookup or solidPattern).
+// Progress is reported through `progress(fraction)` when given.
+SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const SurfaceColor& color,
+                      const SynthOptions& options, const std::function<void(double)>& progress = {});
+
+// N vertices spread evenly over the surface: farthest-point sampling with geodesic (Dijkstra on
+// edges) distances, starting from a vertex chosen by `seed`.
+std::vector<int> farthestPointSamples(const Mesh& mesh, int count, unsigned seed);
+
+// Writes photos, project.json and cameras.json (ground truth) into `dir`.
+void writeSynthScene(const SynthScene& scene, const std::string& dir);
+
+}  // namespace montage

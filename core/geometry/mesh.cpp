@@ -1,0 +1,449 @@
+// Mesh geometry queries, building the half-edge mesh from a triangle soup, and the validation report.
+#include "geometry/mesh.h"
+
+#include <Eigen/Geometry>
+#include <OpenMesh/Core/System/omstream.hh>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <numeric>
+#include <sstream>
+#include <tuple>
+
+#include "base/util.h"
+
+namespace montage {
+
+namespace {
+
+using VertexHandle = TriMesh::VertexHandle;
+using FaceHandle = TriMesh::FaceHandle;
+
+Vec3 toVec3(const TriMesh::Point& p) {
+  return {p[0], p[1], p[2]};
+}
+
+}  // namespace
+
+// ---- Mesh ------------------------------------------------------------------------------------------------
+
+std::array<int, 3> Mesh::faceVertices(int f) const {
+  auto h = tri.halfedge_handle(FaceHandle(f));
+  std::array<int, 3> v{};
+  for (int k = 0; k < 3; ++k) {
+    v[k] = tri.to_vertex_handle(h).idx();
+    h = tri.next_halfedge_handle(h);
+  }
+  return v;
+}
+
+Vec3 Mesh::position(int v) const {
+  return toVec3(tri.point(VertexHandle(v)));
+}
+
+std::array<Vec3, 3> Mesh::facePositions(int f) const {
+  const auto v = faceVertices(f);
+  return {position(v[0]), position(v[1]), position(v[2])};
+}
+
+double Mesh::faceArea(int f) const {
+  const auto p = facePositions(f);
+  return 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).norm();
+}
+
+Vec3 Mesh::faceNormal(int f) const {
+  const auto p = facePositions(f);
+  const Vec3 n = (p[1] - p[0]).cross(p[2] - p[0]);
+  const double len = n.norm();
+  return len > 0 ? Vec3(n / len) : Vec3::Zero();
+}
+
+void Mesh::bounds(Vec3& lo, Vec3& hi) const {
+  lo = hi = Vec3::Zero();
+  for (int v = 0; v < numVertices(); ++v) {
+    const Vec3 p = position(v);
+    lo = v == 0 ? p : Vec3(lo.cwiseMin(p));
+    hi = v == 0 ? p : Vec3(hi.cwiseMax(p));
+  }
+}
+
+// ---- Report ----------------------------------------------------------------------------------------------
+
+bool MeshReport::usable() const {
+  return std::none_of(findings.begin(), findings.end(),
+                      [](const MeshFinding& f) { return f.severity == MeshFinding::Severity::Error; });
+}
+
+std::string MeshReport::summary() const {
+  constexpr int kShown = 10;  // element ids printed per finding
+  std::ostringstream out;
+  out << (path.empty() ? std::string("mesh") : path) << (format.empty() ? "" : " (" + format + ")") << "\n";
+  out << "  file:     " << inputVertices << " vertices, " << inputFaces << " triangles\n";
+  out << "  mesh:     " << vertices << " vertices, " << faces << " faces, " << edges << " edges\n";
+  out << "  topology: " << components << (components == 1 ? " component, " : " components, ") << boundaryLoops
+      << (boundaryLoops == 1 ? " boundary loop, " : " boundary loops, ") << "genus " << genus << "\n";
+  out << "  texture coordinates: " << (hasUV ? "yes" : "no") << "; bounding-box diagonal " << diagonal << "\n";
+  if (findings.empty()) out << "  no problems found\n";
+  for (const MeshFinding& f : findings) {
+    out << (f.severity == MeshFinding::Severity::Error ? "  ERROR: " : "  warning: ") << f.what << "\n";
+    if (f.elements.empty()) continue;
+    out << "    ids:";
+    const int shown = std::min<int>(kShown, static_cast<int>(f.elements.size()));
+    for (int i = 0; i < shown; ++i) out << (i ? ", " : " ") << f.elements[i];
+    if (f.count > shown) out << " ... (" << f.count - shown << " more)";
+    out << "\n";
+  }
+  out << "  usable: " << (usable() ? "yes" : "no") << "\n";
+  return out.str();
+}
+
+std::unique_ptr<Mesh> requireUsable(LoadedMesh loaded) {
+  std::string errors;
+  for (const MeshFinding& f : loaded.report.findings)
+    if (f.severity == MeshFinding::Severity::Error) errors += (errors.empty() ? "" : "; ") + f.what;
+  if (!loaded.mesh && errors.empty()) errors = "no mesh";
+  if (!errors.empty()) throw Error(located(loaded.report.path, "mesh is not usable: " + errors));
+  return std::move(loaded.mesh);
+}
+
+// ---- Building --------------------------------------------------------------------------------------------
+
+namespace {
+
+constexpr int kMaxListed = 50;  // element ids kept per finding
+
+// The elements of one kind of finding: the first kMaxListed ids and the total count.
+struct IdList {
+  std::vector<int> ids;
+  int count = 0;
+  void add(int id) {
+    if (count++ < kMaxListed) ids.push_back(id);
+  }
+};
+
+void addFinding(MeshReport& report, MeshFinding::Severity severity, const IdList& list, const std::string& what) {
+  if (list.count > 0)
+    report.findings.push_back({severity, std::to_string(list.count) + " " + what, list.ids, list.count});
+}
+
+// For each point, the first point with a bit-identical position (itself when none); -0 equals +0.
+std::vector<int> firstWithSamePosition(const std::vector<Vec3>& points) {
+  const int n = static_cast<int>(points.size());
+  using Key = std::tuple<uint64_t, uint64_t, uint64_t, int>;  // position bits, index
+  std::vector<Key> keys(n);
+  for (int i = 0; i < n; ++i) {
+    uint64_t bits[3];
+    for (int d = 0; d < 3; ++d) {
+      const double x = points[i][d] + 0.0;
+      std::memcpy(&bits[d], &x, sizeof x);
+    }
+    keys[i] = {bits[0], bits[1], bits[2], i};
+  }
+  std::sort(keys.begin(), keys.end());
+  auto samePosition = [](const Key& a, const Key& b) {
+    return std::get<0>(a) == std::get<0>(b) && std::get<1>(a) == std::get<1>(b) && std::get<2>(a) == std::get<2>(b);
+  };
+  std::vector<int> first(n);
+  for (int i = 0, j = 0; i < n; i = j)
+    for (j = i; j < n && samePosition(keys[j], keys[i]); ++j) first[std::get<3>(keys[j])] = std::get<3>(keys[i]);
+  return first;
+}
+
+// Directed edges of the triangle corners, grouped by from-vertex and sorted by (to-vertex, corner), so that
+// all corners with edge a->b form one range found by binary search. Corner c = 3t+k is the edge from
+// corner k to corner k+1 of triangle t.
+class CornerEdges {
+ public:
+  using Entry = std::pair<int, int>;  // (to-vertex, corner)
+
+  CornerEdges(int numVertices, const std::vector<int>& cornerVertex, const std::vector<char>& use)
+      : start_(numVertices + 1, 0) {
+    const int nc = static_cast<int>(cornerVertex.size());
+    for (int c = 0; c < nc; ++c)
+      if (use[c / 3]) ++start_[cornerVertex[c] + 1];
+    std::partial_sum(start_.begin(), start_.end(), start_.begin());
+    entries_.resize(start_.back());
+    std::vector<int> fill(start_.begin(), start_.end() - 1);
+    for (int c = 0; c < nc; ++c)
+      if (use[c / 3]) entries_[fill[cornerVertex[c]]++] = {cornerVertex[nextCorner(c)], c};
+    for (int v = 0; v < numVertices; ++v) std::sort(entries_.begin() + start_[v], entries_.begin() + start_[v + 1]);
+  }
+
+  static int nextCorner(int c) { return c % 3 == 2 ? c - 2 : c + 1; }
+
+  // The corners whose edge goes from a to b.
+  std::pair<const Entry*, const Entry*> range(int a, int b) const {
+    const Entry* lo = entries_.data() + start_[a];
+    const Entry* hi = entries_.data() + start_[a + 1];
+    return {std::lower_bound(lo, hi, Entry{b, -1}), std::lower_bound(lo, hi, Entry{b + 1, -1})};
+  }
+
+ private:
+  std::vector<int> start_;
+  std::vector<Entry> entries_;
+};
+
+enum class Drop { None, RepeatedVertex, Duplicate, ComplexEdge, Orientation, NonManifoldVertex };
+
+// Silences OpenMesh's error stream while the mesh is built: dropped faces are reported instead.
+struct OmerrSilencer {
+  bool wasEnabled = ::omerr().is_enabled();
+  OmerrSilencer() { ::omerr().disable(); }
+  ~OmerrSilencer() {
+    if (wasEnabled) ::omerr().enable();
+  }
+};
+
+// Components, edges, boundary loops and genus of the built mesh.
+void analyzeTopology(const TriMesh& tri, MeshReport& report) {
+  const int nf = static_cast<int>(tri.n_faces());
+  UnionFind faces(nf);
+  for (auto e : tri.edges())
+    if (!e.is_boundary()) faces.unite(e.h0().face().idx(), e.h1().face().idx());
+  std::vector<int> component(nf);
+  int numComponents = 0;
+  for (int f = 0; f < nf; ++f) component[f] = faces.find(f) == f ? numComponents++ : component[faces.find(f)];
+
+  std::vector<long long> V(numComponents), E(numComponents), F(numComponents), B(numComponents);
+  for (int f = 0; f < nf; ++f) ++F[component[f]];
+  for (auto e : tri.edges()) ++E[component[(e.h0().is_boundary() ? e.h1() : e.h0()).face().idx()]];
+  std::vector<int> seen;
+  for (auto v : tri.vertices()) {
+    seen.clear();
+    for (auto f : v.faces())
+      if (std::find(seen.begin(), seen.end(), component[f.idx()]) == seen.end()) seen.push_back(component[f.idx()]);
+    for (int c : seen) ++V[c];
+  }
+  std::vector<char> visited(tri.n_halfedges(), 0);
+  for (auto h : tri.halfedges()) {
+    if (!h.is_boundary() || visited[h.idx()]) continue;
+    ++B[component[h.opp().face().idx()]];
+    for (auto g = h; !visited[g.idx()]; g = g.next()) visited[g.idx()] = 1;
+  }
+
+  report.edges = static_cast<int>(tri.n_edges());
+  report.components = numComponents;
+  report.boundaryLoops = static_cast<int>(std::accumulate(B.begin(), B.end(), 0LL));
+  report.genus = 0;
+  for (int c = 0; c < numComponents; ++c) report.genus += static_cast<int>((2 - (V[c] - E[c] + F[c]) - B[c]) / 2);
+}
+
+}  // namespace
+
+LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                     const std::vector<std::array<Vec2, 3>>& uv, const MeshLoadOptions& options,
+                     const std::string& name) {
+  const int nIn = static_cast<int>(vertices.size());
+  const int nt = static_cast<int>(triangles.size());
+  TM_CHECK(uv.empty() || uv.size() == triangles.size(),
+           located(name, std::to_string(uv.size()) + " UV triples for " + std::to_string(nt) + " triangles"));
+  for (int t = 0; t < nt; ++t)
+    for (int v : triangles[t])
+      TM_CHECK(v >= 0 && v < nIn, located(name, "face " + std::to_string(t) + ": vertex index " + std::to_string(v) +
+                                                    " out of range (" + std::to_string(nIn) + " vertices)"));
+
+  LoadedMesh out;
+  MeshReport& report = out.report;
+  report.path = name;
+  report.inputVertices = nIn;
+  report.inputFaces = nt;
+  using Severity = MeshFinding::Severity;
+
+  // Mesh vertices: the input vertices, or one per distinct position when welding. `origin` maps every
+  // mesh vertex (including the copies made by splitting below) to its input vertex.
+  const std::vector<int> first = firstWithSamePosition(vertices);
+  std::vector<int> meshVertex(nIn), origin;
+  IdList sharedPositions, nonFinite;
+  for (int i = 0; i < nIn; ++i) {
+    if (!vertices[i].allFinite()) nonFinite.add(i);
+    if (options.weldIdenticalPositions) {
+      if (first[i] == i) origin.push_back(i);
+      meshVertex[i] = first[i] == i ? static_cast<int>(origin.size()) - 1 : meshVertex[first[i]];
+    } else {
+      meshVertex[i] = i;
+      origin.push_back(i);
+      if (first[i] != i) sharedPositions.add(i);
+    }
+  }
+  const int nv = static_cast<int>(origin.size());
+
+  // Faces that cannot enter the mesh: repeated vertex, then duplicate vertex set (any orientation).
+  std::vector<int> cornerVertex(3 * nt);
+  std::vector<Drop> drop(nt, Drop::None);
+  std::vector<std::pair<std::array<int, 3>, int>> sorted;  // (sorted vertex set, face)
+  sorted.reserve(nt);
+  for (int t = 0; t < nt; ++t) {
+    std::array<int, 3> c;
+    for (int k = 0; k < 3; ++k) c[k] = cornerVertex[3 * t + k] = meshVertex[triangles[t][k]];
+    if (c[0] == c[1] || c[1] == c[2] || c[2] == c[0]) {
+      drop[t] = Drop::RepeatedVertex;
+      continue;
+    }
+    std::sort(c.begin(), c.end());
+    sorted.push_back({c, t});
+  }
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t i = 1; i < sorted.size(); ++i)
+    if (sorted[i].first == sorted[i - 1].first) drop[sorted[i].second] = Drop::Duplicate;
+
+  // Non-manifold input edges (more than two of the remaining faces), counted once at their lowest corner.
+  std::vector<char> candidate(nt);
+  for (int t = 0; t < nt; ++t) candidate[t] = drop[t] == Drop::None;
+  const CornerEdges edges(nv, cornerVertex, candidate);
+  for (int c = 0; c < 3 * nt; ++c) {
+    if (!candidate[c / 3]) continue;
+    const int a = cornerVertex[c], b = cornerVertex[CornerEdges::nextCorner(c)];
+    auto ab = edges.range(a, b), ba = edges.range(b, a);
+    if ((ab.second - ab.first) + (ba.second - ba.first) > 2 && ab.first->second == c &&
+        (ba.first == ba.second || ba.first->second > c))
+      ++report.nonManifoldEdges;
+  }
+
+  // In file order, a face is accepted when none of its directed edges is taken by an accepted face; this is
+  // OpenMesh's complex-edge rule, decided here so that vertices can be split before building.
+  std::vector<char> accepted(nt, 0);
+  auto taken = [&](int a, int b) {
+    auto r = edges.range(a, b);
+    return std::any_of(r.first, r.second, [&](const CornerEdges::Entry& e) { return accepted[e.second / 3]; });
+  };
+  for (int t = 0; t < nt; ++t) {
+    if (!candidate[t]) continue;
+    for (int k = 0; k < 3 && drop[t] == Drop::None; ++k) {
+      const int a = cornerVertex[3 * t + k], b = cornerVertex[3 * t + (k + 1) % 3];
+      if (taken(a, b)) drop[t] = taken(b, a) ? Drop::ComplexEdge : Drop::Orientation;
+    }
+    accepted[t] = drop[t] == Drop::None;
+  }
+
+  // Fans: corners at one vertex joined across shared edges. The fan met first keeps the vertex id, each
+  // further fan makes the vertex non-manifold and gets a new vertex appended (when splitting).
+  UnionFind fans(3 * nt);
+  size_t numEdges = 0;
+  for (int c = 0; c < 3 * nt; ++c) {
+    if (!accepted[c / 3]) continue;
+    const int v = cornerVertex[c], w = cornerVertex[CornerEdges::nextCorner(c)];
+    auto twin = edges.range(w, v);
+    bool interior = false;
+    for (auto e = twin.first; e != twin.second; ++e)
+      if (accepted[e->second / 3]) {
+        fans.unite(c, CornerEdges::nextCorner(e->second));
+        interior = true;
+      }
+    numEdges += !interior || v < w;
+  }
+  std::vector<int> fanVertex(3 * nt, -1), finalVertex(3 * nt, -1);
+  std::vector<char> hasFan(nv, 0), nonManifold(nv, 0);
+  IdList nonManifoldVertices;
+  int extraVertices = 0;
+  for (int c = 0; c < 3 * nt; ++c) {
+    if (!accepted[c / 3]) continue;
+    const int root = fans.find(c), v = cornerVertex[c];
+    if (fanVertex[root] < 0) {
+      if (!hasFan[v]) {
+        hasFan[v] = 1;
+        fanVertex[root] = v;
+      } else {
+        if (!nonManifold[v]) nonManifoldVertices.add(origin[v]);
+        nonManifold[v] = 1;
+        fanVertex[root] = v;
+        if (options.splitNonManifoldVertices) {
+          fanVertex[root] = static_cast<int>(origin.size());
+          origin.push_back(origin[v]);
+          ++extraVertices;
+        }
+      }
+    }
+    finalVertex[c] = fanVertex[root];
+  }
+  report.nonManifoldVertices = nonManifoldVertices.count;
+
+  // The half-edge mesh. add_face only fails at non-manifold vertices when splitting is off.
+  out.mesh = std::make_unique<Mesh>();
+  Mesh& mesh = *out.mesh;
+  TriMesh& tri = mesh.tri;
+  tri.reserve(origin.size(), numEdges, nt);
+  for (int o : origin) tri.add_vertex(TriMesh::Point(vertices[o][0], vertices[o][1], vertices[o][2]));
+  {
+    OmerrSilencer silence;
+    for (int t = 0; t < nt; ++t) {
+      if (!accepted[t]) continue;
+      const auto f = tri.add_face(VertexHandle(finalVertex[3 * t]), VertexHandle(finalVertex[3 * t + 1]),
+                                  VertexHandle(finalVertex[3 * t + 2]));
+      if (f.is_valid())
+        mesh.faceOrigin.push_back(t);
+      else
+        drop[t] = Drop::NonManifoldVertex;
+    }
+  }
+
+  // Corner UVs, rotated into faceVertices() order.
+  if (!uv.empty()) {
+    mesh.cornerUV.resize(mesh.numFaces());
+    for (int f = 0; f < mesh.numFaces(); ++f) {
+      const int t = mesh.faceOrigin[f];
+      const int v0 = mesh.faceVertices(f)[0];
+      const int k = finalVertex[3 * t] == v0 ? 0 : finalVertex[3 * t + 1] == v0 ? 1 : 2;
+      TM_ASSERT(finalVertex[3 * t + k] == v0);
+      mesh.cornerUV[f] = {uv[t][k], uv[t][(k + 1) % 3], uv[t][(k + 2) % 3]};
+    }
+  }
+
+  // Counts and findings.
+  report.vertices = mesh.numVertices();
+  report.faces = mesh.numFaces();
+  report.hasUV = mesh.hasUV();
+  analyzeTopology(tri, report);
+  Vec3 lo, hi;
+  mesh.bounds(lo, hi);
+  report.diagonal = (hi - lo).norm();
+
+  if (report.faces == 0)
+    report.findings.push_back(
+        {Severity::Error, nt == 0 ? "no faces" : "no faces left after dropping invalid ones", {}, 0});
+  addFinding(report, Severity::Error, nonFinite, "vertices with non-finite coordinates (NaN or infinite)");
+
+  IdList dropped[6];
+  for (int t = 0; t < nt; ++t)
+    if (drop[t] != Drop::None) dropped[static_cast<int>(drop[t])].add(t);
+  report.duplicateFaces = dropped[static_cast<int>(Drop::Duplicate)].count;
+  report.droppedFaces = nt - report.faces;
+  addFinding(report, Severity::Warning, dropped[static_cast<int>(Drop::RepeatedVertex)],
+             "faces dropped: degenerate (repeated vertex)");
+  addFinding(report, Severity::Warning, dropped[static_cast<int>(Drop::Duplicate)],
+             "faces dropped: duplicate (same vertices as an earlier face)");
+  addFinding(report, Severity::Warning, dropped[static_cast<int>(Drop::ComplexEdge)],
+             "faces dropped: complex edge (the edge would have more than two faces)");
+  addFinding(report, Severity::Warning, dropped[static_cast<int>(Drop::Orientation)],
+             "faces dropped: orientation conflict (an edge used twice in the same direction)");
+  addFinding(report, Severity::Warning, dropped[static_cast<int>(Drop::NonManifoldVertex)],
+             "faces dropped: non-manifold vertex (vertex splitting is off)");
+  if (report.nonManifoldEdges > 0)
+    report.findings.push_back(
+        {Severity::Warning,
+         std::to_string(report.nonManifoldEdges) + " non-manifold edges in the file (used by more than two faces)",
+         {},
+         report.nonManifoldEdges});
+  addFinding(report, Severity::Warning, nonManifoldVertices,
+             options.splitNonManifoldVertices ? "non-manifold vertices (faces form several fans): split into " +
+                                                    std::to_string(extraVertices) + " extra vertices"
+                                              : "non-manifold vertices (faces form several fans): not split");
+
+  IdList zeroArea, unreferenced;
+  const double minArea = 1e-12 * report.diagonal * report.diagonal;
+  if (nonFinite.count == 0)
+    for (int f = 0; f < mesh.numFaces(); ++f)
+      if (const double a = mesh.faceArea(f); a < minArea || a == 0) zeroArea.add(mesh.faceOrigin[f]);
+  for (int v = 0; v < nv; ++v)
+    if (tri.is_isolated(VertexHandle(v))) unreferenced.add(origin[v]);
+  report.zeroAreaFaces = zeroArea.count;
+  report.unreferencedVertices = unreferenced.count;
+  addFinding(report, Severity::Warning, zeroArea, "faces with zero area (kept)");
+  addFinding(report, Severity::Warning, unreferenced, "vertices used by no face (kept, ignored)");
+  addFinding(report, Severity::Warning, sharedPositions,
+             "vertices have the same position as an earlier vertex (e.g. a mesh split at UV seams), which "
+             "leaves the seams open; the weldIdenticalPositions load option merges them");
+  return out;
+}
+
+}  // namespace montage

@@ -1,0 +1,104 @@
+#include "image/color.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+
+namespace montage {
+
+namespace {
+
+// sRGB primaries to CIE XYZ (D65), IEC 61966-2-1. The white point is the image of RGB (1,1,1), so
+// sRGB white maps to u* = v* = 0 exactly.
+const Eigen::Matrix3d& rgbToXyz() {
+  static const Eigen::Matrix3d m = (Eigen::Matrix3d() << 0.4124564, 0.3575761, 0.1804375,  //
+                                    0.2126729, 0.7151522, 0.0721750,                       //
+                                    0.0193339, 0.1191920, 0.9503041)
+                                       .finished();
+  return m;
+}
+
+const Eigen::Matrix3d& xyzToRgb() {
+  static const Eigen::Matrix3d m = rgbToXyz().inverse();
+  return m;
+}
+
+struct WhitePoint {
+  double Y, u, v;  // luminance and CIE 1976 chromaticity (u', v')
+};
+
+const WhitePoint& white() {
+  static const WhitePoint w = [] {
+    const Eigen::Vector3d xyz = rgbToXyz() * Eigen::Vector3d::Ones();
+    const double d = xyz.x() + 15 * xyz.y() + 3 * xyz.z();
+    return WhitePoint{xyz.y(), 4 * xyz.x() / d, 9 * xyz.y() / d};
+  }();
+  return w;
+}
+
+constexpr double kEpsilon = 216.0 / 24389.0;  // (6/29)^3: below it L* is linear in Y
+constexpr double kKappa = 24389.0 / 27.0;     // (29/3)^3
+
+Eigen::Vector3d toLuv(const Vec3f& rgb) {
+  const Eigen::Vector3d lin(srgbToLinear(rgb.x()), srgbToLinear(rgb.y()), srgbToLinear(rgb.z()));
+  const Eigen::Vector3d xyz = rgbToXyz() * lin;
+  const WhitePoint& w = white();
+  const double y = xyz.y() / w.Y;
+  const double L = y > kEpsilon ? 116 * std::cbrt(y) - 16 : kKappa * y;
+  const double d = xyz.x() + 15 * xyz.y() + 3 * xyz.z();
+  if (L <= 0 || d <= 0) return Eigen::Vector3d(std::max(L, 0.0), 0, 0);  // black: chromaticity undefined
+  const double up = 4 * xyz.x() / d, vp = 9 * xyz.y() / d;
+  return Eigen::Vector3d(L, 13 * L * (up - w.u), 13 * L * (vp - w.v));
+}
+
+}  // namespace
+
+// Odd extensions keep out-of-gamut (negative) values invertible.
+double srgbToLinear(double c) {
+  const double a = std::abs(c);
+  const double l = a <= 0.04045 ? a / 12.92 : std::pow((a + 0.055) / 1.055, 2.4);
+  return std::copysign(l, c);
+}
+
+double linearToSrgb(double l) {
+  const double a = std::abs(l);
+  const double c = a <= 0.0031308 ? 12.92 * a : 1.055 * std::pow(a, 1 / 2.4) - 0.055;
+  return std::copysign(c, l);
+}
+
+Vec3f srgbToLuv(const Vec3f& rgb) {
+  return toLuv(rgb).cast<float>();
+}
+
+Vec3f luvToSrgb(const Vec3f& luv) {
+  const double L = luv.x();
+  if (L <= 0) return Vec3f::Zero();
+  const WhitePoint& w = white();
+  const double up = luv.y() / (13 * L) + w.u, vp = luv.z() / (13 * L) + w.v;
+  const double Y = w.Y * (L > kKappa * kEpsilon ? std::pow((L + 16) / 116, 3) : L / kKappa);
+  if (vp <= 0) return Vec3f::Zero();  // not a real colour; map to black rather than divide by zero
+  const Eigen::Vector3d xyz(Y * 9 * up / (4 * vp), Y, Y * (12 - 3 * up - 20 * vp) / (4 * vp));
+  const Eigen::Vector3d lin = xyzToRgb() * xyz;
+  return Vec3f(float(linearToSrgb(lin.x())), float(linearToSrgb(lin.y())), float(linearToSrgb(lin.z())));
+}
+
+cv::Mat srgbToLuv(const cv::Mat& rgb) {
+  TM_CHECK(rgb.type() == CV_32FC3, "srgbToLuv: expected a CV_32FC3 image");
+  cv::Mat luv(rgb.size(), CV_32FC3);
+  cv::parallel_for_(cv::Range(0, rgb.rows), [&](const cv::Range& rows) {
+    for (int r = rows.start; r < rows.end; ++r) {
+      const auto* in = rgb.ptr<cv::Vec3f>(r);
+      auto* out = luv.ptr<cv::Vec3f>(r);
+      for (int c = 0; c < rgb.cols; ++c) {
+        const Vec3f v = srgbToLuv(Vec3f(in[c][0], in[c][1], in[c][2]));
+        out[c] = cv::Vec3f(v.x(), v.y(), v.z());
+      }
+    }
+  });
+  return luv;
+}
+
+float deltaEuv(const Vec3f& rgbA, const Vec3f& rgbB) {
+  return float((toLuv(rgbA) - toLuv(rgbB)).norm());
+}
+
+}  // namespace montage

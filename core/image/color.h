@@ -1,0 +1,24 @@
+// Colour spaces: sRGB <-> linear <-> CIE XYZ (D65) <-> CIE L*u*v*, and the difference metrics the
+// evaluation uses.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "base/common.h"
+
+namespace montage {
+
+// sRGB transfer function, one channel: gamma-encoded value to linear light (odd extension below 0).
+double srgbToLinear(double c);
+// Inverse of srgbToLinear: linear light to gamma-encoded sRGB (odd extension below 0, no clamping).
+double linearToSrgb(double l);
+
+// sRGB in [0,1] (gamma encoded) to CIE L*u*v* with the D65 white point; L in [0,100].
+Vec3f srgbToLuv(const Vec3f& rgb);
+Vec3f luvToSrgb(const Vec3f& luv);
+// Whole-image conversion, CV_32FC3 RGB in [0,1] to CV_32FC3 L*u*v*.
+cv::Mat srgbToLuv(const cv::Mat& rgb);
+// Euclidean distance in L*u*v* (the CIE 1976 Delta E*uv) between two sRGB colours.
+float deltaEuv(const Vec3f& rgbA, const Vec3f& rgbB);
+
+}  // namespace montage

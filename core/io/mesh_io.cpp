@@ -1,0 +1,792 @@
+// Mesh file readers (OBJ, OFF, PLY, STL) that fill one triangle soup, turned into a mesh by buildMesh(),
+// and the OBJ writer.
+#include "io/mesh_io.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <climits>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <string_view>
+#include <unordered_map>
+
+#include "base/fileio.h"
+
+namespace montage {
+
+namespace {
+
+[[noreturn]] void failAt(const std::string& file, int line, const std::string& why) {
+  throw Error(located(line > 0 ? file + ":" + std::to_string(line) : file, why));
+}
+
+std::string quote(std::string_view s) {
+  return "'" + std::string(s.substr(0, 40)) + (s.size() > 40 ? "...'" : "'");
+}
+
+bool iequals(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
+         });
+}
+
+bool isBlank(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v';
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && isBlank(s.front())) s.remove_prefix(1);
+  while (!s.empty() && isBlank(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+// Splits the next blank-separated token off `rest`; false when none is left.
+bool splitToken(std::string_view& rest, std::string_view& token) {
+  size_t b = 0;
+  while (b < rest.size() && isBlank(rest[b])) ++b;
+  if (b == rest.size()) {
+    rest = {};
+    return false;
+  }
+  size_t e = b;
+  while (e < rest.size() && !isBlank(rest[e])) ++e;
+  token = rest.substr(b, e - b);
+  rest.remove_prefix(e);
+  return true;
+}
+
+// Whole-token number parsing, locale independent. Out-of-range doubles become inf or 0 like strtod.
+bool parseDouble(std::string_view s, double& out) {
+  const char* b = s.data();
+  const char* e = b + s.size();
+  if (b != e && *b == '+') ++b;
+  const auto r = std::from_chars(b, e, out);
+  if (r.ec == std::errc::result_out_of_range && r.ptr == e) {
+    out = std::strtod(std::string(s).c_str(), nullptr);
+    return true;
+  }
+  return r.ec == std::errc() && r.ptr == e;
+}
+
+bool parseInt(std::string_view s, long long& out) {
+  const char* b = s.data();
+  const char* e = b + s.size();
+  if (b != e && *b == '+') ++b;
+  const auto r = std::from_chars(b, e, out);
+  return r.ec == std::errc() && r.ptr == e && b != e;
+}
+
+// Lines of a text buffer (LF or CRLF) with '#' comments stripped and, for OBJ, lines ending in a
+// backslash joined; tokens are read from the current line or across lines. Errors name file and line.
+class Tokens {
+ public:
+  Tokens(const std::string& data, std::string file, bool comments, bool continuation)
+      : p_(data.data()),
+        end_(data.data() + data.size()),
+        file_(std::move(file)),
+        comments_(comments),
+        continuation_(continuation) {}
+
+  int line() const { return line_; }
+  // Byte offset of the next unread line in the buffer.
+  size_t consumed(const std::string& data) const { return static_cast<size_t>(p_ - data.data()); }
+  [[noreturn]] void fail(const std::string& why) const { failAt(file_, line_, why); }
+
+  // Moves to the next line; false at end of file.
+  bool nextLine() {
+    if (p_ == end_) return false;
+    line_ = ++physical_;
+    std::string_view l = physicalLine();
+    if (continuation_ && endsWithBackslash(l)) {
+      joined_.clear();
+      for (;;) {
+        const std::string_view t = trim(l);
+        const bool more = endsWithBackslash(l);
+        joined_.append(l.data(), more ? t.data() + t.size() - 1 - l.data() : l.size());  // drop the backslash
+        joined_ += ' ';
+        if (!more || p_ == end_) break;
+        l = physicalLine();
+        ++physical_;
+      }
+      l = joined_;
+    }
+    if (comments_) l = l.substr(0, l.find('#'));
+    rest_ = l;
+    return true;
+  }
+
+  // Next token of the current line; false when the line is exhausted.
+  bool onLine(std::string_view& token) { return splitToken(rest_, token); }
+  // Next token, moving on to the following lines as needed; false at end of file.
+  bool next(std::string_view& token) {
+    while (!splitToken(rest_, token))
+      if (!nextLine()) return false;
+    return true;
+  }
+  // The rest of the current line, trimmed; the line is then exhausted.
+  std::string_view restOfLine() {
+    const std::string_view r = trim(rest_);
+    rest_ = {};
+    return r;
+  }
+
+  // Required values; `sameLine` false lets them continue on the next lines.
+  std::string_view need(const char* what, bool sameLine = true) {
+    std::string_view t;
+    if (!(sameLine ? onLine(t) : next(t)))
+      fail(std::string(sameLine ? "missing " : "unexpected end of file: missing ") + what);
+    return t;
+  }
+  double number(const char* what, bool sameLine = true) {
+    const std::string_view t = need(what, sameLine);
+    double v;
+    if (!parseDouble(t, v)) fail(std::string("expected a number for ") + what + ", got " + quote(t));
+    return v;
+  }
+  long long integer(const char* what, bool sameLine = true) {
+    const std::string_view t = need(what, sameLine);
+    long long v;
+    if (!parseInt(t, v)) fail(std::string("expected an integer for ") + what + ", got " + quote(t));
+    return v;
+  }
+
+ private:
+  std::string_view physicalLine() {
+    const char* b = p_;
+    const char* nl = static_cast<const char*>(std::memchr(b, '\n', end_ - b));
+    const char* e = nl ? nl : end_;
+    p_ = nl ? nl + 1 : end_;
+    if (e > b && e[-1] == '\r') --e;
+    return {b, static_cast<size_t>(e - b)};
+  }
+  static bool endsWithBackslash(std::string_view l) {
+    l = trim(l);
+    return !l.empty() && l.back() == '\\';
+  }
+
+  const char* p_;
+  const char* end_;
+  std::string file_;
+  bool comments_, continuation_;
+  int line_ = 0, physical_ = 0;
+  std::string_view rest_;
+  std::string joined_;
+};
+
+// A per-face name index (OBJ usemtl, g, o), recorded once the first name appears; faces before it get
+// the name `unnamed`.
+struct FaceLabels {
+  std::vector<std::string> names;
+  std::vector<int> ids;  // per triangle, empty while no name was set
+  std::unordered_map<std::string, int> index;
+  int current = -1;
+
+  void set(std::string_view name, size_t facesSoFar, const char* unnamed) {
+    if (current < 0 && facesSoFar > 0) {
+      ids.assign(facesSoFar, lookup(unnamed));
+    }
+    current = lookup(std::string(name));
+  }
+  void tag(int triangles) {
+    if (current >= 0) ids.insert(ids.end(), triangles, current);
+  }
+
+ private:
+  int lookup(const std::string& name) {
+    const auto it = index.emplace(name, static_cast<int>(names.size())).first;
+    if (it->second == static_cast<int>(names.size())) names.push_back(name);
+    return it->second;
+  }
+};
+
+// What every reader produces: positions and fan-triangulated faces, with optional texture coordinates
+// (by index, -1 = none) and OBJ labels, plus where each triangle came from for error messages.
+struct Soup {
+  std::string file;
+  bool binary = false;  // `source` holds polygon numbers instead of line numbers
+  int indexBase = 0;    // 1 for OBJ: indices are shown as written in the file
+  std::vector<Vec3> positions;
+  std::vector<Vec2> texcoords;
+  std::vector<std::array<int, 3>> triangles;
+  bool hasUV = false;                       // some face has texture coordinates
+  std::vector<std::array<int, 3>> uvIndex;  // per triangle, when hasUV
+  std::vector<int> source;                  // per triangle: line (text) or polygon number (binary)
+  FaceLabels material, group, object;
+  std::string mtllib;
+  std::vector<MeshFinding> notes;  // reader warnings, appended to the report
+
+  // Adds a polygon of n corners as a fan of n-2 triangles; `uv` may be null.
+  void addPolygon(const int* v, const int* uv, int n, int where) {
+    if (n < 3) fail(where, "a face needs at least 3 vertices, this one has " + std::to_string(n));
+    if (uv && !hasUV) uvIndex.assign(triangles.size(), {-1, -1, -1});
+    hasUV |= uv != nullptr;
+    for (int k = 1; k + 1 < n; ++k) {
+      triangles.push_back({v[0], v[k], v[k + 1]});
+      if (hasUV) uvIndex.push_back(uv ? std::array<int, 3>{uv[0], uv[k], uv[k + 1]} : std::array<int, 3>{-1, -1, -1});
+      source.push_back(where);
+    }
+    material.tag(n - 2);
+    group.tag(n - 2);
+    object.tag(n - 2);
+  }
+
+  // Checks every index and returns the corner UVs (empty when the file has none).
+  std::vector<std::array<Vec2, 3>> finish() {
+    const int nv = static_cast<int>(positions.size()), nuv = static_cast<int>(texcoords.size());
+    std::vector<std::array<Vec2, 3>> uv(hasUV ? triangles.size() : 0);
+    int missing = 0;
+    for (size_t t = 0; t < triangles.size(); ++t)
+      for (int k = 0; k < 3; ++k) {
+        const int v = triangles[t][k];
+        if (v < 0 || v >= nv)
+          fail(source[t],
+               "face index " + std::to_string(v + indexBase) + " out of range (" + std::to_string(nv) + " vertices)");
+        if (!hasUV) continue;
+        const int i = uvIndex[t][k];
+        if (i >= nuv)
+          fail(source[t], "texture coordinate index " + std::to_string(i + indexBase) + " out of range (" +
+                              std::to_string(nuv) + " texture coordinates)");
+        uv[t][k] = i >= 0 ? texcoords[i] : Vec2::Zero();
+        missing += i < 0 && k == 0;
+      }
+    if (missing > 0)
+      notes.push_back({MeshFinding::Severity::Warning,
+                       std::to_string(missing) + " faces have no texture coordinates (set to 0,0)",
+                       {},
+                       missing});
+    return uv;
+  }
+
+ private:
+  [[noreturn]] void fail(int where, const std::string& why) const {
+    if (binary) failAt(file, 0, "face " + std::to_string(where) + ": " + why);
+    failAt(file, where, why);
+  }
+};
+
+// ---- OBJ -------------------------------------------------------------------------------------------------
+
+void readObj(const std::string& data, Soup& soup) {
+  Tokens in(data, soup.file, true, true);
+  soup.indexBase = 1;
+  std::vector<int> v, vt;
+  std::string_view keyword, token;
+  int unknown = 0;
+  std::string firstUnknown;
+
+  // 1-based or negative (relative) OBJ index to 0-based; range is checked in Soup::finish (forward use).
+  auto index = [&](std::string_view s, size_t count, const char* what) {
+    long long i;
+    if (!parseInt(s, i)) in.fail("bad face corner " + quote(token) + " (expected v, v/vt, v//vn or v/vt/vn)");
+    if (i == 0) in.fail(std::string(what) + " index 0 is invalid (OBJ indices start at 1)");
+    if (i < 0 && -i > static_cast<long long>(count))
+      in.fail(std::string(what) + " index " + std::to_string(i) + " out of range (" + std::to_string(count) +
+              " defined before this line)");
+    if (i > INT_MAX) in.fail(std::string(what) + " index " + std::to_string(i) + " out of range");
+    return static_cast<int>(i < 0 ? static_cast<long long>(count) + i : i - 1);
+  };
+
+  while (in.nextLine()) {
+    if (!in.onLine(keyword)) continue;
+    if (keyword == "v") {
+      const double x = in.number("x coordinate"), y = in.number("y coordinate"), z = in.number("z coordinate");
+      soup.positions.emplace_back(x, y, z);
+    } else if (keyword == "vt") {
+      const double u = in.number("u coordinate");
+      double w = 0;
+      if (in.onLine(token) && !parseDouble(token, w))
+        in.fail("expected a number for v coordinate, got " + quote(token));
+      soup.texcoords.emplace_back(u, w);
+    } else if (keyword == "f") {
+      v.clear();
+      vt.clear();
+      while (in.onLine(token)) {
+        const size_t s1 = token.find('/');
+        v.push_back(index(token.substr(0, s1), soup.positions.size(), "face"));
+        if (s1 == std::string_view::npos) continue;
+        const std::string_view t = token.substr(s1 + 1, token.find('/', s1 + 1) - s1 - 1);
+        if (!t.empty()) vt.push_back(index(t, soup.texcoords.size(), "texture coordinate"));
+      }
+      if (!vt.empty() && vt.size() != v.size()) in.fail("face gives texture coordinates for some corners only");
+      soup.addPolygon(v.data(), vt.empty() ? nullptr : vt.data(), static_cast<int>(v.size()), in.line());
+    } else if (keyword == "usemtl") {
+      soup.material.set(in.restOfLine(), soup.triangles.size(), "");
+    } else if (keyword == "g" || keyword == "o") {
+      const std::string_view name = in.restOfLine();
+      (keyword == "g" ? soup.group : soup.object)
+          .set(name.empty() ? "default" : name, soup.triangles.size(), "default");
+    } else if (keyword == "mtllib") {
+      if (soup.mtllib.empty()) soup.mtllib = in.restOfLine();
+    } else if (std::any_of(keyword.begin(), keyword.end(), [](char c) { return c < 0x20 || c > 0x7e; })) {
+      in.fail("unexpected binary data (not an OBJ text file?)");
+    } else {
+      static const char* known[] = {"vn",    "vp",    "s",          "l",        "p",        "cstype", "deg",
+                                    "bmat",  "step",  "curv",       "curv2",    "surf",     "parm",   "trim",
+                                    "hole",  "scrv",  "sp",         "end",      "con",      "mg",     "bevel",
+                                    "lod",   "call",  "csh",        "c_interp", "d_interp", "usemap", "maplib",
+                                    "ctech", "stech", "shadow_obj", "trace_obj"};
+      const bool isKnown = std::any_of(std::begin(known), std::end(known), [&](const char* k) { return keyword == k; });
+      if (!isKnown && unknown++ == 0) firstUnknown = "line " + std::to_string(in.line()) + ": " + quote(keyword);
+    }
+  }
+  if (soup.group.names.empty()) soup.group = std::move(soup.object);
+  if (unknown > 0)
+    soup.notes.push_back(
+        {MeshFinding::Severity::Warning,
+         std::to_string(unknown) + " lines with unknown statements ignored (first at " + firstUnknown + ")",
+         {},
+         unknown});
+}
+
+// ---- OFF -------------------------------------------------------------------------------------------------
+
+void readOff(const std::string& data, Soup& soup) {
+  Tokens in(data, soup.file, true, false);
+  std::string_view token;
+  if (!in.next(token)) in.fail("empty file (expected an OFF header)");
+  // [ST][C][N]OFF; the 4 / n (dimension) variants and binary OFF are not supported.
+  const std::string_view prefix = token.substr(0, token.size() >= 3 ? token.size() - 3 : 0);
+  if (token.size() < 3 || token.substr(token.size() - 3) != "OFF" ||
+      prefix.find_first_not_of("STCN") != std::string_view::npos)
+    in.fail("not an OFF file: expected 'OFF' header, got " + quote(token));
+  std::string_view rest = in.restOfLine(), counts[3];
+  if (!rest.empty() && rest.substr(0, 6) == "BINARY") in.fail("binary OFF is not supported");
+  int numCounts = 0;
+  while (numCounts < 3 && splitToken(rest, counts[numCounts])) ++numCounts;
+  long long nv, nf;
+  if (numCounts > 0) {  // counts on the header line
+    if (numCounts < 2 || !parseInt(counts[0], nv) || !parseInt(counts[1], nf))
+      in.fail("bad vertex/face counts after OFF");
+  } else {
+    nv = in.integer("vertex count", false);
+    nf = in.integer("face count", false);
+    in.restOfLine();  // edge count
+  }
+  if (nv < 0 || nf < 0 || nv > INT_MAX || nf > INT_MAX) in.fail("bad vertex/face counts");
+
+  auto dataLine = [&](const char* what) {
+    do
+      if (!in.nextLine()) in.fail(std::string("unexpected end of file: missing ") + what);
+    while (!in.onLine(token));
+  };
+  soup.positions.reserve(std::min<long long>(nv, data.size() / 6));
+  for (long long i = 0; i < nv; ++i) {
+    dataLine("vertex");
+    double x;
+    if (!parseDouble(token, x)) in.fail("expected a number for x coordinate, got " + quote(token));
+    const double y = in.number("y coordinate"), z = in.number("z coordinate");
+    soup.positions.emplace_back(x, y, z);
+  }
+  std::vector<int> poly;
+  for (long long i = 0; i < nf; ++i) {
+    dataLine("face");
+    long long n;
+    if (!parseInt(token, n) || n < 0 || n > 1000000) in.fail("bad face vertex count " + quote(token));
+    poly.resize(n);
+    for (auto& v : poly) {
+      const long long idx = in.integer("face vertex index");
+      if (idx < 0 || idx > INT_MAX) in.fail("face index " + std::to_string(idx) + " out of range");
+      v = static_cast<int>(idx);
+    }
+    soup.addPolygon(poly.data(), nullptr, static_cast<int>(n), in.line());
+  }
+}
+
+// ---- PLY -------------------------------------------------------------------------------------------------
+
+enum class PlyType { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
+
+bool plyType(std::string_view name, PlyType& type) {
+  static const std::pair<const char*, PlyType> names[] = {
+      {"char", PlyType::Int8},      {"int8", PlyType::Int8},       {"uchar", PlyType::UInt8},
+      {"uint8", PlyType::UInt8},    {"short", PlyType::Int16},     {"int16", PlyType::Int16},
+      {"ushort", PlyType::UInt16},  {"uint16", PlyType::UInt16},   {"int", PlyType::Int32},
+      {"int32", PlyType::Int32},    {"uint", PlyType::UInt32},     {"uint32", PlyType::UInt32},
+      {"float", PlyType::Float32},  {"float32", PlyType::Float32}, {"double", PlyType::Float64},
+      {"float64", PlyType::Float64}};
+  for (const auto& [n, t] : names)
+    if (name == n) return type = t, true;
+  return false;
+}
+
+// Properties the reader keeps; everything else is read and skipped.
+enum class PlyRole { Skip, X, Y, Z, U, V, Indices, TexCoords };
+
+struct PlyProperty {
+  std::string name;
+  PlyType type = PlyType::Float32;
+  bool list = false;
+  PlyType countType = PlyType::UInt8;
+  PlyRole role = PlyRole::Skip;
+};
+
+struct PlyElement {
+  std::string name;
+  long long count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+// The element instance being read, named in error messages.
+struct PlyCursor {
+  const std::string* element = nullptr;
+  long long index = 0;
+  std::string where() const { return element ? "element '" + *element + "' " + std::to_string(index) + ": " : ""; }
+};
+
+// Values of an ascii PLY body.
+struct PlyAsciiReader : PlyCursor {
+  Tokens& in;
+  explicit PlyAsciiReader(Tokens& tokens) : in(tokens) {}
+  double value(PlyType, const char* what) { return in.number(what, false); }
+  int line() const { return in.line(); }
+  [[noreturn]] void fail(const std::string& why) const { in.fail(where() + why); }
+};
+
+// Values of a binary PLY body, either byte order.
+struct PlyBinaryReader : PlyCursor {
+  const char* p;
+  const char* end;
+  bool swap;
+  const std::string& file;
+  PlyBinaryReader(const char* begin, const char* stop, bool swapBytes, const std::string& name)
+      : p(begin), end(stop), swap(swapBytes), file(name) {}
+
+  template <class T>
+  double get() {
+    if (end - p < static_cast<std::ptrdiff_t>(sizeof(T))) fail("unexpected end of file");
+    unsigned char bytes[sizeof(T)];
+    std::memcpy(bytes, p, sizeof(T));
+    p += sizeof(T);
+    if (swap) std::reverse(bytes, bytes + sizeof(T));
+    T v;
+    std::memcpy(&v, bytes, sizeof(T));
+    return static_cast<double>(v);
+  }
+  double value(PlyType type, const char*) {
+    switch (type) {
+      case PlyType::Int8:
+        return get<int8_t>();
+      case PlyType::UInt8:
+        return get<uint8_t>();
+      case PlyType::Int16:
+        return get<int16_t>();
+      case PlyType::UInt16:
+        return get<uint16_t>();
+      case PlyType::Int32:
+        return get<int32_t>();
+      case PlyType::UInt32:
+        return get<uint32_t>();
+      case PlyType::Float32:
+        return get<float>();
+      case PlyType::Float64:
+        return get<double>();
+    }
+    return 0;
+  }
+  int line() const { return 0; }
+  [[noreturn]] void fail(const std::string& why) const { failAt(file, 0, where() + why); }
+};
+
+template <class Reader>
+void readPlyBody(Reader& in, const std::vector<PlyElement>& elements, bool vertexUV, bool faceUV, Soup& soup) {
+  std::vector<int> poly, uvIndex;
+  std::vector<double> values;
+  for (const PlyElement& el : elements) {
+    const bool isVertex = el.name == "vertex", isFace = el.name == "face";
+    for (long long i = 0; i < el.count; ++i) {
+      in.element = &el.name;
+      in.index = i;
+      double coord[5] = {0, 0, 0, 0, 0};  // x y z u v
+      poly.clear();
+      values.clear();
+      for (const PlyProperty& p : el.properties) {
+        if (!p.list) {
+          const double v = in.value(p.type, p.name.c_str());
+          if (p.role >= PlyRole::X && p.role <= PlyRole::V) coord[static_cast<int>(p.role) - 1] = v;
+          continue;
+        }
+        const double n = in.value(p.countType, "list count");
+        if (!(n >= 0 && n <= 1e6 && n == std::floor(n))) in.fail("bad list count for '" + p.name + "'");
+        for (int k = 0; k < static_cast<int>(n); ++k) {
+          const double v = in.value(p.type, p.name.c_str());
+          if (p.role == PlyRole::Indices) {
+            if (!(v >= 0 && v <= INT_MAX && v == std::floor(v))) in.fail("bad vertex index " + std::to_string(v));
+            poly.push_back(static_cast<int>(v));
+          } else if (p.role == PlyRole::TexCoords) {
+            values.push_back(v);
+          }
+        }
+      }
+      if (isVertex) {
+        soup.positions.emplace_back(coord[0], coord[1], coord[2]);
+        if (vertexUV) soup.texcoords.emplace_back(coord[3], coord[4]);
+      } else if (isFace) {
+        const int source = in.line() > 0 ? in.line() : static_cast<int>(i);
+        const bool cornerUV = faceUV && !values.empty();  // an empty texcoord list: no UVs on this face
+        if (cornerUV) {
+          if (values.size() != 2 * poly.size())
+            in.fail("texcoord list has " + std::to_string(values.size()) + " values for " +
+                    std::to_string(poly.size()) + " corners");
+          uvIndex.resize(poly.size());
+          for (size_t k = 0; k < poly.size(); ++k) {
+            uvIndex[k] = static_cast<int>(soup.texcoords.size());
+            soup.texcoords.emplace_back(values[2 * k], values[2 * k + 1]);
+          }
+        }
+        const int* uv = cornerUV ? uvIndex.data() : vertexUV ? poly.data() : nullptr;
+        soup.addPolygon(poly.data(), uv, static_cast<int>(poly.size()), source);
+      }
+    }
+  }
+}
+
+void readPly(const std::string& data, Soup& soup) {
+  Tokens in(data, soup.file, false, false);
+  std::string_view token;
+  if (!in.nextLine() || !in.onLine(token) || token != "ply") in.fail("not a PLY file (first line must be 'ply')");
+  std::string format;
+  std::vector<PlyElement> elements;
+  for (;;) {
+    if (!in.nextLine()) in.fail("unexpected end of file in the header (missing 'end_header')");
+    if (!in.onLine(token) || token == "comment" || token == "obj_info") continue;
+    if (token == "end_header") break;
+    if (token == "format") {
+      format = in.need("format name");
+      if (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian")
+        in.fail("unknown PLY format " + quote(format));
+    } else if (token == "element") {
+      PlyElement el;
+      el.name = in.need("element name");
+      el.count = in.integer("element count");
+      if (el.count < 0 || el.count > INT_MAX) in.fail("bad element count");
+      elements.push_back(el);
+    } else if (token == "property") {
+      if (elements.empty()) in.fail("property before any element");
+      PlyElement& el = elements.back();
+      PlyProperty p;
+      std::string_view type = in.need("property type");
+      if (type == "list") {
+        p.list = true;
+        const std::string_view count = in.need("list count type");
+        if (!plyType(count, p.countType)) in.fail("unknown PLY type " + quote(count));
+        type = in.need("list item type");
+      }
+      if (!plyType(type, p.type)) in.fail("unknown PLY type " + quote(type));
+      p.name = in.need("property name");
+      if (el.name == "vertex" && !p.list) {
+        static const std::pair<const char*, PlyRole> roles[] = {
+            {"x", PlyRole::X},         {"y", PlyRole::Y},         {"z", PlyRole::Z},        {"u", PlyRole::U},
+            {"v", PlyRole::V},         {"s", PlyRole::U},         {"t", PlyRole::V},        {"texture_u", PlyRole::U},
+            {"texture_v", PlyRole::V}, {"texture_s", PlyRole::U}, {"texture_t", PlyRole::V}};
+        for (const auto& [n, r] : roles)
+          if (p.name == n) p.role = r;
+      } else if (el.name == "face" && p.list) {
+        if (p.name == "vertex_indices" || p.name == "vertex_index") p.role = PlyRole::Indices;
+        if (p.name == "texcoord") p.role = PlyRole::TexCoords;
+      }
+      el.properties.push_back(p);
+    } else {
+      in.fail("unexpected header line starting with " + quote(token));
+    }
+  }
+  if (format.empty()) in.fail("missing 'format' line in the header");
+
+  // Requirements: x, y, z on vertices, a vertex index list on faces; both u and v for vertex UVs.
+  for (PlyElement& el : elements) {
+    auto has = [&](PlyRole r) {
+      return std::any_of(el.properties.begin(), el.properties.end(), [&](const PlyProperty& p) { return p.role == r; });
+    };
+    if (el.name == "vertex" && !(has(PlyRole::X) && has(PlyRole::Y) && has(PlyRole::Z)))
+      in.fail("vertex element lacks an x, y or z property");
+    if (el.name == "face" && !has(PlyRole::Indices)) in.fail("face element lacks a 'vertex_indices' list property");
+    if (el.name == "vertex" && !(has(PlyRole::U) && has(PlyRole::V)))
+      for (auto& p : el.properties)
+        if (p.role == PlyRole::U || p.role == PlyRole::V) p.role = PlyRole::Skip;
+  }
+  // Texture coordinates: the face texcoord lists, else the vertex u and v.
+  auto anyRole = [&](PlyRole r) {
+    return std::any_of(elements.begin(), elements.end(), [&](const PlyElement& el) {
+      return std::any_of(el.properties.begin(), el.properties.end(), [&](const PlyProperty& p) { return p.role == r; });
+    });
+  };
+  const bool faceUV = anyRole(PlyRole::TexCoords), vertexUV = !faceUV && anyRole(PlyRole::U);
+  for (PlyElement& el : elements)
+    for (auto& p : el.properties)
+      if (faceUV && (p.role == PlyRole::U || p.role == PlyRole::V)) p.role = PlyRole::Skip;
+
+  if (format == "ascii") {
+    PlyAsciiReader reader(in);
+    readPlyBody(reader, elements, vertexUV, faceUV, soup);
+  } else {
+    soup.binary = true;
+    const size_t offset = in.consumed(data);
+    const bool bigEndianHost = [] {
+      const uint16_t one = 1;
+      unsigned char b;
+      std::memcpy(&b, &one, 1);
+      return b == 0;
+    }();
+    PlyBinaryReader reader(data.data() + offset, data.data() + data.size(),
+                           (format == "binary_big_endian") != bigEndianHost, soup.file);
+    readPlyBody(reader, elements, vertexUV, faceUV, soup);
+  }
+}
+
+// ---- STL -------------------------------------------------------------------------------------------------
+
+void readStlBinary(const std::string& data, Soup& soup, uint32_t count) {
+  soup.binary = true;
+  soup.positions.reserve(3 * size_t(count));
+  const char* p = data.data() + 84;
+  for (uint32_t t = 0; t < count; ++t, p += 50) {
+    float f[12];  // normal, then three corners; little endian
+    std::memcpy(f, p, sizeof f);
+    const int base = static_cast<int>(soup.positions.size());
+    for (int k = 1; k < 4; ++k) soup.positions.emplace_back(f[3 * k], f[3 * k + 1], f[3 * k + 2]);
+    const int v[3] = {base, base + 1, base + 2};
+    soup.addPolygon(v, nullptr, 3, static_cast<int>(t));
+  }
+}
+
+void readStlAscii(const std::string& data, Soup& soup) {
+  Tokens in(data, soup.file, false, false);
+  std::string_view token;
+  auto expect = [&](const char* word) {
+    const std::string_view t = in.need(word, false);
+    if (!iequals(t, word)) in.fail(std::string("expected '") + word + "', got " + quote(t));
+  };
+  std::vector<int> poly;
+  while (in.next(token)) {
+    if (iequals(token, "solid") || iequals(token, "endsolid")) {
+      in.restOfLine();  // solid name
+    } else if (iequals(token, "facet")) {
+      in.restOfLine();  // normal
+      expect("outer");
+      expect("loop");
+      poly.clear();
+      while (!iequals(token = in.need("'vertex' or 'endloop'", false), "endloop")) {
+        if (!iequals(token, "vertex")) in.fail("expected 'vertex' or 'endloop', got " + quote(token));
+        const double x = in.number("x coordinate"), y = in.number("y coordinate"), z = in.number("z coordinate");
+        poly.push_back(static_cast<int>(soup.positions.size()));
+        soup.positions.emplace_back(x, y, z);
+      }
+      expect("endfacet");
+      soup.addPolygon(poly.data(), nullptr, static_cast<int>(poly.size()), in.line());
+    } else {
+      in.fail("expected 'facet' or 'endsolid', got " + quote(token));
+    }
+  }
+}
+
+void readStl(const std::string& data, Soup& soup) {
+  uint32_t count = 0;
+  if (data.size() >= 84) std::memcpy(&count, data.data() + 80, 4);  // little-endian hosts only
+  const size_t expected = 84 + 50 * size_t(count);
+  // Text that starts with "solid" (binary files may too, but they contain zero bytes).
+  const size_t start = data.find_first_not_of(" \t\r\n");
+  const bool ascii = start != std::string::npos && iequals(std::string_view(data).substr(start, 5), "solid") &&
+                     data.find('\0') == std::string::npos;
+  if (ascii) return readStlAscii(data, soup);
+  if (data.size() >= 84 && data.size() == expected) return readStlBinary(data, soup, count);
+  if (data.size() < 84) failAt(soup.file, 0, "not an STL file (too short for binary STL, and not 'solid ...' text)");
+  failAt(soup.file, 0,
+         "binary STL header says " + std::to_string(count) + " triangles (" + std::to_string(expected) +
+             " bytes) but the file has " + std::to_string(data.size()) + " bytes");
+}
+
+// ---- Files -----------------------------------------------------------------------------------------------
+
+std::string readFile(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) failAt(path, 0, "is a folder, not a mesh file");
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) failAt(path, 0, std::string("cannot open mesh file: ") + std::strerror(errno));
+  std::string data;
+  if (std::fseek(f, 0, SEEK_END) == 0)
+    if (const long size = std::ftell(f); size > 0) data.reserve(static_cast<size_t>(size));
+  std::rewind(f);
+  char buffer[1 << 16];
+  while (size_t n = std::fread(buffer, 1, sizeof buffer, f)) data.append(buffer, n);
+  const bool bad = std::ferror(f);
+  std::fclose(f);
+  if (bad) failAt(path, 0, "read error");
+  return data;
+}
+
+void appendNumber(std::string& out, double x) {
+  char buf[32];
+  out.append(buf, std::to_chars(buf, buf + sizeof buf, x).ptr);
+}
+
+}  // namespace
+
+LoadedMesh loadMesh(const std::string& path, const MeshLoadOptions& options) {
+  std::string ext = lowerExtension(path);
+  if (!ext.empty()) ext.erase(0, 1);
+  using Reader = void (*)(const std::string&, Soup&);
+  static const std::pair<const char*, Reader> readers[] = {
+      {"obj", readObj}, {"off", readOff}, {"ply", readPly}, {"stl", readStl}};
+  const auto reader = std::find_if(std::begin(readers), std::end(readers), [&](auto& r) { return ext == r.first; });
+  if (reader == std::end(readers))
+    failAt(path, 0, "unsupported mesh format " + quote(ext) + " (expected .obj, .ply, .off or .stl)");
+
+  Soup soup;
+  soup.file = path;
+  reader->second(readFile(path), soup);
+  const std::vector<std::array<Vec2, 3>> uv = soup.finish();
+
+  MeshLoadOptions opts = options;
+  opts.weldIdenticalPositions |= ext == "stl";  // STL shares no vertices
+  LoadedMesh loaded = buildMesh(soup.positions, soup.triangles, uv, opts, path);
+  loaded.report.format = ext;
+  loaded.report.findings.insert(loaded.report.findings.end(), soup.notes.begin(), soup.notes.end());
+
+  Mesh& mesh = *loaded.mesh;
+  mesh.mtllib = soup.mtllib;
+  auto labels = [&](const FaceLabels& from, std::vector<int>& ids, std::vector<std::string>& names) {
+    if (from.ids.empty()) return;
+    names = from.names;
+    ids.resize(mesh.numFaces());
+    for (int f = 0; f < mesh.numFaces(); ++f) ids[f] = from.ids[mesh.faceOrigin[f]];
+  };
+  labels(soup.material, mesh.faceMaterial, mesh.materialNames);
+  labels(soup.group, mesh.faceGroup, mesh.groupNames);
+  return loaded;
+}
+
+void saveMeshObj(const Mesh& mesh, const std::string& path) {
+  std::string out = "# written by TextureMontage\n";
+  out.reserve(40 * (mesh.numVertices() + 2 * mesh.numFaces()));
+  for (int v = 0; v < mesh.numVertices(); ++v) {
+    const Vec3 p = mesh.position(v);
+    out += "v";
+    for (int d = 0; d < 3; ++d) appendNumber(out += ' ', p[d]);
+    out += '\n';
+  }
+  for (const auto& corners : mesh.cornerUV)  // one vt per corner, in face order
+    for (const Vec2& t : corners) {
+      appendNumber(out += "vt ", t.x());
+      appendNumber(out += ' ', t.y());
+      out += '\n';
+    }
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    const auto v = mesh.faceVertices(f);
+    out += 'f';
+    for (int k = 0; k < 3; ++k) {
+      out += ' ' + std::to_string(v[k] + 1);
+      if (mesh.hasUV()) out += '/' + std::to_string(3 * f + k + 1);
+    }
+    out += '\n';
+  }
+  FILE* file = std::fopen(path.c_str(), "wb");
+  if (!file) failAt(path, 0, std::string("cannot write: ") + std::strerror(errno));
+  const bool ok = std::fwrite(out.data(), 1, out.size(), file) == out.size();
+  if (std::fclose(file) != 0 || !ok) failAt(path, 0, std::string("write failed: ") + std::strerror(errno));
+}
+
+}  // namespace montage

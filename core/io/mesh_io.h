@@ -1,0 +1,22 @@
+// Mesh files: our own OBJ, PLY, OFF and STL parsers into a triangle soup, then buildMesh
+// (geometry/mesh.h) with its validation report; and a plain OBJ writer.
+#pragma once
+
+#include <string>
+
+#include "geometry/mesh.h"
+#include "io/mesh_io.h"
+
+namespace montage {
+
+// Reads OBJ, PLY (ascii, binary), OFF or STL (ascii, binary), by extension. Polygons are fan
+// triangulated. Faces that cannot enter a manifold half-edge mesh are dropped and reported one by
+// one. Throws montage::Error naming the file, line and reason when the file cannot be read or parsed.
+// A mesh that parses but cannot be processed (no faces, non-finite coordinates) comes back with
+// Error findings; use requireUsable() where processing must not go on.
+LoadedMesh loadMesh(const std::string& path, const MeshLoadOptions& options = {});
+
+// Writes positions and faces (and UVs, if any) as OBJ. Throws montage::Error on I/O failure.
+void saveMeshObj(const Mesh& mesh, const std::string& path);
+
+}  // namespace montage

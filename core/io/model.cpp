@@ -1,0 +1,1051 @@
+#include "io/model.h"
+
+#include <tiny_gltf.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+#include <sstream>
+#include <tuple>
+#include <unordered_map>
+
+#include "base/fileio.h"
+#include "image/color.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+
+namespace fs = std::filesystem;
+
+namespace montage {
+
+namespace {
+
+const Vec3f kDefaultDiffuse(0.7f, 0.7f, 0.7f);
+
+// ---------------------------------------------------------------------------------------------
+// Small utilities
+
+std::string trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return "";
+  const size_t e = s.find_last_not_of(" \t\r\n");
+  return s.substr(b, e - b + 1);
+}
+
+std::string quote(const std::string& s) {
+  return "'" + s + "'";
+}
+
+// Shortest decimal text that reads back to exactly the same value.
+template <class T>
+std::string number(T value) {
+  char buf[64];
+  const auto res = std::to_chars(buf, buf + sizeof buf, value);
+  return std::string(buf, res.ptr);
+}
+
+// Checks that the per-face arrays of a model agree with its mesh before writing it.
+void checkModel(const TexturedModel& model, const std::string& where) {
+  const size_t nf = static_cast<size_t>(model.mesh.numFaces());
+  TM_CHECK(nf > 0, located(where, "the model has no faces"));
+  TM_CHECK(model.uv.empty() || model.uv.size() == nf,
+           located(where, "model has " + std::to_string(model.uv.size()) + " UV triples for " + std::to_string(nf) +
+                              " faces"));
+  TM_CHECK(model.faceMaterial.empty() || model.faceMaterial.size() == nf,
+           located(where, "model has " + std::to_string(model.faceMaterial.size()) + " face materials for " +
+                              std::to_string(nf) + " faces"));
+  TM_CHECK(model.faceSource.empty() || model.faceSource.size() == nf,
+           located(where, "model has " + std::to_string(model.faceSource.size()) + " face sources for " +
+                              std::to_string(nf) + " faces"));
+  for (size_t f = 0; f < model.faceMaterial.size(); ++f) {
+    const int m = model.faceMaterial[f];
+    TM_CHECK(m >= 0 && m < static_cast<int>(model.materials.size()),
+             located(where, "face " + std::to_string(f) + ": material " + std::to_string(m) + " does not exist (" +
+                                std::to_string(model.materials.size()) + " materials)"));
+  }
+  for (size_t f = 0; f < model.faceSource.size(); ++f)
+    TM_CHECK(model.faceSource[f] >= kSourceEmpty,
+             located(where, "face " + std::to_string(f) + ": invalid source " + std::to_string(model.faceSource[f])));
+}
+
+int materialOf(const TexturedModel& model, int f) {
+  return model.faceMaterial.empty() ? 0 : model.faceMaterial[f];
+}
+
+// Material of face f, or null when the model has none.
+const Material* faceMaterialPtr(const TexturedModel& model, int f) {
+  const int m = materialOf(model, f);
+  return m >= 0 && m < static_cast<int>(model.materials.size()) ? &model.materials[m] : nullptr;
+}
+
+bool hasTexture(const TexturedModel& model, int m) {
+  return model.textured() && m < static_cast<int>(model.materials.size()) && !model.materials[m].texture.empty();
+}
+
+// Group name of a face source in OBJ files, and back.
+std::string sourceGroupName(int source) {
+  if (source == kSourceInpainted) return "tm_inpainted";
+  if (source == kSourceEmpty) return "tm_empty";
+  return "tm_source_" + std::to_string(source);
+}
+
+// Returns true and sets `source` when `name` (or one of its words) is a TextureMontage source group.
+bool parseSourceGroup(const std::string& name, int& source) {
+  std::istringstream words(name);
+  std::string w;
+  while (words >> w) {
+    if (w == "tm_inpainted") {
+      source = kSourceInpainted;
+      return true;
+    }
+    if (w == "tm_empty") {
+      source = kSourceEmpty;
+      return true;
+    }
+    static const std::string prefix = "tm_source_";
+    if (w.size() > prefix.size() && w.compare(0, prefix.size(), prefix) == 0) {
+      const char* b = w.data() + prefix.size();
+      const char* e = w.data() + w.size();
+      int k = -1;
+      const auto res = std::from_chars(b, e, k);
+      if (res.ec == std::errc() && res.ptr == e && k >= 0) {
+        source = k;
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+// Per-face values of the built mesh from per-input-face values (`perInput`, indexed like the
+// triangles handed to the builder) through Mesh::faceOrigin.
+template <class T>
+std::vector<T> perMeshFace(const Mesh& mesh, const std::vector<T>& perInput) {
+  const size_t nf = static_cast<size_t>(mesh.numFaces());
+  if (mesh.faceOrigin.size() != nf) {
+    TM_ASSERT(perInput.size() == nf);
+    return perInput;
+  }
+  std::vector<T> out(nf);
+  for (size_t f = 0; f < nf; ++f) {
+    const int o = mesh.faceOrigin[f];
+    TM_ASSERT(o >= 0 && o < static_cast<int>(perInput.size()));
+    out[f] = perInput[o];
+  }
+  return out;
+}
+
+// A per-face array the mesh loader produced: either already per mesh face, or per input face.
+std::vector<int> meshFaceArray(const Mesh& mesh, const std::vector<int>& values) {
+  const size_t nf = static_cast<size_t>(mesh.numFaces());
+  if (values.size() == nf || values.empty()) return values;
+  if (mesh.faceOrigin.size() == nf && std::all_of(mesh.faceOrigin.begin(), mesh.faceOrigin.end(),
+                                                  [&](int o) { return o >= 0 && o < static_cast<int>(values.size()); }))
+    return perMeshFace(mesh, values);
+  return {};
+}
+
+std::vector<std::array<Vec2f, 3>> floatUV(const std::vector<std::array<Vec2, 3>>& uv) {
+  std::vector<std::array<Vec2f, 3>> out(uv.size());
+  for (size_t f = 0; f < uv.size(); ++f)
+    for (int k = 0; k < 3; ++k) out[f][k] = uv[f][k].cast<float>();
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// OBJ + MTL
+
+// Reads the image a map_Kd statement names; `where` is "file.mtl:line".
+cv::Mat readTexture(const fs::path& file, const std::string& where, const std::string& written) {
+  std::error_code ec;
+  TM_CHECK(fs::is_regular_file(file, ec),
+           located(where, "map_Kd texture " + quote(written) + " not found (looked for " + file.string() + ")"));
+  try {
+    return readImageRgba8(file.string());
+  } catch (const Error& e) {
+    // The reason without the file name it starts with, which the message already gives.
+    std::string reason = e.what();
+    if (const std::string prefix = file.string() + ": "; reason.rfind(prefix, 0) == 0) reason.erase(0, prefix.size());
+    throw Error(located(
+        where, "map_Kd texture " + quote(written) + " (" + file.string() + ") cannot be read as an image: " + reason));
+  }
+}
+
+// The file name of a map_Kd statement: options (-bm 1, -o u v w, ...) are skipped.
+std::string mapFileName(const std::string& args) {
+  std::istringstream in(args);
+  std::vector<std::string> tokens;
+  for (std::string t; in >> t;) tokens.push_back(t);
+  static const std::map<std::string, int> kOptionArgs = {
+      {"-blendu", 1}, {"-blendv", 1}, {"-bm", 1}, {"-boost", 1}, {"-cc", 1}, {"-clamp", 1}, {"-imfchan", 1},
+      {"-texres", 1}, {"-type", 1},   {"-mm", 2}, {"-o", 3},     {"-s", 3},  {"-t", 3}};
+  const auto isNumber = [](const std::string& s) {
+    double v;
+    const auto res = std::from_chars(s.data(), s.data() + s.size(), v);
+    return res.ec == std::errc() && res.ptr == s.data() + s.size();
+  };
+  size_t i = 0;
+  while (i < tokens.size()) {
+    const auto it = kOptionArgs.find(tokens[i]);
+    if (it == kOptionArgs.end()) break;
+    ++i;
+    if (it->second == 3) {  // -o/-s/-t take one to three numbers
+      for (int k = 0; k < 3 && i < tokens.size() && isNumber(tokens[i]); ++k) ++i;
+    } else {
+      i += static_cast<size_t>(it->second);
+    }
+  }
+  // The rest is the file name (it may contain spaces).
+  std::string name;
+  for (; i < tokens.size(); ++i) name += (name.empty() ? "" : " ") + tokens[i];
+  std::replace(name.begin(), name.end(), '\\', '/');
+  return name;
+}
+
+// Parses one .mtl file: newmtl, Kd and map_Kd. Textures are read; a missing one is an error naming
+// the .mtl file, its line and the texture.
+void parseMtl(const fs::path& mtlPath, const fs::path& modelDir, std::map<std::string, Material>& out) {
+  std::ifstream in(mtlPath, std::ios::binary);
+  TM_CHECK(in, located(mtlPath.string(), "cannot open material library"));
+  std::map<std::string, cv::Mat> cache;  // textures shared between materials
+  Material* current = nullptr;
+  std::string line;
+  for (int lineNo = 1; std::getline(in, line); ++lineNo) {
+    const std::string where = mtlPath.string() + ":" + std::to_string(lineNo);
+    line = trim(line);
+    if (line.empty() || line[0] == '#') continue;
+    const size_t sp = line.find_first_of(" \t");
+    const std::string key = line.substr(0, sp);
+    const std::string rest = sp == std::string::npos ? "" : trim(line.substr(sp));
+    if (key == "newmtl") {
+      TM_CHECK(!rest.empty(), located(where, "newmtl without a material name"));
+      Material m;
+      m.name = rest;
+      current = &(out[rest] = m);
+    } else if (key == "Kd" && current) {
+      std::istringstream vals(rest);
+      double r, g, b;
+      if (!(vals >> r)) throw Error(located(where, "Kd needs three numbers, got " + quote(rest)));
+      if (!(vals >> g >> b)) g = b = r;
+      current->diffuse = Vec3f(static_cast<float>(std::clamp(r, 0.0, 1.0)), static_cast<float>(std::clamp(g, 0.0, 1.0)),
+                               static_cast<float>(std::clamp(b, 0.0, 1.0)));
+    } else if (key == "map_Kd" && current) {
+      const std::string name = mapFileName(rest);
+      TM_CHECK(!name.empty(), located(where, "map_Kd without a file name"));
+      const fs::path file = (mtlPath.parent_path() / name).lexically_normal();
+      auto it = cache.find(file.string());
+      if (it == cache.end()) it = cache.emplace(file.string(), readTexture(file, where, name)).first;
+      current->texture = it->second;
+      current->textureFile = file.lexically_relative(modelDir).generic_string();
+      if (current->textureFile.empty()) current->textureFile = file.string();
+    }
+  }
+}
+
+TexturedModel loadObjModel(const std::string& path) {
+  std::unique_ptr<Mesh> mesh = requireUsable(loadMesh(path));
+  TexturedModel model;
+  model.mesh = std::move(*mesh);
+  const Mesh& m = model.mesh;
+  const int nf = m.numFaces();
+  const fs::path modelDir = fs::path(path).parent_path();
+
+  // Material definitions from the material library (or libraries).
+  std::map<std::string, Material> defs;
+  const std::string lib = trim(m.mtllib);
+  if (!lib.empty()) {
+    std::vector<std::string> files;
+    std::error_code ec;
+    if (fs::is_regular_file(modelDir / lib, ec)) {
+      files.push_back(lib);
+    } else {
+      std::istringstream words(lib);
+      for (std::string w; words >> w;) files.push_back(w);
+    }
+    for (const std::string& file : files) {
+      const fs::path mtl = modelDir / file;
+      TM_CHECK(fs::is_regular_file(mtl, ec),
+               located(path, "material library " + quote(file) + " not found (looked for " + mtl.string() + ")"));
+      parseMtl(mtl, modelDir, defs);
+    }
+  }
+
+  // One material per name the OBJ uses, in order of first use; a single default one otherwise.
+  const std::vector<int> faceMaterial = meshFaceArray(m, m.faceMaterial);
+  if (m.materialNames.empty() || faceMaterial.empty()) {
+    Material def;
+    def.name = "default";
+    if (m.materialNames.size() == 1 && defs.count(m.materialNames[0])) def = defs[m.materialNames[0]];
+    model.materials.push_back(def);
+    model.faceMaterial.assign(nf, 0);
+  } else {
+    for (const std::string& name : m.materialNames) {
+      const auto it = defs.find(name);
+      Material mat;
+      if (it != defs.end()) mat = it->second;
+      mat.name = name;
+      model.materials.push_back(mat);
+    }
+    model.faceMaterial = faceMaterial;
+    // Faces before the first usemtl (or with an unknown index) get a default material.
+    const int count = static_cast<int>(model.materials.size());
+    for (int& fm : model.faceMaterial) {
+      if (fm >= 0 && fm < count) continue;
+      if (static_cast<int>(model.materials.size()) == count) {
+        Material def;
+        def.name = "default";
+        model.materials.push_back(def);
+      }
+      fm = count;
+    }
+  }
+  if (m.hasUV()) model.uv = floatUV(m.cornerUV);
+
+  // Face sources from the groups.
+  const std::vector<int> faceGroup = meshFaceArray(m, m.faceGroup);
+  std::vector<int> groupSource(m.groupNames.size(), 0);
+  bool any = false;
+  for (size_t g = 0; g < m.groupNames.size(); ++g) {
+    int source;
+    const bool known = parseSourceGroup(m.groupNames[g], source);
+    groupSource[g] = known ? source : kSourceEmpty;
+    any = any || known;
+  }
+  if (any && !faceGroup.empty()) {
+    model.faceSource.assign(nf, kSourceEmpty);
+    for (int f = 0; f < nf; ++f) {
+      const int g = faceGroup[f];
+      if (g >= 0 && g < static_cast<int>(groupSource.size())) model.faceSource[f] = groupSource[g];
+    }
+  }
+  return model;
+}
+
+// ---------------------------------------------------------------------------------------------
+// glTF reading
+
+// The elements of an accessor as doubles (count x components), normalised integers decoded,
+// sparse substitution applied. `where` names the accessor for messages.
+std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std::string& where, int& components) {
+  TM_CHECK(index >= 0 && index < static_cast<int>(gm.accessors.size()),
+           located(where, "accessor " + std::to_string(index) + " does not exist"));
+  const tinygltf::Accessor& acc = gm.accessors[index];
+  const std::string at = where + " (accessor " + std::to_string(index) + ")";
+  components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(acc.type));
+  const int csize = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(acc.componentType));
+  TM_CHECK(components > 0 && csize > 0, located(at, "invalid type or component type"));
+  const size_t count = acc.count;
+  std::vector<double> out(count * components, 0.0);
+
+  const auto decode = [&](const unsigned char* p, int componentType, bool normalized) -> double {
+    switch (componentType) {
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        const double v = static_cast<int8_t>(*p);
+        return normalized ? std::max(v / 127.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+        const double v = *p;
+        return normalized ? v / 255.0 : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t v;
+        std::memcpy(&v, p, 2);
+        return normalized ? std::max(v / 32767.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return normalized ? v / 65535.0 : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_DOUBLE: {
+        double v;
+        std::memcpy(&v, p, 8);
+        return v;
+      }
+      default:
+        throw Error(located(at, "unsupported component type " + std::to_string(componentType)));
+    }
+  };
+  // Bytes of a buffer view with bounds checks.
+  const auto viewBytes = [&](int viewIndex, size_t offset, size_t stride, size_t n,
+                             size_t elementSize) -> const unsigned char* {
+    TM_CHECK(viewIndex >= 0 && viewIndex < static_cast<int>(gm.bufferViews.size()),
+             located(at, "bufferView " + std::to_string(viewIndex) + " does not exist"));
+    const tinygltf::BufferView& view = gm.bufferViews[viewIndex];
+    TM_CHECK(view.buffer >= 0 && view.buffer < static_cast<int>(gm.buffers.size()),
+             located(at, "buffer " + std::to_string(view.buffer) + " does not exist"));
+    const tinygltf::Buffer& buffer = gm.buffers[view.buffer];
+    TM_CHECK(view.byteOffset + view.byteLength <= buffer.data.size(),
+             located(at, "bufferView " + std::to_string(viewIndex) + " lies outside its buffer (file truncated?)"));
+    TM_CHECK(n == 0 || offset + stride * (n - 1) + elementSize <= view.byteLength,
+             located(at, "data lies outside bufferView " + std::to_string(viewIndex)));
+    return buffer.data.data() + view.byteOffset + offset;
+  };
+
+  const size_t elementSize = static_cast<size_t>(components) * csize;
+  if (acc.bufferView >= 0) {
+    TM_CHECK(acc.bufferView < static_cast<int>(gm.bufferViews.size()),
+             located(at, "bufferView " + std::to_string(acc.bufferView) + " does not exist"));
+    const tinygltf::BufferView& view = gm.bufferViews[acc.bufferView];
+    const size_t stride = view.byteStride ? view.byteStride : elementSize;
+    const unsigned char* base = viewBytes(acc.bufferView, acc.byteOffset, stride, count, elementSize);
+    for (size_t i = 0; i < count; ++i)
+      for (int c = 0; c < components; ++c)
+        out[i * components + c] = decode(base + i * stride + c * csize, acc.componentType, acc.normalized);
+  }
+  if (acc.sparse.isSparse && acc.sparse.count > 0) {
+    const size_t n = static_cast<size_t>(acc.sparse.count);
+    const int isize = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(acc.sparse.indices.componentType));
+    TM_CHECK(isize > 0, located(at, "invalid sparse index component type"));
+    const unsigned char* idx =
+        viewBytes(acc.sparse.indices.bufferView, static_cast<size_t>(acc.sparse.indices.byteOffset), isize, n, isize);
+    const unsigned char* val = viewBytes(
+        acc.sparse.values.bufferView, static_cast<size_t>(acc.sparse.values.byteOffset), elementSize, n, elementSize);
+    for (size_t i = 0; i < n; ++i) {
+      const double target = decode(idx + i * isize, acc.sparse.indices.componentType, false);
+      TM_CHECK(target >= 0 && target < static_cast<double>(count), located(at, "sparse index out of range"));
+      const size_t t = static_cast<size_t>(target);
+      for (int c = 0; c < components; ++c)
+        out[t * components + c] = decode(val + i * elementSize + c * csize, acc.componentType, acc.normalized);
+    }
+  }
+  return out;
+}
+
+Eigen::Matrix4d nodeMatrix(const tinygltf::Node& node) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  if (node.matrix.size() == 16) {
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r) m(r, c) = node.matrix[c * 4 + r];  // column-major
+    return m;
+  }
+  Eigen::Affine3d a = Eigen::Affine3d::Identity();
+  if (node.translation.size() == 3) a.translate(Vec3(node.translation[0], node.translation[1], node.translation[2]));
+  if (node.rotation.size() == 4)
+    a.rotate(Eigen::Quaterniond(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]).normalized());
+  if (node.scale.size() == 3) a.scale(Vec3(node.scale[0], node.scale[1], node.scale[2]));
+  return a.matrix();
+}
+
+// World matrix of the first node (depth first from the scene roots) that instantiates mesh 0;
+// identity when no node does.
+Eigen::Matrix4d meshWorldMatrix(const tinygltf::Model& gm) {
+  std::vector<int> roots;
+  const int scene = gm.defaultScene >= 0 ? gm.defaultScene : 0;
+  if (scene < static_cast<int>(gm.scenes.size())) {
+    roots = gm.scenes[scene].nodes;
+  } else {
+    std::vector<bool> isChild(gm.nodes.size(), false);
+    for (const auto& n : gm.nodes)
+      for (int c : n.children)
+        if (c >= 0 && c < static_cast<int>(gm.nodes.size())) isChild[c] = true;
+    for (size_t i = 0; i < gm.nodes.size(); ++i)
+      if (!isChild[i]) roots.push_back(static_cast<int>(i));
+  }
+  Eigen::Matrix4d found = Eigen::Matrix4d::Identity();
+  std::vector<bool> visited(gm.nodes.size(), false);
+  std::function<bool(int, const Eigen::Matrix4d&)> visit = [&](int n, const Eigen::Matrix4d& parent) {
+    if (n < 0 || n >= static_cast<int>(gm.nodes.size()) || visited[n]) return false;
+    visited[n] = true;
+    const Eigen::Matrix4d world = parent * nodeMatrix(gm.nodes[n]);
+    if (gm.nodes[n].mesh == 0) {
+      found = world;
+      return true;
+    }
+    for (int c : gm.nodes[n].children)
+      if (visit(c, world)) return true;
+    return false;
+  };
+  for (int r : roots)
+    if (visit(r, Eigen::Matrix4d::Identity())) break;
+  return found;
+}
+
+// The base colour texture of a glTF material as RGBA8 (empty when there is none).
+cv::Mat gltfBaseColorTexture(const tinygltf::Model& gm, const tinygltf::Material& mat, const std::string& where,
+                             std::string& file) {
+  const int t = mat.pbrMetallicRoughness.baseColorTexture.index;
+  if (t < 0) return {};
+  TM_CHECK(t < static_cast<int>(gm.textures.size()),
+           located(where, "texture " + std::to_string(t) + " does not exist"));
+  const int s = gm.textures[t].source;
+  TM_CHECK(s >= 0 && s < static_cast<int>(gm.images.size()),
+           located(where, "texture " + std::to_string(t) + " has no image"));
+  const tinygltf::Image& img = gm.images[s];
+  const std::string at = where + ": image " + std::to_string(s);
+  TM_CHECK(img.width > 0 && img.height > 0 && !img.image.empty(), located(at, "image could not be decoded"));
+  TM_CHECK(img.component >= 1 && img.component <= 4 && (img.bits == 8 || img.bits == 16),
+           located(at, "unsupported image format (" + std::to_string(img.component) + " channels, " +
+                           std::to_string(img.bits) + " bits)"));
+  const size_t expected = static_cast<size_t>(img.width) * img.height * img.component * (img.bits / 8);
+  TM_CHECK(img.image.size() >= expected, located(at, "image data is shorter than its size"));
+  const int type = CV_MAKETYPE(img.bits == 8 ? CV_8U : CV_16U, img.component);
+  const cv::Mat view(img.height, img.width, type, const_cast<unsigned char*>(img.image.data()));
+  file = img.uri.rfind("data:", 0) == 0 ? "" : img.uri;
+  return toRgba8(view, false, at);
+}
+
+Material gltfMaterial(const tinygltf::Model& gm, int index, const std::string& path) {
+  Material out;
+  if (index < 0) {
+    out.name = "default";
+    return out;
+  }
+  TM_CHECK(index < static_cast<int>(gm.materials.size()),
+           located(path, "material " + std::to_string(index) + " does not exist"));
+  const tinygltf::Material& mat = gm.materials[index];
+  out.name = mat.name.empty() ? "material_" + std::to_string(index) : mat.name;
+  const auto& f = mat.pbrMetallicRoughness.baseColorFactor;
+  if (f.size() >= 3)
+    out.diffuse = Vec3f(static_cast<float>(linearToSrgb(std::clamp(f[0], 0.0, 1.0))),
+                        static_cast<float>(linearToSrgb(std::clamp(f[1], 0.0, 1.0))),
+                        static_cast<float>(linearToSrgb(std::clamp(f[2], 0.0, 1.0))));
+  out.texture = gltfBaseColorTexture(gm, mat, path + ": materials[" + std::to_string(index) + "]", out.textureFile);
+  return out;
+}
+
+const char* modeName(int mode) {
+  switch (mode) {
+    case TINYGLTF_MODE_POINTS:
+      return "POINTS";
+    case TINYGLTF_MODE_LINE:
+      return "LINES";
+    case TINYGLTF_MODE_LINE_LOOP:
+      return "LINE_LOOP";
+    case 3:
+      return "LINE_STRIP";
+    case TINYGLTF_MODE_TRIANGLE_STRIP:
+      return "TRIANGLE_STRIP";
+    case TINYGLTF_MODE_TRIANGLE_FAN:
+      return "TRIANGLE_FAN";
+    default:
+      return "unknown";
+  }
+}
+
+TexturedModel loadGltfModel(const std::string& path, bool binary) {
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model gm;
+  std::string err, warn;
+  bool ok;
+  if (binary) {
+    std::ifstream in(path, std::ios::binary);
+    TM_CHECK(in, located(path, "cannot open file"));
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    TM_CHECK(bytes.size() >= 12 && bytes.compare(0, 4, "glTF") == 0,
+             located(path, "not a binary glTF file (no 'glTF' header)"));
+    uint32_t length = 0;
+    std::memcpy(&length, bytes.data() + 8, 4);
+    TM_CHECK(length <= bytes.size(), located(path, "file is truncated: its header announces " + std::to_string(length) +
+                                                       " bytes but it has " + std::to_string(bytes.size())));
+    ok = loader.LoadBinaryFromMemory(&gm, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                     static_cast<unsigned int>(bytes.size()), fs::path(path).parent_path().string());
+  } else {
+    ok = loader.LoadASCIIFromFile(&gm, &err, &warn, path);
+  }
+  TM_CHECK(ok, located(path, "cannot read glTF: " + trim(err.empty() ? warn : err)));
+  TM_CHECK(!gm.meshes.empty(), located(path, "the file contains no mesh"));
+
+  const tinygltf::Mesh& gmesh = gm.meshes[0];
+  const Eigen::Matrix4d world = meshWorldMatrix(gm);
+  const Eigen::Matrix3d linear = world.topLeftCorner<3, 3>();
+  const bool mirrored = linear.determinant() < 0;  // keep front faces counter-clockwise
+
+  std::vector<Vec3> vertices;
+  std::vector<std::array<int, 3>> triangles;
+  std::vector<std::array<Vec2, 3>> uv;
+  std::vector<int> triMaterial, triSource;
+  std::vector<Material> materials;
+  std::map<int, int> materialIndex;  // glTF material -> ours
+  bool anyUV = false, anySource = false;
+
+  for (size_t p = 0; p < gmesh.primitives.size(); ++p) {
+    const tinygltf::Primitive& prim = gmesh.primitives[p];
+    const std::string where = path + ": meshes[0].primitives[" + std::to_string(p) + "]";
+    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    TM_CHECK(mode == TINYGLTF_MODE_TRIANGLES,
+             located(where, std::string("mode ") + modeName(mode) + " is not supported (only TRIANGLES)"));
+    const auto pos = prim.attributes.find("POSITION");
+    TM_CHECK(pos != prim.attributes.end(), located(where, "has no POSITION attribute"));
+    int comps;
+    const std::vector<double> positions = readAccessor(gm, pos->second, where + ".POSITION", comps);
+    TM_CHECK(comps == 3, located(where, "POSITION is not a VEC3"));
+    const size_t nv = positions.size() / 3;
+
+    // Texture coordinates of the set the material's base colour texture uses (TEXCOORD_0 by default).
+    int texCoordSet = 0;
+    if (prim.material >= 0 && prim.material < static_cast<int>(gm.materials.size()))
+      texCoordSet = std::max(0, gm.materials[prim.material].pbrMetallicRoughness.baseColorTexture.texCoord);
+    std::vector<double> texcoords;
+    const auto tc = prim.attributes.find("TEXCOORD_" + std::to_string(texCoordSet));
+    if (tc != prim.attributes.end()) {
+      texcoords = readAccessor(gm, tc->second, where + "." + tc->first, comps);
+      TM_CHECK(comps == 2 && texcoords.size() == nv * 2,
+               located(where, tc->first + " must be a VEC2 with one element per vertex"));
+      anyUV = true;
+    }
+
+    std::vector<size_t> indices;
+    if (prim.indices >= 0) {
+      const std::vector<double> raw = readAccessor(gm, prim.indices, where + ".indices", comps);
+      TM_CHECK(comps == 1, located(where, "indices are not SCALAR"));
+      indices.reserve(raw.size());
+      for (double i : raw) {
+        TM_CHECK(i >= 0 && i < static_cast<double>(nv),
+                 located(where, "index " + number(i) + " is out of range (" + std::to_string(nv) + " vertices)"));
+        indices.push_back(static_cast<size_t>(i));
+      }
+    } else {
+      for (size_t i = 0; i < nv; ++i) indices.push_back(i);
+    }
+    TM_CHECK(indices.size() % 3 == 0,
+             located(where, std::to_string(indices.size()) + " indices is not a multiple of 3 (TRIANGLES)"));
+
+    const int base = static_cast<int>(vertices.size());
+    for (size_t i = 0; i < nv; ++i) {
+      const Eigen::Vector4d h =
+          world * Eigen::Vector4d(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], 1);
+      vertices.emplace_back(h.head<3>());
+    }
+    auto mit = materialIndex.find(prim.material);
+    if (mit == materialIndex.end()) {
+      mit = materialIndex.emplace(prim.material, static_cast<int>(materials.size())).first;
+      materials.push_back(gltfMaterial(gm, prim.material, path));
+    }
+    int source = kSourceEmpty;
+    if (prim.extras.IsObject() && prim.extras.Has("tm_source")) {
+      const tinygltf::Value& s = prim.extras.Get("tm_source");
+      TM_CHECK(s.IsNumber() && s.GetNumberAsDouble() == std::floor(s.GetNumberAsDouble()) &&
+                   s.GetNumberAsDouble() >= kSourceEmpty,
+               located(where, "extras.tm_source must be an integer >= -2"));
+      source = s.GetNumberAsInt();
+      anySource = true;
+    }
+    for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+      std::array<size_t, 3> c = {indices[t], indices[t + 1], indices[t + 2]};
+      if (mirrored) std::swap(c[1], c[2]);
+      triangles.push_back(
+          {base + static_cast<int>(c[0]), base + static_cast<int>(c[1]), base + static_cast<int>(c[2])});
+      std::array<Vec2, 3> tuv;
+      for (int k = 0; k < 3; ++k)
+        tuv[k] = texcoords.empty() ? Vec2::Zero() : Vec2(texcoords[2 * c[k]], 1.0 - texcoords[2 * c[k] + 1]);
+      uv.push_back(tuv);
+      triMaterial.push_back(mit->second);
+      triSource.push_back(source);
+    }
+  }
+  TM_CHECK(!triangles.empty(), located(path, "meshes[0] has no triangles"));
+
+  MeshLoadOptions options;
+  options.weldIdenticalPositions = true;  // glTF splits vertices at UV seams; the surface is connected
+  std::unique_ptr<Mesh> mesh =
+      requireUsable(buildMesh(vertices, triangles, anyUV ? uv : std::vector<std::array<Vec2, 3>>{}, options, path));
+  TexturedModel model;
+  model.mesh = std::move(*mesh);
+  model.materials = std::move(materials);
+  model.faceMaterial = perMeshFace(model.mesh, triMaterial);
+  if (anySource) model.faceSource = perMeshFace(model.mesh, triSource);
+  if (anyUV) {
+    TM_ASSERT(model.mesh.cornerUV.size() == static_cast<size_t>(model.mesh.numFaces()));
+    model.uv = floatUV(model.mesh.cornerUV);
+  }
+  return model;
+}
+
+// ---------------------------------------------------------------------------------------------
+// glTF writing
+
+struct GlbBuilder {
+  tinygltf::Model gm;
+
+  // Appends bytes to the single buffer (4-byte aligned) and returns a new buffer view.
+  int addView(const void* data, size_t size, int target) {
+    auto& bytes = gm.buffers[0].data;
+    while (bytes.size() % 4) bytes.push_back(0);
+    tinygltf::BufferView view;
+    view.buffer = 0;
+    view.byteOffset = bytes.size();
+    view.byteLength = size;
+    view.target = target;
+    const auto* p = static_cast<const unsigned char*>(data);
+    bytes.insert(bytes.end(), p, p + size);
+    gm.bufferViews.push_back(view);
+    return static_cast<int>(gm.bufferViews.size()) - 1;
+  }
+
+  template <int N>
+  int addFloatAccessor(const std::vector<Eigen::Matrix<float, N, 1>>& values, int type, bool minMax) {
+    tinygltf::Accessor acc;
+    acc.bufferView = addView(values.data(), values.size() * sizeof(float) * N, TINYGLTF_TARGET_ARRAY_BUFFER);
+    acc.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    acc.count = values.size();
+    acc.type = type;
+    if (minMax) {
+      Eigen::Matrix<float, N, 1> lo = values[0], hi = values[0];
+      for (const auto& v : values) {
+        lo = lo.cwiseMin(v);
+        hi = hi.cwiseMax(v);
+      }
+      for (int k = 0; k < N; ++k) {
+        acc.minValues.push_back(lo[k]);
+        acc.maxValues.push_back(hi[k]);
+      }
+    }
+    gm.accessors.push_back(acc);
+    return static_cast<int>(gm.accessors.size()) - 1;
+  }
+
+  int addIndexAccessor(const std::vector<uint32_t>& indices) {
+    tinygltf::Accessor acc;
+    acc.bufferView = addView(indices.data(), indices.size() * sizeof(uint32_t), TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+    acc.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+    acc.count = indices.size();
+    acc.type = TINYGLTF_TYPE_SCALAR;
+    gm.accessors.push_back(acc);
+    return static_cast<int>(gm.accessors.size()) - 1;
+  }
+};
+
+// Area-weighted vertex normals, unit length (a face normal or +z where the area vanishes).
+std::vector<Vec3> vertexNormals(const Mesh& mesh) {
+  std::vector<Vec3> normals(mesh.numVertices(), Vec3::Zero());
+  std::vector<Vec3> fallback(mesh.numVertices(), Vec3::Zero());
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    const auto p = mesh.facePositions(f);
+    const Vec3 n = (p[1] - p[0]).cross(p[2] - p[0]);  // twice the area times the unit normal
+    for (int v : mesh.faceVertices(f)) normals[v] += n;
+  }
+  for (Vec3& n : normals) {
+    const double len = n.norm();
+    n = len > 0 && std::isfinite(len) ? Vec3(n / len) : Vec3(0, 0, 1);
+  }
+  return normals;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+Vec3f TexturedModel::colorAt(int f, const Vec3& b) const {
+  const Material* mat = faceMaterialPtr(*this, f);
+  if (!mat) return kDefaultDiffuse;
+  if (mat->texture.empty() || uv.empty() || f < 0 || f >= static_cast<int>(uv.size())) return mat->diffuse;
+  const cv::Mat& tex = mat->texture;
+  TM_ASSERT(tex.type() == CV_8UC4);
+  const auto& t = uv[f];
+  const double u = b[0] * t[0].x() + b[1] * t[1].x() + b[2] * t[2].x();
+  const double v = b[0] * t[0].y() + b[1] * t[1].y() + b[2] * t[2].y();
+  if (!std::isfinite(u) || !std::isfinite(v)) return mat->diffuse;
+  const int w = tex.cols, h = tex.rows;
+  // Pixel coordinates (photo.h convention, v up), then relative to pixel centres.
+  double x = u * w - 0.5, y = (1.0 - v) * h - 0.5;
+  x -= w * std::floor(x / w);  // repeat wrapping; x in [0, w)
+  y -= h * std::floor(y / h);
+  int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  x0 = std::min(x0, w - 1);
+  y0 = std::min(y0, h - 1);
+  const int x1 = x0 + 1 == w ? 0 : x0 + 1;
+  const int y1 = y0 + 1 == h ? 0 : y0 + 1;
+  const auto* r0 = tex.ptr<cv::Vec4b>(y0);
+  const auto* r1 = tex.ptr<cv::Vec4b>(y1);
+  Vec3f out;
+  for (int c = 0; c < 3; ++c) {
+    const double top = (1 - fx) * r0[x0][c] + fx * r0[x1][c];
+    const double bottom = (1 - fx) * r1[x0][c] + fx * r1[x1][c];
+    out[c] = static_cast<float>(((1 - fy) * top + fy * bottom) / 255.0);
+  }
+  return out;
+}
+
+TexturedModel loadModel(const std::string& path) {
+  const std::string ext = lowerExtension(path);
+  const bool known =
+      ext == ".obj" || ext == ".glb" || ext == ".gltf" || ext == ".ply" || ext == ".off" || ext == ".stl";
+  TM_CHECK(known, located(path, "unsupported model format " + quote(ext.empty() ? "(no extension)" : ext) +
+                                    " (expected .obj, .glb, .gltf, .ply, .off or .stl)"));
+  std::error_code ec;
+  TM_CHECK(fs::is_regular_file(path, ec), located(path, "file not found"));
+  if (ext == ".obj") return loadObjModel(path);
+  if (ext == ".glb" || ext == ".gltf") return loadGltfModel(path, ext == ".glb");
+  // Plain mesh formats: untextured, one default material.
+  std::unique_ptr<Mesh> mesh = requireUsable(loadMesh(path));
+  TexturedModel model;
+  model.mesh = std::move(*mesh);
+  Material def;
+  def.name = "default";
+  model.materials.push_back(def);
+  model.faceMaterial.assign(model.mesh.numFaces(), 0);
+  return model;
+}
+
+TexturedModel modelFromMesh(const Mesh& mesh, const cv::Mat& textureRgba, const std::string& textureName) {
+  TM_CHECK(mesh.hasUV(), "modelFromMesh: the mesh has no texture coordinates");
+  TM_CHECK(mesh.cornerUV.size() == static_cast<size_t>(mesh.numFaces()),
+           "modelFromMesh: the mesh has " + std::to_string(mesh.cornerUV.size()) + " UV triples for " +
+               std::to_string(mesh.numFaces()) + " faces");
+  TexturedModel model;
+  model.mesh = mesh;
+  model.uv = floatUV(mesh.cornerUV);
+  Material mat;
+  mat.name = textureName.empty() ? "texture" : textureName;
+  if (!textureRgba.empty()) {
+    TM_CHECK(textureRgba.channels() == 4 || textureRgba.channels() == 3 || textureRgba.channels() == 1,
+             "modelFromMesh: texture " + quote(mat.name) + " must have 1, 3 or 4 channels");
+    mat.texture = toRgba8(textureRgba, false, "modelFromMesh: texture " + quote(mat.name));
+  }
+  model.materials.push_back(mat);
+  model.faceMaterial.assign(mesh.numFaces(), 0);
+  return model;
+}
+
+void exportObj(const TexturedModel& model, const std::string& dir, const std::string& base) {
+  const fs::path folder(dir);
+  const std::string objPath = (folder / (base + ".obj")).string();
+  checkModel(model, objPath);
+  TM_CHECK(!base.empty() && base.find('/') == std::string::npos, located(dir, "invalid base name " + quote(base)));
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  TM_CHECK(fs::is_directory(folder, ec), located(dir, "cannot create folder: " + ec.message()));
+
+  const Mesh& mesh = model.mesh;
+  const int nf = mesh.numFaces();
+
+  // Material names as written: no whitespace, unique, non-empty (they also name the PNG files).
+  std::vector<std::string> names;
+  std::set<std::string> used;
+  for (size_t m = 0; m < model.materials.size(); ++m) {
+    std::string name = model.materials[m].name;
+    for (char& c : name)
+      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) c = '_';
+    if (name.empty()) name = "material_" + std::to_string(m);
+    std::string unique = name;
+    for (int k = 2; used.count(unique); ++k) unique = name + "_" + std::to_string(k);
+    used.insert(unique);
+    names.push_back(unique);
+  }
+  const std::vector<std::string> materialNames = names.empty() ? std::vector<std::string>{"default"} : names;
+
+  // Textures first, then the .mtl, then the .obj: an .obj on disk always has its companions.
+  std::string mtl = "# TextureMontage\n";
+  for (size_t m = 0; m < materialNames.size(); ++m) {
+    const Material* mat = m < model.materials.size() ? &model.materials[m] : nullptr;
+    const Vec3f kd = mat ? mat->diffuse : kDefaultDiffuse;
+    mtl += "\nnewmtl " + materialNames[m] + "\nKa 0 0 0\nKd " + number(kd[0]) + " " + number(kd[1]) + " " +
+           number(kd[2]) + "\nKs 0 0 0\nd 1\nillum 1\n";
+    if (mat && hasTexture(model, static_cast<int>(m))) {
+      const std::string png = base + "_" + materialNames[m] + ".png";
+      cv::Mat bgra;
+      cv::cvtColor(mat->texture, bgra, cv::COLOR_RGBA2BGRA);
+      std::vector<unsigned char> bytes;
+      TM_CHECK(cv::imencode(".png", bgra, bytes), located((folder / png).string(), "cannot encode PNG"));
+      writeFileAtomic((folder / png).string(), std::string(bytes.begin(), bytes.end()));
+      mtl += "map_Kd " + png + "\n";
+    }
+  }
+  writeFileAtomic((folder / (base + ".mtl")).string(), mtl);
+
+  std::string obj;
+  obj.reserve(static_cast<size_t>(mesh.numVertices()) * 40 + static_cast<size_t>(nf) * 60);
+  obj += "# TextureMontage\nmtllib " + base + ".mtl\n";
+  for (int v = 0; v < mesh.numVertices(); ++v) {
+    const Vec3 p = mesh.position(v);
+    obj += "v " + number(p.x()) + " " + number(p.y()) + " " + number(p.z()) + "\n";
+  }
+  // One vt per distinct corner UV, in order of first use.
+  std::vector<std::array<int, 3>> vt;
+  if (model.textured()) {
+    std::unordered_map<uint64_t, int> index;
+    vt.resize(nf);
+    for (int f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const Vec2f& t = model.uv[f][k];
+        uint32_t bu, bv;
+        std::memcpy(&bu, &t.x(), 4);
+        std::memcpy(&bv, &t.y(), 4);
+        const auto [it, inserted] = index.emplace((uint64_t(bu) << 32) | bv, static_cast<int>(index.size()) + 1);
+        if (inserted) obj += "vt " + number(t.x()) + " " + number(t.y()) + "\n";
+        vt[f][k] = it->second;
+      }
+  }
+  // Faces ordered by (source, material), model order within each, so that every group and material
+  // appears once: tools list one object per group (the model's own order interleaves them).
+  std::vector<int> order(nf);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    const int sa = model.faceSource.empty() ? 0 : model.faceSource[a];
+    const int sb = model.faceSource.empty() ? 0 : model.faceSource[b];
+    return sa != sb ? sa < sb : materialOf(model, a) < materialOf(model, b);
+  });
+  bool firstGroup = true;
+  int group = 0, material = -1;
+  for (int f : order) {
+    if (!model.faceSource.empty() && (firstGroup || model.faceSource[f] != group)) {
+      group = model.faceSource[f];
+      firstGroup = false;
+      obj += "g " + sourceGroupName(group) + "\n";
+      material = -1;  // restate the material in every group
+    }
+    const int m = materialOf(model, f);
+    if (m != material) {
+      obj += "usemtl " + materialNames[std::min<size_t>(m, materialNames.size() - 1)] + "\n";
+      material = m;
+    }
+    const auto fv = mesh.faceVertices(f);
+    obj += "f";
+    for (int k = 0; k < 3; ++k) {
+      obj += " " + std::to_string(fv[k] + 1);
+      if (!vt.empty()) obj += "/" + std::to_string(vt[f][k]);
+    }
+    obj += "\n";
+  }
+  writeFileAtomic(objPath, obj);
+}
+
+void exportGlb(const TexturedModel& model, const std::string& path) {
+  checkModel(model, path);
+  const Mesh& mesh = model.mesh;
+  const int nf = mesh.numFaces();
+  const std::vector<Vec3> normals = vertexNormals(mesh);
+
+  GlbBuilder b;
+  tinygltf::Model& gm = b.gm;
+  gm.asset.version = "2.0";
+  gm.asset.generator = "TextureMontage";
+  gm.buffers.emplace_back();
+
+  // Materials actually used, in model order; textured ones get a texture, image and shared sampler.
+  std::map<int, int> materialIndex;
+  for (int f = 0; f < nf; ++f) materialIndex.emplace(materialOf(model, f), 0);
+  int sampler = -1;
+  for (auto& [m, index] : materialIndex) {
+    tinygltf::Material out;
+    const Material* mat = m < static_cast<int>(model.materials.size()) ? &model.materials[m] : nullptr;
+    out.name = mat && !mat->name.empty() ? mat->name : "material_" + std::to_string(m);
+    out.pbrMetallicRoughness.metallicFactor = 0;
+    out.pbrMetallicRoughness.roughnessFactor = 1;
+    out.doubleSided = false;
+    if (mat && hasTexture(model, m)) {
+      if (sampler < 0) {
+        tinygltf::Sampler s;
+        s.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+        s.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+        s.wrapS = s.wrapT = TINYGLTF_TEXTURE_WRAP_REPEAT;
+        gm.samplers.push_back(s);
+        sampler = static_cast<int>(gm.samplers.size()) - 1;
+      }
+      cv::Mat bgra;
+      cv::cvtColor(mat->texture, bgra, cv::COLOR_RGBA2BGRA);
+      std::vector<unsigned char> png;
+      TM_CHECK(cv::imencode(".png", bgra, png), located(path, "cannot encode texture " + quote(out.name) + " as PNG"));
+      tinygltf::Image image;
+      image.name = out.name;
+      image.mimeType = "image/png";
+      image.bufferView = b.addView(png.data(), png.size(), 0);
+      gm.images.push_back(image);
+      tinygltf::Texture texture;
+      texture.sampler = sampler;
+      texture.source = static_cast<int>(gm.images.size()) - 1;
+      gm.textures.push_back(texture);
+      out.pbrMetallicRoughness.baseColorTexture.index = static_cast<int>(gm.textures.size()) - 1;
+    } else {
+      const Vec3f kd = mat ? mat->diffuse : kDefaultDiffuse;
+      out.pbrMetallicRoughness.baseColorFactor = {srgbToLinear(kd[0]), srgbToLinear(kd[1]), srgbToLinear(kd[2]), 1.0};
+    }
+    gm.materials.push_back(out);
+    index = static_cast<int>(gm.materials.size()) - 1;
+  }
+
+  // One primitive per (material, source); faces keep their model order inside a primitive.
+  std::map<std::pair<int, int>, std::vector<int>> groups;
+  for (int f = 0; f < nf; ++f)
+    groups[{materialOf(model, f), model.faceSource.empty() ? 0 : model.faceSource[f]}].push_back(f);
+
+  tinygltf::Mesh gmesh;
+  gmesh.name = "model";
+  for (const auto& [key, faces] : groups) {
+    const bool withUV = hasTexture(model, key.first);
+    // Unique (vertex, uv) pairs of this primitive.
+    std::map<std::tuple<int, uint32_t, uint32_t>, uint32_t> index;
+    std::vector<Vec3f> positions, vnormals;
+    std::vector<Vec2f> texcoords;
+    std::vector<uint32_t> indices;
+    indices.reserve(faces.size() * 3);
+    for (int f : faces) {
+      const auto fv = mesh.faceVertices(f);
+      for (int k = 0; k < 3; ++k) {
+        Vec2f t(0, 0);
+        uint32_t bu = 0, bv = 0;
+        if (withUV) {
+          t = Vec2f(model.uv[f][k].x(), 1.0f - model.uv[f][k].y());  // glTF: origin at the top-left
+          std::memcpy(&bu, &t.x(), 4);
+          std::memcpy(&bv, &t.y(), 4);
+        }
+        const auto [it, inserted] =
+            index.emplace(std::make_tuple(fv[k], bu, bv), static_cast<uint32_t>(positions.size()));
+        if (inserted) {
+          positions.push_back(mesh.position(fv[k]).cast<float>());
+          vnormals.push_back(normals[fv[k]].cast<float>().normalized());
+          if (withUV) texcoords.push_back(t);
+        }
+        indices.push_back(it->second);
+      }
+    }
+    tinygltf::Primitive prim;
+    prim.mode = TINYGLTF_MODE_TRIANGLES;
+    prim.material = materialIndex.at(key.first);
+    prim.attributes["POSITION"] = b.addFloatAccessor<3>(positions, TINYGLTF_TYPE_VEC3, true);
+    prim.attributes["NORMAL"] = b.addFloatAccessor<3>(vnormals, TINYGLTF_TYPE_VEC3, false);
+    if (withUV) prim.attributes["TEXCOORD_0"] = b.addFloatAccessor<2>(texcoords, TINYGLTF_TYPE_VEC2, false);
+    prim.indices = b.addIndexAccessor(indices);
+    if (!model.faceSource.empty()) {
+      tinygltf::Value::Object extras;
+      extras["tm_source"] = tinygltf::Value(key.second);
+      prim.extras = tinygltf::Value(extras);
+    }
+    gmesh.primitives.push_back(prim);
+  }
+  gm.meshes.push_back(gmesh);
+  tinygltf::Node node;
+  node.name = "model";
+  node.mesh = 0;
+  gm.nodes.push_back(node);
+  tinygltf::Scene scene;
+  scene.nodes.push_back(0);
+  gm.scenes.push_back(scene);
+  gm.defaultScene = 0;
+
+  std::ostringstream out(std::ios::binary);
+  tinygltf::TinyGLTF writer;
+  TM_CHECK(writer.WriteGltfSceneToStream(&gm, out, false, true) && out,
+           located(path, "cannot serialise the glTF model"));
+  std::error_code ec;
+  const fs::path parent = fs::path(path).parent_path();
+  if (!parent.empty()) fs::create_directories(parent, ec);
+  writeFileAtomic(path, out.str());
+}
+
+}  // namespace montage

@@ -1,0 +1,556 @@
+#include "io/project.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <climits>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <utility>
+
+namespace fs = std::filesystem;
+
+namespace montage {
+
+namespace {
+
+using json = nlohmann::json;
+using ojson = nlohmann::ordered_json;  // keeps the written field order
+
+constexpr const char* kFormat = "texturemontage-project";
+
+std::string inQuotes(const std::string& s) {
+  return "'" + s + "'";
+}
+
+std::string number(double v) {
+  std::ostringstream out;
+  out.precision(10);
+  out << v;
+  return out.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading: a Field is a JSON value (or its absence) with its path in the document, e.g.
+// "points[2].at[0].photo". Every type check and every message goes through it.
+
+// What a value is, for "must be X, not Y" messages.
+std::string describe(const json& v) {
+  if (v.is_string()) return "the string \"" + v.get<std::string>() + "\"";
+  if (v.is_number()) return v.dump();
+  if (v.is_object()) return "an object";
+  if (v.is_array()) return "an array";
+  return v.type_name();  // null, boolean
+}
+
+class Field {
+ public:
+  Field(const std::string& file, const json* value, std::string path)
+      : file_(file), value_(value), path_(std::move(path)) {}
+
+  bool present() const { return value_ != nullptr; }
+
+  [[noreturn]] void fail(const std::string& reason) const {
+    throw Error(located(file_, located(path_.empty() ? "top level" : path_, reason)));
+  }
+
+  // The value, which must be present and satisfy `ok`; `expected` names the type for the message.
+  template <class Check>
+  const json& require(Check ok, const char* expected) const {
+    if (!value_) fail("missing (required)");
+    if (!ok(*value_)) fail(std::string("must be ") + expected + ", not " + describe(*value_));
+    return *value_;
+  }
+
+  // Member of an object (absent when the object lacks it).
+  Field operator[](const char* key) const {
+    const json& object = require([](const json& v) { return v.is_object(); }, "an object");
+    const auto it = object.find(key);
+    return Field(file_, it == object.end() ? nullptr : &*it, path_.empty() ? key : path_ + "." + key);
+  }
+  // Element of an array.
+  size_t size() const { return array().size(); }
+  Field operator[](size_t i) const { return Field(file_, &array()[i], path_ + "[" + std::to_string(i) + "]"); }
+
+  // The value converted by fromJson() below; the fallback when absent.
+  template <class T>
+  T as() const {
+    T value{};
+    fromJson(*this, value);
+    return value;
+  }
+  template <class T>
+  T as(const T& fallback) const {
+    return present() ? as<T>() : fallback;
+  }
+
+ private:
+  const json& array() const {
+    return require([](const json& v) { return v.is_array(); }, "an array");
+  }
+
+  const std::string& file_;
+  const json* value_;
+  std::string path_;
+};
+
+long long integer(const Field& f, long long lo, long long hi) {
+  const json& v = f.require([](const json& j) { return j.is_number_integer(); }, "an integer");
+  // Non-negative numbers are stored unsigned: compare them as such, so that huge ones do not wrap.
+  const bool inRange = v.is_number_unsigned() ? v.get<unsigned long long>() <= static_cast<unsigned long long>(hi) &&
+                                                    v.get<long long>() >= lo
+                                              : v.get<long long>() >= lo && v.get<long long>() <= hi;
+  if (!inRange) f.fail(v.dump() + " is out of range " + std::to_string(lo) + ".." + std::to_string(hi));
+  return v.get<long long>();
+}
+
+void fromJson(const Field& f, int& v) {
+  v = int(integer(f, INT_MIN, INT_MAX));
+}
+void fromJson(const Field& f, unsigned& v) {
+  v = unsigned(integer(f, 0, UINT_MAX));
+}
+void fromJson(const Field& f, bool& v) {
+  v = f.require([](const json& j) { return j.is_boolean(); }, "true or false").get<bool>();
+}
+void fromJson(const Field& f, double& v) {
+  v = f.require([](const json& j) { return j.is_number() && std::isfinite(j.get<double>()); }, "a finite number")
+          .get<double>();
+}
+void fromJson(const Field& f, std::string& v) {
+  v = f.require([](const json& j) { return j.is_string(); }, "a string").get<std::string>();
+}
+// Enums are written by name (options.h's tables).
+template <class E, class = decltype(EnumNames<E>::names)>
+void fromJson(const Field& f, E& v) {
+  const std::string name = f.as<std::string>();
+  std::string names;
+  for (size_t i = 0; i < EnumNames<E>::names.size(); ++i) {
+    if (name == EnumNames<E>::names[i]) {
+      v = E(i);
+      return;
+    }
+    names += std::string(i ? ", " : "") + inQuotes(EnumNames<E>::names[i]);
+  }
+  f.fail(inQuotes(name) + " is not " + EnumNames<E>::what + " (one of " + names + ")");
+}
+// A 2D point is [x, y].
+void fromJson(const Field& f, Vec2& v) {
+  if (f.size() != 2) f.fail("must be [x, y], an array of 2 numbers, not " + std::to_string(f.size()));
+  v = Vec2(f[size_t(0)].as<double>(), f[size_t(1)].as<double>());
+}
+template <class T>
+void fromJson(const Field& f, std::vector<T>& v) {
+  v.clear();
+  for (size_t i = 0, n = f.size(); i < n; ++i) v.push_back(f[i].as<T>());
+}
+
+void fromJson(const Field& f, PhotoPoint& p) {
+  p.photo = f["photo"].as<int>();
+  p.x = f["x"].as<double>();
+  p.y = f["y"].as<double>();
+}
+void fromJson(const Field& f, FeaturePoint& p) {
+  p.vertex = f["vertex"].as<int>();
+  p.at = f["at"].as<std::vector<PhotoPoint>>();
+}
+void fromJson(const Field& f, FeatureChain& c) {
+  c.photo = f["photo"].as<int>();
+  c.points = f["points"].as<std::vector<int>>();
+  c.closed = f["closed"].as(false);
+}
+void fromJson(const Field& f, Stroke& s) {
+  s.vertices = f["vertices"].as<std::vector<int>>();
+}
+void fromJson(const Field& f, CloneOp& c) {
+  c.photo = f["photo"].as<int>();
+  c.polygon = f["polygon"].as<std::vector<Vec2>>();
+  c.targetFaces = f["targetFaces"].as<std::vector<int>>();
+  c.anchorVertex = f["anchorVertex"].as<int>();
+  c.anchor = f["anchor"].as<Vec2>();
+  c.pixelsPerUnit = f["pixelsPerUnit"].as(0.0);
+  c.rotationDeg = f["rotationDeg"].as(0.0);
+}
+
+void fromJson(const Field& f, HoleMode& h) {
+  h.face = f["face"].as<int>();
+  h.mode = f["mode"].as<InpaintMode>();
+}
+
+// The options table: name, field and allowed range, shared by reading, writing and checking.
+template <class Options, class Visit>
+void forEachOption(Options& o, Visit&& visit) {
+  visit("backgroundThresholdPx", o.backgroundThresholdPx, 0.0, 1000.0);
+  visit("stretchSearches", o.stretchSearches, 0, 64);
+  visit("seamLambda", o.seamLambda, 0.0, 1.0);
+  visit("seamRounds", o.seamRounds, 0, 1000);
+  visit("gradientWeight", o.gradientWeight, 0.0, 1.0);
+  visit("seamLevelling", o.seamLevelling, LevelMode::Off, LevelMode::Vertex);
+  visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Off);
+  visit("maxInpaintVertices", o.maxInpaintVertices, 1000, 20000000);
+  visit("atlasSize", o.atlasSize, 1024, 8192);
+  visit("gutter", o.gutter, 0, 64);
+  visit("seed", o.seed, 0u, UINT_MAX);
+}
+
+void fromJson(const Field& f, PipelineOptions& o) {
+  forEachOption(o, [&](const char* name, auto& value, auto, auto) { value = f[name].as(value); });
+}
+
+// ---------------------------------------------------------------------------------------------
+// Checks of a document in memory, shared by loadProject (without the mesh and photos) and
+// validateProject (with their sizes).
+
+struct SceneSizes {
+  int numVertices, numFaces;
+  const std::vector<std::pair<int, int>>& photos;  // width, height
+};
+
+class DocumentCheck {
+ public:
+  DocumentCheck(const Project& project, const std::string& file, const SceneSizes* scene)
+      : p_(project), file_(file), scene_(scene) {}
+
+  void run() const {
+    checkOptions();
+    checkPoints();
+    checkChains();
+    checkStrokes();
+    checkClones();
+    for (size_t i = 0; i < p_.holeModes.size(); ++i)
+      index("holeModes[" + std::to_string(i) + "].face", p_.holeModes[i].face, faces(), "faces", "mesh");
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& path, const std::string& reason) const {
+    throw Error(located(file_, located(path, reason)));
+  }
+
+  // An index into a list of `count` things (count unknown: only >= 0 is checked).
+  void index(const std::string& path, long long value, std::optional<int> count, const char* things,
+             const char* owner) const {
+    if (value < 0) fail(path, std::to_string(value) + " must be >= 0");
+    if (count && value >= *count)
+      fail(path, std::to_string(value) + " is out of range: the " + owner + " has " + std::to_string(*count) + " " +
+                     things + (*count > 0 ? " (0.." + std::to_string(*count - 1) + ")" : ""));
+  }
+  std::optional<int> vertices() const { return scene_ ? std::optional<int>(scene_->numVertices) : std::nullopt; }
+  std::optional<int> faces() const { return scene_ ? std::optional<int>(scene_->numFaces) : std::nullopt; }
+  int photos() const { return int(p_.photos.size()); }
+  std::string photoName(int i) const {
+    return "photo " + std::to_string(i) + " " + inQuotes(fs::path(p_.photos[i].path).filename().string());
+  }
+
+  // A point in photo `photo` (already checked to be in range).
+  void inside(const std::string& path, int photo, const Vec2& at) const {
+    for (int axis = 0; axis < 2; ++axis) {
+      const std::string where = path + (axis ? "y" : "x");
+      if (!std::isfinite(at[axis])) fail(where, "must be a finite number");
+      if (!scene_) continue;
+      const int extent = axis ? scene_->photos[photo].second : scene_->photos[photo].first;
+      if (at[axis] < 0 || at[axis] > extent)
+        fail(where, number(at[axis]) + " is outside " + photoName(photo) + " (" + (axis ? "height " : "width ") +
+                        std::to_string(extent) + ")");
+    }
+  }
+
+  void checkOptions() const {
+    forEachOption(p_.options, [&](const char* name, const auto& value, auto lo, auto hi) {
+      using T = std::decay_t<decltype(value)>;
+      if constexpr (std::is_floating_point_v<T>) {
+        if (!std::isfinite(value)) fail(std::string("options.") + name, "must be a finite number");
+      }
+      if (value < lo || value > hi) {
+        if constexpr (std::is_enum_v<T>)
+          fail(std::string("options.") + name, std::to_string(int(value)) + " is not " + EnumNames<T>::what);
+        else
+          fail(std::string("options.") + name,
+               number(double(value)) + " is out of range " + number(double(lo)) + ".." + number(double(hi)));
+      }
+    });
+  }
+
+  void checkPoints() const {
+    std::map<std::pair<int, int>, std::string> seen;  // (vertex, photo) -> path of its position
+    for (size_t i = 0; i < p_.points.size(); ++i) {
+      const FeaturePoint& point = p_.points[i];
+      const std::string path = "points[" + std::to_string(i) + "]";
+      index(path + ".vertex", point.vertex, vertices(), "vertices", "mesh");
+      for (size_t j = 0; j < point.at.size(); ++j) {
+        const PhotoPoint& at = point.at[j];
+        const std::string atPath = path + ".at[" + std::to_string(j) + "]";
+        index(atPath + ".photo", at.photo, photos(), "photos", "project");
+        inside(atPath + ".", at.photo, Vec2(at.x, at.y));
+        const auto [it, fresh] = seen.emplace(std::make_pair(point.vertex, at.photo), atPath);
+        if (!fresh)
+          fail(atPath + ".photo", "vertex " + std::to_string(point.vertex) + " is given two points in " +
+                                      photoName(at.photo) + ": " + it->second + " and " + atPath);
+      }
+    }
+  }
+
+  void checkChains() const {
+    for (size_t i = 0; i < p_.chains.size(); ++i) {
+      const FeatureChain& chain = p_.chains[i];
+      const std::string path = "chains[" + std::to_string(i) + "]";
+      index(path + ".photo", chain.photo, photos(), "photos", "project");
+      for (size_t k = 0; k < chain.points.size(); ++k) {
+        const std::string pointPath = path + ".points[" + std::to_string(k) + "]";
+        index(pointPath, chain.points[k], int(p_.points.size()), "points", "project");
+        const FeaturePoint& point = p_.points[chain.points[k]];
+        bool found = false;
+        for (const PhotoPoint& at : point.at) found = found || at.photo == chain.photo;
+        if (!found)
+          fail(pointPath, "point " + std::to_string(chain.points[k]) + " (vertex " + std::to_string(point.vertex) +
+                              ") has no position in the chain's " + photoName(chain.photo));
+      }
+      const size_t needed = chain.closed ? 3 : 2;
+      if (scene_ && chain.points.size() < needed)
+        fail(path + ".points", std::string(chain.closed ? "a closed chain (polygon)" : "a feature line") +
+                                   " needs at least " + std::to_string(needed) + " points, not " +
+                                   std::to_string(chain.points.size()));
+    }
+  }
+
+  void checkStrokes() const {
+    for (size_t i = 0; i < p_.strokes.size(); ++i) {
+      const std::string path = "strokes[" + std::to_string(i) + "].vertices";
+      const auto& vs = p_.strokes[i].vertices;
+      for (size_t k = 0; k < vs.size(); ++k)
+        index(path + "[" + std::to_string(k) + "]", vs[k], vertices(), "vertices", "mesh");
+      if (scene_ && vs.size() < 2) fail(path, "a stroke needs at least 2 vertices, not " + std::to_string(vs.size()));
+    }
+  }
+
+  void checkClones() const {
+    for (size_t i = 0; i < p_.clones.size(); ++i) {
+      const CloneOp& clone = p_.clones[i];
+      const std::string path = "clones[" + std::to_string(i) + "]";
+      index(path + ".photo", clone.photo, photos(), "photos", "project");
+      index(path + ".anchorVertex", clone.anchorVertex, vertices(), "vertices", "mesh");
+      for (size_t k = 0; k < clone.targetFaces.size(); ++k)
+        index(path + ".targetFaces[" + std::to_string(k) + "]", clone.targetFaces[k], faces(), "faces", "mesh");
+      for (int axis = 0; axis < 2; ++axis)
+        if (!std::isfinite(clone.anchor[axis]))
+          fail(path + ".anchor[" + std::to_string(axis) + "]", "must be a finite number");
+      if (!std::isfinite(clone.pixelsPerUnit) || clone.pixelsPerUnit < 0)
+        fail(path + ".pixelsPerUnit", number(clone.pixelsPerUnit) + " must be a finite number >= 0");
+      if (!std::isfinite(clone.rotationDeg)) fail(path + ".rotationDeg", "must be a finite number");
+      if (!scene_) continue;
+      if (clone.targetFaces.empty()) fail(path + ".targetFaces", "must name at least one face");
+      if (clone.polygon.size() < 3)
+        fail(path + ".polygon", "needs at least 3 points, not " + std::to_string(clone.polygon.size()));
+      double area2 = 0;
+      for (size_t k = 0; k < clone.polygon.size(); ++k) {
+        inside(path + ".polygon[" + std::to_string(k) + "].", clone.photo, clone.polygon[k]);
+        const Vec2& a = clone.polygon[k];
+        const Vec2& b = clone.polygon[(k + 1) % clone.polygon.size()];
+        area2 += a.x() * b.y() - a.y() * b.x();
+      }
+      if (std::abs(area2) / 2 < 1e-6) fail(path + ".polygon", "has zero area");
+    }
+  }
+
+  const Project& p_;
+  const std::string& file_;
+  const SceneSizes* scene_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Writing.
+
+ojson toJson(const Vec2& v) {
+  return ojson::array({v.x(), v.y()});
+}
+
+ojson toJson(const PipelineOptions& o) {
+  ojson j = ojson::object();
+  forEachOption(o, [&](const char* name, const auto& value, auto, auto) {
+    using T = std::decay_t<decltype(value)>;
+    if constexpr (std::is_enum_v<T>) {
+      const size_t i = size_t(value);
+      TM_CHECK(i < EnumNames<T>::names.size(),
+               std::string("options.") + name + ": " + std::to_string(i) + " is not " + EnumNames<T>::what);
+      j[name] = EnumNames<T>::names[i];
+    } else {
+      j[name] = value;
+    }
+  });
+  return j;
+}
+
+// JSON has no NaN or infinity (nlohmann would write null): refuse to write them, naming the field.
+void requireFinite(const ojson& j, const std::string& path) {
+  if (j.is_number_float() && !std::isfinite(j.get<double>()))
+    throw Error(located(path, "is not a finite number; the project cannot be saved"));
+  if (j.is_object())
+    for (const auto& [key, value] : j.items()) requireFinite(value, path.empty() ? key : path + "." + key);
+  if (j.is_array())
+    for (size_t i = 0; i < j.size(); ++i) requireFinite(j[i], path + "[" + std::to_string(i) + "]");
+}
+
+// A path as written in the file: relative to `base` when one is given.
+std::string storedPath(const std::string& path, const fs::path& base) {
+  if (base.empty() || path.empty()) return path;
+  const fs::path absolute = fs::absolute(path).lexically_normal();
+  const fs::path relative = absolute.lexically_relative(base);
+  return (relative.empty() ? absolute : relative).generic_string();
+}
+
+std::string readText(const std::string& path) {
+  std::error_code ec;
+  TM_CHECK(fs::exists(path, ec), located(path, "file not found"));
+  TM_CHECK(!fs::is_directory(path, ec), located(path, "is a folder, not a project file"));
+  std::ifstream in(path, std::ios::binary);
+  TM_CHECK(in, located(path, std::string("cannot open: ") + std::strerror(errno)));
+  std::ostringstream text;
+  text << in.rdbuf();
+  TM_CHECK(!in.bad(), located(path, "read error"));
+  return text.str();
+}
+
+json parseJson(const std::string& path, const std::string& text) {
+  try {
+    return json::parse(text);
+  } catch (const json::parse_error& e) {
+    // e.byte is the 1-based offset of the character where parsing failed.
+    const size_t end = std::min(std::max<size_t>(e.byte, 1) - 1, text.size());
+    size_t lineStart = 0;
+    if (const size_t newline = end ? text.rfind('\n', end - 1) : std::string::npos; newline != std::string::npos)
+      lineStart = newline + 1;
+    const size_t line = 1 + std::count(text.begin(), text.begin() + end, '\n');
+    const size_t column = end - lineStart + 1;
+    std::string detail = e.what();
+    if (const size_t at = detail.find("syntax error"); at != std::string::npos) detail = detail.substr(at);
+    throw Error(located(
+        path, "line " + std::to_string(line) + ", column " + std::to_string(column) + ": invalid JSON: " + detail));
+  }
+}
+
+// A path from the file, made absolute against the project's folder; the file must exist.
+std::string resolveFile(const Field& f, const fs::path& dir) {
+  const std::string written = f.as<std::string>();
+  if (written.empty()) f.fail("must not be empty");
+  const fs::path resolved = (dir / written).lexically_normal();
+  std::error_code ec;
+  if (!fs::is_regular_file(resolved, ec))
+    f.fail("file " + inQuotes(written) + (fs::exists(resolved, ec) ? " is not a regular file" : " not found") +
+           " (resolved to " + inQuotes(resolved.string()) + ")");
+  return resolved.string();
+}
+
+}  // namespace
+
+bool Project::sameDocument(const Project& o) const {
+  return mesh == o.mesh && photos == o.photos && points == o.points && chains == o.chains && strokes == o.strokes &&
+         clones == o.clones && holeModes == o.holeModes && options == o.options;
+}
+
+Project loadProject(const std::string& path) {
+  const std::string text = readText(path);
+  const json document = parseJson(path, text);
+  const Field root(path, &document, "");
+  const Field format = root["format"];
+  if (!format.present())
+    format.fail("missing: not a TextureMontage project (expected \"format\": \"" + std::string(kFormat) + "\")");
+  if (format.as<std::string>() != kFormat)
+    format.fail(inQuotes(format.as<std::string>()) + " is not a TextureMontage project (expected " + inQuotes(kFormat) +
+                ")");
+  const int version = root["version"].as<int>();
+  if (version != Project::kVersion)
+    root["version"].fail(std::to_string(version) + " is not supported: this build reads version " +
+                         std::to_string(Project::kVersion) +
+                         (version > Project::kVersion ? " (the file was written by a newer TextureMontage)" : ""));
+
+  Project project;
+  project.file = fs::absolute(path).lexically_normal().string();
+  const fs::path dir = fs::path(project.file).parent_path();
+  project.mesh = resolveFile(root["mesh"], dir);
+  const Field photos = root["photos"];
+  for (size_t i = 0, n = photos.present() ? photos.size() : 0; i < n; ++i) {
+    PhotoRef ref;
+    ref.path = resolveFile(photos[i]["path"], dir);
+    if (photos[i]["mask"].present()) ref.mask = resolveFile(photos[i]["mask"], dir);
+    project.photos.push_back(ref);
+  }
+  project.points = root["points"].as(project.points);
+  project.chains = root["chains"].as(project.chains);
+  project.strokes = root["strokes"].as(project.strokes);
+  project.clones = root["clones"].as(project.clones);
+  project.holeModes = root["holeModes"].as(project.holeModes);
+  if (root["options"].present()) project.options = root["options"].as<PipelineOptions>();
+  DocumentCheck(project, path, nullptr).run();
+  return project;
+}
+
+void validateProject(const Project& project, int numVertices, int numFaces,
+                     const std::vector<std::pair<int, int>>& photoSizes) {
+  const std::string file = project.file.empty() ? "project" : project.file;
+  TM_CHECK(photoSizes.size() == project.photos.size(),
+           located(file, std::to_string(photoSizes.size()) + " photo sizes given for " +
+                             std::to_string(project.photos.size()) + " photos"));
+  const SceneSizes scene{numVertices, numFaces, photoSizes};
+  DocumentCheck(project, file, &scene).run();
+}
+
+std::string projectToJson(const Project& project, const std::string& relativeTo) {
+  const fs::path base = relativeTo.empty() ? fs::path() : fs::absolute(relativeTo).lexically_normal().parent_path();
+  ojson j;
+  j["format"] = kFormat;
+  j["version"] = Project::kVersion;
+  j["mesh"] = storedPath(project.mesh, base);
+  j["photos"] = ojson::array();
+  for (const PhotoRef& photo : project.photos) {
+    ojson p = {{"path", storedPath(photo.path, base)}};
+    if (!photo.mask.empty()) p["mask"] = storedPath(photo.mask, base);
+    j["photos"].push_back(p);
+  }
+  j["points"] = ojson::array();
+  for (const FeaturePoint& point : project.points) {
+    ojson at = ojson::array();
+    for (const PhotoPoint& a : point.at) at.push_back({{"photo", a.photo}, {"x", a.x}, {"y", a.y}});
+    j["points"].push_back({{"vertex", point.vertex}, {"at", at}});
+  }
+  j["chains"] = ojson::array();
+  for (const FeatureChain& chain : project.chains)
+    j["chains"].push_back({{"photo", chain.photo}, {"points", chain.points}, {"closed", chain.closed}});
+  j["strokes"] = ojson::array();
+  for (const Stroke& stroke : project.strokes) j["strokes"].push_back({{"vertices", stroke.vertices}});
+  j["clones"] = ojson::array();
+  for (const CloneOp& clone : project.clones) {
+    ojson polygon = ojson::array();
+    for (const Vec2& p : clone.polygon) polygon.push_back(toJson(p));
+    j["clones"].push_back({{"photo", clone.photo},
+                           {"polygon", polygon},
+                           {"targetFaces", clone.targetFaces},
+                           {"anchorVertex", clone.anchorVertex},
+                           {"anchor", toJson(clone.anchor)},
+                           {"pixelsPerUnit", clone.pixelsPerUnit},
+                           {"rotationDeg", clone.rotationDeg}});
+  }
+  j["holeModes"] = ojson::array();
+  for (const HoleMode& h : project.holeModes)
+    j["holeModes"].push_back({{"face", h.face}, {"mode", kInpaintModeNames.at(size_t(h.mode))}});
+  j["options"] = toJson(project.options);
+  requireFinite(j, "");
+  return j.dump(2) + "\n";
+}
+
+void saveProject(Project& project, const std::string& path) {
+  const std::string target = fs::absolute(path).lexically_normal().string();
+  std::string text;
+  try {
+    text = projectToJson(project, target);
+  } catch (const Error& e) {
+    throw Error(located(target, e.what()));
+  }
+  writeFileAtomic(target, text);
+  project.file = target;
+}
+
+}  // namespace montage

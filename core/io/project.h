@@ -1,0 +1,112 @@
+// The project document: what the user made (mesh and photo paths, correspondences, strokes, clone
+// operations, options). Saved as versioned JSON; see docs/project-format.md.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "base/common.h"
+#include "base/fileio.h"  // writeFileAtomic, which callers of saveProject use too
+#include "io/options.h"
+
+namespace montage {
+
+struct Mesh;
+
+// A position in one photo, pixel coordinates (see photo.h).
+struct PhotoPoint {
+  int photo = 0;
+  double x = 0, y = 0;
+  bool operator==(const PhotoPoint& o) const { return photo == o.photo && x == o.x && y == o.y; }
+};
+
+// A correspondence: a mesh vertex and where it appears in one or more photos.
+struct FeaturePoint {
+  int vertex = 0;
+  std::vector<PhotoPoint> at;
+  bool operator==(const FeaturePoint& o) const { return vertex == o.vertex && at == o.at; }
+};
+
+// A feature line (open) or polygon (closed): a chain of feature points drawn in one photo. Every
+// point of the chain must have a position in that photo.
+struct FeatureChain {
+  int photo = 0;
+  std::vector<int> points;  // indices into Project::points
+  bool closed = false;
+  bool operator==(const FeatureChain& o) const { return photo == o.photo && points == o.points && closed == o.closed; }
+};
+
+// An inpainting guidance stroke drawn on the surface: a polyline through mesh vertices; its
+// direction at each vertex is the direction of travel.
+struct Stroke {
+  std::vector<int> vertices;
+  bool operator==(const Stroke& o) const { return vertices == o.vertices; }
+};
+
+// Seamless cloning of a photo region onto the surface (paper section 5).
+struct CloneOp {
+  int photo = 0;
+  std::vector<Vec2> polygon;     // source region in the photo, pixel coordinates, >= 3 points
+  std::vector<int> targetFaces;  // target region on the mesh (face indices)
+  int anchorVertex = 0;          // this vertex receives the photo point `anchor`
+  Vec2 anchor = Vec2::Zero();    // pixel coordinates
+  double pixelsPerUnit = 0;      // scale: photo pixels per model unit (0 = fit the polygon to the region)
+  double rotationDeg = 0;        // rotation of the photo around the anchor, degrees
+  bool operator==(const CloneOp& o) const {
+    return photo == o.photo && polygon == o.polygon && targetFaces == o.targetFaces && anchorVertex == o.anchorVertex &&
+           anchor == o.anchor && pixelsPerUnit == o.pixelsPerUnit && rotationDeg == o.rotationDeg;
+  }
+};
+
+// The guidance chosen for one hole (a connected region no photo covers): the hole is the one that
+// contains `face` (a mesh face id); the others follow options.inpaintMode.
+struct HoleMode {
+  int face = 0;
+  InpaintMode mode = InpaintMode::Rbf;
+  bool operator==(const HoleMode& o) const { return face == o.face && mode == o.mode; }
+};
+
+struct PhotoRef {
+  std::string path;  // absolute once loaded; written relative to the project file
+  std::string mask;  // optional foreground mask image; same rules
+  bool operator==(const PhotoRef& o) const { return path == o.path && mask == o.mask; }
+};
+
+struct Project {
+  static constexpr int kVersion = 1;  // format version written by this build
+
+  std::string file;  // where it was loaded from / last saved to (absolute); empty for a new project
+  std::string mesh;  // absolute path
+  std::vector<PhotoRef> photos;
+  std::vector<FeaturePoint> points;
+  std::vector<FeatureChain> chains;
+  std::vector<Stroke> strokes;
+  std::vector<CloneOp> clones;
+  std::vector<HoleMode> holeModes;
+  PipelineOptions options;
+
+  // Document equality (ignores `file`): what save + load must preserve.
+  bool sameDocument(const Project& o) const;
+};
+
+// Parses a project file and checks everything that needs no mesh or photo: JSON syntax, version,
+// field types, index ranges among the project's own lists, files present. Paths become absolute.
+// Throws montage::Error "<file>: <field>: <reason>", e.g. "a.json: points[2].vertex: must be an integer".
+Project loadProject(const std::string& path);
+
+// Checks a project against its mesh and photo sizes: vertex ids in range, points inside their
+// photo, the same vertex not given two points in one photo, chains whose points have a position
+// in the chain's photo, stroke and clone indices in range. `photoSizes[i]` is photo i's size.
+// Throws montage::Error naming the project file, the field and the reason.
+void validateProject(const Project& project, int numVertices, int numFaces,
+                     const std::vector<std::pair<int, int>>& photoSizes);
+
+// Serialises to JSON text (paths relative to `relativeTo`'s folder when given).
+std::string projectToJson(const Project& project, const std::string& relativeTo);
+
+// Writes the project atomically: temporary file in the same folder, fsync, rename, fsync of the
+// folder. Sets project.file. Throws montage::Error on failure, leaving any earlier file untouched.
+void saveProject(Project& project, const std::string& path);
+
+}  // namespace montage

@@ -1,0 +1,21 @@
+// The loaded inputs of a project, as every stage reads them.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "io/project.h"
+
+namespace montage {
+
+// The loaded inputs of a project: immutable once built, shared between runs and threads.
+struct Scene {
+  Project project;
+  std::shared_ptr<const Mesh> mesh;
+  MeshReport meshReport;
+  std::vector<std::shared_ptr<const Photo>> photos;
+};
+
+}  // namespace montage

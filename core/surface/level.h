@@ -1,0 +1,36 @@
+// Seam levelling (paper end of section 5, after Agarwala et al. 2004): a smooth additive colour offset
+// per (vertex, photo) that closes the colour difference along every seam between two photos.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "base/common.h"
+#include "io/options.h"
+#include "mapping/texture_map.h"
+
+namespace montage {
+
+struct Mesh;
+struct Photo;
+class JobControl;
+
+// Seam levelling (paper end of section 5, after Agarwala et al. 2004): an additive sRGB offset per
+// mapped face corner, linear over each face, to be added to the photo colour when baking.
+struct SeamLevelling {
+  std::vector<std::array<Vec3f, 3>> cornerOffset;  // #F x 3 (zero for unmapped faces); empty = none
+  int seams = 0;                                   // seams (maximal runs of edges between two photos) levelled
+  double meanMismatchBefore = 0;                   // mean |colour difference| across seam samples, sRGB [0,1] units
+  double meanMismatchAfter = 0;
+  double seconds = 0;
+};
+
+// Levels the colours across seams between photos (faces mapped to different photos sharing an edge).
+SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
+                         LevelMode mode, const JobControl& job);
+
+// The colour a mapped face shows at barycentrics b: its photo's colour there plus the levelling offset.
+Vec3f mappedColor(const TextureMap& map, const std::vector<const Photo*>& photos, const SeamLevelling* levelling,
+                  int face, const Vec3& b);
+
+}  // namespace montage

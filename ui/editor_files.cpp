@@ -1,0 +1,220 @@
+// The editor's files: open, save, export, adding photos, autosave and recovery.
+#include <imgui.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+#include "base/fileio.h"
+#include "editor.h"
+#include "gl.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+
+namespace fs = std::filesystem;
+
+namespace montage {
+
+namespace {
+
+double now() {
+  return glfwGetTime();
+}
+
+}  // namespace
+
+std::string Editor::autosavePath() const {
+  return autosavePathFor(doc_.project().file, doc_.project().mesh);
+}
+
+void Editor::autosaveTick() {
+  if (autosaveJob_.valid() && autosaveJob_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    const std::string error = autosaveJob_.get();
+    if (error.empty()) {
+      autosavedRevision_ = autosaveJobRevision_;
+    } else {
+      reportError("autosave: " + error);
+    }
+  }
+  if (autosaveJob_.valid() || doc_.project().mesh.empty()) return;
+  const double t = now();
+  if (!autosaveClock_.due(t, doc_.revision(), doc_.modified())) return;
+  autosaveClock_.written(t, doc_.revision());
+  autosaveJobRevision_ = doc_.revision();
+  lastAutosavePath_ = autosavePath();
+  // Written on a helper thread from the immutable snapshot: the fsync never stalls a frame.
+  autosaveJob_ = std::async(std::launch::async, [snapshot = doc_.snapshot(), path = lastAutosavePath_]() {
+    try {
+      writeAutosave(*snapshot, path);
+      return std::string();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  });
+}
+
+void Editor::checkRecovery() {
+  recovery_.clear();
+  const Project& p = doc_.project();
+  if (!p.mesh.empty()) {
+    if (auto c = findRecovery(p.file, p.mesh)) recovery_.push_back(*c);
+  } else {
+    recovery_ = listRecoveries();
+  }
+  recoveryPopup_ = !recovery_.empty();
+}
+
+// --- Files ----------------------------------------------------------------------------------------
+
+void Editor::reportError(const std::string& message) {
+  errors_.push_back(message);
+  if (errors_.size() > 200) errors_.erase(errors_.begin());
+  showErrors_ = true;
+  std::fprintf(stderr, "texturemontage: %s\n", message.c_str());
+}
+
+void Editor::setStatus(const std::string& message) {
+  status_ = message;
+  statusTime_ = now();
+}
+
+bool Editor::openFile(const std::string& path) {
+  try {
+    const std::string abs = fs::absolute(path).lexically_normal().string();
+    const std::string ext = lowerExtension(abs);
+    Project project;
+    if (ext == ".json") {
+      project = loadProject(abs);
+    } else {
+      std::error_code ec;
+      TM_CHECK(fs::is_regular_file(abs, ec), located(abs, "file not found"));
+      TM_CHECK(ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl",
+               located(abs, "not a project (.json) or a mesh (.obj .ply .off .stl)"));
+      project.mesh = abs;  // a new, unsaved project on this mesh
+    }
+    doc_.reset(std::move(project));
+    selectedVertex_ = selectedPoint_ = -1;
+    chain_.clear();
+    stroke_.clear();
+    cancelInProgress();
+    result_.reset();
+    lastError_.clear();
+    autosaveClock_.reset(now(), doc_.revision());
+    recent_.add(abs);
+    setStatus("opened " + abs);
+    glfwSetWindowTitle(window_, ("TextureMontage - " + fs::path(abs).filename().string()).c_str());
+    return true;
+  } catch (const Error& e) {
+    reportError(e.what());
+    return false;
+  }
+}
+
+void Editor::requestOpen() {
+  guardUnsaved([this] {
+    dialogs_.request(DialogKind::OpenFile, "Open a project or a mesh",
+                     {{"Projects and meshes", {"*.json", "*.obj", "*.ply", "*.off", "*.stl"}}, {"All files", {"*"}}},
+                     "open", doc_.project().file.empty() ? "" : fs::path(doc_.project().file).parent_path().string());
+  });
+}
+
+bool Editor::saveTo(const std::string& path) {
+  std::string target = fs::absolute(path).lexically_normal().string();
+  if (fs::path(target).extension().empty()) target += ".json";
+  const std::string oldAutosave = autosavePath();
+  try {
+    Project copy = doc_.project();
+    saveProject(copy, target);  // atomic: temporary file, fsync, rename
+    // An autosave still being written would land after this save and look like newer work.
+    if (autosaveJob_.valid()) autosaveJob_.wait();
+    doc_.markSaved(copy.file);
+    removeAutosave(oldAutosave);
+    removeAutosave(autosavePath());
+    autosaveClock_.reset(now(), doc_.revision());
+    recent_.add(copy.file);
+    setStatus("saved " + copy.file);
+    glfwSetWindowTitle(window_, ("TextureMontage - " + fs::path(copy.file).filename().string()).c_str());
+    return true;
+  } catch (const Error& e) {
+    reportError(e.what());
+    return false;
+  }
+}
+
+void Editor::save() {
+  if (doc_.project().file.empty()) {
+    requestSaveAs();
+  } else {
+    saveTo(doc_.project().file);
+  }
+}
+
+void Editor::requestSaveAs() {
+  const std::string dir = doc_.project().file.empty() ? fs::path(doc_.project().mesh).parent_path().string()
+                                                      : fs::path(doc_.project().file).parent_path().string();
+  dialogs_.request(DialogKind::SaveFile, "Save the project as", {{"Projects", {"*.json"}}}, "save_as", dir);
+}
+
+bool Editor::exportTo(const std::string& path) {
+  try {
+    TM_CHECK(resultUsable(), "export: there is no result yet (the pipeline has not finished on this document)");
+    const std::string abs = fs::absolute(path).lexically_normal().string();
+    const std::string ext = lowerExtension(abs);
+    if (ext == ".glb") {
+      exportGlb(*result_->model, abs);
+    } else if (ext == ".obj") {
+      exportObj(*result_->model, fs::path(abs).parent_path().string(), fs::path(abs).stem().string());
+    } else {
+      throw Error(located(abs, "export: choose a file name ending in .glb or .obj"));
+    }
+    setStatus("exported " + abs);
+    return true;
+  } catch (const Error& e) {
+    reportError(e.what());
+    return false;
+  }
+}
+
+void Editor::addPhotosFrom(const std::string& path) {
+  std::vector<PhotoRef> refs;
+  std::error_code ec;
+  const std::string abs = fs::absolute(path).lexically_normal().string();
+  if (fs::is_directory(abs, ec)) {
+    std::vector<std::string> files;
+    for (fs::directory_iterator it(abs, ec), end; !ec && it != end; it.increment(ec))
+      if (it->is_regular_file() && isImageExtension(lowerExtension(it->path().string())))
+        files.push_back(it->path().string());
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) refs.push_back(PhotoRef{f, ""});
+    if (refs.empty()) {
+      reportError(located(abs, "no images (.png .jpg .jpeg .tif .tiff .bmp) in this folder"));
+      return;
+    }
+  } else if (fs::is_regular_file(abs, ec) && isImageExtension(lowerExtension(abs))) {
+    refs.push_back(PhotoRef{abs, ""});
+  } else {
+    reportError(located(abs, "not an image file or a folder of images"));
+    return;
+  }
+  if (edit([&] { activePhoto_ = doc_.addPhotos(refs); }))
+    setStatus("added " + std::to_string(refs.size()) + " photo(s)");
+}
+
+void Editor::guardUnsaved(std::function<void()> then) {
+  if (!doc_.modified()) {
+    then();
+    return;
+  }
+  afterUnsaved_ = std::move(then);
+  unsavedPopup_ = true;
+}
+
+void Editor::requestClose() {
+  guardUnsaved([this] { quit_ = true; });
+}
+
+// --- Edits ----------------------------------------------------------------------------------------
+
+}  // namespace montage

@@ -1,0 +1,737 @@
+// The editor's menus and panels: menu bar, tools, lists (features, chains, strokes and clones, history,
+// pipeline), status bar, errors, help, modals and keyboard shortcuts.
+#include <imgui.h>
+#include <imgui_stdlib.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+
+#include "base/fileio.h"
+#include "editor.h"
+#include "gl.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "overlays.h"
+
+namespace fs = std::filesystem;
+
+namespace montage {
+
+namespace {
+
+double now() {
+  return glfwGetTime();
+}
+
+std::string timeText(std::time_t t) {
+  char buffer[64];
+  std::strftime(buffer, sizeof(buffer), "%Y-%m-%d %H:%M:%S", std::localtime(&t));
+  return buffer;
+}
+
+const char* const kToolKeys[] = {"P", "L", "G", "S", "C"};
+const ImVec4 kErrorColor(1.0f, 0.45f, 0.4f, 1.0f);
+const ImVec4 kDimColor(0.6f, 0.6f, 0.6f, 1.0f);
+
+}  // namespace
+
+const std::vector<Shortcut>& editorShortcuts() {
+  static const std::vector<Shortcut> shortcuts = {
+      {"Ctrl+Z", "undo"},
+      {"Ctrl+Shift+Z, Ctrl+Y", "redo"},
+      {"Ctrl+O", "open a project or a mesh"},
+      {"Ctrl+S", "save the project (atomic)"},
+      {"Ctrl+Shift+S", "save as"},
+      {"Ctrl+E", "export the current result (.glb or .obj)"},
+      {"Ctrl+Q", "quit (asks when there are unsaved changes)"},
+      {"P / L / G / S / C", "tool: point, line, polygon, stroke, clone"},
+      {"Delete, Backspace", "remove the selected point from the active photo"},
+      {"Enter", "finish the line or polygon (or clone polygon) being drawn"},
+      {"Escape", "cancel what is being drawn, then clear the selection"},
+      {"T", "3D view: textured / shaded"},
+      {"W", "3D view: wireframe on / off"},
+      {"F", "3D view: frame the whole mesh"},
+      {"1 ... 9", "show photo 1 ... 9 in the image pane"},
+      {"F1", "this help"},
+      {"3D view: left drag", "orbit (stroke tool: draw a stroke; clone tool: paint the target, Ctrl erases)"},
+      {"3D view: right or middle drag, Shift+left drag", "pan"},
+      {"3D view: wheel", "zoom"},
+      {"3D view: left click", "pick the nearest vertex of the triangle under the cursor"},
+      {"Photo: left click", "point tool: attach the selected vertex here (or select a point)"},
+      {"Photo: left drag on a point", "move it (one undo step)"},
+      {"Photo: wheel / right or middle drag", "zoom at the cursor / pan"},
+      {"Photo: click the first point", "close the polygon being drawn"},
+  };
+  return shortcuts;
+}
+
+void Editor::buildUi() {
+  buttonRects_.clear();
+  const ImGuiIO& io = ImGui::GetIO();
+  menuBar();
+  const float top = ImGui::GetFrameHeight();
+  const float statusH = ImGui::GetFrameHeight() + 8;
+  const float W = io.DisplaySize.x, H = io.DisplaySize.y;
+  const float leftW = std::clamp(std::floor(W * 0.24f), 280.0f, 400.0f);
+  const float mainH = H - top - statusH;
+  const float viewW = std::floor((W - leftW) * 0.5f);
+  windowRect_ = Rect{0, 0, W, H};
+
+  const ImGuiWindowFlags fixed = ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
+                                 ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoBringToFrontOnFocus;
+  const float toolsH = std::floor(mainH * 0.42f);
+  ImGui::SetNextWindowPos(ImVec2(0, top));
+  ImGui::SetNextWindowSize(ImVec2(leftW, toolsH));
+  if (ImGui::Begin("Tools", nullptr, fixed)) toolsPanel();
+  ImGui::End();
+  ImGui::SetNextWindowPos(ImVec2(0, top + toolsH));
+  ImGui::SetNextWindowSize(ImVec2(leftW, mainH - toolsH));
+  if (ImGui::Begin("Document", nullptr, fixed)) listsPanel();
+  ImGui::End();
+
+  ImGui::SetNextWindowPos(ImVec2(leftW, top));
+  ImGui::SetNextWindowSize(ImVec2(viewW, mainH));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
+  if (ImGui::Begin("3D view", nullptr, fixed | ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse))
+    view3d();
+  ImGui::End();
+  ImGui::PopStyleVar();
+
+  ImGui::SetNextWindowPos(ImVec2(leftW + viewW, top));
+  ImGui::SetNextWindowSize(ImVec2(W - leftW - viewW, mainH));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(4, 4));
+  if (ImGui::Begin("Photos", nullptr, fixed | ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse))
+    photosPanel();
+  ImGui::End();
+  ImGui::PopStyleVar();
+
+  statusBar(Rect{0, H - statusH, W, statusH});
+  errorsWindow();
+  helpWindow();
+  modals();
+  if (auto chosen = dialogs_.frame()) {
+    if (chosen->purpose == "open") {
+      openFile(chosen->path);
+      checkRecovery();
+    }
+    if (chosen->purpose == "save_as") saveTo(chosen->path);
+    if (chosen->purpose == "export") exportTo(chosen->path);
+    if (chosen->purpose == "add_photos") addPhotosFrom(chosen->path);
+  }
+  shortcuts();
+}
+
+void Editor::menuBar() {
+  if (!ImGui::BeginMainMenuBar()) return;
+  if (ImGui::BeginMenu("File")) {
+    if (ImGui::MenuItem("Open project or mesh...", "Ctrl+O")) requestOpen();
+    if (ImGui::BeginMenu("Open recent", !recent_.files().empty())) {
+      for (const std::string& f : recent_.files())
+        if (ImGui::MenuItem(f.c_str())) {
+          const std::string file = f;
+          guardUnsaved([this, file] {
+            openFile(file);
+            checkRecovery();
+          });
+        }
+      ImGui::Separator();
+      if (ImGui::MenuItem("Clear list")) recent_.clear();
+      ImGui::EndMenu();
+    }
+    ImGui::Separator();
+    const bool hasMesh = !doc_.project().mesh.empty();
+    if (ImGui::MenuItem("Add photo...", nullptr, false, hasMesh))
+      dialogs_.request(DialogKind::OpenFile, "Add a photo",
+                       {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}}, "add_photos",
+                       fs::path(doc_.project().mesh).parent_path().string());
+    if (ImGui::MenuItem("Add photos folder...", nullptr, false, hasMesh))
+      dialogs_.request(DialogKind::OpenFolder, "Add every photo of a folder", {}, "add_photos",
+                       fs::path(doc_.project().mesh).parent_path().string());
+    ImGui::Separator();
+    if (ImGui::MenuItem("Save", "Ctrl+S", false, hasMesh)) save();
+    if (ImGui::MenuItem("Save as...", "Ctrl+Shift+S", false, hasMesh)) requestSaveAs();
+    if (ImGui::MenuItem("Export result...", "Ctrl+E", false, resultUsable()))
+      dialogs_.request(DialogKind::SaveFile, "Export the textured model (.glb or .obj)",
+                       {{"glTF binary", {"*.glb"}}, {"OBJ + MTL + PNG", {"*.obj"}}}, "export", "");
+    ImGui::Separator();
+    if (ImGui::MenuItem("Quit", "Ctrl+Q")) requestClose();
+    ImGui::EndMenu();
+  }
+  if (ImGui::BeginMenu("Edit")) {
+    const std::string undoLabel = doc_.canUndo() ? "Undo " + doc_.history()[doc_.position() - 1].label : "Undo";
+    const std::string redoLabel = doc_.canRedo() ? "Redo " + doc_.history()[doc_.position()].label : "Redo";
+    if (ImGui::MenuItem(undoLabel.c_str(), "Ctrl+Z", false, doc_.canUndo())) undo();
+    if (ImGui::MenuItem(redoLabel.c_str(), "Ctrl+Shift+Z", false, doc_.canRedo())) redo();
+    ImGui::Separator();
+    if (ImGui::MenuItem("Delete selected point", "Delete", false, selectedPoint_ >= 0)) deleteSelection();
+    if (ImGui::MenuItem("Clear selection", "Escape")) selectVertex(-1);
+    ImGui::EndMenu();
+  }
+  if (ImGui::BeginMenu("View")) {
+    ImGui::MenuItem("Textured", "T", &textured_);
+    ImGui::MenuItem("Wireframe", "W", &wireframe_);
+    ImGui::MenuItem("Partition paths", nullptr, &showPaths_);
+    ImGui::MenuItem("Features", nullptr, &showFeatures_);
+    ImGui::MenuItem("Feature ids", nullptr, &showIds_);
+    if (ImGui::BeginMenu("Colour faces by")) {
+      for (size_t i = 0; i < kFaceColoringNames.size(); ++i)
+        if (ImGui::MenuItem(kFaceColoringNames[i], nullptr, coloring_ == FaceColoring(i))) {
+          coloring_ = FaceColoring(i);
+          overlayDirty_ = true;
+        }
+      ImGui::EndMenu();
+    }
+    if (ImGui::MenuItem("Frame all", "F")) camera_.frame(input_.lo, input_.hi);
+    ImGui::Separator();
+    ImGui::MenuItem("Photos in a grid", nullptr, &gridPanes_);
+    ImGui::MenuItem("Background mask", nullptr, &showMask_);
+    ImGui::MenuItem("Partition curves", nullptr, &showCurves_);
+    ImGui::MenuItem("Rejected pairs", nullptr, &showRejected_);
+    ImGui::Separator();
+    ImGui::MenuItem("Errors", nullptr, &showErrors_);
+    ImGui::EndMenu();
+  }
+  if (ImGui::BeginMenu("Tools")) {
+    for (size_t i = 0; i < kToolNames.size(); ++i)
+      if (ImGui::MenuItem(kToolNames[i], kToolKeys[i], tool_ == Tool(i))) {
+        cancelInProgress();
+        tool_ = Tool(i);
+      }
+    ImGui::EndMenu();
+  }
+  if (ImGui::BeginMenu("Help")) {
+    ImGui::MenuItem("Shortcuts and mouse", "F1", &showHelp_);
+    ImGui::EndMenu();
+  }
+  ImGui::EndMainMenuBar();
+}
+
+void Editor::toolsPanel() {
+  for (size_t i = 0; i < kToolNames.size(); ++i) {
+    if (i % 3 != 0) ImGui::SameLine(8 + 92.0f * (i % 3));
+    if (ImGui::RadioButton(kToolNames[i], tool_ == Tool(i)) && tool_ != Tool(i)) {
+      cancelInProgress();
+      tool_ = Tool(i);
+    }
+  }
+  ImGui::Separator();
+  const Project& p = doc_.project();
+  switch (tool_) {
+    case Tool::Point:
+      ImGui::TextWrapped("Pick a vertex in the 3D view, then click where it is in a photo. Drag a point to move it.");
+      break;
+    case Tool::Line:
+    case Tool::Polygon:
+      ImGui::TextWrapped("Click points in one photo (existing ones, or pick a vertex then click). %s",
+                         tool_ == Tool::Polygon ? "Close by clicking the first point or Enter." : "Finish with Enter.");
+      if (!chain_.empty()) {
+        ImGui::Text("drawing in photo %d: %zu point(s)", chainPhoto_, chain_.size());
+        if (button("Finish")) finishChain();
+        ImGui::SameLine();
+        if (button("Cancel")) cancelInProgress();
+      }
+      break;
+    case Tool::Stroke:
+      ImGui::TextWrapped("Left-drag on the mesh to draw a guidance stroke (direction = direction of travel).");
+      ImGui::Text("%zu stroke(s) in the project", p.strokes.size());
+      break;
+    case Tool::Clone: {
+      ImGui::TextWrapped(
+          "1. Click a polygon in a photo (close: first point or Enter). 2. Paint the target on the mesh (Ctrl "
+          "erases). 3. Apply.");
+      ImGui::Text("polygon: %zu point(s)%s, target: %zu face(s)", clonePolygon_.size(),
+                  clonePolygonClosed_ ? " (closed)" : "", cloneFaces_.size());
+      ImGui::SliderFloat("brush", &cloneBrush_, 0.01f, 0.3f, "%.2f x size");
+      float rot = static_cast<float>(cloneRotationDeg_), ppu = static_cast<float>(clonePixelsPerUnit_);
+      if (ImGui::SliderFloat("rotation", &rot, -180, 180, "%.0f deg")) cloneRotationDeg_ = rot, cloneDirty_ = true;
+      if (ImGui::InputFloat("px / unit", &ppu, 0, 0, "%.1f"))
+        clonePixelsPerUnit_ = std::max(0.f, ppu), cloneDirty_ = true;
+      ImGui::TextDisabled("px / unit 0 fits the polygon to the region");
+      const bool ready = clonePolygonClosed_ && !cloneFaces_.empty();
+      if (!ready) ImGui::BeginDisabled();
+      if (button("Apply clone")) {
+        const CloneOp op = currentCloneOp();
+        if (edit([&] { doc_.addClone(op); })) {
+          setStatus("clone added: the next run clones it seamlessly");
+          cancelInProgress();
+        }
+      }
+      if (!ready) ImGui::EndDisabled();
+      ImGui::SameLine();
+      if (button("Cancel##clone")) cancelInProgress();
+      break;
+    }
+  }
+  ImGui::Separator();
+  if (selectedVertex_ >= 0) {
+    ImGui::Text("selected: vertex %d", selectedVertex_);
+    if (selectedPoint_ >= 0) {
+      ImGui::SameLine();
+      ImGui::Text("(point #%d)", selectedPoint_);
+    }
+  } else {
+    ImGui::TextDisabled("no vertex selected");
+  }
+  ImGui::Separator();
+  ImGui::Checkbox("textured", &textured_);
+  ImGui::SameLine();
+  ImGui::Checkbox("wireframe", &wireframe_);
+  ImGui::SameLine();
+  ImGui::Checkbox("paths", &showPaths_);
+  ImGui::Checkbox("features", &showFeatures_);
+  ImGui::SameLine();
+  ImGui::Checkbox("ids", &showIds_);
+  ImGui::SameLine();
+  ImGui::Checkbox("mask", &showMask_);
+  ImGui::Checkbox("curves", &showCurves_);
+  ImGui::SameLine();
+  ImGui::Checkbox("rejected pairs", &showRejected_);
+  int coloring = static_cast<int>(coloring_);
+  ImGui::SetNextItemWidth(-1);
+  if (ImGui::BeginCombo("##coloring", (std::string("faces: ") + kFaceColoringNames[coloring]).c_str())) {
+    for (size_t i = 0; i < kFaceColoringNames.size(); ++i) {
+      // Seam error comes from seam optimisation (paper 4.2), which this pipeline does not run yet.
+      const bool available = FaceColoring(i) != FaceColoring::SeamError;
+      if (ImGui::Selectable(kFaceColoringNames[i], coloring == int(i), available ? 0 : ImGuiSelectableFlags_Disabled)) {
+        coloring_ = FaceColoring(i);
+        overlayDirty_ = true;
+      }
+      if (!available && ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
+        ImGui::SetTooltip("the pipeline does not compute seam error yet (seam optimisation, paper 4.2)");
+    }
+    ImGui::EndCombo();
+  }
+}
+
+void Editor::listsPanel() {
+  if (!ImGui::BeginTabBar("##lists")) return;
+  if (ImGui::BeginTabItem("Points")) {
+    featuresTab();
+    ImGui::EndTabItem();
+  }
+  if (ImGui::BeginTabItem("Chains")) {
+    chainsTab();
+    ImGui::EndTabItem();
+  }
+  if (ImGui::BeginTabItem("Strokes")) {
+    strokesClonesTab();
+    ImGui::EndTabItem();
+  }
+  if (ImGui::BeginTabItem("History")) {
+    historyTab();
+    ImGui::EndTabItem();
+  }
+  if (ImGui::BeginTabItem("Pipeline")) {
+    pipelineTab();
+    ImGui::EndTabItem();
+  }
+  ImGui::EndTabBar();
+}
+
+void Editor::featuresTab() {
+  const Project& p = doc_.project();
+  ImGui::Text("%zu feature points", p.points.size());
+  ImGui::SameLine();
+  if (selectedPoint_ < 0) ImGui::BeginDisabled();
+  if (button("Delete point")) {
+    edit([&] { doc_.removePoint(selectedPoint_); });
+    selectedPoint_ = -1;
+  }
+  if (selectedPoint_ < 0) ImGui::EndDisabled();
+  const ImGuiTableFlags flags = ImGuiTableFlags_RowBg | ImGuiTableFlags_ScrollY | ImGuiTableFlags_BordersInnerV;
+  if (!ImGui::BeginTable("##points", 3, flags)) return;
+  ImGui::TableSetupScrollFreeze(0, 1);
+  ImGui::TableSetupColumn("#", ImGuiTableColumnFlags_WidthFixed, 36);
+  ImGui::TableSetupColumn("vertex", ImGuiTableColumnFlags_WidthFixed, 60);
+  ImGui::TableSetupColumn("photos");
+  ImGui::TableHeadersRow();
+  ImGuiListClipper clipper;
+  clipper.Begin(static_cast<int>(p.points.size()));
+  while (clipper.Step())
+    for (int i = clipper.DisplayStart; i < clipper.DisplayEnd; ++i) {
+      const FeaturePoint& pt = p.points[i];
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      const std::string id = std::to_string(i) + "##pt" + std::to_string(i);
+      if (ImGui::Selectable(id.c_str(), selectedPoint_ == i, ImGuiSelectableFlags_SpanAllColumns)) {
+        selectedPoint_ = i;
+        selectedVertex_ = pt.vertex;
+        if (!pt.at.empty()) activePhoto_ = pt.at[0].photo;
+      }
+      ImGui::TableNextColumn();
+      ImGui::Text("%d", pt.vertex);
+      ImGui::TableNextColumn();
+      std::string photos;
+      for (const PhotoPoint& a : pt.at) photos += std::to_string(a.photo) + " ";
+      ImGui::TextUnformatted(photos.c_str());
+    }
+  ImGui::EndTable();
+}
+
+void Editor::chainsTab() {
+  const Project& p = doc_.project();
+  ImGui::Text("%zu chains (feature lines and polygons)", p.chains.size());
+  int remove = -1;
+  for (size_t i = 0; i < p.chains.size(); ++i) {
+    const FeatureChain& c = p.chains[i];
+    ImGui::PushID(static_cast<int>(i));
+    if (ImGui::SmallButton("x")) remove = static_cast<int>(i);
+    ImGui::SameLine();
+    std::string pts;
+    for (int pt : c.points) pts += std::to_string(pt) + " ";
+    ImGui::Text("#%zu %s in photo %d: %s", i, c.closed ? "polygon" : "line", c.photo, pts.c_str());
+    ImGui::PopID();
+  }
+  if (remove >= 0) edit([&] { doc_.removeChain(remove); });
+}
+
+void Editor::strokesClonesTab() {
+  const Project& p = doc_.project();
+  ImGui::Text("%zu strokes", p.strokes.size());
+  int removeStroke = -1, removeClone = -1;
+  for (size_t i = 0; i < p.strokes.size(); ++i) {
+    ImGui::PushID(static_cast<int>(i));
+    if (ImGui::SmallButton("x")) removeStroke = static_cast<int>(i);
+    ImGui::SameLine();
+    ImGui::Text("stroke #%zu: %zu vertices (%d -> %d)", i, p.strokes[i].vertices.size(), p.strokes[i].vertices.front(),
+                p.strokes[i].vertices.back());
+    ImGui::PopID();
+  }
+  ImGui::Separator();
+  ImGui::Text("%zu clones", p.clones.size());
+  for (size_t i = 0; i < p.clones.size(); ++i) {
+    ImGui::PushID(1000000 + static_cast<int>(i));
+    if (ImGui::SmallButton("x")) removeClone = static_cast<int>(i);
+    ImGui::SameLine();
+    ImGui::Text("clone #%zu: photo %d, %zu-gon -> %zu faces, %.0f deg", i, p.clones[i].photo,
+                p.clones[i].polygon.size(), p.clones[i].targetFaces.size(), p.clones[i].rotationDeg);
+    ImGui::PopID();
+  }
+  if (removeStroke >= 0) edit([&] { doc_.removeStroke(removeStroke); });
+  if (removeClone >= 0) edit([&] { doc_.removeClone(removeClone); });
+}
+
+void Editor::historyTab() {
+  if (button("Undo")) undo();
+  ImGui::SameLine();
+  if (button("Redo")) redo();
+  ImGui::SameLine();
+  ImGui::TextDisabled("%d / %zu steps", doc_.position(), doc_.history().size());
+  ImGui::BeginChild("##history");
+  if (ImGui::Selectable("(opened)", doc_.position() == 0)) doc_.jumpTo(0);
+  const auto& history = doc_.history();
+  for (size_t i = 0; i < history.size(); ++i) {
+    const bool applied = static_cast<int>(i) < doc_.position();
+    if (!applied) ImGui::PushStyleColor(ImGuiCol_Text, kDimColor);
+    const std::string label = std::to_string(i + 1) + ". " + history[i].label + "##h" + std::to_string(i);
+    if (ImGui::Selectable(label.c_str(), static_cast<int>(i) + 1 == doc_.position())) {
+      cancelInProgress();
+      doc_.jumpTo(static_cast<int>(i) + 1);
+    }
+    if (!applied) ImGui::PopStyleColor();
+  }
+  ImGui::EndChild();
+}
+
+void Editor::pipelineTab() {
+  const WorkerStatus ws = worker_->status();
+  if (!lastError_.empty()) {
+    ImGui::PushStyleColor(ImGuiCol_Text, kErrorColor);
+    ImGui::TextWrapped("error: %s", lastError_.c_str());
+    ImGui::PopStyleColor();
+  }
+  if (ImGui::CollapsingHeader("Options", ImGuiTreeNodeFlags_DefaultOpen)) {
+    // Sliders edit a copy; the document changes once, when the slider is released (one undo step,
+    // one pipeline run).
+    static_assert(sizeof(float) == 4);
+    PipelineOptions o = doc_.project().options;
+    bool commit = false;
+    float threshold = static_cast<float>(o.backgroundThresholdPx);
+    ImGui::SliderFloat("background px", &threshold, 0, 20, "%.1f");
+    if (ImGui::IsItemDeactivatedAfterEdit()) o.backgroundThresholdPx = threshold, commit = true;
+    int searches = o.stretchSearches;
+    ImGui::SliderInt("stretch searches", &searches, 0, 64);
+    if (ImGui::IsItemDeactivatedAfterEdit()) o.stretchSearches = searches, commit = true;
+    int seed = static_cast<int>(o.seed);
+    ImGui::InputInt("seed", &seed);
+    if (ImGui::IsItemDeactivatedAfterEdit()) o.seed = static_cast<unsigned>(std::max(0, seed)), commit = true;
+    int mode = static_cast<int>(o.inpaintMode);
+    if (ImGui::Combo("inpainting", &mode, kInpaintModeNames.data(), static_cast<int>(kInpaintModeNames.size())))
+      o.inpaintMode = InpaintMode(mode), commit = true;
+    if (commit) edit([&] { doc_.setOptions(o); });
+  }
+  if (!result_) {
+    ImGui::TextDisabled(ws.busy ? "running..." : "no result yet");
+    return;
+  }
+  if (ImGui::CollapsingHeader("Stages", ImGuiTreeNodeFlags_DefaultOpen) &&
+      ImGui::BeginTable("##stages", 3, ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingFixedFit)) {
+    // Generic over the stage records: new stages appear without changes here.
+    for (const StageRecord& s : result_->stages) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(stageName(s.stage));
+      ImGui::TableNextColumn();
+      ImGui::Text(s.cached ? "cached" : "%.3f s", s.seconds);
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(s.counts.dump().c_str());
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", s.counts.dump(2).c_str());
+    }
+    ImGui::EndTable();
+  }
+  if (ImGui::CollapsingHeader(("Warnings and notes (" + std::to_string(result_->warnings.size()) + ")").c_str(),
+                              ImGuiTreeNodeFlags_DefaultOpen))
+    for (const std::string& w : result_->warnings) ImGui::BulletText("%s", w.c_str());
+  if (result_->mapping) {
+    const auto& rejected = result_->mapping->partition.rejected;
+    if (ImGui::CollapsingHeader(("Rejected pairs (" + std::to_string(rejected.size()) + ")").c_str())) {
+      ImGuiListClipper clipper;
+      clipper.Begin(static_cast<int>(rejected.size()));
+      while (clipper.Step())
+        for (int i = clipper.DisplayStart; i < clipper.DisplayEnd; ++i) {
+          const RejectedPair& r = rejected[i];
+          const std::string label = std::to_string(r.fromPoint) + "-" + std::to_string(r.toPoint) + " photo " +
+                                    std::to_string(r.photo) + ": " + kRejectReasonNames[int(r.reason)] + "##rj" +
+                                    std::to_string(i);
+          if (ImGui::Selectable(label.c_str()) && r.photo >= 0) activePhoto_ = r.photo;
+          if (ImGui::IsItemHovered() && !r.detail.empty()) ImGui::SetTooltip("%s", r.detail.c_str());
+        }
+    }
+  }
+}
+
+void Editor::statusBar(const Rect& r) {
+  ImGui::SetNextWindowPos(ImVec2(float(r.x), float(r.y)));
+  ImGui::SetNextWindowSize(ImVec2(float(r.w), float(r.h)));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(8, 4));
+  ImGui::Begin("##status", nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoSavedSettings |
+                   ImGuiWindowFlags_NoBringToFrontOnFocus);
+  const WorkerStatus ws = worker_->status();
+  if (ws.busy) {
+    const int stage = static_cast<int>(ws.stage);
+    const double overall = (stage + std::clamp(ws.fraction, 0.0, 1.0)) / double(kStageNames.size());
+    ImGui::ProgressBar(static_cast<float>(overall), ImVec2(110, 0), "");
+    ImGui::SameLine();
+    ImGui::Text("%s %3.0f%% %s", stageName(ws.stage), 100 * ws.fraction, ws.what.c_str());
+  } else if (doc_.project().mesh.empty()) {
+    ImGui::TextDisabled("open a project or a mesh (Ctrl+O)");
+  } else if (resultCurrent()) {
+    ImGui::TextColored(ImVec4(0.5f, 0.85f, 0.5f, 1), "preview up to date");
+  } else if (!lastError_.empty()) {
+    ImGui::TextColored(kErrorColor, "pipeline failed");
+  } else {
+    ImGui::TextDisabled("waiting for the worker");
+  }
+  if (result_) {
+    ImGui::SameLine();
+    ImGui::TextDisabled("|");
+    std::string timings;
+    double total = 0;
+    for (const StageRecord& s : result_->stages) {
+      char part[64];
+      std::snprintf(part, sizeof(part), s.cached ? "%s cached  " : "%s %.2fs  ", stageName(s.stage), s.seconds);
+      timings += part;
+      total += s.seconds;
+    }
+    ImGui::SameLine();
+    ImGui::Text("%s= %.2fs", timings.c_str(), total);
+  }
+  if (!lastError_.empty()) {
+    ImGui::SameLine();
+    ImGui::TextDisabled("|");
+    ImGui::SameLine();
+    std::string shortError = lastError_.size() > 90 ? lastError_.substr(0, 90) + "..." : lastError_;
+    ImGui::TextColored(kErrorColor, "%s", shortError.c_str());
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s\n(click: Errors window)", lastError_.c_str());
+    if (ImGui::IsItemClicked()) showErrors_ = true;
+  } else if (!status_.empty() && now() - statusTime_ < 8) {
+    ImGui::SameLine();
+    ImGui::TextDisabled("|");
+    ImGui::SameLine();
+    ImGui::TextUnformatted(status_.c_str());
+  }
+  // Right side: document state, autosave, frame time.
+  char right[160];
+  std::snprintf(right, sizeof(right), "%s%s  %.1f ms", doc_.modified() ? "unsaved  " : "",
+                autosavedRevision_ == doc_.revision() && doc_.modified() ? "autosaved" : "", frameMs_);
+  const float width = ImGui::CalcTextSize(right).x;
+  ImGui::SameLine(std::max(ImGui::GetCursorPosX() + 10, float(r.w) - width - 12));
+  ImGui::TextDisabled("%s", right);
+  ImGui::End();
+  ImGui::PopStyleVar();
+}
+
+void Editor::errorsWindow() {
+  if (!showErrors_) return;
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowSize(ImVec2(std::min(640.f, display.x * 0.6f), 240), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y - 60), ImGuiCond_FirstUseEver, ImVec2(0.5f, 1.0f));
+  if (ImGui::Begin("Errors", &showErrors_, ImGuiWindowFlags_NoSavedSettings)) {
+    if (button("Clear")) errors_.clear(), lastError_.clear();
+    ImGui::Separator();
+    for (auto it = errors_.rbegin(); it != errors_.rend(); ++it) {
+      ImGui::PushStyleColor(ImGuiCol_Text, kErrorColor);
+      ImGui::TextWrapped("%s", it->c_str());
+      ImGui::PopStyleColor();
+    }
+  }
+  ImGui::End();
+}
+
+void Editor::helpWindow() {
+  if (!showHelp_) return;
+  ImGui::SetNextWindowSize(ImVec2(620, 560), ImGuiCond_FirstUseEver);
+  if (ImGui::Begin("Help: shortcuts and mouse", &showHelp_, ImGuiWindowFlags_NoSavedSettings)) {
+    if (ImGui::BeginTable("##keys", 2, ImGuiTableFlags_RowBg | ImGuiTableFlags_BordersInnerV)) {
+      ImGui::TableSetupColumn("keys", ImGuiTableColumnFlags_WidthFixed, 250);
+      ImGui::TableSetupColumn("action");
+      for (const Shortcut& s : editorShortcuts()) {
+        ImGui::TableNextRow();
+        ImGui::TableNextColumn();
+        ImGui::TextUnformatted(s.keys);
+        ImGui::TableNextColumn();
+        ImGui::TextWrapped("%s", s.action);
+      }
+      ImGui::EndTable();
+    }
+    ImGui::TextWrapped("Scripts, command-line flags and the workflow: docs/editor.md.");
+  }
+  ImGui::End();
+}
+
+void Editor::modals() {
+  if (recoveryPopup_) {
+    ImGui::OpenPopup("Recover unsaved work?");
+    recoveryPopup_ = false;
+  }
+  const ImVec2 center(ImGui::GetIO().DisplaySize.x * 0.5f, ImGui::GetIO().DisplaySize.y * 0.5f);
+  ImGui::SetNextWindowPos(center, ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
+  if (ImGui::BeginPopupModal("Recover unsaved work?", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+    ImGui::TextWrapped("The editor did not close cleanly last time. Autosaved work was found:");
+    int choose = -1, discard = -1;
+    for (size_t i = 0; i < recovery_.size(); ++i) {
+      const RecoveryCandidate& c = recovery_[i];
+      ImGui::PushID(static_cast<int>(i));
+      ImGui::Separator();
+      ImGui::Text("%s", c.projectFile.empty() ? ("unsaved project on " + c.meshFile).c_str() : c.projectFile.c_str());
+      ImGui::TextDisabled("autosaved %s, %d feature points", timeText(c.time).c_str(), c.points);
+      if (button(recovery_.size() == 1 ? "Recover" : "Recover##r")) choose = static_cast<int>(i);
+      ImGui::SameLine();
+      if (button("Discard")) discard = static_cast<int>(i);
+      ImGui::PopID();
+    }
+    ImGui::Separator();
+    if (button("Not now")) {
+      recovery_.clear();
+      ImGui::CloseCurrentPopup();
+    }
+    if (choose >= 0) {
+      const RecoveryCandidate c = recovery_[choose];
+      try {
+        Project recovered = loadRecovery(c);
+        doc_.reset(std::move(recovered), /*modified=*/true);
+        cancelInProgress();
+        selectedVertex_ = selectedPoint_ = -1;
+        // The side file stays until the recovered work is saved: a second crash loses nothing.
+        lastAutosavePath_ = c.autosavePath;
+        autosaveClock_.reset(now(), -1);
+        setStatus("recovered " + std::to_string(doc_.project().points.size()) + " feature points from " +
+                  c.autosavePath + " (not saved yet)");
+      } catch (const Error& e) {
+        reportError(e.what());
+      }
+      recovery_.clear();
+      ImGui::CloseCurrentPopup();
+    } else if (discard >= 0) {
+      removeAutosave(recovery_[discard].autosavePath);
+      recovery_.erase(recovery_.begin() + discard);
+      if (recovery_.empty()) ImGui::CloseCurrentPopup();
+    }
+    ImGui::EndPopup();
+  }
+
+  if (unsavedPopup_) {
+    ImGui::OpenPopup("Unsaved changes");
+    unsavedPopup_ = false;
+  }
+  ImGui::SetNextWindowPos(center, ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
+  if (ImGui::BeginPopupModal("Unsaved changes", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+    ImGui::Text("Save the changes to %s first?",
+                doc_.project().file.empty() ? "the new project" : fs::path(doc_.project().file).filename().c_str());
+    if (button("Save")) {
+      ImGui::CloseCurrentPopup();
+      if (doc_.project().file.empty()) {
+        requestSaveAs();  // the pending action waits for the next attempt
+        afterUnsaved_ = nullptr;
+      } else {
+        saveTo(doc_.project().file);
+        if (!doc_.modified() && afterUnsaved_) afterUnsaved_();
+        afterUnsaved_ = nullptr;
+      }
+    }
+    ImGui::SameLine();
+    if (button("Don't save")) {
+      ImGui::CloseCurrentPopup();
+      removeAutosave(autosavePath());
+      if (afterUnsaved_) afterUnsaved_();
+      afterUnsaved_ = nullptr;
+    }
+    ImGui::SameLine();
+    if (button("Cancel")) {
+      ImGui::CloseCurrentPopup();
+      afterUnsaved_ = nullptr;
+    }
+    ImGui::EndPopup();
+  }
+}
+
+void Editor::shortcuts() {
+  ImGuiIO& io = ImGui::GetIO();
+  if (io.WantTextInput || ImGui::IsPopupOpen(nullptr, ImGuiPopupFlags_AnyPopupId)) return;
+  const bool ctrl = io.KeyCtrl, shift = io.KeyShift;
+  auto pressed = [](int key) { return ImGui::IsKeyPressed(key, false); };
+  if (ctrl) {
+    if (pressed(GLFW_KEY_Z)) shift ? redo() : undo();
+    if (pressed(GLFW_KEY_Y)) redo();
+    if (pressed(GLFW_KEY_S)) shift ? requestSaveAs() : save();
+    if (pressed(GLFW_KEY_O)) requestOpen();
+    if (pressed(GLFW_KEY_E) && resultUsable())
+      dialogs_.request(DialogKind::SaveFile, "Export the textured model (.glb or .obj)",
+                       {{"glTF binary", {"*.glb"}}, {"OBJ + MTL + PNG", {"*.obj"}}}, "export", "");
+    if (pressed(GLFW_KEY_Q)) requestClose();
+    return;
+  }
+  const std::pair<int, Tool> tools[] = {{GLFW_KEY_P, Tool::Point},
+                                        {GLFW_KEY_L, Tool::Line},
+                                        {GLFW_KEY_G, Tool::Polygon},
+                                        {GLFW_KEY_S, Tool::Stroke},
+                                        {GLFW_KEY_C, Tool::Clone}};
+  for (const auto& [key, tool] : tools)
+    if (pressed(key) && tool_ != tool) {
+      cancelInProgress();
+      tool_ = tool;
+    }
+  if (pressed(GLFW_KEY_T)) textured_ = !textured_;
+  if (pressed(GLFW_KEY_W)) wireframe_ = !wireframe_;
+  if (pressed(GLFW_KEY_F)) camera_.frame(input_.lo, input_.hi);
+  if (pressed(GLFW_KEY_F1)) showHelp_ = !showHelp_;
+  if (pressed(GLFW_KEY_DELETE) || pressed(GLFW_KEY_BACKSPACE)) deleteSelection();
+  if (pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)) finishChain();
+  if (pressed(GLFW_KEY_ESCAPE)) {
+    if (!chain_.empty() || !stroke_.empty() || !clonePolygon_.empty() || !cloneFaces_.empty()) {
+      cancelInProgress();
+    } else {
+      selectVertex(-1);
+    }
+  }
+  for (int k = 0; k < 9; ++k)
+    if (pressed(GLFW_KEY_1 + k) && k < static_cast<int>(doc_.project().photos.size())) activePhoto_ = k;
+}
+
+}  // namespace montage

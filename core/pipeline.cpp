@@ -43,34 +43,32 @@ std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl&
   return pipeline.loadScene(project, job, cached);
 }
 
-Mapping mapTexture(const Scene& scene, const JobControl& job) {
+Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches) {
   Mapping out;
   auto start = Clock::now();
   PartitionOptions partitionOptions;
   partitionOptions.backgroundThresholdPx = scene.project.options.backgroundThresholdPx;
-  out.partition = partitionMesh(scene, partitionOptions, job);
+  out.partition = partitionMesh(scene, partitionOptions, job, caches ? &caches->partition : nullptr);
   out.partitionSeconds = secondsSince(start);
-
-  start = Clock::now();
-  ProgressiveMesh pm(out.partition, SimplifyOptions{}, job);
-  out.simplifySeconds = secondsSince(start);
-  out.collapses = static_cast<int>(pm.records().size());
-  out.baseVertices = pm.aliveVertices();
-  out.baseFaces = pm.aliveFaces();
 
   start = Clock::now();
   FineMapOptions fineOptions;
   fineOptions.seed = scene.project.options.seed;
   fineOptions.lineSearches = scene.project.options.stretchSearches;
   if (fineOptions.lineSearches == 0) fineOptions.finalSweeps = 0;
-  out.map = coarseToFine(scene, out.partition, pm, fineOptions, job, &out.stats);
+  CellMapping cells = mapCells(scene, out.partition, fineOptions, job, caches ? &caches->cells : nullptr);
+  out.map = std::move(cells.map);
+  out.cells = std::move(cells.cells);
+  out.stats = cells.stats;
+  out.cellsMapped = cells.cellsMapped;
+  out.cellsReused = cells.cellsReused;
   out.mapSeconds = secondsSince(start);
   if (scene.project.points.empty())
     out.map.notes.insert(out.map.notes.begin(), "no features: the whole mesh is one empty patch (paper section 3)");
   return out;
 }
 
-SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job) {
+SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job, Tier tier) {
   SurfaceColors out;
   const PipelineOptions& o = scene.project.options;
   std::vector<const Photo*> photos;
@@ -89,6 +87,7 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   in.where = scene.project.file;
   in.options.mode = o.inpaintMode;
   in.options.maxRefinedVertices = o.maxInpaintVertices;
+  if (tier == Tier::Preview) in.options.detail = kPreviewDetail;
   job.progress(StageId::Inpaint, 0.0);
   out.inpaint = inpaintSurface(in, job, &out.warnings);
   return out;
@@ -140,15 +139,43 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
     }
     photos.emplace_back(key, photo);
     scene->photos.push_back(photo);
+    scene->photoKeys.push_back(key);
   }
   cachedPhotos_ = std::move(photos);
   validateProject(project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
   return scene;
 }
 
-PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
-  PipelineResult result;
+std::string Pipeline::documentKey(const Project& project) const {
+  // The document (everything but its file name) and the identity of every file it reads.
+  std::string key = projectToJson(project, "");
+  key += '|' + fileKey(project.mesh);
+  for (const PhotoRef& ref : project.photos) key += '|' + photoKey(ref);
+  return key;
+}
 
+std::shared_ptr<const PipelineResult> Pipeline::findResult(const Project& project, Tier tier) {
+  const std::string key = documentKey(project);
+  for (const auto* list : {&finals_, tier == Tier::Preview ? &previews_ : nullptr}) {
+    if (!list) continue;
+    for (const auto& [k, result] : *list)
+      if (k == key) return result;
+  }
+  return nullptr;
+}
+
+PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier tier) {
+  // An identical document state (undo, redo, a repeated run): its result at once.
+  const auto lookupStart = Clock::now();
+  if (auto earlier = findResult(project, tier)) {
+    PipelineResult result = *earlier;
+    for (StageRecord& s : result.stages) s.cached = true, s.seconds = 0;
+    result.stages.front().seconds = secondsSince(lookupStart);
+    return result;
+  }
+
+  PipelineResult result;
+  result.tier = tier;
   auto start = Clock::now();
   StageRecord load;
   load.stage = StageId::Load;
@@ -162,7 +189,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   result.stages.push_back(load);
   for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
 
-  // Partition, Simplify, Map: rerun when what they read (mesh, photos, correspondences, options) changed.
+  // Partition, Map: rerun when what they read (mesh, photos, correspondences, options) changed; the
+  // cells whose content, boundary and photo did not change are reused from the cell cache.
   std::ostringstream key;
   key << meshKey_;
   for (const auto& [k, p] : cachedPhotos_) key << '#' << k;
@@ -172,7 +200,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
       << opts["stretchSearches"].dump() << opts["seed"].dump();
   const bool mapCached = key.str() == mapKey_ && cachedMapping_;
   if (!mapCached) {
-    cachedMapping_ = std::make_shared<const Mapping>(mapTexture(*scene, job));
+    cachedMapping_ = std::make_shared<const Mapping>(mapTexture(*scene, job, &mapCaches_));
+    mapCaches_.cells.endRun();
     mapKey_ = key.str();
   }
   const Mapping& mapping = *cachedMapping_;
@@ -187,30 +216,37 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                            {{"paths", mapping.partition.paths.size()},
                             {"rejected", rejected},
                             {"cells", mapping.partition.numCells},
-                            {"steiner_vertices", mapping.partition.steinerVertices}}});
-  result.stages.push_back(
-      {StageId::Simplify,
-       mapCached,
-       mapCached ? 0 : mapping.simplifySeconds,
-       {{"collapses", mapping.collapses}, {"base_vertices", mapping.baseVertices}, {"base_faces", mapping.baseFaces}}});
+                            {"steiner_vertices", mapping.partition.steinerVertices},
+                            {"searches", mapping.partition.searches},
+                            {"searches_reused", mapCached ? 0 : mapping.partition.searchesReused}}});
+  nlohmann::json cellStatus = nlohmann::json::object();
+  for (const CellPlan& c : mapping.cells) {
+    const std::string status = kCellStatusNames[static_cast<int>(c.status)];
+    cellStatus[status] = cellStatus.value(status, 0) + 1;
+  }
   result.stages.push_back({StageId::Map,
                            mapCached,
                            mapCached ? 0 : mapping.mapSeconds,
                            {{"faces", mapping.map.numFaces()},
                             {"mapped_faces", mapping.map.numMapped()},
-                            {"base_mapped_faces", mapping.stats.baseMappedFaces},
+                            {"cells", cellStatus},
+                            {"cells_mapped", mapCached ? 0 : mapping.cellsMapped},
+                            {"cells_reused", mapCached ? 0 : mapping.cellsReused},
+                            {"splits", mapping.stats.splits},
+                            {"base_inner_vertices", mapping.stats.baseInnerVertices},
                             {"centroid_fallbacks", mapping.stats.centroidFallbacks},
                             {"flipped_faces", mapping.stats.flippedFaces},
                             {"max_stretch", mapping.stats.maxStretch}}});
   for (const auto& note : mapping.map.notes) result.warnings.push_back("map: " + note);
 
-  // Level + Inpaint: rerun when the mapping or what they read (strokes, clones, hole modes, their
-  // options) changed.
+  // Level + Inpaint: rerun when the mapping, the tier or what they read (strokes, clones, hole
+  // modes, their options) changed.
   key << document["strokes"].dump() << document["clones"].dump() << document["holeModes"].dump()
-      << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump();
+      << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump() << '|'
+      << kTierNames[size_t(tier)];
   const bool colorCached = mapCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
-    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, mapping, job));
+    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, mapping, job, tier));
     colorKey_ = key.str();
   }
   const SurfaceColors& colors = *cachedColors_;
@@ -239,26 +275,41 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   result.stages.push_back({StageId::Inpaint,
                            colorCached,
                            colorCached ? 0 : inp.seconds,
-                           {{"regions", regions},
+                           {{"tier", kTierNames[size_t(tier)]},
+                            {"regions", regions},
                             {"refined_vertices", inp.refined.mesh.numVertices()},
                             {"refined_triangles", inp.refined.mesh.numTriangles()}}});
   for (const auto& w : colors.warnings) result.warnings.push_back("inpaint: " + w);
 
-  // Bake.
-  start = Clock::now();
-  auto baked = std::make_shared<const BakeResult>(bakeModel(*scene, mapping, colors, job));
-  StageRecord bake;
-  bake.stage = StageId::Bake;
-  bake.seconds = secondsSince(start);
-  bake.counts = baked->atlas.stats();
-  bake.counts["bake_seconds"] = baked->image.seconds;
-  result.stages.push_back(bake);
+  // Bake (final tier): rerun when the colours or the atlas options changed.
+  if (tier == Tier::Final) {
+    key << opts["atlasSize"].dump() << opts["gutter"].dump();
+    const bool bakeCached = colorCached && key.str() == bakeKey_ && cachedBake_;
+    start = Clock::now();
+    if (!bakeCached) {
+      cachedBake_ = std::make_shared<const BakeResult>(bakeModel(*scene, mapping, colors, job));
+      bakeKey_ = key.str();
+    }
+    StageRecord bake;
+    bake.stage = StageId::Bake;
+    bake.cached = bakeCached;
+    bake.seconds = bakeCached ? 0 : secondsSince(start);
+    bake.counts = cachedBake_->atlas.stats();
+    bake.counts["bake_seconds"] = cachedBake_->image.seconds;
+    result.stages.push_back(bake);
+    result.baked = cachedBake_;
+    result.model = std::shared_ptr<const TexturedModel>(cachedBake_, &cachedBake_->model);
+  }
 
   result.scene = scene;
   result.mapping = cachedMapping_;
   result.colors = cachedColors_;
-  result.baked = baked;
-  result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
+
+  // Keep the result for this document state (undo and redo find it at once).
+  auto& list = tier == Tier::Final ? finals_ : previews_;
+  list.emplace_back(documentKey(project), std::make_shared<const PipelineResult>(result));
+  const size_t keep = tier == Tier::Final ? kFinalStates : kPreviewStates;
+  if (list.size() > keep) list.erase(list.begin(), list.end() - keep);
   return result;
 }
 

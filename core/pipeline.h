@@ -18,6 +18,7 @@
 #include "io/model.h"
 #include "io/project.h"
 #include "io/scene.h"
+#include "mapping/cells.h"
 #include "mapping/fine_map.h"
 #include "mapping/partition.h"
 #include "mapping/texture_map.h"
@@ -33,13 +34,15 @@ struct StageRecord {
 };
 
 // What the mapping stages produce together: the partition (whose mesh, with its Steiner vertices,
-// is the mesh every later stage works on), the texture map over that mesh, and their figures.
+// is the mesh every later stage works on), the texture map over that mesh, the cells' plans (which
+// photo each cell maps into, or why it stays empty) and their figures.
 struct Mapping {
   Partition partition;
   TextureMap map;
-  int collapses = 0, baseVertices = 0, baseFaces = 0;
+  std::vector<CellPlan> cells;
   FineMapStats stats;
-  double partitionSeconds = 0, simplifySeconds = 0, mapSeconds = 0;
+  int cellsMapped = 0, cellsReused = 0;  // cells mapped in this run; taken from the cell cache
+  double partitionSeconds = 0, mapSeconds = 0;
 };
 
 // What the colour stages add to a mapping: seam levelling offsets and the inpainted/cloned regions.
@@ -57,12 +60,20 @@ struct BakeResult {
   TexturedModel model;
 };
 
+// What a run produces. The preview is what the editor shows after each edit: the mapping, the
+// levelling offsets and a light inpainting (the photos are sampled directly through the mapping's
+// UVs); the final adds the full inpainting and the atlas bake, for export and `montage run`. Both
+// come from the same mapping.
+enum class Tier { Preview, Final };
+inline constexpr std::array<const char*, 2> kTierNames = {"preview", "final"};
+
 struct PipelineResult {
+  Tier tier = Tier::Final;
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const Mapping> mapping;
   std::shared_ptr<const SurfaceColors> colors;
-  std::shared_ptr<const BakeResult> baked;
-  std::shared_ptr<const TexturedModel> model;  // baked->model
+  std::shared_ptr<const BakeResult> baked;     // final tier only
+  std::shared_ptr<const TexturedModel> model;  // baked->model (final tier only)
   std::vector<StageRecord> stages;
   std::vector<std::string> warnings;  // things the user should know (mesh caveats, unmapped regions)
   nlohmann::json report() const;      // what report.json holds
@@ -71,31 +82,55 @@ struct PipelineResult {
 // Stage functions, in pipeline order.
 // Load: reads the mesh and photos of a validated project and checks the project against them.
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
-// Partition, Simplify, Map: correspondences -> partition -> progressive mesh -> texture map.
-Mapping mapTexture(const Scene& scene, const JobControl& job = {});
-// Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h).
-SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {});
+// What the map stage keeps across runs: the partition's searches and each cell's map.
+struct MapCaches {
+  PartitionMemo partition;
+  CellCache cells;
+};
+// Partition, Map: correspondences -> partition -> per cell: progressive mesh and coarse-to-fine
+// (cells.h). What `caches` hold from earlier runs is reused.
+Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr);
+// Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
+// preview tier inpaints on a coarser refinement (kPreviewDetail of the photos' texel density).
+inline constexpr double kPreviewDetail = 0.25;
+SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {},
+                           Tier tier = Tier::Final);
 // Bake: see BakeResult.
 BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
                      const JobControl& job = {});
 
 class Pipeline {
  public:
-  // Runs every stage on `project` (already loaded by loadProject), reusing cached outputs whose
-  // inputs did not change. Throws montage::Error for bad input, montage::Cancelled when cancelled.
-  PipelineResult run(const Project& project, const JobControl& job = {});
+  // Runs the stages of `tier` on `project` (already loaded by loadProject), reusing cached outputs
+  // whose inputs did not change: the result of an identical document state at once (undo, redo),
+  // else the loaded files, the mapping, each cell's map, the colours and the bake as far as their
+  // inputs allow. Throws montage::Error for bad input, montage::Cancelled when cancelled.
+  PipelineResult run(const Project& project, const JobControl& job = {}, Tier tier = Tier::Final);
   // The Load stage with this pipeline's cache; `cached` tells whether nothing had to be read.
   std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job, bool& cached);
+  // The result of an earlier run of the same document state and tier (a final result also serves a
+  // preview request), or null.
+  std::shared_ptr<const PipelineResult> findResult(const Project& project, Tier tier);
+
+  static constexpr int kPreviewStates = 24;  // document states whose preview results are kept
+  static constexpr int kFinalStates = 2;     // document states whose final results (atlases) are kept
 
  private:
+  std::string documentKey(const Project& project) const;
+
   std::shared_ptr<const Mesh> cachedMesh_;
   MeshReport cachedMeshReport_;
   std::string meshKey_;
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> cachedPhotos_;  // key -> photo
   std::string mapKey_;
   std::shared_ptr<const Mapping> cachedMapping_;
+  MapCaches mapCaches_;
   std::string colorKey_;
   std::shared_ptr<const SurfaceColors> cachedColors_;
+  std::string bakeKey_;
+  std::shared_ptr<const BakeResult> cachedBake_;
+  // Results by document state, most recent last.
+  std::vector<std::pair<std::string, std::shared_ptr<const PipelineResult>>> previews_, finals_;
 };
 
 // Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers

@@ -408,8 +408,8 @@ TEST_F(ProjectTest, RejectsWrongTypes) {
 
 TEST_F(ProjectTest, RejectsOptionsOutOfRange) {
   json j = sampleJson();
-  j["options"]["atlasSize"] = 512;
-  EXPECT_MESSAGE_HAS(loadError(j), "options.atlasSize: 512 is out of range 1024..8192");
+  j["options"]["atlasSize"] = 100;
+  EXPECT_MESSAGE_HAS(loadError(j), "options.atlasSize: 100 is neither 0 (automatic) nor in 256..8192");
   j = sampleJson();
   j["options"]["gutter"] = 65;
   EXPECT_MESSAGE_HAS(loadError(j), "options.gutter: 65 is out of range 0..64");
@@ -531,7 +531,7 @@ TEST_F(ProjectTest, ValidateRechecksEditsInMemory) {
                      "chains[1].points[2]: point 1 (vertex 5) has no position in the chain's photo 1");
   p = sample();
   p.options.atlasSize = 9000;
-  EXPECT_MESSAGE_HAS(validateError(p), "options.atlasSize: 9000 is out of range 1024..8192");
+  EXPECT_MESSAGE_HAS(validateError(p), "options.atlasSize: 9000 is out of range 0..8192");
   p = sample();
   EXPECT_MESSAGE_HAS(errorOf([&] { validateProject(p, 20, 10, {{100, 80}}); }), "1 photo sizes given for 2 photos");
 }

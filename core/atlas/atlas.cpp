@@ -633,8 +633,9 @@ nlohmann::json Atlas::stats() const {
 Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& options,
                  const std::function<void(double)>& progress) {
   const int F = mesh.numFaces();
-  TM_CHECK(options.size >= 1024 && options.size <= 8192,
-           "atlas: size " + std::to_string(options.size) + " is outside [1024, 8192]");
+  TM_CHECK(options.size == 0 || (options.size >= kMinAtlasSize && options.size <= kMaxAtlasSize),
+           "atlas: size " + std::to_string(options.size) + " is neither 0 (automatic) nor in [" +
+               std::to_string(kMinAtlasSize) + ", " + std::to_string(kMaxAtlasSize) + "]");
   TM_CHECK(options.gutter >= 0 && options.gutter <= 64,
            "atlas: gutter " + std::to_string(options.gutter) + " is outside [0, 64] texels");
   TM_CHECK(options.maxScale >= 0 && std::isfinite(options.maxScale),
@@ -667,7 +668,6 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   }
 
   Atlas atlas;
-  atlas.size = options.size;
   atlas.gutter = options.gutter;
   atlas.faceSource = in.faceSource;
   atlas.faceChart.assign(F, -1);
@@ -682,19 +682,12 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   atlas.stretchSplits = charting.stretchSplits;
   if (progress) progress(0.4);
 
-  // Packing: the largest global scale at which the packer succeeds.
+  // Packing.
   t0 = Clock::now();
   const auto& charts = charting.charts;
   const int n = static_cast<int>(charts.size());
-  PackSetup setup;
-  setup.size = options.size;
-  setup.gutter = options.gutter;
-  setup.cell = std::max(1, options.size / 1024);
-  setup.grid = (options.size + setup.cell - 1) / setup.cell;
-  setup.lo = (options.gutter + setup.cell - 1) / setup.cell;
-  setup.hi = (options.size - options.gutter) / setup.cell;
   std::vector<std::pair<Vec2, Vec2>> bounds(n);
-  double area = 0;
+  double area = 0;  // chart area at scale 1
   for (int i = 0; i < n; ++i) {
     Vec2 lo = Vec2::Constant(kInf), hi = Vec2::Constant(-kInf);
     for (const auto& uv : charts[i].uv)
@@ -702,21 +695,60 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
     bounds[i] = {lo, hi};
     for (const auto& uv : charts[i].uv) area += 0.5 * std::abs(signedArea2(uv));
   }
-  // The packing fills the atlas from the top, so the rows it needs tell how far the scale is from a
-  // tight fit: the next scale is the current one times sqrt(usable rows / needed rows), kept inside
-  // the bracket [largest scale that fit, smallest that did not]. Three to six packings, not a
-  // bisection's ten.
+  auto setupFor = [&](int size) {
+    PackSetup setup;
+    setup.size = size;
+    setup.gutter = options.gutter;
+    setup.cell = std::max(1, size / 1024);
+    setup.grid = (size + setup.cell - 1) / setup.cell;
+    setup.lo = (options.gutter + setup.cell - 1) / setup.cell;
+    setup.hi = (size - options.gutter) / setup.cell;
+    return setup;
+  };
   std::vector<Placement> placements, bestPlacements;
   double bestScale = 0;
   std::size_t signature = 0, failedSignature = 0;
+  PackSetup setup = setupFor(options.size > 0 ? options.size : kMaxAtlasSize);
+  double maxScale = options.maxScale;
+  if (options.size == 0 && n > 0) {
+    // Automatic size: the smallest multiple of kAtlasSizeStep that holds every chart at its own
+    // density (scale 1: a texel per photo pixel), starting from the chart area at a typical packing
+    // density and growing by what the packer says it lacked. When even kMaxAtlasSize is too small,
+    // the charts shrink to fit it (the search below).
+    maxScale = 1;
+    auto roundUp = [](double x) {
+      return std::max(kMinAtlasSize, int(std::ceil(x / kAtlasSizeStep)) * kAtlasSizeStep);
+    };
+    int size = roundUp(std::sqrt(area / 0.7) + 2 * options.gutter);
+    while (size <= kMaxAtlasSize) {
+      setup = setupFor(size);
+      ++atlas.packAttempts;
+      const double needed = packAtScale(charts, bounds, 1.0, setup, options, placements, signature) - setup.lo;
+      const double usable = setup.hi - setup.lo;
+      if (needed <= usable) {
+        bestScale = 1, bestPlacements = placements;
+        break;
+      }
+      const int next = roundUp(size * std::sqrt(std::isfinite(needed) ? needed / usable : 2.0) * 1.01);
+      if (size == kMaxAtlasSize) break;
+      size = std::min(kMaxAtlasSize, std::max(next, size + kAtlasSizeStep));
+    }
+    if (bestScale == 0) setup = setupFor(kMaxAtlasSize);
+  }
+  atlas.size = setup.size;
+  // Fixed size (or automatic beyond the largest): the largest global scale at which the packer
+  // succeeds. The packing fills the atlas from the top, so the rows it needs tell how far the scale is
+  // from a tight fit: the next scale is the current one times sqrt(usable rows / needed rows), kept
+  // inside the bracket [largest scale that fit, smallest that did not]. Three to six packings, not a
+  // bisection's ten.
   const double usableRows = setup.hi - setup.lo;
-  if (n > 0) {
+  if (n > 0 && bestScale == 0) {
     // First guess: charts covering 65% of the atlas (a typical packing density).
     double s = area > 0 ? std::sqrt(0.65 * usableRows * usableRows * setup.cell * setup.cell / area) : 1.0;
     double sLo = 0, sHi = kInf;
     bool stuck = false;
     for (int k = 0; k < 40; ++k) {
-      if (options.maxScale > 0) s = std::min(s, options.maxScale);
+      if (maxScale > 0) s = std::min(s, maxScale);
       ++atlas.packAttempts;
       if (progress) progress(std::min(0.75, 0.4 + 0.03 * atlas.packAttempts));
       const double needed = packAtScale(charts, bounds, s, setup, options, placements, signature) - setup.lo;
@@ -732,7 +764,7 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
         sHi = std::min(sHi, s);
         if (stuck) break;
       }
-      if (options.maxScale > 0 && sLo >= options.maxScale) break;
+      if (maxScale > 0 && sLo >= maxScale) break;
       // Good enough: the packing fills at least 97% of the rows (the scale is within about 1.5% of
       // the tightest fit, closer than the packer's own run-to-run variation), or the bracket is tight.
       if (fits && needed >= 0.97 * usableRows) break;
@@ -743,11 +775,11 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
       if (next >= sHi || next <= sLo) next = sLo > 0 ? std::sqrt(sLo * std::min(sHi, 2 * sLo)) : sHi / 2;
       s = next;
     }
-    TM_CHECK(bestScale > 0, "atlas: " + std::to_string(n) + " charts do not fit into a " +
-                                std::to_string(options.size) + "x" + std::to_string(options.size) + " atlas with a " +
-                                std::to_string(options.gutter) +
+    TM_CHECK(bestScale > 0, "atlas: " + std::to_string(n) + " charts do not fit into a " + std::to_string(setup.size) +
+                                "x" + std::to_string(setup.size) + " atlas with a " + std::to_string(options.gutter) +
                                 "-texel gutter even at a tiny scale: use a larger atlas or a smaller gutter");
   }
+  if (n == 0 && options.size == 0) atlas.size = kMinAtlasSize;
   atlas.scale = bestScale;
   atlas.times.pack = secondsSince(t0);
   if (progress) progress(0.8);
@@ -785,8 +817,8 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
     // The footprint's texel range (see footprintTexels), clipped to the atlas.
     const int x0 = std::max(0, static_cast<int>(std::ceil(amin.x() - 1.5)));
     const int y0 = std::max(0, static_cast<int>(std::ceil(amin.y() - 1.5)));
-    const int x1 = std::min(options.size - 1, static_cast<int>(std::floor(amax.x() + 0.5)));
-    const int y1 = std::min(options.size - 1, static_cast<int>(std::floor(amax.y() + 0.5)));
+    const int x1 = std::min(atlas.size - 1, static_cast<int>(std::floor(amax.x() + 0.5)));
+    const int y1 = std::min(atlas.size - 1, static_cast<int>(std::floor(amax.y() + 0.5)));
     chart.x = x0;
     chart.y = y0;
     chart.width = x1 - x0 + 1;
@@ -805,7 +837,7 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
     }
     atlas.charts.push_back(std::move(chart));
   }
-  atlas.utilisation = coveredArea / (double(options.size) * options.size);
+  atlas.utilisation = coveredArea / (double(atlas.size) * atlas.size);
   if (progress) progress(1.0);
   return atlas;
 }

@@ -33,11 +33,16 @@ struct Photo;
 struct InpaintResult;
 struct SeamLevelling;
 
+inline constexpr int kMinAtlasSize = 256, kMaxAtlasSize = 8192, kAtlasSizeStep = 256;
+
 struct AtlasOptions {
-  int size = 4096;  // atlas width and height in texels, 1024 to 8192
-  int gutter = 4;   // texels between the footprints of two charts and from the border, 0 to 64
-  // Upper bound of the global scale (atlas texels per photo pixel). 0 = none: the charts grow until
-  // they fill the atlas, so small inputs do not leave it mostly empty. 1 never magnifies a photo.
+  // Atlas width and height in texels. 0 (automatic): the smallest multiple of 256 that holds every
+  // chart at its photo's own texel density (never magnified), at most 8192 (beyond, the charts shrink).
+  // 256 to 8192: that size, with the charts grown or shrunk to fill it (up to maxScale).
+  int size = 0;
+  int gutter = 4;  // texels between the footprints of two charts and from the border, 0 to 64
+  // Fixed sizes: upper bound of the global scale (atlas texels per photo pixel). 0 = none: the charts
+  // grow until they fill the atlas. 1 never magnifies a photo. (The automatic size always uses 1.)
   double maxScale = 0;
   // An LSCM chart is split in two while its area-weighted L2 stretch (1 = isometric) exceeds this or
   // while it has flipped triangles. Lower = more, smaller, less distorted charts.

@@ -12,13 +12,12 @@
 
 namespace montage {
 
-// The stages, in pipeline order (paper Figure 2): load, partition (3.1), simplify (3.2), map
-// (coarse map 3.2 + coarse-to-fine 4.1), level (seam levelling, end of 5), inpaint (5: holes,
-// strokes, clones), bake (atlas: charts, LSCM, packing, baking), export. Seam optimisation (4.2) is
-// not built yet; every entry below runs.
-enum class StageId { Load, Partition, Simplify, Map, Level, Inpaint, Bake, Export };
-inline constexpr std::array<const char*, 8> kStageNames = {"load",  "partition", "simplify", "map",
-                                                           "level", "inpaint",   "bake",     "export"};
+// The stages, in pipeline order (paper Figure 2): load, partition (3.1), map (per cell: progressive
+// mesh 3.2 and coarse-to-fine 4.1), level (seam levelling, end of 5), inpaint (5: holes, strokes,
+// clones), bake (atlas: charts, LSCM, packing, baking), export.
+enum class StageId { Load, Partition, Map, Level, Inpaint, Bake, Export };
+inline constexpr std::array<const char*, 7> kStageNames = {"load",    "partition", "map",   "level",
+                                                           "inpaint", "bake",      "export"};
 inline const char* stageName(StageId s) {
   return kStageNames[static_cast<int>(s)];
 }

@@ -19,7 +19,12 @@ Camera orbitCamera(const Mesh& mesh, const RenderOptions& options) {
 }
 
 cv::Mat renderModel(const TexturedModel& model, const RenderOptions& options) {
-  const Mesh& mesh = model.mesh;
+  return renderSurface(
+      model.mesh, [&](int f, const Vec3& b) { return model.colorAt(f, b); }, options);
+}
+
+cv::Mat renderSurface(const Mesh& mesh, const std::function<Vec3f(int face, const Vec3& bary)>& color,
+                      const RenderOptions& options) {
   const Camera camera = orbitCamera(mesh, options);
   const RasterBuffers buffers = rasterize(mesh, camera);
   const Vec3 eye = camera.center();
@@ -33,7 +38,7 @@ cv::Mat renderModel(const TexturedModel& model, const RenderOptions& options) {
       const int f = buffers.face[i];
       if (f < 0) continue;
       const Vec3 b = buffers.bary[i].cast<double>();
-      Vec3f c = model.colorAt(f, b);
+      Vec3f c = color(f, b);
       if (options.shading) {
         const auto q = mesh.facePositions(f);
         const Vec3 p = b[0] * q[0] + b[1] * q[1] + b[2] * q[2];

@@ -2,6 +2,7 @@
 // pictures, preview tests).
 #pragma once
 
+#include <functional>
 #include <opencv2/core.hpp>
 
 #include "geometry/raster.h"
@@ -26,5 +27,10 @@ Camera orbitCamera(const Mesh& mesh, const RenderOptions& options);
 // Renders the model: textured where it has a texture, its material colour otherwise; returns an
 // CV_8UC4 RGBA image of options.size squared.
 cv::Mat renderModel(const TexturedModel& model, const RenderOptions& options = {});
+
+// Renders a mesh whose colour at (face, barycentrics) is `color` (sRGB in [0,1]), e.g. the preview
+// tier's surface/preview.h; same camera and shading as renderModel.
+cv::Mat renderSurface(const Mesh& mesh, const std::function<Vec3f(int face, const Vec3& bary)>& color,
+                      const RenderOptions& options = {});
 
 }  // namespace montage

@@ -32,6 +32,8 @@ struct EnumNames<LevelMode> {
   static constexpr const char* what = "a seam levelling mode";
 };
 
+inline constexpr int kMinAtlasSizeOption = 256, kMaxAtlasSizeOption = 8192;  // atlas/atlas.h's limits
+
 struct PipelineOptions {
   double backgroundThresholdPx = 2.0;  // partition: max mean distance (px) of a curve to the foreground
   int stretchSearches = 4;             // coarse-to-fine: random line searches per vertex (paper 4.1); 0 keeps the
@@ -42,9 +44,10 @@ struct PipelineOptions {
   LevelMode seamLevelling = LevelMode::Vertex;  // seam levelling between photos (paper end of 5)
   InpaintMode inpaintMode = InpaintMode::Rbf;   // inpainting: guidance of holes without strokes
   int maxInpaintVertices = 2000000;             // inpainting: cap on refined vertices (coarser beyond)
-  int atlasSize = 4096;                         // atlas: width and height in texels (1024..8192)
-  int gutter = 4;                               // atlas: texels between charts and from the border
-  unsigned seed = 1;                            // random line searches: seed, so runs are repeatable
+  int atlasSize = 0;  // atlas: 0 = the smallest size holding the photos at their own resolution, or a fixed
+                      // width and height (256..8192) that the charts are scaled to fill
+  int gutter = 4;     // atlas: texels between charts and from the border
+  unsigned seed = 1;  // random line searches: seed, so runs are repeatable
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&

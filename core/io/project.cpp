@@ -193,7 +193,7 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("seamLevelling", o.seamLevelling, LevelMode::Off, LevelMode::Vertex);
   visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Off);
   visit("maxInpaintVertices", o.maxInpaintVertices, 1000, 20000000);
-  visit("atlasSize", o.atlasSize, 1024, 8192);
+  visit("atlasSize", o.atlasSize, 0, kMaxAtlasSizeOption);
   visit("gutter", o.gutter, 0, 64);
   visit("seed", o.seed, 0u, UINT_MAX);
 }
@@ -273,6 +273,9 @@ class DocumentCheck {
                number(double(value)) + " is out of range " + number(double(lo)) + ".." + number(double(hi)));
       }
     });
+    if (p_.options.atlasSize > 0 && p_.options.atlasSize < kMinAtlasSizeOption)
+      fail("options.atlasSize", std::to_string(p_.options.atlasSize) + " is neither 0 (automatic) nor in " +
+                                    std::to_string(kMinAtlasSizeOption) + ".." + std::to_string(kMaxAtlasSizeOption));
   }
 
   void checkPoints() const {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "geometry/mesh.h"
@@ -16,6 +17,9 @@ struct Scene {
   std::shared_ptr<const Mesh> mesh;
   MeshReport meshReport;
   std::vector<std::shared_ptr<const Photo>> photos;
+  // Per photo: what identifies its content (file, size, time, mask), so that results computed from it
+  // can be reused; empty when unknown (such results are never cached).
+  std::vector<std::string> photoKeys;
 };
 
 }  // namespace montage

@@ -739,7 +739,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     else if (ringArea[r] > 0 && ringPix[r] > 0)
       density = std::sqrt(ringPix[r] / ringArea[r]);
     if (opt.texelsPerUnit > 0) density = opt.texelsPerUnit;
-    res.regions[r].texelsPerUnit = density;
+    res.regions[r].texelsPerUnit = density * opt.detail;
   }
   std::vector<double> maxEdge(nf, kInf);
   for (int f = 0; f < nf; ++f) {

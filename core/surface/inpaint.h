@@ -65,6 +65,7 @@ struct InpaintOptions {
   int maxRefinedVertices = 2000000;     // cap on the refined vertices of all regions (coarser beyond)
   int rbfCentres = 256;                 // RBF: boundary centres per hole (boundary values averaged per centre)
   double emptyTexelsPerUnit = 0;        // density when no face is mapped at all (0: 1024 texels across the bbox)
+  double detail = 1;                    // refinement density relative to the texel density (the preview uses less)
 };
 
 // What the inpainting reads besides the mapping. Strokes, clones and hole modes use the ids of the

@@ -107,6 +107,17 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
   job.progress(StageId::Bake, 0.6, "baking");
   out.image = bakeAtlas(out.atlas, mesh, scene.photos, &colors.levelling, inpaint, options);
   out.model = atlasModel(mesh, out.atlas, out.image);
+  const std::string name = fs::path(scene.project.mesh).stem().string();
+  out.model.name = name.empty() ? "model" : name;
+  if (scene.project.options.exportTopology == ExportTopology::Original) {
+    job.progress(StageId::Bake, 0.8, "transfer to the original mesh");
+    const auto start = Clock::now();
+    out.original = true;
+    out.originalModel =
+        bakeOriginalTopology(*scene.mesh, mesh, mapping.partition.faceParent, out.atlas, out.image, options);
+    out.originalModel.model.name = out.model.name;
+    out.transferSeconds = secondsSince(start);
+  }
   job.progress(StageId::Bake, 1.0);
   return out;
 }
@@ -252,13 +263,24 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   bake.seconds = secondsSince(start);
   bake.counts = baked->atlas.stats();
   bake.counts["bake_seconds"] = baked->image.seconds;
+  bake.counts["export_topology"] = kExportTopologyNames[size_t(project.options.exportTopology)];
+  if (baked->original) {
+    const OriginalModel& o = baked->originalModel;
+    bake.counts["original"] = {{"charts", o.atlas.charts.size()},
+                               {"utilisation", o.atlas.utilisation},
+                               {"scale", o.atlas.scale},
+                               {"vertices", o.model.mesh.numVertices()},
+                               {"faces", o.model.mesh.numFaces()},
+                               {"seconds", baked->transferSeconds},
+                               {"transfer_loss", o.loss.toJson()}};
+  }
   result.stages.push_back(bake);
 
   result.scene = scene;
   result.mapping = cachedMapping_;
   result.colors = cachedColors_;
   result.baked = baked;
-  result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
+  result.model = std::shared_ptr<const TexturedModel>(baked, &baked->exported());
   return result;
 }
 
@@ -283,6 +305,26 @@ nlohmann::json PipelineResult::report() const {
                  {"genus", scene->meshReport.genus},
                  {"boundary_loops", scene->meshReport.boundaryLoops},
                  {"components", scene->meshReport.components}};
+  }
+  if (mapping && baked && baked->atlas.faceSource.size() == size_t(mapping->partition.mesh.numFaces())) {
+    // Where the surface's colours come from, as area shares: photos (and each photo), inpainting, nothing.
+    const Mesh& mesh = mapping->partition.mesh;
+    double total = 0, photo = 0, inpainted = 0, empty = 0;
+    std::vector<double> perPhoto(scene ? scene->photos.size() : 0, 0.0);
+    for (int f = 0; f < mesh.numFaces(); ++f) {
+      const double a = mesh.faceArea(f);
+      const int s = baked->atlas.faceSource[f];
+      total += a;
+      (s >= 0 ? photo : s == kSourceInpainted ? inpainted : empty) += a;
+      if (s >= 0 && s < static_cast<int>(perPhoto.size())) perPhoto[s] += a;
+    }
+    if (total > 0) {
+      for (double& p : perPhoto) p /= total;
+      j["surface"] = {{"photo_share", photo / total},
+                      {"inpainted_share", inpainted / total},
+                      {"empty_share", empty / total},
+                      {"photo_shares", perPhoto}};
+    }
   }
   if (mapping) {
     // Rejected pairs with their reasons, so a user can see why a region stayed empty (first 1000).
@@ -309,19 +351,28 @@ void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
   fs::create_directories(dir, ec);
   TM_CHECK(!ec, located(dir, "cannot create output folder: " + ec.message()));
   const auto start = Clock::now();
-  exportObj(*result.model, dir, "model");
-  exportGlb(*result.model, (fs::path(dir) / "model.glb").string());
+  PngCache pngs(result.scene ? result.scene->project.options.pngCompression : PipelineOptions{}.pngCompression);
+  exportObj(*result.model, dir, "model", &pngs);
+  exportGlb(*result.model, (fs::path(dir) / "model.glb").string(), &pngs);
   std::vector<std::string> files = {"model.obj", "model.mtl", "model.glb"};
   for (const Material& m : result.model->materials)
-    if (!m.texture.empty()) files.push_back("model_" + m.name + ".png");
+    if (!m.texture.empty()) {
+      const std::string png = "model_" + (m.textureName.empty() ? m.name : m.textureName) + ".png";
+      if (std::find(files.begin(), files.end(), png) == files.end()) files.push_back(png);
+    }
   if (result.baked) {
-    writeAtlasLayers(result.baked->atlas, result.baked->image, dir, "model");
+    if (result.baked->original)
+      writeAtlasLayers(result.baked->originalModel.source, dir, "model");
+    else
+      writeAtlasLayers(result.baked->atlas, result.baked->image, dir, "model");
     files.insert(files.end(), {"model_atlas_source.png", "model_atlas_holes.png"});
   }
   nlohmann::json report = result.report();
   const double seconds = secondsSince(start);
-  report["stages"].push_back(
-      {{"stage", stageName(StageId::Export)}, {"seconds", seconds}, {"cached", false}, {"counts", {{"files", files}}}});
+  report["stages"].push_back({{"stage", stageName(StageId::Export)},
+                              {"seconds", seconds},
+                              {"cached", false},
+                              {"counts", {{"files", files}, {"png_encodes", pngs.encodes()}, {"png_seconds", pngs.seconds()}}}});
   report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
   writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
 }

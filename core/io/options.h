@@ -18,6 +18,12 @@ inline constexpr std::array<const char*, 4> kInpaintModeNames = {"harmonic", "rb
 enum class LevelMode { Off, Seam, Vertex };
 inline constexpr std::array<const char*, 3> kLevelModeNames = {"off", "seam", "vertex"};
 
+// Topology of the exported model: the user's mesh as loaded, with a new UV atlas and the montage baked
+// into it surface to surface (core/atlas/transfer.h), or the partition's refined mesh (input plus Steiner
+// vertices) with the montage's own charts.
+enum class ExportTopology { Original, Refined };
+inline constexpr std::array<const char*, 2> kExportTopologyNames = {"original", "refined"};
+
 // Name tables by enum type, for the project reader and writer and the editor's combo boxes.
 template <class E>
 struct EnumNames;
@@ -30,6 +36,12 @@ template <>
 struct EnumNames<LevelMode> {
   static constexpr const auto& names = kLevelModeNames;
   static constexpr const char* what = "a seam levelling mode";
+};
+
+template <>
+struct EnumNames<ExportTopology> {
+  static constexpr const auto& names = kExportTopologyNames;
+  static constexpr const char* what = "an export topology";
 };
 
 struct PipelineOptions {
@@ -45,13 +57,15 @@ struct PipelineOptions {
   int atlasSize = 4096;                         // atlas: width and height in texels (1024..8192)
   int gutter = 4;                               // atlas: texels between charts and from the border
   unsigned seed = 1;                            // random line searches: seed, so runs are repeatable
+  ExportTopology exportTopology = ExportTopology::Original;  // export: the user's mesh (new atlas) or the refined one
+  int pngCompression = 6;  // export: zlib level of the atlas PNG, 0..9 (1 is fast, for previews; 9 smallest)
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
            seamLambda == o.seamLambda && seamRounds == o.seamRounds && gradientWeight == o.gradientWeight &&
            seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
-           seed == o.seed;
+           seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression;
   }
 };
 

@@ -272,7 +272,7 @@ struct BenchArgs {
 
 int cmdBench(BenchArgs args) {
   using Clock = std::chrono::steady_clock;
-  if (args.mesh.empty()) args.mesh = (fs::path(TM_SOURCE_DIR) / "assets/demo/demo_mesh.obj").string();
+  if (args.mesh.empty()) args.mesh = (fs::path(TM_SOURCE_DIR) / "assets/demo/cat.obj").string();
   if (args.work.empty()) args.work = (fs::temp_directory_path() / "tm_bench").string();
   std::printf("bench: %s, %d views, %d features, %d px\n", args.mesh.c_str(), args.synth.views, args.synth.features,
               args.synth.size);

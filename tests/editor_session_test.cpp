@@ -57,7 +57,7 @@ json readJson(const std::string& path) {
 
 // A vertex of the demo mesh that is not a feature yet, and a point in photo 0 to put it at.
 constexpr int kNewVertex = 100;
-constexpr double kPhotoX = 400.25, kPhotoY = 380.5;
+constexpr double kPhotoX = 200.25, kPhotoY = 80.5;
 
 std::string pickAndClick() {
   return "tool point\nview_vertex " + std::to_string(kNewVertex) + "\nclick_vertex " + std::to_string(kNewVertex) +

@@ -47,7 +47,10 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
   // Later stages work on the partition's mesh: the input plus its Steiner vertices.
   const Mesh& mesh = result.mapping->partition.mesh;
   EXPECT_GE(mesh.numVertices(), result.scene->mesh->numVertices());
-  EXPECT_EQ(result.model->mesh.numFaces(), mesh.numFaces());
+  EXPECT_EQ(result.baked->model.mesh.numFaces(), mesh.numFaces());
+  // The exported model is the input mesh as loaded (exportTopology "original", the default).
+  EXPECT_EQ(result.model->mesh.numFaces(), result.scene->mesh->numFaces());
+  EXPECT_EQ(result.model->mesh.numVertices(), result.scene->mesh->numVertices());
   EXPECT_EQ(result.mapping->map.numFaces(), mesh.numFaces());
   EXPECT_GT(result.mapping->map.numMapped(), 0);
   EXPECT_EQ(result.stages[0].counts["photos"].get<int>(), static_cast<int>(project.photos.size()));
@@ -118,8 +121,9 @@ TEST(Pipeline, WritesModelAndReport) {
   // The demo has holes: they are inpainted, and the model says which faces were.
   EXPECT_GT(report["stages"][5]["counts"]["regions"].size(), 0u);
   int inpainted = 0;
-  for (int s : result.model->faceSource) inpainted += s == kSourceInpainted;
+  for (int s : result.baked->model.faceSource) inpainted += s == kSourceInpainted;
   EXPECT_GT(inpainted, 0);
+  EXPECT_GT(report["surface"]["inpainted_share"].get<double>(), 0.0);
   EXPECT_EQ(report["mesh"]["faces"].get<int>(), result.scene->mesh->numFaces());
   // The rejected pairs and their reasons reach the user.
   EXPECT_EQ(report["map"]["rejected_total"].get<size_t>(), result.mapping->partition.rejected.size());

@@ -207,7 +207,10 @@ OriginalModel bakeOriginalTopology(const Mesh& input, const Mesh& refined, const
   }
 
   OriginalModel out;
+  auto t = Clock::now();
   out.atlas = buildAtlas(input, in, options);
+  out.atlasSeconds = secondsSince(t);
+  t = Clock::now();
   const cv::Mat& image = refinedImage.rgba;
   out.image = bakeAtlasSurface(
       out.atlas,
@@ -220,6 +223,8 @@ OriginalModel bakeOriginalTopology(const Mesh& input, const Mesh& refined, const
         return sampleRgba8(image, p.x(), p.y());
       },
       options);
+  out.bakeSeconds = secondsSince(t);
+  t = Clock::now();
   // The source layer: the same bake with each point's source code as its grey level.
   const AtlasImage codes = bakeAtlasSurface(
       out.atlas,
@@ -239,6 +244,7 @@ OriginalModel bakeOriginalTopology(const Mesh& input, const Mesh& refined, const
       if (ids[x] >= 0) o[x] = c[x][0];
   }
 
+  out.layerSeconds = secondsSince(t);
   // The model: the input mesh as loaded, its materials by name, each showing the atlas.
   out.model.mesh = input;
   out.model.mesh.cornerUV.clear();
@@ -273,7 +279,9 @@ OriginalModel bakeOriginalTopology(const Mesh& input, const Mesh& refined, const
         m = count;
       }
   }
+  t = Clock::now();
   out.loss = measureTransfer(out.model, atlasModel(refined, refinedAtlas, refinedImage), locator, out.atlas, transfer);
+  out.measureSeconds = secondsSince(t);
   out.seconds = secondsSince(t0);
   return out;
 }

@@ -85,15 +85,16 @@ cv::Mat contactSheet(const std::vector<cv::Mat>& images, int columns, int gap, c
 }
 
 cv::Vec4b sourceLayerColor(int code) {
-  if (code == 254) return {230, 40, 200, 255};  // inpainted: magenta
-  if (code == 253) return {70, 70, 70, 255};    // empty: dark grey
-  if (code <= 0 || code > 250) return {200, 200, 200, 255};
-  // Photos: hues spaced by the golden angle, so neighbouring indices differ strongly.
-  const double hue = std::fmod(30.0 + 137.508 * (code - 1), 360.0);
-  cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(hue / 2, 200, 230)), rgb;
-  cv::cvtColor(hsv, rgb, cv::COLOR_HSV2RGB);
-  const cv::Vec3b c = rgb.at<cv::Vec3b>(0, 0);
-  return {c[0], c[1], c[2], 255};
+  if (code == 254) return {214, 39, 40, 255};  // inpainted: red
+  if (code == 253) return {60, 60, 60, 255};   // empty: dark grey
+  if (code <= 0 || code > 250) return {210, 210, 210, 255};
+  // Photos: a qualitative palette without red or grey, darker on each further round.
+  static constexpr unsigned char kPalette[8][3] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44},  {148, 103, 189},
+                                                   {23, 190, 207}, {188, 189, 34}, {227, 119, 194}, {140, 86, 75}};
+  const int i = (code - 1) % 8, round = (code - 1) / 8;
+  const double f = std::pow(0.75, round);
+  return {static_cast<unsigned char>(kPalette[i][0] * f), static_cast<unsigned char>(kPalette[i][1] * f),
+          static_cast<unsigned char>(kPalette[i][2] * f), 255};
 }
 
 cv::Mat colorizeSourceLayer(const cv::Mat& source) {
@@ -123,7 +124,7 @@ std::vector<int> sourceLayerCodes(const cv::Mat& source) {
 }
 
 void drawLegend(cv::Mat& rgba, const std::vector<std::pair<cv::Vec4b, std::string>>& entries) {
-  const double scale = std::max(0.4, rgba.rows / 1400.0);
+  const double scale = std::max(0.5, rgba.rows / 900.0);
   const int line = static_cast<int>(std::lround(28 * scale)), pad = line / 3;
   int width = 0;
   for (const auto& [colour, label] : entries) {

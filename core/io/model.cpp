@@ -915,7 +915,7 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
 
   std::string obj;
   obj.reserve(static_cast<size_t>(mesh.numVertices()) * 40 + static_cast<size_t>(nf) * 60);
-  obj += "# TextureMontage\nmtllib " + base + ".mtl\n";
+  obj += "# TextureMontage\nmtllib " + base + ".mtl\no " + fileNamePart(model.name.empty() ? base : model.name) + "\n";
   for (int v = 0; v < mesh.numVertices(); ++v) {
     const Vec3 p = mesh.position(v);
     obj += "v " + number(p.x()) + " " + number(p.y()) + " " + number(p.z()) + "\n";
@@ -948,7 +948,6 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
       return sa != sb ? sa < sb : materialOf(model, a) < materialOf(model, b);
     });
   const std::vector<int> meshGroup = bySource ? std::vector<int>{} : meshFaceValues(mesh, mesh.faceGroup);
-  obj += "o " + fileNamePart(model.name.empty() ? base : model.name) + "\n";
   bool firstGroup = true;
   int group = 0, material = -1;
   for (int f : order) {

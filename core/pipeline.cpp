@@ -284,7 +284,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   result.mapping = cachedMapping_;
   result.colors = cachedColors_;
   result.baked = baked;
-  result.model = std::shared_ptr<const TexturedModel>(baked, &baked->exported());
+  result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
+  result.exported = std::shared_ptr<const TexturedModel>(baked, &baked->exported());
   return result;
 }
 
@@ -350,16 +351,17 @@ nlohmann::json PipelineResult::report() const {
 }
 
 void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
-  TM_CHECK(result.model, "writeRunOutputs: no model to write");
+  const std::shared_ptr<const TexturedModel>& model = result.exported ? result.exported : result.model;
+  TM_CHECK(model, "writeRunOutputs: no model to write");
   std::error_code ec;
   fs::create_directories(dir, ec);
   TM_CHECK(!ec, located(dir, "cannot create output folder: " + ec.message()));
   const auto start = Clock::now();
   PngCache pngs(result.scene ? result.scene->project.options.pngCompression : PipelineOptions{}.pngCompression);
-  exportObj(*result.model, dir, "model", &pngs);
-  exportGlb(*result.model, (fs::path(dir) / "model.glb").string(), &pngs);
+  exportObj(*model, dir, "model", &pngs);
+  exportGlb(*model, (fs::path(dir) / "model.glb").string(), &pngs);
   std::vector<std::string> files = {"model.obj", "model.mtl", "model.glb"};
-  for (const Material& m : result.model->materials)
+  for (const Material& m : model->materials)
     if (!m.texture.empty()) {
       const std::string png = "model_" + (m.textureName.empty() ? m.name : m.textureName) + ".png";
       if (std::find(files.begin(), files.end(), png) == files.end()) files.push_back(png);

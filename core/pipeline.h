@@ -69,7 +69,8 @@ struct PipelineResult {
   std::shared_ptr<const Mapping> mapping;
   std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const BakeResult> baked;
-  std::shared_ptr<const TexturedModel> model;  // baked->exported(): what export writes
+  std::shared_ptr<const TexturedModel> model;     // baked->model: the result over the refined mesh (previews)
+  std::shared_ptr<const TexturedModel> exported;  // baked->exported(): what export writes
   std::vector<StageRecord> stages;
   std::vector<std::string> warnings;  // things the user should know (mesh caveats, unmapped regions)
   nlohmann::json report() const;      // what report.json holds

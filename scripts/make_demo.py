@@ -16,7 +16,9 @@ up on the mesh, is a feature line of tail vertices placed along the photo's tail
 head outline is a feature polygon. The other side uses the mirrored photo and the mirrored vertices
 (nearest vertex to the reflection across the cat's mid plane z = Z0).
 
-Usage: python3 scripts/make_demo.py [--view SIDE.png]     (needs python3-opencv, python3-scipy)
+Usage: python3 scripts/make_demo.py [--view CHECK.png]    (needs python3-opencv, python3-scipy)
+       python3 scripts/make_demo.py --figure OUT_DEMO      the README picture docs/images/demo.png from
+                                                           the renders scripts/demo.sh writes to OUT_DEMO
 """
 import json
 import os
@@ -249,5 +251,24 @@ def main():
         cv2.imwrite(sys.argv[2], big)
 
 
+def figure(out_demo):
+    """docs/images/demo.png: the two photos with their mask outlines over four turntable views."""
+    views = [cv2.imread(os.path.join(out_demo, "turntable_%02d.png" % k)) for k in (1, 2, 5, 6)]
+    w = sum(v.shape[1] for v in views)
+    row = []
+    for name in ("tiger_left", "tiger_right"):
+        photo = cv2.imread(os.path.join(DEMO, name + ".png"))
+        mask = cv2.imread(os.path.join(DEMO, name + "_mask.png"), cv2.IMREAD_GRAYSCALE)
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        cv2.drawContours(photo, contours, -1, (255, 0, 255), 1)
+        row.append(photo)
+    top = np.hstack(row)
+    top = cv2.resize(top, (w, int(top.shape[0] * w / top.shape[1])), interpolation=cv2.INTER_CUBIC)
+    cv2.imwrite(os.path.join(ROOT, "docs", "images", "demo.png"), np.vstack([top, np.hstack(views)]))
+
+
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) > 2 and sys.argv[1] == "--figure":
+        figure(sys.argv[2])
+    else:
+        main()

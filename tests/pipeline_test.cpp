@@ -47,10 +47,11 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
   // Later stages work on the partition's mesh: the input plus its Steiner vertices.
   const Mesh& mesh = result.mapping->partition.mesh;
   EXPECT_GE(mesh.numVertices(), result.scene->mesh->numVertices());
-  EXPECT_EQ(result.baked->model.mesh.numFaces(), mesh.numFaces());
+  EXPECT_EQ(result.model->mesh.numFaces(), mesh.numFaces());
   // The exported model is the input mesh as loaded (exportTopology "original", the default).
-  EXPECT_EQ(result.model->mesh.numFaces(), result.scene->mesh->numFaces());
-  EXPECT_EQ(result.model->mesh.numVertices(), result.scene->mesh->numVertices());
+  ASSERT_TRUE(result.exported);
+  EXPECT_EQ(result.exported->mesh.numFaces(), result.scene->mesh->numFaces());
+  EXPECT_EQ(result.exported->mesh.numVertices(), result.scene->mesh->numVertices());
   EXPECT_EQ(result.mapping->map.numFaces(), mesh.numFaces());
   EXPECT_GT(result.mapping->map.numMapped(), 0);
   EXPECT_EQ(result.stages[0].counts["photos"].get<int>(), static_cast<int>(project.photos.size()));
@@ -121,7 +122,7 @@ TEST(Pipeline, WritesModelAndReport) {
   // The demo has holes: they are inpainted, and the model says which faces were.
   EXPECT_GT(report["stages"][5]["counts"]["regions"].size(), 0u);
   int inpainted = 0;
-  for (int s : result.baked->model.faceSource) inpainted += s == kSourceInpainted;
+  for (int s : result.model->faceSource) inpainted += s == kSourceInpainted;
   EXPECT_GT(inpainted, 0);
   EXPECT_GT(report["surface"]["inpainted_share"].get<double>(), 0.0);
   EXPECT_EQ(report["mesh"]["faces"].get<int>(), result.scene->mesh->numFaces());
@@ -130,14 +131,14 @@ TEST(Pipeline, WritesModelAndReport) {
   ASSERT_FALSE(report["map"]["rejected_pairs"].empty());
   EXPECT_FALSE(report["map"]["rejected_pairs"][0]["reason"].get<std::string>().empty());
   // One atlas: a single textured material, every face's UVs inside [0,1]^2.
-  ASSERT_EQ(result.model->materials.size(), 1u);
-  EXPECT_EQ(result.model->materials[0].texture.cols, project.options.atlasSize);
-  for (const auto& uv : result.model->uv)
+  ASSERT_EQ(result.exported->materials.size(), 1u);
+  EXPECT_EQ(result.exported->materials[0].texture.cols, project.options.atlasSize);
+  for (const auto& uv : result.exported->uv)
     for (const Vec2f& t : uv) EXPECT_TRUE(t.minCoeff() >= 0 && t.maxCoeff() <= 1) << t.transpose();
   EXPECT_GT(report["stages"][6]["counts"]["utilisation"].get<double>(), 0.3);
   for (const char* name : {"model.glb", "model.obj"}) {
     TexturedModel back = loadModel(dir + "/" + name);
-    EXPECT_EQ(back.mesh.numFaces(), result.model->mesh.numFaces()) << name;
+    EXPECT_EQ(back.mesh.numFaces(), result.exported->mesh.numFaces()) << name;
     ASSERT_EQ(back.materials.size(), 1u) << name;
     EXPECT_EQ(back.materials[0].texture.cols, project.options.atlasSize) << name;
   }

@@ -44,7 +44,7 @@ cv::Mat renderModel(const TexturedModel& model, const RenderOptions& options) {
         const double lambert = std::abs(mesh.faceNormal(f).dot((eye - p).normalized()));
         c *= static_cast<float>(0.35 + 0.65 * lambert);
       }
-      for (int k = 0; k < 3; ++k) row[x][k] = cv::saturate_cast<uchar>(255.f * c[k] + 0.5f);
+      for (int k = 0; k < 3; ++k) row[x][k] = cv::saturate_cast<uchar>(255.f * c[k]);
       row[x][3] = 255;
     }
   }

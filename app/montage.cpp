@@ -16,15 +16,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "io/mesh_io.h"
 #include "bench/eval.h"
-#include "geometry/mesh.h"
-#include "io/model.h"
-#include "image/photo.h"
-#include "pipeline.h"
-#include "io/project.h"
 #include "bench/render.h"
 #include "bench/synth.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "io/project.h"
+#include "pipeline.h"
 
 namespace fs = std::filesystem;
 using namespace montage;
@@ -162,7 +162,7 @@ void writePng(const cv::Mat& rgba, const std::string& out) {
 
 struct RenderArgs {
   std::string model, out, size;
-  int turntable = 0;  // views of a turntable; 0 = one render
+  int turntable = 0;   // views of a turntable; 0 = one render
   bool layer = false;  // render the source-photo layer instead of the texture
   RenderOptions options;
 };
@@ -192,11 +192,11 @@ std::vector<std::pair<cv::Vec4b, std::string>> useSourceLayer(TexturedModel& mod
   const cv::Mat colours = colorizeSourceLayer(source);
   for (Material& m : model.materials)
     if (!m.texture.empty()) {
-      TM_CHECK(m.texture.size() == source.size(),
-               located(path.string(), "the source layer is " + std::to_string(source.cols) + "x" +
-                                          std::to_string(source.rows) + " but the texture of material '" + m.name +
-                                          "' is " + std::to_string(m.texture.cols) + "x" +
-                                          std::to_string(m.texture.rows)));
+      TM_CHECK(
+          m.texture.size() == source.size(),
+          located(path.string(), "the source layer is " + std::to_string(source.cols) + "x" +
+                                     std::to_string(source.rows) + " but the texture of material '" + m.name + "' is " +
+                                     std::to_string(m.texture.cols) + "x" + std::to_string(m.texture.rows)));
       m.texture = colours;
     }
   std::vector<std::pair<cv::Vec4b, std::string>> legend;
@@ -340,8 +340,9 @@ int main(int argc, char** argv) {
   render->add_option("--pitch", renderArgs.options.pitchDeg, "elevation, degrees");
   render->add_option("--size", renderArgs.size, "image size in pixels: W (square) or WxH, e.g. 1024 or 800x600")
       ->type_name("W|WxH");
-  render->add_option("--turntable", renderArgs.turntable,
-                     "N views around the model: OUT_00.png .. OUT_<N-1>.png and a contact sheet OUT")
+  render
+      ->add_option("--turntable", renderArgs.turntable,
+                   "N views around the model: OUT_00.png .. OUT_<N-1>.png and a contact sheet OUT")
       ->check(CLI::Range(1, 360));
   render->add_flag("--layer", renderArgs.layer,
                    "render the source-photo layer (one colour per photo, inpainted, empty) with a legend instead "

@@ -266,16 +266,11 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   bake.counts["export_topology"] = kExportTopologyNames[size_t(project.options.exportTopology)];
   if (baked->original) {
     const OriginalModel& o = baked->originalModel;
-    bake.counts["original"] = {{"charts", o.atlas.charts.size()},
-                               {"utilisation", o.atlas.utilisation},
-                               {"scale", o.atlas.scale},
-                               {"vertices", o.model.mesh.numVertices()},
-                               {"faces", o.model.mesh.numFaces()},
-                               {"seconds", baked->transferSeconds},
-                               {"atlas_seconds", o.atlasSeconds},
-                               {"bake_seconds", o.bakeSeconds},
-                               {"layer_seconds", o.layerSeconds},
-                               {"measure_seconds", o.measureSeconds},
+    bake.counts["original"] = {{"charts", o.atlas.charts.size()},  {"utilisation", o.atlas.utilisation},
+                               {"scale", o.atlas.scale},           {"vertices", o.model.mesh.numVertices()},
+                               {"faces", o.model.mesh.numFaces()}, {"seconds", baked->transferSeconds},
+                               {"atlas_seconds", o.atlasSeconds},  {"bake_seconds", o.bakeSeconds},
+                               {"layer_seconds", o.layerSeconds},  {"measure_seconds", o.measureSeconds},
                                {"transfer_loss", o.loss.toJson()}};
   }
   result.stages.push_back(bake);
@@ -375,10 +370,11 @@ void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
   }
   nlohmann::json report = result.report();
   const double seconds = secondsSince(start);
-  report["stages"].push_back({{"stage", stageName(StageId::Export)},
-                              {"seconds", seconds},
-                              {"cached", false},
-                              {"counts", {{"files", files}, {"png_encodes", pngs.encodes()}, {"png_seconds", pngs.seconds()}}}});
+  report["stages"].push_back(
+      {{"stage", stageName(StageId::Export)},
+       {"seconds", seconds},
+       {"cached", false},
+       {"counts", {{"files", files}, {"png_encodes", pngs.encodes()}, {"png_seconds", pngs.seconds()}}}});
   report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
   writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
 }

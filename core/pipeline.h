@@ -56,8 +56,8 @@ struct SurfaceColors {
 // loaded, with an atlas of its own (atlas/transfer.h), and that is the model the pipeline exports.
 struct BakeResult {
   Atlas atlas;
-  AtlasImage image;  // image.rgba is the model's texture (shared, not copied)
-  TexturedModel model;  // over the refined mesh
+  AtlasImage image;       // image.rgba is the model's texture (shared, not copied)
+  TexturedModel model;    // over the refined mesh
   bool original = false;  // exportTopology is original: `originalModel` holds the exported model
   OriginalModel originalModel;
   double transferSeconds = 0;

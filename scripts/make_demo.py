@@ -253,7 +253,12 @@ def main():
 
 def figure(out_demo):
     """docs/images/demo.png: the two photos with their mask outlines over four turntable views."""
-    views = [cv2.imread(os.path.join(out_demo, "turntable_%02d.png" % k)) for k in (1, 2, 5, 6)]
+    views = [cv2.imread(os.path.join(out_demo, "turntable_%02d.png" % k)) for k in (7, 0, 3, 4)]  # near the sides
+    # Crop the common margin of background.
+    fg = np.any([np.any(np.abs(v.astype(int) - v[0, 0].astype(int)) > 8, axis=2) for v in views], axis=0)
+    rows, cols = np.flatnonzero(fg.any(1)), np.flatnonzero(fg.any(0))
+    r0, r1, c0, c1 = max(rows[0] - 8, 0), rows[-1] + 9, max(cols[0] - 8, 0), cols[-1] + 9
+    views = [v[r0:r1, c0:c1] for v in views]
     w = sum(v.shape[1] for v in views)
     row = []
     for name in ("tiger_left", "tiger_right"):

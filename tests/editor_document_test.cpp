@@ -7,13 +7,13 @@
 #include <thread>
 
 #include "autosave.h"
-#include "geometry/bvh.h"
 #include "document.h"
+#include "geometry/bvh.h"
 #include "geometry/predicates.h"
-#include "surface/inpaint.h"
+#include "geometry/shapes.h"
 #include "overlays.h"
 #include "script.h"
-#include "geometry/shapes.h"
+#include "surface/inpaint.h"
 #include "test_support.h"
 #include "view_math.h"
 

@@ -1,5 +1,4 @@
 // The pipeline object (stages, caching, cancel, report) and the `montage` command line end to end.
-#include "io/mesh_io.h"
 #include "pipeline.h"
 
 #include <filesystem>
@@ -9,8 +8,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bench/eval.h"
-#include "io/model.h"
 #include "bench/synth.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;

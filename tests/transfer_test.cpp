@@ -71,8 +71,8 @@ bool validatorReady() {
 
 std::string validate(const std::string& file, int* rc) {
   std::string out;
-  *rc = test::runCommand(std::string("NODE_PATH='") + TM_GLTF_NODE_DIR + "/node_modules' node '" +
-                             TM_GLTF_VALIDATE_JS + "' '" + file + "'",
+  *rc = test::runCommand(std::string("NODE_PATH='") + TM_GLTF_NODE_DIR + "/node_modules' node '" + TM_GLTF_VALIDATE_JS +
+                             "' '" + file + "'",
                          &out);
   return out;
 }
@@ -105,8 +105,7 @@ TEST(RefinedLocator, FindsTheChildAndItsBarycentricsExactly) {
       EXPECT_LT((want - got).norm(), 1e-12) << "face " << f << " b " << b.transpose();
       EXPECT_GE(cb.minCoeff(), 0.0);
     }
-  EXPECT_NE(test::errorOf([&] { RefinedLocator(*input, *refined, {0, 0, 1}); }).find("faceParent"),
-            std::string::npos);
+  EXPECT_NE(test::errorOf([&] { RefinedLocator(*input, *refined, {0, 0, 1}); }).find("faceParent"), std::string::npos);
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -156,10 +155,10 @@ TEST(OriginalTopology, ExportIsTheInputMeshVertexForVertex) {
 TEST(OriginalTopology, TransferLossIsAtLeast40dB) {
   const DemoRun& run = demoRun();
   const TransferLoss& loss = run.result.baked->originalModel.loss;
-  std::printf("demo transfer: PSNR %.2f dB (interior %.2f, chart borders %.2f on %.1f%% of the area, thin %.2f on "
-              "%.1f%%)\n",
-              loss.psnr, loss.psnrInterior, loss.psnrBorder, 100 * loss.borderShare, loss.psnrSmall,
-              100 * loss.smallShare);
+  std::printf(
+      "demo transfer: PSNR %.2f dB (interior %.2f, chart borders %.2f on %.1f%% of the area, thin %.2f on "
+      "%.1f%%)\n",
+      loss.psnr, loss.psnrInterior, loss.psnrBorder, 100 * loss.borderShare, loss.psnrSmall, 100 * loss.smallShare);
   EXPECT_GE(loss.psnr, 40.0);
   EXPECT_GT(loss.samples, 100000);
   const nlohmann::json report = readJson(run.dir + "/report.json");
@@ -246,7 +245,8 @@ TEST(OriginalTopology, GltfValidatorReportsNoErrorsOrWarnings) {
 }
 
 TEST(OriginalTopology, AssimpShowsOneNamedMeshWithItsMaterials) {
-  if (test::runCommand("command -v assimp") != 0) GTEST_SKIP() << "assimp is not installed (Debian package assimp-utils)";
+  if (test::runCommand("command -v assimp") != 0)
+    GTEST_SKIP() << "assimp is not installed (Debian package assimp-utils)";
   const DemoRun& run = demoRun();
   const std::string stem = fs::path(run.project.mesh).stem().string();
   for (const std::string name : {"model.glb", "model.obj"}) {
@@ -279,7 +279,8 @@ TEST(OriginalTopologySpot, RoundTripMatchesTheGroundTruth) {
   options.features = 150;
   options.size = 1024;
   const std::string dir = test::tempDir("transfer_spot");
-  writeSynthScene(synthesize(*mesh, meshPath, [&](int f, const Vec3& b) { return truth.colorAt(f, b); }, options),
+  writeSynthScene(synthesize(
+                      *mesh, meshPath, [&](int f, const Vec3& b) { return truth.colorAt(f, b); }, options),
                   dir);
   const PipelineResult result = Pipeline().run(loadProject(dir + "/project.json"));
   const Partition& partition = result.mapping->partition;
@@ -311,18 +312,18 @@ TEST(OriginalTopologySpot, RoundTripMatchesTheGroundTruth) {
   atlasOptions.size = 2048;
   const Atlas refinedAtlas = buildAtlas(partition.mesh, in, atlasOptions);
   const AtlasImage refinedImage = bakeAtlas(refinedAtlas, partition.mesh, {photo}, nullptr, nullptr, atlasOptions);
-  const OriginalModel original = bakeOriginalTopology(*mesh, partition.mesh, partition.faceParent, refinedAtlas,
-                                                      refinedImage, atlasOptions);
+  const OriginalModel original =
+      bakeOriginalTopology(*mesh, partition.mesh, partition.faceParent, refinedAtlas, refinedImage, atlasOptions);
   exportObj(original.model, dir + "/truth_original", "model");
   std::string log;
   const std::string eval = test::montageExe() + " eval --truth " + meshPath + " --truth-texture " + texturePath +
                            " --samples 100000 --json ";
   ASSERT_EQ(test::runCommand(eval + dir + "/t.json --result " + dir + "/truth_original/model.obj", &log), 0) << log;
   const nlohmann::json roundTrip = readJson(dir + "/t.json");
-  std::printf("spot truth through a refined atlas and the original-topology export: %.2f dB against the truth "
-              "(transfer %.2f dB: interior %.2f, borders %.2f)\n",
-              roundTrip["psnr_all"].get<double>(), original.loss.psnr, original.loss.psnrInterior,
-              original.loss.psnrBorder);
+  std::printf(
+      "spot truth through a refined atlas and the original-topology export: %.2f dB against the truth "
+      "(transfer %.2f dB: interior %.2f, borders %.2f)\n",
+      roundTrip["psnr_all"].get<double>(), original.loss.psnr, original.loss.psnrInterior, original.loss.psnrBorder);
   EXPECT_GE(roundTrip["psnr_all"].get<double>(), 35.0) << roundTrip.dump();
   EXPECT_GE(original.loss.psnr, 40.0);
   EXPECT_EQ(roundTrip["flipped_triangles"].get<int>(), 0);
@@ -332,9 +333,10 @@ TEST(OriginalTopologySpot, RoundTripMatchesTheGroundTruth) {
   ASSERT_EQ(test::runCommand(eval + dir + "/o.json --result " + dir + "/out/model.obj", &log), 0) << log;
   const double exported = readJson(dir + "/o.json")["psnr_all"].get<double>();
   const EvalResult refined = evaluate(*result.model, truth, {100000, 7, 4});
-  std::printf("spot pipeline (4 views, 150 features): original-topology export %.2f dB, refined %.2f dB against the "
-              "truth (transfer %.2f dB)\n",
-              exported, refined.psnrAll, result.baked->originalModel.loss.psnr);
+  std::printf(
+      "spot pipeline (4 views, 150 features): original-topology export %.2f dB, refined %.2f dB against the "
+      "truth (transfer %.2f dB)\n",
+      exported, refined.psnrAll, result.baked->originalModel.loss.psnr);
   EXPECT_GT(exported, refined.psnrAll - 0.5);
 }
 
@@ -368,9 +370,8 @@ TEST(MontageRender, SizeTakesWOrWxH) {
   const DemoRun& run = demoRun();
   const std::string dir = test::tempDir("render_size");
   std::string log;
-  ASSERT_EQ(test::runCommand(test::montageExe() + " render " + run.dir + "/model.obj --size 800x600 --out " + dir +
-                                 "/a.png",
-                             &log),
+  ASSERT_EQ(test::runCommand(
+                test::montageExe() + " render " + run.dir + "/model.obj --size 800x600 --out " + dir + "/a.png", &log),
             0)
       << log;
   EXPECT_EQ(cv::imread(dir + "/a.png").size(), cv::Size(800, 600));
@@ -379,9 +380,8 @@ TEST(MontageRender, SizeTakesWOrWxH) {
             0)
       << log;
   EXPECT_EQ(cv::imread(dir + "/b.png").size(), cv::Size(64, 64));
-  EXPECT_NE(test::runCommand(test::montageExe() + " render " + run.dir + "/model.obj --size 80:60 --out " + dir +
-                                 "/c.png",
-                             &log),
+  EXPECT_NE(test::runCommand(
+                test::montageExe() + " render " + run.dir + "/model.obj --size 80:60 --out " + dir + "/c.png", &log),
             0);
   EXPECT_NE(log.find("W or WxH"), std::string::npos) << log;
   ASSERT_EQ(test::runCommand(test::montageExe() + " render --help", &log), 0);
@@ -393,9 +393,9 @@ TEST(MontageRender, LayerShowsSourcesWithALegend) {
   const DemoRun& run = demoRun();
   const std::string dir = test::tempDir("render_layer");
   std::string log;
-  ASSERT_EQ(test::runCommand(test::montageExe() + " render " + run.dir + "/model.obj --layer --size 400 --out " + dir +
-                                 "/layer.png",
-                             &log),
+  ASSERT_EQ(test::runCommand(
+                test::montageExe() + " render " + run.dir + "/model.obj --layer --size 400 --out " + dir + "/layer.png",
+                &log),
             0)
       << log;
   cv::Mat bgr = cv::imread(dir + "/layer.png");
@@ -411,8 +411,8 @@ TEST(MontageRender, LayerShowsSourcesWithALegend) {
   EXPECT_GT(count(sourceLayerColor(254)), 20) << "the inpainted colour";
   // Without the layer file next to the model, a clear error.
   fs::copy_file(run.dir + "/model.glb", dir + "/alone.glb");
-  EXPECT_NE(test::runCommand(test::montageExe() + " render " + dir + "/alone.glb --layer --out " + dir + "/x.png", &log),
-            0);
+  EXPECT_NE(
+      test::runCommand(test::montageExe() + " render " + dir + "/alone.glb --layer --out " + dir + "/x.png", &log), 0);
   EXPECT_NE(log.find("alone_atlas_source.png"), std::string::npos) << log;
 }
 

@@ -647,9 +647,9 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   TM_CHECK(
       static_cast<int>(in.faceSource.size()) == F,
       "atlas: faceSource has " + std::to_string(in.faceSource.size()) + " entries for " + std::to_string(F) + " faces");
-  TM_CHECK(in.faceGroup.empty() || static_cast<int>(in.faceGroup.size()) == F,
-           "atlas: faceGroup has " + std::to_string(in.faceGroup.size()) + " entries for " + std::to_string(F) +
-               " faces");
+  TM_CHECK(
+      in.faceGroup.empty() || static_cast<int>(in.faceGroup.size()) == F,
+      "atlas: faceGroup has " + std::to_string(in.faceGroup.size()) + " entries for " + std::to_string(F) + " faces");
   TM_CHECK(in.faceDensity.empty() || static_cast<int>(in.faceDensity.size()) == F,
            "atlas: faceDensity has " + std::to_string(in.faceDensity.size()) + " entries for " + std::to_string(F) +
                " faces");
@@ -1140,8 +1140,8 @@ void writeAtlasLayers(const cv::Mat& source, const std::string& dir, const std::
   std::error_code ec;
   fs::create_directories(dir, ec);
   const cv::Mat holes = source >= 253;  // inpainted (254) and empty (253)
-  for (const auto& [suffix, layer] : {std::pair<std::string, cv::Mat>{"_atlas_source.png", source},
-                                      {"_atlas_holes.png", holes}}) {
+  for (const auto& [suffix, layer] :
+       {std::pair<std::string, cv::Mat>{"_atlas_source.png", source}, {"_atlas_holes.png", holes}}) {
     const std::string path = (fs::path(dir) / (base + suffix)).string();
     std::vector<unsigned char> bytes;
     TM_CHECK(cv::imencode(".png", layer, bytes), located(path, "cannot encode PNG"));
@@ -1174,7 +1174,9 @@ TexturedModel atlasModel(const Mesh& mesh, const Atlas& atlas, const AtlasImage&
   for (int src : atlas.faceSource) material.emplace(src >= 0 ? src : 1'000'000 - src, 0);
   for (auto& [key, index] : material) {
     Material m;
-    m.name = key < 1'000'000 ? "photo_" + std::to_string(key) : key == 1'000'000 - kSourceInpainted ? "inpainted" : "empty";
+    m.name = key < 1'000'000                       ? "photo_" + std::to_string(key)
+             : key == 1'000'000 - kSourceInpainted ? "inpainted"
+                                                   : "empty";
     m.texture = image.rgba;
     m.textureName = "atlas";
     index = static_cast<int>(model.materials.size());

@@ -33,9 +33,8 @@ Vec3f sampleRgba8(const cv::Mat& rgba, double x, double y) {
   const auto* r1 = rgba.ptr<cv::Vec4b>(y1);
   Vec3f out;
   for (int c = 0; c < 3; ++c)
-    out[c] = static_cast<float>(((1 - fy) * ((1 - fx) * r0[x0][c] + fx * r0[x1][c]) +
-                                 fy * ((1 - fx) * r1[x0][c] + fx * r1[x1][c])) /
-                                255.0);
+    out[c] = static_cast<float>(
+        ((1 - fy) * ((1 - fx) * r0[x0][c] + fx * r0[x1][c]) + fy * ((1 - fx) * r1[x0][c] + fx * r1[x1][c])) / 255.0);
   return out;
 }
 
@@ -116,9 +115,9 @@ TransferLoss measureTransfer(const TexturedModel& original, const TexturedModel&
                              const Atlas& originalAtlas, const TransferOptions& options) {
   const Mesh& mesh = original.mesh;
   const int F = mesh.numFaces();
-  TM_CHECK(static_cast<int>(originalAtlas.faceChart.size()) == F,
-           "transfer: the atlas has " + std::to_string(originalAtlas.faceChart.size()) + " faces, the mesh " +
-               std::to_string(F));
+  TM_CHECK(static_cast<int>(originalAtlas.faceChart.size()) == F, "transfer: the atlas has " +
+                                                                      std::to_string(originalAtlas.faceChart.size()) +
+                                                                      " faces, the mesh " + std::to_string(F));
   // Classes: 1 = on a chart border of the new atlas, 2 = thin (under 2 texels of atlas area).
   std::vector<char> border(F, 0), thin(F, 0);
   std::vector<double> cumulative(F);
@@ -145,9 +144,9 @@ TransferLoss measureTransfer(const TexturedModel& original, const TexturedModel&
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   double sse[4] = {0, 0, 0, 0}, count[4] = {0, 0, 0, 0};  // all, interior, border, thin
   for (int i = 0; i < options.samples; ++i) {
-    const int f = std::min<int>(F - 1, static_cast<int>(std::upper_bound(cumulative.begin(), cumulative.end(),
-                                                                         uniform(rng) * total) -
-                                                        cumulative.begin()));
+    const int f = std::min<int>(
+        F - 1, static_cast<int>(std::upper_bound(cumulative.begin(), cumulative.end(), uniform(rng) * total) -
+                                cumulative.begin()));
     const double s = std::sqrt(uniform(rng)), t = uniform(rng);
     const Vec3 b(1 - s, s * (1 - t), s * t);
     Vec3 cb;

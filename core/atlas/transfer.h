@@ -37,7 +37,7 @@ class RefinedLocator {
   const std::vector<int>& children(int f) const { return children_[f]; }
 
  private:
-  std::vector<std::vector<int>> children_;  // per input face: its refined faces
+  std::vector<std::vector<int>> children_;    // per input face: its refined faces
   std::vector<std::array<Vec3, 3>> corners_;  // per refined face: its corners' barycentrics in the parent
 };
 
@@ -60,12 +60,12 @@ struct TransferLoss {
 };
 
 struct OriginalModel {
-  Atlas atlas;           // charts over the input mesh's faces
-  AtlasImage image;      // the transferred colours
-  cv::Mat source;        // CV_8UC1 per texel: the codes of atlasSourceLayer (photo + 1, 254 inpainted, 253 empty)
-  TexturedModel model;   // the input mesh, atlas UVs, the input's materials (all showing the atlas), no face sources
-  TransferLoss loss;     // measured against atlasModel(refined mesh, refined atlas, refined image)
-  double seconds = 0;    // all of it
+  Atlas atlas;          // charts over the input mesh's faces
+  AtlasImage image;     // the transferred colours
+  cv::Mat source;       // CV_8UC1 per texel: the codes of atlasSourceLayer (photo + 1, 254 inpainted, 253 empty)
+  TexturedModel model;  // the input mesh, atlas UVs, the input's materials (all showing the atlas), no face sources
+  TransferLoss loss;    // measured against atlasModel(refined mesh, refined atlas, refined image)
+  double seconds = 0;   // all of it
   // Where the time goes: charts + LSCM + packing, the colour bake, the source-layer bake, the loss.
   double atlasSeconds = 0, bakeSeconds = 0, layerSeconds = 0, measureSeconds = 0;
 };

@@ -78,8 +78,8 @@ cv::Mat contactSheet(const std::vector<cv::Mat>& images, int columns, int gap, c
     TM_CHECK(images[i].size() == cell && images[i].type() == CV_8UC4,
              "contact sheet: image " + std::to_string(i) + " differs in size or type from the first");
     const int r = i / cols, c = i % cols;
-    images[i].copyTo(sheet(cv::Rect(gap + c * (cell.width + gap), gap + r * (cell.height + gap), cell.width,
-                                    cell.height)));
+    images[i].copyTo(
+        sheet(cv::Rect(gap + c * (cell.width + gap), gap + r * (cell.height + gap), cell.width, cell.height)));
   }
   return sheet;
 }
@@ -89,7 +89,7 @@ cv::Vec4b sourceLayerColor(int code) {
   if (code == 253) return {60, 60, 60, 255};   // empty: dark grey
   if (code <= 0 || code > 250) return {210, 210, 210, 255};
   // Photos: a qualitative palette without red or grey, darker on each further round.
-  static constexpr unsigned char kPalette[8][3] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44},  {148, 103, 189},
+  static constexpr unsigned char kPalette[8][3] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44},   {148, 103, 189},
                                                    {23, 190, 207}, {188, 189, 34}, {227, 119, 194}, {140, 86, 75}};
   const int i = (code - 1) % 8, round = (code - 1) / 8;
   const double f = std::pow(0.75, round);

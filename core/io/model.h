@@ -18,8 +18,8 @@ enum FaceSource : int { kSourceEmpty = -2, kSourceInpainted = -1 };
 
 struct Material {
   std::string name;
-  cv::Mat texture;                          // CV_8UC4 RGBA, row 0 = top of the image; empty when untextured
-  std::string textureFile;                  // file name relative to the model (OBJ) or empty; set by the loaders
+  cv::Mat texture;          // CV_8UC4 RGBA, row 0 = top of the image; empty when untextured
+  std::string textureFile;  // file name relative to the model (OBJ) or empty; set by the loaders
   // Name of the texture image when several materials show the same one (the atlas): the exporters
   // write one image per distinct texture, named after this or, when empty, the first material using it.
   std::string textureName;
@@ -61,7 +61,7 @@ class PngCache {
   // The PNG bytes of an RGBA8 texture (written as RGB when every alpha is 255), encoded on first use.
   // `where` names the file for errors.
   const std::vector<unsigned char>& encode(const cv::Mat& rgba, const std::string& where);
-  int encodes() const { return encodes_; }  // images encoded so far
+  int encodes() const { return encodes_; }     // images encoded so far
   double seconds() const { return seconds_; }  // time spent encoding
 
  private:

@@ -270,7 +270,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                                {"scale", o.atlas.scale},           {"vertices", o.model.mesh.numVertices()},
                                {"faces", o.model.mesh.numFaces()}, {"seconds", baked->transferSeconds},
                                {"atlas_seconds", o.atlasSeconds},  {"bake_seconds", o.bakeSeconds},
-                               {"layer_seconds", o.layerSeconds},  {"measure_seconds", o.measureSeconds},
+                               {"measure_seconds", o.measureSeconds},
                                {"transfer_loss", o.loss.toJson()}};
   }
   result.stages.push_back(bake);

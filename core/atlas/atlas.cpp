@@ -1070,8 +1070,8 @@ AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std
   return out;
 }
 
-AtlasImage bakeAtlasSurface(const Atlas& atlas, const std::function<Vec3f(int, const Vec3&)>& color,
-                            const AtlasOptions& options) {
+AtlasImage bakeAtlasSurface(const Atlas& atlas, const std::function<Vec3f(int, const Vec3&, unsigned char&)>& color,
+                            const AtlasOptions& options, cv::Mat* labels) {
   const auto t0 = Clock::now();
   const int size = atlas.size;
   TM_CHECK(size > 0 && atlas.faceChart.size() == atlas.cornerUV.size(), "atlas bake: the atlas is not built");
@@ -1082,6 +1082,7 @@ AtlasImage bakeAtlasSurface(const Atlas& atlas, const std::function<Vec3f(int, c
   out.chart.setTo(cv::Scalar(-1));
   cv::Mat priority = largeMat(size, size, CV_8UC1);
   priority.setTo(cv::Scalar(255));
+  if (labels) *labels = cv::Mat(size, size, CV_8UC1, cv::Scalar(0));
   const auto toByte = [](float v) { return static_cast<unsigned char>(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f); };
   forEachChart(atlas, options.threads, [&](int ci) {
     const AtlasChart& chart = atlas.charts[ci];
@@ -1095,8 +1096,10 @@ AtlasImage bakeAtlasSurface(const Atlas& atlas, const std::function<Vec3f(int, c
                           const int mine = d == 0 ? 0 : 1 + std::min(253, static_cast<int>(d * 64));
                           if (mine >= prio) return;
                           prio = static_cast<unsigned char>(mine);
-                          const Vec3f c = color(f, b);
+                          unsigned char label = 0;
+                          const Vec3f c = color(f, b, label);
                           out.rgba.ptr<cv::Vec4b>(y)[x] = cv::Vec4b(toByte(c[0]), toByte(c[1]), toByte(c[2]), 255);
+                          if (labels) labels->ptr<unsigned char>(y)[x] = label;
                           out.chart.ptr<int>(y)[x] = ci;
                         });
   });

@@ -133,11 +133,13 @@ AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std
 
 // Bakes any surface colour into the atlas: every footprint texel takes color(face, barycentrics of the
 // face) at its centre when the centre lies in one of its chart's triangles, else at the nearest point of
-// the chart's triangles; then the same gutter fill as bakeAtlas. `color` returns sRGB in [0,1] and is
-// called from several threads at once. Used to transfer a result between two atlases of one surface
-// (atlas/transfer.h).
-AtlasImage bakeAtlasSurface(const Atlas& atlas, const std::function<Vec3f(int face, const Vec3& bary)>& color,
-                            const AtlasOptions& options = {});
+// the chart's triangles; then the same gutter fill as bakeAtlas. `color` returns sRGB in [0,1] and may
+// set `label` (0 by default); `labels`, when given, receives the labels as a CV_8UC1 image (0 outside
+// every footprint). `color` is called from several threads at once. Used to transfer a result between
+// two atlases of one surface (atlas/transfer.h).
+AtlasImage bakeAtlasSurface(const Atlas& atlas,
+                            const std::function<Vec3f(int face, const Vec3& bary, unsigned char& label)>& color,
+                            const AtlasOptions& options = {}, cv::Mat* labels = nullptr);
 
 // Extra layers. Source per texel (CV_8UC1): photo index + 1 (up to 250), 254 inpainted, 253 empty,
 // 0 outside every footprint. Hole mask (CV_8UC1): 255 on inpainted and empty charts, 0 elsewhere.

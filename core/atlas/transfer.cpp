@@ -210,40 +210,21 @@ OriginalModel bakeOriginalTopology(const Mesh& input, const Mesh& refined, const
   out.atlas = buildAtlas(input, in, options);
   out.atlasSeconds = secondsSince(t);
   t = Clock::now();
+  // One pass gives the colours and the source layer (each point's source code as its label).
   const cv::Mat& image = refinedImage.rgba;
   out.image = bakeAtlasSurface(
       out.atlas,
-      [&](int f, const Vec3& b) {
+      [&](int f, const Vec3& b, unsigned char& label) {
         Vec3 cb;
         const int r = locator.locate(f, b, cb);
+        label = sourceCode(r < 0 ? kSourceEmpty : refinedAtlas.faceSource[r]);
         if (r < 0) return options.emptyColor;
         const auto& a = refinedAtlas.cornerUV[r];
         const Vec2 p = cb[0] * a[0] + cb[1] * a[1] + cb[2] * a[2];
         return sampleRgba8(image, p.x(), p.y());
       },
-      options);
+      options, &out.source);
   out.bakeSeconds = secondsSince(t);
-  t = Clock::now();
-  // The source layer: the same bake with each point's source code as its grey level.
-  const AtlasImage codes = bakeAtlasSurface(
-      out.atlas,
-      [&](int f, const Vec3& b) {
-        Vec3 cb;
-        const int r = locator.locate(f, b, cb);
-        const float code = sourceCode(r < 0 ? kSourceEmpty : refinedAtlas.faceSource[r]) / 255.0f;
-        return Vec3f(code, code, code);
-      },
-      options);
-  out.source = cv::Mat(codes.rgba.size(), CV_8UC1, cv::Scalar(0));
-  for (int y = 0; y < out.source.rows; ++y) {
-    const auto* c = codes.rgba.ptr<cv::Vec4b>(y);
-    const int* ids = codes.chart.ptr<int>(y);
-    auto* o = out.source.ptr<unsigned char>(y);
-    for (int x = 0; x < out.source.cols; ++x)
-      if (ids[x] >= 0) o[x] = c[x][0];
-  }
-
-  out.layerSeconds = secondsSince(t);
   // The model: the input mesh as loaded, its materials by name, each showing the atlas.
   out.model.mesh = input;
   out.model.mesh.cornerUV.clear();

@@ -66,8 +66,8 @@ struct OriginalModel {
   TexturedModel model;  // the input mesh, atlas UVs, the input's materials (all showing the atlas), no face sources
   TransferLoss loss;    // measured against atlasModel(refined mesh, refined atlas, refined image)
   double seconds = 0;   // all of it
-  // Where the time goes: charts + LSCM + packing, the colour bake, the source-layer bake, the loss.
-  double atlasSeconds = 0, bakeSeconds = 0, layerSeconds = 0, measureSeconds = 0;
+  // Where the time goes: charts + LSCM + packing, the bake (colours and source layer), the loss.
+  double atlasSeconds = 0, bakeSeconds = 0, measureSeconds = 0;
 };
 
 // Builds the new atlas over `input`, bakes the refined result into it and measures the loss.

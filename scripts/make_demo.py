@@ -176,9 +176,9 @@ def main():
     chosen = list(lm_v)
     cand = np.flatnonzero(body)
     d = np.min(np.linalg.norm(V[cand][:, None] - V[lm_v][None], axis=2), axis=1)
-    while len(chosen) < 110:
+    while len(chosen) < 140:
         k = int(np.argmax(d))
-        if d[k] < 0.1:
+        if d[k] < 0.085:
             break
         chosen.append(int(cand[k]))
         d = np.minimum(d, np.linalg.norm(V[cand] - V[cand[k]], axis=1))
@@ -208,18 +208,24 @@ def main():
     R[:, 2] = 2 * Z0 - R[:, 2]
     _, mirror = cKDTree(V).query(R)
 
+    head = ["top of the head", "nose", "chin", "throat", "neck side", "nape"]
+    head_v = [v for name in head for n, v, _ in LANDMARKS if n == name]
+    # Points of the chains first: a document cut short from the end (tests do) keeps its chains.
+    order = list(tail_v) + list(head_v) + [v for v in pos if v not in tail_v and v not in head_v]
     points, index = [], {}
     for photo, flip in ((0, False), (1, True)):
-        for v, (px, py) in pos.items():
-            mv = int(mirror[v]) if flip else v
+        for v in order:
+            px, py = pos[v]
+            mv = int(mirror[v]) if flip else int(v)
             if mv in index and any(a["photo"] == photo for a in points[index[mv]]["at"]):
                 continue
             if mv not in index:
                 index[mv] = len(points)
                 points.append({"vertex": mv, "at": []})
             points[index[mv]]["at"].append({"photo": photo, "x": round(W - px if flip else px, 2), "y": round(py, 2)})
-    head = ["top of the head", "nose", "chin", "throat", "neck side", "nape"]
-    head_v = [v for name in head for n, v, _ in LANDMARKS if n == name]
+    first = {int(v) for v in list(tail_v) + list(head_v)} | {int(mirror[v]) for v in list(tail_v) + list(head_v)}
+    points.sort(key=lambda p: p["vertex"] not in first)  # stable: chain points of both photos first
+    index = {p["vertex"]: i for i, p in enumerate(points)}
     chains = []
     for photo, flip in ((0, False), (1, True)):
         vv = lambda v: int(mirror[v]) if flip else int(v)

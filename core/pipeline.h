@@ -51,7 +51,7 @@ struct SurfaceColors {
 };
 
 // Bake (paper section 2, step 5): charts, LSCM, packing and baking into one texture atlas (atlas.h),
-// and the model over the partition's mesh that carries it (one material "atlas").
+// and the model over the partition's mesh that carries it (one material per source, all showing the atlas).
 // With exportTopology "original" (the default), the result is also transferred onto the input mesh as
 // loaded, with an atlas of its own (atlas/transfer.h), and that is the model the pipeline exports.
 struct BakeResult {

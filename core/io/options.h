@@ -51,14 +51,16 @@ struct PipelineOptions {
   double seamLambda = 0.1;             // seams: weight of geometric stretch vs texture mismatch (paper 4.2)
   int seamRounds = 30;                 // seams: alternating optimisation rounds (paper 4.2)
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
-  LevelMode seamLevelling = LevelMode::Vertex;               // seam levelling between photos (paper end of 5)
-  InpaintMode inpaintMode = InpaintMode::Rbf;                // inpainting: guidance of holes without strokes
-  int maxInpaintVertices = 2000000;                          // inpainting: cap on refined vertices (coarser beyond)
-  int atlasSize = 4096;                                      // atlas: width and height in texels (1024..8192)
-  int gutter = 4;                                            // atlas: texels between charts and from the border
-  unsigned seed = 1;                                         // random line searches: seed, so runs are repeatable
-  ExportTopology exportTopology = ExportTopology::Original;  // export: the user's mesh (new atlas) or the refined one
-  int pngCompression = 6;  // export: zlib level of the atlas PNG, 0..9 (1 is fast, for previews; 9 smallest)
+  LevelMode seamLevelling = LevelMode::Vertex;  // seam levelling between photos (paper end of 5)
+  InpaintMode inpaintMode = InpaintMode::Rbf;   // inpainting: guidance of holes without strokes
+  int maxInpaintVertices = 2000000;             // inpainting: cap on refined vertices (coarser beyond)
+  int atlasSize = 4096;                         // atlas: width and height in texels (1024..8192)
+  int gutter = 4;                               // atlas: texels between charts and from the border
+  unsigned seed = 1;                            // random line searches: seed, so runs are repeatable
+
+  // Export: the user's mesh as loaded with a new atlas (original) or the refined mesh (refined).
+  ExportTopology exportTopology = ExportTopology::Original;
+  int pngCompression = 6;  // export: zlib level of the atlas PNG, 0..9 (1 fast, for previews; 9 smallest)
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&

@@ -16,15 +16,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "io/mesh_io.h"
 #include "bench/eval.h"
-#include "geometry/mesh.h"
-#include "io/model.h"
-#include "image/photo.h"
-#include "pipeline.h"
-#include "io/project.h"
 #include "bench/render.h"
 #include "bench/synth.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "io/project.h"
+#include "pipeline.h"
 
 namespace fs = std::filesystem;
 using namespace montage;
@@ -153,14 +153,89 @@ int cmdEval(const std::string& resultPath, const std::string& truthMesh, const s
   return 0;
 }
 
-int cmdRender(const std::string& modelPath, const std::string& out, const RenderOptions& options) {
-  TexturedModel model = loadModel(modelPath);
-  cv::Mat rgba = renderModel(model, options);
+void writePng(const cv::Mat& rgba, const std::string& out) {
   cv::Mat bgra;
   cv::cvtColor(rgba, bgra, cv::COLOR_RGBA2BGRA);
   if (fs::path(out).has_parent_path()) fs::create_directories(fs::path(out).parent_path());
   TM_CHECK(cv::imwrite(out, bgra), located(out, "cannot write the image"));
-  std::printf("wrote %s (%dx%d)\n", out.c_str(), rgba.cols, rgba.rows);
+}
+
+struct RenderArgs {
+  std::string model, out, size;
+  int turntable = 0;   // views of a turntable; 0 = one render
+  bool layer = false;  // render the source-photo layer instead of the texture
+  RenderOptions options;
+};
+
+// "W" or "WxH" (pixels, 16..8192 each).
+void parseRenderSize(const std::string& text, RenderOptions& options) {
+  if (text.empty()) return;
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  const int n = std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra);
+  const bool ok = (n == 1) || (n == 3 && (x == 'x' || x == 'X'));
+  if (n == 1) h = w;
+  TM_CHECK(ok && w >= 16 && w <= 8192 && h >= 16 && h <= 8192,
+           "--size: " + text + " is not W or WxH with sides in 16..8192 pixels (e.g. 1024 or 800x600)");
+  options.size = w;
+  options.height = h;
+}
+
+// The layer render: every texture of the model replaced by its atlas's source layer in colours (the
+// file <model stem>_atlas_source.png beside the model, as `montage run` writes it), with a legend.
+std::vector<std::pair<cv::Vec4b, std::string>> useSourceLayer(TexturedModel& model, const std::string& modelPath) {
+  const fs::path path = fs::path(modelPath).parent_path() / (fs::path(modelPath).stem().string() + "_atlas_source.png");
+  TM_CHECK(fs::is_regular_file(path),
+           located(modelPath, "--layer needs the source layer " + path.string() + " (written by montage run)"));
+  cv::Mat source = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  TM_CHECK(!source.empty(), located(path.string(), "cannot read the source layer"));
+  const cv::Mat colours = colorizeSourceLayer(source);
+  for (Material& m : model.materials)
+    if (!m.texture.empty()) {
+      TM_CHECK(
+          m.texture.size() == source.size(),
+          located(path.string(), "the source layer is " + std::to_string(source.cols) + "x" +
+                                     std::to_string(source.rows) + " but the texture of material '" + m.name + "' is " +
+                                     std::to_string(m.texture.cols) + "x" + std::to_string(m.texture.rows)));
+      m.texture = colours;
+    }
+  std::vector<std::pair<cv::Vec4b, std::string>> legend;
+  for (int code : sourceLayerCodes(source))
+    legend.emplace_back(sourceLayerColor(code), code == 254   ? "inpainted"
+                                                : code == 253 ? "empty (no photo, not inpainted)"
+                                                              : "photo " + std::to_string(code - 1));
+  return legend;
+}
+
+int cmdRender(const RenderArgs& args) {
+  TexturedModel model = loadModel(args.model);
+  RenderOptions options = args.options;
+  parseRenderSize(args.size, options);
+  std::vector<std::pair<cv::Vec4b, std::string>> legend;
+  if (args.layer) {
+    legend = useSourceLayer(model, args.model);
+    options.shading = false;  // flat colours read better in a legend's key
+  }
+  if (args.turntable <= 0) {
+    cv::Mat rgba = renderModel(model, options);
+    if (!legend.empty()) drawLegend(rgba, legend);
+    writePng(rgba, args.out);
+    std::printf("wrote %s (%dx%d)\n", args.out.c_str(), rgba.cols, rgba.rows);
+    return 0;
+  }
+  std::vector<cv::Mat> views = renderTurntable(model, args.turntable, options);
+  const fs::path out(args.out);
+  const std::string stem = (out.parent_path() / out.stem()).string();
+  for (size_t k = 0; k < views.size(); ++k) {
+    char suffix[32];
+    std::snprintf(suffix, sizeof suffix, "_%02zu.png", k);
+    writePng(views[k], stem + suffix);
+  }
+  cv::Mat sheet = contactSheet(views);
+  if (!legend.empty()) drawLegend(sheet, legend);
+  writePng(sheet, args.out);
+  std::printf("wrote %zu views %s_00.png .. and the contact sheet %s (%dx%d)\n", views.size(), stem.c_str(),
+              args.out.c_str(), sheet.cols, sheet.rows);
   return 0;
 }
 
@@ -175,8 +250,9 @@ void printStages(const PipelineResult& result) {
   }
 }
 
-int cmdRun(const std::string& projectPath, const std::string& out) {
+int cmdRun(const std::string& projectPath, const std::string& out, int pngCompression) {
   Project project = loadProject(projectPath);
+  if (pngCompression >= 0) project.options.pngCompression = pngCompression;
   Pipeline pipeline;
   ProgressLine line;
   JobControl job(nullptr, [&](StageId s, double f, const std::string& what) { line(stageName(s), f, what); });
@@ -196,7 +272,7 @@ struct BenchArgs {
 
 int cmdBench(BenchArgs args) {
   using Clock = std::chrono::steady_clock;
-  if (args.mesh.empty()) args.mesh = (fs::path(TM_SOURCE_DIR) / "assets/demo/demo_mesh.obj").string();
+  if (args.mesh.empty()) args.mesh = (fs::path(TM_SOURCE_DIR) / "assets/demo/cat.obj").string();
   if (args.work.empty()) args.work = (fs::temp_directory_path() / "tm_bench").string();
   std::printf("bench: %s, %d views, %d features, %d px\n", args.mesh.c_str(), args.synth.views, args.synth.features,
               args.synth.size);
@@ -255,19 +331,31 @@ int main(int argc, char** argv) {
   evalCmd->add_option("--json", evalJson, "also write the figures as JSON");
   evalCmd->add_option("--samples", evalSamples, "surface samples")->check(CLI::Range(100, 100000000));
 
-  std::string renderModelPath, renderOut;
-  RenderOptions renderOptions;
-  auto* render = app.add_subcommand("render", "Headless shaded render of a model to PNG");
-  render->add_option("MODEL", renderModelPath, "model (.obj .glb or any mesh)")->required();
-  render->add_option("--out", renderOut, "PNG to write")->required();
-  render->add_option("--yaw", renderOptions.yawDeg, "orbit angle, degrees");
-  render->add_option("--pitch", renderOptions.pitchDeg, "elevation, degrees");
-  render->add_option("--size", renderOptions.size, "image size, pixels")->check(CLI::Range(16, 8192));
+  RenderArgs renderArgs;
+  auto* render = app.add_subcommand("render", "Headless shaded render of a model to PNG (one view or a turntable)");
+  render->add_option("MODEL", renderArgs.model, "model (.obj .glb or any mesh)")->required();
+  render->add_option("--out", renderArgs.out, "PNG to write (with --turntable: the contact sheet; views beside it)")
+      ->required();
+  render->add_option("--yaw", renderArgs.options.yawDeg, "orbit angle, degrees (first view of a turntable)");
+  render->add_option("--pitch", renderArgs.options.pitchDeg, "elevation, degrees");
+  render->add_option("--size", renderArgs.size, "image size in pixels: W (square) or WxH, e.g. 1024 or 800x600")
+      ->type_name("W|WxH");
+  render
+      ->add_option("--turntable", renderArgs.turntable,
+                   "N views around the model: OUT_00.png .. OUT_<N-1>.png and a contact sheet OUT")
+      ->check(CLI::Range(1, 360));
+  render->add_flag("--layer", renderArgs.layer,
+                   "render the source-photo layer (one colour per photo, inpainted, empty) with a legend instead "
+                   "of the texture; needs <model>_atlas_source.png beside the model");
 
   std::string runProject, runOut;
+  int runPng = -1;
   auto* run = app.add_subcommand("run", "Run the pipeline on a project and export model.obj, model.glb, report.json");
   run->add_option("PROJECT", runProject, "project file (.json)")->required();
   run->add_option("--out", runOut, "output folder")->required();
+  run->add_option("--png-compression", runPng,
+                  "zlib level of the atlas PNG, overriding the project's option: 1 fast (previews) .. 9 smallest")
+      ->check(CLI::Range(0, 9));
 
   BenchArgs bench;
   auto* benchCmd =
@@ -284,8 +372,8 @@ int main(int argc, char** argv) {
     if (*info) return cmdInfo(infoFile);
     if (*synthCmd) return cmdSynth(synth);
     if (*evalCmd) return cmdEval(evalResult, evalTruth, evalTexture, evalJson, evalSamples);
-    if (*render) return cmdRender(renderModelPath, renderOut, renderOptions);
-    if (*run) return cmdRun(runProject, runOut);
+    if (*render) return cmdRender(renderArgs);
+    if (*run) return cmdRun(runProject, runOut, runPng);
     if (*benchCmd) return cmdBench(bench);
   } catch (const std::exception& e) {  // montage::Error and anything else: one line, exit status 1
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "base/util.h"
+#include "surface/preview.h"
 #include "io/mesh_io.h"
 #include "mapping/simplify.h"
 
@@ -106,6 +107,23 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
   job.progress(StageId::Bake, 0.6, "baking");
   out.image = bakeAtlas(out.atlas, mesh, scene.photos, &colors.levelling, inpaint, options);
   out.model = atlasModel(mesh, out.atlas, out.image);
+  const std::string name = fs::path(scene.project.mesh).stem().string();
+  out.model.name = name.empty() ? "model" : name;
+  if (scene.project.options.exportTopology == ExportTopology::Original) {
+    job.progress(StageId::Bake, 0.8, "transfer to the original mesh");
+    const auto start = Clock::now();
+    out.original = true;
+    // Texels take the montage's own colours (photos, levelling, inpainting), not a second resampling of
+    // the refined atlas.
+    std::vector<const Photo*> photos;
+    for (const auto& p : scene.photos) photos.push_back(p.get());
+    const PreviewSurface surface(mapping.map, photos, &colors.levelling, inpaint, options.emptyColor);
+    out.originalModel =
+        bakeOriginalTopology(*scene.mesh, mesh, mapping.partition.faceParent, out.atlas, out.image, options, {},
+                             [&](int f, const Vec3& b) { return surface.color(f, b); });
+    out.originalModel.model.name = out.model.name;
+    out.transferSeconds = secondsSince(start);
+  }
   job.progress(StageId::Bake, 1.0);
   return out;
 }
@@ -281,24 +299,36 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"refined_triangles", inp.refined.mesh.numTriangles()}}});
   for (const auto& w : colors.warnings) result.warnings.push_back("inpaint: " + w);
 
-  // Bake (final tier): rerun when the colours or the atlas options changed.
+  // Bake (final tier): rerun when the colours or the atlas and export options changed.
   if (tier == Tier::Final) {
-    key << opts["atlasSize"].dump() << opts["gutter"].dump();
+    key << opts["atlasSize"].dump() << opts["gutter"].dump() << opts["exportTopology"].dump();
     const bool bakeCached = colorCached && key.str() == bakeKey_ && cachedBake_;
     start = Clock::now();
     if (!bakeCached) {
       cachedBake_ = std::make_shared<const BakeResult>(bakeModel(*scene, mapping, colors, job));
       bakeKey_ = key.str();
     }
+    const BakeResult& baked = *cachedBake_;
     StageRecord bake;
     bake.stage = StageId::Bake;
     bake.cached = bakeCached;
     bake.seconds = bakeCached ? 0 : secondsSince(start);
-    bake.counts = cachedBake_->atlas.stats();
-    bake.counts["bake_seconds"] = cachedBake_->image.seconds;
+    bake.counts = baked.atlas.stats();
+    bake.counts["bake_seconds"] = baked.image.seconds;
+    bake.counts["export_topology"] = kExportTopologyNames[size_t(project.options.exportTopology)];
+    if (baked.original) {
+      const OriginalModel& o = baked.originalModel;
+      bake.counts["original"] = {{"charts", o.atlas.charts.size()},  {"utilisation", o.atlas.utilisation},
+                                 {"scale", o.atlas.scale},           {"vertices", o.model.mesh.numVertices()},
+                                 {"faces", o.model.mesh.numFaces()}, {"seconds", baked.transferSeconds},
+                                 {"atlas_seconds", o.atlasSeconds},  {"bake_seconds", o.bakeSeconds},
+                                 {"measure_seconds", o.measureSeconds},
+                                 {"transfer_loss", o.loss.toJson()}};
+    }
     result.stages.push_back(bake);
     result.baked = cachedBake_;
-    result.model = std::shared_ptr<const TexturedModel>(cachedBake_, &cachedBake_->model);
+    result.model = std::shared_ptr<const TexturedModel>(cachedBake_, &baked.model);
+    result.exported = std::shared_ptr<const TexturedModel>(cachedBake_, &baked.exported());
   }
 
   result.scene = scene;
@@ -335,6 +365,26 @@ nlohmann::json PipelineResult::report() const {
                  {"boundary_loops", scene->meshReport.boundaryLoops},
                  {"components", scene->meshReport.components}};
   }
+  if (mapping && baked && baked->atlas.faceSource.size() == size_t(mapping->partition.mesh.numFaces())) {
+    // Where the surface's colours come from, as area shares: photos (and each photo), inpainting, nothing.
+    const Mesh& mesh = mapping->partition.mesh;
+    double total = 0, photo = 0, inpainted = 0, empty = 0;
+    std::vector<double> perPhoto(scene ? scene->photos.size() : 0, 0.0);
+    for (int f = 0; f < mesh.numFaces(); ++f) {
+      const double a = mesh.faceArea(f);
+      const int s = baked->atlas.faceSource[f];
+      total += a;
+      (s >= 0 ? photo : s == kSourceInpainted ? inpainted : empty) += a;
+      if (s >= 0 && s < static_cast<int>(perPhoto.size())) perPhoto[s] += a;
+    }
+    if (total > 0) {
+      for (double& p : perPhoto) p /= total;
+      j["surface"] = {{"photo_share", photo / total},
+                      {"inpainted_share", inpainted / total},
+                      {"empty_share", empty / total},
+                      {"photo_shares", perPhoto}};
+    }
+  }
   if (mapping) {
     // Rejected pairs with their reasons, so a user can see why a region stayed empty (first 1000).
     nlohmann::json rejected = nlohmann::json::array();
@@ -355,24 +405,35 @@ nlohmann::json PipelineResult::report() const {
 }
 
 void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
-  TM_CHECK(result.model, "writeRunOutputs: no model to write");
+  const std::shared_ptr<const TexturedModel>& model = result.exported ? result.exported : result.model;
+  TM_CHECK(model, "writeRunOutputs: no model to write");
   std::error_code ec;
   fs::create_directories(dir, ec);
   TM_CHECK(!ec, located(dir, "cannot create output folder: " + ec.message()));
   const auto start = Clock::now();
-  exportObj(*result.model, dir, "model");
-  exportGlb(*result.model, (fs::path(dir) / "model.glb").string());
+  PngCache pngs(result.scene ? result.scene->project.options.pngCompression : PipelineOptions{}.pngCompression);
+  exportObj(*model, dir, "model", &pngs);
+  exportGlb(*model, (fs::path(dir) / "model.glb").string(), &pngs);
   std::vector<std::string> files = {"model.obj", "model.mtl", "model.glb"};
-  for (const Material& m : result.model->materials)
-    if (!m.texture.empty()) files.push_back("model_" + m.name + ".png");
+  for (const Material& m : model->materials)
+    if (!m.texture.empty()) {
+      const std::string png = "model_" + (m.textureName.empty() ? m.name : m.textureName) + ".png";
+      if (std::find(files.begin(), files.end(), png) == files.end()) files.push_back(png);
+    }
   if (result.baked) {
-    writeAtlasLayers(result.baked->atlas, result.baked->image, dir, "model");
+    if (result.baked->original)
+      writeAtlasLayers(result.baked->originalModel.source, dir, "model");
+    else
+      writeAtlasLayers(result.baked->atlas, result.baked->image, dir, "model");
     files.insert(files.end(), {"model_atlas_source.png", "model_atlas_holes.png"});
   }
   nlohmann::json report = result.report();
   const double seconds = secondsSince(start);
   report["stages"].push_back(
-      {{"stage", stageName(StageId::Export)}, {"seconds", seconds}, {"cached", false}, {"counts", {{"files", files}}}});
+      {{"stage", stageName(StageId::Export)},
+       {"seconds", seconds},
+       {"cached", false},
+       {"counts", {{"files", files}, {"png_encodes", pngs.encodes()}, {"png_seconds", pngs.seconds()}}}});
   report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
   writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
 }

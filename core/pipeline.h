@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "atlas/atlas.h"
+#include "atlas/transfer.h"
 #include "base/job.h"
 #include "geometry/mesh.h"
 #include "image/photo.h"
@@ -53,11 +54,17 @@ struct SurfaceColors {
 };
 
 // Bake (paper section 2, step 5): charts, LSCM, packing and baking into one texture atlas (atlas.h),
-// and the model over the partition's mesh that carries it (one material "atlas").
+// and the model over the partition's mesh that carries it (one material per source, all showing the atlas).
+// With exportTopology "original" (the default), the result is also transferred onto the input mesh as
+// loaded, with an atlas of its own (atlas/transfer.h), and that is the model the pipeline exports.
 struct BakeResult {
   Atlas atlas;
-  AtlasImage image;  // image.rgba is the model's texture (shared, not copied)
-  TexturedModel model;
+  AtlasImage image;       // image.rgba is the model's texture (shared, not copied)
+  TexturedModel model;    // over the refined mesh
+  bool original = false;  // exportTopology is original: `originalModel` holds the exported model
+  OriginalModel originalModel;
+  double transferSeconds = 0;
+  const TexturedModel& exported() const { return original ? originalModel.model : model; }
 };
 
 // What a run produces. The preview is what the editor shows after each edit: the mapping, the
@@ -72,8 +79,9 @@ struct PipelineResult {
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const Mapping> mapping;
   std::shared_ptr<const SurfaceColors> colors;
-  std::shared_ptr<const BakeResult> baked;     // final tier only
-  std::shared_ptr<const TexturedModel> model;  // baked->model (final tier only)
+  std::shared_ptr<const BakeResult> baked;        // final tier only
+  std::shared_ptr<const TexturedModel> model;     // baked->model: the atlas over the refined mesh (final tier only)
+  std::shared_ptr<const TexturedModel> exported;  // baked->exported(): what export writes (final tier only)
   std::vector<StageRecord> stages;
   std::vector<std::string> warnings;  // things the user should know (mesh caveats, unmapped regions)
   nlohmann::json report() const;      // what report.json holds
@@ -135,7 +143,8 @@ class Pipeline {
 
 // Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers
 // DIR/model_atlas_source.png and DIR/model_atlas_holes.png (when the result has an atlas) and
-// DIR/report.json.
+// DIR/report.json. The atlas PNG is encoded once (options.pngCompression) and the GLB embeds the same
+// bytes.
 void writeRunOutputs(const PipelineResult& result, const std::string& dir);
 
 }  // namespace montage

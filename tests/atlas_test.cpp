@@ -487,7 +487,7 @@ TEST(AtlasBake, GuttersAndFreeSpaceRepeatChartColours) {
 }
 
 // ----------------------------------------------------------------------------------------------
-// A real texture map with holes: the demo turtle through the mapping stages.
+// A real texture map with holes: the demo (a cat from tiger photos) through the mapping stages.
 
 TEST(Atlas, DemoTextureMapWithHoles) {
   Project project = loadProject(test::assetsDir() + "/demo/project.json");

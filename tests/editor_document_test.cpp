@@ -7,13 +7,13 @@
 #include <thread>
 
 #include "autosave.h"
-#include "geometry/bvh.h"
 #include "document.h"
+#include "geometry/bvh.h"
 #include "geometry/predicates.h"
-#include "surface/inpaint.h"
+#include "geometry/shapes.h"
 #include "overlays.h"
 #include "script.h"
-#include "geometry/shapes.h"
+#include "surface/inpaint.h"
 #include "test_support.h"
 #include "view_math.h"
 
@@ -162,12 +162,14 @@ TEST(EditorDocument, RemovePhotoRenumbers) {
   Document doc(p);
   doc.removePhoto(0);
   const Project& q = doc.project();
-  EXPECT_EQ(q.photos.size(), 3u);
+  ASSERT_GE(p.photos.size(), 2u);
+  const int left = static_cast<int>(p.photos.size()) - 1;
+  EXPECT_EQ(q.photos.size(), static_cast<size_t>(left));
   for (const auto& pt : q.points) {
     EXPECT_FALSE(pt.at.empty());
-    for (const auto& a : pt.at) EXPECT_LT(a.photo, 3);
+    for (const auto& a : pt.at) EXPECT_LT(a.photo, left);
   }
-  // Every point of the demo in photos 1..3 survives, shifted down.
+  // Every point of the demo in the other photos survives, shifted down.
   size_t expected = 0;
   for (const auto& pt : p.points)
     for (const auto& a : pt.at)
@@ -181,7 +183,7 @@ TEST(EditorDocument, RemovePhotoRenumbers) {
 TEST(EditorDocument, DemoEditSaveAndReload) {
   const Project original = demo();
   Document doc(original);
-  doc.setPosition(100, 0, 400.5, 380.25);
+  doc.setPosition(100, 0, 200.5, 80.25);
   Project copy = doc.project();
   const std::string path = test::tempDir("editor_doc") + "/saved.json";
   saveProject(copy, path);

@@ -54,6 +54,10 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
   const Mesh& mesh = result.mapping->partition.mesh;
   EXPECT_GE(mesh.numVertices(), result.scene->mesh->numVertices());
   EXPECT_EQ(result.model->mesh.numFaces(), mesh.numFaces());
+  // The exported model is the input mesh as loaded (exportTopology "original", the default).
+  ASSERT_TRUE(result.exported);
+  EXPECT_EQ(result.exported->mesh.numFaces(), result.scene->mesh->numFaces());
+  EXPECT_EQ(result.exported->mesh.numVertices(), result.scene->mesh->numVertices());
   EXPECT_EQ(result.mapping->map.numFaces(), mesh.numFaces());
   EXPECT_GT(result.mapping->map.numMapped(), 0);
   EXPECT_EQ(result.stages[0].counts["photos"].get<int>(), static_cast<int>(project.photos.size()));
@@ -128,26 +132,29 @@ TEST(Pipeline, WritesModelAndReport) {
   int inpainted = 0;
   for (int s : result.model->faceSource) inpainted += s == kSourceInpainted;
   EXPECT_GT(inpainted, 0);
+  EXPECT_GT(report["surface"]["inpainted_share"].get<double>(), 0.0);
   EXPECT_EQ(report["mesh"]["faces"].get<int>(), result.scene->mesh->numFaces());
   // The rejected pairs and their reasons reach the user.
   EXPECT_EQ(report["map"]["rejected_total"].get<size_t>(), result.mapping->partition.rejected.size());
   ASSERT_FALSE(report["map"]["rejected_pairs"].empty());
   EXPECT_FALSE(report["map"]["rejected_pairs"][0]["reason"].get<std::string>().empty());
   // One atlas: a single textured material, every face's UVs inside [0,1]^2.
-  ASSERT_EQ(result.model->materials.size(), 1u);
+  ASSERT_EQ(result.exported->materials.size(), 1u);
   // The automatic atlas size: a multiple of 256 that holds the photos at their own resolution.
   const int atlasSize = result.model->materials[0].texture.cols;
   EXPECT_EQ(atlasSize % 256, 0);
   EXPECT_EQ(stage["bake"]["counts"]["size"].get<int>(), atlasSize);
   EXPECT_DOUBLE_EQ(stage["bake"]["counts"]["scale"].get<double>(), 1.0);
-  for (const auto& uv : result.model->uv)
+  const int exportedSize = result.exported->materials[0].texture.cols;
+  EXPECT_EQ(exportedSize % 256, 0);
+  for (const auto& uv : result.exported->uv)
     for (const Vec2f& t : uv) EXPECT_TRUE(t.minCoeff() >= 0 && t.maxCoeff() <= 1) << t.transpose();
   EXPECT_GT(stage["bake"]["counts"]["utilisation"].get<double>(), 0.3);
   for (const char* name : {"model.glb", "model.obj"}) {
     TexturedModel back = loadModel(dir + "/" + name);
-    EXPECT_EQ(back.mesh.numFaces(), result.model->mesh.numFaces()) << name;
+    EXPECT_EQ(back.mesh.numFaces(), result.exported->mesh.numFaces()) << name;
     ASSERT_EQ(back.materials.size(), 1u) << name;
-    EXPECT_EQ(back.materials[0].texture.cols, atlasSize) << name;
+    EXPECT_EQ(back.materials[0].texture.cols, exportedSize) << name;
   }
 }
 

@@ -163,9 +163,10 @@ bool Editor::exportTo(const std::string& path) {
     const std::string abs = fs::absolute(path).lexically_normal().string();
     const std::string ext = lowerExtension(abs);
     if (ext == ".glb") {
-      exportGlb(*result_->model, abs);
+      exportGlb(result_->exported ? *result_->exported : *result_->model, abs);
     } else if (ext == ".obj") {
-      exportObj(*result_->model, fs::path(abs).parent_path().string(), fs::path(abs).stem().string());
+      exportObj(result_->exported ? *result_->exported : *result_->model, fs::path(abs).parent_path().string(),
+                fs::path(abs).stem().string());
     } else {
       throw Error(located(abs, "export: choose a file name ending in .glb or .obj"));
     }

@@ -303,6 +303,7 @@ Charting makeCharts(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& 
   // photo coordinates in both (continuous texture); faces of the other kinds when they share an edge.
   const auto sameChart = [&](int f, int k, int g) {
     if (in.faceSource[f] != in.faceSource[g]) return false;
+    if (!in.faceGroup.empty() && in.faceGroup[f] != in.faceGroup[g]) return false;
     if (in.faceSource[f] < 0) return true;
     const auto fv = mesh.faceVertices(f), gv = mesh.faceVertices(g);
     for (int j = 0; j < 2; ++j) {
@@ -647,6 +648,9 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   TM_CHECK(
       static_cast<int>(in.faceSource.size()) == F,
       "atlas: faceSource has " + std::to_string(in.faceSource.size()) + " entries for " + std::to_string(F) + " faces");
+  TM_CHECK(
+      in.faceGroup.empty() || static_cast<int>(in.faceGroup.size()) == F,
+      "atlas: faceGroup has " + std::to_string(in.faceGroup.size()) + " entries for " + std::to_string(F) + " faces");
   TM_CHECK(in.faceDensity.empty() || static_cast<int>(in.faceDensity.size()) == F,
            "atlas: faceDensity has " + std::to_string(in.faceDensity.size()) + " entries for " + std::to_string(F) +
                " faces");
@@ -923,6 +927,37 @@ void fillFromNearest(cv::Mat& rgba, const cv::Mat& chart) {
   }
 }
 
+// Runs bake(chart index) for every chart on `threads` threads (0 = all cores), largest charts first.
+// Footprints are disjoint, so threads write disjoint texels. The first exception stops the others and
+// is rethrown.
+void forEachChart(const Atlas& atlas, int threads, const std::function<void(int)>& bake) {
+  std::vector<int> order(atlas.charts.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return double(atlas.charts[a].width) * atlas.charts[a].height >
+           double(atlas.charts[b].width) * atlas.charts[b].height;
+  });
+  const int n = std::max(1, std::min<int>(threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency()),
+                                          static_cast<int>(order.size())));
+  std::atomic<size_t> next{0};
+  std::exception_ptr failure;
+  std::mutex failureMutex;
+  const auto worker = [&] {
+    try {
+      for (size_t k; (k = next++) < order.size();) bake(order[k]);
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(failureMutex);
+      if (!failure) failure = std::current_exception();
+      next = order.size();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int i = 1; i < n; ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
 }  // namespace
 
 AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std::shared_ptr<const Photo>>& photos,
@@ -1058,35 +1093,48 @@ AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std
       }
   };
 
-  // Footprints are disjoint, so threads write disjoint texels; the largest charts go first.
-  std::vector<int> order(atlas.charts.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) {
-    return double(atlas.charts[a].width) * atlas.charts[a].height >
-           double(atlas.charts[b].width) * atlas.charts[b].height;
-  });
-  const int threads = std::max(
-      1, std::min<int>(options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()),
-                       static_cast<int>(order.size())));
-  std::atomic<size_t> next{0};
-  std::exception_ptr failure;
-  std::mutex failureMutex;
-  const auto worker = [&] {
+  forEachChart(atlas, options.threads, [&](int ci) {
     std::vector<BakeTriangle> tris;
-    try {
-      for (size_t k; (k = next++) < order.size();) bakeChart(order[k], tris);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(failureMutex);
-      if (!failure) failure = std::current_exception();
-      next = order.size();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+    bakeChart(ci, tris);
+  });
+  fillFromNearest(out.rgba, out.chart);
+  out.seconds = secondsSince(t0);
+  return out;
+}
 
+AtlasImage bakeAtlasSurface(const Atlas& atlas, const std::function<Vec3f(int, const Vec3&, unsigned char&)>& color,
+                            const AtlasOptions& options, cv::Mat* labels) {
+  const auto t0 = Clock::now();
+  const int size = atlas.size;
+  TM_CHECK(size > 0 && atlas.faceChart.size() == atlas.cornerUV.size(), "atlas bake: the atlas is not built");
+  AtlasImage out;
+  out.rgba = largeMat(size, size, CV_8UC4);
+  out.rgba.setTo(cv::Scalar(0, 0, 0, 255));
+  out.chart = largeMat(size, size, CV_32SC1);
+  out.chart.setTo(cv::Scalar(-1));
+  cv::Mat priority = largeMat(size, size, CV_8UC1);
+  priority.setTo(cv::Scalar(255));
+  if (labels) *labels = cv::Mat(size, size, CV_8UC1, cv::Scalar(0));
+  const auto toByte = [](float v) { return static_cast<unsigned char>(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f); };
+  forEachChart(atlas, options.threads, [&](int ci) {
+    const AtlasChart& chart = atlas.charts[ci];
+    const int x1 = chart.x + chart.width, y1 = chart.y + chart.height;
+    const auto settled = [&](int x, int y) { return priority.ptr<unsigned char>(y)[x] == 0; };
+    for (const Pass pass : {Pass::Inside, Pass::Band})
+      for (int f : chart.faces)
+        footprintTexels(atlas.cornerUV[f], chart.x, chart.y, x1, y1, pass, settled,
+                        [&](int x, int y, double d, const Vec3& b) {
+                          unsigned char& prio = priority.ptr<unsigned char>(y)[x];
+                          const int mine = d == 0 ? 0 : 1 + std::min(253, static_cast<int>(d * 64));
+                          if (mine >= prio) return;
+                          prio = static_cast<unsigned char>(mine);
+                          unsigned char label = 0;
+                          const Vec3f c = color(f, b, label);
+                          out.rgba.ptr<cv::Vec4b>(y)[x] = cv::Vec4b(toByte(c[0]), toByte(c[1]), toByte(c[2]), 255);
+                          if (labels) labels->ptr<unsigned char>(y)[x] = label;
+                          out.chart.ptr<int>(y)[x] = ci;
+                        });
+  });
   fillFromNearest(out.rgba, out.chart);
   out.seconds = secondsSince(t0);
   return out;
@@ -1118,12 +1166,17 @@ cv::Mat atlasHoleMask(const Atlas& atlas, const AtlasImage& image) {
 }
 
 void writeAtlasLayers(const Atlas& atlas, const AtlasImage& image, const std::string& dir, const std::string& base) {
+  writeAtlasLayers(atlasSourceLayer(atlas, image), dir, base);
+}
+
+void writeAtlasLayers(const cv::Mat& source, const std::string& dir, const std::string& base) {
   namespace fs = std::filesystem;
+  TM_CHECK(source.type() == CV_8UC1, located(dir, "the source layer must be 8-bit, one channel"));
   std::error_code ec;
   fs::create_directories(dir, ec);
+  const cv::Mat holes = source >= 253;  // inpainted (254) and empty (253)
   for (const auto& [suffix, layer] :
-       {std::pair<std::string, cv::Mat>{"_atlas_source.png", atlasSourceLayer(atlas, image)},
-        {"_atlas_holes.png", atlasHoleMask(atlas, image)}}) {
+       {std::pair<std::string, cv::Mat>{"_atlas_source.png", source}, {"_atlas_holes.png", holes}}) {
     const std::string path = (fs::path(dir) / (base + suffix)).string();
     std::vector<unsigned char> bytes;
     TM_CHECK(cv::imencode(".png", layer, bytes), located(path, "cannot encode PNG"));
@@ -1149,12 +1202,26 @@ TexturedModel atlasModel(const Mesh& mesh, const Atlas& atlas, const AtlasImage&
       const Vec2& a = atlas.cornerUV[f][k];
       model.uv[f][k] = Vec2f(static_cast<float>(a.x() * inv), static_cast<float>(1.0 - a.y() * inv));
     }
-  model.faceMaterial.assign(F, 0);
+  // One material per source ("photo_<k>", "inpainted", "empty", in that order), all showing the atlas, so
+  // that viewers list the parts by where their colours come from.
   model.faceSource = atlas.faceSource;
-  Material material;
-  material.name = "atlas";
-  material.texture = image.rgba;
-  model.materials.push_back(material);
+  std::map<int, int> material;  // source -> material, photos first
+  for (int src : atlas.faceSource) material.emplace(src >= 0 ? src : 1'000'000 - src, 0);
+  for (auto& [key, index] : material) {
+    Material m;
+    m.name = key < 1'000'000                       ? "photo_" + std::to_string(key)
+             : key == 1'000'000 - kSourceInpainted ? "inpainted"
+                                                   : "empty";
+    m.texture = image.rgba;
+    m.textureName = "atlas";
+    index = static_cast<int>(model.materials.size());
+    model.materials.push_back(m);
+  }
+  model.faceMaterial.resize(F);
+  for (int f = 0; f < F; ++f) {
+    const int src = atlas.faceSource[f];
+    model.faceMaterial[f] = material.at(src >= 0 ? src : 1'000'000 - src);
+  }
   return model;
 }
 

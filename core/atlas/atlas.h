@@ -69,6 +69,9 @@ struct AtlasInput {
   // Optional #F: texel density wanted for non-photo faces, in texels per model unit at scale 1
   // (inpainting's refinement density); 0 or empty = the photo charts' mean density.
   std::vector<double> faceDensity;
+  // Optional #F: faces of different groups never share a chart (e.g. the charts of another atlas of
+  // the same surface, so that the new charts follow its seams); empty = no constraint.
+  std::vector<int> faceGroup;
 };
 
 // The input for the pipeline: faces of an inpainted region or clone target (inpaint->faceRegion >= 0)
@@ -133,6 +136,16 @@ struct AtlasImage {
 AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std::shared_ptr<const Photo>>& photos,
                      const SeamLevelling* levelling, const InpaintResult* inpaint, const AtlasOptions& options = {});
 
+// Bakes any surface colour into the atlas: every footprint texel takes color(face, barycentrics of the
+// face) at its centre when the centre lies in one of its chart's triangles, else at the nearest point of
+// the chart's triangles; then the same gutter fill as bakeAtlas. `color` returns sRGB in [0,1] and may
+// set `label` (0 by default); `labels`, when given, receives the labels as a CV_8UC1 image (0 outside
+// every footprint). `color` is called from several threads at once. Used to transfer a result between
+// two atlases of one surface (atlas/transfer.h).
+AtlasImage bakeAtlasSurface(const Atlas& atlas,
+                            const std::function<Vec3f(int face, const Vec3& bary, unsigned char& label)>& color,
+                            const AtlasOptions& options = {}, cv::Mat* labels = nullptr);
+
 // Extra layers. Source per texel (CV_8UC1): photo index + 1 (up to 250), 254 inpainted, 253 empty,
 // 0 outside every footprint. Hole mask (CV_8UC1): 255 on inpainted and empty charts, 0 elsewhere.
 cv::Mat atlasSourceLayer(const Atlas& atlas, const AtlasImage& image);
@@ -140,10 +153,13 @@ cv::Mat atlasHoleMask(const Atlas& atlas, const AtlasImage& image);
 // Writes DIR/<base>_atlas_source.png and DIR/<base>_atlas_holes.png (atomically).
 void writeAtlasLayers(const Atlas& atlas, const AtlasImage& image, const std::string& dir,
                       const std::string& base = "model");
+// The same from a source layer (atlasSourceLayer's codes); the hole mask is where it is 253 or 254.
+void writeAtlasLayers(const cv::Mat& source, const std::string& dir, const std::string& base = "model");
 
-// The model exportObj/exportGlb write: the mesh, atlas UVs (OBJ convention), the given face sources
-// and ONE material named "atlas" whose texture is the baked image, so exportObj(model, dir, "model")
-// writes model.obj, model.mtl and model_atlas.png.
+// The model exportObj/exportGlb write for the refined topology: the mesh, atlas UVs (OBJ convention), the
+// given face sources and one material per source ("photo_<k>", "inpainted", "empty"), all showing the
+// baked image (texture name "atlas"), so exportObj(model, dir, "model") writes model.obj, model.mtl and
+// one model_atlas.png.
 TexturedModel atlasModel(const Mesh& mesh, const Atlas& atlas, const AtlasImage& image);
 
 }  // namespace montage

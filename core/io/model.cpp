@@ -23,6 +23,7 @@
 #include <unordered_map>
 
 #include "base/fileio.h"
+#include "base/util.h"
 #include "image/color.h"
 #include "image/photo.h"
 #include "io/mesh_io.h"
@@ -47,6 +48,13 @@ std::string trim(const std::string& s) {
 
 std::string quote(const std::string& s) {
   return "'" + s + "'";
+}
+
+// A name as it may appear in OBJ statements and file names: letters, digits, '_', '-' and '.' only.
+std::string fileNamePart(std::string name) {
+  for (char& c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) c = '_';
+  return name;
 }
 
 // Shortest decimal text that reads back to exactly the same value.
@@ -148,14 +156,8 @@ std::vector<T> perMeshFace(const Mesh& mesh, const std::vector<T>& perInput) {
   return out;
 }
 
-// A per-face array the mesh loader produced: either already per mesh face, or per input face.
 std::vector<int> meshFaceArray(const Mesh& mesh, const std::vector<int>& values) {
-  const size_t nf = static_cast<size_t>(mesh.numFaces());
-  if (values.size() == nf || values.empty()) return values;
-  if (mesh.faceOrigin.size() == nf && std::all_of(mesh.faceOrigin.begin(), mesh.faceOrigin.end(),
-                                                  [&](int o) { return o >= 0 && o < static_cast<int>(values.size()); }))
-    return perMeshFace(mesh, values);
-  return {};
+  return meshFaceValues(mesh, values);
 }
 
 std::vector<std::array<Vec2f, 3>> floatUV(const std::vector<std::array<Vec2, 3>>& uv) {
@@ -581,6 +583,7 @@ TexturedModel loadGltfModel(const std::string& path, bool binary) {
   std::vector<Material> materials;
   std::map<int, int> materialIndex;  // glTF material -> ours
   bool anyUV = false, anySource = false;
+  std::map<std::pair<int, int>, int> vertexBase;  // (POSITION, TEXCOORD accessor) -> first vertex
 
   for (size_t p = 0; p < gmesh.primitives.size(); ++p) {
     const tinygltf::Primitive& prim = gmesh.primitives[p];
@@ -624,11 +627,17 @@ TexturedModel loadGltfModel(const std::string& path, bool binary) {
     TM_CHECK(indices.size() % 3 == 0,
              located(where, std::to_string(indices.size()) + " indices is not a multiple of 3 (TRIANGLES)"));
 
-    const int base = static_cast<int>(vertices.size());
-    for (size_t i = 0; i < nv; ++i) {
-      const Eigen::Vector4d h =
-          world * Eigen::Vector4d(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], 1);
-      vertices.emplace_back(h.head<3>());
+    // Primitives that share their vertex accessors share their vertices.
+    const int tcAccessor = tc != prim.attributes.end() ? tc->second : -1;
+    const auto shared = vertexBase.find({pos->second, tcAccessor});
+    const int base = shared != vertexBase.end() ? shared->second : static_cast<int>(vertices.size());
+    if (shared == vertexBase.end()) {
+      vertexBase.emplace(std::make_pair(pos->second, tcAccessor), base);
+      for (size_t i = 0; i < nv; ++i) {
+        const Eigen::Vector4d h =
+            world * Eigen::Vector4d(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], 1);
+        vertices.emplace_back(h.head<3>());
+      }
     }
     auto mit = materialIndex.find(prim.material);
     if (mit == materialIndex.end()) {
@@ -749,6 +758,37 @@ std::vector<Vec3> vertexNormals(const Mesh& mesh) {
 
 // ---------------------------------------------------------------------------------------------
 
+std::vector<int> meshFaceValues(const Mesh& mesh, const std::vector<int>& values) {
+  const size_t nf = static_cast<size_t>(mesh.numFaces());
+  if (values.size() == nf || values.empty()) return values;
+  if (mesh.faceOrigin.size() == nf && std::all_of(mesh.faceOrigin.begin(), mesh.faceOrigin.end(),
+                                                  [&](int o) { return o >= 0 && o < static_cast<int>(values.size()); }))
+    return perMeshFace(mesh, values);
+  return {};
+}
+
+const std::vector<unsigned char>& PngCache::encode(const cv::Mat& rgba, const std::string& where) {
+  for (const auto& [texture, bytes] : cache_)
+    if (texture.data == rgba.data && texture.size == rgba.size && texture.type() == rgba.type()) return bytes;
+  const auto start = Clock::now();
+  TM_CHECK(rgba.type() == CV_8UC4, located(where, "texture is not RGBA8"));
+  cv::Mat alpha;
+  cv::extractChannel(rgba, alpha, 3);
+  double minAlpha = 0;
+  cv::minMaxLoc(alpha, &minAlpha);
+  cv::Mat bgr;
+  cv::cvtColor(rgba, bgr, minAlpha >= 255 ? cv::COLOR_RGBA2BGR : cv::COLOR_RGBA2BGRA);
+  const int level = std::clamp(compression_, 0, 9);
+  const std::vector<int> params = {cv::IMWRITE_PNG_COMPRESSION, level, cv::IMWRITE_PNG_STRATEGY,
+                                   level <= 3 ? cv::IMWRITE_PNG_STRATEGY_RLE : cv::IMWRITE_PNG_STRATEGY_DEFAULT};
+  std::vector<unsigned char> bytes;
+  TM_CHECK(cv::imencode(".png", bgr, bytes, params), located(where, "cannot encode PNG"));
+  ++encodes_;
+  seconds_ += secondsSince(start);
+  cache_.emplace_back(rgba, std::move(bytes));
+  return cache_.back().second;
+}
+
 Vec3f TexturedModel::colorAt(int f, const Vec3& b) const {
   const Material* mat = faceMaterialPtr(*this, f);
   if (!mat) return kDefaultDiffuse;
@@ -822,7 +862,7 @@ TexturedModel modelFromMesh(const Mesh& mesh, const cv::Mat& textureRgba, const 
   return model;
 }
 
-void exportObj(const TexturedModel& model, const std::string& dir, const std::string& base) {
+void exportObj(const TexturedModel& model, const std::string& dir, const std::string& base, PngCache* pngs) {
   const fs::path folder(dir);
   const std::string objPath = (folder / (base + ".obj")).string();
   checkModel(model, objPath);
@@ -838,9 +878,7 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
   std::vector<std::string> names;
   std::set<std::string> used;
   for (size_t m = 0; m < model.materials.size(); ++m) {
-    std::string name = model.materials[m].name;
-    for (char& c : name)
-      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) c = '_';
+    std::string name = fileNamePart(model.materials[m].name);
     if (name.empty()) name = "material_" + std::to_string(m);
     std::string unique = name;
     for (int k = 2; used.count(unique); ++k) unique = name + "_" + std::to_string(k);
@@ -849,7 +887,11 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
   }
   const std::vector<std::string> materialNames = names.empty() ? std::vector<std::string>{"default"} : names;
 
-  // Textures first, then the .mtl, then the .obj: an .obj on disk always has its companions.
+  // Textures first, then the .mtl, then the .obj: an .obj on disk always has its companions. One PNG
+  // per distinct texture, shared by the materials that show it.
+  PngCache localPngs;
+  PngCache& cache = pngs ? *pngs : localPngs;
+  std::vector<std::pair<const uchar*, std::string>> written;  // texture data -> file name
   std::string mtl = "# TextureMontage\n";
   for (size_t m = 0; m < materialNames.size(); ++m) {
     const Material* mat = m < model.materials.size() ? &model.materials[m] : nullptr;
@@ -857,12 +899,15 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
     mtl += "\nnewmtl " + materialNames[m] + "\nKa 0 0 0\nKd " + number(kd[0]) + " " + number(kd[1]) + " " +
            number(kd[2]) + "\nKs 0 0 0\nd 1\nillum 1\n";
     if (mat && hasTexture(model, static_cast<int>(m))) {
-      const std::string png = base + "_" + materialNames[m] + ".png";
-      cv::Mat bgra;
-      cv::cvtColor(mat->texture, bgra, cv::COLOR_RGBA2BGRA);
-      std::vector<unsigned char> bytes;
-      TM_CHECK(cv::imencode(".png", bgra, bytes), located((folder / png).string(), "cannot encode PNG"));
-      writeFileAtomic((folder / png).string(), std::string(bytes.begin(), bytes.end()));
+      std::string png;
+      for (const auto& [data, file] : written)
+        if (data == mat->texture.data) png = file;
+      if (png.empty()) {
+        png = base + "_" + fileNamePart(mat->textureName.empty() ? materialNames[m] : mat->textureName) + ".png";
+        const std::vector<unsigned char>& bytes = cache.encode(mat->texture, (folder / png).string());
+        writeFileAtomic((folder / png).string(), std::string(bytes.begin(), bytes.end()));
+        written.emplace_back(mat->texture.data, png);
+      }
       mtl += "map_Kd " + png + "\n";
     }
   }
@@ -870,7 +915,7 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
 
   std::string obj;
   obj.reserve(static_cast<size_t>(mesh.numVertices()) * 40 + static_cast<size_t>(nf) * 60);
-  obj += "# TextureMontage\nmtllib " + base + ".mtl\n";
+  obj += "# TextureMontage\nmtllib " + base + ".mtl\no " + fileNamePart(model.name.empty() ? base : model.name) + "\n";
   for (int v = 0; v < mesh.numVertices(); ++v) {
     const Vec3 p = mesh.position(v);
     obj += "v " + number(p.x()) + " " + number(p.y()) + " " + number(p.z()) + "\n";
@@ -891,22 +936,29 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
         vt[f][k] = it->second;
       }
   }
-  // Faces ordered by (source, material), model order within each, so that every group and material
-  // appears once: tools list one object per group (the model's own order interleaves them).
+  // With sources: faces ordered by (source, material), model order within each, so that every group
+  // and material appears once: tools list one object per group (the model's own order interleaves
+  // them). Without: the model's order, with the mesh's own groups, as a loaded mesh had them.
   std::vector<int> order(nf);
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    const int sa = model.faceSource.empty() ? 0 : model.faceSource[a];
-    const int sb = model.faceSource.empty() ? 0 : model.faceSource[b];
-    return sa != sb ? sa < sb : materialOf(model, a) < materialOf(model, b);
-  });
+  const bool bySource = !model.faceSource.empty();
+  if (bySource)
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+      const int sa = model.faceSource[a], sb = model.faceSource[b];
+      return sa != sb ? sa < sb : materialOf(model, a) < materialOf(model, b);
+    });
+  const std::vector<int> meshGroup = bySource ? std::vector<int>{} : meshFaceValues(mesh, mesh.faceGroup);
   bool firstGroup = true;
   int group = 0, material = -1;
   for (int f : order) {
-    if (!model.faceSource.empty() && (firstGroup || model.faceSource[f] != group)) {
-      group = model.faceSource[f];
+    const int g = bySource ? model.faceSource[f] : meshGroup.empty() ? -1 : meshGroup[f];
+    if ((bySource || !meshGroup.empty()) && (firstGroup || g != group)) {
+      group = g;
       firstGroup = false;
-      obj += "g " + sourceGroupName(group) + "\n";
+      if (bySource)
+        obj += "g " + sourceGroupName(group) + "\n";
+      else
+        obj += "g " + (g >= 0 && g < static_cast<int>(mesh.groupNames.size()) ? mesh.groupNames[g] : "default") + "\n";
       material = -1;  // restate the material in every group
     }
     const int m = materialOf(model, f);
@@ -925,11 +977,14 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
   writeFileAtomic(objPath, obj);
 }
 
-void exportGlb(const TexturedModel& model, const std::string& path) {
+void exportGlb(const TexturedModel& model, const std::string& path, PngCache* pngs) {
   checkModel(model, path);
   const Mesh& mesh = model.mesh;
   const int nf = mesh.numFaces();
   const std::vector<Vec3> normals = vertexNormals(mesh);
+  PngCache localPngs;
+  PngCache& cache = pngs ? *pngs : localPngs;
+  const std::string name = model.name.empty() ? "model" : model.name;
 
   GlbBuilder b;
   tinygltf::Model& gm = b.gm;
@@ -937,10 +992,12 @@ void exportGlb(const TexturedModel& model, const std::string& path) {
   gm.asset.generator = "TextureMontage";
   gm.buffers.emplace_back();
 
-  // Materials actually used, in model order; textured ones get a texture, image and shared sampler.
+  // Materials actually used, in model order; textured ones get a texture (one per distinct image,
+  // shared by the materials that show it) and a shared sampler.
   std::map<int, int> materialIndex;
   for (int f = 0; f < nf; ++f) materialIndex.emplace(materialOf(model, f), 0);
   int sampler = -1;
+  std::vector<std::pair<const uchar*, int>> textures;  // image data -> glTF texture
   for (auto& [m, index] : materialIndex) {
     tinygltf::Material out;
     const Material* mat = m < static_cast<int>(model.materials.size()) ? &model.materials[m] : nullptr;
@@ -957,20 +1014,24 @@ void exportGlb(const TexturedModel& model, const std::string& path) {
         gm.samplers.push_back(s);
         sampler = static_cast<int>(gm.samplers.size()) - 1;
       }
-      cv::Mat bgra;
-      cv::cvtColor(mat->texture, bgra, cv::COLOR_RGBA2BGRA);
-      std::vector<unsigned char> png;
-      TM_CHECK(cv::imencode(".png", bgra, png), located(path, "cannot encode texture " + quote(out.name) + " as PNG"));
-      tinygltf::Image image;
-      image.name = out.name;
-      image.mimeType = "image/png";
-      image.bufferView = b.addView(png.data(), png.size(), 0);
-      gm.images.push_back(image);
-      tinygltf::Texture texture;
-      texture.sampler = sampler;
-      texture.source = static_cast<int>(gm.images.size()) - 1;
-      gm.textures.push_back(texture);
-      out.pbrMetallicRoughness.baseColorTexture.index = static_cast<int>(gm.textures.size()) - 1;
+      int texture = -1;
+      for (const auto& [data, t] : textures)
+        if (data == mat->texture.data) texture = t;
+      if (texture < 0) {
+        const std::vector<unsigned char>& png = cache.encode(mat->texture, path + ": texture " + quote(out.name));
+        tinygltf::Image image;
+        image.name = mat->textureName.empty() ? out.name : mat->textureName;
+        image.mimeType = "image/png";
+        image.bufferView = b.addView(png.data(), png.size(), 0);
+        gm.images.push_back(image);
+        tinygltf::Texture t;
+        t.sampler = sampler;
+        t.source = static_cast<int>(gm.images.size()) - 1;
+        gm.textures.push_back(t);
+        texture = static_cast<int>(gm.textures.size()) - 1;
+        textures.emplace_back(mat->texture.data, texture);
+      }
+      out.pbrMetallicRoughness.baseColorTexture.index = texture;
     } else {
       const Vec3f kd = mat ? mat->diffuse : kDefaultDiffuse;
       out.pbrMetallicRoughness.baseColorFactor = {srgbToLinear(kd[0]), srgbToLinear(kd[1]), srgbToLinear(kd[2]), 1.0};
@@ -979,47 +1040,66 @@ void exportGlb(const TexturedModel& model, const std::string& path) {
     index = static_cast<int>(gm.materials.size()) - 1;
   }
 
+  // One vertex list for all primitives: the mesh's vertices in order (each with the texture
+  // coordinate of its first use), then a copy per further (vertex, texture coordinate) pair.
+  const bool withUV = model.textured();
+  const int nv = mesh.numVertices();
+  std::vector<Vec3f> positions(nv), vnormals(nv);
+  std::vector<Vec2f> texcoords(withUV ? nv : 0, Vec2f::Zero());
+  std::vector<char> assigned(nv, 0);
+  for (int v = 0; v < nv; ++v) {
+    positions[v] = mesh.position(v).cast<float>();
+    vnormals[v] = normals[v].cast<float>().normalized();
+  }
+  std::map<std::tuple<int, uint32_t, uint32_t>, uint32_t> copies;
+  std::vector<std::array<uint32_t, 3>> corner(nf);
+  for (int f = 0; f < nf; ++f) {
+    const auto fv = mesh.faceVertices(f);
+    for (int k = 0; k < 3; ++k) {
+      const int v = fv[k];
+      if (!withUV) {
+        corner[f][k] = static_cast<uint32_t>(v);
+        continue;
+      }
+      const Vec2f t(model.uv[f][k].x(), 1.0f - model.uv[f][k].y());  // glTF: origin at the top-left
+      if (!assigned[v]) assigned[v] = 1, texcoords[v] = t;
+      if (texcoords[v] == t) {
+        corner[f][k] = static_cast<uint32_t>(v);
+        continue;
+      }
+      uint32_t bu, bv;
+      std::memcpy(&bu, &t.x(), 4);
+      std::memcpy(&bv, &t.y(), 4);
+      const auto [it, inserted] = copies.emplace(std::make_tuple(v, bu, bv), static_cast<uint32_t>(positions.size()));
+      if (inserted) {
+        positions.push_back(positions[v]);
+        vnormals.push_back(vnormals[v]);
+        texcoords.push_back(t);
+      }
+      corner[f][k] = it->second;
+    }
+  }
+  const int positionAccessor = b.addFloatAccessor<3>(positions, TINYGLTF_TYPE_VEC3, true);
+  const int normalAccessor = b.addFloatAccessor<3>(vnormals, TINYGLTF_TYPE_VEC3, false);
+  const int uvAccessor = withUV ? b.addFloatAccessor<2>(texcoords, TINYGLTF_TYPE_VEC2, false) : -1;
+
   // One primitive per (material, source); faces keep their model order inside a primitive.
   std::map<std::pair<int, int>, std::vector<int>> groups;
   for (int f = 0; f < nf; ++f)
     groups[{materialOf(model, f), model.faceSource.empty() ? 0 : model.faceSource[f]}].push_back(f);
 
   tinygltf::Mesh gmesh;
-  gmesh.name = "model";
+  gmesh.name = name;
   for (const auto& [key, faces] : groups) {
-    const bool withUV = hasTexture(model, key.first);
-    // Unique (vertex, uv) pairs of this primitive.
-    std::map<std::tuple<int, uint32_t, uint32_t>, uint32_t> index;
-    std::vector<Vec3f> positions, vnormals;
-    std::vector<Vec2f> texcoords;
     std::vector<uint32_t> indices;
     indices.reserve(faces.size() * 3);
-    for (int f : faces) {
-      const auto fv = mesh.faceVertices(f);
-      for (int k = 0; k < 3; ++k) {
-        Vec2f t(0, 0);
-        uint32_t bu = 0, bv = 0;
-        if (withUV) {
-          t = Vec2f(model.uv[f][k].x(), 1.0f - model.uv[f][k].y());  // glTF: origin at the top-left
-          std::memcpy(&bu, &t.x(), 4);
-          std::memcpy(&bv, &t.y(), 4);
-        }
-        const auto [it, inserted] =
-            index.emplace(std::make_tuple(fv[k], bu, bv), static_cast<uint32_t>(positions.size()));
-        if (inserted) {
-          positions.push_back(mesh.position(fv[k]).cast<float>());
-          vnormals.push_back(normals[fv[k]].cast<float>().normalized());
-          if (withUV) texcoords.push_back(t);
-        }
-        indices.push_back(it->second);
-      }
-    }
+    for (int f : faces) indices.insert(indices.end(), corner[f].begin(), corner[f].end());
     tinygltf::Primitive prim;
     prim.mode = TINYGLTF_MODE_TRIANGLES;
     prim.material = materialIndex.at(key.first);
-    prim.attributes["POSITION"] = b.addFloatAccessor<3>(positions, TINYGLTF_TYPE_VEC3, true);
-    prim.attributes["NORMAL"] = b.addFloatAccessor<3>(vnormals, TINYGLTF_TYPE_VEC3, false);
-    if (withUV) prim.attributes["TEXCOORD_0"] = b.addFloatAccessor<2>(texcoords, TINYGLTF_TYPE_VEC2, false);
+    prim.attributes["POSITION"] = positionAccessor;
+    prim.attributes["NORMAL"] = normalAccessor;
+    if (withUV) prim.attributes["TEXCOORD_0"] = uvAccessor;
     prim.indices = b.addIndexAccessor(indices);
     if (!model.faceSource.empty()) {
       tinygltf::Value::Object extras;
@@ -1030,7 +1110,7 @@ void exportGlb(const TexturedModel& model, const std::string& path) {
   }
   gm.meshes.push_back(gmesh);
   tinygltf::Node node;
-  node.name = "model";
+  node.name = name;
   node.mesh = 0;
   gm.nodes.push_back(node);
   tinygltf::Scene scene;

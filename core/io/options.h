@@ -18,6 +18,12 @@ inline constexpr std::array<const char*, 4> kInpaintModeNames = {"harmonic", "rb
 enum class LevelMode { Off, Seam, Vertex };
 inline constexpr std::array<const char*, 3> kLevelModeNames = {"off", "seam", "vertex"};
 
+// Topology of the exported model: the user's mesh as loaded, with a new UV atlas and the montage baked
+// into it surface to surface (core/atlas/transfer.h), or the partition's refined mesh (input plus Steiner
+// vertices) with the montage's own charts.
+enum class ExportTopology { Original, Refined };
+inline constexpr std::array<const char*, 2> kExportTopologyNames = {"original", "refined"};
+
 // Name tables by enum type, for the project reader and writer and the editor's combo boxes.
 template <class E>
 struct EnumNames;
@@ -32,6 +38,11 @@ struct EnumNames<LevelMode> {
   static constexpr const char* what = "a seam levelling mode";
 };
 
+template <>
+struct EnumNames<ExportTopology> {
+  static constexpr const auto& names = kExportTopologyNames;
+  static constexpr const char* what = "an export topology";
+};
 inline constexpr int kMinAtlasSizeOption = 256, kMaxAtlasSizeOption = 8192;  // atlas/atlas.h's limits
 
 struct PipelineOptions {
@@ -49,12 +60,16 @@ struct PipelineOptions {
   int gutter = 4;     // atlas: texels between charts and from the border
   unsigned seed = 1;  // random line searches: seed, so runs are repeatable
 
+  // Export: the user's mesh as loaded with a new atlas (original) or the refined mesh (refined).
+  ExportTopology exportTopology = ExportTopology::Original;
+  int pngCompression = 6;  // export: zlib level of the atlas PNG, 0..9 (1 fast, for previews; 9 smallest)
+
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
            seamLambda == o.seamLambda && seamRounds == o.seamRounds && gradientWeight == o.gradientWeight &&
            seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
-           seed == o.seed;
+           seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression;
   }
 };
 

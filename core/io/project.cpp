@@ -196,6 +196,8 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("atlasSize", o.atlasSize, 0, kMaxAtlasSizeOption);
   visit("gutter", o.gutter, 0, 64);
   visit("seed", o.seed, 0u, UINT_MAX);
+  visit("exportTopology", o.exportTopology, ExportTopology::Original, ExportTopology::Refined);
+  visit("pngCompression", o.pngCompression, 0, 9);
 }
 
 void fromJson(const Field& f, PipelineOptions& o) {

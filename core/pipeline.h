@@ -18,8 +18,11 @@
 #include "io/model.h"
 #include "io/project.h"
 #include "io/scene.h"
+#include "mapping/camera.h"
 #include "mapping/fine_map.h"
 #include "mapping/partition.h"
+#include "mapping/projection.h"
+#include "mapping/proposals.h"
 #include "mapping/texture_map.h"
 #include "surface/inpaint.h"
 
@@ -42,6 +45,23 @@ struct Mapping {
   double partitionSeconds = 0, simplifySeconds = 0, mapSeconds = 0;
 };
 
+// The camera stage: a fit per photo (camera.h). A photo that fits is mapped by projection; the
+// others take the paper's path.
+struct CameraStage {
+  std::vector<CameraFit> fits;  // per photo
+  int fitted = 0;               // photos that fit
+  int reused = 0;               // fits reused from the previous run (same clicks, photo, mesh, options)
+  double seconds = 0;
+};
+
+// The projection stage: the final mapping (the paper's partition with its texture map where faces
+// are mapped by projection), the figures, correction fields and views behind it, and the proposed
+// correspondences (PipelineResult::proposals).
+struct ProjectionStage {
+  std::shared_ptr<const Mapping> mapping;  // the paper's mapping itself when no photo fits
+  ProjectionResult result;                 // result.map is moved into mapping->map
+};
+
 // What the colour stages add to a mapping: seam levelling offsets and the inpainted/cloned regions.
 struct SurfaceColors {
   SeamLevelling levelling;
@@ -59,7 +79,10 @@ struct BakeResult {
 
 struct PipelineResult {
   std::shared_ptr<const Scene> scene;
-  std::shared_ptr<const Mapping> mapping;
+  std::shared_ptr<const CameraStage> cameras;
+  std::shared_ptr<const ProjectionStage> projection;
+  std::shared_ptr<const Mapping> mapping;  // the final mapping: the paper's path plus projection mapping
+  std::vector<Proposal> proposals;         // correspondences the cameras propose (proposals.h)
   std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const BakeResult> baked;
   std::shared_ptr<const TexturedModel> model;  // baked->model
@@ -71,8 +94,15 @@ struct PipelineResult {
 // Stage functions, in pipeline order.
 // Load: reads the mesh and photos of a validated project and checks the project against them.
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
+// Camera: a camera fit per photo from its clicks (camera.h); none fits when options.cameraMode is off.
+CameraStage fitCameras(const Scene& scene, const JobControl& job = {});
 // Partition, Simplify, Map: correspondences -> partition -> progressive mesh -> texture map.
 Mapping mapTexture(const Scene& scene, const JobControl& job = {});
+// Projection: faces that photos fitting a camera see are mapped by projection, the photo chosen per
+// face by view selection; the paper's mapping of the other photos is kept (projection.h), and the
+// cameras propose correspondences (proposals.h).
+ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
+                               const CameraStage& cameras, const JobControl& job = {});
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h).
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {});
 // Bake: see BakeResult.
@@ -96,7 +126,17 @@ class Pipeline {
   std::shared_ptr<const Mapping> cachedMapping_;
   std::string colorKey_;
   std::shared_ptr<const SurfaceColors> cachedColors_;
+  std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> cachedFits_;  // key -> fit, per photo
+  std::string projectionKey_;
+  std::shared_ptr<const ProjectionStage> cachedProjection_;
 };
+
+// The projection oracle of a synthetic scene (`montage eval --oracle`): the project's mesh and photos
+// textured through the given true cameras (one per photo, e.g. synth's cameras.json) with no clicks:
+// projection mapping, view selection, levelling, inpainting and bake, as the pipeline does them. The
+// covered PSNR of its model is the ceiling of any result on that scene.
+PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
+                                const JobControl& job = {});
 
 // Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers
 // DIR/model_atlas_source.png and DIR/model_atlas_holes.png (when the result has an atlas) and

@@ -12,13 +12,14 @@
 
 namespace montage {
 
-// The stages, in pipeline order (paper Figure 2): load, partition (3.1), simplify (3.2), map
-// (coarse map 3.2 + coarse-to-fine 4.1), level (seam levelling, end of 5), inpaint (5: holes,
+// The stages, in pipeline order (paper Figure 2): load, camera (a camera fit per photo), partition
+// (3.1), simplify (3.2), map (coarse map 3.2 + coarse-to-fine 4.1), projection (photos that fit a
+// camera: projection mapping and view selection), level (seam levelling, end of 5), inpaint (5: holes,
 // strokes, clones), bake (atlas: charts, LSCM, packing, baking), export. Seam optimisation (4.2) is
 // not built yet; every entry below runs.
-enum class StageId { Load, Partition, Simplify, Map, Level, Inpaint, Bake, Export };
-inline constexpr std::array<const char*, 8> kStageNames = {"load",  "partition", "simplify", "map",
-                                                           "level", "inpaint",   "bake",     "export"};
+enum class StageId { Load, Camera, Partition, Simplify, Map, Projection, Level, Inpaint, Bake, Export };
+inline constexpr std::array<const char*, 10> kStageNames = {"load", "camera",     "partition", "simplify", "map",
+                                                            "projection", "level", "inpaint", "bake", "export"};
 inline const char* stageName(StageId s) {
   return kStageNames[static_cast<int>(s)];
 }

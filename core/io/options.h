@@ -18,6 +18,18 @@ inline constexpr std::array<const char*, 4> kInpaintModeNames = {"harmonic", "rb
 enum class LevelMode { Off, Seam, Vertex };
 inline constexpr std::array<const char*, 3> kLevelModeNames = {"off", "seam", "vertex"};
 
+// Camera fit per photo (mapping/camera.h): automatic (a photo whose clicks agree with one perspective
+// camera is mapped by projection, the others take the paper's path), or off (every photo takes the
+// paper's path).
+enum class CameraMode { Auto, Off };
+inline constexpr std::array<const char*, 2> kCameraModeNames = {"auto", "off"};
+
+// Which clicks the correction field of projection mapping keeps exact (mapping/projection.h): none
+// (the camera alone), those that agree with the camera, or every click (the paper: clicks are hard
+// constraints).
+enum class CorrectionMode { Off, Inliers, All };
+inline constexpr std::array<const char*, 3> kCorrectionModeNames = {"off", "inliers", "all"};
+
 // Name tables by enum type, for the project reader and writer and the editor's combo boxes.
 template <class E>
 struct EnumNames;
@@ -30,6 +42,16 @@ template <>
 struct EnumNames<LevelMode> {
   static constexpr const auto& names = kLevelModeNames;
   static constexpr const char* what = "a seam levelling mode";
+};
+template <>
+struct EnumNames<CameraMode> {
+  static constexpr const auto& names = kCameraModeNames;
+  static constexpr const char* what = "a camera mode";
+};
+template <>
+struct EnumNames<CorrectionMode> {
+  static constexpr const auto& names = kCorrectionModeNames;
+  static constexpr const char* what = "a correction mode";
 };
 
 struct PipelineOptions {
@@ -45,13 +67,18 @@ struct PipelineOptions {
   int atlasSize = 4096;                         // atlas: width and height in texels (1024..8192)
   int gutter = 4;                               // atlas: texels between charts and from the border
   unsigned seed = 1;                            // random line searches: seed, so runs are repeatable
+  CameraMode cameraMode = CameraMode::Auto;     // camera fit per photo; off = every photo takes the paper's path
+  double cameraThreshold = 0.006;               // camera fit: a click agrees within this share of the image diagonal
+  CorrectionMode correction = CorrectionMode::All;  // projection: clicks the correction field keeps exact
+  double viewSmoothness = 1.0;                  // projection: seam cost of view selection (0 = best view per face)
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
            seamLambda == o.seamLambda && seamRounds == o.seamRounds && gradientWeight == o.gradientWeight &&
            seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
-           seed == o.seed;
+           seed == o.seed && cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold &&
+           correction == o.correction && viewSmoothness == o.viewSmoothness;
   }
 };
 

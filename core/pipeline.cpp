@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <limits>
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -60,6 +61,9 @@ CameraFit fitPhoto(const Scene& scene, int photo) {
   if (scene.project.options.cameraMode == CameraMode::Off) {
     CameraFit fit;
     fit.clicks = std::move(clicks);
+    fit.reprojected.assign(fit.clicks.size(), Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
+    fit.residual.assign(fit.clicks.size(), std::numeric_limits<double>::infinity());
+    fit.inlier.assign(fit.clicks.size(), 0);
     fit.reason = "camera fit is off (options.cameraMode)";
     return fit;
   }
@@ -69,7 +73,7 @@ CameraFit fitPhoto(const Scene& scene, int photo) {
 nlohmann::json fitJson(const CameraFit& fit, int photo) {
   nlohmann::json outliers = nlohmann::json::array();
   for (size_t i = 0; i < fit.clicks.size(); ++i)
-    if (!fit.inlier[i] && fit.fits) outliers.push_back({{"point", fit.clicks[i].point}, {"residual", fit.residual[i]}});
+    if (fit.fits && i < fit.inlier.size() && !fit.inlier[i]) outliers.push_back({{"point", fit.clicks[i].point}, {"residual", fit.residual[i]}});
   nlohmann::json j = {{"photo", photo},
                       {"path", fit.fits ? "projection" : "paper"},
                       {"fits", fit.fits},

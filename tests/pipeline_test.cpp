@@ -37,8 +37,9 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
     if (seen.empty() || seen.back() != s) seen.push_back(s);
   });
   PipelineResult result = pipeline.run(project, job);
-  const std::vector<StageId> order = {StageId::Load,  StageId::Partition, StageId::Simplify, StageId::Map,
-                                      StageId::Level, StageId::Inpaint,   StageId::Bake};
+  const std::vector<StageId> order = {StageId::Load,       StageId::Camera, StageId::Partition,
+                                      StageId::Simplify,   StageId::Map,    StageId::Projection,
+                                      StageId::Level,      StageId::Inpaint, StageId::Bake};
   ASSERT_EQ(result.stages.size(), order.size());
   for (size_t i = 0; i < order.size(); ++i) EXPECT_EQ(result.stages[i].stage, order[i]);
   EXPECT_EQ(seen, order);
@@ -111,12 +112,14 @@ TEST(Pipeline, WritesModelAndReport) {
                            "model_atlas_holes.png", "model.glb", "report.json"})
     EXPECT_TRUE(fs::exists(fs::path(dir) / name)) << name;
   nlohmann::json report = readJson(dir + "/report.json");
-  ASSERT_EQ(report["stages"].size(), 8u);
-  EXPECT_EQ(report["stages"][4]["stage"], "level");
-  EXPECT_EQ(report["stages"][5]["stage"], "inpaint");
-  EXPECT_EQ(report["stages"][7]["stage"], "export");
+  ASSERT_EQ(report["stages"].size(), 10u);
+  EXPECT_EQ(report["stages"][1]["stage"], "camera");
+  EXPECT_EQ(report["stages"][5]["stage"], "projection");
+  EXPECT_EQ(report["stages"][6]["stage"], "level");
+  EXPECT_EQ(report["stages"][7]["stage"], "inpaint");
+  EXPECT_EQ(report["stages"][9]["stage"], "export");
   // The demo has holes: they are inpainted, and the model says which faces were.
-  EXPECT_GT(report["stages"][5]["counts"]["regions"].size(), 0u);
+  EXPECT_GT(report["stages"][7]["counts"]["regions"].size(), 0u);
   int inpainted = 0;
   for (int s : result.model->faceSource) inpainted += s == kSourceInpainted;
   EXPECT_GT(inpainted, 0);
@@ -130,7 +133,7 @@ TEST(Pipeline, WritesModelAndReport) {
   EXPECT_EQ(result.model->materials[0].texture.cols, project.options.atlasSize);
   for (const auto& uv : result.model->uv)
     for (const Vec2f& t : uv) EXPECT_TRUE(t.minCoeff() >= 0 && t.maxCoeff() <= 1) << t.transpose();
-  EXPECT_GT(report["stages"][6]["counts"]["utilisation"].get<double>(), 0.3);
+  EXPECT_GT(report["stages"][8]["counts"]["utilisation"].get<double>(), 0.3);
   for (const char* name : {"model.glb", "model.obj"}) {
     TexturedModel back = loadModel(dir + "/" + name);
     EXPECT_EQ(back.mesh.numFaces(), result.model->mesh.numFaces()) << name;
@@ -207,7 +210,8 @@ TEST(PipelineSpot, CoverageAndPsnrRiseWithFeatures) {
     options.size = 1024;
     const std::string dir = test::tempDir("spot_scene");
     writeSynthScene(synthesize(*mesh, meshPath, color, options), dir);
-    const Project project = loadProject(dir + "/project.json");
+    Project project = loadProject(dir + "/project.json");
+    project.options.cameraMode = CameraMode::Off;  // the paper's path (camera_test measures the projection path)
     const PipelineResult result = Pipeline().run(project);
     EXPECT_EQ(result.mapping->stats.flippedFaces, 0);
     EvalOptions evalOptions;

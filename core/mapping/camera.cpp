@@ -238,8 +238,8 @@ void measureClicks(const Mesh& mesh, CameraFit& fit) {
 }
 
 void checkInputs(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height) {
-  TM_CHECK(width > 0 && height > 0, "camera fit: photo size " + std::to_string(width) + "x" +
-                                        std::to_string(height) + " must be positive");
+  TM_CHECK(width > 0 && height > 0,
+           "camera fit: photo size " + std::to_string(width) + "x" + std::to_string(height) + " must be positive");
   for (size_t i = 0; i < clicks.size(); ++i)
     TM_CHECK(clicks[i].vertex >= 0 && clicks[i].vertex < mesh.numVertices(),
              "camera fit: clicks[" + std::to_string(i) + "].vertex: " + std::to_string(clicks[i].vertex) +
@@ -277,7 +277,8 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   };
   if (n < o.minInliers) {
     noCamera();
-    return finish(std::to_string(n) + " clicks: at least " + std::to_string(o.minInliers) + " are needed to fit a camera");
+    return finish(std::to_string(n) + " clicks: at least " + std::to_string(o.minInliers) +
+                  " are needed to fit a camera");
   }
 
   // Centred object points (double) and their clicks.
@@ -319,7 +320,7 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   }
   if (!std::isfinite(bestScore)) {
     noCamera();
-    return finish("no camera found: the clicks admit no pose for any focal length");
+    return finish("no camera agrees with the clicks for any focal length: a photo of another subject");
   }
 
   // Refinement on the agreeing clicks, re-classified until stable.
@@ -338,7 +339,8 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   if (o.radialDistortion) {
     const std::vector<char> in = agreeing(residuals(obj, img, p, cx, cy), tau);
     const int count = countOf(in);
-    if (count >= o.minInliersForDistortion) {
+    // Below minDistortionRmsPx there is nothing left for radial terms to explain.
+    if (count >= o.minInliersForDistortion && rmsOf(residuals(obj, img, p, cx, cy), in) > o.minDistortionRmsPx) {
       const int radial = count >= 20 ? 2 : 1;
       const Params q = refineLoop(p, radial);
       const std::vector<double> rq = residuals(obj, img, q, cx, cy);

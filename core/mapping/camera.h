@@ -51,31 +51,32 @@ struct CameraClick {
 std::vector<CameraClick> photoClicks(const Project& project, int photo);
 
 struct CameraFitOptions {
-  int minInliers = 6;                 // a photo fits when at least this many clicks agree with one camera...
-  double minInlierRatio = 0.6;        // ...and they are at least this share of its clicks
-  double thresholdFraction = 0.006;   // a click agrees when its residual is below this share of the image
-                                      // diagonal (6.1 px at 1024 x 768); never below minThresholdPx
-  double minThresholdPx = 2.0;        // lower bound of the agreement threshold, pixels
-  bool radialDistortion = true;       // fit k1 (and k2 from 20 inliers on) when enough clicks agree
-  int minInliersForDistortion = 12;   // fewer agreeing clicks: no radial terms
-  double distortionF = 10;            // keep the radial terms only when their F statistic (residual drop per term
-                                      // over the residual variance) exceeds this: p < 0.005, not a fit to noise
+  int minInliers = 6;                // a photo fits when at least this many clicks agree with one camera...
+  double minInlierRatio = 0.6;       // ...and they are at least this share of its clicks
+  double thresholdFraction = 0.006;  // a click agrees when its residual is below this share of the image
+                                     // diagonal (6.1 px at 1024 x 768); never below minThresholdPx
+  double minThresholdPx = 2.0;       // lower bound of the agreement threshold, pixels
+  bool radialDistortion = true;      // fit k1 (and k2 from 20 inliers on) when enough clicks agree
+  int minInliersForDistortion = 12;  // fewer agreeing clicks: no radial terms
+  double minDistortionRmsPx = 0.02;  // the pinhole fit's RMS residual must exceed this for radial terms to be tried
+  double distortionF = 10;           // keep the radial terms only when their F statistic (residual drop per term
+                                     // over the residual variance) exceeds this: p < 0.005, not a fit to noise
   double minFovDeg = 2, maxFovDeg = 150;  // focal lengths outside this field of view are implausible
-  int focalSamples = 16;              // focal lengths tried for the RANSAC start (log-spaced over the fov range)
-  int ransacIterations = 300;         // RANSAC iterations per focal length
-  unsigned seed = 1;                  // RANSAC seed, so fits are repeatable
+  int focalSamples = 16;                  // focal lengths tried for the RANSAC start (log-spaced over the fov range)
+  int ransacIterations = 300;             // RANSAC iterations per focal length
+  unsigned seed = 1;                      // RANSAC seed, so fits are repeatable
 };
 
 // The fit of one photo.
 struct CameraFit {
-  bool fits = false;   // the clicks agree with one camera (see CameraFitOptions)
-  std::string reason;  // why it does not fit, or a summary when it does
-  PhotoCamera camera;  // valid when `fits` (and the best attempt otherwise, when there was one)
-  double thresholdPx = 0;              // agreement threshold used for this photo
-  std::vector<CameraClick> clicks;     // the clicks, as given
-  std::vector<Vec2> reprojected;       // per click: where the camera puts its vertex (NaN when behind it)
-  std::vector<double> residual;        // per click: distance click - reprojection, pixels (inf when behind)
-  std::vector<char> inlier;            // per click: residual below thresholdPx
+  bool fits = false;                // the clicks agree with one camera (see CameraFitOptions)
+  std::string reason;               // why it does not fit, or a summary when it does
+  PhotoCamera camera;               // valid when `fits` (and the best attempt otherwise, when there was one)
+  double thresholdPx = 0;           // agreement threshold used for this photo
+  std::vector<CameraClick> clicks;  // the clicks, as given
+  std::vector<Vec2> reprojected;    // per click: where the camera puts its vertex (NaN when behind it)
+  std::vector<double> residual;     // per click: distance click - reprojection, pixels (inf when behind)
+  std::vector<char> inlier;         // per click: residual below thresholdPx
   int inliers = 0;
   double medianResidual = 0, maxResidual = 0;  // over the inliers, pixels
   double rmsResidual = 0;                      // over the inliers, pixels

@@ -163,7 +163,8 @@ CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, Correcti
     field.localSupport[i] = std::max(localRadiusPx, 4 * remaining.row(i).norm()) * pixelSize[i];
   Eigen::MatrixXd phi(n, n);
   for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) phi(i, j) = wendland((field.centres[i] - field.centres[j]).norm(), field.localSupport[j]);
+    for (int j = 0; j < n; ++j)
+      phi(i, j) = wendland((field.centres[i] - field.centres[j]).norm(), field.localSupport[j]);
   const Eigen::MatrixXd w = phi.partialPivLu().solve(remaining);
   field.local.assign(n, Vec2::Zero());
   if (w.allFinite())
@@ -264,7 +265,8 @@ PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const 
     }
     bool background = false;
     for (const Vec2& x : {uv[0], uv[1], uv[2], Vec2((uv[0] + uv[1] + uv[2]) / 3)}) {
-      if (!photo.inside(x.x(), x.y())) background = true;
+      if (!photo.inside(x.x(), x.y()))
+        background = true;
       else if (photo.hasBackground && sampleBilinear1(photo.distance, x.x(), x.y()) > o.maxBackgroundPx)
         background = true;
     }
@@ -280,8 +282,7 @@ PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const 
 }
 
 ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
-                                const std::vector<CameraFit>& fits, const ProjectionOptions& o,
-                                const JobControl& job) {
+                                const std::vector<CameraFit>& fits, const ProjectionOptions& o, const JobControl& job) {
   const auto start = Clock::now();
   const Mesh& mesh = partition.mesh;
   const int nf = mesh.numFaces();
@@ -302,7 +303,8 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
     if (fits[p].fits) fitted.push_back(p);
   out.fittedPhotos = static_cast<int>(fitted.size());
   for (int p = 0; p < np; ++p)
-    out.map.notes.push_back("photo " + std::to_string(p) + (fits[p].fits ? " maps by projection: " : " takes the paper's path: ") +
+    out.map.notes.push_back("photo " + std::to_string(p) +
+                            (fits[p].fits ? " maps by projection: " : " takes the paper's path: ") +
                             (fits[p].fits ? describeFit(fits[p]) : fits[p].reason));
   auto countFaces = [&] {
     for (int f = 0; f < nf; ++f)
@@ -424,8 +426,10 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       continue;
     }
     if (!fits[label].fits) continue;  // paper's path, unchanged
-    if (paper == TextureMap::kEmpty) ++out.filledFaces;
-    else if (paper != label) ++out.relabelledFaces;
+    if (paper == TextureMap::kEmpty)
+      ++out.filledFaces;
+    else if (paper != label)
+      ++out.relabelledFaces;
     out.map.facePhoto[f] = label;
     const auto c = mesh.faceVertices(f);
     for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = out.views[label].vertexUV[c[k]];

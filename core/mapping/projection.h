@@ -35,30 +35,29 @@ class JobControl;
 //   max(localRadiusPx, 4 x its remaining residual) pixels in the photo (gradient <= 1/4, so no bump
 //   can fold the texture), 0 beyond.
 struct CorrectionField {
-  std::vector<Vec3> centres;        // click vertex positions, model units
-  std::vector<Vec2> coherent;       // weights of the coherent part, pixels
-  double coherentSupport = 0;       // model units; 0 = no coherent part
-  std::vector<Vec2> local;          // weights of the local bumps, pixels
-  std::vector<double> localSupport; // per click, model units
-  Vec2 at(const Vec3& p) const;     // pixels
+  std::vector<Vec3> centres;         // click vertex positions, model units
+  std::vector<Vec2> coherent;        // weights of the coherent part, pixels
+  double coherentSupport = 0;        // model units; 0 = no coherent part
+  std::vector<Vec2> local;           // weights of the local bumps, pixels
+  std::vector<double> localSupport;  // per click, model units
+  Vec2 at(const Vec3& p) const;      // pixels
   bool empty() const { return centres.empty(); }
 };
 
 // The field of one photo's clicks (mode decides which), over the positions of `mesh`.
 // `localRadiusPx`: the smallest reach of a click's bump, photo pixels.
-CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode,
-                                double localRadiusPx = 8);
+CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode, double localRadiusPx = 8);
 
 // Where a fitted photo puts a surface point: its projection plus the correction. False when behind.
 bool predictPixel(const CameraFit& fit, const CorrectionField& field, const Vec3& p, Vec2& pixel);
 
 struct ProjectionOptions {
   CorrectionMode correction = CorrectionMode::All;  // clicks kept exact by the correction field
-  double localRadiusPx = 8;     // correction: a click's own bump reaches at least this far (photo pixels)
-  double smoothness = 1.0;      // view selection: weight of a seam edge (Potts, per mean edge length) against
-                                // the data cost of a face (per mean face area); 0 = best view per face
-  bool keepCellPhotos = false;  // cells the paper's partition gave to a fitted photo keep it where it sees
-                                // them (view selection only fills the rest); false = view selection everywhere
+  double localRadiusPx = 8;       // correction: a click's own bump reaches at least this far (photo pixels)
+  double smoothness = 1.0;        // view selection: weight of a seam edge (Potts, per mean edge length) against
+                                  // the data cost of a face (per mean face area); 0 = best view per face
+  bool keepCellPhotos = false;    // cells the paper's partition gave to a fitted photo keep it where it sees
+                                  // them (view selection only fills the rest); false = view selection everywhere
   double minCos = 0.05;           // faces seen more obliquely than this (cosine) are not textured from a photo
   double silhouetteMarginPx = 4;  // view quality falls linearly within this distance of the silhouette
   double depthTolerance = 0.005;  // occlusion test tolerance, share of the bounding-box diagonal
@@ -68,11 +67,11 @@ struct ProjectionOptions {
 // What one fitted photo sees of a mesh.
 struct PhotoView {
   int photo = -1;
-  std::vector<Vec2> vertexUV;       // #V: projection + correction, pixels (NaN behind the camera)
-  std::vector<char> vertexVisible;  // #V: in the image, in front, not occluded
+  std::vector<Vec2> vertexUV;             // #V: projection + correction, pixels (NaN behind the camera)
+  std::vector<char> vertexVisible;        // #V: in the image, in front, not occluded
   std::vector<float> vertexSilhouettePx;  // #V: distance of the projection to the silhouette (mesh or photo), px
-  std::vector<float> faceQuality;   // #F: > 0 when the photo can texture the face (projected area in px^2
-                                    // times the silhouette factor); 0 when not
+  std::vector<float> faceQuality;         // #F: > 0 when the photo can texture the face (projected area in px^2
+                                          // times the silhouette factor); 0 when not
   int refusedFlipped = 0, refusedBackground = 0;  // faces otherwise seen, refused for a flip / the background
 };
 
@@ -82,13 +81,13 @@ PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const 
 
 // The projection stage's output: the final texture map and its figures.
 struct ProjectionResult {
-  TextureMap map;                          // the paper's map with projection-mapped faces replaced/filled
-  std::vector<CorrectionField> fields;     // per photo (empty for photos that do not fit)
-  std::vector<PhotoView> views;            // per photo (empty for photos that do not fit)
-  std::vector<int> photoFaces;             // per photo: faces mapped to it in the final map
-  std::vector<int> photoProjectedFaces;    // per photo: of those, mapped by projection
-  std::vector<int> photoRefusedFlipped;    // per photo: faces refused for a flip
-  std::vector<int> photoRefusedBackground; // per photo: faces refused for landing on the background
+  TextureMap map;                           // the paper's map with projection-mapped faces replaced/filled
+  std::vector<CorrectionField> fields;      // per photo (empty for photos that do not fit)
+  std::vector<PhotoView> views;             // per photo (empty for photos that do not fit)
+  std::vector<int> photoFaces;              // per photo: faces mapped to it in the final map
+  std::vector<int> photoProjectedFaces;     // per photo: of those, mapped by projection
+  std::vector<int> photoRefusedFlipped;     // per photo: faces refused for a flip
+  std::vector<int> photoRefusedBackground;  // per photo: faces refused for landing on the background
   int fittedPhotos = 0;
   int filledFaces = 0;      // faces empty after the paper's path, now mapped by projection
   int relabelledFaces = 0;  // faces the paper's path gave to a fitted photo, now mapped to another one

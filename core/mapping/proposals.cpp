@@ -28,7 +28,8 @@ std::vector<Proposal> proposeCorrespondences(const Project& project, const Mesh&
     if (from < 0) continue;
     // Area-weighted vertex normal.
     Vec3 normal = Vec3::Zero();
-    for (auto fh : mesh.tri.vf_range(mesh.tri.vertex_handle(v))) normal += mesh.faceNormal(fh.idx()) * mesh.faceArea(fh.idx());
+    for (auto fh : mesh.tri.vf_range(mesh.tri.vertex_handle(v)))
+      normal += mesh.faceNormal(fh.idx()) * mesh.faceArea(fh.idx());
     if (normal.norm() > 0) normal.normalize();
     for (int q = 0; q < np; ++q) {
       if (clicked[q] || !fits[q].fits || views[q].vertexVisible.empty()) continue;

@@ -24,8 +24,8 @@ struct Proposal {
 };
 
 struct ProposalOptions {
-  double minFacing = 0.2;          // the vertex normal must face the camera at least this much (cosine)
-  double silhouetteMarginPx = 3;   // ...and its projection lie this far inside the silhouette
+  double minFacing = 0.2;         // the vertex normal must face the camera at least this much (cosine)
+  double silhouetteMarginPx = 3;  // ...and its projection lie this far inside the silhouette
 };
 
 // Proposals for every feature point with a click in a fitted photo, in every other fitted photo that

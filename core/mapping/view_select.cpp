@@ -112,10 +112,10 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
         if (unary[i] < 0) addPair(g, i, sink, -unary[i], 0);
       }
       std::vector<boost::default_color_type> color(m + 2);
-      boost::boykov_kolmogorov_max_flow(g, boost::get(&EdgeProp::capacity, g), boost::get(&EdgeProp::residual, g),
-                                        boost::get(&EdgeProp::reverse, g),
-                                        boost::make_iterator_property_map(color.begin(), boost::get(boost::vertex_index, g)),
-                                        boost::get(boost::vertex_index, g), source, sink);
+      boost::boykov_kolmogorov_max_flow(
+          g, boost::get(&EdgeProp::capacity, g), boost::get(&EdgeProp::residual, g), boost::get(&EdgeProp::reverse, g),
+          boost::make_iterator_property_map(color.begin(), boost::get(boost::vertex_index, g)),
+          boost::get(boost::vertex_index, g), source, sink);
       std::vector<int> next = labels;
       for (int i = 0; i < m; ++i)
         if (color[i] != boost::black_color) next[nodes[i]] = alpha;

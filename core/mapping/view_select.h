@@ -17,15 +17,15 @@ namespace montage {
 struct PottsProblem {
   static constexpr double kForbidden = std::numeric_limits<double>::infinity();
   int numNodes = 0, numLabels = 0;
-  std::vector<double> cost;                // numNodes x numLabels
-  std::vector<std::array<int, 2>> edges;   // node pairs
-  std::vector<double> weights;             // per edge
+  std::vector<double> cost;                             // numNodes x numLabels
+  std::vector<std::array<int, 2>> edges;                // node pairs
+  std::vector<double> weights;                          // per edge
   double energy(const std::vector<int>& labels) const;  // kForbidden when a forbidden label is used
 };
 
 struct PottsStats {
-  int sweeps = 0;        // passes over all labels
-  int moves = 0;         // expansion moves that lowered the energy
+  int sweeps = 0;  // passes over all labels
+  int moves = 0;   // expansion moves that lowered the energy
   double initialEnergy = 0, finalEnergy = 0;
 };
 

@@ -16,15 +16,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "io/mesh_io.h"
 #include "bench/eval.h"
-#include "geometry/mesh.h"
-#include "io/model.h"
-#include "image/photo.h"
-#include "pipeline.h"
-#include "io/project.h"
 #include "bench/render.h"
 #include "bench/synth.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "io/project.h"
+#include "pipeline.h"
 
 namespace fs = std::filesystem;
 using namespace montage;
@@ -162,11 +162,12 @@ int cmdEval(const std::string& resultPath, const std::string& truthMesh, const s
     std::printf("projection oracle (true cameras of %s):\n", oracleDir.c_str());
     std::printf("%s", o.summary().c_str());
     const double unseen = o.coverageInpainted + o.coverageEmpty;
-    std::printf("against the oracle: covered PSNR %+.2f dB, covered Delta E %+.3f; inpainted %.2f%%, the oracle "
-                "(no photo sees it) %.2f%%: %+.2f points\n",
-                eval.psnrCovered - o.psnrCovered, eval.deltaECovered - o.deltaECovered,
-                100 * (eval.coverageInpainted + eval.coverageEmpty), 100 * unseen,
-                100 * (eval.coverageInpainted + eval.coverageEmpty - unseen));
+    std::printf(
+        "against the oracle: covered PSNR %+.2f dB, covered Delta E %+.3f; inpainted %.2f%%, the oracle "
+        "(no photo sees it) %.2f%%: %+.2f points\n",
+        eval.psnrCovered - o.psnrCovered, eval.deltaECovered - o.deltaECovered,
+        100 * (eval.coverageInpainted + eval.coverageEmpty), 100 * unseen,
+        100 * (eval.coverageInpainted + eval.coverageEmpty - unseen));
     json = {{"result", eval.toJson()},
             {"oracle", o.toJson()},
             {"psnr_covered_gap", eval.psnrCovered - o.psnrCovered},
@@ -269,8 +270,9 @@ int main(int argc, char** argv) {
   synthCmd->add_option("--exposure", synth.options.exposures, "exposure gain per view on linear colour (cycled)")
       ->delimiter(',')
       ->check(CLI::PositiveNumber);
-  synthCmd->add_option("--click-noise", synth.options.clickNoisePx,
-                       "standard deviation of a seeded Gaussian error added to every click, pixels")
+  synthCmd
+      ->add_option("--click-noise", synth.options.clickNoisePx,
+                   "standard deviation of a seeded Gaussian error added to every click, pixels")
       ->check(CLI::Range(0.0, 1000.0));
   synthCmd->add_option("--out", synth.out, "output folder")->required();
 

@@ -1,9 +1,8 @@
 #include "pipeline.h"
 
 #include <chrono>
-#include <cstdlib>
-#include <limits>
 #include <filesystem>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
@@ -67,13 +66,17 @@ CameraFit fitPhoto(const Scene& scene, int photo) {
     fit.reason = "camera fit is off (options.cameraMode)";
     return fit;
   }
-  return fitCamera(*scene.mesh, clicks, p.width, p.height, cameraFitOptions(scene.project.options));
+  const CameraFitOptions options = cameraFitOptions(scene.project.options);
+  CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options);
+  refineOnSilhouette(*scene.mesh, p, fit, options);
+  return fit;
 }
 
 nlohmann::json fitJson(const CameraFit& fit, int photo) {
   nlohmann::json outliers = nlohmann::json::array();
   for (size_t i = 0; i < fit.clicks.size(); ++i)
-    if (fit.fits && i < fit.inlier.size() && !fit.inlier[i]) outliers.push_back({{"point", fit.clicks[i].point}, {"residual", fit.residual[i]}});
+    if (fit.fits && i < fit.inlier.size() && !fit.inlier[i])
+      outliers.push_back({{"point", fit.clicks[i].point}, {"residual", fit.residual[i]}});
   nlohmann::json j = {{"photo", photo},
                       {"path", fit.fits ? "projection" : "paper"},
                       {"fits", fit.fits},
@@ -89,6 +92,8 @@ nlohmann::json fitJson(const CameraFit& fit, int photo) {
     j["residual_median_px"] = fit.medianResidual;
     j["residual_max_px"] = fit.maxResidual;
     j["residual_rms_px"] = fit.rmsResidual;
+    j["silhouette_points"] = fit.silhouettePoints;
+    j["silhouette_residual_px"] = fit.silhouetteResidualPx;
     j["outliers"] = outliers;
     j["eye"] = {fit.camera.pinhole.center().x(), fit.camera.pinhole.center().y(), fit.camera.pinhole.center().z()};
     // The camera in cameras.json's convention: p_cam = R p + t, R row-major.
@@ -125,8 +130,6 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
   ProjectionOptions options;
   options.correction = o.correction;
   options.smoothness = o.viewSmoothness;
-  if (const char* e = std::getenv("TM_EXP_R0")) options.localRadiusPx = std::atof(e);  // EXPERIMENT
-  if (const char* e = std::getenv("TM_EXP_KEEP")) options.keepCellPhotos = std::atoi(e);  // EXPERIMENT
   ProjectionStage out;
   job.progress(StageId::Projection, 0.0);
   out.result = projectionFill(scene, paper->partition, paper->map, cameras.fits, options, job);
@@ -300,7 +303,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   }
   for (size_t p = 0; p < cameras->fits.size(); ++p)
     if (!cameras->fits[p].fits && !cameras->fits[p].clicks.empty() && project.options.cameraMode == CameraMode::Auto)
-      result.warnings.push_back("camera: photo " + std::to_string(p) + " takes the paper's path: " + cameras->fits[p].reason);
+      result.warnings.push_back("camera: photo " + std::to_string(p) +
+                                " takes the paper's path: " + cameras->fits[p].reason);
 
   // Partition, Simplify, Map: rerun when what they read (mesh, photos, correspondences, options) changed.
   std::ostringstream key;
@@ -376,7 +380,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                               {"photos", photos}}});
   }
   const Mapping& finalMapping = *projection.mapping;
-  result.proposals = proposeCorrespondences(project, finalMapping.partition.mesh, cameras->fits, projection.result.views);
+  result.proposals =
+      proposeCorrespondences(project, finalMapping.partition.mesh, cameras->fits, projection.result.views);
 
   // Level + Inpaint: rerun when the mapping or what they read (strokes, clones, hole modes, their
   // options) changed.
@@ -528,9 +533,11 @@ PipelineResult projectionOracle(const Project& project, const std::vector<PhotoC
   start = Clock::now();
   result.projection = std::make_shared<const ProjectionStage>(projectMapping(scene, paper, *fits, job));
   result.mapping = result.projection->mapping;
-  result.stages.push_back({StageId::Projection, false, secondsSince(start),
-                           {{"seen_faces", result.projection->result.seenFaces},
-                            {"empty_faces", result.projection->result.emptyFaces}}});
+  result.stages.push_back(
+      {StageId::Projection,
+       false,
+       secondsSince(start),
+       {{"seen_faces", result.projection->result.seenFaces}, {"empty_faces", result.projection->result.emptyFaces}}});
   start = Clock::now();
   result.colors = std::make_shared<const SurfaceColors>(colorSurface(scene, *result.mapping, job));
   result.stages.push_back({StageId::Inpaint, false, secondsSince(start), {}});

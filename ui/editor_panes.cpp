@@ -296,9 +296,8 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   if (hovered && ImGui::IsMouseClicked(ImGuiMouseButton_Left)) {
     activePhoto_ = i;
     const bool inside = photo.inside(mousePhoto.x(), mousePhoto.y());
-    if (hover < 0 && clickProposal(i, io.KeyShift)) {
-      // a proposal was accepted or declined (editor_camera.cpp)
-    } else switch (tool_) {
+    if (hover < 0 && clickProposal(i, io.KeyShift)) return;  // a proposal accepted or declined (editor_camera.cpp)
+    switch (tool_) {
       case Tool::Point:
         if (hover >= 0) {
           selectedPoint_ = hover;

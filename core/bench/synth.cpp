@@ -552,7 +552,8 @@ std::vector<PhotoCamera> readSynthCameras(const std::string& path) {
     const nlohmann::json& v = j["views"][k];
     const std::string where = "views[" + std::to_string(k) + "]";
     auto number = [&](const char* field) {
-      TM_CHECK(v.contains(field) && v[field].is_number(), located(path, where + "." + field + ": missing or not a number"));
+      TM_CHECK(v.contains(field) && v[field].is_number(),
+               located(path, where + "." + field + ": missing or not a number"));
       return v[field].get<double>();
     };
     auto numbers = [&](const char* field, size_t n) {

@@ -19,10 +19,12 @@
 #include <cmath>
 #include <limits>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "base/util.h"
 #include "geometry/mesh.h"
+#include "image/photo.h"
 #include "io/project.h"
 
 namespace montage {
@@ -382,6 +384,236 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   return finish(describeFit(fit));
 }
 
+namespace {
+
+// Signed distance (pixels, > 0 outside) to the edge of a photo's foreground: from distance transforms
+// of the thresholded alpha, and sub-pixel near the edge from the antialiased alpha itself.
+class SilhouetteDistance {
+ public:
+  explicit SilhouetteDistance(const Photo& photo) : alpha_(photo.alpha) {
+    cv::Mat fg = photo.alpha >= 0.5f, bg = photo.alpha < 0.5f, in, out;
+    cv::distanceTransform(fg, in, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    cv::distanceTransform(bg, out, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    coarse_ = cv::Mat(photo.height, photo.width, CV_32F);
+    for (int y = 0; y < photo.height; ++y)
+      for (int x = 0; x < photo.width; ++x) {
+        const float o = out.at<float>(y, x), i = in.at<float>(y, x);
+        coarse_.at<float>(y, x) = o > 0 ? o - 0.5f : -(i - 0.5f);
+      }
+  }
+  double at(const Vec2& p) const {
+    const double d = sampleBilinear1(coarse_, p.x(), p.y());
+    if (std::abs(d) > 1.5) return d;
+    const double a = sampleBilinear1(alpha_, p.x(), p.y());
+    const double gx = 0.5 * (sampleBilinear1(alpha_, p.x() + 1, p.y()) - sampleBilinear1(alpha_, p.x() - 1, p.y()));
+    const double gy = 0.5 * (sampleBilinear1(alpha_, p.x(), p.y() + 1) - sampleBilinear1(alpha_, p.x(), p.y() - 1));
+    const double g = std::hypot(gx, gy);
+    return g > 0.1 ? std::clamp((0.5 - a) / g, -1.5, 1.5) : d;
+  }
+  Vec2 gradient(const Vec2& p) const {
+    const double h = 0.25;
+    return Vec2(at(p + Vec2(h, 0)) - at(p - Vec2(h, 0)), at(p + Vec2(0, h)) - at(p - Vec2(0, h))) / (2 * h);
+  }
+
+ private:
+  cv::Mat alpha_, coarse_;
+};
+
+// Samples of the mesh's outer contour as `camera` sees it: on edges between a front- and a back-facing
+// face (or on the border), shown by the z-buffer, within a pixel and a half of the rendered outline.
+std::vector<Vec3> outerContour(const Mesh& mesh, const Camera& camera, double spacingPx) {
+  const RasterBuffers raster = rasterize(mesh, camera);
+  cv::Mat covered(camera.height, camera.width, CV_8U), inside;
+  for (int y = 0; y < camera.height; ++y)
+    for (int x = 0; x < camera.width; ++x) covered.at<uchar>(y, x) = raster.face[raster.index(x, y)] >= 0 ? 255 : 0;
+  cv::distanceTransform(covered, inside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  Vec3 lo, hi;
+  mesh.bounds(lo, hi);
+  const double tol = 0.005 * (hi - lo).norm();
+  const Vec3 eye = camera.center();
+  const TriMesh& tri = mesh.tri;
+  auto facing = [&](OpenMesh::FaceHandle f) {
+    const auto q = mesh.facePositions(f.idx());
+    return mesh.faceNormal(f.idx()).dot(eye - (q[0] + q[1] + q[2]) / 3) > 0;
+  };
+  std::vector<Vec3> out;
+  for (auto eh : tri.edges()) {
+    const auto h = tri.halfedge_handle(eh, 0);
+    const auto f0 = tri.face_handle(h), f1 = tri.opposite_face_handle(h);
+    if (f0.is_valid() && f1.is_valid() && facing(f0) == facing(f1)) continue;
+    const Vec3 a = mesh.position(tri.from_vertex_handle(h).idx()), b = mesh.position(tri.to_vertex_handle(h).idx());
+    Vec2 pa, pb;
+    if (!camera.project(a, pa) || !camera.project(b, pb)) continue;
+    const int n = std::max(1, static_cast<int>(std::ceil((pa - pb).norm() / spacingPx)));
+    for (int k = 0; k < n; ++k) {
+      const Vec3 x = a + (b - a) * ((k + 0.5) / n);
+      Vec2 px;
+      double z = 0;
+      if (!camera.project(x, px, &z)) continue;
+      const int c = static_cast<int>(std::floor(px.x())), r = static_cast<int>(std::floor(px.y()));
+      if (c < 1 || r < 1 || c >= camera.width - 1 || r >= camera.height - 1) continue;
+      const int i = raster.index(c, r);
+      if (raster.face[i] >= 0 && (raster.depth[i] < z - tol || inside.at<float>(r, c) > 1.5f)) continue;
+      out.push_back(x);
+    }
+  }
+  return out;
+}
+
+// LM residuals: the agreeing clicks (pixels) and the contour samples' signed distances to the photo's
+// silhouette, weighted.
+class SilhouetteFit : public cv::LMSolver::Callback {
+ public:
+  SilhouetteFit(const std::vector<cv::Point3d>& clicks3, const std::vector<cv::Point2d>& clicks2,
+                const std::vector<cv::Point3d>& contour, const std::vector<double>& weights,
+                const SilhouetteDistance& distance, double cx, double cy, int radialTerms)
+      : base_(clicks3, clicks2, cx, cy, radialTerms),
+        contour_(contour),
+        weights_(weights),
+        distance_(distance),
+        cx_(cx),
+        cy_(cy),
+        radial_(radialTerms) {}
+  cv::Mat pack(const Params& p) const { return base_.pack(p); }
+  Params unpack(const cv::Mat& x) const { return base_.unpack(x); }
+
+  bool compute(cv::InputArray param, cv::OutputArray err, cv::OutputArray J) const override {
+    cv::Mat e0, j0;
+    if (J.needed())
+      base_.compute(param, e0, j0);
+    else
+      base_.compute(param, e0, cv::noArray());
+    const Params p = unpack(param.getMat());
+    std::vector<cv::Point2d> proj;
+    cv::Mat full;
+    projectAll(contour_, p, cx_, cy_, proj, J.needed() ? &full : nullptr);
+    const int n0 = e0.rows, m = static_cast<int>(contour_.size()), np = base_.numParams();
+    err.create(n0 + m, 1, CV_64F);
+    cv::Mat e = err.getMat();
+    e0.copyTo(e.rowRange(0, n0));
+    if (J.needed()) {
+      J.create(n0 + m, np, CV_64F);
+      j0.copyTo(J.getMat().rowRange(0, n0));
+    }
+    for (int k = 0; k < m; ++k) {
+      const Vec2 px(proj[k].x, proj[k].y);
+      const double w = std::sqrt(weights_[k]);
+      e.at<double>(n0 + k) = w * distance_.at(px);
+      if (!J.needed()) continue;
+      const Vec2 g = w * distance_.gradient(px);
+      cv::Mat j = J.getMat();
+      for (int c = 0; c < np; ++c) {
+        auto d = [&](int row, int col) { return full.at<double>(2 * k + row, col); };
+        double dx, dy;
+        if (c < 6) {
+          dx = d(0, c), dy = d(1, c);
+        } else if (c == 6) {
+          dx = d(0, 6) + d(0, 7), dy = d(1, 6) + d(1, 7);
+        } else {
+          dx = d(0, c + 3), dy = d(1, c + 3);  // k1 at column 10, k2 at 11
+        }
+        j.at<double>(n0 + k, c) = g.x() * dx + g.y() * dy;
+      }
+    }
+    return true;
+  }
+
+ private:
+  Reprojection base_;
+  const std::vector<cv::Point3d>& contour_;
+  const std::vector<double>& weights_;
+  const SilhouetteDistance& distance_;
+  double cx_, cy_;
+  int radial_;
+};
+
+}  // namespace
+
+void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, const CameraFitOptions& o) {
+  if (!o.silhouette || !fit.fits || !photo.hasBackground || fit.rmsResidual < o.silhouetteMinClickRmsPx) return;
+  if (photo.width != fit.camera.pinhole.width || photo.height != fit.camera.pinhole.height) return;
+  const auto start = Clock::now();
+  const SilhouetteDistance distance(photo);
+  std::vector<cv::Point3d> clicks3;
+  std::vector<cv::Point2d> clicks2;
+  for (size_t i = 0; i < fit.clicks.size(); ++i)
+    if (fit.inlier[i]) {
+      const Vec3 q = mesh.position(fit.clicks[i].vertex);
+      clicks3.emplace_back(q.x(), q.y(), q.z());
+      clicks2.emplace_back(fit.clicks[i].pixel.x(), fit.clicks[i].pixel.y());
+    }
+  const int radial = fit.camera.k2 != 0 ? 2 : fit.camera.k1 != 0 ? 1 : 0;
+  const double sigmaClicks = std::max(o.silhouetteMinClickRmsPx, fit.rmsResidual);
+  const double weight = std::pow(sigmaClicks / o.silhouetteSigmaPx, 2);
+  CameraFit refined = fit;
+  Params p;
+  {
+    cv::Mat R(3, 3, CV_64F), rvec;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) R.at<double>(r, c) = fit.camera.pinhole.R(r, c);
+    cv::Rodrigues(R, rvec);
+    p.rvec = cv::Vec3d(rvec);
+    p.tvec = cv::Vec3d(fit.camera.pinhole.t.x(), fit.camera.pinhole.t.y(), fit.camera.pinhole.t.z());
+    p.focal = fit.camera.focal();
+    p.k1 = fit.camera.k1;
+    p.k2 = fit.camera.k2;
+  }
+  auto meanDistance = [&](const Camera& cam, const PhotoCamera& full, int* count) {
+    const std::vector<Vec3> contour = outerContour(mesh, cam, o.silhouetteSpacingPx);
+    double sum = 0;
+    int n = 0;
+    for (const Vec3& x : contour) {
+      Vec2 px;
+      if (full.project(x, px)) sum += std::abs(distance.at(px)), ++n;
+    }
+    if (count) *count = n;
+    return n ? sum / n : std::numeric_limits<double>::infinity();
+  };
+  const double before = meanDistance(fit.camera.pinhole, fit.camera, nullptr);
+  for (int round = 0; round < 4; ++round) {
+    const std::vector<Vec3> contour = outerContour(mesh, refined.camera.pinhole, o.silhouetteSpacingPx);
+    if (contour.size() < 10) return;
+    std::vector<cv::Point3d> c3;
+    std::vector<double> w;
+    for (const Vec3& x : contour) {
+      Vec2 px;
+      if (!refined.camera.project(x, px)) continue;
+      const double d = std::abs(distance.at(px));
+      c3.emplace_back(x.x(), x.y(), x.z());
+      w.push_back(weight * (d <= o.silhouetteHuberPx ? 1.0 : o.silhouetteHuberPx / d));
+    }
+    auto callback = cv::makePtr<SilhouetteFit>(clicks3, clicks2, c3, w, distance, fit.camera.pinhole.cx,
+                                               fit.camera.pinhole.cy, radial);
+    cv::Mat x = callback->pack(p);
+    try {
+      cv::LMSolver::create(callback, 50, 1e-10)->run(x);
+    } catch (const cv::Exception&) {
+      return;
+    }
+    const Params q = callback->unpack(x);
+    if (!std::isfinite(q.focal) || q.focal <= 0) return;
+    p = q;
+    cv::Matx33d R;
+    cv::Rodrigues(p.rvec, R);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) refined.camera.pinhole.R(r, c) = R(r, c);
+    refined.camera.pinhole.t = Vec3(p.tvec[0], p.tvec[1], p.tvec[2]);
+    refined.camera.pinhole.fx = refined.camera.pinhole.fy = p.focal;
+    refined.camera.k1 = p.k1;
+    refined.camera.k2 = p.k2;
+  }
+  measureClicks(mesh, refined);
+  int count = 0;
+  const double after = meanDistance(refined.camera.pinhole, refined.camera, &count);
+  // Kept when the silhouette agrees better and the clicks still agree within their noise.
+  if (!(after < before) || refined.inliers < fit.inliers || refined.rmsResidual > 1.5 * fit.rmsResidual + 0.05) return;
+  refined.silhouettePoints = count;
+  refined.silhouetteResidualPx = after;
+  refined.seconds = fit.seconds + secondsSince(start);
+  refined.reason = describeFit(refined);
+  fit = std::move(refined);
+}
+
 CameraFit fitFromCamera(const Mesh& mesh, const PhotoCamera& camera, const std::vector<CameraClick>& clicks) {
   checkInputs(mesh, clicks, camera.pinhole.width, camera.pinhole.height);
   CameraFit fit;
@@ -402,6 +634,9 @@ std::string describeFit(const CameraFit& fit) {
     s += ", k1 " + fixed(fit.camera.k1, 4) + ", k2 " + fixed(fit.camera.k2, 4);
   s += "), " + std::to_string(fit.inliers) + "/" + std::to_string(fit.clicks.size()) + " clicks agree, median " +
        fixed(fit.medianResidual, 2) + " px, max " + fixed(fit.maxResidual, 2) + " px";
+  if (fit.silhouettePoints > 0)
+    s += ", on the silhouette: " + std::to_string(fit.silhouettePoints) + " contour samples, mean " +
+         fixed(fit.silhouetteResidualPx, 2) + " px";
   return s;
 }
 

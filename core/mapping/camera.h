@@ -22,6 +22,7 @@
 namespace montage {
 
 struct Mesh;
+struct Photo;
 struct Project;
 class JobControl;
 
@@ -65,6 +66,12 @@ struct CameraFitOptions {
   int focalSamples = 16;                  // focal lengths tried for the RANSAC start (log-spaced over the fov range)
   int ransacIterations = 300;             // RANSAC iterations per focal length
   unsigned seed = 1;                      // RANSAC seed, so fits are repeatable
+  // Silhouette refinement (refineOnSilhouette), for photos with a background:
+  bool silhouette = true;                 // refine the camera on the photo's silhouette as well as the clicks
+  double silhouetteMinClickRmsPx = 0.15;  // clicks that agree better than this fix the camera on their own
+  double silhouetteSigmaPx = 0.5;         // accuracy of the photo's silhouette (the clicks': their RMS residual)
+  double silhouetteSpacingPx = 2;         // sample spacing along the mesh's projected contour, pixels
+  double silhouetteHuberPx = 1.5;         // silhouette residuals beyond this count linearly (Huber)
 };
 
 // The fit of one photo.
@@ -80,6 +87,8 @@ struct CameraFit {
   int inliers = 0;
   double medianResidual = 0, maxResidual = 0;  // over the inliers, pixels
   double rmsResidual = 0;                      // over the inliers, pixels
+  int silhouettePoints = 0;                    // contour samples of the silhouette refinement (0: not refined)
+  double silhouetteResidualPx = 0;             // their mean distance to the photo's silhouette, pixels
   double seconds = 0;                          // time of the fit
 };
 
@@ -88,6 +97,15 @@ struct CameraFit {
 // Throws montage::Error for a vertex id out of range or a non-positive size.
 CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height,
                     const CameraFitOptions& options = {});
+
+// Refines a fitted camera on the photo's silhouette, after Lensch, Heidrich and Seidel 2001: the mesh's
+// outer contour (edges between front- and back-facing faces that the z-buffer shows on the rendered
+// outline) must land on the edge of the photo's foreground (sub-pixel from the antialiased alpha).
+// Levenberg-Marquardt on the agreeing clicks plus the contour samples (Huber, reweighted), the contour
+// re-extracted each round. Kept only when the clicks still agree as well as their noise allows. Does
+// nothing for photos without a background, fits that do not fit, or clicks that already agree to
+// silhouetteMinClickRmsPx.
+void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, const CameraFitOptions& options = {});
 
 // A fit made from a known camera (the synthetic scenes' true cameras: the projection oracle), with
 // the residuals of `clicks` against it. Always `fits`.

@@ -21,7 +21,6 @@
 //   face area, so the balance does not depend on the mesh's resolution.
 #include "mapping/projection.h"
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
@@ -71,43 +70,12 @@ float at(const cv::Mat& m, const Vec2& px) {
 
 Vec2 CorrectionField::at(const Vec3& p) const {
   Vec2 d = Vec2::Zero();
-  const double s2 = coherentSupport * coherentSupport;
   for (size_t i = 0; i < centres.size(); ++i) {
     const double r2 = (p - centres[i]).squaredNorm();
-    if (coherentSupport > 0 && r2 < s2) d += wendland(std::sqrt(r2), coherentSupport) * coherent[i];
     if (r2 < localSupport[i] * localSupport[i]) d += wendland(std::sqrt(r2), localSupport[i]) * local[i];
   }
   return d;
 }
-
-namespace {
-
-// Ridge weight of the coherent part by generalised cross-validation (Golub, Heath and Wahba 1979):
-// minimises n |(I - A) r|^2 / tr(I - A)^2 with A = Phi (Phi + lambda I)^-1, over a log grid. Returns
-// the weights (Phi + lambda I)^-1 r.
-Eigen::MatrixXd ridgeByGcv(const Eigen::MatrixXd& phi, const Eigen::MatrixXd& r) {
-  const int n = static_cast<int>(phi.rows());
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(phi);
-  const Eigen::VectorXd ev = eig.eigenvalues().cwiseMax(0.0);
-  const Eigen::MatrixXd qr = eig.eigenvectors().transpose() * r;  // n x 2
-  double bestScore = std::numeric_limits<double>::infinity(), bestLambda = 1e3;
-  for (double e = -6; e <= 3.0001; e += 0.25) {
-    const double lambda = std::pow(10.0, e);
-    double rss = 0, trace = 0;
-    for (int k = 0; k < n; ++k) {
-      const double shrink = lambda / (ev[k] + lambda);
-      rss += shrink * shrink * qr.row(k).squaredNorm();
-      trace += shrink;
-    }
-    const double score = n * rss / (trace * trace);
-    if (score < bestScore) bestScore = score, bestLambda = lambda;
-  }
-  Eigen::VectorXd inv(n);
-  for (int k = 0; k < n; ++k) inv[k] = 1.0 / (ev[k] + bestLambda);
-  return eig.eigenvectors() * inv.asDiagonal() * qr;
-}
-
-}  // namespace
 
 CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode, double localRadiusPx) {
   CorrectionField field;
@@ -127,45 +95,14 @@ CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, Correcti
   Eigen::MatrixXd r(n, 2);
   for (int i = 0; i < n; ++i) r.row(i) = residual[i].transpose();
 
-  // Coherent part (at least 4 clicks, so that cross-validation means something).
-  Eigen::MatrixXd remaining = r;
-  field.coherent.assign(n, Vec2::Zero());
-  if (n >= 4) {
-    std::vector<double> nearest(n, std::numeric_limits<double>::infinity());
-    for (int i = 0; i < n; ++i)
-      for (int j = i + 1; j < n; ++j) {
-        const double d = (field.centres[i] - field.centres[j]).norm();
-        nearest[i] = std::min(nearest[i], d);
-        nearest[j] = std::min(nearest[j], d);
-      }
-    std::nth_element(nearest.begin(), nearest.begin() + n / 2, nearest.end());
-    field.coherentSupport = 3 * nearest[n / 2];
-    if (field.coherentSupport > 0) {
-      Eigen::MatrixXd phi(n, n);
-      for (int i = 0; i < n; ++i)
-        for (int j = i; j < n; ++j)
-          phi(i, j) = phi(j, i) = wendland((field.centres[i] - field.centres[j]).norm(), field.coherentSupport);
-      const Eigen::MatrixXd w = ridgeByGcv(phi, r);
-      if (w.allFinite()) {
-        for (int i = 0; i < n; ++i) field.coherent[i] = w.row(i).transpose();
-        remaining = r - phi * w;
-      } else {
-        field.coherentSupport = 0;
-      }
-    } else {
-      field.coherentSupport = 0;
-    }
-  }
-
   // Local part: exact at every click.
   field.localSupport.resize(n);
-  for (int i = 0; i < n; ++i)
-    field.localSupport[i] = std::max(localRadiusPx, 4 * remaining.row(i).norm()) * pixelSize[i];
+  for (int i = 0; i < n; ++i) field.localSupport[i] = std::max(localRadiusPx, 4 * r.row(i).norm()) * pixelSize[i];
   Eigen::MatrixXd phi(n, n);
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j)
       phi(i, j) = wendland((field.centres[i] - field.centres[j]).norm(), field.localSupport[j]);
-  const Eigen::MatrixXd w = phi.partialPivLu().solve(remaining);
+  const Eigen::MatrixXd w = phi.partialPivLu().solve(r);
   field.local.assign(n, Vec2::Zero());
   if (w.allFinite())
     for (int i = 0; i < n; ++i) field.local[i] = w.row(i).transpose();

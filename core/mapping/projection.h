@@ -26,19 +26,15 @@ struct Partition;
 class JobControl;
 
 // A smooth 2D field over the surface that equals the clicks' residuals (click - projection) at their
-// vertices, in two parts (Wendland C2 radial basis functions over 3D distance, compactly supported):
-// - a coherent part, what the residuals share over the scale of the click spacing (a camera model
-//   error, an inexact mesh): support 3x the median distance from a click to its nearest neighbour,
-//   ridge-regularised with the weight chosen by generalised cross-validation, so that independent
-//   click errors are not spread over the surface;
-// - a local part that makes every click exact: around each click a bump reaching
-//   max(localRadiusPx, 4 x its remaining residual) pixels in the photo (gradient <= 1/4, so no bump
-//   can fold the texture), 0 beyond.
+// vertices: around each click a compactly supported Wendland C2 bump (3D distance) reaching
+// max(localRadiusPx, 4 x its residual) pixels in the photo, so that no bump can fold the texture
+// (gradient about 1/4 at most) and there is no step at its edge; 0 beyond, where the camera alone
+// rules. Where bumps overlap, their weights are solved so that every click stays exact.
+// (A second, coherent part, Wendland RBFs over the click spacing ridge-regularised by generalised
+// cross-validation, was measured and dropped: it spread click noise over the surface, docs/pipeline.md.)
 struct CorrectionField {
   std::vector<Vec3> centres;         // click vertex positions, model units
-  std::vector<Vec2> coherent;        // weights of the coherent part, pixels
-  double coherentSupport = 0;        // model units; 0 = no coherent part
-  std::vector<Vec2> local;           // weights of the local bumps, pixels
+  std::vector<Vec2> local;           // weights of the bumps, pixels
   std::vector<double> localSupport;  // per click, model units
   Vec2 at(const Vec3& p) const;      // pixels
   bool empty() const { return centres.empty(); }

@@ -183,6 +183,32 @@ TEST(CameraFit, RadialDistortionIsFittedWhenThePhotoHasIt) {
   EXPECT_EQ(exact.camera.k2, 0);
 }
 
+TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
+  DemoScene d = demoScene("camera_fit_silhouette", 4, 150, 1.0, 768);
+  for (int k = 0; k < 4; ++k) {
+    const Photo photo = loadPhoto(d.dir + "/photo_" + std::to_string(k) + ".png");
+    ASSERT_TRUE(photo.hasBackground);
+    CameraFit fit = fitCamera(*d.mesh, photoClicks(d.scene.project, k), 768, 768);
+    ASSERT_TRUE(fit.fits) << fit.reason;
+    const double before = projectionGap(*d.mesh, trueCamera(d.scene, k), fit.camera);
+    refineOnSilhouette(*d.mesh, photo, fit);
+    const double after = projectionGap(*d.mesh, trueCamera(d.scene, k), fit.camera);
+    EXPECT_GT(fit.silhouettePoints, 100) << "photo " << k;
+    EXPECT_LT(fit.silhouetteResidualPx, 0.5) << "photo " << k;
+    EXPECT_LT(after, 0.5 * before) << "photo " << k << ": " << before << " -> " << after << " px";
+    EXPECT_LT(after, 0.5) << "photo " << k;
+    EXPECT_NE(fit.reason.find("on the silhouette"), std::string::npos);
+  }
+  // Exact clicks need no silhouette: the fit is left as it is.
+  DemoScene exact = demoScene("camera_fit_silhouette_exact", 2, 100, 0, 512);
+  const Photo photo = loadPhoto(exact.dir + "/photo_0.png");
+  CameraFit fit = fitCamera(*exact.mesh, photoClicks(exact.scene.project, 0), 512, 512);
+  const double focal = fit.camera.focal();
+  refineOnSilhouette(*exact.mesh, photo, fit);
+  EXPECT_EQ(fit.silhouettePoints, 0);
+  EXPECT_EQ(fit.camera.focal(), focal);
+}
+
 // ---- Synthetic click noise ----
 
 TEST(CameraSynth, ClickNoiseIsSeededGaussian) {

@@ -1,7 +1,7 @@
 // `montage`: the command-line face of TextureMontage.
 //   montage info FILE                       validation report of a mesh, photo, model or project
 //   montage synth --mesh M ... --out DIR    synthetic ground-truth scene
-//   montage eval --result R --truth M ...   compare a result with the ground truth
+//   montage eval --result R --truth M ...   compare a result with the ground truth (and the projection oracle)
 //   montage render MODEL --out PNG          headless shaded render
 //   montage run PROJECT --out DIR           run the pipeline and export
 //   montage bench                           per-stage times and peak memory
@@ -142,14 +142,40 @@ int cmdSynth(const SynthArgs& args) {
 }
 
 int cmdEval(const std::string& resultPath, const std::string& truthMesh, const std::string& truthTexture,
-            const std::string& jsonPath, int samples) {
+            const std::string& jsonPath, int samples, const std::string& oracleDir) {
   TexturedModel result = loadModel(resultPath);
   TexturedModel truth = loadTruth(truthMesh, truthTexture);
   EvalOptions options;
   options.samples = samples;
   EvalResult eval = evaluate(result, truth, options);
   std::printf("%s", eval.summary().c_str());
-  if (!jsonPath.empty()) writeFileAtomic(jsonPath, eval.toJson().dump(2) + "\n");
+  nlohmann::json json = eval.toJson();
+  if (!oracleDir.empty()) {
+    // The projection oracle: the scene textured through its true cameras (its ceiling).
+    const Project project = loadProject((fs::path(oracleDir) / "project.json").string());
+    const std::vector<PhotoCamera> cameras = readSynthCameras((fs::path(oracleDir) / "cameras.json").string());
+    ProgressLine line;
+    JobControl job(nullptr, [&](StageId s, double f, const std::string& what) { line(stageName(s), f, what); });
+    const PipelineResult oracle = projectionOracle(project, cameras, job);
+    line.finish();
+    const EvalResult o = evaluate(*oracle.model, truth, options);
+    std::printf("projection oracle (true cameras of %s):\n", oracleDir.c_str());
+    std::printf("%s", o.summary().c_str());
+    const double unseen = o.coverageInpainted + o.coverageEmpty;
+    std::printf(
+        "against the oracle: covered PSNR %+.2f dB, covered Delta E %+.3f; inpainted %.2f%%, the oracle "
+        "(no photo sees it) %.2f%%: %+.2f points\n",
+        eval.psnrCovered - o.psnrCovered, eval.deltaECovered - o.deltaECovered,
+        100 * (eval.coverageInpainted + eval.coverageEmpty), 100 * unseen,
+        100 * (eval.coverageInpainted + eval.coverageEmpty - unseen));
+    json = {{"result", eval.toJson()},
+            {"oracle", o.toJson()},
+            {"psnr_covered_gap", eval.psnrCovered - o.psnrCovered},
+            {"delta_e_covered_gap", eval.deltaECovered - o.deltaECovered},
+            {"unseen_share", unseen},
+            {"inpainted_share", eval.coverageInpainted + eval.coverageEmpty}};
+  }
+  if (!jsonPath.empty()) writeFileAtomic(jsonPath, json.dump(2) + "\n");
   return 0;
 }
 
@@ -320,6 +346,10 @@ int main(int argc, char** argv) {
   synthCmd->add_option("--exposure", synth.options.exposures, "exposure gain per view on linear colour (cycled)")
       ->delimiter(',')
       ->check(CLI::PositiveNumber);
+  synthCmd
+      ->add_option("--click-noise", synth.options.clickNoisePx,
+                   "standard deviation of a seeded Gaussian error added to every click, pixels")
+      ->check(CLI::Range(0.0, 1000.0));
   synthCmd->add_option("--out", synth.out, "output folder")->required();
 
   std::string evalResult, evalTruth, evalTexture, evalJson;
@@ -330,6 +360,10 @@ int main(int argc, char** argv) {
   evalCmd->add_option("--truth-texture", evalTexture, "ground-truth texture")->required();
   evalCmd->add_option("--json", evalJson, "also write the figures as JSON");
   evalCmd->add_option("--samples", evalSamples, "surface samples")->check(CLI::Range(100, 100000000));
+  std::string evalOracle;
+  evalCmd->add_option("--oracle", evalOracle,
+                      "synthetic scene folder (project.json, cameras.json): also evaluate the projection oracle, "
+                      "the scene textured through its true cameras");
 
   RenderArgs renderArgs;
   auto* render = app.add_subcommand("render", "Headless shaded render of a model to PNG (one view or a turntable)");
@@ -371,7 +405,7 @@ int main(int argc, char** argv) {
   try {
     if (*info) return cmdInfo(infoFile);
     if (*synthCmd) return cmdSynth(synth);
-    if (*evalCmd) return cmdEval(evalResult, evalTruth, evalTexture, evalJson, evalSamples);
+    if (*evalCmd) return cmdEval(evalResult, evalTruth, evalTexture, evalJson, evalSamples, evalOracle);
     if (*render) return cmdRender(renderArgs);
     if (*run) return cmdRun(runProject, runOut, runPng);
     if (*benchCmd) return cmdBench(bench);

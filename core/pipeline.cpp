@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
@@ -42,6 +43,106 @@ std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl&
   Pipeline pipeline;
   bool cached = false;
   return pipeline.loadScene(project, job, cached);
+}
+
+namespace {
+
+CameraFitOptions cameraFitOptions(const PipelineOptions& o) {
+  CameraFitOptions options;
+  options.thresholdFraction = o.cameraThreshold;
+  options.seed = o.seed;
+  return options;
+}
+
+// One photo's fit (or the reason there is none) under the project's options.
+CameraFit fitPhoto(const Scene& scene, int photo) {
+  const Photo& p = *scene.photos[photo];
+  std::vector<CameraClick> clicks = photoClicks(scene.project, photo);
+  if (scene.project.options.cameraMode == CameraMode::Off) {
+    CameraFit fit;
+    fit.clicks = std::move(clicks);
+    fit.reprojected.assign(fit.clicks.size(), Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
+    fit.residual.assign(fit.clicks.size(), std::numeric_limits<double>::infinity());
+    fit.inlier.assign(fit.clicks.size(), 0);
+    fit.reason = "camera fit is off (options.cameraMode)";
+    return fit;
+  }
+  const CameraFitOptions options = cameraFitOptions(scene.project.options);
+  CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options);
+  refineOnSilhouette(*scene.mesh, p, fit, options);
+  return fit;
+}
+
+nlohmann::json fitJson(const CameraFit& fit, int photo) {
+  nlohmann::json outliers = nlohmann::json::array();
+  for (size_t i = 0; i < fit.clicks.size(); ++i)
+    if (fit.fits && i < fit.inlier.size() && !fit.inlier[i])
+      outliers.push_back({{"point", fit.clicks[i].point}, {"residual", fit.residual[i]}});
+  nlohmann::json j = {{"photo", photo},
+                      {"path", fit.fits ? "projection" : "paper"},
+                      {"fits", fit.fits},
+                      {"reason", fit.reason},
+                      {"clicks", fit.clicks.size()},
+                      {"inliers", fit.inliers},
+                      {"threshold_px", fit.thresholdPx}};
+  if (fit.fits) {
+    j["focal_px"] = fit.camera.focal();
+    j["fov_y_deg"] = fit.camera.fovYDeg();
+    j["k1"] = fit.camera.k1;
+    j["k2"] = fit.camera.k2;
+    j["residual_median_px"] = fit.medianResidual;
+    j["residual_max_px"] = fit.maxResidual;
+    j["residual_rms_px"] = fit.rmsResidual;
+    j["silhouette_points"] = fit.silhouettePoints;
+    j["silhouette_residual_px"] = fit.silhouetteResidualPx;
+    j["outliers"] = outliers;
+    j["eye"] = {fit.camera.pinhole.center().x(), fit.camera.pinhole.center().y(), fit.camera.pinhole.center().z()};
+    // The camera in cameras.json's convention: p_cam = R p + t, R row-major.
+    nlohmann::json R = nlohmann::json::array();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) R.push_back(fit.camera.pinhole.R(r, c));
+    j["R"] = R;
+    j["t"] = {fit.camera.pinhole.t.x(), fit.camera.pinhole.t.y(), fit.camera.pinhole.t.z()};
+    j["cx"] = fit.camera.pinhole.cx;
+    j["cy"] = fit.camera.pinhole.cy;
+  }
+  j["seconds"] = fit.seconds;
+  return j;
+}
+
+}  // namespace
+
+CameraStage fitCameras(const Scene& scene, const JobControl& job) {
+  const auto start = Clock::now();
+  CameraStage out;
+  for (size_t p = 0; p < scene.photos.size(); ++p) {
+    job.progress(StageId::Camera, double(p) / scene.photos.size(), "photo " + std::to_string(p));
+    out.fits.push_back(fitPhoto(scene, static_cast<int>(p)));
+    out.fitted += out.fits.back().fits;
+  }
+  out.seconds = secondsSince(start);
+  return out;
+}
+
+ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
+                               const CameraStage& cameras, const JobControl& job) {
+  TM_CHECK(paper, "projectMapping: no mapping");
+  const PipelineOptions& o = scene.project.options;
+  ProjectionOptions options;
+  options.correction = o.correction;
+  options.smoothness = o.viewSmoothness;
+  ProjectionStage out;
+  job.progress(StageId::Projection, 0.0);
+  out.result = projectionFill(scene, paper->partition, paper->map, cameras.fits, options, job);
+  if (out.result.fittedPhotos == 0) {
+    out.mapping = paper;
+  } else {
+    auto mapping = std::make_shared<Mapping>(*paper);
+    mapping->map = std::move(out.result.map);
+    out.mapping = mapping;
+  }
+  out.result.map = TextureMap{};
+  return out;
 }
 
 Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches) {
@@ -207,13 +308,54 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   result.stages.push_back(load);
   for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
 
+  // Camera: a fit per photo, reused while the photo's clicks, the photo, the mesh and the options stay.
+  const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
+  const nlohmann::json& opts = document["options"];
+  start = Clock::now();
+  auto cameras = std::make_shared<CameraStage>();
+  {
+    std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> fits;
+    for (size_t p = 0; p < scene->photos.size(); ++p) {
+      nlohmann::json clicks = nlohmann::json::array();
+      for (const CameraClick& c : photoClicks(project, static_cast<int>(p)))
+        clicks.push_back({c.point, c.vertex, c.pixel.x(), c.pixel.y()});
+      const std::string fitKey = meshKey_ + '#' + cachedPhotos_[p].first + clicks.dump() + opts["cameraMode"].dump() +
+                                 opts["cameraThreshold"].dump() + opts["seed"].dump();
+      std::shared_ptr<const CameraFit> fit;
+      for (const auto& [k, f] : cachedFits_)
+        if (k == fitKey) fit = f;
+      if (fit) {
+        ++cameras->reused;
+      } else {
+        job.progress(StageId::Camera, double(p) / scene->photos.size(), "photo " + std::to_string(p));
+        fit = std::make_shared<const CameraFit>(fitPhoto(*scene, static_cast<int>(p)));
+      }
+      fits.emplace_back(fitKey, fit);
+      cameras->fits.push_back(*fit);
+      cameras->fitted += fit->fits;
+    }
+    cachedFits_ = std::move(fits);
+  }
+  cameras->seconds = secondsSince(start);
+  {
+    nlohmann::json photos = nlohmann::json::array();
+    for (size_t p = 0; p < cameras->fits.size(); ++p) photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p)));
+    const bool all = cameras->reused == static_cast<int>(cameras->fits.size());
+    result.stages.push_back({StageId::Camera,
+                             all,
+                             all ? 0 : cameras->seconds,
+                             {{"fitted", cameras->fitted}, {"reused", cameras->reused}, {"photos", photos}}});
+  }
+  for (size_t p = 0; p < cameras->fits.size(); ++p)
+    if (!cameras->fits[p].fits && !cameras->fits[p].clicks.empty() && project.options.cameraMode == CameraMode::Auto)
+      result.warnings.push_back("camera: photo " + std::to_string(p) +
+                                " takes the paper's path: " + cameras->fits[p].reason);
+
   // Partition, Map: rerun when what they read (mesh, photos, correspondences, options) changed; the
   // cells whose content, boundary and photo did not change are reused from the cell cache.
   std::ostringstream key;
   key << meshKey_;
   for (const auto& [k, p] : cachedPhotos_) key << '#' << k;
-  const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
-  const nlohmann::json& opts = document["options"];
   key << document["points"].dump() << document["chains"].dump() << opts["backgroundThresholdPx"].dump()
       << opts["stretchSearches"].dump() << opts["seed"].dump();
   const bool mapCached = key.str() == mapKey_ && cachedMapping_;
@@ -257,14 +399,51 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"max_stretch", mapping.stats.maxStretch}}});
   for (const auto& note : mapping.map.notes) result.warnings.push_back("map: " + note);
 
+  // Projection: rerun when the paper's mapping, a fit or the projection options changed.
+  for (const auto& [k, f] : cachedFits_) key << "#fit:" << k;
+  key << opts["correction"].dump() << opts["viewSmoothness"].dump();
+  const bool projectionCached = mapCached && key.str() == projectionKey_ && cachedProjection_;
+  if (!projectionCached) {
+    cachedProjection_ = std::make_shared<const ProjectionStage>(projectMapping(*scene, cachedMapping_, *cameras, job));
+    projectionKey_ = key.str();
+  }
+  const ProjectionStage& projection = *cachedProjection_;
+  {
+    const ProjectionResult& pr = projection.result;
+    nlohmann::json photos = nlohmann::json::array();
+    for (size_t p = 0; p < pr.photoFaces.size(); ++p)
+      photos.push_back({{"photo", p},
+                        {"path", cameras->fits[p].fits ? "projection" : "paper"},
+                        {"faces", pr.photoFaces[p]},
+                        {"projected_faces", pr.photoProjectedFaces[p]},
+                        {"refused_flipped", pr.photoRefusedFlipped[p]},
+                        {"refused_background", pr.photoRefusedBackground[p]}});
+    result.stages.push_back({StageId::Projection,
+                             projectionCached,
+                             projectionCached ? 0 : pr.seconds,
+                             {{"fitted_photos", pr.fittedPhotos},
+                              {"seen_faces", pr.seenFaces},
+                              {"filled_faces", pr.filledFaces},
+                              {"relabelled_faces", pr.relabelledFaces},
+                              {"dropped_faces", pr.droppedFaces},
+                              {"empty_faces", pr.emptyFaces},
+                              {"selection_sweeps", pr.selectionSweeps},
+                              {"view_seconds", pr.viewSeconds},
+                              {"select_seconds", pr.selectSeconds},
+                              {"photos", photos}}});
+  }
+  const Mapping& finalMapping = *projection.mapping;
+  result.proposals =
+      proposeCorrespondences(project, finalMapping.partition.mesh, cameras->fits, projection.result.views);
+
   // Level + Inpaint: rerun when the mapping, the tier or what they read (strokes, clones, hole
   // modes, their options) changed.
   key << document["strokes"].dump() << document["clones"].dump() << document["holeModes"].dump()
       << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump() << '|'
       << kTierNames[size_t(tier)];
-  const bool colorCached = mapCached && key.str() == colorKey_ && cachedColors_;
+  const bool colorCached = mapCached && projectionCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
-    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, mapping, job, tier));
+    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, finalMapping, job, tier));
     colorKey_ = key.str();
   }
   const SurfaceColors& colors = *cachedColors_;
@@ -305,7 +484,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     const bool bakeCached = colorCached && key.str() == bakeKey_ && cachedBake_;
     start = Clock::now();
     if (!bakeCached) {
-      cachedBake_ = std::make_shared<const BakeResult>(bakeModel(*scene, mapping, colors, job));
+      cachedBake_ = std::make_shared<const BakeResult>(bakeModel(*scene, finalMapping, colors, job));
       bakeKey_ = key.str();
     }
     const BakeResult& baked = *cachedBake_;
@@ -332,7 +511,9 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   }
 
   result.scene = scene;
-  result.mapping = cachedMapping_;
+  result.cameras = cameras;
+  result.projection = cachedProjection_;
+  result.mapping = cachedProjection_->mapping;
   result.colors = cachedColors_;
 
   // Keep the result for this document state (undo and redo find it at once).
@@ -385,6 +566,17 @@ nlohmann::json PipelineResult::report() const {
                       {"photo_shares", perPhoto}};
     }
   }
+  if (cameras) {
+    // Each photo's path (projection or the paper's) and its camera fit.
+    nlohmann::json photos = nlohmann::json::array();
+    for (size_t p = 0; p < cameras->fits.size(); ++p) photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p)));
+    j["cameras"] = photos;
+    nlohmann::json proposed = nlohmann::json::array();
+    for (const Proposal& pr : proposals)
+      proposed.push_back(
+          {{"point", pr.point}, {"vertex", pr.vertex}, {"photo", pr.photo}, {"x", pr.pixel.x()}, {"y", pr.pixel.y()}});
+    j["proposals"] = proposed;
+  }
   if (mapping) {
     // Rejected pairs with their reasons, so a user can see why a region stayed empty (first 1000).
     nlohmann::json rejected = nlohmann::json::array();
@@ -402,6 +594,60 @@ nlohmann::json PipelineResult::report() const {
                 {"rejected_total", mapping->partition.rejected.size()}};
   }
   return j;
+}
+
+PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
+                                const JobControl& job) {
+  TM_CHECK(cameras.size() == project.photos.size(),
+           located(project.file, std::to_string(cameras.size()) + " cameras given for " +
+                                     std::to_string(project.photos.size()) + " photos"));
+  // No clicks: the cameras alone place the photos (no correction field, no paper's path).
+  Project bare = project;
+  bare.points.clear();
+  bare.chains.clear();
+  bare.clones.clear();
+  bare.holeModes.clear();
+  bare.strokes.clear();
+  bare.options.correction = CorrectionMode::Off;
+  PipelineResult result;
+  auto start = Clock::now();
+  Pipeline pipeline;
+  bool cached = false;
+  result.scene = pipeline.loadScene(bare, job, cached);
+  result.stages.push_back({StageId::Load, false, secondsSince(start), {}});
+  const Scene& scene = *result.scene;
+  start = Clock::now();
+  auto fits = std::make_shared<CameraStage>();
+  for (size_t p = 0; p < cameras.size(); ++p) {
+    const Photo& photo = *scene.photos[p];
+    TM_CHECK(cameras[p].pinhole.width == photo.width && cameras[p].pinhole.height == photo.height,
+             located(photo.path, "the given camera is for a " + std::to_string(cameras[p].pinhole.width) + "x" +
+                                     std::to_string(cameras[p].pinhole.height) + " image"));
+    fits->fits.push_back(fitFromCamera(*scene.mesh, cameras[p], photoClicks(project, static_cast<int>(p))));
+    ++fits->fitted;
+  }
+  result.cameras = fits;
+  result.stages.push_back({StageId::Camera, false, secondsSince(start), {{"fitted", fits->fitted}}});
+  start = Clock::now();
+  auto paper = std::make_shared<const Mapping>(mapTexture(scene, job));
+  result.stages.push_back({StageId::Map, false, secondsSince(start), {}});
+  start = Clock::now();
+  result.projection = std::make_shared<const ProjectionStage>(projectMapping(scene, paper, *fits, job));
+  result.mapping = result.projection->mapping;
+  result.stages.push_back(
+      {StageId::Projection,
+       false,
+       secondsSince(start),
+       {{"seen_faces", result.projection->result.seenFaces}, {"empty_faces", result.projection->result.emptyFaces}}});
+  start = Clock::now();
+  result.colors = std::make_shared<const SurfaceColors>(colorSurface(scene, *result.mapping, job));
+  result.stages.push_back({StageId::Inpaint, false, secondsSince(start), {}});
+  start = Clock::now();
+  auto baked = std::make_shared<const BakeResult>(bakeModel(scene, *result.mapping, *result.colors, job));
+  result.stages.push_back({StageId::Bake, false, secondsSince(start), {}});
+  result.baked = baked;
+  result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
+  return result;
 }
 
 void writeRunOutputs(const PipelineResult& result, const std::string& dir) {

@@ -20,8 +20,11 @@
 #include "io/project.h"
 #include "io/scene.h"
 #include "mapping/cells.h"
+#include "mapping/camera.h"
 #include "mapping/fine_map.h"
 #include "mapping/partition.h"
+#include "mapping/projection.h"
+#include "mapping/proposals.h"
 #include "mapping/texture_map.h"
 #include "surface/inpaint.h"
 
@@ -44,6 +47,23 @@ struct Mapping {
   FineMapStats stats;
   int cellsMapped = 0, cellsReused = 0;  // cells mapped in this run; taken from the cell cache
   double partitionSeconds = 0, mapSeconds = 0;
+};
+
+// The camera stage: a fit per photo (camera.h). A photo that fits is mapped by projection; the
+// others take the paper's path.
+struct CameraStage {
+  std::vector<CameraFit> fits;  // per photo
+  int fitted = 0;               // photos that fit
+  int reused = 0;               // fits reused from the previous run (same clicks, photo, mesh, options)
+  double seconds = 0;
+};
+
+// The projection stage: the final mapping (the paper's partition with its texture map where faces
+// are mapped by projection), the figures, correction fields and views behind it, and the proposed
+// correspondences (PipelineResult::proposals).
+struct ProjectionStage {
+  std::shared_ptr<const Mapping> mapping;  // the paper's mapping itself when no photo fits
+  ProjectionResult result;                 // result.map is moved into mapping->map
 };
 
 // What the colour stages add to a mapping: seam levelling offsets and the inpainted/cloned regions.
@@ -77,7 +97,10 @@ inline constexpr std::array<const char*, 2> kTierNames = {"preview", "final"};
 struct PipelineResult {
   Tier tier = Tier::Final;
   std::shared_ptr<const Scene> scene;
-  std::shared_ptr<const Mapping> mapping;
+  std::shared_ptr<const CameraStage> cameras;
+  std::shared_ptr<const ProjectionStage> projection;
+  std::shared_ptr<const Mapping> mapping;  // the final mapping: the paper's path plus projection mapping
+  std::vector<Proposal> proposals;         // correspondences the cameras propose (proposals.h)
   std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const BakeResult> baked;        // final tier only
   std::shared_ptr<const TexturedModel> model;     // baked->model: the atlas over the refined mesh (final tier only)
@@ -95,9 +118,16 @@ struct MapCaches {
   PartitionMemo partition;
   CellCache cells;
 };
+// Camera: a camera fit per photo from its clicks (camera.h); none fits when options.cameraMode is off.
+CameraStage fitCameras(const Scene& scene, const JobControl& job = {});
 // Partition, Map: correspondences -> partition -> per cell: progressive mesh and coarse-to-fine
 // (cells.h). What `caches` hold from earlier runs is reused.
 Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr);
+// Projection: faces that photos fitting a camera see are mapped by projection, the photo chosen per
+// face by view selection; the paper's mapping of the other photos is kept (projection.h), and the
+// cameras propose correspondences (proposals.h).
+ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
+                               const CameraStage& cameras, const JobControl& job = {});
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
 // preview tier inpaints on a coarser refinement (kPreviewDetail of the photos' texel density).
 inline constexpr double kPreviewDetail = 0.25;
@@ -139,7 +169,17 @@ class Pipeline {
   std::shared_ptr<const BakeResult> cachedBake_;
   // Results by document state, most recent last.
   std::vector<std::pair<std::string, std::shared_ptr<const PipelineResult>>> previews_, finals_;
+  std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> cachedFits_;  // key -> fit, per photo
+  std::string projectionKey_;
+  std::shared_ptr<const ProjectionStage> cachedProjection_;
 };
+
+// The projection oracle of a synthetic scene (`montage eval --oracle`): the project's mesh and photos
+// textured through the given true cameras (one per photo, e.g. synth's cameras.json) with no clicks:
+// projection mapping, view selection, levelling, inpainting and bake, as the pipeline does them. The
+// covered PSNR of its model is the ceiling of any result on that scene.
+PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
+                                const JobControl& job = {});
 
 // Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers
 // DIR/model_atlas_source.png and DIR/model_atlas_holes.png (when the result has an atlas) and

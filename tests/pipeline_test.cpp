@@ -43,8 +43,9 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
     if (seen.empty() || seen.back() != s) seen.push_back(s);
   });
   PipelineResult result = pipeline.run(project, job);
-  const std::vector<StageId> order = {StageId::Load,  StageId::Partition, StageId::Map,
-                                      StageId::Level, StageId::Inpaint,   StageId::Bake};
+  const std::vector<StageId> order = {StageId::Load,       StageId::Camera, StageId::Partition,
+                                      StageId::Map,        StageId::Projection, StageId::Level,
+                                      StageId::Inpaint,    StageId::Bake};
   ASSERT_EQ(result.stages.size(), order.size());
   for (size_t i = 0; i < order.size(); ++i) EXPECT_EQ(result.stages[i].stage, order[i]);
   EXPECT_EQ(seen, order);
@@ -226,7 +227,8 @@ TEST(PipelineSpot, CoverageAndPsnrRiseWithFeatures) {
     options.size = 1024;
     const std::string dir = test::tempDir("spot_scene");
     writeSynthScene(synthesize(*mesh, meshPath, color, options), dir);
-    const Project project = loadProject(dir + "/project.json");
+    Project project = loadProject(dir + "/project.json");
+    project.options.cameraMode = CameraMode::Off;  // the paper's path (camera_test measures the projection path)
     const PipelineResult result = Pipeline().run(project);
     EXPECT_EQ(result.mapping->stats.flippedFaces, 0);
     EvalOptions evalOptions;

@@ -88,6 +88,11 @@ class ProjectTest : public ::testing::Test {
     p.options.atlasSize = 2048;
     p.options.gutter = 8;
     p.options.seed = 4000000000u;
+    p.options.cameraMode = CameraMode::Off;
+    p.options.cameraThreshold = 0.01;
+    p.options.correction = CorrectionMode::Inliers;
+    p.options.viewSmoothness = 2.5;
+    p.declinedProposals = {{12, 1}, {7, 0}};
     return p;
   }
 
@@ -145,13 +150,41 @@ TEST_F(ProjectTest, SaveLoadRoundTrip) {
   other = loaded;
   other.photos[0].mask.clear();
   EXPECT_FALSE(other.sameDocument(loaded));
+  other = loaded;
+  other.declinedProposals.pop_back();
+  EXPECT_FALSE(other.sameDocument(loaded));
+  other = loaded;
+  other.options.correction = CorrectionMode::All;
+  EXPECT_FALSE(other.sameDocument(loaded));
+}
+
+TEST_F(ProjectTest, Version1FilesStillLoadAndDeclinedProposalsAreChecked) {
+  json j = sampleJson();
+  EXPECT_EQ(j["declinedProposals"], json::parse(R"([{"vertex": 12, "photo": 1}, {"vertex": 7, "photo": 0}])"));
+  EXPECT_EQ(j["options"]["cameraMode"], "off");
+  EXPECT_EQ(j["options"]["correction"], "inliers");
+  // A version 1 file has no declined proposals (the field did not exist; it is not read).
+  j["version"] = 1;
+  writeText(path("p.json"), j.dump(2));
+  EXPECT_TRUE(loadProject(path("p.json")).declinedProposals.empty());
+  j["version"] = 2;
+  j["declinedProposals"][1]["photo"] = 5;
+  EXPECT_MESSAGE_HAS(loadError(j), "declinedProposals[1].photo: 5 is out of range: the project has 2 photos");
+  j["declinedProposals"][1]["photo"] = "a";
+  EXPECT_MESSAGE_HAS(loadError(j), "declinedProposals[1].photo: must be an integer");
+  j["declinedProposals"][1]["photo"] = 0;
+  j["options"]["correction"] = "some";
+  EXPECT_MESSAGE_HAS(loadError(j), "options.correction: 'some' is not a correction mode");
+  Project p = sample();
+  p.declinedProposals[0].vertex = 20;
+  EXPECT_MESSAGE_HAS(validateError(p), "declinedProposals[0].vertex: 20 is out of range: the mesh has 20 vertices");
 }
 
 TEST_F(ProjectTest, FileIsPrettyVersionedJson) {
   Project p = sample();
   saveProject(p, path("p.json"));
   const std::string text = readFile(path("p.json"));
-  EXPECT_NE(text.find("\n  \"version\": 1,"), std::string::npos) << text;  // two-space indent
+  EXPECT_NE(text.find("\n  \"version\": 2,"), std::string::npos) << text;  // two-space indent
   const json j = json::parse(text);
   EXPECT_EQ(j["format"], "texturemontage-project");
   EXPECT_EQ(j["version"], Project::kVersion);
@@ -308,10 +341,12 @@ TEST_F(ProjectTest, SaveIntoReadOnlyFolderKeepsTheEarlierFile) {
 
 TEST_F(ProjectTest, RejectsUnknownVersion) {
   json j = sampleJson();
-  j["version"] = 2;
+  j["version"] = 3;
   const std::string message = loadError(j);
-  EXPECT_MESSAGE_HAS(message, "version: 2 is not supported");
-  EXPECT_MESSAGE_HAS(message, "reads version 1");
+  EXPECT_MESSAGE_HAS(message, "version: 3 is not supported");
+  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 2");
+  j["version"] = 0;
+  EXPECT_MESSAGE_HAS(loadError(j), "version: 0 is not supported");
   j["version"] = "1";
   EXPECT_MESSAGE_HAS(loadError(j), "version: must be an integer, not the string \"1\"");
   j.erase("version");

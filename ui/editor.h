@@ -32,6 +32,7 @@
 struct GLFWwindow;
 struct ImGuiIO;
 struct ImVec2;
+struct ImDrawList;
 
 namespace montage {
 
@@ -190,6 +191,19 @@ class Editor {
   void photoCanvas(int photo, const Rect& r, PaneView& view, bool showName);
   int hitPosition(int photo, const PaneView& view, double sx, double sy, double radius) const;
 
+  // Camera feedback in the panes (editor_camera.cpp): wireframe and silhouette, residuals, outliers,
+  // the selected vertex's predicted position, proposals; the path of each photo in its caption.
+  struct CameraLines {
+    std::vector<std::pair<Vec2, Vec2>> wire, silhouette;  // photo pixels
+  };
+  const CameraFit* photoFit(int photo) const;  // the last result's fit of a photo, or nullptr
+  void buildCameraLines();
+  void cameraToolbar();
+  void cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, const Vec2& mouse, bool hovered,
+                     std::string& tooltip);
+  bool clickProposal(int photo, bool decline);  // true when the click went to a proposal
+  std::string cameraCaption(int photo) const;
+
   // Scripts, screenshots, benchmarks (editor_script.cpp).
   void applySyntheticInput(ImGuiIO& io);
   void scriptStep();
@@ -269,6 +283,10 @@ class Editor {
   OrbitCamera camera_;
   bool textured_ = true, wireframe_ = false, showPaths_ = true, showFeatures_ = true, showIds_ = true;
   bool showMask_ = true, showCurves_ = true, showRejected_ = true, showPaneIds_ = true;
+  bool showCamera_ = true;                // camera feedback in the panes
+  int hoverProposal_ = -1;                // proposal under the mouse (index into result_->proposals)
+  std::vector<CameraLines> cameraLines_;  // per photo, for the result cameraLinesFor_
+  const void* cameraLinesFor_ = nullptr;
   FaceColoring coloring_ = FaceColoring::None;
   bool meshDirty_ = true, overlayDirty_ = true, linesDirty_ = true;
   const void* uploadedModel_ = nullptr;  // what the mesh buffer holds (model or input mesh)

@@ -92,6 +92,7 @@ void Editor::photosPanel() {
   ImGui::Checkbox("rejected", &showRejected_);
   ImGui::SameLine();
   ImGui::Checkbox("ids", &showPaneIds_);
+  cameraToolbar();
 
   if (gridPanes_) {
     const int n = static_cast<int>(p.photos.size());
@@ -207,6 +208,8 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
                           path.fromChain ? IM_COL32(255, 150, 40, 255) : IM_COL32(255, 230, 70, 230), 1.5f);
   }
 
+  cameraOverlay(i, view, draw, mouse, hovered, tooltip);  // editor_camera.cpp
+
   // Chains of the document, and the one being drawn.
   for (const FeatureChain& chain : p.chains) {
     if (chain.photo != i) continue;
@@ -271,8 +274,8 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   }
   // Caption.
   char caption[256];
-  std::snprintf(caption, sizeof(caption), "%s%s%dx%d  %.0f%%", showName ? std::to_string(i).c_str() : "",
-                showName ? ": " : "", photo.width, photo.height, view.zoom * 100);
+  std::snprintf(caption, sizeof(caption), "%s%s%dx%d  %.0f%%%s", showName ? std::to_string(i).c_str() : "",
+                showName ? ": " : "", photo.width, photo.height, view.zoom * 100, cameraCaption(i).c_str());
   const ImVec2 cs = ImGui::CalcTextSize(caption);
   draw->AddRectFilled(ImVec2(lo.x, hi.y - cs.y - 6), ImVec2(lo.x + cs.x + 12, hi.y), IM_COL32(0, 0, 0, 150));
   draw->AddText(ImVec2(lo.x + 6, hi.y - cs.y - 3),
@@ -293,6 +296,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   if (hovered && ImGui::IsMouseClicked(ImGuiMouseButton_Left)) {
     activePhoto_ = i;
     const bool inside = photo.inside(mousePhoto.x(), mousePhoto.y());
+    if (hover < 0 && clickProposal(i, io.KeyShift)) return;  // a proposal accepted or declined (editor_camera.cpp)
     switch (tool_) {
       case Tool::Point:
         if (hover >= 0) {

@@ -24,6 +24,18 @@ inline constexpr std::array<const char*, 3> kLevelModeNames = {"off", "seam", "v
 enum class ExportTopology { Original, Refined };
 inline constexpr std::array<const char*, 2> kExportTopologyNames = {"original", "refined"};
 
+// Camera fit per photo (mapping/camera.h): automatic (a photo whose clicks agree with one perspective
+// camera is mapped by projection, the others take the paper's path), or off (every photo takes the
+// paper's path).
+enum class CameraMode { Auto, Off };
+inline constexpr std::array<const char*, 2> kCameraModeNames = {"auto", "off"};
+
+// Which clicks the correction field of projection mapping keeps exact (mapping/projection.h): none
+// (the camera alone), those that agree with the camera, or every click (the paper: clicks are hard
+// constraints).
+enum class CorrectionMode { Off, Inliers, All };
+inline constexpr std::array<const char*, 3> kCorrectionModeNames = {"off", "inliers", "all"};
+
 // Name tables by enum type, for the project reader and writer and the editor's combo boxes.
 template <class E>
 struct EnumNames;
@@ -36,6 +48,16 @@ template <>
 struct EnumNames<LevelMode> {
   static constexpr const auto& names = kLevelModeNames;
   static constexpr const char* what = "a seam levelling mode";
+};
+template <>
+struct EnumNames<CameraMode> {
+  static constexpr const auto& names = kCameraModeNames;
+  static constexpr const char* what = "a camera mode";
+};
+template <>
+struct EnumNames<CorrectionMode> {
+  static constexpr const auto& names = kCorrectionModeNames;
+  static constexpr const char* what = "a correction mode";
 };
 
 template <>
@@ -63,13 +85,19 @@ struct PipelineOptions {
   // Export: the user's mesh as loaded with a new atlas (original) or the refined mesh (refined).
   ExportTopology exportTopology = ExportTopology::Original;
   int pngCompression = 6;  // export: zlib level of the atlas PNG, 0..9 (1 fast, for previews; 9 smallest)
+  CameraMode cameraMode = CameraMode::Auto;     // camera fit per photo; off = every photo takes the paper's path
+  double cameraThreshold = 0.006;               // camera fit: a click agrees within this share of the image diagonal
+  CorrectionMode correction = CorrectionMode::All;  // projection: clicks the correction field keeps exact
+  double viewSmoothness = 1.0;                  // projection: seam cost of view selection (0 = best view per face)
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
            seamLambda == o.seamLambda && seamRounds == o.seamRounds && gradientWeight == o.gradientWeight &&
            seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
-           seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression;
+           seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression &&
+           cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold &&
+           correction == o.correction && viewSmoothness == o.viewSmoothness;
   }
 };
 

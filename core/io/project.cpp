@@ -177,6 +177,11 @@ void fromJson(const Field& f, CloneOp& c) {
   c.rotationDeg = f["rotationDeg"].as(0.0);
 }
 
+void fromJson(const Field& f, DeclinedProposal& d) {
+  d.vertex = f["vertex"].as<int>();
+  d.photo = f["photo"].as<int>();
+}
+
 void fromJson(const Field& f, HoleMode& h) {
   h.face = f["face"].as<int>();
   h.mode = f["mode"].as<InpaintMode>();
@@ -198,6 +203,10 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("seed", o.seed, 0u, UINT_MAX);
   visit("exportTopology", o.exportTopology, ExportTopology::Original, ExportTopology::Refined);
   visit("pngCompression", o.pngCompression, 0, 9);
+  visit("cameraMode", o.cameraMode, CameraMode::Auto, CameraMode::Off);
+  visit("cameraThreshold", o.cameraThreshold, 0.0005, 0.2);
+  visit("correction", o.correction, CorrectionMode::Off, CorrectionMode::All);
+  visit("viewSmoothness", o.viewSmoothness, 0.0, 100.0);
 }
 
 void fromJson(const Field& f, PipelineOptions& o) {
@@ -226,6 +235,11 @@ class DocumentCheck {
     checkClones();
     for (size_t i = 0; i < p_.holeModes.size(); ++i)
       index("holeModes[" + std::to_string(i) + "].face", p_.holeModes[i].face, faces(), "faces", "mesh");
+    for (size_t i = 0; i < p_.declinedProposals.size(); ++i) {
+      const std::string path = "declinedProposals[" + std::to_string(i) + "]";
+      index(path + ".vertex", p_.declinedProposals[i].vertex, vertices(), "vertices", "mesh");
+      index(path + ".photo", p_.declinedProposals[i].photo, photos(), "photos", "project");
+    }
   }
 
  private:
@@ -453,7 +467,8 @@ std::string resolveFile(const Field& f, const fs::path& dir) {
 
 bool Project::sameDocument(const Project& o) const {
   return mesh == o.mesh && photos == o.photos && points == o.points && chains == o.chains && strokes == o.strokes &&
-         clones == o.clones && holeModes == o.holeModes && options == o.options;
+         clones == o.clones && holeModes == o.holeModes && declinedProposals == o.declinedProposals &&
+         options == o.options;
 }
 
 Project loadProject(const std::string& path) {
@@ -467,8 +482,8 @@ Project loadProject(const std::string& path) {
     format.fail(inQuotes(format.as<std::string>()) + " is not a TextureMontage project (expected " + inQuotes(kFormat) +
                 ")");
   const int version = root["version"].as<int>();
-  if (version != Project::kVersion)
-    root["version"].fail(std::to_string(version) + " is not supported: this build reads version " +
+  if (version < 1 || version > Project::kVersion)
+    root["version"].fail(std::to_string(version) + " is not supported: this build reads versions 1 to " +
                          std::to_string(Project::kVersion) +
                          (version > Project::kVersion ? " (the file was written by a newer TextureMontage)" : ""));
 
@@ -488,6 +503,7 @@ Project loadProject(const std::string& path) {
   project.strokes = root["strokes"].as(project.strokes);
   project.clones = root["clones"].as(project.clones);
   project.holeModes = root["holeModes"].as(project.holeModes);
+  if (version >= 2) project.declinedProposals = root["declinedProposals"].as(project.declinedProposals);
   if (root["options"].present()) project.options = root["options"].as<PipelineOptions>();
   DocumentCheck(project, path, nullptr).run();
   return project;
@@ -541,6 +557,9 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
   j["holeModes"] = ojson::array();
   for (const HoleMode& h : project.holeModes)
     j["holeModes"].push_back({{"face", h.face}, {"mode", kInpaintModeNames.at(size_t(h.mode))}});
+  j["declinedProposals"] = ojson::array();
+  for (const DeclinedProposal& d : project.declinedProposals)
+    j["declinedProposals"].push_back({{"vertex", d.vertex}, {"photo", d.photo}});
   j["options"] = toJson(project.options);
   requireFinite(j, "");
   return j.dump(2) + "\n";

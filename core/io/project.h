@@ -67,6 +67,15 @@ struct HoleMode {
   bool operator==(const HoleMode& o) const { return face == o.face && mode == o.mode; }
 };
 
+// A correspondence the cameras proposed (a feature clicked in one photo that fits a camera, predicted
+// in another such photo where it is visible; mapping/proposals.h) and the user declined: it is not
+// proposed again. Proposals themselves are pipeline output, never stored with the clicks.
+struct DeclinedProposal {
+  int vertex = 0;  // mesh vertex of the feature
+  int photo = 0;   // photo it was proposed in
+  bool operator==(const DeclinedProposal& o) const { return vertex == o.vertex && photo == o.photo; }
+};
+
 struct PhotoRef {
   std::string path;  // absolute once loaded; written relative to the project file
   std::string mask;  // optional foreground mask image; same rules
@@ -74,7 +83,7 @@ struct PhotoRef {
 };
 
 struct Project {
-  static constexpr int kVersion = 1;  // format version written by this build
+  static constexpr int kVersion = 2;  // format version written by this build (reads 1 and 2)
 
   std::string file;  // where it was loaded from / last saved to (absolute); empty for a new project
   std::string mesh;  // absolute path
@@ -84,6 +93,7 @@ struct Project {
   std::vector<Stroke> strokes;
   std::vector<CloneOp> clones;
   std::vector<HoleMode> holeModes;
+  std::vector<DeclinedProposal> declinedProposals;  // version 2
   PipelineOptions options;
 
   // Document equality (ignores `file`): what save + load must preserve.

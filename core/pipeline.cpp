@@ -1,6 +1,7 @@
 #include "pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -67,6 +68,27 @@ Mapping mapTexture(const Scene& scene, const JobControl& job) {
   out.mapSeconds = secondsSince(start);
   if (scene.project.points.empty())
     out.map.notes.insert(out.map.notes.begin(), "no features: the whole mesh is one empty patch (paper section 3)");
+  return out;
+}
+
+std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
+                                                    SeamResult& seams, const JobControl& job) {
+  const PipelineOptions& o = scene.project.options;
+  SeamInput in;
+  in.mesh = &mapping->partition.mesh;
+  in.map = &mapping->map;
+  for (const auto& p : scene.photos) in.photos.push_back(p.get());
+  in.fixedVertices = mapping->partition.featureVertex;
+  SeamOptions options;
+  options.lambda = o.seamLambda;
+  options.rounds = o.seamRounds;
+  options.gradientWeight = o.gradientWeight;
+  options.seed = o.seed;
+  job.progress(StageId::Seams, 0.0);
+  seams = optimiseSeams(in, options, job);
+  if (seams.movedSides == 0) return mapping;
+  auto out = std::make_shared<Mapping>(*mapping);
+  out->map = seams.map;
   return out;
 }
 
@@ -204,13 +226,39 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                             {"max_stretch", mapping.stats.maxStretch}}});
   for (const auto& note : mapping.map.notes) result.warnings.push_back("map: " + note);
 
+  // Seams: rerun when the mapping or the seam options changed. Later stages read the seamed mapping.
+  key << opts["seamLambda"].dump() << opts["seamRounds"].dump() << opts["gradientWeight"].dump();
+  const bool seamCached = mapCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
+  if (!seamCached) {
+    auto seams = std::make_shared<SeamResult>();
+    cachedSeamed_ = optimiseMappingSeams(*scene, cachedMapping_, *seams, job);
+    seams->map = TextureMap();  // the seamed mapping holds it
+    cachedSeams_ = seams;
+    seamKey_ = key.str();
+  }
+  const SeamResult& sr = *cachedSeams_;
+  result.stages.push_back({StageId::Seams,
+                           seamCached,
+                           seamCached ? 0 : sr.seconds,
+                           {{"seam_edges", sr.seamEdges},
+                            {"seam_vertices", sr.seamVertices},
+                            {"neighbour_vertices", sr.neighbourVertices},
+                            {"moved_sides", sr.movedSides},
+                            {"rounds", sr.rounds},
+                            {"delta_e_before", sr.deltaEBefore},
+                            {"delta_e_after", sr.deltaEAfter},
+                            {"gradient_before", sr.gradientBefore},
+                            {"gradient_after", sr.gradientAfter},
+                            {"max_stretch_before", sr.maxStretchBefore},
+                            {"max_stretch_after", sr.maxStretchAfter}}});
+
   // Level + Inpaint: rerun when the mapping or what they read (strokes, clones, hole modes, their
   // options) changed.
   key << document["strokes"].dump() << document["clones"].dump() << document["holeModes"].dump()
       << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump();
-  const bool colorCached = mapCached && key.str() == colorKey_ && cachedColors_;
+  const bool colorCached = seamCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
-    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, mapping, job));
+    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, *cachedSeamed_, job));
     colorKey_ = key.str();
   }
   const SurfaceColors& colors = *cachedColors_;
@@ -246,7 +294,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
 
   // Bake.
   start = Clock::now();
-  auto baked = std::make_shared<const BakeResult>(bakeModel(*scene, mapping, colors, job));
+  auto baked = std::make_shared<const BakeResult>(bakeModel(*scene, *cachedSeamed_, colors, job));
   StageRecord bake;
   bake.stage = StageId::Bake;
   bake.seconds = secondsSince(start);
@@ -255,7 +303,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   result.stages.push_back(bake);
 
   result.scene = scene;
-  result.mapping = cachedMapping_;
+  result.mapping = cachedSeamed_;
+  result.seams = cachedSeams_;
   result.colors = cachedColors_;
   result.baked = baked;
   result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
@@ -299,6 +348,16 @@ nlohmann::json PipelineResult::report() const {
                 {"notes", mapping->map.notes},
                 {"rejected_pairs", rejected},
                 {"rejected_total", mapping->partition.rejected.size()}};
+  }
+  if (seams) {
+    // Per face of the map, the mean Delta E*uv across its seam edges (faces on no seam left out).
+    nlohmann::json faces = nlohmann::json::array(), error = nlohmann::json::array();
+    for (size_t f = 0; f < seams->faceError.size(); ++f)
+      if (seams->faceError[f] >= 0) faces.push_back(f), error.push_back(std::round(seams->faceError[f] * 100) / 100);
+    j["seams"] = {{"delta_e_before", seams->deltaEBefore},
+                  {"delta_e_after", seams->deltaEAfter},
+                  {"faces", faces},
+                  {"face_delta_e", error}};
   }
   return j;
 }

@@ -20,6 +20,7 @@
 #include "io/scene.h"
 #include "mapping/fine_map.h"
 #include "mapping/partition.h"
+#include "mapping/seams.h"
 #include "mapping/texture_map.h"
 #include "surface/inpaint.h"
 
@@ -59,7 +60,8 @@ struct BakeResult {
 
 struct PipelineResult {
   std::shared_ptr<const Scene> scene;
-  std::shared_ptr<const Mapping> mapping;
+  std::shared_ptr<const Mapping> mapping;  // after seam optimisation (its map is the one baked)
+  std::shared_ptr<const SeamResult> seams;  // seam optimisation's figures and per-face seam error
   std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const BakeResult> baked;
   std::shared_ptr<const TexturedModel> model;  // baked->model
@@ -73,6 +75,10 @@ struct PipelineResult {
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
 // Partition, Simplify, Map: correspondences -> partition -> progressive mesh -> texture map.
 Mapping mapTexture(const Scene& scene, const JobControl& job = {});
+// Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
+// when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
+std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
+                                                    SeamResult& seams, const JobControl& job = {});
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h).
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {});
 // Bake: see BakeResult.
@@ -94,6 +100,9 @@ class Pipeline {
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> cachedPhotos_;  // key -> photo
   std::string mapKey_;
   std::shared_ptr<const Mapping> cachedMapping_;
+  std::string seamKey_;
+  std::shared_ptr<const Mapping> cachedSeamed_;
+  std::shared_ptr<const SeamResult> cachedSeams_;
   std::string colorKey_;
   std::shared_ptr<const SurfaceColors> cachedColors_;
 };

@@ -37,8 +37,9 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
     if (seen.empty() || seen.back() != s) seen.push_back(s);
   });
   PipelineResult result = pipeline.run(project, job);
-  const std::vector<StageId> order = {StageId::Load,  StageId::Partition, StageId::Simplify, StageId::Map,
-                                      StageId::Level, StageId::Inpaint,   StageId::Bake};
+  const std::vector<StageId> order = {StageId::Load,  StageId::Partition, StageId::Simplify,
+                                      StageId::Map,   StageId::Seams,     StageId::Level,
+                                      StageId::Inpaint, StageId::Bake};
   ASSERT_EQ(result.stages.size(), order.size());
   for (size_t i = 0; i < order.size(); ++i) EXPECT_EQ(result.stages[i].stage, order[i]);
   EXPECT_EQ(seen, order);
@@ -69,6 +70,21 @@ TEST(Pipeline, SecondRunReusesOutputsAndAFeatureEditRerunsOnlyTheMap) {
   PipelineResult third = pipeline.run(project);
   EXPECT_TRUE(third.stages[0].cached);
   for (int i = 1; i < 4; ++i) EXPECT_FALSE(third.stages[i].cached) << stageName(third.stages[i].stage);
+}
+
+TEST(Pipeline, SeamOptionEditRerunsTheSeamsNotTheMap) {
+  Project project = loadProject(demoProject());
+  Pipeline pipeline;
+  PipelineResult first = pipeline.run(project);
+  ASSERT_TRUE(first.seams);
+  EXPECT_EQ(first.report()["seams"]["faces"].size(), first.report()["seams"]["face_delta_e"].size());
+  project.options.seamLambda = 0.5;
+  PipelineResult second = pipeline.run(project);
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(second.stages[i].cached) << stageName(second.stages[i].stage);
+  ASSERT_EQ(second.stages[4].stage, StageId::Seams);
+  EXPECT_FALSE(second.stages[4].cached);
+  EXPECT_FALSE(second.stages[5].cached);  // level reads the seamed map
+  EXPECT_NE(second.seams.get(), first.seams.get());
 }
 
 TEST(Pipeline, CancelStopsTheRun) {
@@ -111,12 +127,15 @@ TEST(Pipeline, WritesModelAndReport) {
                            "model_atlas_holes.png", "model.glb", "report.json"})
     EXPECT_TRUE(fs::exists(fs::path(dir) / name)) << name;
   nlohmann::json report = readJson(dir + "/report.json");
-  ASSERT_EQ(report["stages"].size(), 8u);
-  EXPECT_EQ(report["stages"][4]["stage"], "level");
-  EXPECT_EQ(report["stages"][5]["stage"], "inpaint");
-  EXPECT_EQ(report["stages"][7]["stage"], "export");
+  ASSERT_EQ(report["stages"].size(), 9u);
+  EXPECT_EQ(report["stages"][4]["stage"], "seams");
+  EXPECT_EQ(report["stages"][5]["stage"], "level");
+  EXPECT_EQ(report["stages"][6]["stage"], "inpaint");
+  EXPECT_EQ(report["stages"][8]["stage"], "export");
+  EXPECT_TRUE(report["stages"][4]["counts"].contains("delta_e_after"));
+  EXPECT_TRUE(report.contains("seams"));
   // The demo has holes: they are inpainted, and the model says which faces were.
-  EXPECT_GT(report["stages"][5]["counts"]["regions"].size(), 0u);
+  EXPECT_GT(report["stages"][6]["counts"]["regions"].size(), 0u);
   int inpainted = 0;
   for (int s : result.model->faceSource) inpainted += s == kSourceInpainted;
   EXPECT_GT(inpainted, 0);

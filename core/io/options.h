@@ -9,9 +9,10 @@
 namespace montage {
 
 // Guidance of a hole's Poisson fill (paper section 5): d = 0, RBF of the boundary Laplacian, the
-// user's strokes (flow lines), or no fill (the hole stays empty).
-enum class InpaintMode { Harmonic, Rbf, Strokes, Off };
-inline constexpr std::array<const char*, 4> kInpaintModeNames = {"harmonic", "rbf", "strokes", "off"};
+// user's strokes (flow lines), no fill (the hole stays empty), or the Laplacian of a texture
+// synthesised from the photo patches around the hole (surface/synthesis.h).
+enum class InpaintMode { Harmonic, Rbf, Strokes, Off, Synthesis };
+inline constexpr std::array<const char*, 5> kInpaintModeNames = {"harmonic", "rbf", "strokes", "off", "synthesis"};
 
 // Seam levelling (end of paper section 5): none, one mean colour difference per seam (the paper), or
 // per seam vertex (docs/pipeline.md compares them).

@@ -9,10 +9,12 @@
 namespace montage {
 
 // Guidance of a hole's Poisson fill (paper section 5): d = 0, RBF of the boundary Laplacian, the
-// user's strokes (flow lines), no fill (the hole stays empty), or the Laplacian of a texture
-// synthesised from the photo patches around the hole (surface/synthesis.h).
-enum class InpaintMode { Harmonic, Rbf, Strokes, Off, Synthesis };
-inline constexpr std::array<const char*, 5> kInpaintModeNames = {"harmonic", "rbf", "strokes", "off", "synthesis"};
+// user's strokes (flow lines), no fill (the hole stays empty), the Laplacian of a texture synthesised
+// from the photo patches around the hole (surface/synthesis.h), or of that texture blurred to its
+// large-scale structure (what continues across the hole, without the grain).
+enum class InpaintMode { Harmonic, Rbf, Strokes, Off, Synthesis, Structure };
+inline constexpr std::array<const char*, 6> kInpaintModeNames = {"harmonic", "rbf",       "strokes",
+                                                                 "off",      "synthesis", "structure"};
 
 // Seam levelling (end of paper section 5): none, one mean colour difference per seam (the paper), or
 // per seam vertex (docs/pipeline.md compares them).
@@ -41,7 +43,8 @@ struct PipelineOptions {
   int seamRounds = 30;                 // seams: alternating optimisation rounds (paper 4.2)
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
   LevelMode seamLevelling = LevelMode::Vertex;  // seam levelling between photos (paper end of 5)
-  InpaintMode inpaintMode = InpaintMode::Rbf;   // inpainting: guidance of holes without strokes
+  InpaintMode inpaintMode = InpaintMode::Structure;  // inpainting: guidance of holes without strokes (chosen by
+                                                    // measurement, docs/pipeline.md)
   int maxInpaintVertices = 2000000;             // inpainting: cap on refined vertices (coarser beyond)
   int atlasSize = 4096;                         // atlas: width and height in texels (1024..8192)
   int gutter = 4;                               // atlas: texels between charts and from the border

@@ -924,7 +924,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       for (int l = 0; l < n; ++l) bd.row(l) = boundaryD.row(sub.vertex[l]);
       const Graph subGraph = buildGraph(sub.mesh);
       bool synthesised = false;
-      if (reg.mode == InpaintMode::Synthesis) {
+      if (reg.mode == InpaintMode::Synthesis || reg.mode == InpaintMode::Structure) {
         SynthesisInput sin;
         sin.mesh = &mesh;
         sin.map = &map;
@@ -934,7 +934,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
           if (faceLabel[f] == r) sin.holeFaces.push_back(f);
         sin.texelsPerUnit = reg.texelsPerUnit;
         SynthesisOptions synOptions;
-        synOptions.blurTexels = opt.synthesisBlur;
+        if (reg.mode == InpaintMode::Structure) synOptions.blur = opt.structureBlur;
         const SynthesisResult syn = synthesiseHole(sin, synOptions);
         reg.note = syn.note;
         if (syn.ok) {
@@ -954,7 +954,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       }
       if (synthesised) {
         // d is the synthesised texture's Laplacian (above)
-      } else if (reg.mode == InpaintMode::Rbf || reg.mode == InpaintMode::Synthesis) {
+      } else if (reg.mode == InpaintMode::Rbf || reg.mode == InpaintMode::Synthesis ||
+                 reg.mode == InpaintMode::Structure) {
         d = rbfGuidance(sub, subGraph, fixed, bd, opt.rbfCentres);
       } else {
         std::vector<StrokeSample> samples;

@@ -67,9 +67,9 @@ enum class GuidanceBound { None, Clamp, Scale, Soft };
 inline constexpr std::array<const char*, 4> kGuidanceBoundNames = {"none", "clamp", "scale", "soft"};
 
 struct InpaintOptions {
-  InpaintMode mode = InpaintMode::Rbf;  // holes without a HoleMode entry and without strokes
+  InpaintMode mode = InpaintMode::Structure;  // holes without a HoleMode entry and without strokes
   GuidanceBound bound = GuidanceBound::Soft;  // keeps guided fills inside the border's colour range
-  double synthesisBlur = 0;                   // synthesis: blur of the synthesised texture (texels, SynthesisOptions)
+  double structureBlur = 0.35;  // structure: blur of the synthesised texture, in hole radii (SynthesisOptions::blur)
   double texelsPerUnit = 0;             // refinement density; 0 = from the mapped faces around each hole
   int maxRefinedVertices = 2000000;     // cap on the refined vertices of all regions (coarser beyond)
   int rbfCentres = 256;                 // RBF: boundary centres per hole (boundary values averaged per centre)

@@ -147,7 +147,7 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   rgb8.convertTo(out.image, CV_32FC3, 1.0 / 255);
   // Known texels keep their exact (float) colours.
   rgb.copyTo(out.image, out.known);
-  if (options.blurTexels > 0) cv::GaussianBlur(out.image, out.image, cv::Size(), options.blurTexels);
+  if (options.blur > 0) cv::GaussianBlur(out.image, out.image, cv::Size(), options.blur * std::sqrt(holeArea / M_PI) * scale);
   out.ok = true;
   out.note = "synthesis: " + std::to_string(width) + " x " + std::to_string(height) + " texel chart, " +
              std::to_string(out.rings) + " rings (" + std::to_string(out.bandFaces) + " faces) of exemplar";

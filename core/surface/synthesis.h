@@ -25,8 +25,9 @@ struct SynthesisOptions {
                              // as a round hole's radius), grown ring by ring
   int maxRings = 24;         // at most this many rings of faces in the band
   int maxCanvas = 640;       // largest side of the chart's canvas in texels (coarser texels beyond)
-  double blurTexels = 0;     // Gaussian blur (sigma, texels) of the synthesised texture: keeps the structure
-                             // that continues from the border, drops the fine grain (0 = texture as synthesised)
+  double blur = 0;           // Gaussian blur of the synthesised texture, sigma in units of the hole's radius
+                             // (sqrt(area / pi)): keeps the structure that continues from the border, drops
+                             // the grain (0 = the texture as synthesised)
 };
 
 struct SynthesisInput {

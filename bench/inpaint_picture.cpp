@@ -43,9 +43,10 @@ int main(int argc, char** argv) {
   // A square crop around the hole, 2.5 radii wide, one panel per mode.
   const int side = int(std::ceil(2.5 * 2 * radius * scale));
   const Vec2 origin = Vec2(centre.x(), centre.y()) * scale - Vec2(side / 2.0, side / 2.0);
-  const std::vector<std::pair<const char*, InpaintMode>> modes = {
-      {"truth", InpaintMode::Off}, {"harmonic", InpaintMode::Harmonic}, {"rbf", InpaintMode::Rbf},
-      {"synthesis", InpaintMode::Synthesis}};
+  const std::vector<std::pair<const char*, InpaintMode>> modes = {{"truth", InpaintMode::Off},
+                                                                  {"harmonic", InpaintMode::Harmonic},
+                                                                  {"rbf", InpaintMode::Rbf},
+                                                                  {"synthesis", InpaintMode::Synthesis}};
   cv::Mat out(side, side * int(modes.size()), CV_8UC3, cv::Scalar(0, 0, 0));
   for (size_t m = 0; m < modes.size(); ++m) {
     cv::Mat panel = out(cv::Rect(int(m) * side, 0, side, side));
@@ -58,8 +59,9 @@ int main(int argc, char** argv) {
       if (!use) continue;
       scanTriangle(q, side, side, [&](int x, int y, const Vec3& b) {
         const Vec3f c = mappedColor(truth, {&photo}, nullptr, f, b);
-        panel.at<cv::Vec3b>(y, x) = cv::Vec3b(cv::saturate_cast<uchar>(255 * c[2]), cv::saturate_cast<uchar>(255 * c[1]),
-                                              cv::saturate_cast<uchar>(255 * c[0]));
+        panel.at<cv::Vec3b>(y, x) =
+            cv::Vec3b(cv::saturate_cast<uchar>(255 * c[2]), cv::saturate_cast<uchar>(255 * c[1]),
+                      cv::saturate_cast<uchar>(255 * c[0]));
       });
     }
     if (m == 0) continue;
@@ -83,8 +85,9 @@ int main(int argc, char** argv) {
       for (int k = 0; k < 3; ++k) c[k] = res.colors.row(rs.mesh.triangles[t][k]).transpose();
       scanTriangle(q, side, side, [&](int x, int y, const Vec3& b) {
         const Vec3f v = float(b[0]) * c[0] + float(b[1]) * c[1] + float(b[2]) * c[2];
-        panel.at<cv::Vec3b>(y, x) = cv::Vec3b(cv::saturate_cast<uchar>(255 * v[2]), cv::saturate_cast<uchar>(255 * v[1]),
-                                              cv::saturate_cast<uchar>(255 * v[0]));
+        panel.at<cv::Vec3b>(y, x) =
+            cv::Vec3b(cv::saturate_cast<uchar>(255 * v[2]), cv::saturate_cast<uchar>(255 * v[1]),
+                      cv::saturate_cast<uchar>(255 * v[0]));
         const Vec3 pb = b[0] * rs.parentBary[t][0] + b[1] * rs.parentBary[t][1] + b[2] * rs.parentBary[t][2];
         sumDe += deltaEuv(v, mappedColor(truth, {&photo}, nullptr, rs.parentFace[t], pb));
         ++n;

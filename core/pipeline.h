@@ -60,7 +60,7 @@ struct BakeResult {
 
 struct PipelineResult {
   std::shared_ptr<const Scene> scene;
-  std::shared_ptr<const Mapping> mapping;  // after seam optimisation (its map is the one baked)
+  std::shared_ptr<const Mapping> mapping;   // after seam optimisation (its map is the one baked)
   std::shared_ptr<const SeamResult> seams;  // seam optimisation's figures and per-face seam error
   std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const BakeResult> baked;

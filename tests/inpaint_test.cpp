@@ -1,5 +1,4 @@
 // Surface texture inpainting, cloning and seam levelling (core/inpaint.h, paper section 5).
-#include "io/mesh_io.h"
 #include "surface/inpaint.h"
 
 #include <Eigen/Geometry>
@@ -13,13 +12,14 @@
 #include <tuple>
 #include <unordered_map>
 
-#include "image/color.h"
-#include "geometry/mesh.h"
-#include "image/photo.h"
-#include "pipeline.h"
-#include "io/project.h"
-#include "geometry/shapes.h"
 #include "bench/synth.h"
+#include "geometry/mesh.h"
+#include "geometry/shapes.h"
+#include "image/color.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/project.h"
+#include "pipeline.h"
 #include "test_support.h"
 
 using namespace montage;
@@ -276,7 +276,8 @@ HoleScore scoreHole(const InpaintResult& res, const TextureMap& map, const Textu
   Eigen::MatrixXf want(nv, 3);
   for (int v = 0; v < nv; ++v) {
     const int t = sites[v].triangle;
-    want.row(v) = mappedColor(truth, {&photo}, nullptr, rs.parentFace[t], rs.parentBary[t][sites[v].corner]).transpose();
+    want.row(v) =
+        mappedColor(truth, {&photo}, nullptr, rs.parentFace[t], rs.parentBary[t][sites[v].corner]).transpose();
   }
   Eigen::RowVector3f lo = Eigen::RowVector3f::Constant(2), hi = Eigen::RowVector3f::Constant(-1);
   for (int t = 0; t < rs.mesh.numTriangles(); ++t)
@@ -339,8 +340,8 @@ TEST(Inpaint, CutOutsInRealTexturesDefaultBeatsHarmonicAndStaysInRange) {
     std::vector<std::pair<Vec3, double>> holes;  // centre, radius (model units)
   };
   std::vector<Case> cases;
-  for (const auto& [name, meshPath, texPath] : {std::tuple<std::string, std::string, std::string>{"spot", spotMesh, spotTex},
-                                                {"bob", bobMesh, bobTex}}) {
+  for (const auto& [name, meshPath, texPath] :
+       {std::tuple<std::string, std::string, std::string>{"spot", spotMesh, spotTex}, {"bob", bobMesh, bobTex}}) {
     Case c;
     c.name = name;
     c.mesh = requireUsable(loadMesh(meshPath));
@@ -414,7 +415,8 @@ TEST(Inpaint, CutOutsInRealTexturesDefaultBeatsHarmonicAndStaysInRange) {
     if (variants[i].mode == defaultMode && variants[i].bound == defaultBound &&
         (variants[i].blur == 0 || variants[i].blur == InpaintOptions{}.structureBlur)) {
       EXPECT_LT(sum[i], sum[0]) << variants[i].name << " (the default) does not beat harmonic in sum";
-      EXPECT_LE(worstRatio[i], 1.1) << variants[i].name << " (the default) is worse than harmonic by over 10% on a hole";
+      EXPECT_LE(worstRatio[i], 1.1) << variants[i].name
+                                    << " (the default) is worse than harmonic by over 10% on a hole";
     }
     if (variants[i].bound != GuidanceBound::None || variants[i].mode == InpaintMode::Harmonic)
       EXPECT_EQ(outside[i], 0) << variants[i].name << " leaves the border's colour range";

@@ -1,5 +1,4 @@
 // The pipeline object (stages, caching, cancel, report) and the `montage` command line end to end.
-#include "io/mesh_io.h"
 #include "pipeline.h"
 
 #include <filesystem>
@@ -9,8 +8,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bench/eval.h"
-#include "io/model.h"
 #include "bench/synth.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -37,9 +37,8 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
     if (seen.empty() || seen.back() != s) seen.push_back(s);
   });
   PipelineResult result = pipeline.run(project, job);
-  const std::vector<StageId> order = {StageId::Load,  StageId::Partition, StageId::Simplify,
-                                      StageId::Map,   StageId::Seams,     StageId::Level,
-                                      StageId::Inpaint, StageId::Bake};
+  const std::vector<StageId> order = {StageId::Load,  StageId::Partition, StageId::Simplify, StageId::Map,
+                                      StageId::Seams, StageId::Level,     StageId::Inpaint,  StageId::Bake};
   ASSERT_EQ(result.stages.size(), order.size());
   for (size_t i = 0; i < order.size(); ++i) EXPECT_EQ(result.stages[i].stage, order[i]);
   EXPECT_EQ(seen, order);

@@ -1,6 +1,8 @@
 // Seam optimisation (paper 4.2-4.3): a Venus-like case built by hand (a curved sheet split in the
 // middle into two photos of one texture, the second misregistered by a few pixels and 30% brighter),
 // and the options' directions.
+#include "mapping/seams.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,21 +12,20 @@
 #include "geometry/shapes.h"
 #include "image/color.h"
 #include "image/photo.h"
-#include "mapping/seams.h"
 #include "test_support.h"
 
 using namespace montage;
 
 namespace {
 
-constexpr int kSize = 800;          // photo width and height
+constexpr int kSize = 800;  // photo width and height
 constexpr double kPixelsPerUnit = 600;
-const Vec2 kShift(3.0, -2.0);       // photo 1 shows the texture shifted by this (pixels)
-constexpr double kExposure = 1.3;   // ...and 30% brighter (linear light)
+const Vec2 kShift(3.0, -2.0);      // photo 1 shows the texture shifted by this (pixels)
+constexpr double kExposure = 1.3;  // ...and 30% brighter (linear light)
 
 Vec3f pattern(double x, double y) {
-  return Vec3f(float(0.5 + 0.35 * std::sin(x / 7 + 0.8 * std::sin(y / 23))), float(0.5 + 0.3 * std::cos(y / 9 + x / 31)),
-               float(0.4 + 0.3 * std::sin((x + 2 * y) / 13)));
+  return Vec3f(float(0.5 + 0.35 * std::sin(x / 7 + 0.8 * std::sin(y / 23))),
+               float(0.5 + 0.3 * std::cos(y / 9 + x / 31)), float(0.4 + 0.3 * std::sin((x + 2 * y) / 13)));
 }
 
 Photo makePhoto(const std::function<Vec3f(double, double)>& colour) {
@@ -176,8 +177,8 @@ TEST(Seams, GradientWeightMatchesGradientsAndMovesNeighbours) {
   EXPECT_EQ(a.neighbourVertices, 0);
   EXPECT_GT(b.neighbourVertices, 0);
   EXPECT_LT(b.gradientAfter, b.gradientBefore);
-  EXPECT_LT(b.gradientAfter, a.gradientAfter) << "colour only " << a.gradientAfter << ", with gradients "
-                                              << b.gradientAfter;
+  EXPECT_LT(b.gradientAfter, a.gradientAfter)
+      << "colour only " << a.gradientAfter << ", with gradients " << b.gradientAfter;
 }
 
 TEST(Seams, BadInputIsAnError) {

@@ -42,13 +42,13 @@ struct PipelineOptions {
   double seamLambda = 0.1;             // seams: weight of geometric stretch vs texture mismatch (paper 4.2)
   int seamRounds = 30;                 // seams: alternating optimisation rounds (paper 4.2)
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
-  LevelMode seamLevelling = LevelMode::Vertex;  // seam levelling between photos (paper end of 5)
+  LevelMode seamLevelling = LevelMode::Vertex;       // seam levelling between photos (paper end of 5)
   InpaintMode inpaintMode = InpaintMode::Structure;  // inpainting: guidance of holes without strokes (chosen by
-                                                    // measurement, docs/pipeline.md)
-  int maxInpaintVertices = 2000000;             // inpainting: cap on refined vertices (coarser beyond)
-  int atlasSize = 4096;                         // atlas: width and height in texels (1024..8192)
-  int gutter = 4;                               // atlas: texels between charts and from the border
-  unsigned seed = 1;                            // random line searches: seed, so runs are repeatable
+                                                     // measurement, docs/pipeline.md)
+  int maxInpaintVertices = 2000000;                  // inpainting: cap on refined vertices (coarser beyond)
+  int atlasSize = 4096;                              // atlas: width and height in texels (1024..8192)
+  int gutter = 4;                                    // atlas: texels between charts and from the border
+  unsigned seed = 1;                                 // random line searches: seed, so runs are repeatable
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&

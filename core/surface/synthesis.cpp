@@ -72,7 +72,8 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
         std::array<int, 3> t{};
         const auto fv = mesh.faceVertices(f);
         for (int k = 0; k < 3; ++k) {
-          if (local[fv[k]] < 0) local[fv[k]] = static_cast<int>(positions.size()), positions.push_back(mesh.position(fv[k]));
+          if (local[fv[k]] < 0)
+            local[fv[k]] = static_cast<int>(positions.size()), positions.push_back(mesh.position(fv[k]));
           t[k] = local[fv[k]];
         }
         tris.push_back(t);
@@ -147,7 +148,8 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   rgb8.convertTo(out.image, CV_32FC3, 1.0 / 255);
   // Known texels keep their exact (float) colours.
   rgb.copyTo(out.image, out.known);
-  if (options.blur > 0) cv::GaussianBlur(out.image, out.image, cv::Size(), options.blur * std::sqrt(holeArea / M_PI) * scale);
+  if (options.blur > 0)
+    cv::GaussianBlur(out.image, out.image, cv::Size(), options.blur * std::sqrt(holeArea / M_PI) * scale);
   out.ok = true;
   out.note = "synthesis: " + std::to_string(width) + " x " + std::to_string(height) + " texel chart, " +
              std::to_string(out.rings) + " rings (" + std::to_string(out.bandFaces) + " faces) of exemplar";

@@ -41,11 +41,11 @@ struct SynthesisInput {
 
 struct SynthesisResult {
   bool ok = false;
-  std::string note;              // what was done, or why it failed (the caller then falls back)
-  std::vector<int> faceSlot;     // #F of mesh: index into `corner`, or -1 for faces not in the chart
+  std::string note;                         // what was done, or why it failed (the caller then falls back)
+  std::vector<int> faceSlot;                // #F of mesh: index into `corner`, or -1 for faces not in the chart
   std::vector<std::array<Vec2, 3>> corner;  // per chart face: its corners on the canvas (pixels)
-  cv::Mat image;                 // CV_32FC3 sRGB [0,1]: band from the photos, hole synthesised
-  cv::Mat known;                 // CV_8UC1: 255 where the canvas came from a photo
+  cv::Mat image;                            // CV_32FC3 sRGB [0,1]: band from the photos, hole synthesised
+  cv::Mat known;                            // CV_8UC1: 255 where the canvas came from a photo
   int bandFaces = 0, rings = 0;
   // The synthesised colour at barycentrics b of face f (which must be in the chart).
   Vec3f colorAt(int face, const Vec3& b) const;

@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "base/job.h"
 #include "geometry/raster.h"
 #include "geometry/shapes.h"
 #include "image/color.h"

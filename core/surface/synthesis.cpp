@@ -101,6 +101,10 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   Vec2 lo = uv[0], hi = uv[0];
   for (const Vec2& p : uv) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   double scale = in.texelsPerUnit;
+  // A blurred synthesis keeps structure only at the scale of the blur: 48 texels across the hole's
+  // radius are plenty, and keep shift-map fast on big holes.
+  constexpr double kBlurredRadiusTexels = 48;
+  if (options.blur > 0) scale = std::min(scale, kBlurredRadiusTexels / std::max(std::sqrt(holeArea / M_PI), 1e-300));
   const double extent = (hi - lo).maxCoeff();
   if (extent * scale > options.maxCanvas - 4) scale = (options.maxCanvas - 4) / std::max(extent, 1e-300);
   const int width = std::max(8, int(std::ceil((hi.x() - lo.x()) * scale)) + 4);

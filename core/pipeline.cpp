@@ -1,6 +1,7 @@
 #include "pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <opencv2/imgproc.hpp>
@@ -170,6 +171,30 @@ Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches)
   return out;
 }
 
+std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
+                                                    const CameraStage* cameras, SeamResult& seams,
+                                                    const JobControl& job) {
+  const PipelineOptions& o = scene.project.options;
+  SeamInput in;
+  in.mesh = &mapping->partition.mesh;
+  in.map = &mapping->map;
+  for (const auto& p : scene.photos) in.photos.push_back(p.get());
+  in.fixedVertices = mapping->partition.featureVertex;
+  if (cameras)
+    for (const CameraFit& fit : cameras->fits) in.projectedPhotos.push_back(fit.fits);
+  SeamOptions options;
+  options.lambda = o.seamLambda;
+  options.rounds = o.seamRounds;
+  options.gradientWeight = o.gradientWeight;
+  options.seed = o.seed;
+  job.progress(StageId::Seams, 0.0);
+  seams = optimiseSeams(in, options, job);
+  if (seams.movedSides == 0) return mapping;
+  auto out = std::make_shared<Mapping>(*mapping);
+  out->map = seams.map;
+  return out;
+}
+
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job, Tier tier) {
   SurfaceColors out;
   const PipelineOptions& o = scene.project.options;
@@ -189,7 +214,12 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   in.where = scene.project.file;
   in.options.mode = o.inpaintMode;
   in.options.maxRefinedVertices = o.maxInpaintVertices;
-  if (tier == Tier::Preview) in.options.detail = kPreviewDetail;
+  // The preview inpaints harmonic fills on a coarser refinement (smooth: the same colours at viewing
+  // distance); guided fills (RBF, synthesis, structure, strokes) and clones depend on the refinement's
+  // density, so they keep it.
+  bool smooth = o.inpaintMode == InpaintMode::Harmonic && scene.project.strokes.empty() && scene.project.clones.empty();
+  for (const HoleMode& h : scene.project.holeModes) smooth = smooth && h.mode == InpaintMode::Harmonic;
+  if (tier == Tier::Preview && smooth) in.options.detail = kPreviewDetail;
   job.progress(StageId::Inpaint, 0.0);
   out.inpaint = inpaintSurface(in, job, &out.warnings);
   return out;
@@ -432,18 +462,44 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                               {"select_seconds", pr.selectSeconds},
                               {"photos", photos}}});
   }
-  const Mapping& finalMapping = *projection.mapping;
   result.proposals =
-      proposeCorrespondences(project, finalMapping.partition.mesh, cameras->fits, projection.result.views);
+      proposeCorrespondences(project, projection.mapping->partition.mesh, cameras->fits, projection.result.views);
+
+  // Seams: rerun when the mapping or the seam options changed. Later stages read the seamed mapping.
+  key << opts["seamLambda"].dump() << opts["seamRounds"].dump() << opts["gradientWeight"].dump();
+  const bool seamCached = projectionCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
+  if (!seamCached) {
+    auto seams = std::make_shared<SeamResult>();
+    cachedSeamed_ = optimiseMappingSeams(*scene, projection.mapping, cameras.get(), *seams, job);
+    seams->map = TextureMap();  // the seamed mapping holds it
+    cachedSeams_ = seams;
+    seamKey_ = key.str();
+  }
+  const SeamResult& sr = *cachedSeams_;
+  result.stages.push_back({StageId::Seams,
+                           seamCached,
+                           seamCached ? 0 : sr.seconds,
+                           {{"seam_edges", sr.seamEdges},
+                            {"seam_vertices", sr.seamVertices},
+                            {"neighbour_vertices", sr.neighbourVertices},
+                            {"moved_sides", sr.movedSides},
+                            {"sleeping_sides", sr.sleepingSides},
+                            {"rounds", sr.rounds},
+                            {"delta_e_before", sr.deltaEBefore},
+                            {"delta_e_after", sr.deltaEAfter},
+                            {"gradient_before", sr.gradientBefore},
+                            {"gradient_after", sr.gradientAfter},
+                            {"max_stretch_before", sr.maxStretchBefore},
+                            {"max_stretch_after", sr.maxStretchAfter}}});
 
   // Level + Inpaint: rerun when the mapping, the tier or what they read (strokes, clones, hole
   // modes, their options) changed.
   key << document["strokes"].dump() << document["clones"].dump() << document["holeModes"].dump()
       << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump() << '|'
       << kTierNames[size_t(tier)];
-  const bool colorCached = mapCached && projectionCached && key.str() == colorKey_ && cachedColors_;
+  const bool colorCached = seamCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
-    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, finalMapping, job, tier));
+    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, *cachedSeamed_, job, tier));
     colorKey_ = key.str();
   }
   const SurfaceColors& colors = *cachedColors_;
@@ -484,7 +540,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     const bool bakeCached = colorCached && key.str() == bakeKey_ && cachedBake_;
     start = Clock::now();
     if (!bakeCached) {
-      cachedBake_ = std::make_shared<const BakeResult>(bakeModel(*scene, finalMapping, colors, job));
+      cachedBake_ = std::make_shared<const BakeResult>(bakeModel(*scene, *cachedSeamed_, colors, job));
       bakeKey_ = key.str();
     }
     const BakeResult& baked = *cachedBake_;
@@ -513,7 +569,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   result.scene = scene;
   result.cameras = cameras;
   result.projection = cachedProjection_;
-  result.mapping = cachedProjection_->mapping;
+  result.mapping = cachedSeamed_;
+  result.seams = cachedSeams_;
   result.colors = cachedColors_;
 
   // Keep the result for this document state (undo and redo find it at once).
@@ -592,6 +649,16 @@ nlohmann::json PipelineResult::report() const {
                 {"notes", mapping->map.notes},
                 {"rejected_pairs", rejected},
                 {"rejected_total", mapping->partition.rejected.size()}};
+  }
+  if (seams) {
+    // Per face of the map, the mean Delta E*uv across its seam edges (faces on no seam left out).
+    nlohmann::json faces = nlohmann::json::array(), error = nlohmann::json::array();
+    for (size_t f = 0; f < seams->faceError.size(); ++f)
+      if (seams->faceError[f] >= 0) faces.push_back(f), error.push_back(std::round(seams->faceError[f] * 100) / 100);
+    j["seams"] = {{"delta_e_before", seams->deltaEBefore},
+                  {"delta_e_after", seams->deltaEAfter},
+                  {"faces", faces},
+                  {"face_delta_e", error}};
   }
   return j;
 }

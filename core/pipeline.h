@@ -25,6 +25,7 @@
 #include "mapping/partition.h"
 #include "mapping/projection.h"
 #include "mapping/proposals.h"
+#include "mapping/seams.h"
 #include "mapping/texture_map.h"
 #include "surface/inpaint.h"
 
@@ -99,8 +100,9 @@ struct PipelineResult {
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const CameraStage> cameras;
   std::shared_ptr<const ProjectionStage> projection;
-  std::shared_ptr<const Mapping> mapping;  // the final mapping: the paper's path plus projection mapping
+  std::shared_ptr<const Mapping> mapping;  // the final mapping: paper path + projection, then seams (baked)
   std::vector<Proposal> proposals;         // correspondences the cameras propose (proposals.h)
+  std::shared_ptr<const SeamResult> seams;  // seam optimisation's figures and per-face seam error
   std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const BakeResult> baked;        // final tier only
   std::shared_ptr<const TexturedModel> model;     // baked->model: the atlas over the refined mesh (final tier only)
@@ -128,8 +130,15 @@ Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* ca
 // cameras propose correspondences (proposals.h).
 ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
                                const CameraStage& cameras, const JobControl& job = {});
+// Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
+// when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
+// `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
+std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
+                                                    const CameraStage* cameras, SeamResult& seams,
+                                                    const JobControl& job = {});
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
-// preview tier inpaints on a coarser refinement (kPreviewDetail of the photos' texel density).
+// preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
+// density); guided fills keep the final density, since their colours depend on it.
 inline constexpr double kPreviewDetail = 0.25;
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {},
                            Tier tier = Tier::Final);
@@ -163,6 +172,9 @@ class Pipeline {
   std::string mapKey_;
   std::shared_ptr<const Mapping> cachedMapping_;
   MapCaches mapCaches_;
+  std::string seamKey_;
+  std::shared_ptr<const Mapping> cachedSeamed_;
+  std::shared_ptr<const SeamResult> cachedSeams_;
   std::string colorKey_;
   std::shared_ptr<const SurfaceColors> cachedColors_;
   std::string bakeKey_;

@@ -43,9 +43,9 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
     if (seen.empty() || seen.back() != s) seen.push_back(s);
   });
   PipelineResult result = pipeline.run(project, job);
-  const std::vector<StageId> order = {StageId::Load,       StageId::Camera, StageId::Partition,
-                                      StageId::Map,        StageId::Projection, StageId::Level,
-                                      StageId::Inpaint,    StageId::Bake};
+  const std::vector<StageId> order = {StageId::Load,  StageId::Camera,     StageId::Partition,
+                                      StageId::Map,   StageId::Projection, StageId::Seams,
+                                      StageId::Level, StageId::Inpaint,    StageId::Bake};
   ASSERT_EQ(result.stages.size(), order.size());
   for (size_t i = 0; i < order.size(); ++i) EXPECT_EQ(result.stages[i].stage, order[i]);
   EXPECT_EQ(seen, order);
@@ -80,6 +80,22 @@ TEST(Pipeline, SecondRunReusesOutputsAndAFeatureEditRerunsOnlyTheMap) {
   PipelineResult third = pipeline.run(project);
   EXPECT_TRUE(third.stages[0].cached);
   for (int i = 1; i < 4; ++i) EXPECT_FALSE(third.stages[i].cached) << stageName(third.stages[i].stage);
+}
+
+TEST(Pipeline, SeamOptionEditRerunsTheSeamsNotTheMap) {
+  Project project = loadProject(demoProject());
+  Pipeline pipeline;
+  PipelineResult first = pipeline.run(project);
+  ASSERT_TRUE(first.seams);
+  EXPECT_EQ(first.report()["seams"]["faces"].size(), first.report()["seams"]["face_delta_e"].size());
+  project.options.seamLambda = 0.5;
+  PipelineResult second = pipeline.run(project);
+  const int seams = static_cast<int>(StageId::Seams);
+  for (int i = 0; i < seams; ++i) EXPECT_TRUE(second.stages[i].cached) << stageName(second.stages[i].stage);
+  ASSERT_EQ(second.stages[seams].stage, StageId::Seams);
+  EXPECT_FALSE(second.stages[seams].cached);
+  EXPECT_FALSE(second.stages[seams + 1].cached);  // level reads the seamed map
+  EXPECT_NE(second.seams.get(), first.seams.get());
 }
 
 TEST(Pipeline, CancelStopsTheRun) {
@@ -128,6 +144,8 @@ TEST(Pipeline, WritesModelAndReport) {
     EXPECT_EQ(report["stages"][i]["stage"], kStageNames[i]);
     stage[kStageNames[i]] = report["stages"][i];
   }
+  EXPECT_TRUE(stage["seams"]["counts"].contains("delta_e_after"));
+  EXPECT_TRUE(report.contains("seams"));
   // The demo has holes: they are inpainted, and the model says which faces were.
   EXPECT_GT(stage["inpaint"]["counts"]["regions"].size(), 0u);
   int inpainted = 0;
@@ -351,53 +369,61 @@ TEST(PipelineIncremental, UndoReturnsTheIdenticalResult) {
   EXPECT_EQ(pipeline.findResult(a, Tier::Final), nullptr);
 }
 
+// Every inpainting mode: the preview inpaints on a coarser refinement, which must not change the look.
 TEST(PipelineTiers, PreviewLooksLikeTheFinalBake) {
-  const Project project = loadProject(demoProject());
-  Pipeline pipeline;
-  const PipelineResult preview = pipeline.run(project, {}, Tier::Preview);
-  const PipelineResult final = pipeline.run(project, {}, Tier::Final);
-  ASSERT_FALSE(preview.model);
-  ASSERT_TRUE(final.model);
-  EXPECT_EQ(preview.mapping.get(), final.mapping.get());  // both tiers come from one mapping
-  std::vector<const Photo*> photos;
-  for (const auto& p : preview.scene->photos) photos.push_back(p.get());
-  const PreviewSurface surface(preview.mapping->map, photos, &preview.colors->levelling, &preview.colors->inpaint);
-  const Mesh& mesh = preview.mapping->partition.mesh;
-  int holesSeen = 0;
-  for (double yaw : {30.0, 150.0, 270.0}) {
-    RenderOptions options;
-    options.size = 512;
-    options.yawDeg = yaw;
-    const cv::Mat a = renderSurface(
-        mesh, [&](int f, const Vec3& b) { return surface.color(f, b); }, options);
-    const cv::Mat b = renderModel(*final.model, options);
-    // Pixels away from silhouettes: the surface on all 8 neighbours too (the background is exact grey).
-    cv::Mat onSurface;
-    cv::inRange(b, cv::Scalar(235, 235, 235, 255), cv::Scalar(235, 235, 235, 255), onSurface);
-    cv::bitwise_not(onSurface, onSurface);
-    cv::erode(onSurface, onSurface, cv::Mat::ones(3, 3, CV_8U));
-    double sum = 0;
-    long n = 0;
-    for (int y = 0; y < a.rows; ++y)
-      for (int x = 0; x < a.cols; ++x) {
-        if (!onSurface.at<uchar>(y, x)) continue;
-        for (int k = 0; k < 3; ++k) {
-          const double d = (a.at<cv::Vec4b>(y, x)[k] - b.at<cv::Vec4b>(y, x)[k]) / 255.0;
-          sum += d * d;
+  for (InpaintMode mode : {InpaintMode::Harmonic, InpaintMode::Rbf, InpaintMode::Synthesis, InpaintMode::Structure}) {
+    SCOPED_TRACE(kInpaintModeNames[size_t(mode)]);
+    Project project = loadProject(demoProject());
+    project.options.inpaintMode = mode;
+    Pipeline pipeline;
+    const PipelineResult preview = pipeline.run(project, {}, Tier::Preview);
+    const PipelineResult final = pipeline.run(project, {}, Tier::Final);
+    ASSERT_FALSE(preview.model);
+    ASSERT_TRUE(final.model);
+    EXPECT_EQ(preview.mapping.get(), final.mapping.get());  // both tiers come from one mapping
+    std::vector<const Photo*> photos;
+    for (const auto& p : preview.scene->photos) photos.push_back(p.get());
+    const PreviewSurface surface(preview.mapping->map, photos, &preview.colors->levelling, &preview.colors->inpaint);
+    const Mesh& mesh = preview.mapping->partition.mesh;
+    int holesSeen = 0;
+    for (double yaw : {30.0, 150.0, 270.0}) {
+      RenderOptions options;
+      options.size = 512;
+      options.yawDeg = yaw;
+      const cv::Mat a = renderSurface(
+          mesh, [&](int f, const Vec3& b) { return surface.color(f, b); }, options);
+      const cv::Mat b = renderModel(*final.model, options);
+      // Pixels away from silhouettes: the surface on all 8 neighbours too (the background is exact grey).
+      cv::Mat onSurface;
+      cv::inRange(b, cv::Scalar(235, 235, 235, 255), cv::Scalar(235, 235, 235, 255), onSurface);
+      cv::bitwise_not(onSurface, onSurface);
+      cv::erode(onSurface, onSurface, cv::Mat::ones(3, 3, CV_8U));
+      double sum = 0;
+      long n = 0;
+      for (int y = 0; y < a.rows; ++y)
+        for (int x = 0; x < a.cols; ++x) {
+          if (!onSurface.at<uchar>(y, x)) continue;
+          for (int k = 0; k < 3; ++k) {
+            const double d = (a.at<cv::Vec4b>(y, x)[k] - b.at<cv::Vec4b>(y, x)[k]) / 255.0;
+            sum += d * d;
+          }
+          ++n;
         }
-        ++n;
+      ASSERT_GT(n, 1000);
+      const double psnr = 10 * std::log10(3.0 * n / std::max(sum, 1e-12));
+      std::printf("%s, yaw %.0f: preview vs final PSNR %.2f dB over %ld pixels\n", kInpaintModeNames[size_t(mode)], yaw,
+                  psnr, n);
+      EXPECT_GE(psnr, 35.0) << "yaw " << yaw;
+      if (const char* dir = std::getenv("TM_TEST_IMAGES")) {  // to look at: preview | final
+        cv::Mat side;
+        cv::hconcat(a, b, side);
+        cv::cvtColor(side, side, cv::COLOR_RGBA2BGRA);
+        cv::imwrite(std::string(dir) + "/preview_final_" + kInpaintModeNames[size_t(mode)] + "_" +
+                        std::to_string(int(yaw)) + ".png",
+                    side);
       }
-    ASSERT_GT(n, 1000);
-    const double psnr = 10 * std::log10(3.0 * n / std::max(sum, 1e-12));
-    std::printf("yaw %.0f: preview vs final PSNR %.2f dB over %ld pixels\n", yaw, psnr, n);
-    EXPECT_GE(psnr, 35.0) << "yaw " << yaw;
-    if (const char* dir = std::getenv("TM_TEST_IMAGES")) {  // to look at: preview | final
-      cv::Mat side;
-      cv::hconcat(a, b, side);
-      cv::cvtColor(side, side, cv::COLOR_RGBA2BGRA);
-      cv::imwrite(std::string(dir) + "/preview_final_" + std::to_string(int(yaw)) + ".png", side);
     }
+    for (int r : preview.colors->inpaint.faceRegion) holesSeen += r >= 0;
+    EXPECT_GT(holesSeen, 0);  // the demo has inpainted faces: the comparison covers them
   }
-  for (int r : preview.colors->inpaint.faceRegion) holesSeen += r >= 0;
-  EXPECT_GT(holesSeen, 0);  // the demo has inpainted faces: the comparison covers them
 }

@@ -295,14 +295,14 @@ void Editor::toolsPanel() {
   ImGui::SetNextItemWidth(-1);
   if (ImGui::BeginCombo("##coloring", (std::string("faces: ") + kFaceColoringNames[coloring]).c_str())) {
     for (size_t i = 0; i < kFaceColoringNames.size(); ++i) {
-      // Seam error comes from seam optimisation (paper 4.2), which this pipeline does not run yet.
-      const bool available = FaceColoring(i) != FaceColoring::SeamError;
+      // Seam error comes from the seam optimisation stage (paper 4.2) of the last result.
+      const bool available = FaceColoring(i) != FaceColoring::SeamError || (result_ && result_->seams);
       if (ImGui::Selectable(kFaceColoringNames[i], coloring == int(i), available ? 0 : ImGuiSelectableFlags_Disabled)) {
         coloring_ = FaceColoring(i);
         overlayDirty_ = true;
       }
       if (!available && ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
-        ImGui::SetTooltip("the pipeline does not compute seam error yet (seam optimisation, paper 4.2)");
+        ImGui::SetTooltip("run the pipeline first: seam error comes from seam optimisation (paper 4.2)");
     }
     ImGui::EndCombo();
   }
@@ -457,6 +457,16 @@ void Editor::pipelineTab() {
     int searches = o.stretchSearches;
     ImGui::SliderInt("stretch searches", &searches, 0, 64);
     if (ImGui::IsItemDeactivatedAfterEdit()) o.stretchSearches = searches, commit = true;
+    // Seam optimisation (paper 4.2-4.3): stretch weight, rounds, gradient weight (1 - alpha).
+    float lambda = static_cast<float>(o.seamLambda);
+    ImGui::SliderFloat("seam lambda", &lambda, 0, 1, "%.2f");
+    if (ImGui::IsItemDeactivatedAfterEdit()) o.seamLambda = lambda, commit = true;
+    int rounds = o.seamRounds;
+    ImGui::SliderInt("seam rounds", &rounds, 0, 100);
+    if (ImGui::IsItemDeactivatedAfterEdit()) o.seamRounds = rounds, commit = true;
+    float gradient = static_cast<float>(o.gradientWeight);
+    ImGui::SliderFloat("seam gradient weight", &gradient, 0, 1, "%.2f");
+    if (ImGui::IsItemDeactivatedAfterEdit()) o.gradientWeight = gradient, commit = true;
     int seed = static_cast<int>(o.seed);
     ImGui::InputInt("seed", &seed);
     if (ImGui::IsItemDeactivatedAfterEdit()) o.seed = static_cast<unsigned>(std::max(0, seed)), commit = true;

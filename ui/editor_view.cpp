@@ -252,8 +252,11 @@ void Editor::uploadOverlay() {
       case FaceColoring::Stretch:
         if (static_cast<int>(stretch_.size()) == F) face = stretchOverlay(stretch_);
         break;
-      case FaceColoring::None:
       case FaceColoring::SeamError:
+        if (result_->seams && static_cast<int>(result_->seams->faceError.size()) == F)
+          face = seamErrorOverlay(result_->seams->faceError);
+        break;
+      case FaceColoring::None:
         break;
     }
   }

@@ -9,9 +9,12 @@
 namespace montage {
 
 // Guidance of a hole's Poisson fill (paper section 5): d = 0, RBF of the boundary Laplacian, the
-// user's strokes (flow lines), or no fill (the hole stays empty).
-enum class InpaintMode { Harmonic, Rbf, Strokes, Off };
-inline constexpr std::array<const char*, 4> kInpaintModeNames = {"harmonic", "rbf", "strokes", "off"};
+// user's strokes (flow lines), no fill (the hole stays empty), the Laplacian of a texture synthesised
+// from the photo patches around the hole (surface/synthesis.h), or of that texture blurred to its
+// large-scale structure (what continues across the hole, without the grain).
+enum class InpaintMode { Harmonic, Rbf, Strokes, Off, Synthesis, Structure };
+inline constexpr std::array<const char*, 6> kInpaintModeNames = {"harmonic", "rbf",       "strokes",
+                                                                 "off",      "synthesis", "structure"};
 
 // Seam levelling (end of paper section 5): none, one mean colour difference per seam (the paper), or
 // per seam vertex (docs/pipeline.md compares them).
@@ -75,7 +78,8 @@ struct PipelineOptions {
   int seamRounds = 30;                 // seams: alternating optimisation rounds (paper 4.2)
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
   LevelMode seamLevelling = LevelMode::Vertex;  // seam levelling between photos (paper end of 5)
-  InpaintMode inpaintMode = InpaintMode::Rbf;   // inpainting: guidance of holes without strokes
+  InpaintMode inpaintMode = InpaintMode::Structure;  // inpainting: guidance of holes without strokes (chosen by
+                                                     // measurement, docs/pipeline.md)
   int maxInpaintVertices = 2000000;             // inpainting: cap on refined vertices (coarser beyond)
   int atlasSize = 0;  // atlas: 0 = the smallest size holding the photos at their own resolution, or a fixed
                       // width and height (256..8192) that the charts are scaled to fill

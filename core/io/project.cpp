@@ -196,7 +196,7 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("seamRounds", o.seamRounds, 0, 1000);
   visit("gradientWeight", o.gradientWeight, 0.0, 1.0);
   visit("seamLevelling", o.seamLevelling, LevelMode::Off, LevelMode::Vertex);
-  visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Off);
+  visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Structure);
   visit("maxInpaintVertices", o.maxInpaintVertices, 1000, 20000000);
   visit("atlasSize", o.atlasSize, 0, kMaxAtlasSizeOption);
   visit("gutter", o.gutter, 0, 64);

@@ -16,15 +16,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "io/mesh_io.h"
 #include "bench/eval.h"
-#include "geometry/mesh.h"
-#include "io/model.h"
-#include "image/photo.h"
-#include "pipeline.h"
-#include "io/project.h"
 #include "bench/render.h"
 #include "bench/synth.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "io/project.h"
+#include "pipeline.h"
 
 namespace fs = std::filesystem;
 using namespace montage;
@@ -176,16 +176,19 @@ void printStages(const PipelineResult& result) {
 }
 
 int cmdRun(const std::string& projectPath, const std::string& out) {
+  // --out is checked and locked before anything else: a bad folder or a second run on it is refused
+  // at once, not after minutes of work.
+  OutputFolder folder(out);
   Project project = loadProject(projectPath);
   Pipeline pipeline;
   ProgressLine line;
   JobControl job(nullptr, [&](StageId s, double f, const std::string& what) { line(stageName(s), f, what); });
   PipelineResult result = pipeline.run(project, job);
   line.finish();
-  writeRunOutputs(result, out);
+  writeRunOutputs(result, folder);
   printStages(result);
-  for (const auto& w : result.warnings) std::printf("  warning: %s\n", w.c_str());
-  std::printf("wrote %s/model.obj, model.glb, report.json\n", out.c_str());
+  for (const auto& w : result.warnings) std::printf("  warning: %s\n", printable(w).c_str());
+  std::printf("wrote %s/model.obj, model.glb, report.json\n", printable(folder.path()).c_str());
   return 0;
 }
 
@@ -288,7 +291,7 @@ int main(int argc, char** argv) {
     if (*run) return cmdRun(runProject, runOut);
     if (*benchCmd) return cmdBench(bench);
   } catch (const std::exception& e) {  // montage::Error and anything else: one line, exit status 1
-    std::fprintf(stderr, "error: %s\n", e.what());
+    std::fprintf(stderr, "error: %s\n", printable(e.what()).c_str());
     return 1;
   }
   return 0;

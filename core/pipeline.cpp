@@ -305,9 +305,13 @@ nlohmann::json PipelineResult::report() const {
 
 void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
   TM_CHECK(result.model, "writeRunOutputs: no model to write");
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  TM_CHECK(!ec, located(dir, "cannot create output folder: " + ec.message()));
+  OutputFolder out(dir);
+  writeRunOutputs(result, out);
+}
+
+void writeRunOutputs(const PipelineResult& result, OutputFolder& out) {
+  TM_CHECK(result.model, "writeRunOutputs: no model to write");
+  const std::string dir = out.staging();  // everything is written here, then swapped in by commit()
   const auto start = Clock::now();
   exportObj(*result.model, dir, "model");
   exportGlb(*result.model, (fs::path(dir) / "model.glb").string());
@@ -324,6 +328,7 @@ void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
       {{"stage", stageName(StageId::Export)}, {"seconds", seconds}, {"cached", false}, {"counts", {{"files", files}}}});
   report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
   writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
+  out.commit();
 }
 
 }  // namespace montage

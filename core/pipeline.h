@@ -13,6 +13,7 @@
 
 #include "atlas/atlas.h"
 #include "base/job.h"
+#include "base/output_folder.h"
 #include "geometry/mesh.h"
 #include "image/photo.h"
 #include "io/model.h"
@@ -100,7 +101,10 @@ class Pipeline {
 
 // Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers
 // DIR/model_atlas_source.png and DIR/model_atlas_holes.png (when the result has an atlas) and
-// DIR/report.json.
+// DIR/report.json. DIR is replaced as one unit (OutputFolder: staging folder, lock, one rename).
 void writeRunOutputs(const PipelineResult& result, const std::string& dir);
+// The same into an OutputFolder taken earlier (so that `montage run` checks and locks --out before the
+// pipeline runs): writes into its staging folder, then commits it.
+void writeRunOutputs(const PipelineResult& result, OutputFolder& out);
 
 }  // namespace montage

@@ -349,7 +349,7 @@ TEST_F(ProjectTest, RejectsMissingFiles) {
 
   j = sampleJson();
   j["mesh"] = "photos";
-  EXPECT_MESSAGE_HAS(loadError(j), "mesh: file 'photos' is not a regular file");
+  EXPECT_MESSAGE_HAS(loadError(j), "mesh: file 'photos' is a folder, not a file");
   j["mesh"] = "";
   EXPECT_MESSAGE_HAS(loadError(j), "mesh: must not be empty");
   j.erase("mesh");

@@ -6,10 +6,13 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <istream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
+#include <streambuf>
 
+#include "base/fileio.h"
 #include "image/color.h"
 
 namespace fs = std::filesystem;
@@ -21,16 +24,36 @@ namespace {
 constexpr int kMaxSide = 16384;
 
 void requireFile(const std::string& path) {
-  std::error_code ec;
-  TM_CHECK(fs::exists(path, ec), located(path, "file not found"));
-  TM_CHECK(fs::is_regular_file(path, ec), located(path, "not a regular file"));
+  requireRegularFile(path, "image file");
 }
 
 // ---- Header parsers: the size of PNG, JPEG, BMP and TIFF files without decoding them. ----
 
+// A read-only stream buffer over bytes in memory, seekable (header parsers jump around).
+class MemoryBuffer : public std::streambuf {
+ public:
+  MemoryBuffer(const unsigned char* data, size_t size) {
+    char* p = const_cast<char*>(reinterpret_cast<const char*>(data));
+    setg(p, p, p + size);
+  }
+
+ protected:
+  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override {
+    const off_type base = dir == std::ios_base::beg   ? 0
+                          : dir == std::ios_base::cur ? gptr() - eback()
+                                                      : egptr() - eback();
+    return seekpos(pos_type(base + off), std::ios_base::in);
+  }
+  pos_type seekpos(pos_type pos, std::ios_base::openmode) override {
+    if (pos < 0 || pos > egptr() - eback()) return pos_type(off_type(-1));
+    setg(eback(), eback() + off_type(pos), egptr());
+    return pos;
+  }
+};
+
 class ByteReader {
  public:
-  explicit ByteReader(const std::string& path) : in_(path, std::ios::binary) {}
+  explicit ByteReader(std::istream& in) : in_(in) {}
   bool ok() const { return bool(in_); }
   bool read(uint8_t* out, size_t n) { return bool(in_.read(reinterpret_cast<char*>(out), std::streamsize(n))); }
   bool seek(uint64_t pos) { return bool(in_.seekg(std::streamoff(pos))); }
@@ -52,7 +75,7 @@ class ByteReader {
   }
 
  private:
-  std::ifstream in_;
+  std::istream& in_;
 };
 
 // PNG: signature, then the IHDR chunk with width and height (big endian).
@@ -131,19 +154,66 @@ std::optional<cv::Size> tiffSize(ByteReader& in, bool bigEndian) {
   return cv::Size(width, height);
 }
 
+enum class ImageFormat { Unknown, Png, Jpeg, Bmp, TiffLittle, TiffBig };
+
+ImageFormat formatOf(const uint8_t (&magic)[8]) {
+  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (std::equal(magic, magic + 8, kPng)) return ImageFormat::Png;
+  if (magic[0] == 0xFF && magic[1] == 0xD8 && magic[2] == 0xFF) return ImageFormat::Jpeg;
+  if (magic[0] == 'B' && magic[1] == 'M') return ImageFormat::Bmp;
+  if (magic[0] == 'I' && magic[1] == 'I' && magic[2] == 42 && magic[3] == 0) return ImageFormat::TiffLittle;
+  if (magic[0] == 'M' && magic[1] == 'M' && magic[2] == 0 && magic[3] == 42) return ImageFormat::TiffBig;
+  return ImageFormat::Unknown;
+}
+
+// The format and, when its header can be read, the size of an image. Only PNG, JPEG, BMP and TIFF are
+// decoded at all: OpenCV would otherwise pick a decoder by content (PNM, WebP, JPEG 2000...) for a
+// file whatever its name.
+struct ImageHeader {
+  ImageFormat format = ImageFormat::Unknown;
+  std::optional<cv::Size> size;
+};
+
+ImageHeader readHeader(std::istream& stream) {
+  ByteReader in(stream);
+  uint8_t magic[8] = {};
+  ImageHeader header;
+  if (!in.ok() || !in.read(magic, 8)) return header;
+  header.format = formatOf(magic);
+  switch (header.format) {
+    case ImageFormat::Png:
+      header.size = pngSize(in);
+      break;
+    case ImageFormat::Jpeg:
+      header.size = jpegSize(in);
+      break;
+    case ImageFormat::Bmp:
+      header.size = bmpSize(in);
+      break;
+    case ImageFormat::TiffLittle:
+    case ImageFormat::TiffBig:
+      header.size = tiffSize(in, header.format == ImageFormat::TiffBig);
+      break;
+    case ImageFormat::Unknown:
+      break;
+  }
+  return header;
+}
+
+ImageHeader fileHeader(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return readHeader(in);
+}
+
 // The size from the file header, or nothing when the format is not one of the above (or the header
 // is damaged); the caller then decodes the file.
 std::optional<cv::Size> headerSize(const std::string& path) {
-  ByteReader in(path);
-  uint8_t magic[8] = {};
-  if (!in.ok() || !in.read(magic, 8)) return std::nullopt;
-  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  if (std::equal(magic, magic + 8, kPng)) return pngSize(in);
-  if (magic[0] == 0xFF && magic[1] == 0xD8 && magic[2] == 0xFF) return jpegSize(in);
-  if (magic[0] == 'B' && magic[1] == 'M') return bmpSize(in);
-  if (magic[0] == 'I' && magic[1] == 'I' && magic[2] == 42 && magic[3] == 0) return tiffSize(in, false);
-  if (magic[0] == 'M' && magic[1] == 'M' && magic[2] == 0 && magic[3] == 42) return tiffSize(in, true);
-  return std::nullopt;
+  return fileHeader(path).size;
+}
+
+void requireKnownFormat(const std::string& where, ImageFormat format) {
+  TM_CHECK(format != ImageFormat::Unknown,
+           located(where, "not a PNG, JPEG, TIFF or BMP image (unknown file signature)"));
 }
 
 void checkSize(const std::string& path, cv::Size size) {
@@ -168,7 +238,9 @@ cv::Mat readUnchanged(const std::string& path) {
 cv::Mat decode(const std::string& path) {
   requireFile(path);
   // Refuse oversized images before allocating them, when the header tells the size.
-  if (auto size = headerSize(path)) checkSize(path, *size);
+  const ImageHeader header = fileHeader(path);
+  requireKnownFormat(path, header.format);
+  if (header.size) checkSize(path, *header.size);
   cv::Mat image = readUnchanged(path);
   checkSize(path, image.size());
   return image;
@@ -278,8 +350,25 @@ cv::Size readImageSize(const std::string& path) {
 }
 
 cv::Mat readImageRgba8(const std::string& path) {
-  requireFile(path);
-  return toRgba8(readUnchanged(path), true, path);
+  return toRgba8(decode(path), true, path);
+}
+
+cv::Mat decodeImageRgba8(const unsigned char* bytes, size_t size, const std::string& where) {
+  MemoryBuffer buffer(bytes, size);
+  std::istream in(&buffer);
+  const ImageHeader header = readHeader(in);
+  requireKnownFormat(where, header.format);
+  if (header.size) checkSize(where, *header.size);
+  TM_CHECK(size <= size_t(INT32_MAX), located(where, "image data is larger than 2 GB"));
+  cv::Mat image;
+  try {
+    image = cv::imdecode(cv::Mat(1, int(size), CV_8U, const_cast<unsigned char*>(bytes)), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw Error(located(where, "cannot decode image: " + e.msg));
+  }
+  TM_CHECK(!image.empty(), located(where, "not a readable image (damaged data)"));
+  checkSize(where, image.size());
+  return toRgba8(image, true, where);
 }
 
 cv::Mat toRgba8(const cv::Mat& image, bool bgr, const std::string& where) {

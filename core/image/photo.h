@@ -44,6 +44,11 @@ cv::Size readImageSize(const std::string& path);
 // file and the reason when it is missing or cannot be read.
 cv::Mat readImageRgba8(const std::string& path);
 
+// Decodes an image held in memory (e.g. embedded in a glTF file) as CV_8UC4 RGBA, with the same rules as
+// readImageRgba8 (PNG, JPEG, TIFF or BMP only; at most 16384 pixels a side, checked before decoding).
+// `where` names it in messages.
+cv::Mat decodeImageRgba8(const unsigned char* bytes, size_t size, const std::string& where);
+
 // Converts an 8-bit, 16-bit or float (in [0,1]) image with 1 to 4 channels to CV_8UC4 RGBA. `bgr`: the
 // colour channels are in OpenCV's order B,G,R(,A), as cv::imread gives them. Throws montage::Error
 // located at `where` for other depths or channel counts.

@@ -10,6 +10,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cstdarg>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -64,42 +65,59 @@ double peakMemoryMiB() {
   return usage.ru_maxrss / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
+// printf to stdout through printable(): names and text from input files never reach the terminal raw.
+#if defined(__GNUC__)
+__attribute__((format(printf, 1, 2)))
+#endif
+void say(const char* format, ...) {
+  va_list args, copy;
+  va_start(args, format);
+  va_copy(copy, args);
+  std::string text(size_t(std::max(0, std::vsnprintf(nullptr, 0, format, copy))), '\0');
+  va_end(copy);
+  std::vsnprintf(text.data(), text.size() + 1, format, args);
+  va_end(args);
+  std::fputs(printable(text, true).c_str(), stdout);
+}
+
 int cmdInfo(const std::string& file) {
   const std::string ext = lowerExtension(file);
   if (ext == ".json") {
     Project project = loadProject(file);
-    std::printf(
-        "project %s\n  mesh: %s\n  photos: %zu\n  feature points: %zu\n  chains: %zu\n  strokes: %zu\n"
+    say("project %s\n  mesh: %s\n  photos: %zu\n  feature points: %zu\n  chains: %zu\n  strokes: %zu\n"
         "  clones: %zu\n",
         file.c_str(), project.mesh.c_str(), project.photos.size(), project.points.size(), project.chains.size(),
         project.strokes.size(), project.clones.size());
-    auto scene = loadScene(project);
-    std::printf("%s", scene->meshReport.summary().c_str());
-    for (size_t i = 0; i < scene->photos.size(); ++i)
-      std::printf("  photo %zu: %s (%dx%d%s)\n", i, scene->photos[i]->path.c_str(), scene->photos[i]->width,
-                  scene->photos[i]->height, scene->photos[i]->hasBackground ? ", with background mask" : "");
-    std::printf("project is valid\n");
+    auto scene = loadScene(project);  // the validation `run` does, too
+    say("%s", scene->meshReport.summary().c_str());
+    for (size_t i = 0; i < scene->photos.size(); ++i) {
+      const Photo& photo = *scene->photos[i];
+      say("  photo %zu: %s (%dx%d%s", i, photo.path.c_str(), photo.width, photo.height,
+          photo.hasBackground ? ", with background mask" : "");
+      if (photo.scale != 1) say(", kept at %dx%d (working resolution)", photo.rgb.cols, photo.rgb.rows);
+      say(")\n");
+    }
+    for (const std::string& w : scene->warnings) say("  warning: %s\n", w.c_str());
+    say("project is valid%s\n", scene->warnings.empty() ? "" : " (with the warnings above)");
     return 0;
   }
   if (isImageExtension(ext)) {
-    Photo photo = loadPhoto(file);
-    const double fg = cv::countNonZero(photo.alpha > 0) / double(photo.width * photo.height);
-    double maxDistance = 0;
-    cv::minMaxLoc(photo.distance, nullptr, &maxDistance);
-    std::printf("photo %s\n  size: %d x %d\n  foreground: %.1f%% (%s)\n  max distance to foreground: %.1f px\n",
-                file.c_str(), photo.width, photo.height, 100 * fg,
-                photo.hasBackground ? "from alpha" : "no alpha: whole photo is foreground", maxDistance);
+    const PhotoStats stats = photoStats(file);
+    say("photo %s\n  size: %d x %d, %d channel%s of %d bits\n  foreground: %.1f%% (%s)\n"
+        "  max distance to foreground: %.1f px\n",
+        file.c_str(), stats.width, stats.height, stats.channels, stats.channels == 1 ? "" : "s", stats.bitsPerChannel,
+        100 * stats.foreground, stats.hasBackground ? "from alpha" : "no alpha: whole photo is foreground",
+        stats.maxDistance);
     return 0;
   }
   if (ext == ".glb" || ext == ".gltf") {
     TexturedModel model = loadModel(file);
-    std::printf("model %s\n  vertices: %d\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
-                model.mesh.numVertices(), model.mesh.numFaces(), model.materials.size(),
-                model.textured() ? "yes" : "no");
+    say("model %s\n  vertices: %d\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
+        model.mesh.numVertices(), model.mesh.numFaces(), model.materials.size(), model.textured() ? "yes" : "no");
     return 0;
   }
   LoadedMesh loaded = loadMesh(file);
-  std::printf("%s", loaded.report.summary().c_str());
+  say("%s", loaded.report.summary().c_str());
   return loaded.report.usable() ? 0 : 1;
 }
 

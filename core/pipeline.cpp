@@ -6,6 +6,8 @@
 #include <sstream>
 
 #include "base/util.h"
+#include "geometry/predicates.h"
+#include "io/project_warnings.h"
 #include "io/mesh_io.h"
 #include "mapping/simplify.h"
 
@@ -33,6 +35,43 @@ std::vector<std::pair<int, int>> photoSizes(const std::vector<std::shared_ptr<co
   std::vector<std::pair<int, int>> sizes;
   for (const auto& p : photos) sizes.emplace_back(p->width, p->height);
   return sizes;
+}
+
+// The checks of the clones that the inpaint stage would make, done at load so that `montage info` and
+// `run` reject the same projects: the projection frame (anchor on the target, a mean plane, an area)
+// and a polygon that meets the projected target inside the photo.
+void checkClones(const Project& project, const Mesh& mesh, const std::vector<std::shared_ptr<const Photo>>& photos) {
+  const std::string file = project.file.empty() ? "project" : project.file;
+  for (size_t c = 0; c < project.clones.size(); ++c) {
+    const CloneOp& clone = project.clones[c];
+    const std::string path = "clones[" + std::to_string(c) + "]";
+    const CloneProjection proj = projectClone(mesh, {}, clone, located(file, path));
+    const Photo& photo = *photos[clone.photo];
+    const auto inTriangle = [](const std::array<Vec2, 3>& t, const Vec2& p) {
+      const double a = orient2(t[0], t[1], p), b = orient2(t[1], t[2], p), d = orient2(t[2], t[0], p);
+      return (a >= 0 && b >= 0 && d >= 0) || (a <= 0 && b <= 0 && d <= 0);
+    };
+    bool meets = false;
+    for (size_t f = 0; f < proj.cornerPixel.size() && !meets; ++f) {
+      const auto& t = proj.cornerPixel[f];
+      std::vector<Vec2> candidates(t.begin(), t.end());
+      for (const Vec2& q : clone.polygon)
+        if (inTriangle(t, q)) candidates.push_back(q);
+      for (size_t k = 0; k < clone.polygon.size(); ++k)  // edge crossings
+        for (int e = 0; e < 3; ++e) {
+          const Vec2 &a = clone.polygon[k], &b = clone.polygon[(k + 1) % clone.polygon.size()];
+          const double d1 = orient2(a, b, t[e]), d2 = orient2(a, b, t[(e + 1) % 3]);
+          if ((d1 > 0) != (d2 > 0) && d1 != d2) candidates.push_back(t[e] + (t[(e + 1) % 3] - t[e]) * (d1 / (d1 - d2)));
+        }
+      for (const Vec2& q : candidates)
+        meets = meets || (photo.inside(q.x(), q.y()) && inTriangle(t, q) &&
+                          (insidePolygon(clone.polygon, q) ||
+                           std::any_of(clone.polygon.begin(), clone.polygon.end(),
+                                       [&](const Vec2& v) { return (v - q).norm() < 1e-9; })));
+    }
+    TM_CHECK(meets, located(file, path + ": the polygon maps onto no point of the target region inside the photo "
+                                          "(check the anchor, the scale and the rotation)"));
+  }
 }
 
 }  // namespace
@@ -143,6 +182,10 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   }
   cachedPhotos_ = std::move(photos);
   validateProject(project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
+  checkClones(project, *scene->mesh, scene->photos);
+  std::vector<const Photo*> photoPointers;
+  for (const auto& p : scene->photos) photoPointers.push_back(p.get());
+  scene->warnings = projectWarnings(project, photoPointers);
   return scene;
 }
 
@@ -161,6 +204,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                  {"chains", project.chains.size()}};
   result.stages.push_back(load);
   for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
+  for (const auto& w : scene->warnings) result.warnings.push_back("project: " + w);
 
   // Partition, Simplify, Map: rerun when what they read (mesh, photos, correspondences, options) changed.
   std::ostringstream key;

@@ -66,18 +66,22 @@ TEST(Photo, RgbaDiscGivesAlphaForegroundAndChannelOrder) {
   EXPECT_EQ(photo.height, 48);
   EXPECT_TRUE(photo.hasBackground);
   EXPECT_TRUE(photo.maskPath.empty());
-  ASSERT_EQ(photo.rgb.type(), CV_32FC3);
-  ASSERT_EQ(photo.alpha.type(), CV_32FC1);
-  ASSERT_EQ(photo.luv.type(), CV_32FC3);
-  EXPECT_FLOAT_EQ(photo.alpha.at<float>(24, 32), 1.0f);
-  EXPECT_FLOAT_EQ(photo.alpha.at<float>(0, 0), 0.0f);
+  // Compact: the file's 8 bits, one byte of alpha (issue 15: a 16384^2 photo took 10.8 GB as floats).
+  ASSERT_EQ(photo.rgb.type(), CV_8UC3);
+  ASSERT_EQ(photo.alpha.type(), CV_8UC1);
+  EXPECT_EQ(photo.scale, 1.0);
+  EXPECT_EQ(photo.alpha.at<uint8_t>(24, 32), 255);
+  EXPECT_EQ(photo.alpha.at<uint8_t>(0, 0), 0);
   EXPECT_EQ(cv::countNonZero(photo.alpha > 0), cv::countNonZero(discImage().reshape(1, 48 * 64).col(3)));
+  EXPECT_EQ(photo.bytes(), size_t(64 * 48) * (3 + 1 + 4));
   // BGR in the file, RGB in memory: the disc is red.
-  const cv::Vec3f centre = photo.rgb.at<cv::Vec3f>(24, 32);
+  const Vec3f centre = photo.rgbAt(32.5, 24.5);
   EXPECT_FLOAT_EQ(centre[0], 1.0f);
   EXPECT_FLOAT_EQ(centre[1], 0.0f);
   EXPECT_FLOAT_EQ(centre[2], 0.0f);
-  EXPECT_NEAR(photo.luv.at<cv::Vec3f>(24, 32)[0], 53.24f, 0.05f);
+  EXPECT_FLOAT_EQ(photo.alphaAt(32.5, 24.5), 1.0f);
+  EXPECT_FLOAT_EQ(photo.alphaAt(0.5, 0.5), 0.0f);
+  EXPECT_NEAR(photo.luvAt(32.5, 24.5)[0], 53.24f, 0.05f);
   // isForeground goes by the pixel containing the point.
   EXPECT_TRUE(photo.isForeground(32.5, 24.5));
   EXPECT_TRUE(photo.isForeground(32.99, 24.01));
@@ -92,17 +96,20 @@ TEST(Photo, DistanceMapMatchesBruteForce) {
   const std::string dir = test::tempDir("photo");
   const Photo photo = loadPhoto(write(dir, "disc.png", discImage()));
   ASSERT_EQ(photo.distance.type(), CV_32FC1);
+  cv::Mat alphaF;
+  photo.alpha.convertTo(alphaF, CV_32F, 1.0 / 255);
   EXPECT_FLOAT_EQ(photo.distance.at<float>(24, 32), 0.0f);
+  EXPECT_FLOAT_EQ(photo.distanceAt(45.5, 24.5), 3.0f);
   EXPECT_FLOAT_EQ(photo.distance.at<float>(24, 42), 0.0f);
   EXPECT_NEAR(photo.distance.at<float>(24, 45), 3.0f, 1e-4);
   // Every pixel, against brute force.
   double worst = 0;
   for (int r = 0; r < photo.height; ++r)
     for (int c = 0; c < photo.width; ++c)
-      worst = std::max(worst, double(std::abs(photo.distance.at<float>(r, c) - bruteDistance(photo.alpha, c, r))));
+      worst = std::max(worst, double(std::abs(photo.distance.at<float>(r, c) - bruteDistance(alphaF, c, r))));
   EXPECT_LT(worst, 1e-3);
   // The corner is far from the disc: (0, 0) to the nearest disc pixel.
-  EXPECT_NEAR(photo.distance.at<float>(0, 0), bruteDistance(photo.alpha, 0, 0), 1e-3);
+  EXPECT_NEAR(photo.distance.at<float>(0, 0), bruteDistance(alphaF, 0, 0), 1e-3);
   EXPECT_GT(photo.distance.at<float>(0, 0), 25.0f);
 }
 
@@ -110,7 +117,8 @@ TEST(Photo, SixteenBitPngKeepsPrecision) {
   const std::string dir = test::tempDir("photo");
   cv::Mat image(8, 10, CV_16UC3, cv::Scalar(1000, 30000, 65535));  // B, G, R
   const Photo photo = loadPhoto(write(dir, "deep.png", image));
-  const cv::Vec3f p = photo.rgb.at<cv::Vec3f>(3, 4);
+  EXPECT_EQ(photo.rgb.type(), CV_16UC3);
+  const Vec3f p = photo.rgbAt(4.5, 3.5);
   EXPECT_NEAR(p[0], 1.0f, 1e-6);
   EXPECT_NEAR(p[1], 30000 / 65535.0f, 1e-6);
   EXPECT_NEAR(p[2], 1000 / 65535.0f, 1e-6);  // distinguishable from any 8-bit level
@@ -120,8 +128,8 @@ TEST(Photo, SixteenBitPngKeepsPrecision) {
   rgba(cv::Rect(0, 0, 5, 8)).setTo(cv::Scalar(0, 0, 0, 0));
   const Photo withAlpha = loadPhoto(write(dir, "deep_rgba.png", rgba));
   EXPECT_TRUE(withAlpha.hasBackground);
-  EXPECT_FLOAT_EQ(withAlpha.alpha.at<float>(0, 0), 0.0f);
-  EXPECT_FLOAT_EQ(withAlpha.alpha.at<float>(0, 9), 1.0f);
+  EXPECT_EQ(withAlpha.alpha.at<uint8_t>(0, 0), 0);
+  EXPECT_EQ(withAlpha.alpha.at<uint8_t>(0, 9), 255);
   EXPECT_NEAR(withAlpha.distance.at<float>(0, 0), 5.0f, 1e-4);
 }
 
@@ -131,14 +139,17 @@ TEST(Photo, GreyPngBecomesRgbWithoutBackground) {
   for (int r = 0; r < grey.rows; ++r)
     for (int c = 0; c < grey.cols; ++c) grey.at<uint8_t>(r, c) = uint8_t(c * 8);
   const Photo photo = loadPhoto(write(dir, "grey.png", grey));
-  EXPECT_EQ(photo.rgb.type(), CV_32FC3);
-  const cv::Vec3f p = photo.rgb.at<cv::Vec3f>(5, 10);
+  EXPECT_EQ(photo.rgb.type(), CV_8UC3);
+  const Vec3f p = photo.rgbAt(10.5, 5.5);
   EXPECT_FLOAT_EQ(p[0], 80 / 255.0f);
   EXPECT_FLOAT_EQ(p[1], 80 / 255.0f);
   EXPECT_FLOAT_EQ(p[2], 80 / 255.0f);
   EXPECT_FALSE(photo.hasBackground);
-  EXPECT_EQ(cv::countNonZero(photo.alpha == 1.0f), 20 * 30);
-  EXPECT_EQ(cv::countNonZero(photo.distance), 0);
+  // Without a background neither alpha nor distance is stored; the samplers answer for them.
+  EXPECT_TRUE(photo.alpha.empty());
+  EXPECT_TRUE(photo.distance.empty());
+  EXPECT_EQ(photo.alphaAt(3, 3), 1.0f);
+  EXPECT_EQ(photo.distanceAt(3, 3), 0.0f);
   EXPECT_TRUE(photo.isForeground(0, 0));
   EXPECT_TRUE(photo.isForeground(30, 20));
 }
@@ -157,7 +168,7 @@ TEST(Photo, JpgBmpAndTiffLoadWithTheirSizes) {
     EXPECT_EQ(photo.width, 53);
     EXPECT_EQ(photo.height, 37);
     EXPECT_EQ(readImageSize(file), cv::Size(53, 37));
-    const cv::Vec3f p = photo.rgb.at<cv::Vec3f>(18, 26);
+    const Vec3f p = photo.rgbAt(26.5, 18.5);
     const float tolerance = fs::path(file).extension() == ".jpg" ? 0.02f : 1e-6f;  // JPEG is lossy
     EXPECT_NEAR(p[0], 200 / 255.0f, tolerance);
     EXPECT_NEAR(p[1], 120 / 255.0f, tolerance);
@@ -387,11 +398,89 @@ TEST(Photo, RealPhotosLoadWithTheirSizes) {
     EXPECT_EQ(photo.height, size.height);
     EXPECT_EQ(photo.rgb.size(), size);
     EXPECT_FALSE(photo.hasBackground);
-    double lo, hi;
-    cv::minMaxLoc(photo.luv.reshape(1), &lo, &hi);
-    EXPECT_GE(lo, -200);
-    EXPECT_LE(hi, 200);
+    for (int k = 0; k < 100; ++k) {
+      const Vec3f luv = photo.luvAt(k * 6.1, k * 6.0);
+      EXPECT_GE(luv.minCoeff(), -200);
+      EXPECT_LE(luv.maxCoeff(), 200);
+    }
     cv::Scalar mean = cv::mean(photo.rgb);
-    EXPECT_GT(mean[0], 0.05);  // not a black image
+    EXPECT_GT(mean[0], 0.05 * 255);  // not a black image
   }
+}
+
+// ---- Memory and working resolution (issue 15) ----
+
+TEST(Photo, WorkingResolutionKeepsFileCoordinates) {
+  // A 400x300 photo with a foreground rectangle, kept at 100x75: the samplers still take file pixels.
+  const std::string dir = test::tempDir("photo_working");
+  cv::Mat image(300, 400, CV_8UC4, cv::Scalar(0, 0, 0, 0));
+  image(cv::Rect(100, 60, 200, 120)).setTo(cv::Scalar(0, 200, 50, 255));  // B, G, R, A
+  const std::string path = write(dir, "big.png", image);
+  const Photo full = loadPhoto(path);
+  PhotoLoadOptions options;
+  options.maxSide = 100;
+  const Photo small = loadPhoto(path, "", options);
+  EXPECT_EQ(small.width, 400);
+  EXPECT_EQ(small.height, 300);
+  EXPECT_EQ(small.rgb.size(), cv::Size(100, 75));
+  EXPECT_DOUBLE_EQ(small.scale, 0.25);
+  EXPECT_LT(small.bytes() * 15, full.bytes());
+  // The same answers at file coordinates, up to a stored pixel (4 file pixels).
+  EXPECT_TRUE(small.isForeground(200, 120));
+  EXPECT_FALSE(small.isForeground(20, 20));
+  EXPECT_NEAR(small.rgbAt(200, 120)[0], 50 / 255.0f, 1e-6);
+  EXPECT_NEAR(small.rgbAt(200, 120)[1], 200 / 255.0f, 1e-6);
+  for (const Vec2 q : {Vec2(10, 10), Vec2(50, 150), Vec2(390, 290), Vec2(200, 20)})
+    EXPECT_NEAR(small.distanceAt(q.x(), q.y()), full.distanceAt(q.x(), q.y()), 4.0) << q.transpose();
+  EXPECT_GT(small.distanceAt(10, 10), 50);  // in file pixels, not stored ones
+  // A working resolution above the photo's size changes nothing.
+  options.maxSide = 1000;
+  EXPECT_EQ(loadPhoto(path, "", options).rgb.size(), cv::Size(400, 300));
+}
+
+TEST(Photo, InfoStatsMatchTheLoadedPhoto) {
+  const std::string dir = test::tempDir("photo_stats");
+  const std::string path = write(dir, "disc.png", discImage());
+  const PhotoStats stats = photoStats(path);
+  const Photo photo = loadPhoto(path);
+  EXPECT_EQ(stats.width, 64);
+  EXPECT_EQ(stats.height, 48);
+  EXPECT_EQ(stats.channels, 4);
+  EXPECT_EQ(stats.bitsPerChannel, 8);
+  EXPECT_TRUE(stats.hasBackground);
+  EXPECT_NEAR(stats.foreground, cv::countNonZero(photo.alpha) / double(64 * 48), 1e-12);
+  double maxDistance = 0;
+  cv::minMaxLoc(photo.distance, nullptr, &maxDistance);
+  EXPECT_DOUBLE_EQ(stats.maxDistance, maxDistance);
+}
+
+TEST(Photo, SoftAlphaBelowOneLevelStaysForeground) {
+  // 16-bit alpha of 100 (of 65535) and float-like levels must not round to background.
+  const std::string dir = test::tempDir("photo_soft");
+  cv::Mat rgba(4, 4, CV_16UC4, cv::Scalar(1000, 1000, 1000, 0));
+  rgba.at<cv::Vec4w>(1, 1) = cv::Vec4w(1000, 1000, 1000, 100);
+  const Photo photo = loadPhoto(write(dir, "soft.png", rgba));
+  EXPECT_TRUE(photo.hasBackground);
+  EXPECT_TRUE(photo.isForeground(1.5, 1.5));
+  EXPECT_FALSE(photo.isForeground(2.5, 2.5));
+}
+
+TEST(Photo, OnlyKnownFormatsAreDecoded) {
+  // OpenCV picks a decoder by content: a PNM (or WebP, JPEG 2000...) named .png would be decoded.
+  const std::string dir = test::tempDir("photo_formats");
+  const std::string path = (fs::path(dir) / "fake.png").string();
+  std::ofstream(path, std::ios::binary) << "P5\n2 2\n255\n\x01\x02\x03\x04";
+  const std::string message = errorOf([&] { loadPhoto(path); });
+  EXPECT_NE(message.find("not a PNG, JPEG, TIFF or BMP image"), std::string::npos) << message;
+  // A PNG header announcing 20000 x 20000 is refused before anything is allocated.
+  std::string png = "\x89PNG\r\n\x1a\n";
+  png += std::string("\0\0\0\x0dIHDR", 8);
+  png += std::string("\0\0\x4e\x20\0\0\x4e\x20\x08\x06\0\0\0", 13);
+  png += std::string(4, '\0');
+  const std::string huge = (fs::path(dir) / "huge.png").string();
+  std::ofstream(huge, std::ios::binary) << png;
+  EXPECT_NE(errorOf([&] { loadPhoto(huge); }).find("20000x20000 pixels; at most 16384"), std::string::npos);
+  const std::string fromMemory =
+      errorOf([&] { decodeImageRgba8(reinterpret_cast<const unsigned char*>(png.data()), png.size(), "mem"); });
+  EXPECT_NE(fromMemory.find("mem: image is 20000x20000 pixels"), std::string::npos) << fromMemory;
 }

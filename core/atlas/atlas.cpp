@@ -952,12 +952,14 @@ AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std
   for (size_t i = 0; i < photos.size(); ++i) {
     if (!photos[i]) continue;
     sources[i] = photos[i]->rgb;
-    if (atlas.scale > 0 && atlas.scale < 1 / 1.5) {
+    sourceScale[i] = double(photos[i]->rgb.cols) / photos[i]->width;  // stored pixels per photo pixel
+    const double minify = atlas.scale / sourceScale[i];
+    if (atlas.scale > 0 && minify < 1 / 1.5) {
       cv::Mat small;
-      cv::resize(photos[i]->rgb, small, cv::Size(), atlas.scale, atlas.scale, cv::INTER_AREA);
+      cv::resize(photos[i]->rgb, small, cv::Size(), minify, minify, cv::INTER_AREA);
       if (small.cols > 0 && small.rows > 0) {
         sources[i] = small;
-        sourceScale[i] = double(small.cols) / photos[i]->rgb.cols;
+        sourceScale[i] = double(small.cols) / photos[i]->width;
       }
     }
   }

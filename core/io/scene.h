@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "geometry/mesh.h"
@@ -16,6 +17,10 @@ struct Scene {
   std::shared_ptr<const Mesh> mesh;
   MeshReport meshReport;
   std::vector<std::shared_ptr<const Photo>> photos;
+  // What the validation of the project against its mesh and photos found worth a word (points on a
+  // photo's background, crossing feature lines, self-intersecting polygons), each naming the element;
+  // `montage info` and `run` show the same list.
+  std::vector<std::string> warnings;
 };
 
 }  // namespace montage

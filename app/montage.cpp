@@ -10,6 +10,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <filesystem>
@@ -133,6 +134,10 @@ struct SynthArgs {
 };
 
 int cmdSynth(const SynthArgs& args) {
+  TM_CHECK(!args.out.empty(), "synth: --out: the path is empty (give a folder such as out/scene)");
+  std::error_code ec;
+  TM_CHECK(!fs::exists(args.out, ec) || fs::is_directory(args.out, ec),
+           located(args.out, "synth: --out: is a file, not a folder"));
   auto mesh = requireUsable(loadMesh(args.mesh));
   SurfaceColor color;
   std::shared_ptr<TexturedModel> truth;
@@ -161,7 +166,17 @@ int cmdSynth(const SynthArgs& args) {
 
 int cmdEval(const std::string& resultPath, const std::string& truthMesh, const std::string& truthTexture,
             const std::string& jsonPath, int samples) {
+  if (!jsonPath.empty()) prepareOutputFile(jsonPath, "--json");
   TexturedModel result = loadModel(resultPath);
+  // Without a texture every figure would describe the material colours (it once read "100% photo",
+  // 11 dB): refuse instead.
+  bool anyTexture = false;
+  for (const Material& m : result.materials) anyTexture = anyTexture || !m.texture.empty();
+  TM_CHECK(result.textured() && anyTexture,
+           located(resultPath, std::string("the result has no texture (") +
+                                   (result.textured() ? "texture coordinates but no material with a texture image"
+                                                      : "no texture coordinates") +
+                                   "): there is nothing to evaluate; give the model.obj or model.glb of a run"));
   TexturedModel truth = loadTruth(truthMesh, truthTexture);
   EvalOptions options;
   options.samples = samples;
@@ -172,12 +187,18 @@ int cmdEval(const std::string& resultPath, const std::string& truthMesh, const s
 }
 
 int cmdRender(const std::string& modelPath, const std::string& out, const RenderOptions& options) {
+  TM_CHECK(std::isfinite(options.yawDeg) && std::isfinite(options.pitchDeg),
+           "render: --yaw and --pitch must be finite numbers of degrees (got " + std::to_string(options.yawDeg) +
+               " and " + std::to_string(options.pitchDeg) + ")");
+  prepareOutputFile(out, "--out");
+  TM_CHECK(lowerExtension(out) == ".png", located(out, "--out: the render is written as PNG; name a .png file"));
   TexturedModel model = loadModel(modelPath);
   cv::Mat rgba = renderModel(model, options);
   cv::Mat bgra;
   cv::cvtColor(rgba, bgra, cv::COLOR_RGBA2BGRA);
-  if (fs::path(out).has_parent_path()) fs::create_directories(fs::path(out).parent_path());
-  TM_CHECK(cv::imwrite(out, bgra), located(out, "cannot write the image"));
+  std::vector<unsigned char> png;
+  TM_CHECK(cv::imencode(".png", bgra, png), located(out, "cannot encode the image as PNG"));
+  writeFileAtomic(out, std::string(png.begin(), png.end()));
   std::printf("wrote %s (%dx%d)\n", out.c_str(), rgba.cols, rgba.rows);
   return 0;
 }

@@ -27,8 +27,9 @@ std::string fileKey(const std::string& path) {
   return key.str();
 }
 
-std::string photoKey(const PhotoRef& ref) {
-  return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask));
+std::string photoKey(const PhotoRef& ref, const PipelineOptions& options) {
+  return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask)) +
+         "|side:" + std::to_string(options.maxPhotoSide);
 }
 
 std::vector<std::pair<int, int>> photoSizes(const std::vector<std::shared_ptr<const Photo>>& photos) {
@@ -167,14 +168,15 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   scene->meshReport = cachedMeshReport_;
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> photos;
   for (size_t i = 0; i < project.photos.size(); ++i) {
-    const std::string key = photoKey(project.photos[i]);
+    const std::string key = photoKey(project.photos[i], project.options);
     std::shared_ptr<const Photo> photo;
     for (const auto& [k, p] : cachedPhotos_)
       if (k == key) photo = p;
     if (!photo) {
       job.progress(StageId::Load, double(i + 1) / (project.photos.size() + 1),
                    "photo " + fs::path(project.photos[i].path).filename().string());
-      photo = std::make_shared<Photo>(loadPhoto(project.photos[i].path, project.photos[i].mask));
+      photo = std::make_shared<Photo>(
+          loadPhoto(project.photos[i].path, project.photos[i].mask, PhotoLoadOptions{project.options.maxPhotoSide}));
       cached = false;
     }
     photos.emplace_back(key, photo);

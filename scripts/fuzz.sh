@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets of tests/fuzz with clang (ASan + UBSan + libFuzzer) into build-fuzz/ and
 # runs each for SECONDS (default 60), or only the TARGETs named (e.g. fuzz_mesh_ply).
-# Usage: scripts/fuzz.sh [SECONDS] [TARGET...]
+# Usage: scripts/fuzz.sh [SECONDS] [TARGET...]     (FUZZ_NO_BUILD=1 runs the binaries already built)
 # Installs clang and its sanitizer/libFuzzer runtime (libclang-rt-14-dev) when missing. Grown corpora
 # stay in build-fuzz/corpus/<target>/, findings go to build-fuzz/crashes/<target>/, and every run adds a
 # line to build-fuzz/fuzz-stats.tsv; the totals per target are printed at the end. Exit status 1 when a
@@ -28,6 +28,7 @@ if ((${#missing[@]})); then
 fi
 scripts/setup.sh
 
+if [[ "${FUZZ_NO_BUILD:-0}" != 1 ]]; then
 launcher=()
 if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
@@ -35,6 +36,7 @@ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=cl
 build_targets=()
 for t in "${targets[@]}"; do build_targets+=(--target "$t"); done
 cmake --build build-fuzz -j"$(nproc)" "${build_targets[@]}"
+fi
 
 corpus_of() {  # seed folder and dictionary of a target
   case "$1" in

@@ -252,7 +252,7 @@ void Editor::syncInputs() {
   photos_.resize(p.photos.size());
   for (size_t i = 0; i < p.photos.size(); ++i) {
     PhotoSlot& slot = photos_[i];
-    const std::string key = p.photos[i].path + "|" + p.photos[i].mask;
+    const std::string key = p.photos[i].path + "|" + p.photos[i].mask + "|" + std::to_string(p.options.maxPhotoSide);
     if (slot.key == key) continue;
     slot.key = key;
     slot.photo.reset();
@@ -260,7 +260,8 @@ void Editor::syncInputs() {
     slot.tabView.fitted = slot.gridView.fitted = false;
     try {
       // The core's loader, so the foreground (alpha or mask) follows the pipeline's rule exactly.
-      auto photo = std::make_shared<Photo>(loadPhoto(p.photos[i].path, p.photos[i].mask));
+      auto photo = std::make_shared<Photo>(
+          loadPhoto(p.photos[i].path, p.photos[i].mask, PhotoLoadOptions{p.options.maxPhotoSide}));
       const cv::Mat rgba = toRgba8(photo->rgb, false, photo->path);  // any depth, stored resolution
       if (!slot.texture) slot.texture = std::make_unique<Texture>();
       slot.texture->upload(rgba);

@@ -208,7 +208,7 @@ std::pair<std::vector<int>, std::vector<int>> splitInTwo(const std::vector<int>&
 
 struct Charting {
   std::vector<ChartSeed> charts;
-  int discCuts = 0, stretchSplits = 0;
+  int discCuts = 0, stretchSplits = 0, sizeSplits = 0;
   double lscmSeconds = 0;
 };
 
@@ -237,6 +237,13 @@ void flattenRegion(const std::vector<int>& region, int source, double density, c
     }
     for (int v : vertices) local[v] = -1;
     const bool canSplit = faces.size() > 1;
+    if (canSplit && faces.size() > size_t(std::max(1, options.maxLscmFaces))) {
+      ++out.sizeSplits;
+      auto [x, y] = splitInTwo(faces, mesh, nb, slot, centroid);
+      work.push_back(std::move(x));
+      work.push_back(std::move(y));
+      continue;
+    }
     if (canSplit && !patchTopology(tris).isDisc()) {
       ++out.discCuts;
       auto [x, y] = splitInTwo(faces, mesh, nb, slot, centroid);
@@ -625,6 +632,7 @@ nlohmann::json Atlas::stats() const {
           {"lscm_charts", lscmCharts},
           {"disc_cuts", discCuts},
           {"stretch_splits", stretchSplits},
+          {"size_splits", sizeSplits},
           {"pack_attempts", packAttempts},
           {"utilisation", utilisation},
           {"seconds", {{"charts", times.charts}, {"lscm", times.lscm}, {"pack", times.pack}}}};
@@ -680,6 +688,7 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   atlas.times.charts = secondsSince(t0) - charting.lscmSeconds;
   atlas.discCuts = charting.discCuts;
   atlas.stretchSplits = charting.stretchSplits;
+  atlas.sizeSplits = charting.sizeSplits;
   if (progress) progress(0.4);
 
   // Packing: the largest global scale at which the packer succeeds.

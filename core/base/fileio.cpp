@@ -216,6 +216,27 @@ bool isInsideFolder(const std::string& path, const std::string& folder) {
   return true;
 }
 
+void prepareOutputFile(const std::string& path, const std::string& what) {
+  TM_CHECK(!path.empty(), what + ": the path is empty");
+  std::error_code ec;
+  const fs::path target = fs::absolute(path, ec).lexically_normal();
+  if (ec) throw Error(located(path, what + ": cannot resolve the path: " + ec.message()));
+  TM_CHECK(target.has_filename(), located(path, what + ": names a folder, not a file"));
+  struct stat st {};
+  if (::stat(target.c_str(), &st) == 0) {
+    TM_CHECK(!S_ISDIR(st.st_mode), located(path, what + ": is a folder, not a file"));
+  } else if (errno != ENOENT) {
+    throw Error(located(path, what + ": " + fileProblem(target.string())));
+  }
+  const fs::path dir = target.parent_path();
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(located(dir.string(), what + ": cannot create the folder: " + ec.message()));
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    const int err = errno;
+    throw Error(located(dir.string(), what + ": cannot write here: " + std::strerror(err)));
+  }
+}
+
 std::string byteSize(uint64_t bytes) {
   char text[64];
   if (bytes < 1000) {

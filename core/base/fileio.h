@@ -38,6 +38,11 @@ std::string readFileBytes(const std::string& path, const std::string& what, uint
 // links of both (so a link inside the folder that points out of it is outside).
 bool isInsideFolder(const std::string& path, const std::string& folder);
 
+// Checks a path the user gave for an output file before any work is done: not empty, not a folder, its
+// folder present or creatable (it is created). `what` names the option, e.g. "--out". Throws
+// montage::Error naming the path and the reason.
+void prepareOutputFile(const std::string& path, const std::string& what);
+
 // "12.3 MB", "850 KB", "17 bytes": a size for messages (decimal units).
 std::string byteSize(uint64_t bytes);
 

@@ -69,6 +69,14 @@ int makeLockedStaging(const std::string& parent, const std::string& name, std::s
   throw Error(located(parent, "cannot lock a staging folder for " + inQuotes(name)));
 }
 
+// The process's umask, read without changing it (umask() would race with other threads creating files).
+mode_t currentUmask() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("Umask:", 0) == 0) return mode_t(std::stoul(line.substr(6), nullptr, 8));
+  return 022;
+}
+
 // Removes "<parent>/.<name>.tmp-XXXXXX" folders and files that nobody holds locked; returns how many.
 int removeLeftovers(const std::string& parent, const std::string& name) {
   const std::string prefix = "." + name + ".tmp-";
@@ -191,6 +199,9 @@ OutputFolder::OutputFolder(const std::string& dir) {
     }
     removedLeftovers_ = removeLeftovers(parent_, name_);
     const int stagingFd = makeLockedStaging(parent_, name_, staging_);
+    // mkdtemp makes it private (0700): give it the previous result's permissions, or the usual ones.
+    struct stat previous {};
+    ::fchmod(stagingFd, ::stat(dir_.c_str(), &previous) == 0 ? previous.st_mode & 07777 : 0777 & ~currentUmask());
     ::close(stagingFd);  // the output lock keeps cleaners away from it
   } catch (...) {
     ::unlink(lockFile_.c_str());

@@ -45,13 +45,15 @@ struct PipelineOptions {
   int atlasSize = 4096;                         // atlas: width and height in texels (1024..8192)
   int gutter = 4;                               // atlas: texels between charts and from the border
   unsigned seed = 1;                            // random line searches: seed, so runs are repeatable
+  int maxPhotoSide = 0;  // load: working resolution, photos kept at most this many pixels a side (0 = full;
+                         // else 256..16384); coordinates stay the files' pixels; less memory, coarser texture
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
            seamLambda == o.seamLambda && seamRounds == o.seamRounds && gradientWeight == o.gradientWeight &&
            seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
-           seed == o.seed;
+           seed == o.seed && maxPhotoSide == o.maxPhotoSide;
   }
 };
 

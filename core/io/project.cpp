@@ -200,6 +200,7 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("atlasSize", o.atlasSize, 1024, 8192);
   visit("gutter", o.gutter, 0, 64);
   visit("seed", o.seed, 0u, UINT_MAX);
+  visit("maxPhotoSide", o.maxPhotoSide, 0, 16384);
 }
 
 void fromJson(const Field& f, PipelineOptions& o) {
@@ -264,6 +265,9 @@ class DocumentCheck {
   }
 
   void checkOptions() const {
+    if (p_.options.maxPhotoSide > 0 && p_.options.maxPhotoSide < 256)
+      fail("options.maxPhotoSide", std::to_string(p_.options.maxPhotoSide) +
+                                       " is too small: 0 (the photos' own resolution) or at least 256 pixels");
     forEachOption(p_.options, [&](const char* name, const auto& value, auto lo, auto hi) {
       using T = std::decay_t<decltype(value)>;
       if constexpr (std::is_floating_point_v<T>) {

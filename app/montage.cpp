@@ -215,10 +215,10 @@ void printStages(const PipelineResult& result) {
 }
 
 int cmdRun(const std::string& projectPath, const std::string& out) {
-  // --out is checked and locked before anything else: a bad folder or a second run on it is refused
-  // at once, not after minutes of work.
-  OutputFolder folder(out);
+  // --out is checked and locked before the pipeline: a bad folder or a second run on it is refused at
+  // once, not after minutes of work.
   Project project = loadProject(projectPath);
+  OutputFolder folder(out);
   Pipeline pipeline;
   ProgressLine line;
   JobControl job(nullptr, [&](StageId s, double f, const std::string& what) { line(stageName(s), f, what); });

@@ -18,15 +18,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "io/mesh_io.h"
 #include "bench/eval.h"
-#include "geometry/mesh.h"
-#include "io/model.h"
-#include "image/photo.h"
-#include "pipeline.h"
-#include "io/project.h"
 #include "bench/render.h"
 #include "bench/synth.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "io/project.h"
+#include "pipeline.h"
 
 namespace fs = std::filesystem;
 using namespace montage;
@@ -105,10 +105,13 @@ int cmdInfo(const std::string& file) {
   if (isImageExtension(ext)) {
     const PhotoStats stats = photoStats(file);
     say("photo %s\n  size: %d x %d, %d channel%s of %d bits\n  foreground: %.1f%% (%s)\n"
-        "  max distance to foreground: %.1f px\n",
+        "  max distance to foreground: %.1f px",
         file.c_str(), stats.width, stats.height, stats.channels, stats.channels == 1 ? "" : "s", stats.bitsPerChannel,
         100 * stats.foreground, stats.hasBackground ? "from alpha" : "no alpha: whole photo is foreground",
         stats.maxDistance);
+    if (stats.maxDistanceError > 0)
+      say(" (within %.1f px: measured at 1/%d resolution)", stats.maxDistanceError, stats.distanceScale);
+    say("\n");
     return 0;
   }
   if (ext == ".glb" || ext == ".gltf") {

@@ -454,6 +454,27 @@ TEST(Photo, InfoStatsMatchTheLoadedPhoto) {
   EXPECT_DOUBLE_EQ(stats.maxDistance, maxDistance);
 }
 
+TEST(Photo, InfoStatsOfALargePhotoAreWithinTheirStatedError) {
+  // Above 4096 pixels a side the distance is measured on a coarse mask: the answer must stay within
+  // the stated bound of the exact one (from the loaded photo's full-resolution distance map).
+  const std::string dir = test::tempDir("photo_stats_large");
+  cv::Mat rgba(300, 4500, CV_8UC4, cv::Scalar(0, 0, 0, 0));
+  cv::circle(rgba, cv::Point(4301, 37), 5, cv::Scalar(20, 40, 60, 255), cv::FILLED);
+  rgba.at<cv::Vec4b>(250, 3) = cv::Vec4b(1, 2, 3, 255);  // one lone pixel at an odd position
+  const std::string path = write(dir, "wide.png", rgba);
+  const PhotoStats stats = photoStats(path);
+  EXPECT_EQ(stats.width, 4500);
+  EXPECT_EQ(stats.distanceScale, 2);
+  EXPECT_GT(stats.maxDistanceError, 0);
+  EXPECT_LE(stats.maxDistanceError, 3);
+  const Photo photo = loadPhoto(path);
+  double exact = 0;
+  cv::minMaxLoc(photo.distance, nullptr, &exact);
+  EXPECT_GT(exact, 1000);
+  EXPECT_NEAR(stats.maxDistance, exact, stats.maxDistanceError);
+  EXPECT_NEAR(stats.foreground, cv::countNonZero(photo.alpha) / (4500.0 * 300), 1e-12);
+}
+
 TEST(Photo, SoftAlphaBelowOneLevelStaysForeground) {
   // 16-bit alpha of 100 (of 65535) and float-like levels must not round to background.
   const std::string dir = test::tempDir("photo_soft");

@@ -22,6 +22,7 @@ namespace montage {
 namespace {
 
 constexpr int kMaxSide = 16384;
+constexpr int kStatsSide = 4096;  // photoStats: exact distance maps up to this side
 
 void requireFile(const std::string& path) {
   requireRegularFile(path, "image file");
@@ -406,13 +407,26 @@ PhotoStats photoStats(const std::string& path) {
     stats.foreground = alpha.empty() ? 1.0 : cv::countNonZero(alpha) / pixels;
     if (stats.foreground == 1.0) return stats;
     stats.hasBackground = true;
+    cv::threshold(alpha, alpha, 0, 255, cv::THRESH_BINARY);  // in place: foreground 255
+    // Photos above 4096 pixels a side: the distance map of a coarse foreground (a coarse pixel is
+    // foreground when any of its pixels is), within sqrt(2) * factor pixels of the exact maximum, in a
+    // sixteenth of the time (a 16384^2 transform alone takes about 9 s).
+    const int factor = (std::max(stats.width, stats.height) + kStatsSide - 1) / kStatsSide;
+    if (factor > 1) {
+      cv::Mat coarse;
+      cv::resize(alpha, coarse, cv::Size((stats.width + factor - 1) / factor, (stats.height + factor - 1) / factor), 0,
+                 0, cv::INTER_AREA);
+      alpha = coarse;
+      stats.maxDistanceError = std::sqrt(2.0) * factor;
+    }
     background = alpha == 0;
+    stats.distanceScale = factor;
   }
-  // In place of the background mask's memory once it is no longer needed.
   cv::Mat distance;
   cv::distanceTransform(background, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
   background.release();
   cv::minMaxLoc(distance, nullptr, &stats.maxDistance);
+  stats.maxDistance *= stats.distanceScale;
   return stats;
 }
 

@@ -61,13 +61,16 @@ struct Photo {
 Photo loadPhoto(const std::string& path, const std::string& maskPath = "");
 Photo loadPhoto(const std::string& path, const std::string& maskPath, const PhotoLoadOptions& options);
 
-// What `montage info` reports about a photo, found with bounded memory (the decoded file plus one byte
-// per pixel, then the distance map in place of the decoded file: 1.34 GB for a 16384^2 RGBA photo).
+// What `montage info` reports about a photo, found with bounded memory and time: the decoded file plus
+// one byte per pixel (1.34 GB for a 16384^2 RGBA photo); above 4096 pixels a side the distance is
+// measured on a coarse mask (maxDistanceError says how far off it may be).
 struct PhotoStats {
   int width = 0, height = 0, channels = 0, bitsPerChannel = 0;
   double foreground = 1;  // fraction of foreground pixels
   bool hasBackground = false;
-  double maxDistance = 0;  // largest distance of a pixel to the foreground, pixels
+  double maxDistance = 0;       // largest distance of a pixel to the foreground, pixels
+  double maxDistanceError = 0;  // bound on |maxDistance - exact|, pixels (0 = exact)
+  int distanceScale = 1;        // pixels per pixel of the mask the distance was measured on
 };
 PhotoStats photoStats(const std::string& path);
 

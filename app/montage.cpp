@@ -18,15 +18,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "io/mesh_io.h"
 #include "bench/eval.h"
+#include "geometry/mesh.h"
+#include "io/model.h"
+#include "image/photo.h"
+#include "pipeline.h"
+#include "io/project.h"
 #include "bench/render.h"
 #include "bench/synth.h"
-#include "geometry/mesh.h"
-#include "image/photo.h"
-#include "io/mesh_io.h"
-#include "io/model.h"
-#include "io/project.h"
-#include "pipeline.h"
 
 namespace fs = std::filesystem;
 using namespace montage;

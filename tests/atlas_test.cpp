@@ -2,7 +2,6 @@
 // footprints, the gutter), LSCM charts of closed and higher-genus regions, baking (photo resampling,
 // seam levelling, inpainted colours, flat empty faces, gutter fill), the spot ground truth re-rendered
 // through the atlas (PSNR in `montage eval`), the glTF validator and assimp, and bad input.
-#include "io/mesh_io.h"
 #include "atlas/atlas.h"
 
 #include <cstdio>
@@ -13,13 +12,14 @@
 #include <regex>
 #include <set>
 
-#include "surface/inpaint.h"
 #include "geometry/mesh.h"
-#include "image/photo.h"
-#include "pipeline.h"
-#include "io/project.h"
 #include "geometry/raster.h"
 #include "geometry/shapes.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/project.h"
+#include "pipeline.h"
+#include "surface/inpaint.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -311,6 +311,38 @@ TEST(Atlas, ClosedAndGenusOneRegionsAreCutIntoDiscsWithoutFlips) {
     expectValidLayout(atlas, *mesh, &image);
     std::printf("%s: %d faces, %zu charts (%d disc cuts, %d stretch splits), utilisation %.3f\n", name.c_str(),
                 mesh->numFaces(), atlas.charts.size(), atlas.discCuts, atlas.stretchSplits, atlas.utilisation);
+  }
+}
+
+TEST(Atlas, LargeRegionsAreSplitBeforeFlattening) {
+  // Issue 15: one 1M-face empty chart took 220 s of LSCM. maxLscmFaces bounds every chart before it is
+  // flattened; a lower bound gives more, smaller charts, each still a disc without flips.
+  const auto mesh = makeIcosphere(5);  // 20480 faces, closed
+  AtlasInput in;
+  in.faceSource.assign(mesh->numFaces(), kSourceEmpty);
+  size_t previousCharts = 0;
+  for (const int maxFaces : {100000, 4000, 1000}) {
+    SCOPED_TRACE(maxFaces);
+    AtlasOptions options;
+    options.size = 1024;
+    options.maxLscmFaces = maxFaces;
+    const Atlas atlas = buildAtlas(*mesh, in, options);
+    if (maxFaces >= mesh->numFaces())
+      EXPECT_EQ(atlas.sizeSplits, 0);
+    else
+      EXPECT_GE(atlas.sizeSplits, mesh->numFaces() / maxFaces - 1);
+    size_t faces = 0;
+    for (const AtlasChart& chart : atlas.charts) {
+      EXPECT_LE(chart.faces.size(), size_t(maxFaces));
+      EXPECT_EQ(chart.quality.flipped, 0);
+      faces += chart.faces.size();
+    }
+    EXPECT_EQ(faces, size_t(mesh->numFaces()));
+    EXPECT_GT(atlas.charts.size(), previousCharts);
+    previousCharts = atlas.charts.size();
+    expectValidLayout(atlas, *mesh, nullptr);
+    std::printf("maxLscmFaces %d: %zu charts, %d size splits, %d disc cuts, lscm %.3f s\n", maxFaces,
+                atlas.charts.size(), atlas.sizeSplits, atlas.discCuts, atlas.times.lscm);
   }
 }
 

@@ -4,11 +4,13 @@
 # file the manifest lists, a report.json that parses and whose atlas size matches the PNG, a GLB and an
 # OBJ that load; editor: a project file that loads and is one of the versions saved), and after the next
 # run or save no temporary file may be left.
-# Usage: scripts/kill_test.sh [KILLS] [run|save|both]   (default 20 both; needs build/bin, xvfb-run for save)
+# Usage: scripts/kill_test.sh [KILLS] [run|save|both] [SAVES]   (default 20 both 400; needs build/bin, xvfb-run
+# for save; SAVES is how many times the editor saves per session: fewer make the save part quicker)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kills=${1:-20}
 which=${2:-both}
+saves=${3:-400}
 montage=$PWD/build/bin/montage
 editor=$PWD/build/bin/texturemontage
 work=$(mktemp -d /tmp/tm_kill.XXXXXX)
@@ -75,7 +77,7 @@ if [[ $which == save || $which == both ]]; then
   if ! command -v xvfb-run >/dev/null || [[ ! -x $editor ]]; then
     echo "save: skipped (needs xvfb-run and build/bin/texturemontage)"
   else
-    # A large project (the demo's points repeated: about 10 MB), saved 400 times with a changing seed.
+    # A large project (200 strokes of 2000 vertices: about 10 MB), saved SAVES times with a changing seed.
     python3 - "$work/p1024.json" "$work/big.json" <<'PY'
 import json, sys
 p = json.load(open(sys.argv[1]))
@@ -84,13 +86,13 @@ json.dump(p, open(sys.argv[2], "w"), indent=2)
 PY
     script=$work/save.script
     : >"$script"
-    for ((i = 1; i <= 400; i++)); do printf 'set_option seed %d\nsave %s/saved.json\n' "$i" "$work" >>"$script"; done
+    for ((i = 1; i <= saves; i++)); do printf 'set_option seed %d\nsave %s/saved.json\n' "$i" "$work" >>"$script"; done
     echo quit >>"$script"
     run_editor() { (cd "$work" && XDG_STATE_HOME="$work/state" TM_NO_ZENITY=1 xvfb-run -a "$editor" "$work/big.json" --script "$1" >/dev/null 2>&1); }
     start=$(date +%s.%N)
     run_editor "$script"
     span=$(echo "$(date +%s.%N) - $start" | bc)
-    echo "save: the editor saves 400 times in ${span} s"
+    echo "save: the editor saves $saves times in ${span} s"
     for ((k = 1; k <= kills; k++)); do
       delay=$(python3 -c "import random; print(round(random.uniform(2, $span), 3))")
       (cd "$work" && XDG_STATE_HOME="$work/state" TM_NO_ZENITY=1 exec xvfb-run -a "$editor" "$work/big.json" --script "$script" >/dev/null 2>&1) &

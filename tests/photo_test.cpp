@@ -26,6 +26,17 @@ std::string write(const std::string& dir, const std::string& name, const cv::Mat
 using montage::test::errorOf;
 
 // A 64x48 BGRA image: transparent black background, opaque red disc of radius 10 around pixel (32, 24).
+// The distance map of a loaded photo (half floats) at row r, column c, and as a float map.
+float distanceOf(const Photo& photo, int r, int c) {
+  return photo.distance.depth() == CV_16F ? float(photo.distance.at<cv::float16_t>(r, c))
+                                          : photo.distance.at<float>(r, c);
+}
+cv::Mat floatDistance(const Photo& photo) {
+  cv::Mat out;
+  photo.distance.convertTo(out, CV_32F);
+  return out;
+}
+
 cv::Mat discImage() {
   cv::Mat image(48, 64, CV_8UC4, cv::Scalar(0, 0, 0, 0));
   for (int r = 0; r < image.rows; ++r)
@@ -73,7 +84,7 @@ TEST(Photo, RgbaDiscGivesAlphaForegroundAndChannelOrder) {
   EXPECT_EQ(photo.alpha.at<uint8_t>(24, 32), 255);
   EXPECT_EQ(photo.alpha.at<uint8_t>(0, 0), 0);
   EXPECT_EQ(cv::countNonZero(photo.alpha > 0), cv::countNonZero(discImage().reshape(1, 48 * 64).col(3)));
-  EXPECT_EQ(photo.bytes(), size_t(64 * 48) * (3 + 1 + 4));
+  EXPECT_EQ(photo.bytes(), size_t(64 * 48) * (3 + 1 + 2));  // rgb, alpha, half-float distance
   // BGR in the file, RGB in memory: the disc is red.
   const Vec3f centre = photo.rgbAt(32.5, 24.5);
   EXPECT_FLOAT_EQ(centre[0], 1.0f);
@@ -95,22 +106,22 @@ TEST(Photo, RgbaDiscGivesAlphaForegroundAndChannelOrder) {
 TEST(Photo, DistanceMapMatchesBruteForce) {
   const std::string dir = test::tempDir("photo");
   const Photo photo = loadPhoto(write(dir, "disc.png", discImage()));
-  ASSERT_EQ(photo.distance.type(), CV_32FC1);
+  ASSERT_EQ(photo.distance.type(), CV_16FC1);  // half floats: relative error below 2^-11
   cv::Mat alphaF;
   photo.alpha.convertTo(alphaF, CV_32F, 1.0 / 255);
-  EXPECT_FLOAT_EQ(photo.distance.at<float>(24, 32), 0.0f);
+  EXPECT_FLOAT_EQ(distanceOf(photo, 24, 32), 0.0f);
   EXPECT_FLOAT_EQ(photo.distanceAt(45.5, 24.5), 3.0f);
-  EXPECT_FLOAT_EQ(photo.distance.at<float>(24, 42), 0.0f);
-  EXPECT_NEAR(photo.distance.at<float>(24, 45), 3.0f, 1e-4);
+  EXPECT_FLOAT_EQ(distanceOf(photo, 24, 42), 0.0f);
+  EXPECT_NEAR(distanceOf(photo, 24, 45), 3.0f, 1e-4);
   // Every pixel, against brute force.
   double worst = 0;
   for (int r = 0; r < photo.height; ++r)
     for (int c = 0; c < photo.width; ++c)
-      worst = std::max(worst, double(std::abs(photo.distance.at<float>(r, c) - bruteDistance(alphaF, c, r))));
-  EXPECT_LT(worst, 1e-3);
+      worst = std::max(worst, double(std::abs(distanceOf(photo, r, c) - bruteDistance(alphaF, c, r))));
+  EXPECT_LT(worst, 0.03);  // half floats: 2^-11 of up to 40 px
   // The corner is far from the disc: (0, 0) to the nearest disc pixel.
-  EXPECT_NEAR(photo.distance.at<float>(0, 0), bruteDistance(alphaF, 0, 0), 1e-3);
-  EXPECT_GT(photo.distance.at<float>(0, 0), 25.0f);
+  EXPECT_NEAR(distanceOf(photo, 0, 0), bruteDistance(alphaF, 0, 0), 0.03);
+  EXPECT_GT(distanceOf(photo, 0, 0), 25.0f);
 }
 
 TEST(Photo, SixteenBitPngKeepsPrecision) {
@@ -130,7 +141,7 @@ TEST(Photo, SixteenBitPngKeepsPrecision) {
   EXPECT_TRUE(withAlpha.hasBackground);
   EXPECT_EQ(withAlpha.alpha.at<uint8_t>(0, 0), 0);
   EXPECT_EQ(withAlpha.alpha.at<uint8_t>(0, 9), 255);
-  EXPECT_NEAR(withAlpha.distance.at<float>(0, 0), 5.0f, 1e-4);
+  EXPECT_NEAR(distanceOf(withAlpha, 0, 0), 5.0f, 1e-4);
 }
 
 TEST(Photo, GreyPngBecomesRgbWithoutBackground) {
@@ -203,8 +214,8 @@ TEST(Photo, MaskFileGivesForeground) {
   EXPECT_EQ(cv::countNonZero(photo.alpha > 0), 200);
   EXPECT_TRUE(photo.isForeground(10.5, 5.5));
   EXPECT_FALSE(photo.isForeground(9.5, 5.5));
-  EXPECT_NEAR(photo.distance.at<float>(5, 5), 5.0f, 1e-4);
-  EXPECT_NEAR(photo.distance.at<float>(0, 5), std::hypot(5.0f, 5.0f), 1e-4);
+  EXPECT_NEAR(distanceOf(photo, 5, 5), 5.0f, 1e-4);
+  EXPECT_NEAR(distanceOf(photo, 0, 5), std::hypot(5.0f, 5.0f), 4e-3);  // half float
 
   // A colour mask with alpha: foreground where a colour channel is non-zero and alpha is non-zero.
   cv::Mat rgbaMask(30, 40, CV_8UC4, cv::Scalar(0, 0, 0, 255));
@@ -450,8 +461,8 @@ TEST(Photo, InfoStatsMatchTheLoadedPhoto) {
   EXPECT_TRUE(stats.hasBackground);
   EXPECT_NEAR(stats.foreground, cv::countNonZero(photo.alpha) / double(64 * 48), 1e-12);
   double maxDistance = 0;
-  cv::minMaxLoc(photo.distance, nullptr, &maxDistance);
-  EXPECT_DOUBLE_EQ(stats.maxDistance, maxDistance);
+  cv::minMaxLoc(floatDistance(photo), nullptr, &maxDistance);
+  EXPECT_NEAR(stats.maxDistance, maxDistance, maxDistance / 1024);  // the photo keeps half floats
 }
 
 TEST(Photo, InfoStatsOfALargePhotoAreWithinTheirStatedError) {
@@ -469,7 +480,7 @@ TEST(Photo, InfoStatsOfALargePhotoAreWithinTheirStatedError) {
   EXPECT_LE(stats.maxDistanceError, 3);
   const Photo photo = loadPhoto(path);
   double exact = 0;
-  cv::minMaxLoc(photo.distance, nullptr, &exact);
+  cv::minMaxLoc(floatDistance(photo), nullptr, &exact);
   EXPECT_GT(exact, 1000);
   EXPECT_NEAR(stats.maxDistance, exact, stats.maxDistanceError);
   EXPECT_NEAR(stats.foreground, cv::countNonZero(photo.alpha) / (4500.0 * 300), 1e-12);

@@ -22,7 +22,7 @@ struct PhotoLoadOptions {
 
 // A photo as the pipeline keeps it: compact maps at the stored resolution (the file's, or a working
 // resolution), read through the sampling methods, which take the file's pixel coordinates. A 16384^2
-// 8-bit photo with a background takes 805 MB (rgb) + 268 MB (alpha) + 1074 MB (distance); there is no
+// 8-bit photo with a background takes 805 MB (rgb) + 268 MB (alpha) + 537 MB (distance); there is no
 // L*u*v* map (luvAt converts per sample).
 struct Photo {
   std::string path;            // absolute or as given
@@ -35,7 +35,8 @@ struct Photo {
   cv::Mat alpha;               // CV_8UC1, stored resolution, 0 = background, 255 = foreground, soft edges between
                                // (CV_32FC1 in [0,1] is accepted in photos made in code); empty when there is
                                // no background
-  cv::Mat distance;            // CV_32FC1, stored resolution: distance in file pixels from each pixel centre to
+  cv::Mat distance;            // CV_16FC1 (half float, relative error < 2^-11; CV_32FC1 is accepted in photos made
+                               // in code), stored resolution: distance in file pixels from each pixel centre to
                                // the nearest foreground pixel centre (0 on the foreground); empty when there is
                                // no background
   bool hasBackground = false;  // false when every pixel is foreground (no alpha, no mask)
@@ -93,7 +94,7 @@ cv::Mat decodeImageRgba8(const unsigned char* bytes, size_t size, const std::str
 // located at `where` for other depths or channel counts.
 cv::Mat toRgba8(const cv::Mat& image, bool bgr, const std::string& where);
 
-// Bilinear sample of an image (8-bit, 16-bit or float, any channel count up to 4; integer depths are
+// Bilinear sample of an image (8-bit, 16-bit, half or float, any channel count up to 4; integer depths are
 // mapped to [0,1]) at pixel coordinates (x, y), see the convention above. Coordinates outside are
 // clamped to the border pixels.
 Vec3f sampleBilinear3(const cv::Mat& image, double x, double y);

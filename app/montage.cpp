@@ -10,6 +10,8 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -64,42 +66,62 @@ double peakMemoryMiB() {
   return usage.ru_maxrss / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
+// printf to stdout through printable(): names and text from input files never reach the terminal raw.
+#if defined(__GNUC__)
+__attribute__((format(printf, 1, 2)))
+#endif
+void say(const char* format, ...) {
+  va_list args, copy;
+  va_start(args, format);
+  va_copy(copy, args);
+  std::string text(size_t(std::max(0, std::vsnprintf(nullptr, 0, format, copy))), '\0');
+  va_end(copy);
+  std::vsnprintf(text.data(), text.size() + 1, format, args);
+  va_end(args);
+  std::fputs(printable(text, true).c_str(), stdout);
+}
+
 int cmdInfo(const std::string& file) {
   const std::string ext = lowerExtension(file);
   if (ext == ".json") {
     Project project = loadProject(file);
-    std::printf(
-        "project %s\n  mesh: %s\n  photos: %zu\n  feature points: %zu\n  chains: %zu\n  strokes: %zu\n"
+    say("project %s\n  mesh: %s\n  photos: %zu\n  feature points: %zu\n  chains: %zu\n  strokes: %zu\n"
         "  clones: %zu\n",
         file.c_str(), project.mesh.c_str(), project.photos.size(), project.points.size(), project.chains.size(),
         project.strokes.size(), project.clones.size());
-    auto scene = loadScene(project);
-    std::printf("%s", scene->meshReport.summary().c_str());
-    for (size_t i = 0; i < scene->photos.size(); ++i)
-      std::printf("  photo %zu: %s (%dx%d%s)\n", i, scene->photos[i]->path.c_str(), scene->photos[i]->width,
-                  scene->photos[i]->height, scene->photos[i]->hasBackground ? ", with background mask" : "");
-    std::printf("project is valid\n");
+    auto scene = loadScene(project);  // the validation `run` does, too
+    say("%s", scene->meshReport.summary().c_str());
+    for (size_t i = 0; i < scene->photos.size(); ++i) {
+      const Photo& photo = *scene->photos[i];
+      say("  photo %zu: %s (%dx%d%s", i, photo.path.c_str(), photo.width, photo.height,
+          photo.hasBackground ? ", with background mask" : "");
+      if (photo.scale != 1) say(", kept at %dx%d (working resolution)", photo.rgb.cols, photo.rgb.rows);
+      say(")\n");
+    }
+    for (const std::string& w : scene->warnings) say("  warning: %s\n", w.c_str());
+    say("project is valid%s\n", scene->warnings.empty() ? "" : " (with the warnings above)");
     return 0;
   }
   if (isImageExtension(ext)) {
-    Photo photo = loadPhoto(file);
-    const double fg = cv::countNonZero(photo.alpha > 0) / double(photo.width * photo.height);
-    double maxDistance = 0;
-    cv::minMaxLoc(photo.distance, nullptr, &maxDistance);
-    std::printf("photo %s\n  size: %d x %d\n  foreground: %.1f%% (%s)\n  max distance to foreground: %.1f px\n",
-                file.c_str(), photo.width, photo.height, 100 * fg,
-                photo.hasBackground ? "from alpha" : "no alpha: whole photo is foreground", maxDistance);
+    const PhotoStats stats = photoStats(file);
+    say("photo %s\n  size: %d x %d, %d channel%s of %d bits\n  foreground: %.1f%% (%s)\n"
+        "  max distance to foreground: %.1f px",
+        file.c_str(), stats.width, stats.height, stats.channels, stats.channels == 1 ? "" : "s", stats.bitsPerChannel,
+        100 * stats.foreground, stats.hasBackground ? "from alpha" : "no alpha: whole photo is foreground",
+        stats.maxDistance);
+    if (stats.maxDistanceError > 0)
+      say(" (within %.1f px: measured at 1/%d resolution)", stats.maxDistanceError, stats.distanceScale);
+    say("\n");
     return 0;
   }
   if (ext == ".glb" || ext == ".gltf") {
     TexturedModel model = loadModel(file);
-    std::printf("model %s\n  vertices: %d\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
-                model.mesh.numVertices(), model.mesh.numFaces(), model.materials.size(),
-                model.textured() ? "yes" : "no");
+    say("model %s\n  vertices: %d\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
+        model.mesh.numVertices(), model.mesh.numFaces(), model.materials.size(), model.textured() ? "yes" : "no");
     return 0;
   }
   LoadedMesh loaded = loadMesh(file);
-  std::printf("%s", loaded.report.summary().c_str());
+  say("%s", loaded.report.summary().c_str());
   return loaded.report.usable() ? 0 : 1;
 }
 
@@ -115,6 +137,10 @@ struct SynthArgs {
 };
 
 int cmdSynth(const SynthArgs& args) {
+  TM_CHECK(!args.out.empty(), "synth: --out: the path is empty (give a folder such as out/scene)");
+  std::error_code ec;
+  TM_CHECK(!fs::exists(args.out, ec) || fs::is_directory(args.out, ec),
+           located(args.out, "synth: --out: is a file, not a folder"));
   auto mesh = requireUsable(loadMesh(args.mesh));
   SurfaceColor color;
   std::shared_ptr<TexturedModel> truth;
@@ -143,7 +169,17 @@ int cmdSynth(const SynthArgs& args) {
 
 int cmdEval(const std::string& resultPath, const std::string& truthMesh, const std::string& truthTexture,
             const std::string& jsonPath, int samples, const std::string& oracleDir) {
+  if (!jsonPath.empty()) prepareOutputFile(jsonPath, "--json");
   TexturedModel result = loadModel(resultPath);
+  // Without a texture every figure would describe the material colours (it once read "100% photo",
+  // 11 dB): refuse instead.
+  bool anyTexture = false;
+  for (const Material& m : result.materials) anyTexture = anyTexture || !m.texture.empty();
+  TM_CHECK(result.textured() && anyTexture,
+           located(resultPath, std::string("the result has no texture (") +
+                                   (result.textured() ? "texture coordinates but no material with a texture image"
+                                                      : "no texture coordinates") +
+                                   "): there is nothing to evaluate; give the model.obj or model.glb of a run"));
   TexturedModel truth = loadTruth(truthMesh, truthTexture);
   EvalOptions options;
   options.samples = samples;
@@ -179,11 +215,13 @@ int cmdEval(const std::string& resultPath, const std::string& truthMesh, const s
   return 0;
 }
 
+// Writes an RGBA image as PNG, atomically (a kill leaves the old file or the new one).
 void writePng(const cv::Mat& rgba, const std::string& out) {
   cv::Mat bgra;
   cv::cvtColor(rgba, bgra, cv::COLOR_RGBA2BGRA);
-  if (fs::path(out).has_parent_path()) fs::create_directories(fs::path(out).parent_path());
-  TM_CHECK(cv::imwrite(out, bgra), located(out, "cannot write the image"));
+  std::vector<unsigned char> png;
+  TM_CHECK(cv::imencode(".png", bgra, png), located(out, "cannot encode the image as PNG"));
+  writeFileAtomic(out, std::string(png.begin(), png.end()));
 }
 
 struct RenderArgs {
@@ -234,6 +272,11 @@ std::vector<std::pair<cv::Vec4b, std::string>> useSourceLayer(TexturedModel& mod
 }
 
 int cmdRender(const RenderArgs& args) {
+  TM_CHECK(std::isfinite(args.options.yawDeg) && std::isfinite(args.options.pitchDeg),
+           "render: --yaw and --pitch must be finite numbers of degrees (got " + std::to_string(args.options.yawDeg) +
+               " and " + std::to_string(args.options.pitchDeg) + ")");
+  prepareOutputFile(args.out, "--out");
+  TM_CHECK(lowerExtension(args.out) == ".png", located(args.out, "--out: the render is written as PNG; name a .png file"));
   TexturedModel model = loadModel(args.model);
   RenderOptions options = args.options;
   parseRenderSize(args.size, options);
@@ -277,17 +320,20 @@ void printStages(const PipelineResult& result) {
 }
 
 int cmdRun(const std::string& projectPath, const std::string& out, int pngCompression) {
+  // --out is checked and locked before the pipeline: a bad folder or a second run on it is refused at
+  // once, not after minutes of work.
   Project project = loadProject(projectPath);
   if (pngCompression >= 0) project.options.pngCompression = pngCompression;
+  OutputFolder folder(out);
   Pipeline pipeline;
   ProgressLine line;
   JobControl job(nullptr, [&](StageId s, double f, const std::string& what) { line(stageName(s), f, what); });
   PipelineResult result = pipeline.run(project, job);
   line.finish();
-  writeRunOutputs(result, out);
+  writeRunOutputs(result, folder);
   printStages(result);
-  for (const auto& w : result.warnings) std::printf("  warning: %s\n", w.c_str());
-  std::printf("wrote %s/model.obj, model.glb, report.json\n", out.c_str());
+  for (const auto& w : result.warnings) std::printf("  warning: %s\n", printable(w).c_str());
+  std::printf("wrote %s/model.obj, model.glb, report.json\n", printable(folder.path()).c_str());
   return 0;
 }
 
@@ -410,7 +456,7 @@ int main(int argc, char** argv) {
     if (*run) return cmdRun(runProject, runOut, runPng);
     if (*benchCmd) return cmdBench(bench);
   } catch (const std::exception& e) {  // montage::Error and anything else: one line, exit status 1
-    std::fprintf(stderr, "error: %s\n", e.what());
+    std::fprintf(stderr, "error: %s\n", printable(e.what()).c_str());
     return 1;
   }
   return 0;

@@ -9,6 +9,8 @@
 
 #include "base/util.h"
 #include "surface/preview.h"
+#include "geometry/predicates.h"
+#include "io/project_warnings.h"
 #include "io/mesh_io.h"
 #include "mapping/simplify.h"
 
@@ -28,14 +30,52 @@ std::string fileKey(const std::string& path) {
   return key.str();
 }
 
-std::string photoKey(const PhotoRef& ref) {
-  return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask));
+std::string photoKey(const PhotoRef& ref, const PipelineOptions& options) {
+  return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask)) +
+         "|side:" + std::to_string(options.maxPhotoSide);
 }
 
 std::vector<std::pair<int, int>> photoSizes(const std::vector<std::shared_ptr<const Photo>>& photos) {
   std::vector<std::pair<int, int>> sizes;
   for (const auto& p : photos) sizes.emplace_back(p->width, p->height);
   return sizes;
+}
+
+// The checks of the clones that the inpaint stage would make, done at load so that `montage info` and
+// `run` reject the same projects: the projection frame (anchor on the target, a mean plane, an area)
+// and a polygon that meets the projected target inside the photo.
+void checkClones(const Project& project, const Mesh& mesh, const std::vector<std::shared_ptr<const Photo>>& photos) {
+  const std::string file = project.file.empty() ? "project" : project.file;
+  for (size_t c = 0; c < project.clones.size(); ++c) {
+    const CloneOp& clone = project.clones[c];
+    const std::string path = "clones[" + std::to_string(c) + "]";
+    const CloneProjection proj = projectClone(mesh, {}, clone, located(file, path));
+    const Photo& photo = *photos[clone.photo];
+    const auto inTriangle = [](const std::array<Vec2, 3>& t, const Vec2& p) {
+      const double a = orient2(t[0], t[1], p), b = orient2(t[1], t[2], p), d = orient2(t[2], t[0], p);
+      return (a >= 0 && b >= 0 && d >= 0) || (a <= 0 && b <= 0 && d <= 0);
+    };
+    bool meets = false;
+    for (size_t f = 0; f < proj.cornerPixel.size() && !meets; ++f) {
+      const auto& t = proj.cornerPixel[f];
+      std::vector<Vec2> candidates(t.begin(), t.end());
+      for (const Vec2& q : clone.polygon)
+        if (inTriangle(t, q)) candidates.push_back(q);
+      for (size_t k = 0; k < clone.polygon.size(); ++k)  // edge crossings
+        for (int e = 0; e < 3; ++e) {
+          const Vec2 &a = clone.polygon[k], &b = clone.polygon[(k + 1) % clone.polygon.size()];
+          const double d1 = orient2(a, b, t[e]), d2 = orient2(a, b, t[(e + 1) % 3]);
+          if ((d1 > 0) != (d2 > 0) && d1 != d2) candidates.push_back(t[e] + (t[(e + 1) % 3] - t[e]) * (d1 / (d1 - d2)));
+        }
+      for (const Vec2& q : candidates)
+        meets = meets || (photo.inside(q.x(), q.y()) && inTriangle(t, q) &&
+                          (insidePolygon(clone.polygon, q) ||
+                           std::any_of(clone.polygon.begin(), clone.polygon.end(),
+                                       [&](const Vec2& v) { return (v - q).norm() < 1e-9; })));
+    }
+    TM_CHECK(meets, located(file, path + ": the polygon maps onto no point of the target region inside the photo "
+                                          "(check the anchor, the scale and the rotation)"));
+  }
 }
 
 }  // namespace
@@ -276,14 +316,15 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   scene->meshReport = cachedMeshReport_;
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> photos;
   for (size_t i = 0; i < project.photos.size(); ++i) {
-    const std::string key = photoKey(project.photos[i]);
+    const std::string key = photoKey(project.photos[i], project.options);
     std::shared_ptr<const Photo> photo;
     for (const auto& [k, p] : cachedPhotos_)
       if (k == key) photo = p;
     if (!photo) {
       job.progress(StageId::Load, double(i + 1) / (project.photos.size() + 1),
                    "photo " + fs::path(project.photos[i].path).filename().string());
-      photo = std::make_shared<Photo>(loadPhoto(project.photos[i].path, project.photos[i].mask));
+      photo = std::make_shared<Photo>(
+          loadPhoto(project.photos[i].path, project.photos[i].mask, PhotoLoadOptions{project.options.maxPhotoSide}));
       cached = false;
     }
     photos.emplace_back(key, photo);
@@ -292,6 +333,10 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   }
   cachedPhotos_ = std::move(photos);
   validateProject(project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
+  checkClones(project, *scene->mesh, scene->photos);
+  std::vector<const Photo*> photoPointers;
+  for (const auto& p : scene->photos) photoPointers.push_back(p.get());
+  scene->warnings = projectWarnings(project, photoPointers);
   return scene;
 }
 
@@ -299,7 +344,7 @@ std::string Pipeline::documentKey(const Project& project) const {
   // The document (everything but its file name) and the identity of every file it reads.
   std::string key = projectToJson(project, "");
   key += '|' + fileKey(project.mesh);
-  for (const PhotoRef& ref : project.photos) key += '|' + photoKey(ref);
+  for (const PhotoRef& ref : project.photos) key += '|' + photoKey(ref, project.options);
   return key;
 }
 
@@ -337,6 +382,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                  {"chains", project.chains.size()}};
   result.stages.push_back(load);
   for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
+  for (const auto& w : scene->warnings) result.warnings.push_back("project: " + w);
 
   // Camera: a fit per photo, reused while the photo's clicks, the photo, the mesh and the options stay.
   const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
@@ -718,11 +764,15 @@ PipelineResult projectionOracle(const Project& project, const std::vector<PhotoC
 }
 
 void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
+  TM_CHECK(result.model, "writeRunOutputs: no model to write");
+  OutputFolder out(dir);
+  writeRunOutputs(result, out);
+}
+
+void writeRunOutputs(const PipelineResult& result, OutputFolder& out) {
   const std::shared_ptr<const TexturedModel>& model = result.exported ? result.exported : result.model;
   TM_CHECK(model, "writeRunOutputs: no model to write");
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  TM_CHECK(!ec, located(dir, "cannot create output folder: " + ec.message()));
+  const std::string dir = out.staging();  // everything is written here, then swapped in by commit()
   const auto start = Clock::now();
   PngCache pngs(result.scene ? result.scene->project.options.pngCompression : PipelineOptions{}.pngCompression);
   exportObj(*model, dir, "model", &pngs);
@@ -749,6 +799,7 @@ void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
        {"counts", {{"files", files}, {"png_encodes", pngs.encodes()}, {"png_seconds", pngs.seconds()}}}});
   report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
   writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
+  out.commit();
 }
 
 }  // namespace montage

@@ -14,6 +14,7 @@
 #include "atlas/atlas.h"
 #include "atlas/transfer.h"
 #include "base/job.h"
+#include "base/output_folder.h"
 #include "geometry/mesh.h"
 #include "image/photo.h"
 #include "io/model.h"
@@ -196,7 +197,10 @@ PipelineResult projectionOracle(const Project& project, const std::vector<PhotoC
 // Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers
 // DIR/model_atlas_source.png and DIR/model_atlas_holes.png (when the result has an atlas) and
 // DIR/report.json. The atlas PNG is encoded once (options.pngCompression) and the GLB embeds the same
-// bytes.
+// bytes. DIR is replaced as one unit (OutputFolder: staging folder, lock, one rename).
 void writeRunOutputs(const PipelineResult& result, const std::string& dir);
+// The same into an OutputFolder taken earlier (so that `montage run` checks and locks --out before the
+// pipeline runs): writes into its staging folder, then commits it.
+void writeRunOutputs(const PipelineResult& result, OutputFolder& out);
 
 }  // namespace montage

@@ -332,6 +332,38 @@ TEST(Atlas, ClosedAndGenusOneRegionsAreCutIntoDiscsWithoutFlips) {
   }
 }
 
+TEST(Atlas, LargeRegionsAreSplitBeforeFlattening) {
+  // Issue 15: one 1M-face empty chart took 220 s of LSCM. maxLscmFaces bounds every chart before it is
+  // flattened; a lower bound gives more, smaller charts, each still a disc without flips.
+  const auto mesh = makeIcosphere(5);  // 20480 faces, closed
+  AtlasInput in;
+  in.faceSource.assign(mesh->numFaces(), kSourceEmpty);
+  size_t previousCharts = 0;
+  for (const int maxFaces : {100000, 4000, 1000}) {
+    SCOPED_TRACE(maxFaces);
+    AtlasOptions options;
+    options.size = 1024;
+    options.maxLscmFaces = maxFaces;
+    const Atlas atlas = buildAtlas(*mesh, in, options);
+    if (maxFaces >= mesh->numFaces())
+      EXPECT_EQ(atlas.sizeSplits, 0);
+    else
+      EXPECT_GE(atlas.sizeSplits, mesh->numFaces() / maxFaces - 1);
+    size_t faces = 0;
+    for (const AtlasChart& chart : atlas.charts) {
+      EXPECT_LE(chart.faces.size(), size_t(maxFaces));
+      EXPECT_EQ(chart.quality.flipped, 0);
+      faces += chart.faces.size();
+    }
+    EXPECT_EQ(faces, size_t(mesh->numFaces()));
+    EXPECT_GT(atlas.charts.size(), previousCharts);
+    previousCharts = atlas.charts.size();
+    expectValidLayout(atlas, *mesh, nullptr);
+    std::printf("maxLscmFaces %d: %zu charts, %d size splits, %d disc cuts, lscm %.3f s\n", maxFaces,
+                atlas.charts.size(), atlas.sizeSplits, atlas.discCuts, atlas.times.lscm);
+  }
+}
+
 // ----------------------------------------------------------------------------------------------
 // Baking: photo resampling with seam levelling, inpainted colours, empty faces, gutter fill
 

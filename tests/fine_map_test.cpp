@@ -114,7 +114,6 @@ std::shared_ptr<Photo> makePhoto(int width, int height, int stripeFrom = 0, int 
   photo->width = width;
   photo->height = height;
   photo->rgb = cv::Mat(height, width, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5));
-  photo->luv = cv::Mat(height, width, CV_32FC3, cv::Scalar(50, 0, 0));
   photo->alpha = cv::Mat(height, width, CV_32FC1, cv::Scalar(1));
   for (int r = std::max(0, stripeFrom); r < std::min(height, stripeTo); ++r) photo->alpha.row(r).setTo(0);
   const cv::Mat background = photo->alpha <= 0;

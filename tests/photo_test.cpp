@@ -26,6 +26,17 @@ std::string write(const std::string& dir, const std::string& name, const cv::Mat
 using montage::test::errorOf;
 
 // A 64x48 BGRA image: transparent black background, opaque red disc of radius 10 around pixel (32, 24).
+// The distance map of a loaded photo (half floats) at row r, column c, and as a float map.
+float distanceOf(const Photo& photo, int r, int c) {
+  return photo.distance.depth() == CV_16F ? float(photo.distance.at<cv::float16_t>(r, c))
+                                          : photo.distance.at<float>(r, c);
+}
+cv::Mat floatDistance(const Photo& photo) {
+  cv::Mat out;
+  photo.distance.convertTo(out, CV_32F);
+  return out;
+}
+
 cv::Mat discImage() {
   cv::Mat image(48, 64, CV_8UC4, cv::Scalar(0, 0, 0, 0));
   for (int r = 0; r < image.rows; ++r)
@@ -66,18 +77,22 @@ TEST(Photo, RgbaDiscGivesAlphaForegroundAndChannelOrder) {
   EXPECT_EQ(photo.height, 48);
   EXPECT_TRUE(photo.hasBackground);
   EXPECT_TRUE(photo.maskPath.empty());
-  ASSERT_EQ(photo.rgb.type(), CV_32FC3);
-  ASSERT_EQ(photo.alpha.type(), CV_32FC1);
-  ASSERT_EQ(photo.luv.type(), CV_32FC3);
-  EXPECT_FLOAT_EQ(photo.alpha.at<float>(24, 32), 1.0f);
-  EXPECT_FLOAT_EQ(photo.alpha.at<float>(0, 0), 0.0f);
+  // Compact: the file's 8 bits, one byte of alpha (issue 15: a 16384^2 photo took 10.8 GB as floats).
+  ASSERT_EQ(photo.rgb.type(), CV_8UC3);
+  ASSERT_EQ(photo.alpha.type(), CV_8UC1);
+  EXPECT_EQ(photo.scale, 1.0);
+  EXPECT_EQ(photo.alpha.at<uint8_t>(24, 32), 255);
+  EXPECT_EQ(photo.alpha.at<uint8_t>(0, 0), 0);
   EXPECT_EQ(cv::countNonZero(photo.alpha > 0), cv::countNonZero(discImage().reshape(1, 48 * 64).col(3)));
+  EXPECT_EQ(photo.bytes(), size_t(64 * 48) * (3 + 1 + 2));  // rgb, alpha, half-float distance
   // BGR in the file, RGB in memory: the disc is red.
-  const cv::Vec3f centre = photo.rgb.at<cv::Vec3f>(24, 32);
+  const Vec3f centre = photo.rgbAt(32.5, 24.5);
   EXPECT_FLOAT_EQ(centre[0], 1.0f);
   EXPECT_FLOAT_EQ(centre[1], 0.0f);
   EXPECT_FLOAT_EQ(centre[2], 0.0f);
-  EXPECT_NEAR(photo.luv.at<cv::Vec3f>(24, 32)[0], 53.24f, 0.05f);
+  EXPECT_FLOAT_EQ(photo.alphaAt(32.5, 24.5), 1.0f);
+  EXPECT_FLOAT_EQ(photo.alphaAt(0.5, 0.5), 0.0f);
+  EXPECT_NEAR(photo.luvAt(32.5, 24.5)[0], 53.24f, 0.05f);
   // isForeground goes by the pixel containing the point.
   EXPECT_TRUE(photo.isForeground(32.5, 24.5));
   EXPECT_TRUE(photo.isForeground(32.99, 24.01));
@@ -91,26 +106,30 @@ TEST(Photo, RgbaDiscGivesAlphaForegroundAndChannelOrder) {
 TEST(Photo, DistanceMapMatchesBruteForce) {
   const std::string dir = test::tempDir("photo");
   const Photo photo = loadPhoto(write(dir, "disc.png", discImage()));
-  ASSERT_EQ(photo.distance.type(), CV_32FC1);
-  EXPECT_FLOAT_EQ(photo.distance.at<float>(24, 32), 0.0f);
-  EXPECT_FLOAT_EQ(photo.distance.at<float>(24, 42), 0.0f);
-  EXPECT_NEAR(photo.distance.at<float>(24, 45), 3.0f, 1e-4);
+  ASSERT_EQ(photo.distance.type(), CV_16FC1);  // half floats: relative error below 2^-11
+  cv::Mat alphaF;
+  photo.alpha.convertTo(alphaF, CV_32F, 1.0 / 255);
+  EXPECT_FLOAT_EQ(distanceOf(photo, 24, 32), 0.0f);
+  EXPECT_FLOAT_EQ(photo.distanceAt(45.5, 24.5), 3.0f);
+  EXPECT_FLOAT_EQ(distanceOf(photo, 24, 42), 0.0f);
+  EXPECT_NEAR(distanceOf(photo, 24, 45), 3.0f, 1e-4);
   // Every pixel, against brute force.
   double worst = 0;
   for (int r = 0; r < photo.height; ++r)
     for (int c = 0; c < photo.width; ++c)
-      worst = std::max(worst, double(std::abs(photo.distance.at<float>(r, c) - bruteDistance(photo.alpha, c, r))));
-  EXPECT_LT(worst, 1e-3);
+      worst = std::max(worst, double(std::abs(distanceOf(photo, r, c) - bruteDistance(alphaF, c, r))));
+  EXPECT_LT(worst, 0.03);  // half floats: 2^-11 of up to 40 px
   // The corner is far from the disc: (0, 0) to the nearest disc pixel.
-  EXPECT_NEAR(photo.distance.at<float>(0, 0), bruteDistance(photo.alpha, 0, 0), 1e-3);
-  EXPECT_GT(photo.distance.at<float>(0, 0), 25.0f);
+  EXPECT_NEAR(distanceOf(photo, 0, 0), bruteDistance(alphaF, 0, 0), 0.03);
+  EXPECT_GT(distanceOf(photo, 0, 0), 25.0f);
 }
 
 TEST(Photo, SixteenBitPngKeepsPrecision) {
   const std::string dir = test::tempDir("photo");
   cv::Mat image(8, 10, CV_16UC3, cv::Scalar(1000, 30000, 65535));  // B, G, R
   const Photo photo = loadPhoto(write(dir, "deep.png", image));
-  const cv::Vec3f p = photo.rgb.at<cv::Vec3f>(3, 4);
+  EXPECT_EQ(photo.rgb.type(), CV_16UC3);
+  const Vec3f p = photo.rgbAt(4.5, 3.5);
   EXPECT_NEAR(p[0], 1.0f, 1e-6);
   EXPECT_NEAR(p[1], 30000 / 65535.0f, 1e-6);
   EXPECT_NEAR(p[2], 1000 / 65535.0f, 1e-6);  // distinguishable from any 8-bit level
@@ -120,9 +139,9 @@ TEST(Photo, SixteenBitPngKeepsPrecision) {
   rgba(cv::Rect(0, 0, 5, 8)).setTo(cv::Scalar(0, 0, 0, 0));
   const Photo withAlpha = loadPhoto(write(dir, "deep_rgba.png", rgba));
   EXPECT_TRUE(withAlpha.hasBackground);
-  EXPECT_FLOAT_EQ(withAlpha.alpha.at<float>(0, 0), 0.0f);
-  EXPECT_FLOAT_EQ(withAlpha.alpha.at<float>(0, 9), 1.0f);
-  EXPECT_NEAR(withAlpha.distance.at<float>(0, 0), 5.0f, 1e-4);
+  EXPECT_EQ(withAlpha.alpha.at<uint8_t>(0, 0), 0);
+  EXPECT_EQ(withAlpha.alpha.at<uint8_t>(0, 9), 255);
+  EXPECT_NEAR(distanceOf(withAlpha, 0, 0), 5.0f, 1e-4);
 }
 
 TEST(Photo, GreyPngBecomesRgbWithoutBackground) {
@@ -131,14 +150,17 @@ TEST(Photo, GreyPngBecomesRgbWithoutBackground) {
   for (int r = 0; r < grey.rows; ++r)
     for (int c = 0; c < grey.cols; ++c) grey.at<uint8_t>(r, c) = uint8_t(c * 8);
   const Photo photo = loadPhoto(write(dir, "grey.png", grey));
-  EXPECT_EQ(photo.rgb.type(), CV_32FC3);
-  const cv::Vec3f p = photo.rgb.at<cv::Vec3f>(5, 10);
+  EXPECT_EQ(photo.rgb.type(), CV_8UC3);
+  const Vec3f p = photo.rgbAt(10.5, 5.5);
   EXPECT_FLOAT_EQ(p[0], 80 / 255.0f);
   EXPECT_FLOAT_EQ(p[1], 80 / 255.0f);
   EXPECT_FLOAT_EQ(p[2], 80 / 255.0f);
   EXPECT_FALSE(photo.hasBackground);
-  EXPECT_EQ(cv::countNonZero(photo.alpha == 1.0f), 20 * 30);
-  EXPECT_EQ(cv::countNonZero(photo.distance), 0);
+  // Without a background neither alpha nor distance is stored; the samplers answer for them.
+  EXPECT_TRUE(photo.alpha.empty());
+  EXPECT_TRUE(photo.distance.empty());
+  EXPECT_EQ(photo.alphaAt(3, 3), 1.0f);
+  EXPECT_EQ(photo.distanceAt(3, 3), 0.0f);
   EXPECT_TRUE(photo.isForeground(0, 0));
   EXPECT_TRUE(photo.isForeground(30, 20));
 }
@@ -157,7 +179,7 @@ TEST(Photo, JpgBmpAndTiffLoadWithTheirSizes) {
     EXPECT_EQ(photo.width, 53);
     EXPECT_EQ(photo.height, 37);
     EXPECT_EQ(readImageSize(file), cv::Size(53, 37));
-    const cv::Vec3f p = photo.rgb.at<cv::Vec3f>(18, 26);
+    const Vec3f p = photo.rgbAt(26.5, 18.5);
     const float tolerance = fs::path(file).extension() == ".jpg" ? 0.02f : 1e-6f;  // JPEG is lossy
     EXPECT_NEAR(p[0], 200 / 255.0f, tolerance);
     EXPECT_NEAR(p[1], 120 / 255.0f, tolerance);
@@ -192,8 +214,8 @@ TEST(Photo, MaskFileGivesForeground) {
   EXPECT_EQ(cv::countNonZero(photo.alpha > 0), 200);
   EXPECT_TRUE(photo.isForeground(10.5, 5.5));
   EXPECT_FALSE(photo.isForeground(9.5, 5.5));
-  EXPECT_NEAR(photo.distance.at<float>(5, 5), 5.0f, 1e-4);
-  EXPECT_NEAR(photo.distance.at<float>(0, 5), std::hypot(5.0f, 5.0f), 1e-4);
+  EXPECT_NEAR(distanceOf(photo, 5, 5), 5.0f, 1e-4);
+  EXPECT_NEAR(distanceOf(photo, 0, 5), std::hypot(5.0f, 5.0f), 4e-3);  // half float
 
   // A colour mask with alpha: foreground where a colour channel is non-zero and alpha is non-zero.
   cv::Mat rgbaMask(30, 40, CV_8UC4, cv::Scalar(0, 0, 0, 255));
@@ -230,16 +252,16 @@ TEST(Photo, LoadErrorsNameTheFileAndReason) {
   std::ofstream(text) << "this is not a picture\n";
   message = errorOf([&] { loadPhoto(text); });
   EXPECT_NE(message.find(text), std::string::npos) << message;
-  EXPECT_NE(message.find("not a readable image"), std::string::npos) << message;
+  EXPECT_NE(message.find("not a PNG, JPEG, TIFF or BMP image"), std::string::npos) << message;
   message = errorOf([&] { readImageSize(text); });
-  EXPECT_NE(message.find("not a readable image"), std::string::npos) << message;
+  EXPECT_NE(message.find("not a PNG, JPEG, TIFF or BMP image"), std::string::npos) << message;
 
   const std::string photoPath = write(dir, "p.png", cv::Mat(4, 4, CV_8UC3, cv::Scalar(1, 2, 3)));
   message = errorOf([&] { loadPhoto(photoPath, missing); });
   EXPECT_NE(message.find(missing), std::string::npos) << message;
 
   message = errorOf([&] { loadPhoto(dir); });
-  EXPECT_NE(message.find("not a regular file"), std::string::npos) << message;
+  EXPECT_NE(message.find("is a folder, not a file"), std::string::npos) << message;
 }
 
 TEST(Photo, AllBackgroundIsRejected) {
@@ -387,11 +409,110 @@ TEST(Photo, RealPhotosLoadWithTheirSizes) {
     EXPECT_EQ(photo.height, size.height);
     EXPECT_EQ(photo.rgb.size(), size);
     EXPECT_FALSE(photo.hasBackground);
-    double lo, hi;
-    cv::minMaxLoc(photo.luv.reshape(1), &lo, &hi);
-    EXPECT_GE(lo, -200);
-    EXPECT_LE(hi, 200);
+    for (int k = 0; k < 100; ++k) {
+      const Vec3f luv = photo.luvAt(k * 6.1, k * 6.0);
+      EXPECT_GE(luv.minCoeff(), -200);
+      EXPECT_LE(luv.maxCoeff(), 200);
+    }
     cv::Scalar mean = cv::mean(photo.rgb);
-    EXPECT_GT(mean[0], 0.05);  // not a black image
+    EXPECT_GT(mean[0], 0.05 * 255);  // not a black image
   }
+}
+
+// ---- Memory and working resolution (issue 15) ----
+
+TEST(Photo, WorkingResolutionKeepsFileCoordinates) {
+  // A 400x300 photo with a foreground rectangle, kept at 100x75: the samplers still take file pixels.
+  const std::string dir = test::tempDir("photo_working");
+  cv::Mat image(300, 400, CV_8UC4, cv::Scalar(0, 0, 0, 0));
+  image(cv::Rect(100, 60, 200, 120)).setTo(cv::Scalar(0, 200, 50, 255));  // B, G, R, A
+  const std::string path = write(dir, "big.png", image);
+  const Photo full = loadPhoto(path);
+  PhotoLoadOptions options;
+  options.maxSide = 100;
+  const Photo small = loadPhoto(path, "", options);
+  EXPECT_EQ(small.width, 400);
+  EXPECT_EQ(small.height, 300);
+  EXPECT_EQ(small.rgb.size(), cv::Size(100, 75));
+  EXPECT_DOUBLE_EQ(small.scale, 0.25);
+  EXPECT_LT(small.bytes() * 15, full.bytes());
+  // The same answers at file coordinates, up to a stored pixel (4 file pixels).
+  EXPECT_TRUE(small.isForeground(200, 120));
+  EXPECT_FALSE(small.isForeground(20, 20));
+  EXPECT_NEAR(small.rgbAt(200, 120)[0], 50 / 255.0f, 1e-6);
+  EXPECT_NEAR(small.rgbAt(200, 120)[1], 200 / 255.0f, 1e-6);
+  for (const Vec2 q : {Vec2(10, 10), Vec2(50, 150), Vec2(390, 290), Vec2(200, 20)})
+    EXPECT_NEAR(small.distanceAt(q.x(), q.y()), full.distanceAt(q.x(), q.y()), 4.0) << q.transpose();
+  EXPECT_GT(small.distanceAt(10, 10), 50);  // in file pixels, not stored ones
+  // A working resolution above the photo's size changes nothing.
+  options.maxSide = 1000;
+  EXPECT_EQ(loadPhoto(path, "", options).rgb.size(), cv::Size(400, 300));
+}
+
+TEST(Photo, InfoStatsMatchTheLoadedPhoto) {
+  const std::string dir = test::tempDir("photo_stats");
+  const std::string path = write(dir, "disc.png", discImage());
+  const PhotoStats stats = photoStats(path);
+  const Photo photo = loadPhoto(path);
+  EXPECT_EQ(stats.width, 64);
+  EXPECT_EQ(stats.height, 48);
+  EXPECT_EQ(stats.channels, 4);
+  EXPECT_EQ(stats.bitsPerChannel, 8);
+  EXPECT_TRUE(stats.hasBackground);
+  EXPECT_NEAR(stats.foreground, cv::countNonZero(photo.alpha) / double(64 * 48), 1e-12);
+  double maxDistance = 0;
+  cv::minMaxLoc(floatDistance(photo), nullptr, &maxDistance);
+  EXPECT_NEAR(stats.maxDistance, maxDistance, maxDistance / 1024);  // the photo keeps half floats
+}
+
+TEST(Photo, InfoStatsOfALargePhotoAreWithinTheirStatedError) {
+  // Above 4096 pixels a side the distance is measured on a coarse mask: the answer must stay within
+  // the stated bound of the exact one (from the loaded photo's full-resolution distance map).
+  const std::string dir = test::tempDir("photo_stats_large");
+  cv::Mat rgba(300, 4500, CV_8UC4, cv::Scalar(0, 0, 0, 0));
+  cv::circle(rgba, cv::Point(4301, 37), 5, cv::Scalar(20, 40, 60, 255), cv::FILLED);
+  rgba.at<cv::Vec4b>(250, 3) = cv::Vec4b(1, 2, 3, 255);  // one lone pixel at an odd position
+  const std::string path = write(dir, "wide.png", rgba);
+  const PhotoStats stats = photoStats(path);
+  EXPECT_EQ(stats.width, 4500);
+  EXPECT_EQ(stats.distanceScale, 2);
+  EXPECT_GT(stats.maxDistanceError, 0);
+  EXPECT_LE(stats.maxDistanceError, 3);
+  const Photo photo = loadPhoto(path);
+  double exact = 0;
+  cv::minMaxLoc(floatDistance(photo), nullptr, &exact);
+  EXPECT_GT(exact, 1000);
+  EXPECT_NEAR(stats.maxDistance, exact, stats.maxDistanceError);
+  EXPECT_NEAR(stats.foreground, cv::countNonZero(photo.alpha) / (4500.0 * 300), 1e-12);
+}
+
+TEST(Photo, SoftAlphaBelowOneLevelStaysForeground) {
+  // 16-bit alpha of 100 (of 65535) and float-like levels must not round to background.
+  const std::string dir = test::tempDir("photo_soft");
+  cv::Mat rgba(4, 4, CV_16UC4, cv::Scalar(1000, 1000, 1000, 0));
+  rgba.at<cv::Vec4w>(1, 1) = cv::Vec4w(1000, 1000, 1000, 100);
+  const Photo photo = loadPhoto(write(dir, "soft.png", rgba));
+  EXPECT_TRUE(photo.hasBackground);
+  EXPECT_TRUE(photo.isForeground(1.5, 1.5));
+  EXPECT_FALSE(photo.isForeground(2.5, 2.5));
+}
+
+TEST(Photo, OnlyKnownFormatsAreDecoded) {
+  // OpenCV picks a decoder by content: a PNM (or WebP, JPEG 2000...) named .png would be decoded.
+  const std::string dir = test::tempDir("photo_formats");
+  const std::string path = (fs::path(dir) / "fake.png").string();
+  std::ofstream(path, std::ios::binary) << "P5\n2 2\n255\n\x01\x02\x03\x04";
+  const std::string message = errorOf([&] { loadPhoto(path); });
+  EXPECT_NE(message.find("not a PNG, JPEG, TIFF or BMP image"), std::string::npos) << message;
+  // A PNG header announcing 20000 x 20000 is refused before anything is allocated.
+  std::string png = "\x89PNG\r\n\x1a\n";
+  png += std::string("\0\0\0\x0dIHDR", 8);
+  png += std::string("\0\0\x4e\x20\0\0\x4e\x20\x08\x06\0\0\0", 13);
+  png += std::string(4, '\0');
+  const std::string huge = (fs::path(dir) / "huge.png").string();
+  std::ofstream(huge, std::ios::binary) << png;
+  EXPECT_NE(errorOf([&] { loadPhoto(huge); }).find("20000x20000 pixels; at most 16384"), std::string::npos);
+  const std::string fromMemory =
+      errorOf([&] { decodeImageRgba8(reinterpret_cast<const unsigned char*>(png.data()), png.size(), "mem"); });
+  EXPECT_NE(fromMemory.find("mem: image is 20000x20000 pixels"), std::string::npos) << fromMemory;
 }

@@ -293,6 +293,21 @@ void expectSameMapping(const Mapping& a, const Mapping& b, const std::string& wh
 
 }  // namespace
 
+// ---- One validation for info and run, warnings, working resolution (issue 15) ----
+
+namespace {
+
+// A demo point's vertex that has a position in photo 0, and a vertex the demo does not use.
+int unusedVertex(const Project& p, int after) {
+  for (int v = after;; ++v) {
+    bool used = false;
+    for (const FeaturePoint& f : p.points) used = used || f.vertex == v;
+    if (!used) return v;
+  }
+}
+
+}  // namespace
+
 TEST(PipelineIncremental, RandomEditsEqualRunsFromScratch) {
   const Project base = loadProject(demoProject());
   std::mt19937 rng(20261201);
@@ -426,4 +441,134 @@ TEST(PipelineTiers, PreviewLooksLikeTheFinalBake) {
     for (int r : preview.colors->inpaint.faceRegion) holesSeen += r >= 0;
     EXPECT_GT(holesSeen, 0);  // the demo has inpainted faces: the comparison covers them
   }
+
+}
+
+TEST(PipelineValidation, InfoAndRunRejectTheSameClone) {
+  // `info` said "project is valid" for a clone that `run` then rejected.
+  Project project = loadProject(demoProject());
+  const auto loaded = loadScene(project);
+  const Scene& scene = *loaded;
+  CloneOp clone;
+  clone.photo = 0;
+  clone.polygon = {Vec2(10, 10), Vec2(60, 10), Vec2(30, 50)};
+  clone.targetFaces = {0, 1, 2};
+  clone.anchorVertex = scene.mesh->faceVertices(0)[0];
+  clone.anchor = Vec2(700, 700);  // the photo maps far from the polygon
+  clone.pixelsPerUnit = 1;
+  project.clones = {clone};
+  const std::string atLoad = test::errorOf([&] { loadScene(project); });
+  EXPECT_NE(atLoad.find("clones[0]: the polygon maps onto no point of the target region inside the photo"),
+            std::string::npos)
+      << atLoad;
+  project.clones[0].anchorVertex = scene.mesh->faceVertices(500)[0];  // not a corner of the target
+  const std::string anchor = test::errorOf([&] { loadScene(project); });
+  EXPECT_NE(anchor.find("clones[0].anchorVertex"), std::string::npos) << anchor;
+  Pipeline pipeline;
+  EXPECT_EQ(test::errorOf([&] { pipeline.run(project); }), anchor);  // run stops at the same check
+}
+
+TEST(PipelineValidation, WarningsNameThePointsAndChains) {
+  Project project = loadProject(demoProject());
+  const auto scene = loadScene(project);
+  EXPECT_TRUE(scene->warnings.empty());
+  const Photo& photo = *scene->photos[0];
+  // The centre of photo 0's foreground, and a square of four new points around it.
+  cv::Mat points;
+  cv::findNonZero(photo.alpha > 0, points);
+  const cv::Rect box = cv::boundingRect(points);
+  const Vec2 c(box.x + box.width / 2.0, box.y + box.height / 2.0);
+  const Vec2 corner[4] = {c + Vec2(-8, -8), c + Vec2(8, -8), c + Vec2(8, 8), c + Vec2(-8, 8)};
+  const int first = static_cast<int>(project.points.size());
+  int v = 0;
+  for (const Vec2& q : corner) {
+    v = unusedVertex(project, v + 1);
+    project.points.push_back({v, {{0, q.x(), q.y()}}});
+  }
+  v = unusedVertex(project, v + 1);
+  project.points.push_back({v, {{0, 1.5, 1.5}}});  // the photo's corner: background
+  // Two crossing lines (the square's diagonals) and a bow tie (0, 1, 3, 2 crosses itself).
+  project.chains = {{0, {first, first + 2}, false}, {0, {first + 1, first + 3}, false},
+                    {0, {first, first + 1, first + 3, first + 2}, true}};
+  const auto warned = loadScene(project);
+  std::string all;
+  for (const std::string& w : warned->warnings) all += w + "\n";
+  EXPECT_NE(all.find("points[" + std::to_string(first + 4) + "].at[0]: (1.5, 1.5) lies on the background of photo 0 "
+                     "'tiger_left.png'"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("chains[0] and chains[1] cross in photo 0 'tiger_left.png'"), std::string::npos) << all;
+  EXPECT_NE(all.find("chains[2] crosses itself in photo 0 'tiger_left.png'"), std::string::npos) << all;
+  // The diagonals also cross the bow tie's crossing segments (chains[0]-[2] and [1]-[2] once each), but
+  // not where the chains share a point (each diagonal meets the bow tie at two of its corners).
+  EXPECT_EQ(warned->warnings.size(), 5u) << all;
+  // run reports the same warnings.
+  Pipeline pipeline;
+  const PipelineResult result = pipeline.run(project);
+  int found = 0;
+  for (const std::string& w : result.warnings) found += w.rfind("project: ", 0) == 0;
+  EXPECT_EQ(found, static_cast<int>(warned->warnings.size()));
+}
+
+TEST(PipelineValidation, WorkingResolutionRunsWithSmallerPhotos) {
+  Project project = loadProject(demoProject());
+  const auto full = loadScene(project);
+  project.options.maxPhotoSide = 256;
+  Pipeline pipeline;
+  const PipelineResult result = pipeline.run(project);
+  size_t fullBytes = 0, smallBytes = 0;
+  for (size_t i = 0; i < full->photos.size(); ++i) {
+    const Photo& small = *result.scene->photos[i];
+    EXPECT_EQ(small.width, full->photos[i]->width);  // coordinates unchanged
+    EXPECT_EQ(std::max(small.rgb.cols, small.rgb.rows), 256);
+    fullBytes += full->photos[i]->bytes();
+    smallBytes += small.bytes();
+  }
+  EXPECT_LT(smallBytes * 2, fullBytes);  // the demo's photos are 453 px wide
+  ASSERT_TRUE(result.model);
+  EXPECT_TRUE(result.model->textured());
+  EXPECT_GT(result.mapping->map.numMapped(), result.mapping->map.numFaces() / 4);
+  // The option is validated with its field.
+  std::vector<std::pair<int, int>> photoSizes;
+  for (const auto& photo : full->photos) photoSizes.emplace_back(photo->width, photo->height);
+  project.options.maxPhotoSide = 100;
+  project.file = "p.json";
+  EXPECT_NE(test::errorOf([&] { validateProject(project, 100000, 100000, photoSizes); })
+                .find("options.maxPhotoSide: 100 is too small"),
+            std::string::npos);
+}
+
+TEST(MontageCli, OutIsCheckedBeforeThePipelineAndLocked) {
+  const std::string dir = test::tempDir("cli_out");
+  std::string log;
+  EXPECT_NE(test::runCommand(test::montageExe() + " run " + demoProject() + " --out '' 2>&1", &log), 0);
+  EXPECT_NE(log.find("output folder: the path is empty"), std::string::npos) << log;
+  EXPECT_EQ(log.find("[load]"), std::string::npos) << "the pipeline started: " << log;
+  std::ofstream(dir + "/file") << "x";
+  EXPECT_NE(test::runCommand(test::montageExe() + " run " + demoProject() + " --out " + dir + "/file 2>&1", &log), 0);
+  EXPECT_NE(log.find(dir + "/file: output folder: is a file, not a folder"), std::string::npos) << log;
+  // Two runs on one folder: the second is refused while the first holds the lock.
+  const std::string out = dir + "/result";
+  ASSERT_EQ(test::runCommand("(" + test::montageExe() + " run " + demoProject() + " --out " + out +
+                                 " >/dev/null 2>&1 &) ; sleep 1; " + test::montageExe() + " run " + demoProject() +
+                                 " --out " + out + " 2>&1; status=$?; sleep 12; exit $status",
+                             &log) != 0,
+            true);
+  EXPECT_NE(log.find("another montage run or editor export is writing this output folder"), std::string::npos) << log;
+}
+
+TEST(MontageCli, RenderAndEvalRefuseWhatTheyCannotDo) {
+  const std::string dir = test::tempDir("cli_refuse");
+  const std::string mesh = test::testDataDir() + "/turtle.obj";
+  std::string log;
+  EXPECT_NE(test::runCommand(test::montageExe() + " render " + mesh + " --yaw nan --out " + dir + "/r.png 2>&1", &log),
+            0);
+  EXPECT_NE(log.find("--yaw and --pitch must be finite"), std::string::npos) << log;
+  // A result with texture coordinates but no texture once gave "100% photo" and 11 dB.
+  std::ofstream(dir + "/nomtl.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+  EXPECT_NE(test::runCommand(test::montageExe() + " eval --result " + dir + "/nomtl.obj --truth " + mesh +
+                                 " --truth-texture " + test::assetsDir() + "/demo/tiger_left.png 2>&1",
+                             &log),
+            0);
+  EXPECT_NE(log.find("nomtl.obj: the result has no texture"), std::string::npos) << log;
 }

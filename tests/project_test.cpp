@@ -384,7 +384,7 @@ TEST_F(ProjectTest, RejectsMissingFiles) {
 
   j = sampleJson();
   j["mesh"] = "photos";
-  EXPECT_MESSAGE_HAS(loadError(j), "mesh: file 'photos' is not a regular file");
+  EXPECT_MESSAGE_HAS(loadError(j), "mesh: file 'photos' is a folder, not a file");
   j["mesh"] = "";
   EXPECT_MESSAGE_HAS(loadError(j), "mesh: must not be empty");
   j.erase("mesh");
@@ -401,6 +401,54 @@ TEST_F(ProjectTest, BadJsonNamesLineAndColumn) {
   writeText(path("p.json"), "{\"format\": \"texturemontage-project\",\n\"version\": 1\n");  // unterminated
   message = errorOf([&] { loadProject(path("p.json")); });
   EXPECT_MESSAGE_HAS(message, "line 3, column 1: invalid JSON");
+}
+
+// ---- Hostile files (issue 15) ----
+
+TEST_F(ProjectTest, NumberOverflowIsNamedWithLineAndColumn) {
+  // Was "[json.exception.out_of_range.406] number overflow parsing '1e400'" with no file, line or field.
+  writeText(path("p.json"), "{\n  \"format\": \"texturemontage-project\",\n  \"version\": 1e400\n}\n");
+  const std::string message = errorOf([&] { loadProject(path("p.json")); });
+  EXPECT_MESSAGE_HAS(message, path("p.json") + ": line 3, column 18: invalid JSON: number overflow parsing '1e400'");
+  EXPECT_EQ(message.find("json.exception"), std::string::npos) << message;
+}
+
+TEST_F(ProjectTest, DeepNestingIsRefused) {
+  writeText(path("p.json"), std::string(200000, '[') + std::string(200000, ']'));
+  EXPECT_MESSAGE_HAS(errorOf([&] { loadProject(path("p.json")); }), "invalid JSON: values nested more than 64 deep");
+}
+
+TEST_F(ProjectTest, OversizedFileIsRefusedWithItsSize) {
+  // A 200 MB project once took 4.5 GB to read. The size is checked before anything is read (this file is
+  // sparse: it costs no disk).
+  writeText(path("p.json"), projectToJson(sample(), path("p.json")));
+  fs::resize_file(path("p.json"), 200000000);
+  const std::string message = errorOf([&] { loadProject(path("p.json")); });
+  EXPECT_MESSAGE_HAS(message, path("p.json") + ": project file is 200 MB; at most 67.1 MB are read");
+}
+
+TEST_F(ProjectTest, LongStringsAndControlCharactersInMessages) {
+  json j = sampleJson();
+  j["version"] = std::string(100000, 'v') + "\x1b[2J";
+  std::string message = loadError(j);
+  EXPECT_LT(message.size(), 400u) << message;
+  j = sampleJson();
+  j["format"] = "evil\x1b]0;title\x07";
+  message = loadError(j);
+  EXPECT_EQ(message.find('\x1b'), std::string::npos) << message;
+  EXPECT_EQ(message.find('\x07'), std::string::npos) << message;
+  EXPECT_MESSAGE_HAS(message, "'evil\\x1b]0;title\\x07' is not a TextureMontage project");
+}
+
+TEST_F(ProjectTest, SymlinkLoopIsNamed) {
+  fs::create_symlink("loop_b.obj", path("loop_a.obj"));
+  fs::create_symlink("loop_a.obj", path("loop_b.obj"));
+  json j = sampleJson();
+  j["mesh"] = "loop_a.obj";
+  EXPECT_MESSAGE_HAS(loadError(j), "mesh: file 'loop_a.obj' cannot be opened: symbolic link loop");
+  fs::create_symlink("p_loop2.json", path("p_loop1.json"));
+  fs::create_symlink("p_loop1.json", path("p_loop2.json"));
+  EXPECT_MESSAGE_HAS(errorOf([&] { loadProject(path("p_loop1.json")); }), "symbolic link loop");
 }
 
 TEST_F(ProjectTest, RejectsWrongTypes) {

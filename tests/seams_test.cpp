@@ -37,7 +37,6 @@ Photo makePhoto(const std::function<Vec3f(double, double)>& colour) {
       const Vec3f v = colour(c + 0.5, r + 0.5);
       photo.rgb.at<cv::Vec3f>(r, c) = cv::Vec3f(v[0], v[1], v[2]);
     }
-  photo.luv = srgbToLuv(photo.rgb);
   return photo;
 }
 

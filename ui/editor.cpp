@@ -252,7 +252,7 @@ void Editor::syncInputs() {
   photos_.resize(p.photos.size());
   for (size_t i = 0; i < p.photos.size(); ++i) {
     PhotoSlot& slot = photos_[i];
-    const std::string key = p.photos[i].path + "|" + p.photos[i].mask;
+    const std::string key = p.photos[i].path + "|" + p.photos[i].mask + "|" + std::to_string(p.options.maxPhotoSide);
     if (slot.key == key) continue;
     slot.key = key;
     slot.photo.reset();
@@ -260,17 +260,14 @@ void Editor::syncInputs() {
     slot.tabView.fitted = slot.gridView.fitted = false;
     try {
       // The core's loader, so the foreground (alpha or mask) follows the pipeline's rule exactly.
-      auto photo = std::make_shared<Photo>(loadPhoto(p.photos[i].path, p.photos[i].mask));
-      cv::Mat rgb8, rgba;
-      photo->rgb.convertTo(rgb8, CV_8UC3, 255.0);
-      cv::cvtColor(rgb8, rgba, cv::COLOR_RGB2RGBA);
+      auto photo = std::make_shared<Photo>(
+          loadPhoto(p.photos[i].path, p.photos[i].mask, PhotoLoadOptions{p.options.maxPhotoSide}));
+      const cv::Mat rgba = toRgba8(photo->rgb, false, photo->path);  // any depth, stored resolution
       if (!slot.texture) slot.texture = std::make_unique<Texture>();
       slot.texture->upload(rgba);
       // Background overlay: a blue tint where the photo is background, clear on the foreground.
-      cv::Mat mask(photo->height, photo->width, CV_8UC4, cv::Scalar(0, 0, 0, 0));
-      for (int y = 0; y < photo->height; ++y)
-        for (int x = 0; x < photo->width; ++x)
-          if (photo->alpha.at<float>(y, x) <= 0) mask.at<cv::Vec4b>(y, x) = cv::Vec4b(40, 70, 220, 80);
+      cv::Mat mask(photo->rgb.size(), CV_8UC4, cv::Scalar(0, 0, 0, 0));
+      if (photo->hasBackground) mask.setTo(cv::Scalar(40, 70, 220, 80), photo->alpha <= 0);
       if (!slot.mask) slot.mask = std::make_unique<Texture>();
       slot.mask->upload(mask);
       slot.photo = photo;

@@ -208,7 +208,7 @@ std::pair<std::vector<int>, std::vector<int>> splitInTwo(const std::vector<int>&
 
 struct Charting {
   std::vector<ChartSeed> charts;
-  int discCuts = 0, stretchSplits = 0;
+  int discCuts = 0, stretchSplits = 0, sizeSplits = 0;
   double lscmSeconds = 0;
 };
 
@@ -237,6 +237,13 @@ void flattenRegion(const std::vector<int>& region, int source, double density, c
     }
     for (int v : vertices) local[v] = -1;
     const bool canSplit = faces.size() > 1;
+    if (canSplit && faces.size() > size_t(std::max(1, options.maxLscmFaces))) {
+      ++out.sizeSplits;
+      auto [x, y] = splitInTwo(faces, mesh, nb, slot, centroid);
+      work.push_back(std::move(x));
+      work.push_back(std::move(y));
+      continue;
+    }
     if (canSplit && !patchTopology(tris).isDisc()) {
       ++out.discCuts;
       auto [x, y] = splitInTwo(faces, mesh, nb, slot, centroid);
@@ -626,6 +633,7 @@ nlohmann::json Atlas::stats() const {
           {"lscm_charts", lscmCharts},
           {"disc_cuts", discCuts},
           {"stretch_splits", stretchSplits},
+          {"size_splits", sizeSplits},
           {"pack_attempts", packAttempts},
           {"utilisation", utilisation},
           {"seconds", {{"charts", times.charts}, {"lscm", times.lscm}, {"pack", times.pack}}}};
@@ -684,6 +692,7 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   atlas.times.charts = secondsSince(t0) - charting.lscmSeconds;
   atlas.discCuts = charting.discCuts;
   atlas.stretchSplits = charting.stretchSplits;
+  atlas.sizeSplits = charting.sizeSplits;
   if (progress) progress(0.4);
 
   // Packing.
@@ -1019,12 +1028,14 @@ AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std
   for (size_t i = 0; i < photos.size(); ++i) {
     if (!photos[i]) continue;
     sources[i] = photos[i]->rgb;
-    if (atlas.scale > 0 && atlas.scale < 1 / 1.5) {
+    sourceScale[i] = double(photos[i]->rgb.cols) / photos[i]->width;  // stored pixels per photo pixel
+    const double minify = atlas.scale / sourceScale[i];
+    if (atlas.scale > 0 && minify < 1 / 1.5) {
       cv::Mat small;
-      cv::resize(photos[i]->rgb, small, cv::Size(), atlas.scale, atlas.scale, cv::INTER_AREA);
+      cv::resize(photos[i]->rgb, small, cv::Size(), minify, minify, cv::INTER_AREA);
       if (small.cols > 0 && small.rows > 0) {
         sources[i] = small;
-        sourceScale[i] = double(small.cols) / photos[i]->rgb.cols;
+        sourceScale[i] = double(small.cols) / photos[i]->width;
       }
     }
   }

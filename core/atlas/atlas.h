@@ -47,6 +47,10 @@ struct AtlasOptions {
   // An LSCM chart is split in two while its area-weighted L2 stretch (1 = isometric) exceeds this or
   // while it has flipped triangles. Lower = more, smaller, less distorted charts.
   double maxChartStretch = 1.5;
+  // An LSCM chart with more faces than this is split in two before it is flattened, so that no single
+  // chart's sparse factorisation takes minutes (issue 15: one 1M-face empty chart took 220 s). Lower =
+  // more, smaller charts and faster flattening (docs/atlas.md measures it).
+  int maxLscmFaces = 100000;
   // Texel density of empty charts relative to the others: they are one flat colour.
   double emptyDensity = 0.25;
   bool rotateCharts = true;  // let the packer turn charts by 90 degrees where that packs tighter
@@ -107,6 +111,7 @@ struct Atlas {
   int photoCharts = 0, lscmCharts = 0;
   int discCuts = 0;       // splits of closed, annular or higher-genus regions into discs
   int stretchSplits = 0;  // splits of LSCM charts that flipped or stretched beyond the threshold
+  int sizeSplits = 0;     // splits of LSCM charts larger than AtlasOptions::maxLscmFaces
   int packAttempts = 0;   // packings tried while searching the scale
   AtlasTimes times;
   nlohmann::json stats() const;  // figures for report.json (no per-chart data)

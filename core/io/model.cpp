@@ -14,6 +14,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <numeric>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -172,9 +173,9 @@ std::vector<std::array<Vec2f, 3>> floatUV(const std::vector<std::array<Vec2, 3>>
 
 // Reads the image a map_Kd statement names; `where` is "file.mtl:line".
 cv::Mat readTexture(const fs::path& file, const std::string& where, const std::string& written) {
-  std::error_code ec;
-  TM_CHECK(fs::is_regular_file(file, ec),
-           located(where, "map_Kd texture " + quote(written) + " not found (looked for " + file.string() + ")"));
+  if (const std::string problem = fileProblem(file.string()); !problem.empty())
+    throw Error(
+        located(where, "map_Kd texture " + quote(written) + " " + problem + " (looked for " + file.string() + ")"));
   try {
     return readImageRgba8(file.string());
   } catch (const Error& e) {
@@ -217,11 +218,18 @@ std::string mapFileName(const std::string& args) {
   return name;
 }
 
+// Refuses a file a model names (material library, texture, buffer) outside the model's folder.
+void requireInsideModelFolder(const fs::path& file, const fs::path& modelDir, const std::string& where,
+                              const std::string& what) {
+  TM_CHECK(isInsideFolder(file.string(), modelDir.string()),
+           located(where, what + " is outside the model's folder " + quote(modelDir.string()) + " (resolved to " +
+                              quote(file.string()) + "): a model never reads outside its folder"));
+}
+
 // Parses one .mtl file: newmtl, Kd and map_Kd. Textures are read; a missing one is an error naming
 // the .mtl file, its line and the texture.
 void parseMtl(const fs::path& mtlPath, const fs::path& modelDir, std::map<std::string, Material>& out) {
-  std::ifstream in(mtlPath, std::ios::binary);
-  TM_CHECK(in, located(mtlPath.string(), "cannot open material library"));
+  std::istringstream in(readFileBytes(mtlPath.string(), "material library"));
   std::map<std::string, cv::Mat> cache;  // textures shared between materials
   Material* current = nullptr;
   std::string line;
@@ -248,6 +256,7 @@ void parseMtl(const fs::path& mtlPath, const fs::path& modelDir, std::map<std::s
       const std::string name = mapFileName(rest);
       TM_CHECK(!name.empty(), located(where, "map_Kd without a file name"));
       const fs::path file = (mtlPath.parent_path() / name).lexically_normal();
+      requireInsideModelFolder(file, modelDir, where, "map_Kd texture " + quote(name));
       auto it = cache.find(file.string());
       if (it == cache.end()) it = cache.emplace(file.string(), readTexture(file, where, name)).first;
       current->texture = it->second;
@@ -263,7 +272,7 @@ TexturedModel loadObjModel(const std::string& path) {
   model.mesh = std::move(*mesh);
   const Mesh& m = model.mesh;
   const int nf = m.numFaces();
-  const fs::path modelDir = fs::path(path).parent_path();
+  const fs::path modelDir = fs::absolute(path).lexically_normal().parent_path();
 
   // Material definitions from the material library (or libraries).
   std::map<std::string, Material> defs;
@@ -278,9 +287,11 @@ TexturedModel loadObjModel(const std::string& path) {
       for (std::string w; words >> w;) files.push_back(w);
     }
     for (const std::string& file : files) {
-      const fs::path mtl = modelDir / file;
-      TM_CHECK(fs::is_regular_file(mtl, ec),
-               located(path, "material library " + quote(file) + " not found (looked for " + mtl.string() + ")"));
+      const fs::path mtl = (modelDir / file).lexically_normal();
+      requireInsideModelFolder(mtl, modelDir, path, "material library " + quote(file));
+      if (const std::string problem = fileProblem(mtl.string()); !problem.empty())
+        throw Error(
+            located(path, "material library " + quote(file) + " " + problem + " (looked for " + mtl.string() + ")"));
       parseMtl(mtl, modelDir, defs);
     }
   }
@@ -350,6 +361,13 @@ std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std
   const int csize = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(acc.componentType));
   TM_CHECK(components > 0 && csize > 0, located(at, "invalid type or component type"));
   const size_t count = acc.count;
+  // A declared count is bounded by the bytes that could hold it (an accessor without a bufferView is
+  // all zeros, but still no larger than the buffers), before anything is allocated.
+  size_t bufferBytes = 0;
+  for (const auto& b : gm.buffers) bufferBytes += b.data.size();
+  TM_CHECK(count <= bufferBytes / size_t(components * csize) + 1,
+           located(at, "count " + std::to_string(count) + " is larger than the buffers could hold (" +
+                           std::to_string(bufferBytes) + " bytes)"));
   std::vector<double> out(count * components, 0.0);
 
   const auto decode = [&](const unsigned char* p, int componentType, bool normalized) -> double {
@@ -400,9 +418,11 @@ std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std
     TM_CHECK(view.buffer >= 0 && view.buffer < static_cast<int>(gm.buffers.size()),
              located(at, "buffer " + std::to_string(view.buffer) + " does not exist"));
     const tinygltf::Buffer& buffer = gm.buffers[view.buffer];
-    TM_CHECK(view.byteOffset + view.byteLength <= buffer.data.size(),
+    // Written so that no sum or product of untrusted sizes can overflow.
+    TM_CHECK(view.byteOffset <= buffer.data.size() && view.byteLength <= buffer.data.size() - view.byteOffset,
              located(at, "bufferView " + std::to_string(viewIndex) + " lies outside its buffer (file truncated?)"));
-    TM_CHECK(n == 0 || offset + stride * (n - 1) + elementSize <= view.byteLength,
+    TM_CHECK(n == 0 || (offset <= view.byteLength && elementSize <= view.byteLength - offset &&
+                        n - 1 <= (view.byteLength - offset - elementSize) / std::max<size_t>(stride, 1)),
              located(at, "data lies outside bufferView " + std::to_string(viewIndex)));
     return buffer.data.data() + view.byteOffset + offset;
   };
@@ -467,23 +487,21 @@ Eigen::Matrix4d meshWorldMatrix(const tinygltf::Model& gm) {
     for (size_t i = 0; i < gm.nodes.size(); ++i)
       if (!isChild[i]) roots.push_back(static_cast<int>(i));
   }
-  Eigen::Matrix4d found = Eigen::Matrix4d::Identity();
+  // Depth first with an explicit stack (a file may chain millions of nodes), children in order.
   std::vector<bool> visited(gm.nodes.size(), false);
-  std::function<bool(int, const Eigen::Matrix4d&)> visit = [&](int n, const Eigen::Matrix4d& parent) {
-    if (n < 0 || n >= static_cast<int>(gm.nodes.size()) || visited[n]) return false;
+  std::vector<std::pair<int, Eigen::Matrix4d>> stack;
+  for (auto r = roots.rbegin(); r != roots.rend(); ++r) stack.emplace_back(*r, Eigen::Matrix4d::Identity());
+  while (!stack.empty()) {
+    const auto [n, parent] = stack.back();
+    stack.pop_back();
+    if (n < 0 || n >= static_cast<int>(gm.nodes.size()) || visited[n]) continue;
     visited[n] = true;
     const Eigen::Matrix4d world = parent * nodeMatrix(gm.nodes[n]);
-    if (gm.nodes[n].mesh == 0) {
-      found = world;
-      return true;
-    }
-    for (int c : gm.nodes[n].children)
-      if (visit(c, world)) return true;
-    return false;
-  };
-  for (int r : roots)
-    if (visit(r, Eigen::Matrix4d::Identity())) break;
-  return found;
+    if (gm.nodes[n].mesh == 0) return world;
+    const auto& children = gm.nodes[n].children;
+    for (auto c = children.rbegin(); c != children.rend(); ++c) stack.emplace_back(*c, world);
+  }
+  return Eigen::Matrix4d::Identity();
 }
 
 // The base colour texture of a glTF material as RGBA8 (empty when there is none).
@@ -548,25 +566,167 @@ const char* modeName(int mode) {
   }
 }
 
+uint32_t littleEndian32(const std::string& bytes, size_t at) {
+  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data()) + at;
+  return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
+}
+
+// Checks the layout of a binary glTF file (header, JSON chunk, optional BIN chunk) and returns the JSON
+// text, with messages that say which length is wrong.
+std::string glbJsonChunk(const std::string& bytes, const std::string& path) {
+  const std::string size = std::to_string(bytes.size());
+  TM_CHECK(bytes.size() >= 12 && bytes.compare(0, 4, "glTF") == 0,
+           located(path, "not a binary glTF file (no 'glTF' header)"));
+  const uint32_t version = littleEndian32(bytes, 4), length = littleEndian32(bytes, 8);
+  TM_CHECK(version == 2,
+           located(path, "binary glTF version " + std::to_string(version) + " is not supported (only 2)"));
+  TM_CHECK(length <= bytes.size(), located(path, "file is truncated: its header announces " + std::to_string(length) +
+                                                     " bytes but it has " + size));
+  TM_CHECK(length >= 20, located(path, "header length " + std::to_string(length) +
+                                           " leaves no room for the JSON chunk (at least 20 bytes)"));
+  const uint64_t jsonLength = littleEndian32(bytes, 12), jsonType = littleEndian32(bytes, 16);
+  TM_CHECK(jsonType == 0x4E4F534A,
+           located(path, "the first chunk is not JSON (chunk type " + std::to_string(jsonType) + ")"));
+  TM_CHECK(jsonLength > 0, located(path, "the JSON chunk is empty"));
+  const uint64_t jsonEnd = 20 + jsonLength;
+  TM_CHECK(jsonEnd <= length,
+           located(path, "the JSON chunk length " + std::to_string(jsonLength) +
+                             " runs past the end announced by the header (" + std::to_string(length) + " bytes)"));
+  if (jsonEnd < length) {
+    TM_CHECK(jsonEnd % 4 == 0, located(path, "the JSON chunk length " + std::to_string(jsonLength) +
+                                                 " is not a multiple of 4 (the chunks are misaligned)"));
+    TM_CHECK(jsonEnd + 8 <= length, located(path, "the header length " + std::to_string(length) +
+                                                      " leaves a partial chunk header after the JSON chunk"));
+    const uint64_t binLength = littleEndian32(bytes, size_t(jsonEnd)),
+                   binType = littleEndian32(bytes, size_t(jsonEnd) + 4);
+    TM_CHECK(binType == 0x004E4942,
+             located(path, "the second chunk is not BIN (chunk type " + std::to_string(binType) + ")"));
+    TM_CHECK(jsonEnd + 8 + binLength <= length,
+             located(path, "the BIN chunk length " + std::to_string(binLength) +
+                               " runs past the end announced by the header (" + std::to_string(length) + " bytes)"));
+    TM_CHECK(binLength >= 4 && binLength % 4 == 0,
+             located(path, "the BIN chunk length " + std::to_string(binLength) + " is not a positive multiple of 4"));
+  }
+  return bytes.substr(20, size_t(jsonLength));
+}
+
+// Checks the JSON of a glTF file before tinygltf reads it: nesting depth (its reader recurses), and that
+// every buffer and image URI that is not a data: URI stays inside the model's folder.
+void checkGltfJson(const std::string& text, const fs::path& modelDir, const std::string& path) {
+  constexpr int kMaxDepth = 64;
+  int depth = 0;
+  bool inString = false, escaped = false;
+  for (const char c : text) {
+    if (inString) {
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        inString = false;
+    } else if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{') {
+      TM_CHECK(++depth <= kMaxDepth,
+               located(path, "JSON values nested more than " + std::to_string(kMaxDepth) + " deep"));
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (!j.is_object()) return;  // tinygltf names the syntax error
+  for (const char* list : {"buffers", "images"}) {
+    const auto it = j.find(list);
+    if (it == j.end() || !it->is_array()) continue;
+    for (size_t i = 0; i < it->size(); ++i) {
+      const nlohmann::json& entry = (*it)[i];
+      if (!entry.is_object() || !entry.contains("uri") || !entry["uri"].is_string()) continue;
+      const std::string uri = entry["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) == 0) continue;
+      std::string decoded;  // percent-decoded, as tinygltf resolves it
+      for (size_t k = 0; k < uri.size(); ++k) {
+        int value = 0;
+        if (uri[k] == '%' && k + 2 < uri.size() &&
+            std::from_chars(uri.data() + k + 1, uri.data() + k + 3, value, 16).ptr == uri.data() + k + 3) {
+          decoded += char(value);
+          k += 2;
+        } else {
+          decoded += uri[k];
+        }
+      }
+      const fs::path file = (modelDir / decoded).lexically_normal();
+      requireInsideModelFolder(file, modelDir, path,
+                               std::string(list) + "[" + std::to_string(i) + "].uri " + quote(uri));
+    }
+  }
+}
+
+// File access for tinygltf: reads only regular files inside the model's folder, never expands "~" or
+// shell words, never writes.
+struct GltfFiles {
+  fs::path dir;
+  std::string path;
+  static bool exists(const std::string& file, void* self) {
+    // Files outside the folder "exist" so that read() refuses them with the reason, not "not found".
+    const auto* me = static_cast<GltfFiles*>(self);
+    std::error_code ec;
+    return !isInsideFolder(file, me->dir.string()) || fs::exists(file, ec);
+  }
+  static std::string expand(const std::string& file, void*) { return file; }
+  static bool read(std::vector<unsigned char>* out, std::string* err, const std::string& file, void* self) {
+    const auto* me = static_cast<GltfFiles*>(self);
+    try {
+      requireInsideModelFolder(fs::path(file).lexically_normal(), me->dir, file, "the file");
+      const std::string bytes = readFileBytes(file, "file", uint64_t(UINT32_MAX));
+      out->assign(bytes.begin(), bytes.end());
+      return true;
+    } catch (const Error& e) {
+      if (err) *err = e.what();
+      return false;
+    }
+  }
+  static bool write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+    if (err) *err = "writing is not allowed while reading";
+    return false;
+  }
+  // Images through our decoder: the same formats and size limit as photos, decoded as RGBA8.
+  static bool image(tinygltf::Image* image, const int index, std::string* err, std::string*, int, int,
+                    const unsigned char* bytes, int size, void* self) {
+    const auto* me = static_cast<GltfFiles*>(self);
+    try {
+      const cv::Mat rgba =
+          decodeImageRgba8(bytes, size_t(std::max(size, 0)), me->path + ": images[" + std::to_string(index) + "]");
+      image->width = rgba.cols;
+      image->height = rgba.rows;
+      image->component = 4;
+      image->bits = 8;
+      image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+      image->image.assign(rgba.datastart, rgba.dataend);
+      return true;
+    } catch (const Error& e) {
+      if (err) *err += std::string(e.what()) + "\n";
+      return false;
+    }
+  }
+};
+
 TexturedModel loadGltfModel(const std::string& path, bool binary) {
   tinygltf::TinyGLTF loader;
   tinygltf::Model gm;
   std::string err, warn;
+  GltfFiles files{fs::absolute(path).lexically_normal().parent_path(), path};
+  loader.SetFsCallbacks({&GltfFiles::exists, &GltfFiles::expand, &GltfFiles::read, &GltfFiles::write, &files});
+  loader.SetImageLoader(&GltfFiles::image, &files);
+  const std::string bytes = readFileBytes(path, "glTF file", uint64_t(UINT32_MAX));
   bool ok;
   if (binary) {
-    std::ifstream in(path, std::ios::binary);
-    TM_CHECK(in, located(path, "cannot open file"));
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    TM_CHECK(bytes.size() >= 12 && bytes.compare(0, 4, "glTF") == 0,
-             located(path, "not a binary glTF file (no 'glTF' header)"));
-    uint32_t length = 0;
-    std::memcpy(&length, bytes.data() + 8, 4);
-    TM_CHECK(length <= bytes.size(), located(path, "file is truncated: its header announces " + std::to_string(length) +
-                                                       " bytes but it has " + std::to_string(bytes.size())));
+    checkGltfJson(glbJsonChunk(bytes, path), files.dir, path);
     ok = loader.LoadBinaryFromMemory(&gm, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
-                                     static_cast<unsigned int>(bytes.size()), fs::path(path).parent_path().string());
+                                     static_cast<unsigned int>(bytes.size()), files.dir.string());
   } else {
-    ok = loader.LoadASCIIFromFile(&gm, &err, &warn, path);
+    checkGltfJson(bytes, files.dir, path);
+    ok = loader.LoadASCIIFromString(&gm, &err, &warn, bytes.data(), static_cast<unsigned int>(bytes.size()),
+                                    files.dir.string());
   }
   TM_CHECK(ok, located(path, "cannot read glTF: " + trim(err.empty() ? warn : err)));
   TM_CHECK(!gm.meshes.empty(), located(path, "the file contains no mesh"));

@@ -93,6 +93,8 @@ struct PipelineOptions {
   double cameraThreshold = 0.006;               // camera fit: a click agrees within this share of the image diagonal
   CorrectionMode correction = CorrectionMode::All;  // projection: clicks the correction field keeps exact
   double viewSmoothness = 1.0;                  // projection: seam cost of view selection (0 = best view per face)
+  int maxPhotoSide = 0;  // load: working resolution, photos kept at most this many pixels a side (0 = full;
+                         // else 256..16384); coordinates stay the files' pixels; less memory, coarser texture
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
@@ -101,7 +103,7 @@ struct PipelineOptions {
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
            seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression &&
            cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold &&
-           correction == o.correction && viewSmoothness == o.viewSmoothness;
+           correction == o.correction && viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide;
   }
 };
 

@@ -39,9 +39,13 @@ std::string number(double v) {
 // Reading: a Field is a JSON value (or its absence) with its path in the document, e.g.
 // "points[2].at[0].photo". Every type check and every message goes through it.
 
-// What a value is, for "must be X, not Y" messages.
+// What a value is, for "must be X, not Y" messages (long strings are cut).
 std::string describe(const json& v) {
-  if (v.is_string()) return "the string \"" + v.get<std::string>() + "\"";
+  if (v.is_string()) {
+    const std::string& text = v.get_ref<const std::string&>();
+    return "the string \"" +
+           (text.size() > 60 ? text.substr(0, 60) + "...\" (" + std::to_string(text.size()) + " bytes)" : text + "\"");
+  }
   if (v.is_number()) return v.dump();
   if (v.is_object()) return "an object";
   if (v.is_array()) return "an array";
@@ -207,6 +211,7 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("cameraThreshold", o.cameraThreshold, 0.0005, 0.2);
   visit("correction", o.correction, CorrectionMode::Off, CorrectionMode::All);
   visit("viewSmoothness", o.viewSmoothness, 0.0, 100.0);
+  visit("maxPhotoSide", o.maxPhotoSide, 0, 16384);
 }
 
 void fromJson(const Field& f, PipelineOptions& o) {
@@ -276,6 +281,9 @@ class DocumentCheck {
   }
 
   void checkOptions() const {
+    if (p_.options.maxPhotoSide > 0 && p_.options.maxPhotoSide < 256)
+      fail("options.maxPhotoSide", std::to_string(p_.options.maxPhotoSide) +
+                                       " is too small: 0 (the photos' own resolution) or at least 256 pixels");
     forEachOption(p_.options, [&](const char* name, const auto& value, auto lo, auto hi) {
       using T = std::decay_t<decltype(value)>;
       if constexpr (std::is_floating_point_v<T>) {
@@ -421,34 +429,64 @@ std::string storedPath(const std::string& path, const fs::path& base) {
   return (relative.empty() ? absolute : relative).generic_string();
 }
 
-std::string readText(const std::string& path) {
-  std::error_code ec;
-  TM_CHECK(fs::exists(path, ec), located(path, "file not found"));
-  TM_CHECK(!fs::is_directory(path, ec), located(path, "is a folder, not a project file"));
-  std::ifstream in(path, std::ios::binary);
-  TM_CHECK(in, located(path, std::string("cannot open: ") + std::strerror(errno)));
-  std::ostringstream text;
-  text << in.rdbuf();
-  TM_CHECK(!in.bad(), located(path, "read error"));
-  return text.str();
+// "line L, column C" of the 1-based byte offset `byte` in `text`.
+std::string lineAndColumn(const std::string& text, size_t byte) {
+  const size_t end = std::min(std::max<size_t>(byte, 1) - 1, text.size());
+  size_t lineStart = 0;
+  if (const size_t newline = end ? text.rfind('\n', end - 1) : std::string::npos; newline != std::string::npos)
+    lineStart = newline + 1;
+  const size_t line = 1 + std::count(text.begin(), text.begin() + end, '\n');
+  return "line " + std::to_string(line) + ", column " + std::to_string(end - lineStart + 1);
 }
 
-json parseJson(const std::string& path, const std::string& text) {
-  try {
-    return json::parse(text);
-  } catch (const json::parse_error& e) {
-    // e.byte is the 1-based offset of the character where parsing failed.
-    const size_t end = std::min(std::max<size_t>(e.byte, 1) - 1, text.size());
-    size_t lineStart = 0;
-    if (const size_t newline = end ? text.rfind('\n', end - 1) : std::string::npos; newline != std::string::npos)
-      lineStart = newline + 1;
-    const size_t line = 1 + std::count(text.begin(), text.begin() + end, '\n');
-    const size_t column = end - lineStart + 1;
-    std::string detail = e.what();
-    if (const size_t at = detail.find("syntax error"); at != std::string::npos) detail = detail.substr(at);
-    throw Error(located(
-        path, "line " + std::to_string(line) + ", column " + std::to_string(column) + ": invalid JSON: " + detail));
+// The DOM builder of nlohmann::json with two changes: a failure (syntax error, number overflow such as
+// 1e400) is recorded with its byte position instead of thrown without one, and nesting deeper than
+// kMaxDepth is refused. sax_parse calls these members statically, so hiding the base's is enough.
+class ProjectSax : public nlohmann::detail::json_sax_dom_parser<json> {
+ public:
+  static constexpr int kMaxDepth = 64;
+  explicit ProjectSax(json& root) : json_sax_dom_parser(root, false) {}
+
+  bool start_object(std::size_t n) { return deeper() && json_sax_dom_parser::start_object(n); }
+  bool end_object() { return --depth_, json_sax_dom_parser::end_object(); }
+  bool start_array(std::size_t n) { return deeper() && json_sax_dom_parser::start_array(n); }
+  bool end_array() { return --depth_, json_sax_dom_parser::end_array(); }
+  template <class Exception>
+  bool parse_error(std::size_t position, const std::string&, const Exception& e) {
+    if (error.empty()) {
+      byte = position;
+      error = e.what();
+      // "[json.exception.parse_error.101] parse error at line 1, column 2: syntax error ..." -> "syntax error ..."
+      for (const char* start : {"syntax error", "number overflow"})
+        if (const size_t at = error.find(start); at != std::string::npos) error = error.substr(at);
+    }
+    return false;
   }
+
+  std::string error;
+  size_t byte = 0;
+
+ private:
+  bool deeper() {
+    if (++depth_ <= kMaxDepth) return true;
+    error = "values nested more than " + std::to_string(kMaxDepth) + " deep (a project is at most a few levels deep)";
+    return false;
+  }
+  int depth_ = 0;
+};
+
+json parseJson(const std::string& path, const std::string& text) {
+  json root;
+  ProjectSax sax(root);
+  bool ok = false;
+  try {
+    ok = json::sax_parse(text, &sax);
+  } catch (const json::exception& e) {  // anything the parser throws despite the handler
+    if (sax.error.empty()) sax.error = e.what();
+  }
+  if (ok && sax.error.empty()) return root;
+  if (sax.error.empty()) sax.error = "syntax error";
+  throw Error(located(path, (sax.byte > 0 ? lineAndColumn(text, sax.byte) + ": " : "") + "invalid JSON: " + sax.error));
 }
 
 // A path from the file, made absolute against the project's folder; the file must exist.
@@ -456,12 +494,12 @@ std::string resolveFile(const Field& f, const fs::path& dir) {
   const std::string written = f.as<std::string>();
   if (written.empty()) f.fail("must not be empty");
   const fs::path resolved = (dir / written).lexically_normal();
-  std::error_code ec;
-  if (!fs::is_regular_file(resolved, ec))
-    f.fail("file " + inQuotes(written) + (fs::exists(resolved, ec) ? " is not a regular file" : " not found") +
-           " (resolved to " + inQuotes(resolved.string()) + ")");
+  if (const std::string problem = fileProblem(resolved.string()); !problem.empty())
+    f.fail("file " + inQuotes(written) + " " + problem + " (resolved to " + inQuotes(resolved.string()) + ")");
   return resolved.string();
 }
+
+Project parseProjectText(const std::string& text, const std::string& path);
 
 }  // namespace
 
@@ -472,7 +510,23 @@ bool Project::sameDocument(const Project& o) const {
 }
 
 Project loadProject(const std::string& path) {
-  const std::string text = readText(path);
+  return parseProject(readFileBytes(path, "project file", kMaxProjectBytes,
+                                    "a project holds paths and correspondences; its size is limited so that "
+                                    "reading it needs bounded memory"),
+                      path);
+}
+
+Project parseProject(const std::string& text, const std::string& path) {
+  try {
+    return parseProjectText(text, path);
+  } catch (const json::exception& e) {  // never expected (every read goes through Field): still named
+    throw Error(located(path, std::string("invalid project: ") + e.what()));
+  }
+}
+
+namespace {
+
+Project parseProjectText(const std::string& text, const std::string& path) {
   const json document = parseJson(path, text);
   const Field root(path, &document, "");
   const Field format = root["format"];
@@ -508,6 +562,8 @@ Project loadProject(const std::string& path) {
   DocumentCheck(project, path, nullptr).run();
   return project;
 }
+
+}  // namespace
 
 void validateProject(const Project& project, int numVertices, int numFaces,
                      const std::vector<std::pair<int, int>>& photoSizes) {

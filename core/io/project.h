@@ -2,6 +2,7 @@
 // operations, options). Saved as versioned JSON; see docs/project-format.md.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -103,7 +104,13 @@ struct Project {
 // Parses a project file and checks everything that needs no mesh or photo: JSON syntax, version,
 // field types, index ranges among the project's own lists, files present. Paths become absolute.
 // Throws montage::Error "<file>: <field>: <reason>", e.g. "a.json: points[2].vertex: must be an integer".
+// Files larger than kMaxProjectBytes are refused with a message (a 64 MB project needs about 1.4 GB
+// while it is parsed; real projects are a few MB).
 Project loadProject(const std::string& path);
+inline constexpr uint64_t kMaxProjectBytes = 64ull << 20;
+// The same from the file's text already in memory; `path` is where it was read (paths in it are
+// relative to its folder) and names it in messages.
+Project parseProject(const std::string& text, const std::string& path);
 
 // Checks a project against its mesh and photo sizes: vertex ids in range, points inside their
 // photo, the same vertex not given two points in one photo, chains whose points have a position

@@ -20,6 +20,10 @@ struct Scene {
   // Per photo: what identifies its content (file, size, time, mask), so that results computed from it
   // can be reused; empty when unknown (such results are never cached).
   std::vector<std::string> photoKeys;
+  // What the validation of the project against its mesh and photos found worth a word (points on a
+  // photo's background, crossing feature lines, self-intersecting polygons), each naming the element;
+  // `montage info` and `run` show the same list.
+  std::vector<std::string> warnings;
 };
 
 }  // namespace montage

@@ -335,14 +335,14 @@ class Partitioner {
         return false;
       }
     // Paper 3.1: mean distance to the foreground over samples less than a pixel apart.
-    const cv::Mat& distance = scene_.photos[photo]->distance;
-    if (distance.empty()) return true;
+    const Photo& image = *scene_.photos[photo];
+    if (image.distance.empty()) return true;
     const double length = (pb - pa).norm();
     const int segments = int(std::floor(length / options_.curveSampleSpacingPx)) + 1;
     double sum = 0;
     for (int k = 0; k <= segments; ++k) {
       const Vec2 q = pa + (pb - pa) * (double(k) / segments);
-      sum += sampleBilinear1(distance, q.x(), q.y());
+      sum += image.distanceAt(q.x(), q.y());
     }
     const double mean = sum / (segments + 1);
     if (mean > options_.backgroundThresholdPx) {

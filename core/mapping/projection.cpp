@@ -330,7 +330,7 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       for (int p : fitted)
         if (out.views[p].faceQuality[f] > 0 && out.views[p].faceQuality[g] > 0) {
           const Vec2 mid = 0.5 * (out.views[p].vertexUV[a] + out.views[p].vertexUV[b]);
-          colours.push_back(sampleBilinear3(scene.photos[p]->luv, mid.x(), mid.y()));
+          colours.push_back(scene.photos[p]->luvAt(mid.x(), mid.y()));
         }
       double disagreement = 0;
       int pairs = 0;

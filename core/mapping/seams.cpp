@@ -81,7 +81,12 @@ struct SeamEdge {
 class SeamOptimiser {
  public:
   SeamOptimiser(const SeamInput& in, const SeamOptions& options, const JobControl& job)
-      : in_(in), mesh_(*in.mesh), options_(options), job_(job) {}
+      : in_(in), mesh_(*in.mesh), options_(options), job_(job) {
+    for (const Photo* p : in.photos) {
+      luv_.push_back(luvImage(*p));
+      luvScale_.push_back(p->width > 0 ? double(luv_.back().cols) / p->width : 1.0);
+    }
+  }
 
   SeamResult run();
 
@@ -110,6 +115,8 @@ class SeamOptimiser {
   const JobControl& job_;
   double alpha_ = 1;
 
+  std::vector<cv::Mat> luv_;       // per photo: its L*u*v* image (stored resolution)
+  std::vector<double> luvScale_;   // per photo: stored pixels per file pixel
   std::vector<Side> sides_;
   std::vector<std::array<int, 3>> faceSide_;  // #F x 3, -1 for unmapped faces
   std::vector<double> faceSign_;              // #F: orientation of the texture triangle (+1 / -1, 0 = degenerate)
@@ -234,8 +241,9 @@ void SeamOptimiser::buildSeams() {
 
 double SeamOptimiser::edgeError(const SeamEdge& e, double* deltaE, double* gradient) const {
   const TextureMap& map = *in_.map;
-  const Photo& p1 = *in_.photos[map.facePhoto[e.f]];
-  const Photo& p2 = *in_.photos[map.facePhoto[e.g]];
+  const int ph1 = map.facePhoto[e.f], ph2 = map.facePhoto[e.g];
+  const cv::Mat &luv1 = luv_[ph1], &luv2 = luv_[ph2];
+  const double s1 = luvScale_[ph1], s2 = luvScale_[ph2];
   const Vec2 a1 = sides_[e.s[0]].uv, b1 = sides_[e.s[1]].uv, c1 = sides_[e.s[2]].uv;
   const Vec2 a2 = sides_[e.t[0]].uv, b2 = sides_[e.t[1]].uv, d2 = sides_[e.t[2]].uv;
   const bool gradients = alpha_ < 1 || gradient;
@@ -255,13 +263,16 @@ double SeamOptimiser::edgeError(const SeamEdge& e, double* deltaE, double* gradi
     const double t = (k + 0.5) / e.samples;
     const Vec2 q1 = (1 - t) * a1 + t * b1, q2 = (1 - t) * a2 + t * b2;
     const double de =
-        (sampleBilinear3(p1.luv, q1.x(), q1.y()) - sampleBilinear3(p2.luv, q2.x(), q2.y())).cast<double>().norm();
+        (sampleBilinear3(luv1, s1 * q1.x(), s1 * q1.y()) - sampleBilinear3(luv2, s2 * q2.x(), s2 * q2.y()))
+            .cast<double>()
+            .norm();
     sumDeltaE += de;
     double err = alpha_ * std::min(de / kColourNorm, 1.0);
     if (gradients) {
       Vec3f dx1, dy1, dx2, dy2;
-      sampleGradient3(p1.luv, q1.x(), q1.y(), dx1, dy1);
-      sampleGradient3(p2.luv, q2.x(), q2.y(), dx2, dy2);
+      sampleGradient3(luv1, s1 * q1.x(), s1 * q1.y(), dx1, dy1);  // per stored pixel
+      sampleGradient3(luv2, s2 * q2.x(), s2 * q2.y(), dx2, dy2);
+      dx1 *= float(s1), dy1 *= float(s1), dx2 *= float(s2), dy2 *= float(s2);  // per file pixel
       Eigen::Matrix<double, 3, 2> g1, g2;
       g1 << dx1.cast<double>(), dy1.cast<double>();
       g2 << dx2.cast<double>(), dy2.cast<double>();

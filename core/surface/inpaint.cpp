@@ -829,7 +829,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       if (photo.hasBackground) {
         const auto& uv = map.cornerUV[f];
         const Vec2 q = b[0] * uv[0] + b[1] * uv[1] + b[2] * uv[2];
-        if (sampleBilinear1(photo.alpha, q.x(), q.y()) < 0.5f) continue;
+        if (photo.alphaAt(q.x(), q.y()) < 0.5f) continue;
       }
       res.colors.row(v) += mappedColor(map, in.photos, in.levelling, f, b).transpose();
       known[v]++;
@@ -1019,7 +1019,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     int unknowns = 0;
     for (int l = 0; l < n; ++l) {
       const Vec2& q = pixel[l];
-      g.row(l) = sampleBilinear3(photo.rgb, q.x(), q.y()).cast<double>().transpose();
+      g.row(l) = photo.rgbAt(q.x(), q.y()).cast<double>().transpose();
       fixedValues.row(l) = res.colors.row(sub.vertex[l]).cast<double>();
       if (outside[sub.vertex[l]] == 0 && photo.inside(q.x(), q.y()) && insidePolygon(clone.polygon, q))
         fixed[l] = 0, ++unknowns;

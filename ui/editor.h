@@ -39,6 +39,7 @@ class ShaderProgram;
 class Texture;
 class Framebuffer;
 class VertexBuffer;
+struct OverlayGl;
 
 struct EditorOptions {
   std::string file;              // project (.json) or mesh to open; empty: start empty
@@ -48,8 +49,9 @@ struct EditorOptions {
   std::string script;            // script of UI actions (docs/editor.md)
   double autosaveSeconds = 120;  // autosave interval
   int width = 1280, height = 800;
-  std::string benchOrbit;    // mesh: orbit benchmark
-  bool benchWorker = false;  // with `file`: UI frame times while the worker runs
+  std::string benchOrbit;      // mesh: orbit benchmark
+  bool benchWorker = false;    // with `file`: UI frame times while the worker runs
+  bool benchOverlays = false;  // with `file`: frame times with every overlay shown against none, one run
   int benchFrames = 240;
   bool vsync = true;
 };
@@ -202,6 +204,16 @@ class Editor {
   void takeScreenshot(const std::string& path);
   void benchOrbitStep();
   void benchReport();
+  // Overlays from vertex buffers (editor_overlays.cpp).
+  void initOverlays();
+  void drawPaneOverlay(int photo, const PaneView& view, int focusPoint);
+  int paneRejectedCount(int photo, bool* allDrawn) const;
+  void readViewDepth(const Mat4f& view, const Mat4f& projection);  // after the mesh: id visibility
+  void drawMarkers(const Mat4f& view, const Mat4f& projection);
+  void drawFeatureLabels(const Rect& r, const Camera& cam);
+  void benchOverlaysStep();  // editor_bench.cpp
+  void benchOverlaysReport();
+  void setOverlaysShown(bool on);  // features, ids, paths, pane markers, curves, rejected pairs
   bool resultCurrent() const;
 
   EditorOptions options_;
@@ -278,8 +290,12 @@ class Editor {
   Rect viewRect_, paneRect_, windowRect_;
   std::map<int, Rect> canvasRects_;  // per photo, last frame
   std::map<std::string, Rect> buttonRects_;
-  std::vector<char> featureVisible_;  // per feature point, recomputed when the camera or document changes
-  std::string visibilityKey_;
+  std::vector<char> featureVisible_;  // per feature point, from the 3D view's depth when it was last drawn
+  std::unique_ptr<OverlayGl> overlayGl_;
+  int hoverVertex_ = -1;      // vertex under the cursor (3D view) or of the hovered photo point
+  int hoverVertexNext_ = -1;  // being found this frame
+  double hoverPickX_ = -1, hoverPickY_ = -1;
+  int hoverPick_ = -1;  // 3D pick at (hoverPickX_, hoverPickY_)
 
   // Files.
   FileDialogs dialogs_;
@@ -311,6 +327,13 @@ class Editor {
   std::vector<double> benchTimes_, benchBusyTimes_;
   int benchFrame_ = 0;
   bool benchWasBusy_ = false;
+  struct OverlayBench {
+    int frame = 0;
+    bool full = true;
+    double lastCpu = 0;
+    std::vector<double> bareTimes, fullCpu, bareCpu;
+    std::string load;
+  } bench_;
 };
 
 }  // namespace montage

@@ -109,6 +109,7 @@ void Editor::buildUi() {
     photosPanel();
   ImGui::End();
   ImGui::PopStyleVar();
+  hoverVertex_ = hoverVertexNext_;
 
   statusBar(Rect{0, H - statusH, W, statusH});
   errorsWindow();

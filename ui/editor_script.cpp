@@ -448,6 +448,7 @@ void Editor::takeScreenshot(const std::string& path) {
 // --- Benchmarks -----------------------------------------------------------------------------------
 
 void Editor::benchOrbitStep() {
+  if (options_.benchOverlays) return benchOverlaysStep();
   const int warmup = 10;
   if (!input_.mesh) return;
   ++benchFrame_;
@@ -473,6 +474,7 @@ void Editor::benchOrbitStep() {
 }
 
 void Editor::benchReport() {
+  if (options_.benchOverlays) return benchOverlaysReport();
   auto report = [](const char* what, const std::vector<double>& t) {
     if (t.empty()) {
       std::printf("%s: no frames\n", what);

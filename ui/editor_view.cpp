@@ -13,6 +13,7 @@
 #include "gl_util.h"
 #include "io/mesh_io.h"
 #include "mapping/partition.h"
+#include "overlay_gl.h"
 #include "overlays.h"
 #include "surface/inpaint.h"
 
@@ -86,6 +87,16 @@ void Editor::view3dInput(const Rect& r) {
   const bool hovered = ImGui::IsItemHovered();
   ImGuiIO& io = ImGui::GetIO();
   const ImVec2 mouse = io.MousePos;
+  hoverVertexNext_ = -1;
+  if (hovered && !viewPressed_) {
+    // One ray cast when the pointer moved (not one per feature and frame).
+    if (mouse.x != hoverPickX_ || mouse.y != hoverPickY_) {
+      hoverPickX_ = mouse.x;
+      hoverPickY_ = mouse.y;
+      hoverPick_ = pickAt(mouse.x, mouse.y).vertex;
+    }
+    hoverVertexNext_ = hoverPick_;
+  }
   if (hovered && io.MouseWheel != 0) camera_.zoom(io.MouseWheel);
   const bool strokeTool = tool_ == Tool::Stroke && !io.KeyShift;
   const bool paintTool = tool_ == Tool::Clone && clonePolygonClosed_ && !io.KeyShift;
@@ -375,11 +386,12 @@ void Editor::renderScene() {
   // the worker, spends its frames on the panels only.
   const Vec3 eye = camera_.eye();
   char key[512];
-  std::snprintf(key, sizeof(key), "%.17g %.17g %.17g %.17g %.17g %.17g %.17g %d %d %p %ld %ld %d%d%d%d%d %d %d %zu %d",
-                eye.x(), eye.y(), eye.z(), camera_.target.x(), camera_.target.y(), camera_.target.z(), camera_.fovYDeg,
+  std::snprintf(key, sizeof(key),
+                "%.17g %.17g %.17g %.17g %.17g %.17g %.17g %d %d %p %ld %ld %d%d%d%d%d %d %d %d %zu %d", eye.x(),
+                eye.y(), eye.z(), camera_.target.x(), camera_.target.y(), camera_.target.z(), camera_.fovYDeg,
                 viewFbo_->width(), viewFbo_->height(), uploadedModel_, linesRevision_, uploadCount_, textured_,
-                wireframe_, showPaths_, showFeatures_, int(coloring_), selectedVertex_, cloneVertices_, stroke_.size(),
-                int(cloneFaces_.size()));
+                wireframe_, showPaths_, showFeatures_ * 2 + showIds_, int(coloring_), selectedVertex_, hoverVertex_,
+                cloneVertices_, stroke_.size(), int(cloneFaces_.size()));
   if (sceneKey_ == key) return;
   sceneKey_ = key;
 
@@ -429,26 +441,14 @@ void Editor::renderScene() {
     glDisable(GL_BLEND);
   }
 
+  const Mat4f projection = glProjectionMatrix(cam, camera_.nearPlane(), camera_.farPlane());
+  readViewDepth(view, projection);  // before the lines and markers write depth
   lineShader_->use();
   glUniformMatrix4fv(lineShader_->uniform("uMvp"), 1, GL_FALSE, mvp.data());
   glUniform1i(lineShader_->uniform("uRoundPoints"), 0);
   if (showPaths_) lineVbo_->draw(GL_LINES, 0, pathLineVertices_);
   lineVbo_->draw(GL_LINES, pathLineVertices_, lineVertices_ - pathLineVertices_);
-  glEnable(GL_PROGRAM_POINT_SIZE);
-  glUniform1i(lineShader_->uniform("uRoundPoints"), 1);
-  if (showFeatures_) {
-    glUniform1f(lineShader_->uniform("uPointSize"), 7.0f);
-    pointVbo_->draw(GL_POINTS, 0, pointVertices_);
-  }
-  if (selectedVertex_ >= 0 && selectedVertex_ < input_.mesh->numVertices()) {
-    std::vector<float> sel;
-    pushVertex(sel, input_.mesh->position(selectedVertex_), Vec4f(1.0f, 0.45f, 0.05f, 1));
-    selectionVbo_->upload(sel, {{0, 3}, {1, 4}});
-    glDisable(GL_DEPTH_TEST);  // the selection shows even when the vertex is behind the surface
-    glUniform1f(lineShader_->uniform("uPointSize"), 12.0f);
-    selectionVbo_->draw(GL_POINTS, 0, 1);
-    glEnable(GL_DEPTH_TEST);
-  }
+  drawMarkers(view, projection);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
@@ -456,34 +456,7 @@ void Editor::drawViewLabels(const Rect& r) {
   ImDrawList* draw = ImGui::GetWindowDrawList();
   const Camera cam = viewCamera();
   const Project& p = doc_.project();
-  if (showFeatures_ && showIds_) {
-    // Visibility by ray cast, recomputed when the camera or the document changes.
-    const Vec3 eye = cam.center();
-    char key[256];
-    std::snprintf(key, sizeof(key), "%.9g %.9g %.9g %d %d %ld", eye.x(), eye.y(), eye.z(), cam.width, cam.height,
-                  doc_.revision());
-    if (visibilityKey_ != key) {
-      visibilityKey_ = key;
-      featureVisible_.assign(p.points.size(), 0);
-      for (size_t i = 0; i < p.points.size(); ++i) {
-        const int v = p.points[i].vertex;
-        featureVisible_[i] =
-            v >= 0 && v < input_.mesh->numVertices() && vertexVisible(*input_.mesh, *input_.bvh, cam, v);
-      }
-    }
-    draw->PushClipRect(ImVec2(float(r.x), float(r.y)), ImVec2(float(r.x + r.w), float(r.y + r.h)), true);
-    for (size_t i = 0; i < p.points.size() && i < featureVisible_.size(); ++i) {
-      if (!featureVisible_[i]) continue;
-      Vec2 px;
-      if (!cam.project(input_.mesh->position(p.points[i].vertex), px)) continue;
-      const ImVec2 at(float(r.x + px.x() + 5), float(r.y + px.y() - 15));
-      const std::string id = std::to_string(i);
-      draw->AddText(ImVec2(at.x + 1, at.y + 1), IM_COL32(0, 0, 0, 200), id.c_str());
-      draw->AddText(at, int(i) == selectedPoint_ ? IM_COL32(255, 150, 40, 255) : IM_COL32(255, 255, 255, 230),
-                    id.c_str());
-    }
-    draw->PopClipRect();
-  }
+  drawFeatureLabels(r, cam);
   // Stroke directions: an arrowhead at the end of each stroke.
   draw->PushClipRect(ImVec2(float(r.x), float(r.y)), ImVec2(float(r.x + r.w), float(r.y + r.h)), true);
   for (const Stroke& s : p.strokes) {

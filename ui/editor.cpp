@@ -247,6 +247,7 @@ void Editor::syncInputs() {
           input_.faceCentroids[f] = (q[0] + q[1] + q[2]) / 3.0;
         }
         camera_.frame(input_.lo, input_.hi);
+        frameWhenShown_ = true;  // again with the view's width and height, once it is laid out
       } catch (const Error& e) {
         input_.error = e.what();
         reportError(e.what());

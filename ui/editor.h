@@ -25,6 +25,7 @@
 #include "file_dialog.h"
 #include "geometry/bvh.h"
 #include "io/mesh_io.h"
+#include "navigation.h"
 #include "script.h"
 #include "view_math.h"
 #include "worker.h"
@@ -204,6 +205,12 @@ class Editor {
   void takeScreenshot(const std::string& path);
   void benchOrbitStep();
   void benchReport();
+  // Navigation (editor_navigation.cpp).
+  void frameAll();
+  void frameSelected();
+  void setViewPreset(ViewPreset preset);
+  void navigationShortcuts();
+  void navigationMenu();
   // Overlays from vertex buffers (editor_overlays.cpp).
   void initOverlays();
   void drawPaneOverlay(int photo, const PaneView& view, int focusPoint);
@@ -276,6 +283,11 @@ class Editor {
   bool viewPressed_ = false;
   int viewPressButton_ = -1;
   bool viewDragged_ = false;
+  ClickDrag clickDrag_;
+  Vec3 orbitPivot_ = Vec3::Zero();
+  bool frameWhenShown_ = false;
+  bool orbitAtPick_ = true;  // orbit about the surface point under the cursor at the press
+  MouseBindings bindings_ = MouseBindings::MeshLab;
 
   // Display.
   OrbitCamera camera_;
@@ -295,7 +307,8 @@ class Editor {
   int hoverVertex_ = -1;      // vertex under the cursor (3D view) or of the hovered photo point
   int hoverVertexNext_ = -1;  // being found this frame
   double hoverPickX_ = -1, hoverPickY_ = -1;
-  int hoverPick_ = -1;  // 3D pick at (hoverPickX_, hoverPickY_)
+  int hoverPick_ = -1;  // 3D pick at (hoverPickX_, hoverPickY_) from hoverPickEye_
+  Vec3 hoverPickEye_ = Vec3::Zero();
 
   // Files.
   FileDialogs dialogs_;

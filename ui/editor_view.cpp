@@ -13,6 +13,7 @@
 #include "gl_util.h"
 #include "io/mesh_io.h"
 #include "mapping/partition.h"
+#include "navigation.h"
 #include "overlay_gl.h"
 #include "overlays.h"
 #include "surface/inpaint.h"
@@ -75,6 +76,10 @@ void Editor::view3d() {
     draw->AddText(ImVec2(pos.x + 16, pos.y + 16), IM_COL32(220, 220, 220, 255), text);
     return;
   }
+  if (frameWhenShown_) {
+    frameWhenShown_ = false;
+    frameAll();
+  }
   view3dInput(viewRect_);
   drawViewLabels(viewRect_);
 }
@@ -90,16 +95,24 @@ void Editor::view3dInput(const Rect& r) {
   hoverVertexNext_ = -1;
   if (hovered && !viewPressed_) {
     // One ray cast when the pointer moved (not one per feature and frame).
-    if (mouse.x != hoverPickX_ || mouse.y != hoverPickY_) {
+    if (mouse.x != hoverPickX_ || mouse.y != hoverPickY_ || camera_.eye() != hoverPickEye_) {
       hoverPickX_ = mouse.x;
       hoverPickY_ = mouse.y;
+      hoverPickEye_ = camera_.eye();
       hoverPick_ = pickAt(mouse.x, mouse.y).vertex;
     }
     hoverVertexNext_ = hoverPick_;
   }
-  if (hovered && io.MouseWheel != 0) camera_.zoom(io.MouseWheel);
+  const int W = std::max(1, int(r.w)), H = std::max(1, int(r.h));
+  const double vx = std::floor(mouse.x - r.x) + 0.5, vy = std::floor(mouse.y - r.y) + 0.5;
+  if (hovered && io.MouseWheel != 0) {
+    // Zoom to the cursor: about the surface point under it (or the target's plane there).
+    const VertexPick pick = pickAt(mouse.x, mouse.y);
+    zoomAbout(camera_, anchorAt(camera_, W, H, vx, vy, pick.face >= 0 ? &pick.point : nullptr), io.MouseWheel);
+  }
   const bool strokeTool = tool_ == Tool::Stroke && !io.KeyShift;
   const bool paintTool = tool_ == Tool::Clone && clonePolygonClosed_ && !io.KeyShift;
+  const double t = ImGui::GetTime();
   for (int b = 0; b < 3 && !viewPressed_; ++b)
     if (hovered && ImGui::IsMouseClicked(b)) {
       viewPressed_ = true;
@@ -107,6 +120,12 @@ void Editor::view3dInput(const Rect& r) {
       viewDragged_ = false;
       pressX_ = mouse.x;
       pressY_ = mouse.y;
+      clickDrag_.press(mouse.x, mouse.y, t);
+      orbitPivot_ = camera_.target;
+      if (orbitAtPick_ && dragAction(bindings_, b, io.KeyShift, io.KeyCtrl) == DragAction::Orbit) {
+        const VertexPick pick = pickAt(mouse.x, mouse.y);
+        if (pick.face >= 0) orbitPivot_ = pick.point;
+      }
       if (b == 0 && strokeTool) {
         stroke_.clear();
         strokeAt(mouse.x, mouse.y);
@@ -116,20 +135,32 @@ void Editor::view3dInput(const Rect& r) {
   if (!viewPressed_) return;
   const int b = viewPressButton_;
   if (ImGui::IsMouseDown(b)) {
-    if (std::hypot(mouse.x - pressX_, mouse.y - pressY_) > 3) viewDragged_ = true;
-    const ImVec2 d = io.MouseDelta;
+    // A click until the pointer moved far enough, or slowly enough (ClickDrag); then the whole
+    // movement since the press counts, so nothing is lost to the decision.
+    const bool wasDragging = clickDrag_.dragging();
+    viewDragged_ = clickDrag_.move(mouse.x, mouse.y, t);
+    ImVec2 d = io.MouseDelta;
+    if (viewDragged_ && !wasDragging) d = ImVec2(float(mouse.x - pressX_), float(mouse.y - pressY_));
     if (d.x == 0 && d.y == 0) return;
     if (b == 0 && strokeTool) {
       strokeAt(mouse.x, mouse.y);
     } else if (b == 0 && paintTool) {
       paintCloneAt(mouse.x, mouse.y, io.KeyCtrl);
-    } else if (b == 0 && !io.KeyShift) {
-      camera_.orbit(d.x, d.y);
-    } else {
-      camera_.pan(d.x, d.y, int(r.h));
+    } else if (viewDragged_) {
+      switch (dragAction(bindings_, b, io.KeyShift, io.KeyCtrl)) {
+        case DragAction::Orbit:
+          orbitAbout(camera_, orbitPivot_, d.x, d.y);
+          break;
+        case DragAction::Pan:
+          camera_.pan(d.x, d.y, int(r.h));
+          break;
+        case DragAction::None:
+          break;
+      }
     }
     return;
   }
+  viewDragged_ = !clickDrag_.releaseIsClick(mouse.x, mouse.y, t);
   viewPressed_ = false;
   if (b != 0) return;
   if (strokeTool) {

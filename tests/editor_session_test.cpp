@@ -185,10 +185,11 @@ TEST(EditorSession, ScreenshotShowsTheTexturedResult) {
   const ColourStats flat = viewStats(dir + "/flat.png", state["layout"]["view3d"]);
   std::printf("textured: surface %.2f, colourful %.2f, hues %d; shaded: surface %.2f, colourful %.2f, hues %d\n",
               textured.surfaceShare, textured.colourful, textured.hues, flat.surfaceShare, flat.colourful, flat.hues);
-  EXPECT_GT(textured.surfaceShare, 0.1) << "the mesh should fill part of the view";
+  // Frame all fits the width too: the wide demo mesh fills ~8% of the tall 486x729 view.
+  EXPECT_GT(textured.surfaceShare, 0.05) << "the mesh should fill part of the view";
   EXPECT_GT(textured.colourful, 0.5) << "most of the surface should show the photos' colours";
   EXPECT_GE(textured.hues, 5) << "the demo texture has many hues";
-  EXPECT_GT(flat.surfaceShare, 0.1);
+  EXPECT_GT(flat.surfaceShare, 0.05);
   EXPECT_LT(flat.colourful, 0.05) << "flat shading is grey: the check must fail on it";
   EXPECT_LT(flat.hues, 2);
 }

@@ -165,7 +165,7 @@ void Editor::frame() {
     glfwPollEvents();
   } else {
     // Redraw on input; otherwise a few times a second (worker progress, autosave clock).
-    glfwWaitEventsTimeout(busy || dialogs_.active() ? 0.05 : 0.25);
+    glfwWaitEventsTimeout(busy || dialogs_.active() ? 0.05 : autosaveJob_.valid() ? 0.25 : 1.0);
   }
   if (glfwWindowShouldClose(window_)) {
     glfwSetWindowShouldClose(window_, GLFW_FALSE);

@@ -185,12 +185,13 @@ TEST(EditorSession, ScreenshotShowsTheTexturedResult) {
   const ColourStats flat = viewStats(dir + "/flat.png", state["layout"]["view3d"]);
   std::printf("textured: surface %.2f, colourful %.2f, hues %d; shaded: surface %.2f, colourful %.2f, hues %d\n",
               textured.surfaceShare, textured.colourful, textured.hues, flat.surfaceShare, flat.colourful, flat.hues);
-  EXPECT_GT(textured.surfaceShare, 0.1) << "the mesh should fill part of the view";
+  // Frame all fits the width too: a long mesh fills a small part of the tall 486x729 view.
+  EXPECT_GT(textured.surfaceShare, 0.05) << "the mesh should fill part of the view";
   // The demo's tiger fur: orange and black stripes, grey-green belly and inpainted regions (measured 0.41
   // colourful, 2 hue bins); flat shading has none.
   EXPECT_GT(textured.colourful, 0.25) << "much of the surface should show the photos' colours";
   EXPECT_GE(textured.hues, 2) << "the demo texture has more than one hue";
-  EXPECT_GT(flat.surfaceShare, 0.1);
+  EXPECT_GT(flat.surfaceShare, 0.05);
   EXPECT_LT(flat.colourful, 0.05) << "flat shading is grey: the check must fail on it";
   EXPECT_LT(flat.hues, 2);
 }

@@ -471,7 +471,9 @@ TEST(PipelineValidation, InfoAndRunRejectTheSameClone) {
 TEST(PipelineValidation, WarningsNameThePointsAndChains) {
   Project project = loadProject(demoProject());
   const auto scene = loadScene(project);
-  EXPECT_TRUE(scene->warnings.empty());
+  // The demo's own clicks: a few outline points lie a few pixels off the tiger's cut-out (warned, by name).
+  const size_t before = scene->warnings.size();
+  for (const std::string& w : scene->warnings) EXPECT_NE(w.find("lies on the background of photo"), std::string::npos) << w;
   const Photo& photo = *scene->photos[0];
   // The centre of photo 0's foreground, and a square of four new points around it.
   cv::Mat points;
@@ -501,7 +503,7 @@ TEST(PipelineValidation, WarningsNameThePointsAndChains) {
   EXPECT_NE(all.find("chains[2] crosses itself in photo 0 'tiger_left.png'"), std::string::npos) << all;
   // The diagonals also cross the bow tie's crossing segments (chains[0]-[2] and [1]-[2] once each), but
   // not where the chains share a point (each diagonal meets the bow tie at two of its corners).
-  EXPECT_EQ(warned->warnings.size(), 5u) << all;
+  EXPECT_EQ(warned->warnings.size(), before + 5) << all;
   // run reports the same warnings.
   Pipeline pipeline;
   const PipelineResult result = pipeline.run(project);

@@ -20,6 +20,7 @@
 #include "image/photo.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
+#include "overlay_gl.h"
 #include "overlays.h"
 
 namespace fs = std::filesystem;
@@ -56,7 +57,7 @@ Editor::Editor(EditorOptions options) : options_(std::move(options)) {
     benchOrbit_ = true;
     options_.file = options_.benchOrbit;
   }
-  if (options_.benchWorker) benchOrbit_ = true;
+  if (options_.benchWorker || options_.benchOverlays) benchOrbit_ = true;
   if (scripted_ || benchOrbit_) dialogs_.disableZenity();  // never block a script on a desktop dialog
   if (!options_.file.empty()) openFile(options_.file);
   if (!benchOrbit_) checkRecovery();
@@ -83,7 +84,8 @@ void Editor::initWindow() {
   }
   glfwMakeContextCurrent(window_);
   const bool interactive =
-      options_.script.empty() && options_.screenshot.empty() && options_.benchOrbit.empty() && !options_.benchWorker;
+      options_.script.empty() && options_.screenshot.empty() && options_.benchOrbit.empty() && !options_.benchWorker &&
+                           !options_.benchOverlays;
   glfwSwapInterval(interactive && options_.vsync ? 1 : 0);
 
   IMGUI_CHECKVERSION();
@@ -112,6 +114,7 @@ void Editor::initWindow() {
   pointVbo_ = std::make_unique<VertexBuffer>();
   selectionVbo_ = std::make_unique<VertexBuffer>();
   cloneVbo_ = std::make_unique<VertexBuffer>();
+  initOverlays();
 }
 
 void Editor::shutdownWindow() {
@@ -132,6 +135,7 @@ void Editor::shutdownWindow() {
   pointVbo_.reset();
   selectionVbo_.reset();
   cloneVbo_.reset();
+  overlayGl_.reset();
   if (imguiReady_) {
     ImGui_ImplOpenGL3_Shutdown();
     ImGui_ImplGlfw_Shutdown();
@@ -161,7 +165,7 @@ void Editor::frame() {
     glfwPollEvents();
   } else {
     // Redraw on input; otherwise a few times a second (worker progress, autosave clock).
-    glfwWaitEventsTimeout(busy || dialogs_.active() ? 0.05 : 0.25);
+    glfwWaitEventsTimeout(busy || dialogs_.active() ? 0.05 : autosaveJob_.valid() ? 0.25 : 1.0);
   }
   if (glfwWindowShouldClose(window_)) {
     glfwSetWindowShouldClose(window_, GLFW_FALSE);
@@ -243,6 +247,7 @@ void Editor::syncInputs() {
           input_.faceCentroids[f] = (q[0] + q[1] + q[2]) / 3.0;
         }
         camera_.frame(input_.lo, input_.hi);
+        frameWhenShown_ = true;  // again with the view's width and height, once it is laid out
       } catch (const Error& e) {
         input_.error = e.what();
         reportError(e.what());

@@ -25,6 +25,7 @@
 #include "file_dialog.h"
 #include "geometry/bvh.h"
 #include "io/mesh_io.h"
+#include "navigation.h"
 #include "script.h"
 #include "view_math.h"
 #include "worker.h"
@@ -40,6 +41,7 @@ class ShaderProgram;
 class Texture;
 class Framebuffer;
 class VertexBuffer;
+struct OverlayGl;
 
 struct EditorOptions {
   std::string file;              // project (.json) or mesh to open; empty: start empty
@@ -49,8 +51,9 @@ struct EditorOptions {
   std::string script;            // script of UI actions (docs/editor.md)
   double autosaveSeconds = 120;  // autosave interval
   int width = 1280, height = 800;
-  std::string benchOrbit;    // mesh: orbit benchmark
-  bool benchWorker = false;  // with `file`: UI frame times while the worker runs
+  std::string benchOrbit;      // mesh: orbit benchmark
+  bool benchWorker = false;    // with `file`: UI frame times while the worker runs
+  bool benchOverlays = false;  // with `file`: frame times with every overlay shown against none, one run
   int benchFrames = 240;
   bool vsync = true;
 };
@@ -216,6 +219,22 @@ class Editor {
   void takeScreenshot(const std::string& path);
   void benchOrbitStep();
   void benchReport();
+  // Navigation (editor_navigation.cpp).
+  void frameAll();
+  void frameSelected();
+  void setViewPreset(ViewPreset preset);
+  void navigationShortcuts();
+  void navigationMenu();
+  // Overlays from vertex buffers (editor_overlays.cpp).
+  void initOverlays();
+  void drawPaneOverlay(int photo, const PaneView& view, int focusPoint);
+  int paneRejectedCount(int photo, bool* allDrawn) const;
+  void readViewDepth(const Mat4f& view, const Mat4f& projection);  // after the mesh: id visibility
+  void drawMarkers(const Mat4f& view, const Mat4f& projection);
+  void drawFeatureLabels(const Rect& r, const Camera& cam);
+  void benchOverlaysStep();  // editor_bench.cpp
+  void benchOverlaysReport();
+  void setOverlaysShown(bool on);  // features, ids, paths, pane markers, curves, rejected pairs
   bool resultCurrent() const;
 
   EditorOptions options_;
@@ -278,6 +297,11 @@ class Editor {
   bool viewPressed_ = false;
   int viewPressButton_ = -1;
   bool viewDragged_ = false;
+  ClickDrag clickDrag_;
+  Vec3 orbitPivot_ = Vec3::Zero();
+  bool frameWhenShown_ = false;
+  bool orbitAtPick_ = true;  // orbit about the surface point under the cursor at the press
+  MouseBindings bindings_ = MouseBindings::MeshLab;
 
   // Display.
   OrbitCamera camera_;
@@ -296,8 +320,13 @@ class Editor {
   Rect viewRect_, paneRect_, windowRect_;
   std::map<int, Rect> canvasRects_;  // per photo, last frame
   std::map<std::string, Rect> buttonRects_;
-  std::vector<char> featureVisible_;  // per feature point, recomputed when the camera or document changes
-  std::string visibilityKey_;
+  std::vector<char> featureVisible_;  // per feature point, from the 3D view's depth when it was last drawn
+  std::unique_ptr<OverlayGl> overlayGl_;
+  int hoverVertex_ = -1;      // vertex under the cursor (3D view) or of the hovered photo point
+  int hoverVertexNext_ = -1;  // being found this frame
+  double hoverPickX_ = -1, hoverPickY_ = -1;
+  int hoverPick_ = -1;  // 3D pick at (hoverPickX_, hoverPickY_) from hoverPickEye_
+  Vec3 hoverPickEye_ = Vec3::Zero();
 
   // Files.
   FileDialogs dialogs_;
@@ -329,6 +358,13 @@ class Editor {
   std::vector<double> benchTimes_, benchBusyTimes_;
   int benchFrame_ = 0;
   bool benchWasBusy_ = false;
+  struct OverlayBench {
+    int frame = 0;
+    bool full = true;
+    double lastCpu = 0;
+    std::vector<double> bareTimes, fullCpu, bareCpu;
+    std::string load;
+  } bench_;
 };
 
 }  // namespace montage

@@ -58,9 +58,14 @@ const std::vector<Shortcut>& editorShortcuts() {
       {"F", "3D view: frame the whole mesh"},
       {"1 ... 9", "show photo 1 ... 9 in the image pane"},
       {"F1", "this help"},
-      {"3D view: left drag", "orbit (stroke tool: draw a stroke; clone tool: paint the target, Ctrl erases)"},
+      {"3D view: left drag",
+       "orbit about the point under the cursor (View > Mouse > Blender: middle drag); stroke tool: draw a stroke; "
+       "clone tool: paint the target, Ctrl erases"},
       {"3D view: right or middle drag, Shift+left drag", "pan"},
-      {"3D view: wheel", "zoom"},
+      {"3D view: wheel", "zoom to the cursor"},
+      {"F, Home / .", "frame all (fits width and height) / frame the selected vertex"},
+      {"Ctrl+1, Ctrl+3, Ctrl+7 (numpad 1, 3, 7)", "front, right side, top view"},
+      {"O (numpad 5)", "orthographic view on / off"},
       {"3D view: left click", "pick the nearest vertex of the triangle under the cursor"},
       {"Photo: left click", "point tool: attach the selected vertex here (or select a point)"},
       {"Photo: left drag on a point", "move it (one undo step)"},
@@ -109,6 +114,7 @@ void Editor::buildUi() {
     photosPanel();
   ImGui::End();
   ImGui::PopStyleVar();
+  hoverVertex_ = hoverVertexNext_;
 
   statusBar(Rect{0, H - statusH, W, statusH});
   errorsWindow();
@@ -178,6 +184,7 @@ void Editor::menuBar() {
     ImGui::MenuItem("Partition paths", nullptr, &showPaths_);
     ImGui::MenuItem("Features", nullptr, &showFeatures_);
     ImGui::MenuItem("Feature ids", nullptr, &showIds_);
+    navigationMenu();
     if (ImGui::BeginMenu("Colour faces by")) {
       for (size_t i = 0; i < kFaceColoringNames.size(); ++i)
         if (ImGui::MenuItem(kFaceColoringNames[i], nullptr, coloring_ == FaceColoring(i))) {
@@ -704,6 +711,7 @@ void Editor::modals() {
 void Editor::shortcuts() {
   ImGuiIO& io = ImGui::GetIO();
   if (io.WantTextInput || ImGui::IsPopupOpen(nullptr, ImGuiPopupFlags_AnyPopupId)) return;
+  navigationShortcuts();
   const bool ctrl = io.KeyCtrl, shift = io.KeyShift;
   auto pressed = [](int key) { return ImGui::IsKeyPressed(key, false); };
   if (ctrl) {
@@ -729,7 +737,7 @@ void Editor::shortcuts() {
     }
   if (pressed(GLFW_KEY_T)) textured_ = !textured_;
   if (pressed(GLFW_KEY_W)) wireframe_ = !wireframe_;
-  if (pressed(GLFW_KEY_F)) camera_.frame(input_.lo, input_.hi);
+  if (pressed(GLFW_KEY_F)) frameAll();
   if (pressed(GLFW_KEY_F1)) showHelp_ = !showHelp_;
   if (pressed(GLFW_KEY_DELETE) || pressed(GLFW_KEY_BACKSPACE)) deleteSelection();
   if (pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)) finishChain();

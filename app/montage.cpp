@@ -276,7 +276,8 @@ int cmdRender(const RenderArgs& args) {
            "render: --yaw and --pitch must be finite numbers of degrees (got " + std::to_string(args.options.yawDeg) +
                " and " + std::to_string(args.options.pitchDeg) + ")");
   prepareOutputFile(args.out, "--out");
-  TM_CHECK(lowerExtension(args.out) == ".png", located(args.out, "--out: the render is written as PNG; name a .png file"));
+  TM_CHECK(lowerExtension(args.out) == ".png",
+           located(args.out, "--out: the render is written as PNG; name a .png file"));
   TexturedModel model = loadModel(args.model);
   RenderOptions options = args.options;
   parseRenderSize(args.size, options);

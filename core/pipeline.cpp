@@ -8,11 +8,11 @@
 #include <sstream>
 
 #include "base/util.h"
-#include "surface/preview.h"
 #include "geometry/predicates.h"
-#include "io/project_warnings.h"
 #include "io/mesh_io.h"
+#include "io/project_warnings.h"
 #include "mapping/simplify.h"
+#include "surface/preview.h"
 
 namespace fs = std::filesystem;
 
@@ -68,13 +68,14 @@ void checkClones(const Project& project, const Mesh& mesh, const std::vector<std
           if ((d1 > 0) != (d2 > 0) && d1 != d2) candidates.push_back(t[e] + (t[(e + 1) % 3] - t[e]) * (d1 / (d1 - d2)));
         }
       for (const Vec2& q : candidates)
-        meets = meets || (photo.inside(q.x(), q.y()) && inTriangle(t, q) &&
-                          (insidePolygon(clone.polygon, q) ||
-                           std::any_of(clone.polygon.begin(), clone.polygon.end(),
-                                       [&](const Vec2& v) { return (v - q).norm() < 1e-9; })));
+        meets =
+            meets ||
+            (photo.inside(q.x(), q.y()) && inTriangle(t, q) &&
+             (insidePolygon(clone.polygon, q) || std::any_of(clone.polygon.begin(), clone.polygon.end(),
+                                                             [&](const Vec2& v) { return (v - q).norm() < 1e-9; })));
     }
     TM_CHECK(meets, located(file, path + ": the polygon maps onto no point of the target region inside the photo "
-                                          "(check the anchor, the scale and the rotation)"));
+                                         "(check the anchor, the scale and the rotation)"));
   }
 }
 
@@ -289,9 +290,8 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
     std::vector<const Photo*> photos;
     for (const auto& p : scene.photos) photos.push_back(p.get());
     const PreviewSurface surface(mapping.map, photos, &colors.levelling, inpaint, options.emptyColor);
-    out.originalModel =
-        bakeOriginalTopology(*scene.mesh, mesh, mapping.partition.faceParent, out.atlas, out.image, options, {},
-                             [&](int f, const Vec3& b) { return surface.color(f, b); });
+    out.originalModel = bakeOriginalTopology(*scene.mesh, mesh, mapping.partition.faceParent, out.atlas, out.image,
+                                             options, {}, [&](int f, const Vec3& b) { return surface.color(f, b); });
     out.originalModel.model.name = out.model.name;
     out.transferSeconds = secondsSince(start);
   }
@@ -599,10 +599,14 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     bake.counts["export_topology"] = kExportTopologyNames[size_t(project.options.exportTopology)];
     if (baked.original) {
       const OriginalModel& o = baked.originalModel;
-      bake.counts["original"] = {{"charts", o.atlas.charts.size()},  {"utilisation", o.atlas.utilisation},
-                                 {"scale", o.atlas.scale},           {"vertices", o.model.mesh.numVertices()},
-                                 {"faces", o.model.mesh.numFaces()}, {"seconds", baked.transferSeconds},
-                                 {"atlas_seconds", o.atlasSeconds},  {"bake_seconds", o.bakeSeconds},
+      bake.counts["original"] = {{"charts", o.atlas.charts.size()},
+                                 {"utilisation", o.atlas.utilisation},
+                                 {"scale", o.atlas.scale},
+                                 {"vertices", o.model.mesh.numVertices()},
+                                 {"faces", o.model.mesh.numFaces()},
+                                 {"seconds", baked.transferSeconds},
+                                 {"atlas_seconds", o.atlasSeconds},
+                                 {"bake_seconds", o.bakeSeconds},
                                  {"measure_seconds", o.measureSeconds},
                                  {"transfer_loss", o.loss.toJson()}};
     }

@@ -20,8 +20,8 @@
 #include "io/model.h"
 #include "io/project.h"
 #include "io/scene.h"
-#include "mapping/cells.h"
 #include "mapping/camera.h"
+#include "mapping/cells.h"
 #include "mapping/fine_map.h"
 #include "mapping/partition.h"
 #include "mapping/projection.h"
@@ -101,8 +101,8 @@ struct PipelineResult {
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const CameraStage> cameras;
   std::shared_ptr<const ProjectionStage> projection;
-  std::shared_ptr<const Mapping> mapping;  // the final mapping: paper path + projection, then seams (baked)
-  std::vector<Proposal> proposals;         // correspondences the cameras propose (proposals.h)
+  std::shared_ptr<const Mapping> mapping;   // the final mapping: paper path + projection, then seams (baked)
+  std::vector<Proposal> proposals;          // correspondences the cameras propose (proposals.h)
   std::shared_ptr<const SeamResult> seams;  // seam optimisation's figures and per-face seam error
   std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const BakeResult> baked;        // final tier only

@@ -441,7 +441,6 @@ TEST(PipelineTiers, PreviewLooksLikeTheFinalBake) {
     for (int r : preview.colors->inpaint.faceRegion) holesSeen += r >= 0;
     EXPECT_GT(holesSeen, 0);  // the demo has inpainted faces: the comparison covers them
   }
-
 }
 
 TEST(PipelineValidation, InfoAndRunRejectTheSameClone) {
@@ -473,7 +472,8 @@ TEST(PipelineValidation, WarningsNameThePointsAndChains) {
   const auto scene = loadScene(project);
   // The demo's own clicks: a few outline points lie a few pixels off the tiger's cut-out (warned, by name).
   const size_t before = scene->warnings.size();
-  for (const std::string& w : scene->warnings) EXPECT_NE(w.find("lies on the background of photo"), std::string::npos) << w;
+  for (const std::string& w : scene->warnings)
+    EXPECT_NE(w.find("lies on the background of photo"), std::string::npos) << w;
   const Photo& photo = *scene->photos[0];
   // The centre of photo 0's foreground, and a square of four new points around it.
   cv::Mat points;
@@ -490,12 +490,14 @@ TEST(PipelineValidation, WarningsNameThePointsAndChains) {
   v = unusedVertex(project, v + 1);
   project.points.push_back({v, {{0, 1.5, 1.5}}});  // the photo's corner: background
   // Two crossing lines (the square's diagonals) and a bow tie (0, 1, 3, 2 crosses itself).
-  project.chains = {{0, {first, first + 2}, false}, {0, {first + 1, first + 3}, false},
+  project.chains = {{0, {first, first + 2}, false},
+                    {0, {first + 1, first + 3}, false},
                     {0, {first, first + 1, first + 3, first + 2}, true}};
   const auto warned = loadScene(project);
   std::string all;
   for (const std::string& w : warned->warnings) all += w + "\n";
-  EXPECT_NE(all.find("points[" + std::to_string(first + 4) + "].at[0]: (1.5, 1.5) lies on the background of photo 0 "
+  EXPECT_NE(all.find("points[" + std::to_string(first + 4) +
+                     "].at[0]: (1.5, 1.5) lies on the background of photo 0 "
                      "'tiger_left.png'"),
             std::string::npos)
       << all;
@@ -535,8 +537,9 @@ TEST(PipelineValidation, WorkingResolutionRunsWithSmallerPhotos) {
   for (const auto& photo : full->photos) photoSizes.emplace_back(photo->width, photo->height);
   project.options.maxPhotoSide = 100;
   project.file = "p.json";
-  EXPECT_NE(test::errorOf([&] { validateProject(project, 100000, 100000, photoSizes); })
-                .find("options.maxPhotoSide: 100 is too small"),
+  EXPECT_NE(test::errorOf([&] {
+              validateProject(project, 100000, 100000, photoSizes);
+            }).find("options.maxPhotoSide: 100 is too small"),
             std::string::npos);
 }
 

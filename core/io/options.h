@@ -77,10 +77,10 @@ struct PipelineOptions {
   double seamLambda = 0.1;             // seams: weight of geometric stretch vs texture mismatch (paper 4.2)
   int seamRounds = 30;                 // seams: alternating optimisation rounds (paper 4.2)
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
-  LevelMode seamLevelling = LevelMode::Vertex;  // seam levelling between photos (paper end of 5)
+  LevelMode seamLevelling = LevelMode::Vertex;       // seam levelling between photos (paper end of 5)
   InpaintMode inpaintMode = InpaintMode::Structure;  // inpainting: guidance of holes without strokes (chosen by
                                                      // measurement, docs/pipeline.md)
-  int maxInpaintVertices = 2000000;             // inpainting: cap on refined vertices (coarser beyond)
+  int maxInpaintVertices = 2000000;                  // inpainting: cap on refined vertices (coarser beyond)
   int atlasSize = 0;  // atlas: 0 = the smallest size holding the photos at their own resolution, or a fixed
                       // width and height (256..8192) that the charts are scaled to fill
   int gutter = 4;     // atlas: texels between charts and from the border
@@ -89,10 +89,10 @@ struct PipelineOptions {
   // Export: the user's mesh as loaded with a new atlas (original) or the refined mesh (refined).
   ExportTopology exportTopology = ExportTopology::Original;
   int pngCompression = 6;  // export: zlib level of the atlas PNG, 0..9 (1 fast, for previews; 9 smallest)
-  CameraMode cameraMode = CameraMode::Auto;     // camera fit per photo; off = every photo takes the paper's path
-  double cameraThreshold = 0.006;               // camera fit: a click agrees within this share of the image diagonal
+  CameraMode cameraMode = CameraMode::Auto;  // camera fit per photo; off = every photo takes the paper's path
+  double cameraThreshold = 0.006;            // camera fit: a click agrees within this share of the image diagonal
   CorrectionMode correction = CorrectionMode::All;  // projection: clicks the correction field keeps exact
-  double viewSmoothness = 1.0;                  // projection: seam cost of view selection (0 = best view per face)
+  double viewSmoothness = 1.0;                      // projection: seam cost of view selection (0 = best view per face)
   int maxPhotoSide = 0;  // load: working resolution, photos kept at most this many pixels a side (0 = full;
                          // else 256..16384); coordinates stay the files' pixels; less memory, coarser texture
 
@@ -102,8 +102,8 @@ struct PipelineOptions {
            seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
            seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression &&
-           cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold &&
-           correction == o.correction && viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide;
+           cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold && correction == o.correction &&
+           viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide;
   }
 };
 

@@ -18,12 +18,13 @@
 
 #include "mapping/seams.h"
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
-#include <tbb/parallel_for.h>
 #include <unordered_map>
 
 #include "base/job.h"
@@ -38,15 +39,15 @@ namespace montage {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kColourNorm = 100;      // L*u*v* difference that counts as 1 in E_tex
-constexpr double kGradientNorm = 50;     // L*u*v* per pixel gradient difference that counts as 1
-constexpr double kSampleSpacing = 0.4;   // pixels between samples (the paper: under half a pixel)
-constexpr int kMaxSamplesPerEdge = 512;  // cap for very long edges
-constexpr int kCoarseSamples = 6;        // samples of a search chord before the golden section
-constexpr double kMargin = 1e-3;         // relative margin kept from the kernel border
-constexpr double kStopGain = 1e-3;       // rounds stop when the total E falls by less than this (relative)
+constexpr double kColourNorm = 100;        // L*u*v* difference that counts as 1 in E_tex
+constexpr double kGradientNorm = 50;       // L*u*v* per pixel gradient difference that counts as 1
+constexpr double kSampleSpacing = 0.4;     // pixels between samples (the paper: under half a pixel)
+constexpr int kMaxSamplesPerEdge = 512;    // cap for very long edges
+constexpr int kCoarseSamples = 6;          // samples of a search chord before the golden section
+constexpr double kMargin = 1e-3;           // relative margin kept from the kernel border
+constexpr double kStopGain = 1e-3;         // rounds stop when the total E falls by less than this (relative)
 constexpr double kNoticeableDeltaE = 2.3;  // a seam matching better than this (mean Delta E*uv) is left as it is
-constexpr double kSideGain = 1e-2;       // a side whose E fell by less than this (relative) does not wake its neighbours
+constexpr double kSideGain = 1e-2;  // a side whose E fell by less than this (relative) does not wake its neighbours
 
 uint64_t edgeKey(int a, int b) {
   if (a > b) std::swap(a, b);
@@ -115,8 +116,8 @@ class SeamOptimiser {
   const JobControl& job_;
   double alpha_ = 1;
 
-  std::vector<cv::Mat> luv_;       // per photo: its L*u*v* image (stored resolution)
-  std::vector<double> luvScale_;   // per photo: stored pixels per file pixel
+  std::vector<cv::Mat> luv_;      // per photo: its L*u*v* image (stored resolution)
+  std::vector<double> luvScale_;  // per photo: stored pixels per file pixel
   std::vector<Side> sides_;
   std::vector<std::array<int, 3>> faceSide_;  // #F x 3, -1 for unmapped faces
   std::vector<double> faceSign_;              // #F: orientation of the texture triangle (+1 / -1, 0 = degenerate)

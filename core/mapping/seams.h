@@ -52,11 +52,11 @@ struct SeamInput {
 struct SeamResult {
   TextureMap map;                // the input map with the seam vertices (and, with gradients, their neighbours) moved
   std::vector<float> faceError;  // #F: mean Delta E*uv over the samples of the face's seam edges; -1 = no seam edge
-  int seamEdges = 0, seamVertices = 0;               // edges with a texture discontinuity; non-feature vertices on them
-  int neighbourVertices = 0;                         // one-ring neighbours optimised for the gradient term
+  int seamEdges = 0, seamVertices = 0;  // edges with a texture discontinuity; non-feature vertices on them
+  int neighbourVertices = 0;            // one-ring neighbours optimised for the gradient term
   int sleepingSides = 0;  // sides left as they were: their seams matched below the noticeable difference at the start
-  int movedSides = 0;                                // vertex sides whose UV moved
-  int rounds = 0;                                    // rounds run
+  int movedSides = 0;     // vertex sides whose UV moved
+  int rounds = 0;         // rounds run
   double deltaEBefore = 0, deltaEAfter = 0;          // mean Delta E*uv over all seam samples
   double gradientBefore = 0, gradientAfter = 0;      // mean |G'1 - G'2| (L*u*v* per pixel) over seam samples
   double maxStretchBefore = 0, maxStretchAfter = 0;  // L-infinity stretch over mapped faces, normalised per photo

@@ -390,8 +390,12 @@ namespace {
 // of the thresholded alpha, and sub-pixel near the edge from the antialiased alpha itself.
 class SilhouetteDistance {
  public:
-  explicit SilhouetteDistance(const Photo& photo) : alpha_(photo.alpha) {
-    cv::Mat fg = photo.alpha >= 0.5f, bg = photo.alpha < 0.5f, in, out;
+  explicit SilhouetteDistance(const Photo& photo) {
+    // Alpha in [0, 1] at the file's pixels (photos keep 8-bit alpha, maybe at a working resolution).
+    photo.alpha.convertTo(alpha_, CV_32F, photo.alpha.depth() == CV_8U ? 1.0 / 255 : 1.0);
+    if (alpha_.cols != photo.width || alpha_.rows != photo.height)
+      cv::resize(alpha_, alpha_, cv::Size(photo.width, photo.height), 0, 0, cv::INTER_LINEAR);
+    cv::Mat fg = alpha_ >= 0.5f, bg = alpha_ < 0.5f, in, out;
     cv::distanceTransform(fg, in, cv::DIST_L2, cv::DIST_MASK_PRECISE);
     cv::distanceTransform(bg, out, cv::DIST_L2, cv::DIST_MASK_PRECISE);
     coarse_ = cv::Mat(photo.height, photo.width, CV_32F);

@@ -136,7 +136,9 @@ PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const 
   cv::Mat silhouette;
   cv::distanceTransform(covered, silhouette, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   if (photo.hasBackground) {
-    cv::Mat foreground = photo.alpha > 0, inside;
+    cv::Mat foreground = photo.alpha > 0, inside;  // stored resolution: brought to the camera's pixels
+    if (foreground.cols != cam.width || foreground.rows != cam.height)
+      cv::resize(foreground, foreground, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_NEAREST);
     cv::distanceTransform(foreground, inside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
     silhouette = cv::min(silhouette, inside);
   }
@@ -204,7 +206,7 @@ PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const 
     for (const Vec2& x : {uv[0], uv[1], uv[2], Vec2((uv[0] + uv[1] + uv[2]) / 3)}) {
       if (!photo.inside(x.x(), x.y()))
         background = true;
-      else if (photo.hasBackground && sampleBilinear1(photo.distance, x.x(), x.y()) > o.maxBackgroundPx)
+      else if (photo.hasBackground && photo.distanceAt(x.x(), x.y()) > o.maxBackgroundPx)
         background = true;
     }
     if (background) {

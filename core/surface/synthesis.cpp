@@ -131,7 +131,7 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
       if (photo.hasBackground) {
         const auto& c = map.cornerUV[f];
         const Vec2 q = b[0] * c[0] + b[1] * c[1] + b[2] * c[2];
-        if (sampleBilinear1(photo.alpha, q.x(), q.y()) < 0.5f) return;
+        if (photo.alphaAt(q.x(), q.y()) < 0.5f) return;
       }
       const Vec3f colour = mappedColor(map, in.photos, in.levelling, f, b).cwiseMax(0.f).cwiseMin(1.f);
       rgb.at<cv::Vec3f>(y, x) = cv::Vec3f(colour[0], colour[1], colour[2]);

@@ -154,18 +154,6 @@ nlohmann::json fitJson(const CameraFit& fit, int photo) {
 
 }  // namespace
 
-CameraStage fitCameras(const Scene& scene, const JobControl& job) {
-  const auto start = Clock::now();
-  CameraStage out;
-  for (size_t p = 0; p < scene.photos.size(); ++p) {
-    job.progress(StageId::Camera, double(p) / scene.photos.size(), "photo " + std::to_string(p));
-    out.fits.push_back(fitPhoto(scene, static_cast<int>(p)));
-    out.fitted += out.fits.back().fits;
-  }
-  out.seconds = secondsSince(start);
-  return out;
-}
-
 ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
                                const CameraStage& cameras, const JobControl& job) {
   TM_CHECK(paper, "projectMapping: no mapping");

@@ -121,8 +121,6 @@ struct MapCaches {
   PartitionMemo partition;
   CellCache cells;
 };
-// Camera: a camera fit per photo from its clicks (camera.h); none fits when options.cameraMode is off.
-CameraStage fitCameras(const Scene& scene, const JobControl& job = {});
 // Partition, Map: correspondences -> partition -> per cell: progressive mesh and coarse-to-fine
 // (cells.h). What `caches` hold from earlier runs is reused.
 Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr);

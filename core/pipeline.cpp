@@ -1,5 +1,7 @@
 #include "pipeline.h"
 
+#include <tbb/parallel_for.h>
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -97,7 +99,7 @@ CameraFitOptions cameraFitOptions(const PipelineOptions& o) {
 }
 
 // One photo's fit (or the reason there is none) under the project's options.
-CameraFit fitPhoto(const Scene& scene, int photo) {
+CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silhouette) {
   const Photo& p = *scene.photos[photo];
   std::vector<CameraClick> clicks = photoClicks(scene.project, photo);
   if (scene.project.options.cameraMode == CameraMode::Off) {
@@ -111,7 +113,7 @@ CameraFit fitPhoto(const Scene& scene, int photo) {
   }
   const CameraFitOptions options = cameraFitOptions(scene.project.options);
   CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options);
-  refineOnSilhouette(*scene.mesh, p, fit, options);
+  refineOnSilhouette(*scene.mesh, p, fit, options, silhouette);
   return fit;
 }
 
@@ -155,7 +157,7 @@ nlohmann::json fitJson(const CameraFit& fit, int photo) {
 }  // namespace
 
 ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
-                               const CameraStage& cameras, const JobControl& job) {
+                               const CameraStage& cameras, const JobControl& job, ViewFrameCache* frames) {
   TM_CHECK(paper, "projectMapping: no mapping");
   const PipelineOptions& o = scene.project.options;
   ProjectionOptions options;
@@ -163,7 +165,7 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
   options.smoothness = o.viewSmoothness;
   ProjectionStage out;
   job.progress(StageId::Projection, 0.0);
-  out.result = projectionFill(scene, paper->partition, paper->map, cameras.fits, options, job);
+  out.result = projectionFill(scene, paper->partition, paper->map, cameras.fits, options, job, frames);
   if (out.result.fittedPhotos == 0) {
     out.mapping = paper;
   } else {
@@ -202,13 +204,15 @@ Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches)
 
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
-                                                    const JobControl& job) {
+                                                    const JobControl& job,
+                                                    std::vector<std::shared_ptr<const cv::Mat>> luv) {
   const PipelineOptions& o = scene.project.options;
   SeamInput in;
   in.mesh = &mapping->partition.mesh;
   in.map = &mapping->map;
   for (const auto& p : scene.photos) in.photos.push_back(p.get());
   in.fixedVertices = mapping->partition.featureVertex;
+  in.luv = std::move(luv);
   if (cameras)
     for (const CameraFit& fit : cameras->fits) in.projectedPhotos.push_back(fit.fits);
   SeamOptions options;
@@ -224,7 +228,8 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   return out;
 }
 
-SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job, Tier tier) {
+SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job, Tier tier,
+                           PoissonCache* solvers) {
   SurfaceColors out;
   const PipelineOptions& o = scene.project.options;
   std::vector<const Photo*> photos;
@@ -241,6 +246,7 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   in.clones = scene.project.clones;
   in.holeModes = scene.project.holeModes;
   in.where = scene.project.file;
+  in.solvers = solvers;
   in.options.mode = o.inpaintMode;
   in.options.maxRefinedVertices = o.maxInpaintVertices;
   // The preview inpaints harmonic fills on a coarser refinement (smooth: the same colours at viewing
@@ -302,21 +308,23 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   }
   scene->mesh = cachedMesh_;
   scene->meshReport = cachedMeshReport_;
-  std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> photos;
+  std::vector<CachedPhoto> photos;
   for (size_t i = 0; i < project.photos.size(); ++i) {
     const std::string key = photoKey(project.photos[i], project.options);
-    std::shared_ptr<const Photo> photo;
-    for (const auto& [k, p] : cachedPhotos_)
-      if (k == key) photo = p;
-    if (!photo) {
+    CachedPhoto entry;
+    for (const CachedPhoto& c : cachedPhotos_)
+      if (c.key == key) entry = c;
+    if (!entry.photo) {
       job.progress(StageId::Load, double(i + 1) / (project.photos.size() + 1),
                    "photo " + fs::path(project.photos[i].path).filename().string());
-      photo = std::make_shared<Photo>(
+      entry.key = key;
+      entry.photo = std::make_shared<Photo>(
           loadPhoto(project.photos[i].path, project.photos[i].mask, PhotoLoadOptions{project.options.maxPhotoSide}));
+      if (entry.photo->hasBackground) entry.silhouette = std::make_shared<const SilhouetteDistance>(*entry.photo);
       cached = false;
     }
-    photos.emplace_back(key, photo);
-    scene->photos.push_back(photo);
+    photos.push_back(entry);
+    scene->photos.push_back(entry.photo);
     scene->photoKeys.push_back(key);
   }
   cachedPhotos_ = std::move(photos);
@@ -378,23 +386,45 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   start = Clock::now();
   auto cameras = std::make_shared<CameraStage>();
   {
-    std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> fits;
-    for (size_t p = 0; p < scene->photos.size(); ++p) {
+    // Keyed by what the fit reads: the clicks' vertices and pixels in point order, not the points'
+    // indices, so that deleting or adding another point keeps the fit (its click ids are renumbered).
+    const size_t np = scene->photos.size();
+    std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> fits(np);
+    std::vector<std::vector<CameraClick>> photoClickLists(np);
+    std::vector<size_t> toFit;
+    for (size_t p = 0; p < np; ++p) {
+      photoClickLists[p] = photoClicks(project, static_cast<int>(p));
       nlohmann::json clicks = nlohmann::json::array();
-      for (const CameraClick& c : photoClicks(project, static_cast<int>(p)))
-        clicks.push_back({c.point, c.vertex, c.pixel.x(), c.pixel.y()});
-      const std::string fitKey = meshKey_ + '#' + cachedPhotos_[p].first + clicks.dump() + opts["cameraMode"].dump() +
-                                 opts["cameraThreshold"].dump() + opts["seed"].dump();
-      std::shared_ptr<const CameraFit> fit;
+      for (const CameraClick& c : photoClickLists[p]) clicks.push_back({c.vertex, c.pixel.x(), c.pixel.y()});
+      fits[p].first = meshKey_ + '#' + cachedPhotos_[p].key + clicks.dump() + opts["cameraMode"].dump() +
+                      opts["cameraThreshold"].dump() + opts["seed"].dump();
       for (const auto& [k, f] : cachedFits_)
-        if (k == fitKey) fit = f;
-      if (fit) {
+        if (k == fits[p].first) fits[p].second = f;
+      if (fits[p].second) {
         ++cameras->reused;
+        if (fits[p].second->clicks.size() == photoClickLists[p].size()) {
+          bool same = true;
+          for (size_t i = 0; i < photoClickLists[p].size(); ++i)
+            same = same && fits[p].second->clicks[i].point == photoClickLists[p][i].point;
+          if (!same) {  // the same clicks under new point indices
+            auto renumbered = std::make_shared<CameraFit>(*fits[p].second);
+            renumbered->clicks = photoClickLists[p];
+            fits[p].second = renumbered;
+          }
+        }
       } else {
-        job.progress(StageId::Camera, double(p) / scene->photos.size(), "photo " + std::to_string(p));
-        fit = std::make_shared<const CameraFit>(fitPhoto(*scene, static_cast<int>(p)));
+        toFit.push_back(p);
       }
-      fits.emplace_back(fitKey, fit);
+    }
+    // Photos are fitted in parallel (each fit seeds its own generator: the result does not depend on it).
+    job.progress(StageId::Camera, 0.0, std::to_string(toFit.size()) + " photos");
+    tbb::parallel_for(size_t(0), toFit.size(), [&](size_t k) {
+      const size_t p = toFit[k];
+      fits[p].second =
+          std::make_shared<const CameraFit>(fitPhoto(*scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get()));
+    });
+    job.checkCancel();
+    for (const auto& [key, fit] : fits) {
       cameras->fits.push_back(*fit);
       cameras->fitted += fit->fits;
     }
@@ -419,7 +449,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   // cells whose content, boundary and photo did not change are reused from the cell cache.
   std::ostringstream key;
   key << meshKey_;
-  for (const auto& [k, p] : cachedPhotos_) key << '#' << k;
+  for (const CachedPhoto& c : cachedPhotos_) key << '#' << c.key;
   key << document["points"].dump() << document["chains"].dump() << opts["backgroundThresholdPx"].dump()
       << opts["stretchSearches"].dump() << opts["seed"].dump();
   const bool mapCached = key.str() == mapKey_ && cachedMapping_;
@@ -468,7 +498,11 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   key << opts["correction"].dump() << opts["viewSmoothness"].dump();
   const bool projectionCached = mapCached && key.str() == projectionKey_ && cachedProjection_;
   if (!projectionCached) {
-    cachedProjection_ = std::make_shared<const ProjectionStage>(projectMapping(*scene, cachedMapping_, *cameras, job));
+    frames_.photoKeys.clear();
+    for (const CachedPhoto& c : cachedPhotos_) frames_.photoKeys.push_back(meshKey_ + '#' + c.key);
+    cachedProjection_ =
+        std::make_shared<const ProjectionStage>(projectMapping(*scene, cachedMapping_, *cameras, job, &frames_));
+    frames_.endRun();
     projectionKey_ = key.str();
   }
   const ProjectionStage& projection = *cachedProjection_;
@@ -493,6 +527,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                               {"empty_faces", pr.emptyFaces},
                               {"selection_sweeps", pr.selectionSweeps},
                               {"view_seconds", pr.viewSeconds},
+                              {"frames_reused", pr.framesReused},
                               {"select_seconds", pr.selectSeconds},
                               {"photos", photos}}});
   }
@@ -504,7 +539,12 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   const bool seamCached = projectionCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
   if (!seamCached) {
     auto seams = std::make_shared<SeamResult>();
-    cachedSeamed_ = optimiseMappingSeams(*scene, projection.mapping, cameras.get(), *seams, job);
+    std::vector<std::shared_ptr<const cv::Mat>> luv;
+    for (CachedPhoto& c : cachedPhotos_) {
+      if (!c.luv) c.luv = std::make_shared<const cv::Mat>(luvImage(*c.photo));
+      luv.push_back(c.luv);
+    }
+    cachedSeamed_ = optimiseMappingSeams(*scene, projection.mapping, cameras.get(), *seams, job, std::move(luv));
     seams->map = TextureMap();  // the seamed mapping holds it
     cachedSeams_ = seams;
     seamKey_ = key.str();
@@ -533,7 +573,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
       << kTierNames[size_t(tier)];
   const bool colorCached = seamCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
-    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, *cachedSeamed_, job, tier));
+    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, *cachedSeamed_, job, tier, &solvers_));
+    solvers_.endRun();
     colorKey_ = key.str();
   }
   const SurfaceColors& colors = *cachedColors_;

@@ -127,20 +127,24 @@ Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* ca
 // Projection: faces that photos fitting a camera see are mapped by projection, the photo chosen per
 // face by view selection; the paper's mapping of the other photos is kept (projection.h), and the
 // cameras propose correspondences (proposals.h).
+// `frames` (may be null) keeps the photos' frames across runs (projection.h).
 ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
-                               const CameraStage& cameras, const JobControl& job = {});
+                               const CameraStage& cameras, const JobControl& job = {},
+                               ViewFrameCache* frames = nullptr);
 // Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
 // when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
 // `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
+// `luv` (per photo, may be empty) holds luvImage() of photos the caller keeps (SeamInput::luv).
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
-                                                    const JobControl& job = {});
+                                                    const JobControl& job = {},
+                                                    std::vector<std::shared_ptr<const cv::Mat>> luv = {});
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
 // preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
 // density); guided fills keep the final density, since their colours depend on it.
 inline constexpr double kPreviewDetail = 0.25;
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {},
-                           Tier tier = Tier::Final);
+                           Tier tier = Tier::Final, PoissonCache* solvers = nullptr);
 // Bake: see BakeResult.
 BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
                      const JobControl& job = {});
@@ -167,7 +171,16 @@ class Pipeline {
   std::shared_ptr<const Mesh> cachedMesh_;
   MeshReport cachedMeshReport_;
   std::string meshKey_;
-  std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> cachedPhotos_;  // key -> photo
+  // A loaded photo and what later stages derive from it alone, made on first use and kept with it.
+  struct CachedPhoto {
+    std::string key;
+    std::shared_ptr<const Photo> photo;
+    std::shared_ptr<const SilhouetteDistance> silhouette;  // camera: silhouette refinement
+    std::shared_ptr<const cv::Mat> luv;                    // seams: luvImage(photo)
+  };
+  std::vector<CachedPhoto> cachedPhotos_;
+  ViewFrameCache frames_;  // projection: each fitted photo's frame, by camera
+  PoissonCache solvers_;   // inpaint: the factorisations of the last two runs' regions
   std::string mapKey_;
   std::shared_ptr<const Mapping> cachedMapping_;
   MapCaches mapCaches_;

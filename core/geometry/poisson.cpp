@@ -225,4 +225,33 @@ SubMesh extractTriangles(const TriangleMesh& m, const std::vector<int>& triangle
   return s;
 }
 
+std::shared_ptr<const PoissonSolver> PoissonCache::solver(const TriangleMesh& mesh, const std::vector<char>& isFixed) {
+  std::string key;
+  key.reserve(mesh.positions.size() * sizeof(Vec3) + mesh.triangles.size() * sizeof(std::array<int, 3>) +
+              isFixed.size());
+  key.append(reinterpret_cast<const char*>(mesh.positions.data()), mesh.positions.size() * sizeof(Vec3));
+  key.append(reinterpret_cast<const char*>(mesh.triangles.data()), mesh.triangles.size() * sizeof(std::array<int, 3>));
+  key.append(isFixed.data(), isFixed.size());
+  if (auto it = current_.find(key); it != current_.end()) {
+    ++reused;
+    return it->second;
+  }
+  std::shared_ptr<const PoissonSolver> out;
+  if (auto it = previous_.find(key); it != previous_.end()) {
+    out = it->second;
+    ++reused;
+  } else {
+    out = std::make_shared<const PoissonSolver>(mesh, isFixed);
+    ++made;
+  }
+  current_.emplace(std::move(key), out);
+  return out;
+}
+
+void PoissonCache::endRun() {
+  previous_ = std::move(current_);
+  current_.clear();
+  reused = made = 0;
+}
+
 }  // namespace montage

@@ -16,7 +16,9 @@
 #include <Eigen/Core>
 #include <Eigen/Sparse>
 #include <array>
+#include <map>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "geometry/mesh.h"
@@ -94,6 +96,20 @@ class PoissonSolver {
   struct Factor;                     // the factorisation of the unknowns x unknowns block
   std::unique_ptr<Factor> factor_;
   double factorSeconds_ = 0;
+};
+
+// Factorisations kept across runs, keyed by the exact mesh and fixed set they were made for: a hole
+// whose refined surface and border did not change between two edits (only the colours around it
+// did) is solved again without a new factorisation. Keeps what the last two runs used (a preview and a
+// final run in turn keep both).
+class PoissonCache {
+ public:
+  std::shared_ptr<const PoissonSolver> solver(const TriangleMesh& mesh, const std::vector<char>& isFixed);
+  void endRun();             // the run is over: solvers unused in this run and the one before are dropped
+  int reused = 0, made = 0;  // this run
+
+ private:
+  std::map<std::string, std::shared_ptr<const PoissonSolver>> current_, previous_;
 };
 
 // One-shot harmonic interpolation (d = 0): fills the unknown vertices of `fixedValues` (#V x C).

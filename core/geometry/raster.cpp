@@ -158,7 +158,7 @@ RasterBuffers rasterize(const Mesh& mesh, const Camera& camera, const RasterOpti
   const size_t n = static_cast<size_t>(out.width) * out.height;
   out.depth.assign(n, std::numeric_limits<float>::infinity());
   out.face.assign(n, -1);
-  out.bary.assign(n, Vec3f::Zero());
+  if (options.barycentrics) out.bary.assign(n, Vec3f::Zero());
 
   // Camera-space positions and pixel coordinates of every vertex.
   const int nv = mesh.numVertices();
@@ -193,7 +193,7 @@ RasterBuffers rasterize(const Mesh& mesh, const Camera& camera, const RasterOpti
       const double invSum = 1.0 / sum;
       out.depth[i] = static_cast<float>(esum * invSum);
       out.face[i] = f;
-      out.bary[i] = (w * invSum).cast<float>();
+      if (options.barycentrics) out.bary[i] = (w * invSum).cast<float>();
     });
   }
   return out;

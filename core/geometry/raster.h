@@ -36,12 +36,13 @@ struct RasterBuffers {
   int width = 0, height = 0;
   std::vector<float> depth;  // camera-space z of the nearest surface; +inf where empty
   std::vector<int> face;     // face index; -1 where empty
-  std::vector<Vec3f> bary;   // barycentrics of that face's corners at the pixel centre
+  std::vector<Vec3f> bary;   // barycentrics of that face's corners at the pixel centre (empty when not asked for)
   int index(int x, int y) const { return y * width + x; }
 };
 
 struct RasterOptions {
   bool cullBackFaces = false;  // drop faces whose front side (CCW) does not face the camera
+  bool barycentrics = true;    // fill RasterBuffers::bary (false: left empty, for depth and face ids only)
 };
 
 // Rasterises every face at pixel centres with a z-buffer (top-left fill rule, near plane clip by

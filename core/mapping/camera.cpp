@@ -20,6 +20,7 @@
 #include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <sstream>
 
 #include "base/util.h"
@@ -384,53 +385,55 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   return finish(describeFit(fit));
 }
 
+void SilhouetteDistance::make() const {
+  const Photo& photo = *photo_;
+  // Alpha in [0, 1] at the file's pixels (photos keep 8-bit alpha, maybe at a working resolution).
+  photo.alpha.convertTo(alpha_, CV_32F, photo.alpha.depth() == CV_8U ? 1.0 / 255 : 1.0);
+  if (alpha_.cols != photo.width || alpha_.rows != photo.height)
+    cv::resize(alpha_, alpha_, cv::Size(photo.width, photo.height), 0, 0, cv::INTER_LINEAR);
+  cv::Mat fg = alpha_ >= 0.5f, bg = alpha_ < 0.5f, in, out;
+  cv::distanceTransform(fg, in, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  cv::distanceTransform(bg, out, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  coarse_ = cv::Mat(photo.height, photo.width, CV_32F);
+  for (int y = 0; y < photo.height; ++y)
+    for (int x = 0; x < photo.width; ++x) {
+      const float o = out.at<float>(y, x), i = in.at<float>(y, x);
+      coarse_.at<float>(y, x) = o > 0 ? o - 0.5f : -(i - 0.5f);
+    }
+}
+
+double SilhouetteDistance::at(const Vec2& p) const {
+  std::call_once(made_, [this] { make(); });
+  const double d = sampleBilinear1(coarse_, p.x(), p.y());
+  if (std::abs(d) > 1.5) return d;
+  const double a = sampleBilinear1(alpha_, p.x(), p.y());
+  const double gx = 0.5 * (sampleBilinear1(alpha_, p.x() + 1, p.y()) - sampleBilinear1(alpha_, p.x() - 1, p.y()));
+  const double gy = 0.5 * (sampleBilinear1(alpha_, p.x(), p.y() + 1) - sampleBilinear1(alpha_, p.x(), p.y() - 1));
+  const double g = std::hypot(gx, gy);
+  return g > 0.1 ? std::clamp((0.5 - a) / g, -1.5, 1.5) : d;
+}
+
+Vec2 SilhouetteDistance::gradient(const Vec2& p) const {
+  const double h = 0.25;
+  return Vec2(at(p + Vec2(h, 0)) - at(p - Vec2(h, 0)), at(p + Vec2(0, h)) - at(p - Vec2(0, h))) / (2 * h);
+}
+
 namespace {
-
-// Signed distance (pixels, > 0 outside) to the edge of a photo's foreground: from distance transforms
-// of the thresholded alpha, and sub-pixel near the edge from the antialiased alpha itself.
-class SilhouetteDistance {
- public:
-  explicit SilhouetteDistance(const Photo& photo) {
-    // Alpha in [0, 1] at the file's pixels (photos keep 8-bit alpha, maybe at a working resolution).
-    photo.alpha.convertTo(alpha_, CV_32F, photo.alpha.depth() == CV_8U ? 1.0 / 255 : 1.0);
-    if (alpha_.cols != photo.width || alpha_.rows != photo.height)
-      cv::resize(alpha_, alpha_, cv::Size(photo.width, photo.height), 0, 0, cv::INTER_LINEAR);
-    cv::Mat fg = alpha_ >= 0.5f, bg = alpha_ < 0.5f, in, out;
-    cv::distanceTransform(fg, in, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-    cv::distanceTransform(bg, out, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-    coarse_ = cv::Mat(photo.height, photo.width, CV_32F);
-    for (int y = 0; y < photo.height; ++y)
-      for (int x = 0; x < photo.width; ++x) {
-        const float o = out.at<float>(y, x), i = in.at<float>(y, x);
-        coarse_.at<float>(y, x) = o > 0 ? o - 0.5f : -(i - 0.5f);
-      }
-  }
-  double at(const Vec2& p) const {
-    const double d = sampleBilinear1(coarse_, p.x(), p.y());
-    if (std::abs(d) > 1.5) return d;
-    const double a = sampleBilinear1(alpha_, p.x(), p.y());
-    const double gx = 0.5 * (sampleBilinear1(alpha_, p.x() + 1, p.y()) - sampleBilinear1(alpha_, p.x() - 1, p.y()));
-    const double gy = 0.5 * (sampleBilinear1(alpha_, p.x(), p.y() + 1) - sampleBilinear1(alpha_, p.x(), p.y() - 1));
-    const double g = std::hypot(gx, gy);
-    return g > 0.1 ? std::clamp((0.5 - a) / g, -1.5, 1.5) : d;
-  }
-  Vec2 gradient(const Vec2& p) const {
-    const double h = 0.25;
-    return Vec2(at(p + Vec2(h, 0)) - at(p - Vec2(h, 0)), at(p + Vec2(0, h)) - at(p - Vec2(0, h))) / (2 * h);
-  }
-
- private:
-  cv::Mat alpha_, coarse_;
-};
 
 // Samples of the mesh's outer contour as `camera` sees it: on edges between a front- and a back-facing
 // face (or on the border), shown by the z-buffer, within a pixel and a half of the rendered outline.
 std::vector<Vec3> outerContour(const Mesh& mesh, const Camera& camera, double spacingPx) {
-  const RasterBuffers raster = rasterize(mesh, camera);
-  cv::Mat covered(camera.height, camera.width, CV_8U), inside;
-  for (int y = 0; y < camera.height; ++y)
-    for (int x = 0; x < camera.width; ++x) covered.at<uchar>(y, x) = raster.face[raster.index(x, y)] >= 0 ? 255 : 0;
-  cv::distanceTransform(covered, inside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  RasterOptions depthOnly;
+  depthOnly.barycentrics = false;
+  const RasterBuffers raster = rasterize(mesh, camera, depthOnly);
+  // Within a pixel and a half of the rendered outline: an empty pixel among the 8 neighbours (the
+  // nearest pixel centres beyond are 2 px away).
+  auto nearOutline = [&](int c, int r) {
+    for (int dr = -1; dr <= 1; ++dr)
+      for (int dc = -1; dc <= 1; ++dc)
+        if (raster.face[raster.index(c + dc, r + dr)] < 0) return true;
+    return false;
+  };
   Vec3 lo, hi;
   mesh.bounds(lo, hi);
   const double tol = 0.005 * (hi - lo).norm();
@@ -457,7 +460,7 @@ std::vector<Vec3> outerContour(const Mesh& mesh, const Camera& camera, double sp
       const int c = static_cast<int>(std::floor(px.x())), r = static_cast<int>(std::floor(px.y()));
       if (c < 1 || r < 1 || c >= camera.width - 1 || r >= camera.height - 1) continue;
       const int i = raster.index(c, r);
-      if (raster.face[i] >= 0 && (raster.depth[i] < z - tol || inside.at<float>(r, c) > 1.5f)) continue;
+      if (raster.face[i] >= 0 && (raster.depth[i] < z - tol || !nearOutline(c, r))) continue;
       out.push_back(x);
     }
   }
@@ -533,11 +536,14 @@ class SilhouetteFit : public cv::LMSolver::Callback {
 
 }  // namespace
 
-void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, const CameraFitOptions& o) {
+void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, const CameraFitOptions& o,
+                        const SilhouetteDistance* silhouette) {
   if (!o.silhouette || !fit.fits || !photo.hasBackground || fit.rmsResidual < o.silhouetteMinClickRmsPx) return;
   if (photo.width != fit.camera.pinhole.width || photo.height != fit.camera.pinhole.height) return;
   const auto start = Clock::now();
-  const SilhouetteDistance distance(photo);
+  std::optional<SilhouetteDistance> own;
+  if (!silhouette) silhouette = &own.emplace(photo);
+  const SilhouetteDistance& distance = *silhouette;
   std::vector<cv::Point3d> clicks3;
   std::vector<cv::Point2d> clicks2;
   for (size_t i = 0; i < fit.clicks.size(); ++i)

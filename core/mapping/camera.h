@@ -13,6 +13,8 @@
 // residual.
 #pragma once
 
+#include <mutex>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -105,7 +107,26 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
 // re-extracted each round. Kept only when the clicks still agree as well as their noise allows. Does
 // nothing for photos without a background, fits that do not fit, or clicks that already agree to
 // silhouetteMinClickRmsPx.
-void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, const CameraFitOptions& options = {});
+// Signed distance (file pixels, > 0 outside) to the edge of a photo's foreground: from distance
+// transforms of the thresholded alpha, and sub-pixel near the edge from the antialiased alpha itself.
+// It depends on the photo alone, so callers that refit often keep one per photo. The maps are made on
+// first use (thread-safe); the photo must outlive this object.
+class SilhouetteDistance {
+ public:
+  explicit SilhouetteDistance(const Photo& photo) : photo_(&photo) {}  // the photo must have a background
+  double at(const Vec2& p) const;
+  Vec2 gradient(const Vec2& p) const;
+
+ private:
+  void make() const;
+  const Photo* photo_;
+  mutable std::once_flag made_;
+  mutable cv::Mat alpha_, coarse_;  // CV_32F at the file's pixels: alpha in [0, 1]; distance (pixels)
+};
+
+// `silhouette`: the photo's SilhouetteDistance when the caller keeps one (else it is computed here).
+void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, const CameraFitOptions& options = {},
+                        const SilhouetteDistance* silhouette = nullptr);
 
 // A fit made from a known camera (the synthetic scenes' true cameras: the projection oracle), with
 // the residuals of `clicks` against it. Always `fits`.

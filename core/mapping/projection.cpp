@@ -21,6 +21,8 @@
 //   face area, so the balance does not depend on the mesh's resolution.
 #include "mapping/projection.h"
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
@@ -115,44 +117,92 @@ bool predictPixel(const CameraFit& fit, const CorrectionField& field, const Vec3
   return true;
 }
 
-PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const CameraFit& fit,
-                    const CorrectionField& field, const ProjectionOptions& o) {
-  PhotoView view;
-  view.photo = photoIndex;
-  const Camera& cam = fit.camera.pinhole;
+size_t ViewFrame::bytes() const {
+  return raster.depth.size() * sizeof(float) + raster.face.size() * sizeof(int) +
+         silhouette.total() * silhouette.elemSize();
+}
+
+ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& cam) {
   TM_CHECK(cam.width == photo.width && cam.height == photo.height,
            located(photo.path, "camera fit is for a " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
                                    " image, the photo is " + std::to_string(photo.width) + "x" +
                                    std::to_string(photo.height)));
-  const int nv = mesh.numVertices(), nf = mesh.numFaces();
-  const RasterBuffers raster = rasterize(mesh, cam);
-  const double tol = o.depthTolerance * diagonalOf(mesh);
-  const Vec3 eye = cam.center();
-
+  ViewFrame frame;
+  RasterOptions depthOnly;
+  depthOnly.barycentrics = false;  // the frame is kept across edits: only what views read
+  frame.raster = rasterize(input, cam, depthOnly);
+  const RasterBuffers& raster = frame.raster;
   // Distance (pixels) to the silhouette: of the rendered mesh, and of the photo's own foreground.
   cv::Mat covered(cam.height, cam.width, CV_8U);
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) covered.at<uchar>(y, x) = raster.face[raster.index(x, y)] >= 0 ? 255 : 0;
-  cv::Mat silhouette;
-  cv::distanceTransform(covered, silhouette, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  cv::distanceTransform(covered, frame.silhouette, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   if (photo.hasBackground) {
     cv::Mat foreground = photo.alpha > 0, inside;  // stored resolution: brought to the camera's pixels
     if (foreground.cols != cam.width || foreground.rows != cam.height)
       cv::resize(foreground, foreground, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_NEAREST);
     cv::distanceTransform(foreground, inside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-    silhouette = cv::min(silhouette, inside);
+    frame.silhouette = cv::min(frame.silhouette, inside);
   }
+  return frame;
+}
 
-  // Seen at a pinhole pixel with depth z: the z-buffer shows `face` (or a face of `vertex`), or
-  // something no nearer than z - tol, or nothing.
+std::shared_ptr<const ViewFrame> ViewFrameCache::frame(int photo, const Mesh& input, const Photo& image,
+                                                       const PhotoCamera& camera) {
+  const Camera& c = camera.pinhole;
+  std::string key = photo < static_cast<int>(photoKeys.size()) ? photoKeys[photo] : std::to_string(photo);
+  auto add = [&key](const void* data, size_t n) { key.append(static_cast<const char*>(data), n); };
+  add(&c.width, sizeof c.width);
+  add(&c.height, sizeof c.height);
+  for (double v : {c.fx, c.fy, c.cx, c.cy}) add(&v, sizeof v);
+  add(c.R.data(), 9 * sizeof(double));
+  add(c.t.data(), 3 * sizeof(double));
+  if (auto it = used_.find(key); it != used_.end()) return it->second;
+  std::shared_ptr<const ViewFrame> out;
+  if (auto it = frames_.find(key); it != frames_.end()) {
+    out = it->second;
+    ++reused;
+  } else {
+    out = std::make_shared<const ViewFrame>(viewFrame(input, image, c));
+    ++computed;
+  }
+  used_[key] = out;
+  return out;
+}
+
+void ViewFrameCache::endRun() {
+  frames_ = std::move(used_);
+  used_.clear();
+  reused = computed = 0;
+}
+
+PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const ViewFrame& frame, const Photo& photo,
+                    int photoIndex, const CameraFit& fit, const CorrectionField& field, const ProjectionOptions& o) {
+  PhotoView view;
+  view.photo = photoIndex;
+  const Camera& cam = fit.camera.pinhole;
+  const RasterBuffers& raster = frame.raster;
+  const cv::Mat& silhouette = frame.silhouette;
+  TM_CHECK(raster.width == cam.width && raster.height == cam.height,
+           "viewPhoto: the frame is " + std::to_string(raster.width) + "x" + std::to_string(raster.height) +
+               ", the camera " + std::to_string(cam.width) + "x" + std::to_string(cam.height));
+  const int nv = mesh.numVertices(), nf = mesh.numFaces();
+  TM_CHECK(static_cast<int>(faceParent.size()) == nf, "viewPhoto: faceParent: " + std::to_string(faceParent.size()) +
+                                                          " entries for " + std::to_string(nf) + " faces");
+  const double tol = o.depthTolerance * diagonalOf(mesh);
+  const Vec3 eye = cam.center();
+  const TriMesh& tri = mesh.tri;
+
+  // Seen at a pinhole pixel with depth z: the z-buffer (of the input mesh) shows the input face that
+  // `face` (or a face of `vertex`) lies in, or something no nearer than z - tol, or nothing.
   auto seenAt = [&](const Vec2& px, double z, int face, int vertex) {
     if (!(px.x() >= 0 && px.y() >= 0 && px.x() < cam.width && px.y() < cam.height)) return false;
     const int i = raster.index(static_cast<int>(px.x()), static_cast<int>(px.y()));
     const int shown = raster.face[i];
-    if (shown < 0 || shown == face || raster.depth[i] >= z - tol) return true;
-    if (vertex >= 0)
-      for (int c : mesh.faceVertices(shown))
-        if (c == vertex) return true;
+    if (shown < 0 || raster.depth[i] >= z - tol) return true;
+    if (face >= 0) return faceParent[face] == shown;
+    for (auto fh : tri.vf_range(tri.vertex_handle(vertex)))
+      if (faceParent[fh.idx()] == shown) return true;
     return false;
   };
 
@@ -221,7 +271,8 @@ PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const 
 }
 
 ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
-                                const std::vector<CameraFit>& fits, const ProjectionOptions& o, const JobControl& job) {
+                                const std::vector<CameraFit>& fits, const ProjectionOptions& o, const JobControl& job,
+                                ViewFrameCache* cache) {
   const auto start = Clock::now();
   const Mesh& mesh = partition.mesh;
   const int nf = mesh.numFaces();
@@ -255,16 +306,25 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
     return out;
   }
 
-  // Views of the fitted photos.
+  // Views of the fitted photos: frames first (from the cache, in order), then the views in parallel.
   auto t = Clock::now();
+  std::vector<std::shared_ptr<const ViewFrame>> frames(np);
   for (size_t k = 0; k < fitted.size(); ++k) {
     const int p = fitted[k];
-    job.progress(StageId::Projection, 0.6 * k / fitted.size(), "view of photo " + std::to_string(p));
+    job.progress(StageId::Projection, 0.3 * k / fitted.size(), "view of photo " + std::to_string(p));
+    frames[p] =
+        cache ? cache->frame(p, *scene.mesh, *scene.photos[p], fits[p].camera)
+              : std::make_shared<const ViewFrame>(viewFrame(*scene.mesh, *scene.photos[p], fits[p].camera.pinhole));
+  }
+  if (cache) out.framesReused = cache->reused;
+  job.checkCancel();
+  tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
+    const int p = fitted[k];
     out.fields[p] = correctionField(mesh, fits[p], o.correction, o.localRadiusPx);
-    out.views[p] = viewPhoto(mesh, *scene.photos[p], p, fits[p], out.fields[p], o);
+    out.views[p] = viewPhoto(mesh, partition.faceParent, *frames[p], *scene.photos[p], p, fits[p], out.fields[p], o);
     out.photoRefusedFlipped[p] = out.views[p].refusedFlipped;
     out.photoRefusedBackground[p] = out.views[p].refusedBackground;
-  }
+  });
   out.viewSeconds = secondsSince(t);
   job.progress(StageId::Projection, 0.6, "view selection");
 

@@ -9,10 +9,14 @@
 #pragma once
 
 #include <array>
+#include <map>
+#include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
 #include "base/common.h"
+#include "geometry/raster.h"
 #include "io/options.h"
 #include "mapping/camera.h"
 #include "mapping/texture_map.h"
@@ -60,6 +64,32 @@ struct ProjectionOptions {
   double maxBackgroundPx = 1.0;   // a face whose UVs lie farther than this from the foreground is refused
 };
 
+// What a fitted photo's view needs from its camera alone: the input mesh rendered through the camera
+// and the distance to the silhouette. It depends on the input mesh, the photo and the camera, never on
+// the partition (whose faces lie inside the input's faces), so it is kept across edits (ViewFrameCache).
+struct ViewFrame {
+  RasterBuffers raster;  // the input mesh through the pinhole camera: depth and input face id (no barycentrics)
+  cv::Mat silhouette;    // CV_32F, camera pixels: distance to the silhouette (of the rendered mesh, and of the
+                         // photo's own foreground), pixels
+  size_t bytes() const;
+};
+
+// Renders `input` through `camera` for `photo` (sizes must agree).
+ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& camera);
+
+// Frames kept across runs, keyed by the caller's identity of each photo (file, mask, mesh) and the camera.
+class ViewFrameCache {
+ public:
+  // Per photo: what identifies the photo and the input mesh (the pipeline's photo and mesh keys).
+  std::vector<std::string> photoKeys;
+  std::shared_ptr<const ViewFrame> frame(int photo, const Mesh& input, const Photo& image, const PhotoCamera& camera);
+  void endRun();                 // forgets frames this run did not use
+  int reused = 0, computed = 0;  // this run
+
+ private:
+  std::map<std::string, std::shared_ptr<const ViewFrame>> frames_, used_;
+};
+
 // What one fitted photo sees of a mesh.
 struct PhotoView {
   int photo = -1;
@@ -71,9 +101,11 @@ struct PhotoView {
   int refusedFlipped = 0, refusedBackground = 0;  // faces otherwise seen, refused for a flip / the background
 };
 
-// Computes the view of photo `fit` (its camera and correction field) on `mesh`.
-PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const CameraFit& fit,
-                    const CorrectionField& field, const ProjectionOptions& options);
+// Computes the view of photo `fit` (its camera and correction field) on `mesh`, a refinement of the
+// input mesh `frame` was rendered from: `faceParent` (#F of mesh) gives each face's input face.
+PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const ViewFrame& frame, const Photo& photo,
+                    int photoIndex, const CameraFit& fit, const CorrectionField& field,
+                    const ProjectionOptions& options);
 
 // The projection stage's output: the final texture map and its figures.
 struct ProjectionResult {
@@ -93,14 +125,16 @@ struct ProjectionResult {
   int emptyFaces = 0;       // faces left empty (for inpainting)
   int selectionSweeps = 0;  // alpha-expansion sweeps of the view selection
   double selectionEnergy = 0;
+  int framesReused = 0;  // fitted photos whose frame (ViewFrame) came from the cache
   double viewSeconds = 0, selectSeconds = 0, seconds = 0;
 };
 
 // Maps by projection every face a fitted photo can texture (fits[p].fits), keeping the paper's
 // mapping of faces on photos that do not fit. `paperMap` is over partition.mesh. When no photo fits,
 // the map is returned unchanged.
+// Views of fitted photos are computed in parallel; their frames come from `frames` when given.
 ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
                                 const std::vector<CameraFit>& fits, const ProjectionOptions& options,
-                                const JobControl& job);
+                                const JobControl& job, ViewFrameCache* frames = nullptr);
 
 }  // namespace montage

@@ -83,8 +83,12 @@ class SeamOptimiser {
  public:
   SeamOptimiser(const SeamInput& in, const SeamOptions& options, const JobControl& job)
       : in_(in), mesh_(*in.mesh), options_(options), job_(job) {
-    for (const Photo* p : in.photos) {
-      luv_.push_back(luvImage(*p));
+    TM_CHECK(in.luv.empty() || in.luv.size() == in.photos.size(), "optimiseSeams: " + std::to_string(in.luv.size()) +
+                                                                      " L*u*v* images for " +
+                                                                      std::to_string(in.photos.size()) + " photos");
+    for (size_t k = 0; k < in.photos.size(); ++k) {
+      const Photo* p = in.photos[k];
+      luv_.push_back(k < in.luv.size() && in.luv[k] ? *in.luv[k] : luvImage(*p));
       luvScale_.push_back(p->width > 0 ? double(luv_.back().cols) / p->width : 1.0);
     }
   }

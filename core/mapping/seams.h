@@ -17,6 +17,8 @@
 // Feature vertices never move; no texture triangle flips; no vertex lands on a photo's background.
 #pragma once
 
+#include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -47,6 +49,8 @@ struct SeamInput {
   // projection is the geometric truth, so E_geo of a side in such a photo is its squared distance from
   // where the projection put it, in pixels, instead of the stretch (which would pull it off the truth).
   std::vector<char> projectedPhotos;
+  // Per photo (empty = computed here): its luvImage(), when the caller keeps one across runs.
+  std::vector<std::shared_ptr<const cv::Mat>> luv;
 };
 
 struct SeamResult {

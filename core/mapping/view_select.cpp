@@ -4,36 +4,16 @@
 // binary variable x (0 = keep, 1 = switch to alpha); the others are fixed. The energy of the move is
 // graph-representable for Potts terms (Kolmogorov and Zabih 2004): with A = E(0,0), B = E(0,1),
 // C = E(1,0), D = E(1,1) of a pair,  E = A + (C - A) x_i + (D - C) x_j + (B + C - A - D)(1 - x_i) x_j,
-// where B + C - A - D >= 0. A node on the sink side of the minimum cut takes alpha.
+// where B + C - A - D >= 0. A node on the sink side of the minimum cut takes alpha. The cut is
+// Boykov-Kolmogorov max-flow (OpenCV's GCGraph, the one GrabCut uses: one flat edge array per move).
 #include "mapping/view_select.h"
 
 #include <algorithm>
-#include <boost/graph/adjacency_list.hpp>
-#include <boost/graph/boykov_kolmogorov_max_flow.hpp>
 #include <cmath>
+#include <opencv2/core.hpp>  // gcgraph.hpp needs it first
+#include <opencv2/imgproc/detail/gcgraph.hpp>
 
 namespace montage {
-
-namespace {
-
-using Traits = boost::adjacency_list_traits<boost::vecS, boost::vecS, boost::directedS>;
-struct EdgeProp {
-  double capacity = 0, residual = 0;
-  Traits::edge_descriptor reverse;
-};
-using Graph = boost::adjacency_list<boost::vecS, boost::vecS, boost::directedS, boost::no_property, EdgeProp>;
-
-// Adds the directed pair u->v (capacity c_uv) and v->u (capacity c_vu), each the other's reverse.
-void addPair(Graph& g, int u, int v, double cuv, double cvu) {
-  const auto e = boost::add_edge(u, v, g).first;
-  const auto r = boost::add_edge(v, u, g).first;
-  g[e].capacity = cuv;
-  g[r].capacity = cvu;
-  g[e].reverse = r;
-  g[r].reverse = e;
-}
-
-}  // namespace
 
 double PottsProblem::energy(const std::vector<int>& labels) const {
   double e = 0;
@@ -60,6 +40,7 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
   }
   // Adjacency (edge indices per node).
   std::vector<std::vector<int>> incident(p.numNodes);
+  const size_t incidentEdges = p.edges.size();
   for (size_t k = 0; k < p.edges.size(); ++k) {
     TM_CHECK(p.weights[k] >= 0 && std::isfinite(p.weights[k]), "solvePotts: weights must be finite and >= 0");
     incident[p.edges[k][0]].push_back(static_cast<int>(k));
@@ -83,8 +64,8 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
         }
       if (nodes.empty()) continue;
       const int m = static_cast<int>(nodes.size());
-      const int source = m, sink = m + 1;
-      Graph g(m + 2);
+      cv::detail::GCGraph<double> g(m, 2 * incidentEdges);
+      for (int i = 0; i < m; ++i) g.addVtx();
       std::vector<double> unary(m, 0.0);  // coefficient of x (switching to alpha) per variable
       for (int i = 0; i < m; ++i) {
         const int n = nodes[i];
@@ -100,25 +81,20 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
             unary[i] += C - A;
             unary[j] += D - C;
             const double pair = B + C - A - D;
-            if (pair > 0) addPair(g, i, j, pair, 0);
+            if (pair > 0) g.addEdges(i, j, pair, 0);
           } else {
             // A fixed neighbour: keep pays w when labels differ, alpha pays w when it differs from alpha.
             unary[i] += (alpha != labels[other] ? w : 0) - (labels[n] != labels[other] ? w : 0);
           }
         }
       }
-      for (int i = 0; i < m; ++i) {
-        if (unary[i] > 0) addPair(g, source, i, unary[i], 0);
-        if (unary[i] < 0) addPair(g, i, sink, -unary[i], 0);
-      }
-      std::vector<boost::default_color_type> color(m + 2);
-      boost::boykov_kolmogorov_max_flow(
-          g, boost::get(&EdgeProp::capacity, g), boost::get(&EdgeProp::residual, g), boost::get(&EdgeProp::reverse, g),
-          boost::make_iterator_property_map(color.begin(), boost::get(boost::vertex_index, g)),
-          boost::get(boost::vertex_index, g), source, sink);
+      // x = 1 (alpha) on the sink side: the source edge carries the cost of switching, the sink edge
+      // the cost of keeping.
+      for (int i = 0; i < m; ++i) g.addTermWeights(i, std::max(unary[i], 0.0), std::max(-unary[i], 0.0));
+      g.maxFlow();
       std::vector<int> next = labels;
       for (int i = 0; i < m; ++i)
-        if (color[i] != boost::black_color) next[nodes[i]] = alpha;
+        if (!g.inSourceSegment(i)) next[nodes[i]] = alpha;
       for (int n : nodes) var[n] = -1;
       const double e = p.energy(next);
       if (e < energy - 1e-9 * std::max(1.0, std::abs(energy))) {

@@ -880,8 +880,11 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
   // Guided hole fills (`bounded`) stay inside their border's colour range (GuidanceBound).
   auto solveRegion = [&](InpaintRegion& reg, const SubMesh& sub, const std::vector<char>& fixed,
                          const Eigen::MatrixXd& d, const Eigen::MatrixXd& fixedValues, bool bounded = false) {
-    const PoissonSolver solver(sub.mesh, fixed);
-    reg.factorSeconds = solver.factorSeconds();
+    const int made = in.solvers ? in.solvers->made : 0;
+    const std::shared_ptr<const PoissonSolver> kept =
+        in.solvers ? in.solvers->solver(sub.mesh, fixed) : std::make_shared<const PoissonSolver>(sub.mesh, fixed);
+    const PoissonSolver& solver = *kept;
+    reg.factorSeconds = !in.solvers || in.solvers->made > made ? solver.factorSeconds() : 0;  // 0: reused
     const auto solveStart = Clock::now();
     Eigen::MatrixXd f = solver.solve(d, fixedValues);
     if (bounded && opt.bound != GuidanceBound::None)

@@ -70,11 +70,11 @@ struct InpaintOptions {
   InpaintMode mode = InpaintMode::Structure;  // holes without a HoleMode entry and without strokes
   GuidanceBound bound = GuidanceBound::Soft;  // keeps guided fills inside the border's colour range
   double structureBlur = 0.35;  // structure: blur of the synthesised texture, in hole radii (SynthesisOptions::blur)
-  double texelsPerUnit = 0;             // refinement density; 0 = from the mapped faces around each hole
-  int maxRefinedVertices = 2000000;     // cap on the refined vertices of all regions (coarser beyond)
-  int rbfCentres = 256;                 // RBF: boundary centres per hole (boundary values averaged per centre)
-  double emptyTexelsPerUnit = 0;        // density when no face is mapped at all (0: 1024 texels across the bbox)
-  double detail = 1;                    // refinement density relative to the texel density (the preview uses less)
+  double texelsPerUnit = 0;     // refinement density; 0 = from the mapped faces around each hole
+  int maxRefinedVertices = 2000000;  // cap on the refined vertices of all regions (coarser beyond)
+  int rbfCentres = 256;              // RBF: boundary centres per hole (boundary values averaged per centre)
+  double emptyTexelsPerUnit = 0;     // density when no face is mapped at all (0: 1024 texels across the bbox)
+  double detail = 1;                 // refinement density relative to the texel density (the preview uses less)
 };
 
 // What the inpainting reads besides the mapping. Strokes, clones and hole modes use the ids of the
@@ -91,6 +91,7 @@ struct InpaintInput {
   std::vector<HoleMode> holeModes;
   std::string where;
   InpaintOptions options;
+  PoissonCache* solvers = nullptr;  // factorisations kept across runs (may be null: each region factors its own)
 };
 
 // Refines the faces with faceLabel >= -1 (>= 0: region id, -1: ring) by longest-edge bisection until

@@ -1,23 +1,26 @@
 #version 330 core
 // Shading of the 3D view: a head light (ambient + diffuse, both sides lit like `montage render`),
-// the face's photo texture when textured, an overlay colour blended on top, and a wireframe from the
+// the face's photo texture when textured plus the corner colours (the preview tier: a photo face's seam
+// levelling offset, an inpainted face's colours), an overlay colour blended on top, and a wireframe from the
 // barycentric coordinates (constant width in pixels thanks to fwidth).
 in vec3 vNormalEye;
 in vec3 vPositionEye;
 in vec2 vUv;
 in vec3 vBary;
 in vec4 vOverlay;
+in vec3 vColor;
 
 uniform sampler2D uTexture;
 uniform bool uTextured;     // sample uTexture (else uBaseColor)
 uniform vec3 uBaseColor;    // sRGB, untextured faces
 uniform bool uWireframe;
 uniform float uOverlayWeight;  // 0 hides the overlay
+uniform float uCornerColorWeight;  // 1 adds vColor (the preview's offsets and inpainted colours), 0 not
 
 out vec4 fragColor;
 
 void main() {
-  vec3 base = uTextured ? texture(uTexture, vUv).rgb : uBaseColor;
+  vec3 base = clamp((uTextured ? texture(uTexture, vUv).rgb : uBaseColor) + uCornerColorWeight * vColor, 0.0, 1.0);
   vec3 n = normalize(vNormalEye);
   float lambert = abs(dot(n, normalize(-vPositionEye)));
   // Textures are photos that already hold their lighting: shade them gently so they read true.

@@ -6,6 +6,8 @@ layout(location = 1) in vec3 aNormal;
 layout(location = 2) in vec2 aUv;
 layout(location = 3) in vec3 aBary;     // (1,0,0), (0,1,0), (0,0,1) at the three corners: wireframe
 layout(location = 4) in vec4 aOverlay;  // per-face overlay colour, alpha = blend weight
+layout(location = 5) in vec3 aColor;    // added to the texture or base colour (the preview's seam levelling
+                                        // offsets and inpainted colours; 0 for baked models)
 
 uniform mat4 uMvp;
 uniform mat4 uView;
@@ -15,6 +17,7 @@ out vec3 vPositionEye;
 out vec2 vUv;
 out vec3 vBary;
 out vec4 vOverlay;
+out vec3 vColor;
 
 void main() {
   gl_Position = uMvp * vec4(aPosition, 1.0);
@@ -23,4 +26,5 @@ void main() {
   vUv = aUv;
   vBary = aBary;
   vOverlay = aOverlay;
+  vColor = aColor;
 }

@@ -83,9 +83,8 @@ void Editor::initWindow() {
     throw Error("cannot open a window: no OpenGL 3.3 core context (a display with OpenGL 3.3 is needed)");
   }
   glfwMakeContextCurrent(window_);
-  const bool interactive =
-      options_.script.empty() && options_.screenshot.empty() && options_.benchOrbit.empty() && !options_.benchWorker &&
-                           !options_.benchOverlays;
+  const bool interactive = options_.script.empty() && options_.screenshot.empty() && options_.benchOrbit.empty() &&
+                           !options_.benchWorker && !options_.benchOverlays;
   glfwSwapInterval(interactive && options_.vsync ? 1 : 0);
 
   IMGUI_CHECKVERSION();
@@ -302,7 +301,13 @@ void Editor::validateSelection() {
 // --- Worker ---------------------------------------------------------------------------------------
 
 bool Editor::resultUsable() const {
-  return result_ && result_->model && result_->scene && result_->scene->project.mesh == doc_.project().mesh;
+  return result_ && (result_->model || resultPreview_) && result_->scene &&
+         result_->scene->project.mesh == doc_.project().mesh;
+}
+
+const TexturedModel* Editor::shownModel() const {
+  if (!resultUsable()) return nullptr;
+  return result_->model ? result_->model.get() : resultPreview_.get();
 }
 
 bool Editor::resultCurrent() const {
@@ -317,6 +322,7 @@ void Editor::pollWorker() {
     // A result for a mesh the document no longer names (a file opened meanwhile) is dropped.
     if (!outcome->result->scene || outcome->result->scene->project.mesh != doc_.project().mesh) return;
     result_ = outcome->result;
+    resultPreview_ = outcome->preview;
     resultGeneration_ = outcome->generation;
     lastError_.clear();
     meshDirty_ = overlayDirty_ = linesDirty_ = true;

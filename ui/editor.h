@@ -187,7 +187,10 @@ class Editor {
   void paintCloneAt(double screenX, double screenY, bool erase);
   void updateClonePreview();
   CloneOp currentCloneOp() const;  // the clone tool's operation as set up so far
-  bool resultUsable() const;       // a result for the document's mesh
+  bool resultUsable() const;       // a result for the document's mesh (preview or final)
+  // What the 3D view shows of the result: the final bake's model, else the preview model; null when
+  // there is no usable result.
+  const TexturedModel* shownModel() const;
 
   // Image panes (editor_panes.cpp).
   void photosPanel();
@@ -260,6 +263,7 @@ class Editor {
   std::unique_ptr<PipelineWorker> worker_;
   long submittedRevision_ = -1, submittedGeneration_ = 0;
   std::shared_ptr<const PipelineResult> result_;
+  std::shared_ptr<const TexturedModel> resultPreview_;  // the worker's preview model of result_ (preview tier)
   long resultGeneration_ = 0;
   std::vector<long> outcomeGenerations_;  // every outcome taken, in order (tests: the newest wins)
   std::map<long, long> generationRevision_;

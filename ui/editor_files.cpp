@@ -161,6 +161,11 @@ void Editor::requestSaveAs() {
 bool Editor::exportTo(const std::string& path) {
   try {
     TM_CHECK(resultUsable(), "export: there is no result yet (the pipeline has not finished on this document)");
+    // Only a final bake is exported; a result of an earlier state is exported, and the status says so.
+    TM_CHECK(result_->model,
+             "export: the final bake of this document is still running (the view shows its preview): "
+             "export again when the caption says \"result - up to date\"");
+    const bool stale = !resultCurrent();
     const std::string abs = fs::absolute(path).lexically_normal().string();
     const std::string ext = lowerExtension(abs);
     if (ext == ".glb") {
@@ -171,11 +176,14 @@ bool Editor::exportTo(const std::string& path) {
       // naming a missing file (base/output_folder.h).
       const std::string stem = fs::path(abs).stem().string();
       publishFiles(fs::path(abs).parent_path().string(), stem + ".obj", {stem + ".mtl", stem + ".obj"},
-                   [&](const std::string& staging) { exportObj(result_->exported ? *result_->exported : *result_->model, staging, stem); });
+                   [&](const std::string& staging) {
+                     exportObj(result_->exported ? *result_->exported : *result_->model, staging, stem);
+                   });
     } else {
       throw Error(located(abs, "export: choose a file name ending in .glb or .obj"));
     }
-    setStatus("exported " + abs);
+    setStatus(stale ? "exported " + abs + " - the result of an earlier state: the document changed since"
+                    : "exported " + abs);
     return true;
   } catch (const Error& e) {
     reportError(e.what());

@@ -535,11 +535,12 @@ void Editor::statusBar(const Rect& r) {
     const double overall = (stage + std::clamp(ws.fraction, 0.0, 1.0)) / double(kStageNames.size());
     ImGui::ProgressBar(static_cast<float>(overall), ImVec2(110, 0), "");
     ImGui::SameLine();
-    ImGui::Text("%s %3.0f%% %s", stageName(ws.stage), 100 * ws.fraction, ws.what.c_str());
+    ImGui::Text("%s%s %3.0f%% %s", ws.tier == Tier::Final ? "final: " : "", stageName(ws.stage), 100 * ws.fraction,
+                ws.what.c_str());
   } else if (doc_.project().mesh.empty()) {
     ImGui::TextDisabled("open a project or a mesh (Ctrl+O)");
   } else if (resultCurrent()) {
-    ImGui::TextColored(ImVec4(0.5f, 0.85f, 0.5f, 1), "preview up to date");
+    ImGui::TextColored(ImVec4(0.5f, 0.85f, 0.5f, 1), result_->model ? "up to date" : "preview up to date");
   } else if (!lastError_.empty()) {
     ImGui::TextColored(kErrorColor, "pipeline failed");
   } else {

@@ -186,7 +186,17 @@ void Editor::runAction(const ScriptAction& a) {
     waitFor(where + " (the worker did not finish)", a.args.empty() ? 300 : timeout, [this] {
       if (doc_.project().mesh.empty()) return true;
       if (doc_.inGroup() || submittedRevision_ != doc_.revision() || worker_->status().busy) return false;
-      // Done when the newest submission came back (a result, or an error) and its buffers are uploaded.
+      // Done when the newest submission came back (its final result, or an error) and its buffers are
+      // uploaded.
+      const bool answered = (resultGeneration_ == submittedGeneration_ && result_ && result_->tier == Tier::Final) ||
+                            lastErrorGeneration_ == submittedGeneration_;
+      return answered && !meshDirty_ && uploadedModel_ != nullptr;
+    });
+  } else if (a.verb == "wait_result") {
+    // The first result of the newest submission is shown (the preview; the final bake may still run).
+    waitFor(where + " (no result came back)", a.args.empty() ? 300 : timeout, [this] {
+      if (doc_.project().mesh.empty()) return true;
+      if (doc_.inGroup() || submittedRevision_ != doc_.revision()) return false;
       const bool answered = resultGeneration_ == submittedGeneration_ || lastErrorGeneration_ == submittedGeneration_;
       return answered && !meshDirty_ && uploadedModel_ != nullptr;
     });

@@ -218,7 +218,7 @@ void Editor::uploadMesh() {
   ++uploadCount_;
   meshDirty_ = false;
   overlayDirty_ = true;
-  const TexturedModel* model = resultUsable() ? result_->model.get() : nullptr;
+  const TexturedModel* model = shownModel();
   const Mesh* mesh = model ? &model->mesh : input_.mesh.get();
   uploadedModel_ = model ? static_cast<const void*>(model) : static_cast<const void*>(mesh);
   materialRanges_.clear();
@@ -234,7 +234,8 @@ void Editor::uploadMesh() {
                    [&](int a, int b) { return materialOf(a) < materialOf(b); });
   const std::vector<Vec3f> normals = vertexNormals(*mesh);
   std::vector<float> data;
-  data.reserve(size_t(F) * 3 * 11);
+  data.reserve(size_t(F) * 3 * 14);
+  const bool cornerColors = model && static_cast<int>(model->cornerColor.size()) == F;
   const float bary[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
   for (int i = 0; i < F; ++i) {
     const int f = gpuFaceOrder_[i];
@@ -245,14 +246,15 @@ void Editor::uploadMesh() {
       // The model's UVs have v up (OBJ); textures are uploaded with the image's top row first.
       Vec2f uv(0, 0);
       if (model && model->textured()) uv = Vec2f(model->uv[f][k].x(), 1.0f - model->uv[f][k].y());
+      const Vec3f c = cornerColors ? model->cornerColor[f][k] : Vec3f::Zero();
       data.insert(data.end(), {float(p.x()), float(p.y()), float(p.z()), n.x(), n.y(), n.z(), uv.x(), uv.y(),
-                               bary[k][0], bary[k][1], bary[k][2]});
+                               bary[k][0], bary[k][1], bary[k][2], c.x(), c.y(), c.z()});
     }
     const int m = materialOf(f);
     if (materialRanges_.empty() || materialRanges_.back().first != m) materialRanges_.push_back({m, {i * 3, 0}});
     materialRanges_.back().second.second += 3;
   }
-  meshVbo_->upload(data, {{0, 3}, {1, 3}, {2, 2}, {3, 3}});
+  meshVbo_->upload(data, {{0, 3}, {1, 3}, {2, 2}, {3, 3}, {5, 3}});
 
   // Textures by content: the photos of the previous result stay on the GPU.
   std::map<std::uint64_t, std::unique_ptr<Texture>> cache;
@@ -280,7 +282,7 @@ void Editor::uploadMesh() {
 void Editor::uploadOverlay() {
   ++uploadCount_;
   overlayDirty_ = false;
-  const TexturedModel* model = resultUsable() ? result_->model.get() : nullptr;
+  const TexturedModel* model = shownModel();
   const int F = static_cast<int>(gpuFaceOrder_.size());
   std::vector<Vec4f> face(F, Vec4f::Zero());
   if (model && model->mesh.numFaces() == F) {
@@ -410,7 +412,7 @@ void Editor::updateClonePreview() {
 void Editor::renderScene() {
   if (!input_.mesh || viewRect_.w < 2 || viewRect_.h < 2) return;
   const void* wanted =
-      resultUsable() ? static_cast<const void*>(result_->model.get()) : static_cast<const void*>(input_.mesh.get());
+      resultUsable() ? static_cast<const void*>(shownModel()) : static_cast<const void*>(input_.mesh.get());
   if (meshDirty_ || wanted != uploadedModel_) uploadMesh();
   if (overlayDirty_) uploadOverlay();
   if (linesDirty_ || linesRevision_ != doc_.revision()) uploadLines();
@@ -446,7 +448,7 @@ void Editor::renderScene() {
   glUniform1i(meshShader_->uniform("uTexture"), 0);
   glUniform1i(meshShader_->uniform("uWireframe"), wireframe_ ? 1 : 0);
   glUniform1f(meshShader_->uniform("uOverlayWeight"), 1.0f);
-  const TexturedModel* model = resultUsable() ? result_->model.get() : nullptr;
+  const TexturedModel* model = shownModel();
   glActiveTexture(GL_TEXTURE0);
   for (const auto& [material, range] : materialRanges_) {
     GLuint texture = 0;
@@ -457,6 +459,7 @@ void Editor::renderScene() {
     }
     const bool textured = textured_ && texture != 0;
     glUniform1i(meshShader_->uniform("uTextured"), textured ? 1 : 0);
+    glUniform1f(meshShader_->uniform("uCornerColorWeight"), textured_ ? 1.0f : 0.0f);
     if (!textured_) base = Vec3f(0.72f, 0.72f, 0.72f);
     glUniform3f(meshShader_->uniform("uBaseColor"), base.x(), base.y(), base.z());
     glBindTexture(GL_TEXTURE_2D, texture);
@@ -512,7 +515,9 @@ void Editor::drawViewLabels(const Rect& r) {
   // What the view shows, so the user knows whether the preview is current.
   const char* what = !resultUsable()
                          ? (worker_->status().busy ? "input mesh - pipeline running" : "input mesh - no result")
-                     : resultCurrent()        ? "result - up to date"
+                     : resultCurrent()        ? (result_->model           ? "result - up to date"
+                                                 : worker_->status().busy ? "preview - up to date, final bake running"
+                                                                          : "preview - up to date")
                      : worker_->status().busy ? "result of an earlier edit - updating"
                                               : "result of an earlier edit";
   const ImVec2 size = ImGui::CalcTextSize(what);

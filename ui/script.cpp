@@ -13,7 +13,10 @@ const std::vector<ScriptVerb>& scriptVerbs() {
   static const std::vector<ScriptVerb> verbs = {
       {"wait_frames", 1, 1, "N", "render N frames"},
       {"wait_worker", 0, 1, "[SECONDS]",
-       "wait until the worker is idle and the preview shows the current document (default timeout 300 s)"},
+       "wait until the worker is idle (the final bake done) and the view shows the current document (default "
+       "timeout 300 s)"},
+      {"wait_result", 0, 1, "[SECONDS]",
+       "wait until the first result (the preview) of the current document is shown (default timeout 300 s)"},
       {"wait_busy", 0, 1, "[SECONDS]", "wait until the worker is running a job (default timeout 60 s)"},
       {"wait_autosave", 0, 1, "[SECONDS]", "wait until the current document has been autosaved"},
       {"sleep", 1, 1, "SECONDS", "keep rendering frames for SECONDS of wall time"},

@@ -1,10 +1,9 @@
 #include "worker.h"
 
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-
 #include <chrono>
+#include <map>
+
+#include "atlas/preview_model.h"
 
 namespace montage {
 
@@ -47,11 +46,46 @@ bool PipelineWorker::waitIdle(double timeoutSeconds) {
   return wake_.wait_until(lock, deadline, [this] { return !pending_ && !status_.busy; });
 }
 
+bool PipelineWorker::runTier(const Project& project, Tier tier, WorkerOutcome& outcome) {
+  try {
+    JobControl job(&cancel_, [this](StageId stage, double fraction, const std::string& what) {
+      std::lock_guard<std::mutex> guard(mutex_);
+      status_.stage = stage;
+      status_.fraction = fraction;
+      status_.what = what;
+    });
+    outcome.tier = tier;
+    outcome.result = std::make_shared<const PipelineResult>(pipeline_.run(project, job, tier));
+    const PipelineResult& r = *outcome.result;
+    if (!r.model && r.mapping && r.colors && r.scene) {
+      // The preview model: the photos as textures (converted once per photo), the mapping's faces.
+      std::vector<cv::Mat> textures;
+      std::map<const Photo*, std::pair<std::weak_ptr<const Photo>, cv::Mat>> kept;
+      for (const auto& p : r.scene->photos) {
+        auto it = photoTextures_.find(p.get());
+        const bool reuse = it != photoTextures_.end() && it->second.first.lock() == p;
+        textures.push_back(reuse ? it->second.second : previewTexture(*p));
+        kept[p.get()] = {p, textures.back()};
+      }
+      photoTextures_ = std::move(kept);
+      outcome.preview =
+          std::make_shared<const TexturedModel>(previewModel(r.mapping->partition.mesh, r.mapping->map, r.scene->photos,
+                                                             textures, &r.colors->levelling, &r.colors->inpaint));
+    }
+    return true;
+  } catch (const Cancelled&) {
+    return false;
+  } catch (const std::exception& e) {
+    outcome.result.reset();
+    outcome.preview.reset();
+    outcome.error = e.what();
+    return true;
+  }
+}
+
 void PipelineWorker::loop() {
-  // The UI thread (and Mesa's rendering threads) must win the CPU over the pipeline: the worker
-  // thread, and any thread a stage starts from it, runs at a lower priority (Linux nice is per
-  // thread and inherited). Best effort: failing leaves the default priority.
-  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
+  // The worker runs at normal priority: the UI thread never waits for it (it takes finished results
+  // from a slot), and it redraws only on input, animation and worker progress.
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
     wake_.wait(lock, [this] { return quit_ || pending_; });
@@ -60,31 +94,22 @@ void PipelineWorker::loop() {
     pending_.reset();
     const long generation = pendingGeneration_;
     cancel_ = false;
-    status_ = WorkerStatus{true, StageId::Load, 0, "", generation};
-    lock.unlock();
-
-    WorkerOutcome outcome;
-    outcome.generation = generation;
-    bool cancelled = false;
-    try {
-      JobControl job(&cancel_, [this](StageId stage, double fraction, const std::string& what) {
-        std::lock_guard<std::mutex> guard(mutex_);
-        status_.stage = stage;
-        status_.fraction = fraction;
-        status_.what = what;
-      });
-      outcome.result = std::make_shared<const PipelineResult>(pipeline_.run(*project, job));
-    } catch (const Cancelled&) {
-      cancelled = true;
-    } catch (const std::exception& e) {
-      outcome.error = e.what();
+    for (Tier tier : {Tier::Preview, Tier::Final}) {
+      status_ = WorkerStatus{true, tier, StageId::Load, 0, "", generation};
+      lock.unlock();
+      WorkerOutcome outcome;
+      outcome.generation = generation;
+      const bool finished = runTier(*project, tier, outcome);
+      lock.lock();
+      status_.busy = false;
+      // A cancelled run, or one overtaken by a newer snapshot, publishes nothing: the newest wins.
+      const bool overtaken = !finished || pending_ || quit_;
+      const bool succeeded = finished && outcome.result;
+      if (!overtaken) finished_ = std::move(outcome);
+      wake_.notify_all();
+      // The final tier follows only when the preview succeeded and nothing newer is waiting.
+      if (overtaken || !succeeded) break;
     }
-
-    lock.lock();
-    status_.busy = false;
-    // A cancelled run, or one overtaken by a newer snapshot, publishes nothing: the newest wins.
-    if (!cancelled && !pending_) finished_ = std::move(outcome);
-    wake_.notify_all();
   }
 }
 

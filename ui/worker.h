@@ -1,11 +1,14 @@
 // The background worker of the editor: one thread owns a core Pipeline and runs it on immutable
-// project snapshots. Submitting a new snapshot cancels the running job; the newest snapshot wins.
-// Finished results wait in a mutex-guarded slot until the UI thread takes them. The worker never
-// touches ImGui, GL or the live document.
+// project snapshots, in two tiers: first the preview (the mapping, levelling and a light inpainting,
+// shown through a preview model whose faces sample the photos on the GPU), then, when no newer snapshot
+// is waiting, the final bake of the same snapshot, which replaces the preview. Submitting a new
+// snapshot cancels the running job; the newest snapshot wins. Finished results wait in a mutex-guarded
+// slot until the UI thread takes them. The worker never touches ImGui, GL or the live document.
 #pragma once
 
 #include <atomic>
 #include <condition_variable>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -18,6 +21,7 @@ namespace montage {
 
 struct WorkerStatus {
   bool busy = false;
+  Tier tier = Tier::Preview;  // of the run in progress (or the last one)
   StageId stage = StageId::Load;
   double fraction = 0;  // of the current stage
   std::string what;     // what the stage is doing
@@ -27,7 +31,9 @@ struct WorkerStatus {
 // What one run produced: a result or an error message, for snapshot `generation`.
 struct WorkerOutcome {
   long generation = 0;
+  Tier tier = Tier::Preview;
   std::shared_ptr<const PipelineResult> result;  // null when the run failed
+  std::shared_ptr<const TexturedModel> preview;  // preview tier: previewModel() of the result (surface/preview.h)
   std::string error;                             // empty on success
 };
 
@@ -43,11 +49,13 @@ class PipelineWorker {
   // The newest finished outcome not yet taken, if any. Never blocks on the running job.
   std::optional<WorkerOutcome> take();
   WorkerStatus status() const;
-  // Blocks until the worker is idle (tests and batch use); returns false on timeout.
+  // Blocks until the worker is idle, the final tier included (tests and batch use); false on timeout.
   bool waitIdle(double timeoutSeconds);
 
  private:
   void loop();
+  // Runs one tier of `project`; fills `outcome`, returns false when cancelled.
+  bool runTier(const Project& project, Tier tier, WorkerOutcome& outcome);
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;
@@ -58,7 +66,9 @@ class PipelineWorker {
   WorkerStatus status_;
   std::atomic<bool> cancel_{false};
   bool quit_ = false;
-  Pipeline pipeline_;   // owned and used by the worker thread only
+  Pipeline pipeline_;  // owned and used by the worker thread only
+  // Worker thread only: each photo's preview texture (previewTexture), while the pipeline keeps the photo.
+  std::map<const Photo*, std::pair<std::weak_ptr<const Photo>, cv::Mat>> photoTextures_;
   std::thread thread_;  // last: started after every other member exists
 };
 

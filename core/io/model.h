@@ -35,6 +35,10 @@ struct TexturedModel {
   std::vector<int> faceMaterial;  // #F, index into materials
   std::vector<int> faceSource;    // #F, FaceSource or photo index; empty when unknown
   std::vector<Material> materials;
+  // #F x 3 sRGB colours added to the material's colour at each corner, interpolated over the face; empty
+  // = none. Only the editor's preview model has them (surface/preview.h: the seam levelling offsets of
+  // photo faces; the inpainted colours of untextured faces, over a black diffuse). Exporters ignore them.
+  std::vector<std::array<Vec3f, 3>> cornerColor;
 
   bool textured() const { return !uv.empty(); }
   // Colour (sRGB [0,1]) of face f at barycentrics b: bilinear texture lookup with repeat wrapping,

@@ -1,0 +1,140 @@
+#include "atlas/preview_model.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "surface/inpaint.h"
+#include "surface/level.h"
+#include "surface/preview.h"
+
+namespace montage {
+
+cv::Mat previewTexture(const Photo& photo) {
+  cv::Mat rgb8, rgba;
+  const double unit = photo.rgb.depth() == CV_8U ? 1.0 : photo.rgb.depth() == CV_16U ? 255.0 / 65535 : 255.0;
+  photo.rgb.convertTo(rgb8, CV_8U, unit);
+  cv::cvtColor(rgb8, rgba, cv::COLOR_RGB2RGBA);
+  return rgba;
+}
+
+TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
+                           const std::vector<std::shared_ptr<const Photo>>& photos,
+                           const std::vector<cv::Mat>& photoTextures, const SeamLevelling* levelling,
+                           const InpaintResult* inpaint, const AtlasOptions& options) {
+  const int nf = mesh.numFaces();
+  const int np = static_cast<int>(photos.size());
+  TM_CHECK(map.numFaces() == nf, "preview model: the texture map has " + std::to_string(map.numFaces()) +
+                                     " faces, the mesh " + std::to_string(nf));
+  TM_CHECK(static_cast<int>(photoTextures.size()) == np, "preview model: " + std::to_string(photoTextures.size()) +
+                                                             " textures for " + std::to_string(np) + " photos");
+  const bool hasInpaint = inpaint && static_cast<int>(inpaint->faceRegion.size()) == nf;
+  const int inpaintedMaterial = np, emptyMaterial = np + 1;
+  TexturedModel model;
+  model.name = "preview";
+  model.mesh = mesh;
+  model.uv.assign(nf, {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()});
+  model.faceMaterial.assign(nf, emptyMaterial);
+  model.faceSource.assign(nf, kSourceEmpty);
+  model.cornerColor.assign(nf, {Vec3f::Zero(), Vec3f::Zero(), Vec3f::Zero()});
+  for (int p = 0; p < np; ++p) {
+    Material m;
+    m.name = "photo_" + std::to_string(p);
+    m.texture = photoTextures[p];
+    model.materials.push_back(std::move(m));
+  }
+  Material inpainted, empty;
+  inpainted.name = "inpainted";
+  empty.name = "empty";
+  empty.diffuse = options.emptyColor;
+  model.materials.push_back(inpainted);
+  model.materials.push_back(empty);
+
+  const bool hasOffsets = levelling && static_cast<int>(levelling->cornerOffset.size()) == nf;
+  std::vector<int> inpaintedFaces;
+  for (int f = 0; f < nf; ++f) {
+    if (hasInpaint && inpaint->faceRegion[f] >= 0) {
+      inpaintedFaces.push_back(f);
+      continue;
+    }
+    const int p = map.facePhoto[f];
+    if (p < 0 || p >= np) continue;
+    TM_CHECK(photos[p] != nullptr, "preview model: photo " + std::to_string(p) + " is missing");
+    model.faceMaterial[f] = p;
+    model.faceSource[f] = p;
+    for (int k = 0; k < 3; ++k) {
+      const Vec2& uv = map.cornerUV[f][k];
+      model.uv[f][k] = Vec2f(float(uv.x() / photos[p]->width), float(1.0 - uv.y() / photos[p]->height));
+      if (hasOffsets) model.cornerColor[f][k] = levelling->cornerOffset[f][k];
+    }
+  }
+  if (inpaintedFaces.empty()) return model;
+
+  // The inpainted faces' own atlas: their sub-mesh, its charts at the regions' densities, baked from
+  // the inpainted colours (PreviewSurface: the refined triangles' colours, as the final bake has them).
+  std::vector<int> local(mesh.numVertices(), -1);
+  std::vector<Vec3> vertices;
+  std::vector<std::array<int, 3>> triangles;
+  for (int f : inpaintedFaces) {
+    std::array<int, 3> t{};
+    const auto c = mesh.faceVertices(f);
+    for (int k = 0; k < 3; ++k) {
+      if (local[c[k]] < 0) {
+        local[c[k]] = static_cast<int>(vertices.size());
+        vertices.push_back(mesh.position(c[k]));
+      }
+      t[k] = local[c[k]];
+    }
+    triangles.push_back(t);
+  }
+  MeshLoadOptions keep;
+  keep.splitNonManifoldVertices = true;
+  const std::unique_ptr<Mesh> sub = requireUsable(buildMesh(vertices, triangles, {}, keep, "preview"));
+  const int sf = sub->numFaces();
+  TM_CHECK(static_cast<int>(sub->faceOrigin.size()) == sf,
+           "preview model: the inpainted sub-mesh lost its face origins");
+  AtlasInput in;
+  in.faceSource.assign(sf, kSourceInpainted);
+  in.cornerUV.assign(sf, {Vec2::Zero(), Vec2::Zero(), Vec2::Zero()});
+  in.faceDensity.resize(sf);
+  std::vector<int> parent(sf);
+  for (int g = 0; g < sf; ++g) {
+    parent[g] = inpaintedFaces[sub->faceOrigin[g]];
+    in.faceDensity[g] = inpaint->regions[inpaint->faceRegion[parent[g]]].texelsPerUnit;
+  }
+  const Atlas atlas = buildAtlas(*sub, in, options);
+  std::vector<const Photo*> photoPointers;
+  for (const auto& p : photos) photoPointers.push_back(p.get());
+  const PreviewSurface surface(map, photoPointers, levelling, inpaint, options.emptyColor);
+  // The sub-mesh's corners in the mesh's corner order (buildMesh keeps the triangle's corner order, but
+  // a face's first corner may differ): by position.
+  const AtlasImage image = bakeAtlasSurface(
+      atlas,
+      [&](int g, const Vec3& b, unsigned char&) {
+        const int f = parent[g];
+        const auto q = sub->facePositions(g);
+        const auto c = mesh.faceVertices(f);
+        Vec3 bf = Vec3::Zero();
+        for (int k = 0; k < 3; ++k)
+          for (int j = 0; j < 3; ++j)
+            if (q[k] == mesh.position(c[j])) bf[j] += b[k];
+        return surface.color(f, bf);
+      },
+      options);
+  model.materials[inpaintedMaterial].texture = image.rgba;
+  const double size = atlas.size;
+  for (int g = 0; g < sf; ++g) {
+    const int f = parent[g];
+    const auto q = sub->facePositions(g);
+    const auto c = mesh.faceVertices(f);
+    model.faceMaterial[f] = inpaintedMaterial;
+    model.faceSource[f] = kSourceInpainted;
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k)
+        if (q[k] == mesh.position(c[j]))
+          model.uv[f][j] = Vec2f(float(atlas.cornerUV[g][k].x() / size), float(1.0 - atlas.cornerUV[g][k].y() / size));
+  }
+  return model;
+}
+
+}  // namespace montage

@@ -67,6 +67,7 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
       cv::detail::GCGraph<double> g(m, 2 * incidentEdges);
       for (int i = 0; i < m; ++i) g.addVtx();
       std::vector<double> unary(m, 0.0);  // coefficient of x (switching to alpha) per variable
+      int pairs = 0;                      // pairwise edges added
       for (int i = 0; i < m; ++i) {
         const int n = nodes[i];
         unary[i] += cost(n, alpha) - cost(n, labels[n]);
@@ -81,7 +82,7 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
             unary[i] += C - A;
             unary[j] += D - C;
             const double pair = B + C - A - D;
-            if (pair > 0) g.addEdges(i, j, pair, 0);
+            if (pair > 0) g.addEdges(i, j, pair, 0), ++pairs;
           } else {
             // A fixed neighbour: keep pays w when labels differ, alpha pays w when it differs from alpha.
             unary[i] += (alpha != labels[other] ? w : 0) - (labels[n] != labels[other] ? w : 0);
@@ -91,10 +92,11 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
       // x = 1 (alpha) on the sink side: the source edge carries the cost of switching, the sink edge
       // the cost of keeping.
       for (int i = 0; i < m; ++i) g.addTermWeights(i, std::max(unary[i], 0.0), std::max(-unary[i], 0.0));
-      g.maxFlow();
+      // Without pairwise edges every variable decides alone (GCGraph's max-flow needs an edge).
+      if (pairs > 0) g.maxFlow();
       std::vector<int> next = labels;
       for (int i = 0; i < m; ++i)
-        if (!g.inSourceSegment(i)) next[nodes[i]] = alpha;
+        if (pairs > 0 ? !g.inSourceSegment(i) : unary[i] < 0) next[nodes[i]] = alpha;
       for (int n : nodes) var[n] = -1;
       const double e = p.energy(next);
       if (e < energy - 1e-9 * std::max(1.0, std::abs(energy))) {

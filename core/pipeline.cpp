@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "base/util.h"
+#include "image/cutout.h"
 #include "io/mesh_io.h"
 #include "mapping/simplify.h"
 
@@ -26,7 +27,26 @@ std::string fileKey(const std::string& path) {
 }
 
 std::string photoKey(const PhotoRef& ref) {
-  return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask));
+  return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask)) + (ref.mirror ? "|mirror" : "");
+}
+
+// A photo that could not be loaded: 1 x 1 and all background, so that nothing maps into it.
+std::shared_ptr<const Photo> placeholderPhoto(const PhotoRef& ref) {
+  auto photo = std::make_shared<Photo>();
+  photo->path = ref.path;
+  photo->maskPath = ref.mask;
+  photo->mirrored = ref.mirror;
+  photo->width = photo->height = 1;
+  photo->rgb = cv::Mat::zeros(1, 1, CV_32FC3);
+  photo->alpha = cv::Mat::zeros(1, 1, CV_32FC1);
+  photo->distance = cv::Mat(1, 1, CV_32FC1, cv::Scalar(1e6));
+  photo->luv = cv::Mat::zeros(1, 1, CV_32FC3);
+  photo->hasBackground = true;
+  return photo;
+}
+
+std::string photoName(const Project& project, int i) {
+  return "photo " + std::to_string(i) + " '" + fs::path(project.photos[i].path).filename().string() + "'";
 }
 
 std::vector<std::pair<int, int>> photoSizes(const std::vector<std::shared_ptr<const Photo>>& photos) {
@@ -67,6 +87,33 @@ Mapping mapTexture(const Scene& scene, const JobControl& job) {
   out.mapSeconds = secondsSince(start);
   if (scene.project.points.empty())
     out.map.notes.insert(out.map.notes.begin(), "no features: the whole mesh is one empty patch (paper section 3)");
+  return out;
+}
+
+BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping, const JobControl& job) {
+  job.progress(StageId::Balance, 0.0);
+  BalanceOptions options;
+  options.mode = scene->project.options.colorBalance;
+  std::vector<bool> locked;
+  std::vector<const Photo*> photos;
+  for (size_t i = 0; i < scene->photos.size(); ++i) {
+    locked.push_back(scene->project.photos[i].colorLocked || scene->skippedPhotos.count(int(i)));
+    photos.push_back(scene->photos[i].get());
+  }
+  BalancedScene out;
+  out.balance = balanceColors(mapping.partition.mesh, mapping.map, photos, locked, options, job);
+  bool changed = false;
+  for (const ColorTransform& t : out.balance.transforms) changed = changed || !t.identity();
+  if (!changed) {
+    out.scene = scene;
+    return out;
+  }
+  auto balanced = std::make_shared<Scene>(*scene);
+  for (size_t i = 0; i < balanced->photos.size(); ++i) {
+    job.progress(StageId::Balance, 0.5 + 0.5 * i / balanced->photos.size(), "applying");
+    balanced->photos[i] = balancedPhoto(scene->photos[i], out.balance.transforms[i]);
+  }
+  out.scene = balanced;
   return out;
 }
 
@@ -128,21 +175,36 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   scene->meshReport = cachedMeshReport_;
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> photos;
   for (size_t i = 0; i < project.photos.size(); ++i) {
-    const std::string key = photoKey(project.photos[i]);
+    const PhotoRef& ref = project.photos[i];
+    const std::string key = photoKey(ref);
     std::shared_ptr<const Photo> photo;
     for (const auto& [k, p] : cachedPhotos_)
       if (k == key) photo = p;
     if (!photo) {
       job.progress(StageId::Load, double(i + 1) / (project.photos.size() + 1),
-                   "photo " + fs::path(project.photos[i].path).filename().string());
-      photo = std::make_shared<Photo>(loadPhoto(project.photos[i].path, project.photos[i].mask));
+                   "photo " + fs::path(ref.path).filename().string());
+      try {
+        photo = std::make_shared<Photo>(loadPhoto(ref.path, ref.mask, ref.mirror));
+        photos.emplace_back(key, photo);
+      } catch (const Error& e) {
+        // A broken photo disables only itself: the others still texture.
+        scene->skippedPhotos[int(i)] = e.what();
+        photo = placeholderPhoto(ref);
+      }
       cached = false;
+    } else {
+      photos.emplace_back(key, photo);
     }
-    photos.emplace_back(key, photo);
     scene->photos.push_back(photo);
   }
   cachedPhotos_ = std::move(photos);
-  validateProject(project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
+  if (!scene->skippedPhotos.empty()) {
+    std::set<int> skipped;
+    for (const auto& [i, reason] : scene->skippedPhotos) skipped.insert(i);
+    scene->requested = project;
+    scene->project = withoutPhotoReferences(project, skipped);
+  }
+  validateProject(scene->project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
   return scene;
 }
 
@@ -161,6 +223,20 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                  {"chains", project.chains.size()}};
   result.stages.push_back(load);
   for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
+  for (const auto& [i, reason] : scene->skippedPhotos) {
+    int positions = 0, chains = 0, clones = 0;
+    for (const FeaturePoint& pt : project.points)
+      for (const PhotoPoint& a : pt.at) positions += a.photo == i;
+    for (const FeatureChain& c : project.chains) chains += c.photo == i;
+    for (const CloneOp& c : project.clones) clones += c.photo == i;
+    result.warnings.push_back(photoName(project, i) + " skipped (" + reason + "): its " + std::to_string(positions) +
+                              " positions, " + std::to_string(chains) + " chains and " + std::to_string(clones) +
+                              " clones are left out of this run; relink or remove it");
+  }
+  for (size_t i = 0; i < scene->photos.size(); ++i)
+    if (!scene->skippedPhotos.count(int(i)))
+      for (const std::string& w : foregroundWarnings(*scene->photos[i]))
+        result.warnings.push_back(photoName(project, int(i)) + ": " + w);
 
   // Partition, Simplify, Map: rerun when what they read (mesh, photos, correspondences, options) changed.
   std::ostringstream key;
@@ -204,13 +280,47 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                             {"max_stretch", mapping.stats.maxStretch}}});
   for (const auto& note : mapping.map.notes) result.warnings.push_back("map: " + note);
 
-  // Level + Inpaint: rerun when the mapping or what they read (strokes, clones, hole modes, their
+  // Balance: rerun when the mapping, the mode or the locks changed.
+  key << opts["colorBalance"].dump() << '|';
+  for (const PhotoRef& ref : project.photos) key << ref.colorLocked;
+  const bool balanceCached = mapCached && key.str() == balanceKey_ && cachedBalance_;
+  if (!balanceCached) {
+    cachedBalance_ = std::make_shared<const BalancedScene>(balanceScene(scene, mapping, job));
+    balanceKey_ = key.str();
+  }
+  const ColorBalance& bal = cachedBalance_->balance;
+  {
+    nlohmann::json gains = nlohmann::json::array(), offsets = nlohmann::json::array(), references = nlohmann::json::array();
+    for (size_t i = 0; i < bal.transforms.size(); ++i) {
+      const ColorTransform& t = bal.transforms[i];
+      gains.push_back({t.gain[0], t.gain[1], t.gain[2]});
+      offsets.push_back({t.offset[0], t.offset[1], t.offset[2]});
+      if (bal.reference[i]) references.push_back(i);
+    }
+    result.stages.push_back({StageId::Balance,
+                             balanceCached,
+                             balanceCached ? 0 : bal.seconds,
+                             {{"mode", kBalanceModeNames[size_t(project.options.colorBalance)]},
+                              {"samples", bal.samples},
+                              {"photo_pairs", bal.pairs},
+                              {"references", references},
+                              {"gain", gains},
+                              {"offset", offsets},
+                              {"iterations", bal.iterations},
+                              {"outlier_share", bal.outlierShare},
+                              {"mismatch_before", bal.mismatchBefore},
+                              {"mismatch_after", bal.mismatchAfter}}});
+    for (const auto& w : bal.warnings) result.warnings.push_back("balance: " + w);
+  }
+  const Scene& colorScene = *cachedBalance_->scene;
+
+  // Level + Inpaint: rerun when the balance or what they read (strokes, clones, hole modes, their
   // options) changed.
   key << document["strokes"].dump() << document["clones"].dump() << document["holeModes"].dump()
       << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump();
-  const bool colorCached = mapCached && key.str() == colorKey_ && cachedColors_;
+  const bool colorCached = balanceCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
-    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, mapping, job));
+    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(colorScene, mapping, job));
     colorKey_ = key.str();
   }
   const SurfaceColors& colors = *cachedColors_;
@@ -246,7 +356,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
 
   // Bake.
   start = Clock::now();
-  auto baked = std::make_shared<const BakeResult>(bakeModel(*scene, mapping, colors, job));
+  auto baked = std::make_shared<const BakeResult>(bakeModel(colorScene, mapping, colors, job));
   StageRecord bake;
   bake.stage = StageId::Bake;
   bake.seconds = secondsSince(start);
@@ -256,6 +366,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
 
   result.scene = scene;
   result.mapping = cachedMapping_;
+  result.balanced = cachedBalance_;
   result.colors = cachedColors_;
   result.baked = baked;
   result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);

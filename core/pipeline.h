@@ -21,6 +21,7 @@
 #include "mapping/fine_map.h"
 #include "mapping/partition.h"
 #include "mapping/texture_map.h"
+#include "surface/balance.h"
 #include "surface/inpaint.h"
 
 namespace montage {
@@ -42,6 +43,14 @@ struct Mapping {
   double partitionSeconds = 0, simplifySeconds = 0, mapSeconds = 0;
 };
 
+// Colour balance between photos (balance.h), after the mapping and before every stage that reads colours:
+// the transforms, and the scene those stages read, whose photos are the balanced copies (a reference
+// photo, or one left as it is, is the loaded object itself: unchanged bit for bit).
+struct BalancedScene {
+  ColorBalance balance;
+  std::shared_ptr<const Scene> scene;
+};
+
 // What the colour stages add to a mapping: seam levelling offsets and the inpainted/cloned regions.
 struct SurfaceColors {
   SeamLevelling levelling;
@@ -60,6 +69,7 @@ struct BakeResult {
 struct PipelineResult {
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const Mapping> mapping;
+  std::shared_ptr<const BalancedScene> balanced;  // balanced->scene is what levelling, inpainting and bake read
   std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const BakeResult> baked;
   std::shared_ptr<const TexturedModel> model;  // baked->model
@@ -73,6 +83,9 @@ struct PipelineResult {
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
 // Partition, Simplify, Map: correspondences -> partition -> progressive mesh -> texture map.
 Mapping mapTexture(const Scene& scene, const JobControl& job = {});
+// Balance: colour transforms per photo over the mapping's seams (options.colorBalance, photos' colorLocked).
+BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping,
+                           const JobControl& job = {});
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h).
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {});
 // Bake: see BakeResult.
@@ -94,6 +107,8 @@ class Pipeline {
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> cachedPhotos_;  // key -> photo
   std::string mapKey_;
   std::shared_ptr<const Mapping> cachedMapping_;
+  std::string balanceKey_;
+  std::shared_ptr<const BalancedScene> cachedBalance_;
   std::string colorKey_;
   std::shared_ptr<const SurfaceColors> cachedColors_;
 };

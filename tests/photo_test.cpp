@@ -395,3 +395,67 @@ TEST(Photo, RealPhotosLoadWithTheirSizes) {
     EXPECT_GT(mean[0], 0.05);  // not a black image
   }
 }
+
+namespace {
+
+bool sameMat(const cv::Mat& a, const cv::Mat& b) {
+  return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0;
+}
+
+}  // namespace
+
+TEST(Photo, MirrorFlipsThePhotoAndItsMaskOnLoadLikeAMirroredCopy) {
+  const std::string dir = test::tempDir("photo");
+  // An asymmetric photo with alpha, and a mask (in the file's own pixels) that differs from the alpha.
+  cv::Mat image(40, 60, CV_8UC4);
+  cv::randu(image, cv::Scalar::all(0), cv::Scalar::all(255));
+  image(cv::Rect(0, 0, 60, 40)).forEach<cv::Vec4b>([](cv::Vec4b& p, const int* at) { p[3] = at[1] < 35 ? 255 : 0; });
+  cv::Mat mask = cv::Mat::zeros(40, 60, CV_8UC1);
+  mask(cv::Rect(5, 5, 20, 30)).setTo(255);
+  cv::Mat flippedImage, flippedMask;
+  cv::flip(image, flippedImage, 1);
+  cv::flip(mask, flippedMask, 1);
+  const std::string photoPath = write(dir, "p.png", image), maskPath = write(dir, "m.png", mask);
+  const std::string copyPath = write(dir, "p_mirrored.png", flippedImage);
+  const std::string copyMaskPath = write(dir, "m_mirrored.png", flippedMask);
+
+  for (const bool withMask : {false, true}) {
+    const Photo mirrored = loadPhoto(photoPath, withMask ? maskPath : "", true);
+    const Photo copy = loadPhoto(copyPath, withMask ? copyMaskPath : "");
+    EXPECT_TRUE(mirrored.mirrored);
+    EXPECT_FALSE(copy.mirrored);
+    EXPECT_EQ(mirrored.width, 60);
+    EXPECT_TRUE(sameMat(mirrored.rgb, copy.rgb)) << "mask " << withMask;
+    EXPECT_TRUE(sameMat(mirrored.alpha, copy.alpha)) << "mask " << withMask;
+    EXPECT_TRUE(sameMat(mirrored.distance, copy.distance)) << "mask " << withMask;
+    EXPECT_TRUE(sameMat(mirrored.luv, copy.luv)) << "mask " << withMask;
+  }
+  // And it really is mirrored: the pixel at column c is the file's column 59 - c.
+  const Photo plain = loadPhoto(photoPath, maskPath), mirrored = loadPhoto(photoPath, maskPath, true);
+  EXPECT_FALSE(plain.mirrored);
+  for (int c : {0, 7, 59})
+    EXPECT_EQ(mirrored.rgb.at<cv::Vec3f>(3, c), plain.rgb.at<cv::Vec3f>(3, 59 - c)) << "column " << c;
+  EXPECT_TRUE(plain.isForeground(6, 6));
+  EXPECT_FALSE(mirrored.isForeground(6, 6));
+  EXPECT_TRUE(mirrored.isForeground(60 - 6, 6));
+}
+
+TEST(Photo, MaskAlphaIsRelativeToTheMasksLargestValue) {
+  const std::string dir = test::tempDir("photo");
+  const std::string photoPath = write(dir, "p.png", cv::Mat(10, 10, CV_8UC3, cv::Scalar(40, 80, 120)));
+  // A 0/1 label image: full alpha (not 1/255), so a label mask is not a faint one.
+  cv::Mat labels = cv::Mat::zeros(10, 10, CV_8UC1);
+  labels(cv::Rect(2, 2, 5, 5)).setTo(1);
+  const Photo fromLabels = loadPhoto(photoPath, write(dir, "labels.png", labels));
+  EXPECT_EQ(fromLabels.alpha.at<float>(3, 3), 1.0f);
+  EXPECT_EQ(fromLabels.alpha.at<float>(0, 0), 0.0f);
+  // A feathered mask: partial alpha on its edge, the same foreground as its binary version.
+  cv::Mat feathered = cv::Mat::zeros(10, 10, CV_8UC1);
+  feathered(cv::Rect(2, 2, 5, 5)).setTo(255);
+  feathered.at<uchar>(2, 2) = 51;
+  const Photo fromFeathered = loadPhoto(photoPath, write(dir, "feathered.png", feathered));
+  EXPECT_NEAR(fromFeathered.alpha.at<float>(2, 2), 0.2f, 1e-6);
+  EXPECT_EQ(fromFeathered.alpha.at<float>(4, 4), 1.0f);
+  EXPECT_EQ(cv::countNonZero(fromFeathered.alpha > 0), cv::countNonZero(fromLabels.alpha > 0));
+  EXPECT_TRUE(sameMat(fromFeathered.distance, fromLabels.distance));
+}

@@ -100,6 +100,13 @@ void Editor::initWindow() {
   std::error_code ec;
   if (fs::exists(font, ec)) io.Fonts->AddFontFromFileTTF(font, 15.0f);
   ImGui_ImplGlfw_InitForOpenGL(window_, true);
+  // Files dropped on the window: kept for the next frame's UI (the only place the document changes).
+  // The ImGui backend uses neither the window's user pointer nor the drop callback.
+  glfwSetWindowUserPointer(window_, this);
+  glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
+    auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
+    for (int i = 0; i < count; ++i) editor->dropped_.push_back(paths[i]);
+  });
   ImGui_ImplOpenGL3_Init("#version 330 core");
   imguiReady_ = true;
 
@@ -184,6 +191,7 @@ void Editor::frame() {
   ImGui::NewFrame();
 
   syncInputs();
+  pollCutout();
   buildUi();
   validateSelection();
   pollWorker();
@@ -252,15 +260,16 @@ void Editor::syncInputs() {
   photos_.resize(p.photos.size());
   for (size_t i = 0; i < p.photos.size(); ++i) {
     PhotoSlot& slot = photos_[i];
-    const std::string key = p.photos[i].path + "|" + p.photos[i].mask;
+    const std::string key = p.photos[i].path + "|" + p.photos[i].mask + (p.photos[i].mirror ? "|mirror" : "");
     if (slot.key == key) continue;
     slot.key = key;
     slot.photo.reset();
     slot.error.clear();
+    slot.balancedFrom = nullptr;
     slot.tabView.fitted = slot.gridView.fitted = false;
     try {
       // The core's loader, so the foreground (alpha or mask) follows the pipeline's rule exactly.
-      auto photo = std::make_shared<Photo>(loadPhoto(p.photos[i].path, p.photos[i].mask));
+      auto photo = std::make_shared<Photo>(loadPhoto(p.photos[i].path, p.photos[i].mask, p.photos[i].mirror));
       cv::Mat rgb8, rgba;
       photo->rgb.convertTo(rgb8, CV_8UC3, 255.0);
       cv::cvtColor(rgb8, rgba, cv::COLOR_RGB2RGBA);
@@ -304,7 +313,7 @@ bool Editor::resultUsable() const {
 }
 
 bool Editor::resultCurrent() const {
-  return resultUsable() && result_->scene->project.sameDocument(doc_.project());
+  return resultUsable() && result_->scene->document().sameDocument(doc_.project());
 }
 
 void Editor::pollWorker() {
@@ -405,10 +414,10 @@ void Editor::cancelInProgress() {
 
 // --- UI -------------------------------------------------------------------------------------------
 
-bool Editor::button(const char* label, const ImVec2* size) {
+bool Editor::button(const char* label, const ImVec2* size, const std::string& scriptName) {
   const bool pressed = ImGui::Button(label, size ? *size : ImVec2(0, 0));
   const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
-  std::string name = label;
+  std::string name = scriptName.empty() ? label : scriptName;
   if (auto pos = name.find("##"); pos != std::string::npos) name = name.substr(0, pos);
   buttonRects_[name] = Rect{lo.x, lo.y, hi.x - lo.x, hi.y - lo.y};
   return pressed;

@@ -13,12 +13,13 @@
 namespace montage {
 
 // The stages, in pipeline order (paper Figure 2): load, partition (3.1), simplify (3.2), map
-// (coarse map 3.2 + coarse-to-fine 4.1), level (seam levelling, end of 5), inpaint (5: holes,
+// (coarse map 3.2 + coarse-to-fine 4.1), balance (colour balance between photos, the paper's
+// preprocessing done over the seams just found), level (seam levelling, end of 5), inpaint (5: holes,
 // strokes, clones), bake (atlas: charts, LSCM, packing, baking), export. Seam optimisation (4.2) is
 // not built yet; every entry below runs.
-enum class StageId { Load, Partition, Simplify, Map, Level, Inpaint, Bake, Export };
-inline constexpr std::array<const char*, 8> kStageNames = {"load",  "partition", "simplify", "map",
-                                                           "level", "inpaint",   "bake",     "export"};
+enum class StageId { Load, Partition, Simplify, Map, Balance, Level, Inpaint, Bake, Export };
+inline constexpr std::array<const char*, 9> kStageNames = {"load",    "partition", "simplify", "map",   "balance",
+                                                           "level",   "inpaint",   "bake",     "export"};
 inline const char* stageName(StageId s) {
   return kStageNames[static_cast<int>(s)];
 }

@@ -195,16 +195,26 @@ cv::Mat toUnitFloat(const std::string& path, const cv::Mat& image) {
 }
 
 // Foreground from a mask image: a pixel is foreground when one of its colour channels is non-zero and
-// (for masks with alpha) it is not transparent.
+// (for masks with alpha) it is not transparent. Its alpha is its largest colour channel relative to the
+// largest value in the mask, so a 0/1 label image and a 0/255 mask both give alpha 1, and a feathered
+// edge (cutout.h) gives partial alpha; the foreground (alpha > 0) is the same either way.
 cv::Mat maskToAlpha(const cv::Mat& mask) {
   std::vector<cv::Mat> channels;
   cv::split(mask, channels);
   const int colours = mask.channels() == 2 || mask.channels() == 4 ? mask.channels() - 1 : mask.channels();
-  cv::Mat colour = channels[0] != 0;
-  for (int c = 1; c < colours; ++c) colour |= channels[c] != 0;
-  if (colours < mask.channels()) colour &= channels.back() != 0;
+  cv::Mat colour;
+  channels[0].convertTo(colour, CV_32F);
+  for (int c = 1; c < colours; ++c) {
+    cv::Mat other;
+    channels[c].convertTo(other, CV_32F);
+    cv::max(colour, other, colour);
+  }
+  cv::max(colour, 0.0, colour);
+  double largest = 0;
+  cv::minMaxLoc(colour, nullptr, &largest);
   cv::Mat alpha;
-  colour.convertTo(alpha, CV_32F, 1.0 / 255);
+  colour.convertTo(alpha, CV_32F, largest > 0 ? 1.0 / largest : 0.0);
+  if (colours < mask.channels()) alpha.setTo(0, channels.back() == 0);
   return alpha;
 }
 
@@ -214,11 +224,13 @@ std::string sizeText(cv::Size s) {
 
 }  // namespace
 
-Photo loadPhoto(const std::string& path, const std::string& maskPath) {
-  const cv::Mat image = toUnitFloat(path, decode(path));
+Photo loadPhoto(const std::string& path, const std::string& maskPath, bool mirror) {
+  cv::Mat image = toUnitFloat(path, decode(path));
+  if (mirror) cv::flip(image, image, 1);  // before anything is derived, so all maps are of the mirrored photo
   Photo photo;
   photo.path = path;
   photo.maskPath = maskPath;
+  photo.mirrored = mirror;
   photo.width = image.cols;
   photo.height = image.rows;
 
@@ -239,7 +251,8 @@ Photo loadPhoto(const std::string& path, const std::string& maskPath) {
   }
 
   if (!maskPath.empty()) {
-    const cv::Mat mask = decode(maskPath);
+    cv::Mat mask = decode(maskPath);
+    if (mirror) cv::flip(mask, mask, 1);  // a mask is in its photo file's pixels
     TM_CHECK(mask.size() == image.size(),
              located(maskPath, "mask is " + sizeText(mask.size()) + " but photo " + path + " is " +
                                    sizeText(image.size()) + "; they must have the same size"));

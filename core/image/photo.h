@@ -23,6 +23,7 @@ struct Photo {
                                // nearest foreground pixel centre (0 on the foreground)
   cv::Mat luv;                 // CV_32FC3, CIE L*u*v* (D65): L in [0,100]
   bool hasBackground = false;  // false when every pixel is foreground (no alpha, no mask)
+  bool mirrored = false;       // loaded mirrored left to right (every map above is of the mirrored photo)
 
   bool inside(double x, double y) const { return x >= 0 && y >= 0 && x <= width && y <= height; }
   // Foreground test at a point, by the pixel containing it.
@@ -30,10 +31,12 @@ struct Photo {
 };
 
 // Loads a photo. Foreground comes from `maskPath` when given (non-zero = foreground, any channel
-// count, must match the photo's size), otherwise from the alpha channel, otherwise the whole photo
-// is foreground. Throws montage::Error naming the file and the reason (missing, unreadable, empty, size
-// mismatch, more than 16384 pixels a side).
-Photo loadPhoto(const std::string& path, const std::string& maskPath = "");
+// count, must match the photo's size; alpha = the value relative to the mask's largest value), otherwise
+// from the alpha channel, otherwise the whole photo is foreground. `mirror`: the photo (and its mask,
+// which is in the file's own pixels) is flipped left to right on load, no copy of the file needed; pixel
+// coordinates then refer to the mirrored photo. Throws montage::Error naming the file and the reason
+// (missing, unreadable, empty, size mismatch, more than 16384 pixels a side).
+Photo loadPhoto(const std::string& path, const std::string& maskPath = "", bool mirror = false);
 
 // Reads only the size of an image (fast; used to validate projects without decoding everything).
 // Throws montage::Error when the file is missing or not an image.

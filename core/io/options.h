@@ -18,6 +18,11 @@ inline constexpr std::array<const char*, 4> kInpaintModeNames = {"harmonic", "rb
 enum class LevelMode { Off, Seam, Vertex };
 inline constexpr std::array<const char*, 3> kLevelModeNames = {"off", "seam", "vertex"};
 
+// Colour balance between photos (the paper's Photoshop step, automated; docs/pipeline.md): off, or per
+// photo and channel a gain, or a gain and an offset, on linear RGB, solved over the seams between photos.
+enum class BalanceMode { Off, Gain, GainOffset };
+inline constexpr std::array<const char*, 3> kBalanceModeNames = {"off", "gain", "gain-offset"};
+
 // Name tables by enum type, for the project reader and writer and the editor's combo boxes.
 template <class E>
 struct EnumNames;
@@ -31,6 +36,11 @@ struct EnumNames<LevelMode> {
   static constexpr const auto& names = kLevelModeNames;
   static constexpr const char* what = "a seam levelling mode";
 };
+template <>
+struct EnumNames<BalanceMode> {
+  static constexpr const auto& names = kBalanceModeNames;
+  static constexpr const char* what = "a colour balance mode";
+};
 
 struct PipelineOptions {
   double backgroundThresholdPx = 2.0;  // partition: max mean distance (px) of a curve to the foreground
@@ -39,6 +49,7 @@ struct PipelineOptions {
   double seamLambda = 0.1;             // seams: weight of geometric stretch vs texture mismatch (paper 4.2)
   int seamRounds = 30;                 // seams: alternating optimisation rounds (paper 4.2)
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
+  BalanceMode colorBalance = BalanceMode::GainOffset;  // colour balance between photos, before levelling
   LevelMode seamLevelling = LevelMode::Vertex;  // seam levelling between photos (paper end of 5)
   InpaintMode inpaintMode = InpaintMode::Rbf;   // inpainting: guidance of holes without strokes
   int maxInpaintVertices = 2000000;             // inpainting: cap on refined vertices (coarser beyond)
@@ -49,7 +60,7 @@ struct PipelineOptions {
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
            seamLambda == o.seamLambda && seamRounds == o.seamRounds && gradientWeight == o.gradientWeight &&
-           seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
+           colorBalance == o.colorBalance && seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
            seed == o.seed;
   }

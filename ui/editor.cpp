@@ -416,10 +416,17 @@ void Editor::cancelInProgress() {
 
 bool Editor::button(const char* label, const ImVec2* size, const std::string& scriptName) {
   const bool pressed = ImGui::Button(label, size ? *size : ImVec2(0, 0));
-  const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
+  // The part of the button on screen (a panel may clip it), so that a scripted click lands on it.
+  const ImVec2 clipLo = ImGui::GetWindowDrawList()->GetClipRectMin(),
+               clipHi = ImGui::GetWindowDrawList()->GetClipRectMax();
+  const ImVec2 lo(std::max(ImGui::GetItemRectMin().x, clipLo.x), std::max(ImGui::GetItemRectMin().y, clipLo.y));
+  const ImVec2 hi(std::min(ImGui::GetItemRectMax().x, clipHi.x), std::min(ImGui::GetItemRectMax().y, clipHi.y));
   std::string name = scriptName.empty() ? label : scriptName;
   if (auto pos = name.find("##"); pos != std::string::npos) name = name.substr(0, pos);
-  buttonRects_[name] = Rect{lo.x, lo.y, hi.x - lo.x, hi.y - lo.y};
+  if (hi.x > lo.x && hi.y > lo.y)
+    buttonRects_[name] = Rect{lo.x, lo.y, hi.x - lo.x, hi.y - lo.y};
+  else
+    buttonRects_.erase(name);  // scrolled out of sight: a scripted click waits for it
   return pressed;
 }
 

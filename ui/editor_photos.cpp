@@ -61,8 +61,9 @@ void Editor::photosTab() {
   ImGui::TextDisabled("or drop files here");
   ImGui::Checkbox("show balanced colours", &showBalanced_);
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("photo panes: the photos after the colour balance of the last result (after), or as in their "
-                      "files (before)");
+    ImGui::SetTooltip(
+        "photo panes: the photos after the colour balance of the last result (after), or as in their "
+        "files (before)");
   const ColorBalance* balance = resultUsable() && result_->balanced ? &result_->balanced->balance : nullptr;
 
   int remove = -1, moveFrom = -1, moveTo = -1, cut = -1;
@@ -75,8 +76,8 @@ void Editor::photosTab() {
     const std::string name = id + ": " + fs::path(ref.path).filename().string();
     if (ImGui::Selectable(name.c_str(), activePhoto_ == i, 0, ImVec2(ImGui::GetContentRegionAvail().x * 0.55f, 0)))
       activePhoto_ = i;
-    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s%s%s", ref.path.c_str(), ref.mask.empty() ? "" : "\nmask: ",
-                                                  ref.mask.c_str());
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("%s%s%s", ref.path.c_str(), ref.mask.empty() ? "" : "\nmask: ", ref.mask.c_str());
     ImGui::SameLine();
     if (slot && slot->photo) {
       ImGui::TextDisabled("%dx%d%s", slot->photo->width, slot->photo->height,
@@ -155,9 +156,10 @@ void Editor::missingFilesWindow() {
   ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y * 0.35f), ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
   ImGui::SetNextWindowSize(ImVec2(std::min(720.f, display.x * 0.7f), 0), ImGuiCond_Appearing);
   if (ImGui::Begin("Missing files", &missingPopup_, ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoCollapse)) {
-    ImGui::TextWrapped("The project opened, but these files are not where it says. Relink each to its new place, or "
-                       "remove the photo; a photo that cannot load is left out of the preview, the others still "
-                       "texture.");
+    ImGui::TextWrapped(
+        "The project opened, but these files are not where it says. Relink each to its new place, or "
+        "remove the photo; a photo that cannot load is left out of the preview, the others still "
+        "texture.");
     for (size_t k = 0; k < missing_.size(); ++k) {
       const MissingFile& m = missing_[k];
       ImGui::PushID(static_cast<int>(k));
@@ -217,9 +219,6 @@ void Editor::uploadBalanced(PhotoSlot& slot, int photo) {
 // --- The cut-out tool ----------------------------------------------------------------------------
 
 void Editor::cutoutPanel() {
-  ImGui::TextWrapped(
-      "Drag a rectangle around the object in a photo; GrabCut separates it. Then drag strokes on what is wrong "
-      "(foreground / background), or paint the mask (add / erase). Use mask writes it beside the project.");
   int mode = static_cast<int>(cutoutMode_);
   const char* labels[] = {"rectangle", "foreground", "background", "add", "erase"};
   for (int m = 0; m < 5; ++m) {
@@ -260,6 +259,10 @@ void Editor::cutoutPanel() {
     if (!running) cutout_ = CutoutSession{};
     if (photo >= 0) startCutout(photo, false);
   }
+  // The help last, so that the buttons stay on screen in a short panel.
+  ImGui::TextWrapped(
+      "Drag a rectangle around the object in a photo; GrabCut separates it. Then drag strokes on what is wrong "
+      "(foreground / background), or paint the mask (add / erase). Use mask writes it beside the project.");
 }
 
 bool Editor::startCutout(int photo, bool fromCurrentMask) {
@@ -389,9 +392,10 @@ void Editor::cutoutCanvas(int i, const PaneView& view, bool hovered) {
   }
   const float zoom = float(view.zoom);
   if (mine && cutout_.rect)
-    draw->AddRect(im(view.toScreen(Vec2(cutout_.rect->x, cutout_.rect->y))),
-                  im(view.toScreen(Vec2(cutout_.rect->x + cutout_.rect->width, cutout_.rect->y + cutout_.rect->height))),
-                  IM_COL32(255, 220, 60, 255), 0, 0, 2);
+    draw->AddRect(
+        im(view.toScreen(Vec2(cutout_.rect->x, cutout_.rect->y))),
+        im(view.toScreen(Vec2(cutout_.rect->x + cutout_.rect->width, cutout_.rect->y + cutout_.rect->height))),
+        IM_COL32(255, 220, 60, 255), 0, 0, 2);
   auto drawPath = [&](const std::vector<Vec2>& pts, float radius, ImU32 colour) {
     const float width = std::max(1.5f, 2 * radius * zoom);
     if (pts.size() == 1) draw->AddCircleFilled(im(view.toScreen(pts[0])), width / 2, colour);

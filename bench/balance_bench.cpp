@@ -32,12 +32,18 @@ int main(int argc, char** argv) {
       const size_t eq = arg.find('=');
       const std::string name = arg.substr(0, eq);
       const double value = std::stod(arg.substr(eq + 1));
-      if (name == "channelPrior") base.channelPrior = value;
-      else if (name == "offsetSigma") base.offsetSigma = value;
-      else if (name == "flatRadiusPx") base.flatRadiusPx = value;
-      else if (name == "flatRange") base.flatRange = value;
-      else if (name == "darkest") base.darkest = value;
-      else throw Error("unknown option " + name);
+      if (name == "channelPrior")
+        base.channelPrior = value;
+      else if (name == "offsetSigma")
+        base.offsetSigma = value;
+      else if (name == "flatRadiusPx")
+        base.flatRadiusPx = value;
+      else if (name == "flatRange")
+        base.flatRange = value;
+      else if (name == "darkest")
+        base.darkest = value;
+      else
+        throw Error("unknown option " + name);
     }
     auto scene = loadScene(project);
     const auto start = Clock::now();
@@ -68,11 +74,12 @@ int main(int argc, char** argv) {
               for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(t.gain[c] / truth - 1));
             }
           }
-          std::printf("%-11s %-6s %-6s samples %5d outliers %4.1f%% iterations %2d  mismatch %6.2f -> %6.2f dE  %s%s\n",
-                      kBalanceModeNames[size_t(mode)], linear ? "linear" : "srgb", kBalanceLossNames[size_t(loss)],
-                      b.samples, 100 * b.outlierShare, b.iterations, b.mismatchBefore, b.mismatchAfter,
-                      exposures.empty() || !linear ? "" : ("worst gain error " + std::to_string(100 * worst) + "%").c_str(),
-                      gains.c_str());
+          std::printf(
+              "%-11s %-6s %-6s samples %5d outliers %4.1f%% iterations %2d  mismatch %6.2f -> %6.2f dE  %s%s\n",
+              kBalanceModeNames[size_t(mode)], linear ? "linear" : "srgb", kBalanceLossNames[size_t(loss)], b.samples,
+              100 * b.outlierShare, b.iterations, b.mismatchBefore, b.mismatchAfter,
+              exposures.empty() || !linear ? "" : ("worst gain error " + std::to_string(100 * worst) + "%").c_str(),
+              gains.c_str());
         }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -8,8 +8,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <optional>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,8 +43,9 @@ std::optional<CutoutStroke> strokeIn(const cv::Mat& wrong, bool foreground) {
   cv::minMaxLoc(distance, nullptr, &maxDistance, nullptr, &inner);
   const cv::Moments m = cv::moments(region, true);
   const double angle = 0.5 * std::atan2(2 * m.mu11, m.mu20 - m.mu02);
-  const double length = 0.6 * std::sqrt(stats.at<int>(best, cv::CC_STAT_WIDTH) * stats.at<int>(best, cv::CC_STAT_WIDTH) +
-                                        stats.at<int>(best, cv::CC_STAT_HEIGHT) * stats.at<int>(best, cv::CC_STAT_HEIGHT));
+  const double length =
+      0.6 * std::sqrt(stats.at<int>(best, cv::CC_STAT_WIDTH) * stats.at<int>(best, cv::CC_STAT_WIDTH) +
+                      stats.at<int>(best, cv::CC_STAT_HEIGHT) * stats.at<int>(best, cv::CC_STAT_HEIGHT));
   CutoutStroke stroke;
   stroke.foreground = foreground;
   stroke.radius = std::clamp(0.6 * maxDistance, 1.5, 8.0);

@@ -158,9 +158,9 @@ TEST(Cutout, FeatheredEdgeKeepsTheForegroundAndSoftensItsEdge) {
   EXPECT_EQ(cv::norm(hard, binary, cv::NORM_INF), 0);
   const cv::Mat soft = featherMask(binary, 4);
   EXPECT_EQ(cv::countNonZero(soft), cv::countNonZero(binary));  // same foreground
-  EXPECT_EQ(soft.at<uchar>(25, 25), 255);                      // inside: full alpha
-  EXPECT_EQ(soft.at<uchar>(25, 10), 64);                       // edge pixel, 1 px from the background: 1/4
-  EXPECT_EQ(soft.at<uchar>(25, 12), 191);                      // 3 px in: 3/4
+  EXPECT_EQ(soft.at<uchar>(25, 25), 255);                       // inside: full alpha
+  EXPECT_EQ(soft.at<uchar>(25, 10), 64);                        // edge pixel, 1 px from the background: 1/4
+  EXPECT_EQ(soft.at<uchar>(25, 12), 191);                       // 3 px in: 3/4
   EXPECT_EQ(soft.at<uchar>(0, 0), 0);
   // Written and loaded as a photo's mask: the alpha the loader sees is the feathered one.
   const std::string dir = test::tempDir("cutout");
@@ -225,8 +225,8 @@ TEST(Cutout, MontageMaskWritesAMaskTheProjectCanUse) {
   cv::cvtColor(bgr8, bgr8, cv::COLOR_RGB2BGR);
   cv::imwrite(dir + "/photo.png", bgr8);
   std::string out;
-  ASSERT_EQ(test::runCommand(test::montageExe() + " mask " + dir + "/photo.png --rect 80,50,140,140 --feather 2 --out " +
-                                 dir + "/mask.png 2>&1",
+  ASSERT_EQ(test::runCommand(test::montageExe() + " mask " + dir +
+                                 "/photo.png --rect 80,50,140,140 --feather 2 --out " + dir + "/mask.png 2>&1",
                              &out),
             0)
       << out;
@@ -235,9 +235,8 @@ TEST(Cutout, MontageMaskWritesAMaskTheProjectCanUse) {
   EXPECT_GT(iou(photo.alpha > 0, truth), 0.95);
   EXPECT_TRUE(foregroundWarnings(photo).empty());
   // Errors name what is wrong.
-  EXPECT_NE(test::runCommand(test::montageExe() + " mask " + dir + "/photo.png --rect 1,2,3 --out " + dir +
-                                 "/m2.png 2>&1",
-                             &out),
+  EXPECT_NE(test::runCommand(
+                test::montageExe() + " mask " + dir + "/photo.png --rect 1,2,3 --out " + dir + "/m2.png 2>&1", &out),
             0);
   EXPECT_NE(out.find("--rect: expected x,y,w,h"), std::string::npos) << out;
   EXPECT_NE(test::runCommand(test::montageExe() + " mask " + dir + "/photo.png --rect 0,0,10,10 --fg " + dir +

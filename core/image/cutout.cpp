@@ -18,8 +18,8 @@ namespace {
 
 cv::Mat to8uc3(const cv::Mat& rgb) {
   TM_CHECK(!rgb.empty(), "cut-out: the photo is empty");
-  TM_CHECK(rgb.channels() == 3, "cut-out: expected a 3-channel colour image, not " + std::to_string(rgb.channels()) +
-                                    " channels");
+  TM_CHECK(rgb.channels() == 3,
+           "cut-out: expected a 3-channel colour image, not " + std::to_string(rgb.channels()) + " channels");
   cv::Mat out;
   if (rgb.depth() == CV_8U)
     out = rgb;
@@ -100,7 +100,8 @@ void Cutout::startFrom(const cv::Mat& alpha) {
 
 void Cutout::paint(const CutoutStroke& stroke, bool hard) {
   TM_CHECK(std::isfinite(stroke.radius) && stroke.radius > 0, "cut-out: a stroke's radius must be > 0 pixels");
-  const int value = hard ? (stroke.foreground ? cv::GC_FGD : cv::GC_BGD) : (stroke.foreground ? cv::GC_PR_FGD : cv::GC_PR_BGD);
+  const int value =
+      hard ? (stroke.foreground ? cv::GC_FGD : cv::GC_BGD) : (stroke.foreground ? cv::GC_PR_FGD : cv::GC_PR_BGD);
   // Fixed-point drawing (4 fractional bits) so that thin strokes at a reduced working size land where drawn.
   constexpr int kShift = 4;
   const double unit = 1 << kShift;
@@ -165,8 +166,9 @@ void Cutout::runGrabCut(bool fromRect) {
   const auto start = Clock::now();
   const int fg = cv::countNonZero((labels_ == cv::GC_FGD) | (labels_ == cv::GC_PR_FGD));
   const int bg = labels_.rows * labels_.cols - fg;
-  TM_CHECK(fg > 0, "cut-out: nothing is marked as foreground: draw a rectangle around the object, or a "
-                   "foreground stroke on it");
+  TM_CHECK(fg > 0,
+           "cut-out: nothing is marked as foreground: draw a rectangle around the object, or a "
+           "foreground stroke on it");
   TM_CHECK(bg > 0, "cut-out: nothing is marked as background: the rectangle or the strokes cover the whole photo");
   try {
     if (!modelsReady_) {

@@ -19,11 +19,11 @@ namespace montage {
 struct Photo;
 
 struct CutoutOptions {
-  int iterations = 5;       // GrabCut iterations per run (colour models re-learnt, then a graph cut)
-  int workingSide = 1024;   // GrabCut runs on the photo scaled down to at most this many pixels a side
-                            // (0 = full resolution); the mask is scaled back up with a smooth edge
-  double featherPx = 0;     // width of the feathered edge in photo pixels: alpha ramps from 0 at the
-                            // background to 1 this far inside the foreground (0 = a hard edge)
+  int iterations = 5;      // GrabCut iterations per run (colour models re-learnt, then a graph cut)
+  int workingSide = 1024;  // GrabCut runs on the photo scaled down to at most this many pixels a side
+                           // (0 = full resolution); the mask is scaled back up with a smooth edge
+  double featherPx = 0;    // width of the feathered edge in photo pixels: alpha ramps from 0 at the
+                           // background to 1 this far inside the foreground (0 = a hard edge)
 };
 
 // A stroke or brush path: a polyline in photo pixels and its radius (pixels).
@@ -76,12 +76,12 @@ class Cutout {
   cv::Point2d toWorking(const Vec2& p) const;
 
   CutoutOptions options_;
-  cv::Size size_;          // the photo's size
-  double scale_ = 1;       // working pixels per photo pixel
-  cv::Mat image_;          // CV_8UC3 at working resolution
-  cv::Mat labels_;         // CV_8UC1 GrabCut labels (cv::GC_BGD, GC_FGD, GC_PR_BGD, GC_PR_FGD)
+  cv::Size size_;     // the photo's size
+  double scale_ = 1;  // working pixels per photo pixel
+  cv::Mat image_;     // CV_8UC3 at working resolution
+  cv::Mat labels_;    // CV_8UC1 GrabCut labels (cv::GC_BGD, GC_FGD, GC_PR_BGD, GC_PR_FGD)
   cv::Mat bgdModel_, fgdModel_;
-  cv::Rect rect_;          // working pixels
+  cv::Rect rect_;  // working pixels
   bool started_ = false, modelsReady_ = false;
   double lastSeconds_ = 0;
 };

@@ -47,8 +47,8 @@ const TransferTables& tables() {
 struct Sample {
   int a = 0, b = 0;
   Vec3f xa, xb;
-  Vec3f srgbA, srgbB;  // as photographed, for the mismatch figures
-  float weight = 1;    // min(alpha_a, alpha_b)
+  Vec3f srgbA, srgbB;          // as photographed, for the mismatch figures
+  float weight = 1;            // min(alpha_a, alpha_b)
   Vec3f flat = Vec3f::Ones();  // per channel: 1 where both sides are flat around the point, towards 0 near edges
 };
 
@@ -310,7 +310,8 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
                        options.linear ? srgbToLinear(options.saturated) : options.saturated};
   const std::vector<double> ones(np, 1.0), zeros(np, 0.0);
   auto anyChannel = [&](const Sample& s) {
-    return unclipped(s, 0, ones, zeros, clip) || unclipped(s, 1, ones, zeros, clip) || unclipped(s, 2, ones, zeros, clip);
+    return unclipped(s, 0, ones, zeros, clip) || unclipped(s, 1, ones, zeros, clip) ||
+           unclipped(s, 2, ones, zeros, clip);
   };
 
   // Photo pairs with enough samples join photos into groups; each group needs a reference.
@@ -365,7 +366,8 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
         job.checkCancel();
         obs.clear();
         for (const Sample& s : used)
-          if (unclipped(s, c, fits[c].gain, fits[c].offset, clip)) obs.push_back({s.a, s.b, s.xa[c], s.xb[c], s.weight * s.flat[c]});
+          if (unclipped(s, c, fits[c].gain, fits[c].offset, clip))
+            obs.push_back({s.a, s.b, s.xa[c], s.xb[c], s.weight * s.flat[c]});
         const Fit previous = fits[c];
         fits[c] = fitObservations(obs, unknownOf, free, options.mode == BalanceMode::GainOffset, options.loss, options,
                                   options.loss == BalanceLoss::L2 ? nullptr : &previous,

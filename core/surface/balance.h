@@ -36,17 +36,17 @@ struct BalanceOptions {
   double offsetSigma = 0.02;                   // offsets expected a priori (fit units): a photo's offset is pulled
                                                // towards 0 as by a sample of this size, so that seams showing
                                                // one colour (which cannot tell a gain from an offset) give a gain
-  double flatRadiusPx = 4;   // samples are weighted by how flat both photos are within this radius (pixels), so
-                             // that a misregistration of the seam that large does not count (0 = no weighting)
-  double flatRange = 0.03;   // ... by 1 / (1 + (range / flatRange)^2), range = max - min of the channel there (sRGB)
-  double channelPrior = 4;    // a channel's gain is pulled towards the photo's common gain (exposure) as much
-                              // as this many average samples agreeing with it would: a channel with few usable
-                              // samples does not stray, one with many is free (0 = channels independent)
-  int minSamples = 16;                         // a photo pair with fewer usable seam samples does not count
-  double saturated = 0.99;                     // sRGB channel values at or above this are clipped: they say
-                                               // nothing about a gain and are left out
-  double darkest = 0.08;                       // ... and so are values below this (sRGB): 8-bit quantisation
-                                               // leaves them a relative error that biases gains towards 0
+  double flatRadiusPx = 4;  // samples are weighted by how flat both photos are within this radius (pixels), so
+                            // that a misregistration of the seam that large does not count (0 = no weighting)
+  double flatRange = 0.03;  // ... by 1 / (1 + (range / flatRange)^2), range = max - min of the channel there (sRGB)
+  double channelPrior = 4;  // a channel's gain is pulled towards the photo's common gain (exposure) as much
+                            // as this many average samples agreeing with it would: a channel with few usable
+                            // samples does not stray, one with many is free (0 = channels independent)
+  int minSamples = 16;      // a photo pair with fewer usable seam samples does not count
+  double saturated = 0.99;  // sRGB channel values at or above this are clipped: they say
+                            // nothing about a gain and are left out
+  double darkest = 0.08;    // ... and so are values below this (sRGB): 8-bit quantisation
+                            // leaves them a relative error that biases gains towards 0
 };
 
 // A colour transform on linear RGB (or sRGB values, see BalanceOptions::linear): c' = gain * c + offset,

@@ -10,6 +10,8 @@
 #include <random>
 
 #include "image/color.h"
+#include "io/project.h"
+#include "pipeline.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -458,4 +460,36 @@ TEST(Photo, MaskAlphaIsRelativeToTheMasksLargestValue) {
   EXPECT_EQ(fromFeathered.alpha.at<float>(4, 4), 1.0f);
   EXPECT_EQ(cv::countNonZero(fromFeathered.alpha > 0), cv::countNonZero(fromLabels.alpha > 0));
   EXPECT_TRUE(sameMat(fromFeathered.distance, fromLabels.distance));
+}
+
+// The test: a photo mirrored by its flag maps the same as a pre-mirrored copy of the file. On the
+// demo: photo 1's file mirrored on disk (a side view taken "the wrong way round"), then loaded with the flag,
+// against the demo's own photo 1, which is the pre-mirrored copy of that file; same points. And the flag is
+// not inert: the same file without it maps otherwise.
+TEST(Photo, AMirroredPhotoMapsLikeAPreMirroredCopy) {
+  const std::string dir = test::tempDir("photo_mirror");
+  const Project demo = loadProject(test::assetsDir() + "/demo/project.json");
+  const cv::Mat file = cv::imread(demo.photos[1].path, cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(file.empty()) << demo.photos[1].path;
+  cv::Mat flipped;
+  cv::flip(file, flipped, 1);
+  const std::string flippedPath = write(dir, "photo_1_flipped.png", flipped);
+  Project flagged = demo, unflagged = demo;
+  flagged.photos[1].path = unflagged.photos[1].path = flippedPath;
+  flagged.photos[1].mirror = true;
+
+  const Mapping byFlag = mapTexture(*loadScene(flagged)), byCopy = mapTexture(*loadScene(demo));
+  ASSERT_EQ(byFlag.map.facePhoto.size(), byCopy.map.facePhoto.size());
+  EXPECT_EQ(byFlag.map.facePhoto, byCopy.map.facePhoto);
+  double largest = 0;
+  int inPhoto1 = 0;
+  for (size_t f = 0; f < byFlag.map.facePhoto.size(); ++f) {
+    for (int k = 0; k < 3; ++k)
+      largest = std::max(largest, (byFlag.map.cornerUV[f][k] - byCopy.map.cornerUV[f][k]).norm());
+    if (byFlag.map.facePhoto[f] == 1) ++inPhoto1;
+  }
+  EXPECT_EQ(largest, 0.0) << "the two mappings differ by up to " << largest << " px";
+  EXPECT_GT(inPhoto1, 100) << "photo 1 textures part of the mesh";
+  const Mapping withoutFlag = mapTexture(*loadScene(unflagged));
+  EXPECT_NE(withoutFlag.map.facePhoto, byFlag.map.facePhoto);
 }

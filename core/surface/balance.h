@@ -4,7 +4,7 @@
 // over the colour samples on the seams between photos that the mapping just found, with a robust loss, so
 // that a photo that differs only somewhere (a shadow, a highlight, a misregistered edge) does not skew
 // the whole transform. Reference photos keep their colours; seam levelling then only closes what is left.
-// Choices and measurements: docs/pipeline.md ("Balance").
+// Choices and measurements: docs/photos.md ("Colour balance between photos").
 #pragma once
 
 #include <array>

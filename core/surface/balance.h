@@ -30,7 +30,7 @@ inline constexpr std::array<const char*, 3> kBalanceLossNames = {"l2", "huber", 
 
 struct BalanceOptions {
   BalanceMode mode = BalanceMode::GainOffset;  // the transform per photo (Off: every photo as it is)
-  BalanceLoss loss = BalanceLoss::Cauchy;      // robust loss (docs/pipeline.md compares them)
+  BalanceLoss loss = BalanceLoss::Cauchy;      // robust loss (docs/photos.md compares them)
   bool linear = true;                          // the transform acts on linear RGB (false: on sRGB values)
   int maxIterations = 30;                      // IRLS iterations at most
   double offsetSigma = 0.02;                   // offsets expected a priori (fit units): a photo's offset is pulled

@@ -37,8 +37,9 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
     if (seen.empty() || seen.back() != s) seen.push_back(s);
   });
   PipelineResult result = pipeline.run(project, job);
-  const std::vector<StageId> order = {StageId::Load,  StageId::Partition, StageId::Simplify, StageId::Map,
-                                      StageId::Level, StageId::Inpaint,   StageId::Bake};
+  const std::vector<StageId> order = {StageId::Load,    StageId::Partition, StageId::Simplify,
+                                      StageId::Map,     StageId::Balance,   StageId::Level,
+                                      StageId::Inpaint, StageId::Bake};
   ASSERT_EQ(result.stages.size(), order.size());
   for (size_t i = 0; i < order.size(); ++i) EXPECT_EQ(result.stages[i].stage, order[i]);
   EXPECT_EQ(seen, order);
@@ -111,12 +112,14 @@ TEST(Pipeline, WritesModelAndReport) {
                            "model_atlas_holes.png", "model.glb", "report.json"})
     EXPECT_TRUE(fs::exists(fs::path(dir) / name)) << name;
   nlohmann::json report = readJson(dir + "/report.json");
-  ASSERT_EQ(report["stages"].size(), 8u);
-  EXPECT_EQ(report["stages"][4]["stage"], "level");
-  EXPECT_EQ(report["stages"][5]["stage"], "inpaint");
-  EXPECT_EQ(report["stages"][7]["stage"], "export");
+  ASSERT_EQ(report["stages"].size(), 9u);
+  EXPECT_EQ(report["stages"][4]["stage"], "balance");
+  EXPECT_EQ(report["stages"][5]["stage"], "level");
+  EXPECT_EQ(report["stages"][6]["stage"], "inpaint");
+  EXPECT_EQ(report["stages"][7]["stage"], "bake");
+  EXPECT_EQ(report["stages"][8]["stage"], "export");
   // The demo has holes: they are inpainted, and the model says which faces were.
-  EXPECT_GT(report["stages"][5]["counts"]["regions"].size(), 0u);
+  EXPECT_GT(report["stages"][6]["counts"]["regions"].size(), 0u);
   int inpainted = 0;
   for (int s : result.model->faceSource) inpainted += s == kSourceInpainted;
   EXPECT_GT(inpainted, 0);

@@ -133,7 +133,7 @@ TEST(Pipeline, WritesModelAndReport) {
   EXPECT_EQ(result.model->materials[0].texture.cols, project.options.atlasSize);
   for (const auto& uv : result.model->uv)
     for (const Vec2f& t : uv) EXPECT_TRUE(t.minCoeff() >= 0 && t.maxCoeff() <= 1) << t.transpose();
-  EXPECT_GT(report["stages"][6]["counts"]["utilisation"].get<double>(), 0.3);
+  EXPECT_GT(report["stages"][7]["counts"]["utilisation"].get<double>(), 0.3);
   for (const char* name : {"model.glb", "model.obj"}) {
     TexturedModel back = loadModel(dir + "/" + name);
     EXPECT_EQ(back.mesh.numFaces(), result.model->mesh.numFaces()) << name;

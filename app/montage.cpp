@@ -1,7 +1,7 @@
 // `montage`: the command-line face of TextureMontage.
 //   montage info FILE                       validation report of a mesh, photo, model or project
 //   montage synth --mesh M ... --out DIR    synthetic ground-truth scene
-//   montage eval --result R --truth M ...   compare a result with the ground truth
+//   montage eval --result R --truth M ...   compare a result with the ground truth (and the projection oracle)
 //   montage render MODEL --out PNG          headless shaded render
 //   montage run PROJECT --out DIR           run the pipeline and export
 //   montage bench                           per-stage times and peak memory
@@ -11,23 +11,25 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "io/mesh_io.h"
-#include "bench/eval.h"
 #include "base/util.h"
-#include "image/cutout.h"
-#include "geometry/mesh.h"
-#include "io/model.h"
-#include "image/photo.h"
-#include "pipeline.h"
-#include "io/project.h"
+#include "bench/eval.h"
 #include "bench/render.h"
 #include "bench/synth.h"
+#include "geometry/mesh.h"
+#include "image/cutout.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "io/project.h"
+#include "pipeline.h"
 
 namespace fs = std::filesystem;
 using namespace montage;
@@ -67,43 +69,64 @@ double peakMemoryMiB() {
   return usage.ru_maxrss / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
+// printf to stdout through printable(): names and text from input files never reach the terminal raw.
+#if defined(__GNUC__)
+__attribute__((format(printf, 1, 2)))
+#endif
+void say(const char* format, ...) {
+  va_list args, copy;
+  va_start(args, format);
+  va_copy(copy, args);
+  std::string text(size_t(std::max(0, std::vsnprintf(nullptr, 0, format, copy))), '\0');
+  va_end(copy);
+  std::vsnprintf(text.data(), text.size() + 1, format, args);
+  va_end(args);
+  std::fputs(printable(text, true).c_str(), stdout);
+}
+
 int cmdInfo(const std::string& file) {
   const std::string ext = lowerExtension(file);
   if (ext == ".json") {
     Project project = loadProject(file);
-    std::printf(
-        "project %s\n  mesh: %s\n  photos: %zu\n  feature points: %zu\n  chains: %zu\n  strokes: %zu\n"
+    say("project %s\n  mesh: %s\n  photos: %zu\n  feature points: %zu\n  chains: %zu\n  strokes: %zu\n"
         "  clones: %zu\n",
         file.c_str(), project.mesh.c_str(), project.photos.size(), project.points.size(), project.chains.size(),
         project.strokes.size(), project.clones.size());
-    auto scene = loadScene(project);
-    std::printf("%s", scene->meshReport.summary().c_str());
-    for (size_t i = 0; i < scene->photos.size(); ++i)
-      std::printf("  photo %zu: %s (%dx%d%s)\n", i, scene->photos[i]->path.c_str(), scene->photos[i]->width,
-                  scene->photos[i]->height, scene->photos[i]->hasBackground ? ", with background mask" : "");
-    std::printf("project is valid\n");
+    auto scene = loadScene(project);  // the validation `run` does, too
+    say("%s", scene->meshReport.summary().c_str());
+    for (size_t i = 0; i < scene->photos.size(); ++i) {
+      const Photo& photo = *scene->photos[i];
+      say("  photo %zu: %s (%dx%d%s", i, photo.path.c_str(), photo.width, photo.height,
+          photo.hasBackground ? ", with background mask" : "");
+      if (photo.scale != 1) say(", kept at %dx%d (working resolution)", photo.rgb.cols, photo.rgb.rows);
+      say(")\n");
+    }
+    for (const std::string& w : scene->warnings) say("  warning: %s\n", w.c_str());
+    say("project is valid%s\n", scene->warnings.empty() ? "" : " (with the warnings above)");
     return 0;
   }
   if (isImageExtension(ext)) {
-    Photo photo = loadPhoto(file);
-    const double fg = cv::countNonZero(photo.alpha > 0) / double(photo.width * photo.height);
-    double maxDistance = 0;
-    cv::minMaxLoc(photo.distance, nullptr, &maxDistance);
-    std::printf("photo %s\n  size: %d x %d\n  foreground: %.1f%% (%s)\n  max distance to foreground: %.1f px\n",
-                file.c_str(), photo.width, photo.height, 100 * fg,
-                photo.hasBackground ? "from alpha" : "no alpha: whole photo is foreground", maxDistance);
-    for (const std::string& w : foregroundWarnings(photo)) std::printf("  warning: %s\n", w.c_str());
+    const PhotoStats stats = photoStats(file);
+    say("photo %s\n  size: %d x %d, %d channel%s of %d bits\n  foreground: %.1f%% (%s)\n"
+        "  max distance to foreground: %.1f px",
+        file.c_str(), stats.width, stats.height, stats.channels, stats.channels == 1 ? "" : "s", stats.bitsPerChannel,
+        100 * stats.foreground, stats.hasBackground ? "from alpha" : "no alpha: whole photo is foreground",
+        stats.maxDistance);
+    if (stats.maxDistanceError > 0)
+      say(" (within %.1f px: measured at 1/%d resolution)", stats.maxDistanceError, stats.distanceScale);
+    say("\n");
+    for (const std::string& w : foregroundWarnings(stats.hasBackground, stats.borderForeground))
+      say("  warning: %s\n", w.c_str());
     return 0;
   }
   if (ext == ".glb" || ext == ".gltf") {
     TexturedModel model = loadModel(file);
-    std::printf("model %s\n  vertices: %d\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
-                model.mesh.numVertices(), model.mesh.numFaces(), model.materials.size(),
-                model.textured() ? "yes" : "no");
+    say("model %s\n  vertices: %d\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
+        model.mesh.numVertices(), model.mesh.numFaces(), model.materials.size(), model.textured() ? "yes" : "no");
     return 0;
   }
   LoadedMesh loaded = loadMesh(file);
-  std::printf("%s", loaded.report.summary().c_str());
+  say("%s", loaded.report.summary().c_str());
   return loaded.report.usable() ? 0 : 1;
 }
 
@@ -119,6 +142,10 @@ struct SynthArgs {
 };
 
 int cmdSynth(const SynthArgs& args) {
+  TM_CHECK(!args.out.empty(), "synth: --out: the path is empty (give a folder such as out/scene)");
+  std::error_code ec;
+  TM_CHECK(!fs::exists(args.out, ec) || fs::is_directory(args.out, ec),
+           located(args.out, "synth: --out: is a file, not a folder"));
   auto mesh = requireUsable(loadMesh(args.mesh));
   SurfaceColor color;
   std::shared_ptr<TexturedModel> truth;
@@ -146,25 +173,144 @@ int cmdSynth(const SynthArgs& args) {
 }
 
 int cmdEval(const std::string& resultPath, const std::string& truthMesh, const std::string& truthTexture,
-            const std::string& jsonPath, int samples) {
+            const std::string& jsonPath, int samples, const std::string& oracleDir) {
+  if (!jsonPath.empty()) prepareOutputFile(jsonPath, "--json");
   TexturedModel result = loadModel(resultPath);
+  // Without a texture every figure would describe the material colours (it once read "100% photo",
+  // 11 dB): refuse instead.
+  bool anyTexture = false;
+  for (const Material& m : result.materials) anyTexture = anyTexture || !m.texture.empty();
+  TM_CHECK(result.textured() && anyTexture,
+           located(resultPath, std::string("the result has no texture (") +
+                                   (result.textured() ? "texture coordinates but no material with a texture image"
+                                                      : "no texture coordinates") +
+                                   "): there is nothing to evaluate; give the model.obj or model.glb of a run"));
   TexturedModel truth = loadTruth(truthMesh, truthTexture);
   EvalOptions options;
   options.samples = samples;
   EvalResult eval = evaluate(result, truth, options);
   std::printf("%s", eval.summary().c_str());
-  if (!jsonPath.empty()) writeFileAtomic(jsonPath, eval.toJson().dump(2) + "\n");
+  nlohmann::json json = eval.toJson();
+  if (!oracleDir.empty()) {
+    // The projection oracle: the scene textured through its true cameras (its ceiling).
+    const Project project = loadProject((fs::path(oracleDir) / "project.json").string());
+    const std::vector<PhotoCamera> cameras = readSynthCameras((fs::path(oracleDir) / "cameras.json").string());
+    ProgressLine line;
+    JobControl job(nullptr, [&](StageId s, double f, const std::string& what) { line(stageName(s), f, what); });
+    const PipelineResult oracle = projectionOracle(project, cameras, job);
+    line.finish();
+    const EvalResult o = evaluate(*oracle.model, truth, options);
+    std::printf("projection oracle (true cameras of %s):\n", oracleDir.c_str());
+    std::printf("%s", o.summary().c_str());
+    const double unseen = o.coverageInpainted + o.coverageEmpty;
+    std::printf(
+        "against the oracle: covered PSNR %+.2f dB, covered Delta E %+.3f; inpainted %.2f%%, the oracle "
+        "(no photo sees it) %.2f%%: %+.2f points\n",
+        eval.psnrCovered - o.psnrCovered, eval.deltaECovered - o.deltaECovered,
+        100 * (eval.coverageInpainted + eval.coverageEmpty), 100 * unseen,
+        100 * (eval.coverageInpainted + eval.coverageEmpty - unseen));
+    json = {{"result", eval.toJson()},
+            {"oracle", o.toJson()},
+            {"psnr_covered_gap", eval.psnrCovered - o.psnrCovered},
+            {"delta_e_covered_gap", eval.deltaECovered - o.deltaECovered},
+            {"unseen_share", unseen},
+            {"inpainted_share", eval.coverageInpainted + eval.coverageEmpty}};
+  }
+  if (!jsonPath.empty()) writeFileAtomic(jsonPath, json.dump(2) + "\n");
   return 0;
 }
 
-int cmdRender(const std::string& modelPath, const std::string& out, const RenderOptions& options) {
-  TexturedModel model = loadModel(modelPath);
-  cv::Mat rgba = renderModel(model, options);
+// Writes an RGBA image as PNG, atomically (a kill leaves the old file or the new one).
+void writePng(const cv::Mat& rgba, const std::string& out) {
   cv::Mat bgra;
   cv::cvtColor(rgba, bgra, cv::COLOR_RGBA2BGRA);
-  if (fs::path(out).has_parent_path()) fs::create_directories(fs::path(out).parent_path());
-  TM_CHECK(cv::imwrite(out, bgra), located(out, "cannot write the image"));
-  std::printf("wrote %s (%dx%d)\n", out.c_str(), rgba.cols, rgba.rows);
+  std::vector<unsigned char> png;
+  TM_CHECK(cv::imencode(".png", bgra, png), located(out, "cannot encode the image as PNG"));
+  writeFileAtomic(out, std::string(png.begin(), png.end()));
+}
+
+struct RenderArgs {
+  std::string model, out, size;
+  int turntable = 0;   // views of a turntable; 0 = one render
+  bool layer = false;  // render the source-photo layer instead of the texture
+  RenderOptions options;
+};
+
+// "W" or "WxH" (pixels, 16..8192 each).
+void parseRenderSize(const std::string& text, RenderOptions& options) {
+  if (text.empty()) return;
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  const int n = std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra);
+  const bool ok = (n == 1) || (n == 3 && (x == 'x' || x == 'X'));
+  if (n == 1) h = w;
+  TM_CHECK(ok && w >= 16 && w <= 8192 && h >= 16 && h <= 8192,
+           "--size: " + text + " is not W or WxH with sides in 16..8192 pixels (e.g. 1024 or 800x600)");
+  options.size = w;
+  options.height = h;
+}
+
+// The layer render: every texture of the model replaced by its atlas's source layer in colours (the
+// file <model stem>_atlas_source.png beside the model, as `montage run` writes it), with a legend.
+std::vector<std::pair<cv::Vec4b, std::string>> useSourceLayer(TexturedModel& model, const std::string& modelPath) {
+  const fs::path path = fs::path(modelPath).parent_path() / (fs::path(modelPath).stem().string() + "_atlas_source.png");
+  TM_CHECK(fs::is_regular_file(path),
+           located(modelPath, "--layer needs the source layer " + path.string() + " (written by montage run)"));
+  cv::Mat source = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  TM_CHECK(!source.empty(), located(path.string(), "cannot read the source layer"));
+  const cv::Mat colours = colorizeSourceLayer(source);
+  for (Material& m : model.materials)
+    if (!m.texture.empty()) {
+      TM_CHECK(
+          m.texture.size() == source.size(),
+          located(path.string(), "the source layer is " + std::to_string(source.cols) + "x" +
+                                     std::to_string(source.rows) + " but the texture of material '" + m.name + "' is " +
+                                     std::to_string(m.texture.cols) + "x" + std::to_string(m.texture.rows)));
+      m.texture = colours;
+    }
+  std::vector<std::pair<cv::Vec4b, std::string>> legend;
+  for (int code : sourceLayerCodes(source))
+    legend.emplace_back(sourceLayerColor(code), code == 254   ? "inpainted"
+                                                : code == 253 ? "empty (no photo, not inpainted)"
+                                                              : "photo " + std::to_string(code - 1));
+  return legend;
+}
+
+int cmdRender(const RenderArgs& args) {
+  TM_CHECK(std::isfinite(args.options.yawDeg) && std::isfinite(args.options.pitchDeg),
+           "render: --yaw and --pitch must be finite numbers of degrees (got " + std::to_string(args.options.yawDeg) +
+               " and " + std::to_string(args.options.pitchDeg) + ")");
+  prepareOutputFile(args.out, "--out");
+  TM_CHECK(lowerExtension(args.out) == ".png",
+           located(args.out, "--out: the render is written as PNG; name a .png file"));
+  TexturedModel model = loadModel(args.model);
+  RenderOptions options = args.options;
+  parseRenderSize(args.size, options);
+  std::vector<std::pair<cv::Vec4b, std::string>> legend;
+  if (args.layer) {
+    legend = useSourceLayer(model, args.model);
+    options.shading = false;  // flat colours read better in a legend's key
+  }
+  if (args.turntable <= 0) {
+    cv::Mat rgba = renderModel(model, options);
+    if (!legend.empty()) drawLegend(rgba, legend);
+    writePng(rgba, args.out);
+    std::printf("wrote %s (%dx%d)\n", args.out.c_str(), rgba.cols, rgba.rows);
+    return 0;
+  }
+  std::vector<cv::Mat> views = renderTurntable(model, args.turntable, options);
+  const fs::path out(args.out);
+  const std::string stem = (out.parent_path() / out.stem()).string();
+  for (size_t k = 0; k < views.size(); ++k) {
+    char suffix[32];
+    std::snprintf(suffix, sizeof suffix, "_%02zu.png", k);
+    writePng(views[k], stem + suffix);
+  }
+  cv::Mat sheet = contactSheet(views);
+  if (!legend.empty()) drawLegend(sheet, legend);
+  writePng(sheet, args.out);
+  std::printf("wrote %zu views %s_00.png .. and the contact sheet %s (%dx%d)\n", views.size(), stem.c_str(),
+              args.out.c_str(), sheet.cols, sheet.rows);
   return 0;
 }
 
@@ -179,24 +325,27 @@ void printStages(const PipelineResult& result) {
   }
 }
 
-int cmdRun(const std::string& projectPath, const std::string& out) {
-  // A missing photo or mask disables only that photo (the pipeline skips it with a warning); the mesh
-  // must be there.
+int cmdRun(const std::string& projectPath, const std::string& out, int pngCompression) {
+  // --out is checked and locked before the pipeline: a bad folder or a second run on it is refused at
+  // once, not after minutes of work. A missing photo or mask disables only that photo (the pipeline
+  // skips it with a warning); the mesh must be there.
   std::vector<MissingFile> missing;
   Project project = loadProjectAllowingMissing(projectPath, missing);
   for (const MissingFile& m : missing) {
     TM_CHECK(m.field != "mesh", located(projectPath, "mesh: file '" + m.path + "' not found"));
-    std::printf("  warning: %s: %s not found\n", m.field.c_str(), m.path.c_str());
+    say("  warning: %s: %s not found\n", m.field.c_str(), m.path.c_str());
   }
+  if (pngCompression >= 0) project.options.pngCompression = pngCompression;
+  OutputFolder folder(out);
   Pipeline pipeline;
   ProgressLine line;
   JobControl job(nullptr, [&](StageId s, double f, const std::string& what) { line(stageName(s), f, what); });
   PipelineResult result = pipeline.run(project, job);
   line.finish();
-  writeRunOutputs(result, out);
+  writeRunOutputs(result, folder);
   printStages(result);
-  for (const auto& w : result.warnings) std::printf("  warning: %s\n", w.c_str());
-  std::printf("wrote %s/model.obj, model.glb, report.json\n", out.c_str());
+  for (const auto& w : result.warnings) std::printf("  warning: %s\n", printable(w).c_str());
+  std::printf("wrote %s/model.obj, model.glb, report.json\n", printable(folder.path()).c_str());
   return 0;
 }
 
@@ -207,7 +356,7 @@ struct BenchArgs {
 
 int cmdBench(BenchArgs args) {
   using Clock = std::chrono::steady_clock;
-  if (args.mesh.empty()) args.mesh = (fs::path(TM_SOURCE_DIR) / "assets/demo/demo_mesh.obj").string();
+  if (args.mesh.empty()) args.mesh = (fs::path(TM_SOURCE_DIR) / "assets/demo/cat.obj").string();
   if (args.work.empty()) args.work = (fs::temp_directory_path() / "tm_bench").string();
   std::printf("bench: %s, %d views, %d features, %d px\n", args.mesh.c_str(), args.synth.views, args.synth.features,
               args.synth.size);
@@ -294,6 +443,10 @@ int main(int argc, char** argv) {
   synthCmd->add_option("--exposure", synth.options.exposures, "exposure gain per view on linear colour (cycled)")
       ->delimiter(',')
       ->check(CLI::PositiveNumber);
+  synthCmd
+      ->add_option("--click-noise", synth.options.clickNoisePx,
+                   "standard deviation of a seeded Gaussian error added to every click, pixels")
+      ->check(CLI::Range(0.0, 1000.0));
   synthCmd->add_option("--out", synth.out, "output folder")->required();
 
   std::string evalResult, evalTruth, evalTexture, evalJson;
@@ -304,20 +457,36 @@ int main(int argc, char** argv) {
   evalCmd->add_option("--truth-texture", evalTexture, "ground-truth texture")->required();
   evalCmd->add_option("--json", evalJson, "also write the figures as JSON");
   evalCmd->add_option("--samples", evalSamples, "surface samples")->check(CLI::Range(100, 100000000));
+  std::string evalOracle;
+  evalCmd->add_option("--oracle", evalOracle,
+                      "synthetic scene folder (project.json, cameras.json): also evaluate the projection oracle, "
+                      "the scene textured through its true cameras");
 
-  std::string renderModelPath, renderOut;
-  RenderOptions renderOptions;
-  auto* render = app.add_subcommand("render", "Headless shaded render of a model to PNG");
-  render->add_option("MODEL", renderModelPath, "model (.obj .glb or any mesh)")->required();
-  render->add_option("--out", renderOut, "PNG to write")->required();
-  render->add_option("--yaw", renderOptions.yawDeg, "orbit angle, degrees");
-  render->add_option("--pitch", renderOptions.pitchDeg, "elevation, degrees");
-  render->add_option("--size", renderOptions.size, "image size, pixels")->check(CLI::Range(16, 8192));
+  RenderArgs renderArgs;
+  auto* render = app.add_subcommand("render", "Headless shaded render of a model to PNG (one view or a turntable)");
+  render->add_option("MODEL", renderArgs.model, "model (.obj .glb or any mesh)")->required();
+  render->add_option("--out", renderArgs.out, "PNG to write (with --turntable: the contact sheet; views beside it)")
+      ->required();
+  render->add_option("--yaw", renderArgs.options.yawDeg, "orbit angle, degrees (first view of a turntable)");
+  render->add_option("--pitch", renderArgs.options.pitchDeg, "elevation, degrees");
+  render->add_option("--size", renderArgs.size, "image size in pixels: W (square) or WxH, e.g. 1024 or 800x600")
+      ->type_name("W|WxH");
+  render
+      ->add_option("--turntable", renderArgs.turntable,
+                   "N views around the model: OUT_00.png .. OUT_<N-1>.png and a contact sheet OUT")
+      ->check(CLI::Range(1, 360));
+  render->add_flag("--layer", renderArgs.layer,
+                   "render the source-photo layer (one colour per photo, inpainted, empty) with a legend instead "
+                   "of the texture; needs <model>_atlas_source.png beside the model");
 
   std::string runProject, runOut;
+  int runPng = -1;
   auto* run = app.add_subcommand("run", "Run the pipeline on a project and export model.obj, model.glb, report.json");
   run->add_option("PROJECT", runProject, "project file (.json)")->required();
   run->add_option("--out", runOut, "output folder")->required();
+  run->add_option("--png-compression", runPng,
+                  "zlib level of the atlas PNG, overriding the project's option: 1 fast (previews) .. 9 smallest")
+      ->check(CLI::Range(0, 9));
 
   BenchArgs bench;
   auto* benchCmd =
@@ -341,8 +510,9 @@ int main(int argc, char** argv) {
   maskCmd->add_option("--feather", mask.options.featherPx, "feathered edge width, pixels (default 0: hard edge)")
       ->check(CLI::Range(0.0, 1000.0));
   maskCmd->add_option("--iterations", mask.options.iterations, "GrabCut iterations")->check(CLI::Range(1, 100));
-  maskCmd->add_option("--working-size", mask.options.workingSide,
-                      "GrabCut runs at most this many pixels a side (0 = full resolution)")
+  maskCmd
+      ->add_option("--working-size", mask.options.workingSide,
+                   "GrabCut runs at most this many pixels a side (0 = full resolution)")
       ->check(CLI::Range(0, 16384));
   maskCmd->add_option("--out", mask.out, "mask PNG to write (8-bit grey: 0 background, 255 foreground)")->required();
 
@@ -350,13 +520,13 @@ int main(int argc, char** argv) {
   try {
     if (*info) return cmdInfo(infoFile);
     if (*synthCmd) return cmdSynth(synth);
-    if (*evalCmd) return cmdEval(evalResult, evalTruth, evalTexture, evalJson, evalSamples);
-    if (*render) return cmdRender(renderModelPath, renderOut, renderOptions);
-    if (*run) return cmdRun(runProject, runOut);
+    if (*evalCmd) return cmdEval(evalResult, evalTruth, evalTexture, evalJson, evalSamples, evalOracle);
+    if (*render) return cmdRender(renderArgs);
+    if (*run) return cmdRun(runProject, runOut, runPng);
     if (*benchCmd) return cmdBench(bench);
     if (*maskCmd) return cmdMask(mask);
   } catch (const std::exception& e) {  // montage::Error and anything else: one line, exit status 1
-    std::fprintf(stderr, "error: %s\n", e.what());
+    std::fprintf(stderr, "error: %s\n", printable(e.what()).c_str());
     return 1;
   }
   return 0;

@@ -27,6 +27,8 @@ int main(int argc, char** argv) {
   app.add_option("--bench-orbit", options.benchOrbit, "benchmark: orbit this mesh and print frame times");
   app.add_flag("--bench-worker", options.benchWorker,
                "benchmark: orbit FILE while the worker reruns the pipeline; print UI frame times");
+  app.add_flag("--bench-overlays", options.benchOverlays,
+               "benchmark: orbit FILE's result with every overlay shown and with none, alternating; print both");
   app.add_option("--bench-frames", options.benchFrames, "benchmark: frames to measure (default 240)")
       ->check(CLI::Range(10, 100000));
   app.add_flag("--no-vsync", noVsync, "do not wait for the display's refresh");
@@ -42,6 +44,7 @@ int main(int argc, char** argv) {
     options.waitWorker = !noWait;
     options.vsync = !noVsync;
     TM_CHECK(!options.benchWorker || !options.file.empty(), "--bench-worker: give the project to run (FILE)");
+    TM_CHECK(!options.benchOverlays || !options.file.empty(), "--bench-overlays: give the project to orbit (FILE)");
     Editor editor(options);
     return editor.run();
   } catch (const std::exception& e) {  // montage::Error and anything else: one line, exit status 1

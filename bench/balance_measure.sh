@@ -21,7 +21,7 @@ set_options() {
 import json, sys
 src, out, balance, level, searches = sys.argv[1:]
 p = json.load(open(src))
-p["version"] = 2
+p["version"] = 3
 p["photos"][0]["colorLocked"] = True
 p.setdefault("options", {})
 p["options"]["colorBalance"] = balance

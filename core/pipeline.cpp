@@ -1,14 +1,20 @@
 #include "pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <opencv2/imgproc.hpp>
+#include <set>
 #include <sstream>
 
 #include "base/util.h"
+#include "geometry/predicates.h"
 #include "image/cutout.h"
 #include "io/mesh_io.h"
+#include "io/project_warnings.h"
 #include "mapping/simplify.h"
+#include "surface/preview.h"
 
 namespace fs = std::filesystem;
 
@@ -26,8 +32,9 @@ std::string fileKey(const std::string& path) {
   return key.str();
 }
 
-std::string photoKey(const PhotoRef& ref) {
-  return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask)) + (ref.mirror ? "|mirror" : "");
+std::string photoKey(const PhotoRef& ref, const PipelineOptions& options) {
+  return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask)) +
+         "|side:" + std::to_string(options.maxPhotoSide) + (ref.mirror ? "|mirror" : "");
 }
 
 // A photo that could not be loaded: 1 x 1 and all background, so that nothing maps into it.
@@ -37,10 +44,9 @@ std::shared_ptr<const Photo> placeholderPhoto(const PhotoRef& ref) {
   photo->maskPath = ref.mask;
   photo->mirrored = ref.mirror;
   photo->width = photo->height = 1;
-  photo->rgb = cv::Mat::zeros(1, 1, CV_32FC3);
-  photo->alpha = cv::Mat::zeros(1, 1, CV_32FC1);
+  photo->rgb = cv::Mat::zeros(1, 1, CV_8UC3);
+  photo->alpha = cv::Mat::zeros(1, 1, CV_8UC1);
   photo->distance = cv::Mat(1, 1, CV_32FC1, cv::Scalar(1e6));
-  photo->luv = cv::Mat::zeros(1, 1, CV_32FC3);
   photo->hasBackground = true;
   return photo;
 }
@@ -55,6 +61,44 @@ std::vector<std::pair<int, int>> photoSizes(const std::vector<std::shared_ptr<co
   return sizes;
 }
 
+// The checks of the clones that the inpaint stage would make, done at load so that `montage info` and
+// `run` reject the same projects: the projection frame (anchor on the target, a mean plane, an area)
+// and a polygon that meets the projected target inside the photo.
+void checkClones(const Project& project, const Mesh& mesh, const std::vector<std::shared_ptr<const Photo>>& photos) {
+  const std::string file = project.file.empty() ? "project" : project.file;
+  for (size_t c = 0; c < project.clones.size(); ++c) {
+    const CloneOp& clone = project.clones[c];
+    const std::string path = "clones[" + std::to_string(c) + "]";
+    const CloneProjection proj = projectClone(mesh, {}, clone, located(file, path));
+    const Photo& photo = *photos[clone.photo];
+    const auto inTriangle = [](const std::array<Vec2, 3>& t, const Vec2& p) {
+      const double a = orient2(t[0], t[1], p), b = orient2(t[1], t[2], p), d = orient2(t[2], t[0], p);
+      return (a >= 0 && b >= 0 && d >= 0) || (a <= 0 && b <= 0 && d <= 0);
+    };
+    bool meets = false;
+    for (size_t f = 0; f < proj.cornerPixel.size() && !meets; ++f) {
+      const auto& t = proj.cornerPixel[f];
+      std::vector<Vec2> candidates(t.begin(), t.end());
+      for (const Vec2& q : clone.polygon)
+        if (inTriangle(t, q)) candidates.push_back(q);
+      for (size_t k = 0; k < clone.polygon.size(); ++k)  // edge crossings
+        for (int e = 0; e < 3; ++e) {
+          const Vec2 &a = clone.polygon[k], &b = clone.polygon[(k + 1) % clone.polygon.size()];
+          const double d1 = orient2(a, b, t[e]), d2 = orient2(a, b, t[(e + 1) % 3]);
+          if ((d1 > 0) != (d2 > 0) && d1 != d2) candidates.push_back(t[e] + (t[(e + 1) % 3] - t[e]) * (d1 / (d1 - d2)));
+        }
+      for (const Vec2& q : candidates)
+        meets =
+            meets ||
+            (photo.inside(q.x(), q.y()) && inTriangle(t, q) &&
+             (insidePolygon(clone.polygon, q) || std::any_of(clone.polygon.begin(), clone.polygon.end(),
+                                                             [&](const Vec2& v) { return (v - q).norm() < 1e-9; })));
+    }
+    TM_CHECK(meets, located(file, path + ": the polygon maps onto no point of the target region inside the photo "
+                                         "(check the anchor, the scale and the rotation)"));
+  }
+}
+
 }  // namespace
 
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job) {
@@ -63,27 +107,113 @@ std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl&
   return pipeline.loadScene(project, job, cached);
 }
 
-Mapping mapTexture(const Scene& scene, const JobControl& job) {
+namespace {
+
+CameraFitOptions cameraFitOptions(const PipelineOptions& o) {
+  CameraFitOptions options;
+  options.thresholdFraction = o.cameraThreshold;
+  options.seed = o.seed;
+  return options;
+}
+
+// One photo's fit (or the reason there is none) under the project's options.
+CameraFit fitPhoto(const Scene& scene, int photo) {
+  const Photo& p = *scene.photos[photo];
+  std::vector<CameraClick> clicks = photoClicks(scene.project, photo);
+  if (scene.project.options.cameraMode == CameraMode::Off) {
+    CameraFit fit;
+    fit.clicks = std::move(clicks);
+    fit.reprojected.assign(fit.clicks.size(), Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
+    fit.residual.assign(fit.clicks.size(), std::numeric_limits<double>::infinity());
+    fit.inlier.assign(fit.clicks.size(), 0);
+    fit.reason = "camera fit is off (options.cameraMode)";
+    return fit;
+  }
+  const CameraFitOptions options = cameraFitOptions(scene.project.options);
+  CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options);
+  refineOnSilhouette(*scene.mesh, p, fit, options);
+  return fit;
+}
+
+nlohmann::json fitJson(const CameraFit& fit, int photo) {
+  nlohmann::json outliers = nlohmann::json::array();
+  for (size_t i = 0; i < fit.clicks.size(); ++i)
+    if (fit.fits && i < fit.inlier.size() && !fit.inlier[i])
+      outliers.push_back({{"point", fit.clicks[i].point}, {"residual", fit.residual[i]}});
+  nlohmann::json j = {{"photo", photo},
+                      {"path", fit.fits ? "projection" : "paper"},
+                      {"fits", fit.fits},
+                      {"reason", fit.reason},
+                      {"clicks", fit.clicks.size()},
+                      {"inliers", fit.inliers},
+                      {"threshold_px", fit.thresholdPx}};
+  if (fit.fits) {
+    j["focal_px"] = fit.camera.focal();
+    j["fov_y_deg"] = fit.camera.fovYDeg();
+    j["k1"] = fit.camera.k1;
+    j["k2"] = fit.camera.k2;
+    j["residual_median_px"] = fit.medianResidual;
+    j["residual_max_px"] = fit.maxResidual;
+    j["residual_rms_px"] = fit.rmsResidual;
+    j["silhouette_points"] = fit.silhouettePoints;
+    j["silhouette_residual_px"] = fit.silhouetteResidualPx;
+    j["outliers"] = outliers;
+    j["eye"] = {fit.camera.pinhole.center().x(), fit.camera.pinhole.center().y(), fit.camera.pinhole.center().z()};
+    // The camera in cameras.json's convention: p_cam = R p + t, R row-major.
+    nlohmann::json R = nlohmann::json::array();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) R.push_back(fit.camera.pinhole.R(r, c));
+    j["R"] = R;
+    j["t"] = {fit.camera.pinhole.t.x(), fit.camera.pinhole.t.y(), fit.camera.pinhole.t.z()};
+    j["cx"] = fit.camera.pinhole.cx;
+    j["cy"] = fit.camera.pinhole.cy;
+  }
+  j["seconds"] = fit.seconds;
+  return j;
+}
+
+}  // namespace
+
+ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
+                               const CameraStage& cameras, const JobControl& job) {
+  TM_CHECK(paper, "projectMapping: no mapping");
+  const PipelineOptions& o = scene.project.options;
+  ProjectionOptions options;
+  options.correction = o.correction;
+  options.smoothness = o.viewSmoothness;
+  ProjectionStage out;
+  job.progress(StageId::Projection, 0.0);
+  out.result = projectionFill(scene, paper->partition, paper->map, cameras.fits, options, job);
+  if (out.result.fittedPhotos == 0) {
+    out.mapping = paper;
+  } else {
+    auto mapping = std::make_shared<Mapping>(*paper);
+    mapping->map = std::move(out.result.map);
+    out.mapping = mapping;
+  }
+  out.result.map = TextureMap{};
+  return out;
+}
+
+Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches) {
   Mapping out;
   auto start = Clock::now();
   PartitionOptions partitionOptions;
   partitionOptions.backgroundThresholdPx = scene.project.options.backgroundThresholdPx;
-  out.partition = partitionMesh(scene, partitionOptions, job);
+  out.partition = partitionMesh(scene, partitionOptions, job, caches ? &caches->partition : nullptr);
   out.partitionSeconds = secondsSince(start);
-
-  start = Clock::now();
-  ProgressiveMesh pm(out.partition, SimplifyOptions{}, job);
-  out.simplifySeconds = secondsSince(start);
-  out.collapses = static_cast<int>(pm.records().size());
-  out.baseVertices = pm.aliveVertices();
-  out.baseFaces = pm.aliveFaces();
 
   start = Clock::now();
   FineMapOptions fineOptions;
   fineOptions.seed = scene.project.options.seed;
   fineOptions.lineSearches = scene.project.options.stretchSearches;
   if (fineOptions.lineSearches == 0) fineOptions.finalSweeps = 0;
-  out.map = coarseToFine(scene, out.partition, pm, fineOptions, job, &out.stats);
+  CellMapping cells = mapCells(scene, out.partition, fineOptions, job, caches ? &caches->cells : nullptr);
+  out.map = std::move(cells.map);
+  out.cells = std::move(cells.cells);
+  out.stats = cells.stats;
+  out.cellsMapped = cells.cellsMapped;
+  out.cellsReused = cells.cellsReused;
   out.mapSeconds = secondsSince(start);
   if (scene.project.points.empty())
     out.map.notes.insert(out.map.notes.begin(), "no features: the whole mesh is one empty patch (paper section 3)");
@@ -117,7 +247,31 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
   return out;
 }
 
-SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job) {
+std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
+                                                    const CameraStage* cameras, SeamResult& seams,
+                                                    const JobControl& job) {
+  const PipelineOptions& o = scene.project.options;
+  SeamInput in;
+  in.mesh = &mapping->partition.mesh;
+  in.map = &mapping->map;
+  for (const auto& p : scene.photos) in.photos.push_back(p.get());
+  in.fixedVertices = mapping->partition.featureVertex;
+  if (cameras)
+    for (const CameraFit& fit : cameras->fits) in.projectedPhotos.push_back(fit.fits);
+  SeamOptions options;
+  options.lambda = o.seamLambda;
+  options.rounds = o.seamRounds;
+  options.gradientWeight = o.gradientWeight;
+  options.seed = o.seed;
+  job.progress(StageId::Seams, 0.0);
+  seams = optimiseSeams(in, options, job);
+  if (seams.movedSides == 0) return mapping;
+  auto out = std::make_shared<Mapping>(*mapping);
+  out->map = seams.map;
+  return out;
+}
+
+SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job, Tier tier) {
   SurfaceColors out;
   const PipelineOptions& o = scene.project.options;
   std::vector<const Photo*> photos;
@@ -136,6 +290,12 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   in.where = scene.project.file;
   in.options.mode = o.inpaintMode;
   in.options.maxRefinedVertices = o.maxInpaintVertices;
+  // The preview inpaints harmonic fills on a coarser refinement (smooth: the same colours at viewing
+  // distance); guided fills (RBF, synthesis, structure, strokes) and clones depend on the refinement's
+  // density, so they keep it.
+  bool smooth = o.inpaintMode == InpaintMode::Harmonic && scene.project.strokes.empty() && scene.project.clones.empty();
+  for (const HoleMode& h : scene.project.holeModes) smooth = smooth && h.mode == InpaintMode::Harmonic;
+  if (tier == Tier::Preview && smooth) in.options.detail = kPreviewDetail;
   job.progress(StageId::Inpaint, 0.0);
   out.inpaint = inpaintSurface(in, job, &out.warnings);
   return out;
@@ -154,6 +314,22 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
   job.progress(StageId::Bake, 0.6, "baking");
   out.image = bakeAtlas(out.atlas, mesh, scene.photos, &colors.levelling, inpaint, options);
   out.model = atlasModel(mesh, out.atlas, out.image);
+  const std::string name = fs::path(scene.project.mesh).stem().string();
+  out.model.name = name.empty() ? "model" : name;
+  if (scene.project.options.exportTopology == ExportTopology::Original) {
+    job.progress(StageId::Bake, 0.8, "transfer to the original mesh");
+    const auto start = Clock::now();
+    out.original = true;
+    // Texels take the montage's own colours (photos, levelling, inpainting), not a second resampling of
+    // the refined atlas.
+    std::vector<const Photo*> photos;
+    for (const auto& p : scene.photos) photos.push_back(p.get());
+    const PreviewSurface surface(mapping.map, photos, &colors.levelling, inpaint, options.emptyColor);
+    out.originalModel = bakeOriginalTopology(*scene.mesh, mesh, mapping.partition.faceParent, out.atlas, out.image,
+                                             options, {}, [&](int f, const Vec3& b) { return surface.color(f, b); });
+    out.originalModel.model.name = out.model.name;
+    out.transferSeconds = secondsSince(start);
+  }
   job.progress(StageId::Bake, 1.0);
   return out;
 }
@@ -176,7 +352,7 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> photos;
   for (size_t i = 0; i < project.photos.size(); ++i) {
     const PhotoRef& ref = project.photos[i];
-    const std::string key = photoKey(ref);
+    std::string key = photoKey(ref, project.options);
     std::shared_ptr<const Photo> photo;
     for (const auto& [k, p] : cachedPhotos_)
       if (k == key) photo = p;
@@ -184,18 +360,22 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
       job.progress(StageId::Load, double(i + 1) / (project.photos.size() + 1),
                    "photo " + fs::path(ref.path).filename().string());
       try {
-        photo = std::make_shared<Photo>(loadPhoto(ref.path, ref.mask, ref.mirror));
-        photos.emplace_back(key, photo);
+        PhotoLoadOptions options;
+        options.maxSide = project.options.maxPhotoSide;
+        options.mirror = ref.mirror;
+        photo = std::make_shared<Photo>(loadPhoto(ref.path, ref.mask, options));
       } catch (const Error& e) {
-        // A broken photo disables only itself: the others still texture.
+        // A broken photo disables only itself: the others still texture. Its key never matches a
+        // photo's, so the next run tries the file again.
         scene->skippedPhotos[int(i)] = e.what();
         photo = placeholderPhoto(ref);
+        key = "skipped:" + key;
       }
       cached = false;
-    } else {
-      photos.emplace_back(key, photo);
     }
+    photos.emplace_back(key, photo);
     scene->photos.push_back(photo);
+    scene->photoKeys.push_back(scene->skippedPhotos.count(int(i)) ? std::string() : key);
   }
   cachedPhotos_ = std::move(photos);
   if (!scene->skippedPhotos.empty()) {
@@ -205,12 +385,43 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
     scene->project = withoutPhotoReferences(project, skipped);
   }
   validateProject(scene->project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
+  checkClones(scene->project, *scene->mesh, scene->photos);
+  std::vector<const Photo*> photoPointers;
+  for (const auto& p : scene->photos) photoPointers.push_back(p.get());
+  scene->warnings = projectWarnings(scene->project, photoPointers);
   return scene;
 }
 
-PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
-  PipelineResult result;
+std::string Pipeline::documentKey(const Project& project) const {
+  // The document (everything but its file name) and the identity of every file it reads.
+  std::string key = projectToJson(project, "");
+  key += '|' + fileKey(project.mesh);
+  for (const PhotoRef& ref : project.photos) key += '|' + photoKey(ref, project.options);
+  return key;
+}
 
+std::shared_ptr<const PipelineResult> Pipeline::findResult(const Project& project, Tier tier) {
+  const std::string key = documentKey(project);
+  for (const auto* list : {&finals_, tier == Tier::Preview ? &previews_ : nullptr}) {
+    if (!list) continue;
+    for (const auto& [k, result] : *list)
+      if (k == key) return result;
+  }
+  return nullptr;
+}
+
+PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier tier) {
+  // An identical document state (undo, redo, a repeated run): its result at once.
+  const auto lookupStart = Clock::now();
+  if (auto earlier = findResult(project, tier)) {
+    PipelineResult result = *earlier;
+    for (StageRecord& s : result.stages) s.cached = true, s.seconds = 0;
+    result.stages.front().seconds = secondsSince(lookupStart);
+    return result;
+  }
+
+  PipelineResult result;
+  result.tier = tier;
   auto start = Clock::now();
   StageRecord load;
   load.stage = StageId::Load;
@@ -223,6 +434,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                  {"chains", project.chains.size()}};
   result.stages.push_back(load);
   for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
+  for (const auto& w : scene->warnings) result.warnings.push_back("project: " + w);
   for (const auto& [i, reason] : scene->skippedPhotos) {
     int positions = 0, chains = 0, clones = 0;
     for (const FeaturePoint& pt : project.points)
@@ -238,17 +450,60 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
       for (const std::string& w : foregroundWarnings(*scene->photos[i]))
         result.warnings.push_back(photoName(project, int(i)) + ": " + w);
 
-  // Partition, Simplify, Map: rerun when what they read (mesh, photos, correspondences, options) changed.
+  // Camera: a fit per photo, reused while the photo's clicks, the photo, the mesh and the options stay.
+  const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
+  const nlohmann::json& opts = document["options"];
+  start = Clock::now();
+  auto cameras = std::make_shared<CameraStage>();
+  {
+    std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> fits;
+    for (size_t p = 0; p < scene->photos.size(); ++p) {
+      nlohmann::json clicks = nlohmann::json::array();
+      for (const CameraClick& c : photoClicks(project, static_cast<int>(p)))
+        clicks.push_back({c.point, c.vertex, c.pixel.x(), c.pixel.y()});
+      const std::string fitKey = meshKey_ + '#' + cachedPhotos_[p].first + clicks.dump() + opts["cameraMode"].dump() +
+                                 opts["cameraThreshold"].dump() + opts["seed"].dump();
+      std::shared_ptr<const CameraFit> fit;
+      for (const auto& [k, f] : cachedFits_)
+        if (k == fitKey) fit = f;
+      if (fit) {
+        ++cameras->reused;
+      } else {
+        job.progress(StageId::Camera, double(p) / scene->photos.size(), "photo " + std::to_string(p));
+        fit = std::make_shared<const CameraFit>(fitPhoto(*scene, static_cast<int>(p)));
+      }
+      fits.emplace_back(fitKey, fit);
+      cameras->fits.push_back(*fit);
+      cameras->fitted += fit->fits;
+    }
+    cachedFits_ = std::move(fits);
+  }
+  cameras->seconds = secondsSince(start);
+  {
+    nlohmann::json photos = nlohmann::json::array();
+    for (size_t p = 0; p < cameras->fits.size(); ++p) photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p)));
+    const bool all = cameras->reused == static_cast<int>(cameras->fits.size());
+    result.stages.push_back({StageId::Camera,
+                             all,
+                             all ? 0 : cameras->seconds,
+                             {{"fitted", cameras->fitted}, {"reused", cameras->reused}, {"photos", photos}}});
+  }
+  for (size_t p = 0; p < cameras->fits.size(); ++p)
+    if (!cameras->fits[p].fits && !cameras->fits[p].clicks.empty() && project.options.cameraMode == CameraMode::Auto)
+      result.warnings.push_back("camera: photo " + std::to_string(p) +
+                                " takes the paper's path: " + cameras->fits[p].reason);
+
+  // Partition, Map: rerun when what they read (mesh, photos, correspondences, options) changed; the
+  // cells whose content, boundary and photo did not change are reused from the cell cache.
   std::ostringstream key;
   key << meshKey_;
   for (const auto& [k, p] : cachedPhotos_) key << '#' << k;
-  const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
-  const nlohmann::json& opts = document["options"];
   key << document["points"].dump() << document["chains"].dump() << opts["backgroundThresholdPx"].dump()
       << opts["stretchSearches"].dump() << opts["seed"].dump();
   const bool mapCached = key.str() == mapKey_ && cachedMapping_;
   if (!mapCached) {
-    cachedMapping_ = std::make_shared<const Mapping>(mapTexture(*scene, job));
+    cachedMapping_ = std::make_shared<const Mapping>(mapTexture(*scene, job, &mapCaches_));
+    mapCaches_.cells.endRun();
     mapKey_ = key.str();
   }
   const Mapping& mapping = *cachedMapping_;
@@ -263,34 +518,79 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
                            {{"paths", mapping.partition.paths.size()},
                             {"rejected", rejected},
                             {"cells", mapping.partition.numCells},
-                            {"steiner_vertices", mapping.partition.steinerVertices}}});
-  result.stages.push_back(
-      {StageId::Simplify,
-       mapCached,
-       mapCached ? 0 : mapping.simplifySeconds,
-       {{"collapses", mapping.collapses}, {"base_vertices", mapping.baseVertices}, {"base_faces", mapping.baseFaces}}});
+                            {"steiner_vertices", mapping.partition.steinerVertices},
+                            {"searches", mapping.partition.searches},
+                            {"searches_reused", mapCached ? 0 : mapping.partition.searchesReused}}});
+  nlohmann::json cellStatus = nlohmann::json::object();
+  for (const CellPlan& c : mapping.cells) {
+    const std::string status = kCellStatusNames[static_cast<int>(c.status)];
+    cellStatus[status] = cellStatus.value(status, 0) + 1;
+  }
   result.stages.push_back({StageId::Map,
                            mapCached,
                            mapCached ? 0 : mapping.mapSeconds,
                            {{"faces", mapping.map.numFaces()},
                             {"mapped_faces", mapping.map.numMapped()},
-                            {"base_mapped_faces", mapping.stats.baseMappedFaces},
+                            {"cells", cellStatus},
+                            {"cells_mapped", mapCached ? 0 : mapping.cellsMapped},
+                            {"cells_reused", mapCached ? 0 : mapping.cellsReused},
+                            {"splits", mapping.stats.splits},
+                            {"base_inner_vertices", mapping.stats.baseInnerVertices},
                             {"centroid_fallbacks", mapping.stats.centroidFallbacks},
                             {"flipped_faces", mapping.stats.flippedFaces},
                             {"max_stretch", mapping.stats.maxStretch}}});
   for (const auto& note : mapping.map.notes) result.warnings.push_back("map: " + note);
 
-  // Balance: rerun when the mapping, the mode or the locks changed.
+  // Projection: rerun when the paper's mapping, a fit or the projection options changed.
+  for (const auto& [k, f] : cachedFits_) key << "#fit:" << k;
+  key << opts["correction"].dump() << opts["viewSmoothness"].dump();
+  const bool projectionCached = mapCached && key.str() == projectionKey_ && cachedProjection_;
+  if (!projectionCached) {
+    cachedProjection_ = std::make_shared<const ProjectionStage>(projectMapping(*scene, cachedMapping_, *cameras, job));
+    projectionKey_ = key.str();
+  }
+  const ProjectionStage& projection = *cachedProjection_;
+  {
+    const ProjectionResult& pr = projection.result;
+    nlohmann::json photos = nlohmann::json::array();
+    for (size_t p = 0; p < pr.photoFaces.size(); ++p)
+      photos.push_back({{"photo", p},
+                        {"path", cameras->fits[p].fits ? "projection" : "paper"},
+                        {"faces", pr.photoFaces[p]},
+                        {"projected_faces", pr.photoProjectedFaces[p]},
+                        {"refused_flipped", pr.photoRefusedFlipped[p]},
+                        {"refused_background", pr.photoRefusedBackground[p]}});
+    result.stages.push_back({StageId::Projection,
+                             projectionCached,
+                             projectionCached ? 0 : pr.seconds,
+                             {{"fitted_photos", pr.fittedPhotos},
+                              {"seen_faces", pr.seenFaces},
+                              {"filled_faces", pr.filledFaces},
+                              {"relabelled_faces", pr.relabelledFaces},
+                              {"dropped_faces", pr.droppedFaces},
+                              {"empty_faces", pr.emptyFaces},
+                              {"selection_sweeps", pr.selectionSweeps},
+                              {"view_seconds", pr.viewSeconds},
+                              {"select_seconds", pr.selectSeconds},
+                              {"photos", photos}}});
+  }
+  result.proposals =
+      proposeCorrespondences(project, projection.mapping->partition.mesh, cameras->fits, projection.result.views);
+
+  // Balance: rerun when the final mapping, the mode or the locks changed. It reads the seams between
+  // photos of the final mapping (which photo each face shows: seam optimisation moves UVs, never a face
+  // to another photo); seams, levelling, inpainting and bake read its balanced photos.
   key << opts["colorBalance"].dump() << '|';
   for (const PhotoRef& ref : project.photos) key << ref.colorLocked;
-  const bool balanceCached = mapCached && key.str() == balanceKey_ && cachedBalance_;
+  const bool balanceCached = projectionCached && key.str() == balanceKey_ && cachedBalance_;
   if (!balanceCached) {
-    cachedBalance_ = std::make_shared<const BalancedScene>(balanceScene(scene, mapping, job));
+    cachedBalance_ = std::make_shared<const BalancedScene>(balanceScene(scene, *projection.mapping, job));
     balanceKey_ = key.str();
   }
   const ColorBalance& bal = cachedBalance_->balance;
   {
-    nlohmann::json gains = nlohmann::json::array(), offsets = nlohmann::json::array(), references = nlohmann::json::array();
+    nlohmann::json gains = nlohmann::json::array(), offsets = nlohmann::json::array();
+    nlohmann::json references = nlohmann::json::array();
     for (size_t i = 0; i < bal.transforms.size(); ++i) {
       const ColorTransform& t = bal.transforms[i];
       gains.push_back({t.gain[0], t.gain[1], t.gain[2]});
@@ -314,13 +614,42 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   }
   const Scene& colorScene = *cachedBalance_->scene;
 
-  // Level + Inpaint: rerun when the balance or what they read (strokes, clones, hole modes, their
-  // options) changed.
+  // Seams: rerun when the mapping, the balance or the seam options changed. Later stages read the
+  // seamed mapping.
+  key << opts["seamLambda"].dump() << opts["seamRounds"].dump() << opts["gradientWeight"].dump();
+  const bool seamCached = balanceCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
+  if (!seamCached) {
+    auto seams = std::make_shared<SeamResult>();
+    cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job);
+    seams->map = TextureMap();  // the seamed mapping holds it
+    cachedSeams_ = seams;
+    seamKey_ = key.str();
+  }
+  const SeamResult& sr = *cachedSeams_;
+  result.stages.push_back({StageId::Seams,
+                           seamCached,
+                           seamCached ? 0 : sr.seconds,
+                           {{"seam_edges", sr.seamEdges},
+                            {"seam_vertices", sr.seamVertices},
+                            {"neighbour_vertices", sr.neighbourVertices},
+                            {"moved_sides", sr.movedSides},
+                            {"sleeping_sides", sr.sleepingSides},
+                            {"rounds", sr.rounds},
+                            {"delta_e_before", sr.deltaEBefore},
+                            {"delta_e_after", sr.deltaEAfter},
+                            {"gradient_before", sr.gradientBefore},
+                            {"gradient_after", sr.gradientAfter},
+                            {"max_stretch_before", sr.maxStretchBefore},
+                            {"max_stretch_after", sr.maxStretchAfter}}});
+
+  // Level + Inpaint: rerun when the mapping, the balance, the tier or what they read (strokes, clones,
+  // hole modes, their options) changed.
   key << document["strokes"].dump() << document["clones"].dump() << document["holeModes"].dump()
-      << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump();
-  const bool colorCached = balanceCached && key.str() == colorKey_ && cachedColors_;
+      << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump() << '|'
+      << kTierNames[size_t(tier)];
+  const bool colorCached = seamCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
-    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(colorScene, mapping, job));
+    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(colorScene, *cachedSeamed_, job, tier));
     colorKey_ = key.str();
   }
   const SurfaceColors& colors = *cachedColors_;
@@ -349,27 +678,61 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job) {
   result.stages.push_back({StageId::Inpaint,
                            colorCached,
                            colorCached ? 0 : inp.seconds,
-                           {{"regions", regions},
+                           {{"tier", kTierNames[size_t(tier)]},
+                            {"regions", regions},
                             {"refined_vertices", inp.refined.mesh.numVertices()},
                             {"refined_triangles", inp.refined.mesh.numTriangles()}}});
   for (const auto& w : colors.warnings) result.warnings.push_back("inpaint: " + w);
 
-  // Bake.
-  start = Clock::now();
-  auto baked = std::make_shared<const BakeResult>(bakeModel(colorScene, mapping, colors, job));
-  StageRecord bake;
-  bake.stage = StageId::Bake;
-  bake.seconds = secondsSince(start);
-  bake.counts = baked->atlas.stats();
-  bake.counts["bake_seconds"] = baked->image.seconds;
-  result.stages.push_back(bake);
+  // Bake (final tier): rerun when the colours or the atlas and export options changed.
+  if (tier == Tier::Final) {
+    key << opts["atlasSize"].dump() << opts["gutter"].dump() << opts["exportTopology"].dump();
+    const bool bakeCached = colorCached && key.str() == bakeKey_ && cachedBake_;
+    start = Clock::now();
+    if (!bakeCached) {
+      cachedBake_ = std::make_shared<const BakeResult>(bakeModel(colorScene, *cachedSeamed_, colors, job));
+      bakeKey_ = key.str();
+    }
+    const BakeResult& baked = *cachedBake_;
+    StageRecord bake;
+    bake.stage = StageId::Bake;
+    bake.cached = bakeCached;
+    bake.seconds = bakeCached ? 0 : secondsSince(start);
+    bake.counts = baked.atlas.stats();
+    bake.counts["bake_seconds"] = baked.image.seconds;
+    bake.counts["export_topology"] = kExportTopologyNames[size_t(project.options.exportTopology)];
+    if (baked.original) {
+      const OriginalModel& o = baked.originalModel;
+      bake.counts["original"] = {{"charts", o.atlas.charts.size()},
+                                 {"utilisation", o.atlas.utilisation},
+                                 {"scale", o.atlas.scale},
+                                 {"vertices", o.model.mesh.numVertices()},
+                                 {"faces", o.model.mesh.numFaces()},
+                                 {"seconds", baked.transferSeconds},
+                                 {"atlas_seconds", o.atlasSeconds},
+                                 {"bake_seconds", o.bakeSeconds},
+                                 {"measure_seconds", o.measureSeconds},
+                                 {"transfer_loss", o.loss.toJson()}};
+    }
+    result.stages.push_back(bake);
+    result.baked = cachedBake_;
+    result.model = std::shared_ptr<const TexturedModel>(cachedBake_, &baked.model);
+    result.exported = std::shared_ptr<const TexturedModel>(cachedBake_, &baked.exported());
+  }
 
   result.scene = scene;
-  result.mapping = cachedMapping_;
+  result.cameras = cameras;
+  result.projection = cachedProjection_;
+  result.mapping = cachedSeamed_;
   result.balanced = cachedBalance_;
+  result.seams = cachedSeams_;
   result.colors = cachedColors_;
-  result.baked = baked;
-  result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
+
+  // Keep the result for this document state (undo and redo find it at once).
+  auto& list = tier == Tier::Final ? finals_ : previews_;
+  list.emplace_back(documentKey(project), std::make_shared<const PipelineResult>(result));
+  const size_t keep = tier == Tier::Final ? kFinalStates : kPreviewStates;
+  if (list.size() > keep) list.erase(list.begin(), list.end() - keep);
   return result;
 }
 
@@ -395,6 +758,37 @@ nlohmann::json PipelineResult::report() const {
                  {"boundary_loops", scene->meshReport.boundaryLoops},
                  {"components", scene->meshReport.components}};
   }
+  if (mapping && baked && baked->atlas.faceSource.size() == size_t(mapping->partition.mesh.numFaces())) {
+    // Where the surface's colours come from, as area shares: photos (and each photo), inpainting, nothing.
+    const Mesh& mesh = mapping->partition.mesh;
+    double total = 0, photo = 0, inpainted = 0, empty = 0;
+    std::vector<double> perPhoto(scene ? scene->photos.size() : 0, 0.0);
+    for (int f = 0; f < mesh.numFaces(); ++f) {
+      const double a = mesh.faceArea(f);
+      const int s = baked->atlas.faceSource[f];
+      total += a;
+      (s >= 0 ? photo : s == kSourceInpainted ? inpainted : empty) += a;
+      if (s >= 0 && s < static_cast<int>(perPhoto.size())) perPhoto[s] += a;
+    }
+    if (total > 0) {
+      for (double& p : perPhoto) p /= total;
+      j["surface"] = {{"photo_share", photo / total},
+                      {"inpainted_share", inpainted / total},
+                      {"empty_share", empty / total},
+                      {"photo_shares", perPhoto}};
+    }
+  }
+  if (cameras) {
+    // Each photo's path (projection or the paper's) and its camera fit.
+    nlohmann::json photos = nlohmann::json::array();
+    for (size_t p = 0; p < cameras->fits.size(); ++p) photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p)));
+    j["cameras"] = photos;
+    nlohmann::json proposed = nlohmann::json::array();
+    for (const Proposal& pr : proposals)
+      proposed.push_back(
+          {{"point", pr.point}, {"vertex", pr.vertex}, {"photo", pr.photo}, {"x", pr.pixel.x()}, {"y", pr.pixel.y()}});
+    j["proposals"] = proposed;
+  }
   if (mapping) {
     // Rejected pairs with their reasons, so a user can see why a region stayed empty (first 1000).
     nlohmann::json rejected = nlohmann::json::array();
@@ -411,30 +805,114 @@ nlohmann::json PipelineResult::report() const {
                 {"rejected_pairs", rejected},
                 {"rejected_total", mapping->partition.rejected.size()}};
   }
+  if (seams) {
+    // Per face of the map, the mean Delta E*uv across its seam edges (faces on no seam left out).
+    nlohmann::json faces = nlohmann::json::array(), error = nlohmann::json::array();
+    for (size_t f = 0; f < seams->faceError.size(); ++f)
+      if (seams->faceError[f] >= 0) faces.push_back(f), error.push_back(std::round(seams->faceError[f] * 100) / 100);
+    j["seams"] = {{"delta_e_before", seams->deltaEBefore},
+                  {"delta_e_after", seams->deltaEAfter},
+                  {"faces", faces},
+                  {"face_delta_e", error}};
+  }
   return j;
+}
+
+PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
+                                const JobControl& job) {
+  TM_CHECK(cameras.size() == project.photos.size(),
+           located(project.file, std::to_string(cameras.size()) + " cameras given for " +
+                                     std::to_string(project.photos.size()) + " photos"));
+  // No clicks: the cameras alone place the photos (no correction field, no paper's path).
+  Project bare = project;
+  bare.points.clear();
+  bare.chains.clear();
+  bare.clones.clear();
+  bare.holeModes.clear();
+  bare.strokes.clear();
+  bare.options.correction = CorrectionMode::Off;
+  PipelineResult result;
+  auto start = Clock::now();
+  Pipeline pipeline;
+  bool cached = false;
+  result.scene = pipeline.loadScene(bare, job, cached);
+  result.stages.push_back({StageId::Load, false, secondsSince(start), {}});
+  const Scene& scene = *result.scene;
+  start = Clock::now();
+  auto fits = std::make_shared<CameraStage>();
+  for (size_t p = 0; p < cameras.size(); ++p) {
+    const Photo& photo = *scene.photos[p];
+    TM_CHECK(cameras[p].pinhole.width == photo.width && cameras[p].pinhole.height == photo.height,
+             located(photo.path, "the given camera is for a " + std::to_string(cameras[p].pinhole.width) + "x" +
+                                     std::to_string(cameras[p].pinhole.height) + " image"));
+    fits->fits.push_back(fitFromCamera(*scene.mesh, cameras[p], photoClicks(project, static_cast<int>(p))));
+    ++fits->fitted;
+  }
+  result.cameras = fits;
+  result.stages.push_back({StageId::Camera, false, secondsSince(start), {{"fitted", fits->fitted}}});
+  start = Clock::now();
+  auto paper = std::make_shared<const Mapping>(mapTexture(scene, job));
+  result.stages.push_back({StageId::Map, false, secondsSince(start), {}});
+  start = Clock::now();
+  result.projection = std::make_shared<const ProjectionStage>(projectMapping(scene, paper, *fits, job));
+  result.mapping = result.projection->mapping;
+  result.stages.push_back(
+      {StageId::Projection,
+       false,
+       secondsSince(start),
+       {{"seen_faces", result.projection->result.seenFaces}, {"empty_faces", result.projection->result.emptyFaces}}});
+  start = Clock::now();
+  result.balanced = std::make_shared<const BalancedScene>(balanceScene(result.scene, *result.mapping, job));
+  const Scene& colorScene = *result.balanced->scene;
+  result.stages.push_back({StageId::Balance, false, secondsSince(start), {}});
+  start = Clock::now();
+  result.colors = std::make_shared<const SurfaceColors>(colorSurface(colorScene, *result.mapping, job));
+  result.stages.push_back({StageId::Inpaint, false, secondsSince(start), {}});
+  start = Clock::now();
+  auto baked = std::make_shared<const BakeResult>(bakeModel(colorScene, *result.mapping, *result.colors, job));
+  result.stages.push_back({StageId::Bake, false, secondsSince(start), {}});
+  result.baked = baked;
+  result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
+  return result;
 }
 
 void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
   TM_CHECK(result.model, "writeRunOutputs: no model to write");
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  TM_CHECK(!ec, located(dir, "cannot create output folder: " + ec.message()));
+  OutputFolder out(dir);
+  writeRunOutputs(result, out);
+}
+
+void writeRunOutputs(const PipelineResult& result, OutputFolder& out) {
+  const std::shared_ptr<const TexturedModel>& model = result.exported ? result.exported : result.model;
+  TM_CHECK(model, "writeRunOutputs: no model to write");
+  const std::string dir = out.staging();  // everything is written here, then swapped in by commit()
   const auto start = Clock::now();
-  exportObj(*result.model, dir, "model");
-  exportGlb(*result.model, (fs::path(dir) / "model.glb").string());
+  PngCache pngs(result.scene ? result.scene->project.options.pngCompression : PipelineOptions{}.pngCompression);
+  exportObj(*model, dir, "model", &pngs);
+  exportGlb(*model, (fs::path(dir) / "model.glb").string(), &pngs);
   std::vector<std::string> files = {"model.obj", "model.mtl", "model.glb"};
-  for (const Material& m : result.model->materials)
-    if (!m.texture.empty()) files.push_back("model_" + m.name + ".png");
+  for (const Material& m : model->materials)
+    if (!m.texture.empty()) {
+      const std::string png = "model_" + (m.textureName.empty() ? m.name : m.textureName) + ".png";
+      if (std::find(files.begin(), files.end(), png) == files.end()) files.push_back(png);
+    }
   if (result.baked) {
-    writeAtlasLayers(result.baked->atlas, result.baked->image, dir, "model");
+    if (result.baked->original)
+      writeAtlasLayers(result.baked->originalModel.source, dir, "model");
+    else
+      writeAtlasLayers(result.baked->atlas, result.baked->image, dir, "model");
     files.insert(files.end(), {"model_atlas_source.png", "model_atlas_holes.png"});
   }
   nlohmann::json report = result.report();
   const double seconds = secondsSince(start);
   report["stages"].push_back(
-      {{"stage", stageName(StageId::Export)}, {"seconds", seconds}, {"cached", false}, {"counts", {{"files", files}}}});
+      {{"stage", stageName(StageId::Export)},
+       {"seconds", seconds},
+       {"cached", false},
+       {"counts", {{"files", files}, {"png_encodes", pngs.encodes()}, {"png_seconds", pngs.seconds()}}}});
   report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
   writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
+  out.commit();
 }
 
 }  // namespace montage

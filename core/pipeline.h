@@ -12,14 +12,21 @@
 #include <vector>
 
 #include "atlas/atlas.h"
+#include "atlas/transfer.h"
 #include "base/job.h"
+#include "base/output_folder.h"
 #include "geometry/mesh.h"
 #include "image/photo.h"
 #include "io/model.h"
 #include "io/project.h"
 #include "io/scene.h"
+#include "mapping/camera.h"
+#include "mapping/cells.h"
 #include "mapping/fine_map.h"
 #include "mapping/partition.h"
+#include "mapping/projection.h"
+#include "mapping/proposals.h"
+#include "mapping/seams.h"
 #include "mapping/texture_map.h"
 #include "surface/balance.h"
 #include "surface/inpaint.h"
@@ -34,18 +41,38 @@ struct StageRecord {
 };
 
 // What the mapping stages produce together: the partition (whose mesh, with its Steiner vertices,
-// is the mesh every later stage works on), the texture map over that mesh, and their figures.
+// is the mesh every later stage works on), the texture map over that mesh, the cells' plans (which
+// photo each cell maps into, or why it stays empty) and their figures.
 struct Mapping {
   Partition partition;
   TextureMap map;
-  int collapses = 0, baseVertices = 0, baseFaces = 0;
+  std::vector<CellPlan> cells;
   FineMapStats stats;
-  double partitionSeconds = 0, simplifySeconds = 0, mapSeconds = 0;
+  int cellsMapped = 0, cellsReused = 0;  // cells mapped in this run; taken from the cell cache
+  double partitionSeconds = 0, mapSeconds = 0;
 };
 
-// Colour balance between photos (balance.h), after the mapping and before every stage that reads colours:
-// the transforms, and the scene those stages read, whose photos are the balanced copies (a reference
-// photo, or one left as it is, is the loaded object itself: unchanged bit for bit).
+// The camera stage: a fit per photo (camera.h). A photo that fits is mapped by projection; the
+// others take the paper's path.
+struct CameraStage {
+  std::vector<CameraFit> fits;  // per photo
+  int fitted = 0;               // photos that fit
+  int reused = 0;               // fits reused from the previous run (same clicks, photo, mesh, options)
+  double seconds = 0;
+};
+
+// The projection stage: the final mapping (the paper's partition with its texture map where faces
+// are mapped by projection), the figures, correction fields and views behind it, and the proposed
+// correspondences (PipelineResult::proposals).
+struct ProjectionStage {
+  std::shared_ptr<const Mapping> mapping;  // the paper's mapping itself when no photo fits
+  ProjectionResult result;                 // result.map is moved into mapping->map
+};
+
+// Colour balance between photos (balance.h), after the final mapping and before every stage that reads
+// colours (seams, level, inpaint, bake): the transforms, and the scene those stages read, whose photos are
+// the balanced copies (a reference photo, or one left as it is, is the loaded object itself: unchanged bit
+// for bit).
 struct BalancedScene {
   ColorBalance balance;
   std::shared_ptr<const Scene> scene;
@@ -59,20 +86,39 @@ struct SurfaceColors {
 };
 
 // Bake (paper section 2, step 5): charts, LSCM, packing and baking into one texture atlas (atlas.h),
-// and the model over the partition's mesh that carries it (one material "atlas").
+// and the model over the partition's mesh that carries it (one material per source, all showing the atlas).
+// With exportTopology "original" (the default), the result is also transferred onto the input mesh as
+// loaded, with an atlas of its own (atlas/transfer.h), and that is the model the pipeline exports.
 struct BakeResult {
   Atlas atlas;
-  AtlasImage image;  // image.rgba is the model's texture (shared, not copied)
-  TexturedModel model;
+  AtlasImage image;       // image.rgba is the model's texture (shared, not copied)
+  TexturedModel model;    // over the refined mesh
+  bool original = false;  // exportTopology is original: `originalModel` holds the exported model
+  OriginalModel originalModel;
+  double transferSeconds = 0;
+  const TexturedModel& exported() const { return original ? originalModel.model : model; }
 };
 
+// What a run produces. The preview is what the editor shows after each edit: the mapping, the
+// levelling offsets and a light inpainting (the photos are sampled directly through the mapping's
+// UVs); the final adds the full inpainting and the atlas bake, for export and `montage run`. Both
+// come from the same mapping.
+enum class Tier { Preview, Final };
+inline constexpr std::array<const char*, 2> kTierNames = {"preview", "final"};
+
 struct PipelineResult {
+  Tier tier = Tier::Final;
   std::shared_ptr<const Scene> scene;
-  std::shared_ptr<const Mapping> mapping;
-  std::shared_ptr<const BalancedScene> balanced;  // balanced->scene is what levelling, inpainting and bake read
+  std::shared_ptr<const CameraStage> cameras;
+  std::shared_ptr<const ProjectionStage> projection;
+  std::shared_ptr<const Mapping> mapping;         // the final mapping: paper path + projection, then seams (baked)
+  std::shared_ptr<const BalancedScene> balanced;  // balanced->scene is what seams, levelling, inpainting and bake read
+  std::vector<Proposal> proposals;                // correspondences the cameras propose (proposals.h)
+  std::shared_ptr<const SeamResult> seams;        // seam optimisation's figures and per-face seam error
   std::shared_ptr<const SurfaceColors> colors;
-  std::shared_ptr<const BakeResult> baked;
-  std::shared_ptr<const TexturedModel> model;  // baked->model
+  std::shared_ptr<const BakeResult> baked;        // final tier only
+  std::shared_ptr<const TexturedModel> model;     // baked->model: the atlas over the refined mesh (final tier only)
+  std::shared_ptr<const TexturedModel> exported;  // baked->exported(): what export writes (final tier only)
   std::vector<StageRecord> stages;
   std::vector<std::string> warnings;  // things the user should know (mesh caveats, unmapped regions)
   nlohmann::json report() const;      // what report.json holds
@@ -81,41 +127,95 @@ struct PipelineResult {
 // Stage functions, in pipeline order.
 // Load: reads the mesh and photos of a validated project and checks the project against them.
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
-// Partition, Simplify, Map: correspondences -> partition -> progressive mesh -> texture map.
-Mapping mapTexture(const Scene& scene, const JobControl& job = {});
-// Balance: colour transforms per photo over the mapping's seams (options.colorBalance, photos' colorLocked).
+// What the map stage keeps across runs: the partition's searches and each cell's map.
+struct MapCaches {
+  PartitionMemo partition;
+  CellCache cells;
+};
+// Partition, Map: correspondences -> partition -> per cell: progressive mesh and coarse-to-fine
+// (cells.h). What `caches` hold from earlier runs is reused.
+Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr);
+// Projection: faces that photos fitting a camera see are mapped by projection, the photo chosen per
+// face by view selection; the paper's mapping of the other photos is kept (projection.h), and the
+// cameras propose correspondences (proposals.h).
+ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
+                               const CameraStage& cameras, const JobControl& job = {});
+// Balance: colour transforms per photo over the seams between photos of the final mapping
+// (options.colorBalance, photos' colorLocked); the photos the later stages read.
 BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping,
                            const JobControl& job = {});
-// Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h).
-SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {});
+// Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
+// when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
+// `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
+std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
+                                                    const CameraStage* cameras, SeamResult& seams,
+                                                    const JobControl& job = {});
+// Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
+// preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
+// density); guided fills keep the final density, since their colours depend on it.
+inline constexpr double kPreviewDetail = 0.25;
+SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {},
+                           Tier tier = Tier::Final);
 // Bake: see BakeResult.
 BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
                      const JobControl& job = {});
 
 class Pipeline {
  public:
-  // Runs every stage on `project` (already loaded by loadProject), reusing cached outputs whose
-  // inputs did not change. Throws montage::Error for bad input, montage::Cancelled when cancelled.
-  PipelineResult run(const Project& project, const JobControl& job = {});
+  // Runs the stages of `tier` on `project` (already loaded by loadProject), reusing cached outputs
+  // whose inputs did not change: the result of an identical document state at once (undo, redo),
+  // else the loaded files, the mapping, each cell's map, the colours and the bake as far as their
+  // inputs allow. Throws montage::Error for bad input, montage::Cancelled when cancelled.
+  PipelineResult run(const Project& project, const JobControl& job = {}, Tier tier = Tier::Final);
   // The Load stage with this pipeline's cache; `cached` tells whether nothing had to be read.
   std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job, bool& cached);
+  // The result of an earlier run of the same document state and tier (a final result also serves a
+  // preview request), or null.
+  std::shared_ptr<const PipelineResult> findResult(const Project& project, Tier tier);
+
+  static constexpr int kPreviewStates = 24;  // document states whose preview results are kept
+  static constexpr int kFinalStates = 2;     // document states whose final results (atlases) are kept
 
  private:
+  std::string documentKey(const Project& project) const;
+
   std::shared_ptr<const Mesh> cachedMesh_;
   MeshReport cachedMeshReport_;
   std::string meshKey_;
   std::vector<std::pair<std::string, std::shared_ptr<const Photo>>> cachedPhotos_;  // key -> photo
   std::string mapKey_;
   std::shared_ptr<const Mapping> cachedMapping_;
+  MapCaches mapCaches_;
+  std::string seamKey_;
+  std::shared_ptr<const Mapping> cachedSeamed_;
+  std::shared_ptr<const SeamResult> cachedSeams_;
   std::string balanceKey_;
   std::shared_ptr<const BalancedScene> cachedBalance_;
   std::string colorKey_;
   std::shared_ptr<const SurfaceColors> cachedColors_;
+  std::string bakeKey_;
+  std::shared_ptr<const BakeResult> cachedBake_;
+  // Results by document state, most recent last.
+  std::vector<std::pair<std::string, std::shared_ptr<const PipelineResult>>> previews_, finals_;
+  std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> cachedFits_;  // key -> fit, per photo
+  std::string projectionKey_;
+  std::shared_ptr<const ProjectionStage> cachedProjection_;
 };
+
+// The projection oracle of a synthetic scene (`montage eval --oracle`): the project's mesh and photos
+// textured through the given true cameras (one per photo, e.g. synth's cameras.json) with no clicks:
+// projection mapping, view selection, colour balance, levelling, inpainting and bake, as the pipeline does
+// them. The covered PSNR of its model is the ceiling of any result on that scene.
+PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
+                                const JobControl& job = {});
 
 // Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers
 // DIR/model_atlas_source.png and DIR/model_atlas_holes.png (when the result has an atlas) and
-// DIR/report.json.
+// DIR/report.json. The atlas PNG is encoded once (options.pngCompression) and the GLB embeds the same
+// bytes. DIR is replaced as one unit (OutputFolder: staging folder, lock, one rename).
 void writeRunOutputs(const PipelineResult& result, const std::string& dir);
+// The same into an OutputFolder taken earlier (so that `montage run` checks and locks --out before the
+// pipeline runs): writes into its staging folder, then commits it.
+void writeRunOutputs(const PipelineResult& result, OutputFolder& out);
 
 }  // namespace montage

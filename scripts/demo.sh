@@ -11,5 +11,8 @@ if [[ -n "${DISPLAY:-}" && -x build/bin/texturemontage && -z "${TM_HEADLESS:-}" 
   exec build/bin/texturemontage "$project"
 fi
 build/bin/montage run "$project" --out out/demo
-build/bin/montage render out/demo/model.obj --out out/demo/preview.png
-echo "demo: results in out/demo/ (model.obj, model.glb, report.json, preview.png)"
+build/bin/montage render out/demo/model.glb --yaw 90 --pitch 10 --size 1024x768 --out out/demo/preview.png
+build/bin/montage render out/demo/model.glb --turntable 8 --pitch 10 --size 400 --out out/demo/turntable.png
+build/bin/montage render out/demo/model.obj --layer --turntable 4 --yaw 90 --pitch 10 --size 400 \
+  --out out/demo/layer.png
+echo "demo: results in out/demo/ (model.obj, model.glb, report.json, preview.png, turntable.png, layer.png)"

@@ -8,12 +8,12 @@ set -euo pipefail
 BUILD_PKGS=(
   build-essential cmake pkg-config
   libglfw3-dev libimgui-dev libglm-dev libopenmesh-dev libeigen3-dev libstb-dev
-  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-photo-dev
+  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-photo-dev libopencv-calib3d-dev libopencv-contrib-dev
   nlohmann-json3-dev libcli11-dev libtinygltf-dev libgtest-dev
-  libsuitesparse-dev libopenblas-dev
+  libsuitesparse-dev libopenblas-dev libtbb-dev libboost-dev
   libgl-dev
 )
-TOOL_PKGS=(xvfb xauth assimp-utils libcgal-demo nodejs)
+TOOL_PKGS=(xvfb xauth assimp-utils libcgal-demo nodejs python3-opencv python3-scipy)  # python3-*: scripts/make_demo.py
 
 want=("${BUILD_PKGS[@]}")
 if [[ "${1:-}" == "--with-tools" ]]; then want+=("${TOOL_PKGS[@]}"); fi

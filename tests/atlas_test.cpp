@@ -2,7 +2,6 @@
 // footprints, the gutter), LSCM charts of closed and higher-genus regions, baking (photo resampling,
 // seam levelling, inpainted colours, flat empty faces, gutter fill), the spot ground truth re-rendered
 // through the atlas (PSNR in `montage eval`), the glTF validator and assimp, and bad input.
-#include "io/mesh_io.h"
 #include "atlas/atlas.h"
 
 #include <cstdio>
@@ -13,13 +12,14 @@
 #include <regex>
 #include <set>
 
-#include "surface/inpaint.h"
 #include "geometry/mesh.h"
-#include "image/photo.h"
-#include "pipeline.h"
-#include "io/project.h"
 #include "geometry/raster.h"
 #include "geometry/shapes.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/project.h"
+#include "pipeline.h"
+#include "surface/inpaint.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -160,10 +160,28 @@ TEST(Atlas, SpotLayoutIsValidAtEverySize) {
     std::printf("spot %d, gutter %d: %zu charts, scale %.3f, utilisation %.3f, %d attempts\n", size, gutter,
                 atlas.charts.size(), atlas.scale, atlas.utilisation, atlas.packAttempts);
   }
-  // maxScale 1 keeps the photo's resolution when it fits.
+  // A fixed size with maxScale 1 keeps the photo's resolution when it fits.
   AtlasOptions capped;
+  capped.size = 4096;
   capped.maxScale = 1;
   EXPECT_DOUBLE_EQ(buildAtlas(*spot.mesh, in, capped).scale, 1.0);
+  // The automatic size: the photo's own resolution in the smallest multiple of 256 that holds it.
+  const Atlas automatic = buildAtlas(*spot.mesh, in, AtlasOptions{});
+  EXPECT_DOUBLE_EQ(automatic.scale, 1.0);
+  EXPECT_EQ(automatic.size % 256, 0);
+  EXPECT_LE(automatic.size, 2048);  // the texture is 1024 x 1024, its charts cover less than that
+  EXPECT_GT(automatic.utilisation, 0.35);
+  const AtlasImage image = bakeAtlas(automatic, *spot.mesh, {spot.photo}, nullptr, nullptr, AtlasOptions{});
+  expectValidLayout(automatic, *spot.mesh, &image);
+  std::printf("spot automatic: %d x %d, %zu charts, utilisation %.3f, %d attempts\n", automatic.size, automatic.size,
+              automatic.charts.size(), automatic.utilisation, automatic.packAttempts);
+  // Photos too large for 8192 at their own resolution: 8192, scaled down to fit.
+  const AtlasInput huge = ownUvInput(*spot.mesh, 12 * spot.photo->width, 12 * spot.photo->height);
+  const Atlas shrunk = buildAtlas(*spot.mesh, huge, AtlasOptions{});
+  EXPECT_EQ(shrunk.size, 8192);
+  EXPECT_LT(shrunk.scale, 1.0);
+  EXPECT_GT(shrunk.scale, 0.3);
+  expectValidLayout(shrunk, *spot.mesh, nullptr);
 }
 
 // The truth re-rendered through our atlas: `montage eval` of the exported OBJ against spot itself.
@@ -171,7 +189,7 @@ TEST(Atlas, SpotLayoutIsValidAtEverySize) {
 TEST(AtlasExport, SpotThroughTheAtlasMatchesTheTruth) {
   TM_REQUIRE_SHARED(obj, "meshes/spot/spot_triangulated.obj");
   const Spot spot = loadSpot(obj);
-  AtlasOptions options;  // 4096, gutter 4
+  AtlasOptions options;  // automatic size (the texture's own resolution), gutter 4
   const Atlas atlas = buildAtlas(*spot.mesh, ownUvInput(*spot.mesh, spot.photo->width, spot.photo->height), options);
   const AtlasImage image = bakeAtlas(atlas, *spot.mesh, {spot.photo}, nullptr, nullptr, options);
   TexturedModel model = atlasModel(*spot.mesh, atlas, image);
@@ -311,6 +329,38 @@ TEST(Atlas, ClosedAndGenusOneRegionsAreCutIntoDiscsWithoutFlips) {
     expectValidLayout(atlas, *mesh, &image);
     std::printf("%s: %d faces, %zu charts (%d disc cuts, %d stretch splits), utilisation %.3f\n", name.c_str(),
                 mesh->numFaces(), atlas.charts.size(), atlas.discCuts, atlas.stretchSplits, atlas.utilisation);
+  }
+}
+
+TEST(Atlas, LargeRegionsAreSplitBeforeFlattening) {
+  // Issue 15: one 1M-face empty chart took 220 s of LSCM. maxLscmFaces bounds every chart before it is
+  // flattened; a lower bound gives more, smaller charts, each still a disc without flips.
+  const auto mesh = makeIcosphere(5);  // 20480 faces, closed
+  AtlasInput in;
+  in.faceSource.assign(mesh->numFaces(), kSourceEmpty);
+  size_t previousCharts = 0;
+  for (const int maxFaces : {100000, 4000, 1000}) {
+    SCOPED_TRACE(maxFaces);
+    AtlasOptions options;
+    options.size = 1024;
+    options.maxLscmFaces = maxFaces;
+    const Atlas atlas = buildAtlas(*mesh, in, options);
+    if (maxFaces >= mesh->numFaces())
+      EXPECT_EQ(atlas.sizeSplits, 0);
+    else
+      EXPECT_GE(atlas.sizeSplits, mesh->numFaces() / maxFaces - 1);
+    size_t faces = 0;
+    for (const AtlasChart& chart : atlas.charts) {
+      EXPECT_LE(chart.faces.size(), size_t(maxFaces));
+      EXPECT_EQ(chart.quality.flipped, 0);
+      faces += chart.faces.size();
+    }
+    EXPECT_EQ(faces, size_t(mesh->numFaces()));
+    EXPECT_GT(atlas.charts.size(), previousCharts);
+    previousCharts = atlas.charts.size();
+    expectValidLayout(atlas, *mesh, nullptr);
+    std::printf("maxLscmFaces %d: %zu charts, %d size splits, %d disc cuts, lscm %.3f s\n", maxFaces,
+                atlas.charts.size(), atlas.sizeSplits, atlas.discCuts, atlas.times.lscm);
   }
 }
 
@@ -469,7 +519,7 @@ TEST(AtlasBake, GuttersAndFreeSpaceRepeatChartColours) {
 }
 
 // ----------------------------------------------------------------------------------------------
-// A real texture map with holes: the demo turtle through the mapping stages.
+// A real texture map with holes: the demo (a cat from tiger photos) through the mapping stages.
 
 TEST(Atlas, DemoTextureMapWithHoles) {
   Project project = loadProject(test::assetsDir() + "/demo/project.json");
@@ -516,11 +566,13 @@ TEST(Atlas, DemoTextureMapWithHoles) {
 TEST(Atlas, BadInputGivesClearErrors) {
   BakeScene s = bakeScene();
   AtlasOptions options;
-  options.size = 512;
-  EXPECT_NE(errorOf([&] { buildAtlas(*s.mesh, s.input, options); }).find("size 512 is outside [1024, 8192]"),
+  options.size = 100;
+  EXPECT_NE(errorOf([&] {
+              buildAtlas(*s.mesh, s.input, options);
+            }).find("size 100 is neither 0 (automatic) nor in [256, 8192]"),
             std::string::npos);
   options.size = 9000;
-  EXPECT_NE(errorOf([&] { buildAtlas(*s.mesh, s.input, options); }).find("outside [1024, 8192]"), std::string::npos);
+  EXPECT_NE(errorOf([&] { buildAtlas(*s.mesh, s.input, options); }).find("nor in [256, 8192]"), std::string::npos);
   options = {};
   options.size = 1024;
   options.gutter = -1;

@@ -168,8 +168,10 @@ TEST(Cutout, FeatheredEdgeKeepsTheForegroundAndSoftensItsEdge) {
   cv::imwrite(photoPath, cv::Mat(50, 50, CV_8UC3, cv::Scalar(90, 90, 90)));
   writeMaskPng(soft, (fs::path(dir) / "masks/p_mask.png").string());
   const Photo photo = loadPhoto(photoPath, (fs::path(dir) / "masks/p_mask.png").string());
-  EXPECT_NEAR(photo.alpha.at<float>(25, 10), 64 / 255.0f, 1e-6);
-  EXPECT_EQ(photo.alpha.at<float>(25, 25), 1.0f);
+  ASSERT_EQ(photo.alpha.type(), CV_8UC1);
+  EXPECT_EQ(photo.alpha.at<uchar>(25, 10), 64);
+  EXPECT_NEAR(photo.alphaAt(10.5, 25.5), 64 / 255.0f, 1e-6);
+  EXPECT_EQ(photo.alpha.at<uchar>(25, 25), 255);
   EXPECT_EQ(cv::countNonZero(photo.alpha > 0), cv::countNonZero(binary));
 }
 
@@ -243,5 +245,5 @@ TEST(Cutout, MontageMaskWritesAMaskTheProjectCanUse) {
                                  "/nothere.png --out " + dir + "/m2.png 2>&1",
                              &out),
             0);
-  EXPECT_NE(out.find("nothere.png: file not found"), std::string::npos) << out;
+  EXPECT_NE(out.find("nothere.png: image file not found"), std::string::npos) << out;
 }

@@ -1,17 +1,19 @@
 // Mesh loading (OBJ, OFF, PLY, STL), building and validation.
-#include "io/mesh_io.h"
 #include "geometry/mesh.h"
 
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <set>
 #include <sstream>
 
+#include "geometry/shapes.h"
+#include "io/mesh_io.h"
 #include "test_support.h"
 
 namespace montage {
@@ -591,14 +593,21 @@ TEST(MeshBuild, ThreeFacesOnOneEdge) {
   EXPECT_TRUE(findFinding(r, "non-manifold edges"));
 }
 
-TEST(MeshBuild, OrientationConflict) {
+TEST(MeshBuild, OrientationConflictIsTurnedOver) {
+  // Both faces walk the edge 0->1 the same way: the second (or the first, on a tie the first face's
+  // orientation wins) is turned over instead of being dropped.
   const std::vector<Vec3> v = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}};
   const LoadedMesh loaded = buildMesh(v, {{0, 1, 2}, {0, 1, 3}});
-  EXPECT_EQ(loaded.report.faces, 1);
+  EXPECT_EQ(loaded.report.faces, 2);
+  EXPECT_EQ(loaded.report.droppedFaces, 0);
+  EXPECT_EQ(loaded.report.flippedFaces, 1);
   EXPECT_EQ(loaded.report.nonManifoldEdges, 0);
-  const MeshFinding* f = findFinding(loaded.report, "orientation");
+  const MeshFinding* f = findFinding(loaded.report, "turned over");
   ASSERT_TRUE(f) << loaded.report.summary();
   EXPECT_EQ(f->elements, std::vector<int>({1}));
+  // Both normals now point the same way (+z and -z input faces become one consistent orientation).
+  const Mesh& m = *loaded.mesh;
+  EXPECT_GT(m.faceNormal(0).dot(m.faceNormal(1)), 0.99);
 }
 
 TEST(MeshBuild, RepeatedVertexIsDropped) {
@@ -762,7 +771,11 @@ TEST(MeshErrors, MalformedLinesNameFileAndLine) {
       std::string::npos);
   EXPECT_NE(errorOf([] {
               loadMesh(writeFile("trunc.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n"));
-            }).find("trunc.off:4: unexpected end of file: missing vertex"),
+            }).find("trunc.off:2: the header declares 4 vertices and 2 faces, but only 12 bytes follow"),
+            std::string::npos);
+  EXPECT_NE(errorOf([] {
+              loadMesh(writeFile("trunc2.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1\n# a comment\n"));
+            }).find("trunc2.off:6: missing face vertex index"),
             std::string::npos);
   EXPECT_NE(
       errorOf([] {
@@ -835,7 +848,7 @@ TEST(MeshErrors, MissingFileNamesThePath) {
   const std::string path = test::tempDir("mesh_missing") + "/nothing-here.obj";
   const std::string msg = errorOf([&] { loadMesh(path); });
   EXPECT_NE(msg.find(path), std::string::npos);
-  EXPECT_NE(msg.find("No such file"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("mesh file not found"), std::string::npos) << msg;
 }
 
 TEST(MeshReportText, SummaryHasCountsAndFindings) {
@@ -874,6 +887,218 @@ TEST(MeshLarge, MillionFaceObjLoads) {
   EXPECT_EQ(loaded.report.boundaryLoops, 1);
   EXPECT_EQ(loaded.report.genus, 0);
   EXPECT_TRUE(loaded.report.findings.empty()) << loaded.report.summary();
+}
+
+// ---- orientation (issue 15) ------------------------------------------------------------------------------
+
+// The faces of a mesh as index triples in faceVertices order.
+std::vector<std::array<int, 3>> trianglesOf(const Mesh& m) {
+  std::vector<std::array<int, 3>> t;
+  for (int f = 0; f < m.numFaces(); ++f) t.push_back(m.faceVertices(f));
+  return t;
+}
+
+std::vector<Vec3> positionsOf(const Mesh& m) {
+  std::vector<Vec3> p;
+  for (int v = 0; v < m.numVertices(); ++v) p.push_back(m.position(v));
+  return p;
+}
+
+TEST(MeshOrientation, EveryTenthFaceFlippedIsReorientedNotDropped) {
+  // The issue's case: an icosphere of 20,480 faces with every tenth face flipped lost 2,812 faces.
+  const auto sphere = makeIcosphere(5);
+  ASSERT_EQ(sphere->numFaces(), 20480);
+  auto tris = trianglesOf(*sphere);
+  std::vector<std::array<Vec2, 3>> uv(tris.size());
+  for (size_t t = 0; t < tris.size(); ++t) {
+    uv[t] = {Vec2(tris[t][0], 0), Vec2(tris[t][1], 0), Vec2(tris[t][2], 0)};  // u = vertex id
+    if (t % 10 == 0) {
+      std::swap(tris[t][1], tris[t][2]);
+      std::swap(uv[t][1], uv[t][2]);
+    }
+  }
+  const LoadedMesh loaded = buildMesh(positionsOf(*sphere), tris, uv);
+  const MeshReport& r = loaded.report;
+  EXPECT_EQ(r.faces, 20480) << r.summary();
+  EXPECT_EQ(r.droppedFaces, 0);
+  EXPECT_EQ(r.flippedFaces, 2048);
+  EXPECT_EQ(r.nonOrientableFaces, 0);
+  EXPECT_EQ(r.genus, 0);
+  EXPECT_EQ(r.boundaryLoops, 0);
+  const MeshFinding* f = findFinding(r, "turned over");
+  ASSERT_TRUE(f) << r.summary();
+  EXPECT_EQ(f->count, 2048);
+  EXPECT_EQ(f->elements.front(), 0);
+  EXPECT_EQ(f->elements[1], 10);
+  // Every face points outwards again, and every corner UV still belongs to its vertex.
+  const Mesh& m = *loaded.mesh;
+  for (int face = 0; face < m.numFaces(); ++face) {
+    const auto p = m.facePositions(face);
+    ASSERT_GT(m.faceNormal(face).dot(p[0] + p[1] + p[2]), 0) << "face " << face;
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(m.cornerUV[face][k].x(), m.faceVertices(face)[k]) << "face " << face;
+  }
+}
+
+TEST(MeshOrientation, MajorityOrientationWinsPerComponent) {
+  // Two separate spheres: one with 60% of its faces flipped (its file orientation is mostly inward, so
+  // the 40% are turned), one consistent and left alone.
+  const auto sphere = makeIcosphere(1);  // 80 faces
+  std::vector<Vec3> v = positionsOf(*sphere);
+  const int n = static_cast<int>(v.size());
+  for (int i = 0; i < n; ++i) v.push_back(v[i] + Vec3(5, 0, 0));
+  std::vector<std::array<int, 3>> tris;
+  const auto base = trianglesOf(*sphere);
+  for (size_t t = 0; t < base.size(); ++t) {
+    auto tri = base[t];
+    if (t % 5 < 3) std::swap(tri[1], tri[2]);
+    tris.push_back(tri);
+  }
+  for (auto tri : base) tris.push_back({tri[0] + n, tri[1] + n, tri[2] + n});
+  const LoadedMesh loaded = buildMesh(v, tris);
+  EXPECT_EQ(loaded.report.faces, 160);
+  EXPECT_EQ(loaded.report.flippedFaces, 32);  // the 40% of the first sphere
+  EXPECT_EQ(loaded.report.components, 2);
+  const Mesh& m = *loaded.mesh;
+  for (int f = 0; f < 80; ++f) {
+    const auto p = m.facePositions(f);
+    EXPECT_LT(m.faceNormal(f).dot(p[0] + p[1] + p[2]), 0) << "first sphere, face " << f << " points inwards";
+  }
+}
+
+TEST(MeshOrientation, MoebiusBandDropsOnlyWhatCannotBeOriented) {
+  // A strip of 2 * 24 triangles closed with a half twist: not orientable. Closing it needs one face
+  // removed; the rest stays, consistently oriented, and the dropped face is named.
+  const int segments = 24;
+  std::vector<Vec3> v;
+  for (int i = 0; i < segments; ++i) {
+    const double a = 2 * M_PI * i / segments, twist = a / 2;
+    const Vec3 centre(std::cos(a), std::sin(a), 0), radial = centre, up(0, 0, 1);
+    const Vec3 across = 0.3 * (std::cos(twist) * radial + std::sin(twist) * up);
+    v.push_back(centre + across);
+    v.push_back(centre - across);
+  }
+  std::vector<std::array<int, 3>> tris;
+  for (int i = 0; i < segments; ++i) {
+    const int a = 2 * i, b = 2 * i + 1;
+    const bool last = i + 1 == segments;
+    const int c = last ? 1 : 2 * i + 2, d = last ? 0 : 2 * i + 3;  // the half twist swaps the sides
+    tris.push_back({a, b, c});
+    tris.push_back({b, d, c});
+  }
+  const LoadedMesh loaded = buildMesh(v, tris);
+  const MeshReport& r = loaded.report;
+  EXPECT_EQ(r.nonOrientableFaces, 1) << r.summary();
+  EXPECT_EQ(r.faces, 2 * segments - 1);
+  EXPECT_EQ(r.components, 1);
+  const MeshFinding* f = findFinding(r, "not orientable");
+  ASSERT_TRUE(f) << r.summary();
+  EXPECT_EQ(f->count, 1);
+  EXPECT_EQ(f->elements.size(), 1u);
+  EXPECT_TRUE(r.usable());
+}
+
+TEST(MeshOrientation, ConsistentMeshIsUntouched) {
+  const auto sphere = makeIcosphere(2);
+  const LoadedMesh loaded = buildMesh(positionsOf(*sphere), trianglesOf(*sphere));
+  EXPECT_EQ(loaded.report.flippedFaces, 0);
+  EXPECT_TRUE(loaded.report.findings.empty()) << loaded.report.summary();
+  for (int f = 0; f < sphere->numFaces(); ++f) EXPECT_EQ(loaded.mesh->faceVertices(f), sphere->faceVertices(f));
+}
+
+// ---- hostile files (issue 15) ----------------------------------------------------------------------------
+
+TEST(MeshHostile, PlyDeclaredCountsAreCheckedAgainstTheBytesLeft) {
+  // The issue's 70-byte PLY took 19 s: 2^31 - 1 elements of nothing.
+  auto timed = [](const std::string& name, const std::string& text) {
+    const auto start = std::chrono::steady_clock::now();
+    std::string message;
+    try {
+      const LoadedMesh loaded = loadMesh(writeFile(name, text));
+      message = loaded.report.usable() ? "usable" : loaded.report.summary();
+    } catch (const Error& e) {
+      message = e.what();
+    }
+    return std::make_pair(message, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  };
+  const auto [none, t1] = timed("foo.ply", "ply\nformat ascii 1.0\nelement foo 2147483647\nend_header\n");
+  EXPECT_NE(none.find("no faces"), std::string::npos) << none;
+  const auto [ascii, t2] = timed("bigv.ply",
+                                 "ply\nformat ascii 1.0\nelement vertex 2147483647\nproperty float x\nproperty float "
+                                 "y\nproperty float z\nend_header\n0 0 0\n");
+  EXPECT_NE(ascii.find("bigv.ply:7: element 'vertex' declares 2147483647 instances of at least 6 bytes, but only 6 "
+                       "bytes follow the header"),
+            std::string::npos)
+      << ascii;
+  const auto [binary, t3] =
+      timed("bigf.ply",
+            "ply\nformat binary_little_endian 1.0\nelement foo 2147483647\nproperty uchar a\nelement vertex "
+            "2147483647\nproperty double x\nproperty double y\nproperty double z\nend_header\n");
+  EXPECT_NE(binary.find("element 'foo' declares 2147483647 instances of at least 1 bytes"), std::string::npos)
+      << binary;
+  // Not a timed test: a generous bound that only a hang (the issue's 19 s and 69 s) can miss.
+  EXPECT_LT(t1 + t2 + t3, 5.0);
+}
+
+TEST(MeshHostile, OffDeclaredCountsAreCheckedAgainstTheBytesLeft) {
+  const std::string msg = errorOf([] { loadMesh(writeFile("big.off", "OFF\n2147483647 2147483647 0\n")); });
+  EXPECT_NE(msg.find("big.off:2: the header declares 2147483647 vertices and 2147483647 faces, but only 0 bytes "
+                     "follow"),
+            std::string::npos)
+      << msg;
+}
+
+TEST(MeshHostile, ObjMostNegativeIndexIsNamedNotUndefined) {
+  // -2^63 cannot be negated (undefined behaviour, once reported as "index 5").
+  const std::string msg =
+      errorOf([] { loadMesh(writeFile("neg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -9223372036854775808\n")); });
+  EXPECT_NE(msg.find("neg.obj:4: face index -9223372036854775808 out of range (3 defined before this line)"),
+            std::string::npos)
+      << msg;
+  const std::string big =
+      errorOf([] { loadMesh(writeFile("big.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9223372036854775808\n")); });
+  EXPECT_NE(big.find("big.obj:4: bad face corner"), std::string::npos) << big;
+}
+
+TEST(MeshHostile, AbsurdCoordinatesAreAnError) {
+  // 1e308 passed `info` as usable, then `run` failed inside with "vector::reserve" (a NaN turned into a size).
+  const LoadedMesh loaded = loadMesh(
+      writeFile("huge.obj",
+                "v 1e308 0 0\nv 0 1e308 0\nv 0 0 1e308\nv -1e308 -1e308 -1e308\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n"));
+  EXPECT_FALSE(loaded.report.usable());
+  const MeshFinding* f = findFinding(loaded.report, "beyond +-1e30");
+  ASSERT_TRUE(f) << loaded.report.summary();
+  EXPECT_EQ(f->severity, Severity::Error);
+  EXPECT_EQ(f->count, 4);
+  const LoadedMesh tiny = buildMesh({{0, 0, 0}, {1e-40, 0, 0}, {0, 1e-40, 0}}, {{0, 1, 2}});
+  EXPECT_FALSE(tiny.report.usable());
+  EXPECT_TRUE(findFinding(tiny.report, "too small")) << tiny.report.summary();
+  // Large but sane coordinates stay usable.
+  const LoadedMesh big = buildMesh({{0, 0, 0}, {1e12, 0, 0}, {0, 1e12, 0}}, {{0, 1, 2}});
+  EXPECT_TRUE(big.report.usable()) << big.report.summary();
+}
+
+TEST(MeshHostile, PathProblemsAreNamed) {
+  const std::string dir = test::tempDir("mesh_paths");
+  namespace fs = std::filesystem;
+  fs::create_symlink("b.obj", dir + "/a.obj");
+  fs::create_symlink("a.obj", dir + "/b.obj");
+  std::string msg = errorOf([&] { loadMesh(dir + "/a.obj"); });
+  EXPECT_NE(msg.find("symbolic link loop"), std::string::npos) << msg;
+  fs::create_symlink("gone.obj", dir + "/dangling.obj");
+  msg = errorOf([&] { loadMesh(dir + "/dangling.obj"); });
+  EXPECT_NE(msg.find("dangling symbolic link to 'gone.obj'"), std::string::npos) << msg;
+  msg = errorOf([&] { loadMesh("/dev/null.obj"); });
+  EXPECT_NE(msg.find("not found"), std::string::npos) << msg;
+  fs::create_symlink("/dev/zero", dir + "/zero.obj");
+  msg = errorOf([&] { loadMesh(dir + "/zero.obj"); });  // would never end if it were read
+  EXPECT_NE(msg.find("is not a regular file"), std::string::npos) << msg;
+}
+
+TEST(MeshHostile, ControlCharactersAreEscapedInMessages) {
+  const std::string msg = errorOf([] { loadMesh(writeFile("esc.obj", "v 0 0 \x1b[31mred\x07\n")); });
+  EXPECT_EQ(msg.find('\x1b'), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\x07'), std::string::npos) << msg;
+  EXPECT_NE(msg.find("\\x1b"), std::string::npos) << msg;
 }
 
 }  // namespace

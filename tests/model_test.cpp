@@ -432,6 +432,134 @@ TEST(LoadModel, ErrorTruncatedGlb) {
   EXPECT_NE(junk.find("junk.glb"), std::string::npos) << junk;
 }
 
+// ---- hostile files (issue 15) ----------------------------------------------------------------------------
+
+std::string readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void putU32(std::string& bytes, size_t at, uint32_t v) {
+  for (int k = 0; k < 4; ++k) bytes[at + k] = char(v >> (8 * k) & 0xff);
+}
+
+TEST(LoadModelHostile, GlbWrongLengthFieldsAreNamed) {
+  // Was "Invalid glTF binary." for all of them.
+  const std::string dir = test::tempDir("model_glb_len");
+  exportGlb(cubeModel(), dir + "/cube.glb");
+  const std::string good = readBytes(dir + "/cube.glb");
+  const uint32_t jsonLength = uint32_t((unsigned char)good[12]) | uint32_t((unsigned char)good[13]) << 8 |
+                              uint32_t((unsigned char)good[14]) << 16 | uint32_t((unsigned char)good[15]) << 24;
+  struct Case {
+    const char* name;
+    size_t at;
+    uint32_t value;
+    const char* expected;
+  };
+  const Case cases[] = {
+      {"version", 4, 1, "binary glTF version 1 is not supported"},
+      {"length", 8, 0xffffffffu, "file is truncated: its header announces 4294967295 bytes"},
+      {"small", 8, 12, "header length 12 leaves no room for the JSON chunk"},
+      {"jsonlen", 12, 0x7ffffff0u, "the JSON chunk length 2147483632 runs past the end"},
+      {"jsontype", 16, 0x12345678u, "the first chunk is not JSON"},
+      {"binlen", 20 + jsonLength, 0xfffffff0u, "the BIN chunk length 4294967280 runs past the end"},
+      {"bintype", 24 + jsonLength, 7, "the second chunk is not BIN"},
+  };
+  for (const Case& c : cases) {
+    std::string bytes = good;
+    putU32(bytes, c.at, c.value);
+    const std::string path = dir + "/" + c.name + ".glb";
+    writeText(path, bytes);
+    const std::string msg = errorOf([&] { loadModel(path); });
+    EXPECT_NE(msg.find(path + ": " + c.expected), std::string::npos) << c.name << ": " << msg;
+  }
+}
+
+TEST(LoadModelHostile, GltfNeverReadsOutsideItsFolder) {
+  // A buffer URI of /etc/passwd was followed and reported as "File not found".
+  const std::string dir = test::tempDir("model_outside");
+  fs::create_directories(dir + "/model");
+  writeText(dir + "/secret.bin", std::string(64, 'x'));
+  for (const std::string uri : {"/etc/passwd", "../secret.bin", "sub/../../secret.bin", "%2E%2E/secret.bin"}) {
+    tinygltf::Model gm = squareGltf(TINYGLTF_MODE_TRIANGLES);
+    writeGltf(gm, dir + "/model/base.gltf", false);
+    std::string text = readBytes(dir + "/model/base.gltf");
+    // Point the buffer at the outside file instead of the written one.
+    const std::regex bufferUri("\"uri\"\\s*:\\s*\"[^\"]*\"");
+    text = std::regex_replace(text, bufferUri, "\"uri\": \"" + uri + "\"", std::regex_constants::format_first_only);
+    writeText(dir + "/model/evil.gltf", text);
+    const std::string msg = errorOf([&] { loadModel(dir + "/model/evil.gltf"); });
+    EXPECT_NE(msg.find("buffers[0].uri '" + uri + "' is outside the model's folder"), std::string::npos)
+        << uri << ": " << msg;
+  }
+  // A link inside the folder that points out of it is outside too.
+  fs::create_symlink(dir + "/secret.bin", dir + "/model/link.bin");
+  tinygltf::Model gm = squareGltf(TINYGLTF_MODE_TRIANGLES);
+  writeGltf(gm, dir + "/model/base.gltf", false);
+  std::string text = readBytes(dir + "/model/base.gltf");
+  text = std::regex_replace(text, std::regex("\"uri\"\\s*:\\s*\"[^\"]*\""), "\"uri\": \"link.bin\"",
+                            std::regex_constants::format_first_only);
+  writeText(dir + "/model/link.gltf", text);
+  const std::string msg = errorOf([&] { loadModel(dir + "/model/link.gltf"); });
+  EXPECT_NE(msg.find("is outside the model's folder"), std::string::npos) << msg;
+}
+
+TEST(LoadModelHostile, ObjMaterialsNeverReadOutsideTheFolder) {
+  const std::string dir = test::tempDir("model_obj_outside");
+  fs::create_directories(dir + "/model");
+  writeText(dir + "/outside.mtl", "newmtl a\nKd 1 0 0\n");
+  const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\nf 1/1 2/2 3/3\n";
+  writeText(dir + "/model/a.obj", "mtllib ../outside.mtl\n" + obj);
+  std::string msg = errorOf([&] { loadModel(dir + "/model/a.obj"); });
+  EXPECT_NE(msg.find("material library '../outside.mtl' is outside the model's folder"), std::string::npos) << msg;
+  writeText(dir + "/model/b.mtl", "newmtl a\nmap_Kd /etc/passwd\n");
+  writeText(dir + "/model/b.obj", "mtllib b.mtl\n" + obj);
+  msg = errorOf([&] { loadModel(dir + "/model/b.obj"); });
+  EXPECT_NE(msg.find("b.mtl:2: map_Kd texture '/etc/passwd' is outside the model's folder"), std::string::npos)
+      << msg;
+}
+
+TEST(LoadModelHostile, DeepNestingLongNodeChainsAndHugeCounts) {
+  const std::string dir = test::tempDir("model_deep");
+  // Extras nested 100000 deep (tinygltf recurses into them).
+  tinygltf::Model gm = squareGltf(TINYGLTF_MODE_TRIANGLES);
+  writeGltf(gm, dir + "/base.gltf", false);
+  std::string text = readBytes(dir + "/base.gltf");
+  const size_t brace = text.rfind('}');
+  writeText(dir + "/deep.gltf", text.substr(0, brace) + ", \"extras\": " + std::string(100000, '[') +
+                                    std::string(100000, ']') + "}");
+  std::string msg = errorOf([&] { loadModel(dir + "/deep.gltf"); });
+  EXPECT_NE(msg.find("nested more than 64 deep"), std::string::npos) << msg;
+
+  // 200000 nodes, each the child of the one before, the mesh at the end: no recursion.
+  gm = squareGltf(TINYGLTF_MODE_TRIANGLES);
+  gm.nodes.clear();
+  const int chain = 200000;
+  for (int i = 0; i < chain; ++i) {
+    tinygltf::Node node;
+    if (i + 1 < chain) node.children = {i + 1};
+    if (i + 1 == chain) node.mesh = 0;
+    gm.nodes.push_back(node);
+  }
+  writeGltf(gm, dir + "/chain.glb", true);
+  const TexturedModel model = loadModel(dir + "/chain.glb");
+  EXPECT_EQ(model.mesh.numFaces(), 2);
+
+  // An accessor declaring 2^62 elements is refused before anything is allocated.
+  gm = squareGltf(TINYGLTF_MODE_TRIANGLES);
+  gm.accessors[0].count = size_t(1) << 62;
+  writeGltf(gm, dir + "/count.glb", true);
+  msg = errorOf([&] { loadModel(dir + "/count.glb"); });
+  EXPECT_NE(msg.find("larger than the buffers could hold"), std::string::npos) << msg;
+  // A bufferView whose offset + length wraps around.
+  gm = squareGltf(TINYGLTF_MODE_TRIANGLES);
+  gm.bufferViews[0].byteOffset = ~size_t(0) - 3;
+  gm.bufferViews[0].byteLength = 40;
+  writeGltf(gm, dir + "/wrap.glb", true);
+  msg = errorOf([&] { loadModel(dir + "/wrap.glb"); });
+  EXPECT_NE(msg.find("lies outside its buffer"), std::string::npos) << msg;
+}
+
 TEST(LoadModel, ErrorUnsupportedExtensionAndMissingFile) {
   const std::string dir = test::tempDir("model_err_ext");
   writeText(dir + "/model.fbx", "whatever");

@@ -59,7 +59,6 @@ Photo makePhoto(int width, int height, const cv::Mat& foreground = {}) {
   photo.width = width;
   photo.height = height;
   photo.rgb = cv::Mat::zeros(height, width, CV_32FC3);
-  photo.luv = cv::Mat::zeros(height, width, CV_32FC3);
   cv::Mat fg = foreground.empty() ? cv::Mat(height, width, CV_8UC1, cv::Scalar(255)) : foreground;
   fg.convertTo(photo.alpha, CV_32FC1, 1.0 / 255);
   cv::threshold(photo.alpha, photo.alpha, 0, 1, cv::THRESH_BINARY);

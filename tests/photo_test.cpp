@@ -28,6 +28,17 @@ std::string write(const std::string& dir, const std::string& name, const cv::Mat
 using montage::test::errorOf;
 
 // A 64x48 BGRA image: transparent black background, opaque red disc of radius 10 around pixel (32, 24).
+// The distance map of a loaded photo (half floats) at row r, column c, and as a float map.
+float distanceOf(const Photo& photo, int r, int c) {
+  return photo.distance.depth() == CV_16F ? float(photo.distance.at<cv::float16_t>(r, c))
+                                          : photo.distance.at<float>(r, c);
+}
+cv::Mat floatDistance(const Photo& photo) {
+  cv::Mat out;
+  photo.distance.convertTo(out, CV_32F);
+  return out;
+}
+
 cv::Mat discImage() {
   cv::Mat image(48, 64, CV_8UC4, cv::Scalar(0, 0, 0, 0));
   for (int r = 0; r < image.rows; ++r)
@@ -68,18 +79,22 @@ TEST(Photo, RgbaDiscGivesAlphaForegroundAndChannelOrder) {
   EXPECT_EQ(photo.height, 48);
   EXPECT_TRUE(photo.hasBackground);
   EXPECT_TRUE(photo.maskPath.empty());
-  ASSERT_EQ(photo.rgb.type(), CV_32FC3);
-  ASSERT_EQ(photo.alpha.type(), CV_32FC1);
-  ASSERT_EQ(photo.luv.type(), CV_32FC3);
-  EXPECT_FLOAT_EQ(photo.alpha.at<float>(24, 32), 1.0f);
-  EXPECT_FLOAT_EQ(photo.alpha.at<float>(0, 0), 0.0f);
+  // Compact: the file's 8 bits, one byte of alpha (issue 15: a 16384^2 photo took 10.8 GB as floats).
+  ASSERT_EQ(photo.rgb.type(), CV_8UC3);
+  ASSERT_EQ(photo.alpha.type(), CV_8UC1);
+  EXPECT_EQ(photo.scale, 1.0);
+  EXPECT_EQ(photo.alpha.at<uint8_t>(24, 32), 255);
+  EXPECT_EQ(photo.alpha.at<uint8_t>(0, 0), 0);
   EXPECT_EQ(cv::countNonZero(photo.alpha > 0), cv::countNonZero(discImage().reshape(1, 48 * 64).col(3)));
+  EXPECT_EQ(photo.bytes(), size_t(64 * 48) * (3 + 1 + 2));  // rgb, alpha, half-float distance
   // BGR in the file, RGB in memory: the disc is red.
-  const cv::Vec3f centre = photo.rgb.at<cv::Vec3f>(24, 32);
+  const Vec3f centre = photo.rgbAt(32.5, 24.5);
   EXPECT_FLOAT_EQ(centre[0], 1.0f);
   EXPECT_FLOAT_EQ(centre[1], 0.0f);
   EXPECT_FLOAT_EQ(centre[2], 0.0f);
-  EXPECT_NEAR(photo.luv.at<cv::Vec3f>(24, 32)[0], 53.24f, 0.05f);
+  EXPECT_FLOAT_EQ(photo.alphaAt(32.5, 24.5), 1.0f);
+  EXPECT_FLOAT_EQ(photo.alphaAt(0.5, 0.5), 0.0f);
+  EXPECT_NEAR(photo.luvAt(32.5, 24.5)[0], 53.24f, 0.05f);
   // isForeground goes by the pixel containing the point.
   EXPECT_TRUE(photo.isForeground(32.5, 24.5));
   EXPECT_TRUE(photo.isForeground(32.99, 24.01));
@@ -93,26 +108,30 @@ TEST(Photo, RgbaDiscGivesAlphaForegroundAndChannelOrder) {
 TEST(Photo, DistanceMapMatchesBruteForce) {
   const std::string dir = test::tempDir("photo");
   const Photo photo = loadPhoto(write(dir, "disc.png", discImage()));
-  ASSERT_EQ(photo.distance.type(), CV_32FC1);
-  EXPECT_FLOAT_EQ(photo.distance.at<float>(24, 32), 0.0f);
-  EXPECT_FLOAT_EQ(photo.distance.at<float>(24, 42), 0.0f);
-  EXPECT_NEAR(photo.distance.at<float>(24, 45), 3.0f, 1e-4);
+  ASSERT_EQ(photo.distance.type(), CV_16FC1);  // half floats: relative error below 2^-11
+  cv::Mat alphaF;
+  photo.alpha.convertTo(alphaF, CV_32F, 1.0 / 255);
+  EXPECT_FLOAT_EQ(distanceOf(photo, 24, 32), 0.0f);
+  EXPECT_FLOAT_EQ(photo.distanceAt(45.5, 24.5), 3.0f);
+  EXPECT_FLOAT_EQ(distanceOf(photo, 24, 42), 0.0f);
+  EXPECT_NEAR(distanceOf(photo, 24, 45), 3.0f, 1e-4);
   // Every pixel, against brute force.
   double worst = 0;
   for (int r = 0; r < photo.height; ++r)
     for (int c = 0; c < photo.width; ++c)
-      worst = std::max(worst, double(std::abs(photo.distance.at<float>(r, c) - bruteDistance(photo.alpha, c, r))));
-  EXPECT_LT(worst, 1e-3);
+      worst = std::max(worst, double(std::abs(distanceOf(photo, r, c) - bruteDistance(alphaF, c, r))));
+  EXPECT_LT(worst, 0.03);  // half floats: 2^-11 of up to 40 px
   // The corner is far from the disc: (0, 0) to the nearest disc pixel.
-  EXPECT_NEAR(photo.distance.at<float>(0, 0), bruteDistance(photo.alpha, 0, 0), 1e-3);
-  EXPECT_GT(photo.distance.at<float>(0, 0), 25.0f);
+  EXPECT_NEAR(distanceOf(photo, 0, 0), bruteDistance(alphaF, 0, 0), 0.03);
+  EXPECT_GT(distanceOf(photo, 0, 0), 25.0f);
 }
 
 TEST(Photo, SixteenBitPngKeepsPrecision) {
   const std::string dir = test::tempDir("photo");
   cv::Mat image(8, 10, CV_16UC3, cv::Scalar(1000, 30000, 65535));  // B, G, R
   const Photo photo = loadPhoto(write(dir, "deep.png", image));
-  const cv::Vec3f p = photo.rgb.at<cv::Vec3f>(3, 4);
+  EXPECT_EQ(photo.rgb.type(), CV_16UC3);
+  const Vec3f p = photo.rgbAt(4.5, 3.5);
   EXPECT_NEAR(p[0], 1.0f, 1e-6);
   EXPECT_NEAR(p[1], 30000 / 65535.0f, 1e-6);
   EXPECT_NEAR(p[2], 1000 / 65535.0f, 1e-6);  // distinguishable from any 8-bit level
@@ -122,9 +141,9 @@ TEST(Photo, SixteenBitPngKeepsPrecision) {
   rgba(cv::Rect(0, 0, 5, 8)).setTo(cv::Scalar(0, 0, 0, 0));
   const Photo withAlpha = loadPhoto(write(dir, "deep_rgba.png", rgba));
   EXPECT_TRUE(withAlpha.hasBackground);
-  EXPECT_FLOAT_EQ(withAlpha.alpha.at<float>(0, 0), 0.0f);
-  EXPECT_FLOAT_EQ(withAlpha.alpha.at<float>(0, 9), 1.0f);
-  EXPECT_NEAR(withAlpha.distance.at<float>(0, 0), 5.0f, 1e-4);
+  EXPECT_EQ(withAlpha.alpha.at<uint8_t>(0, 0), 0);
+  EXPECT_EQ(withAlpha.alpha.at<uint8_t>(0, 9), 255);
+  EXPECT_NEAR(distanceOf(withAlpha, 0, 0), 5.0f, 1e-4);
 }
 
 TEST(Photo, GreyPngBecomesRgbWithoutBackground) {
@@ -133,14 +152,17 @@ TEST(Photo, GreyPngBecomesRgbWithoutBackground) {
   for (int r = 0; r < grey.rows; ++r)
     for (int c = 0; c < grey.cols; ++c) grey.at<uint8_t>(r, c) = uint8_t(c * 8);
   const Photo photo = loadPhoto(write(dir, "grey.png", grey));
-  EXPECT_EQ(photo.rgb.type(), CV_32FC3);
-  const cv::Vec3f p = photo.rgb.at<cv::Vec3f>(5, 10);
+  EXPECT_EQ(photo.rgb.type(), CV_8UC3);
+  const Vec3f p = photo.rgbAt(10.5, 5.5);
   EXPECT_FLOAT_EQ(p[0], 80 / 255.0f);
   EXPECT_FLOAT_EQ(p[1], 80 / 255.0f);
   EXPECT_FLOAT_EQ(p[2], 80 / 255.0f);
   EXPECT_FALSE(photo.hasBackground);
-  EXPECT_EQ(cv::countNonZero(photo.alpha == 1.0f), 20 * 30);
-  EXPECT_EQ(cv::countNonZero(photo.distance), 0);
+  // Without a background neither alpha nor distance is stored; the samplers answer for them.
+  EXPECT_TRUE(photo.alpha.empty());
+  EXPECT_TRUE(photo.distance.empty());
+  EXPECT_EQ(photo.alphaAt(3, 3), 1.0f);
+  EXPECT_EQ(photo.distanceAt(3, 3), 0.0f);
   EXPECT_TRUE(photo.isForeground(0, 0));
   EXPECT_TRUE(photo.isForeground(30, 20));
 }
@@ -159,7 +181,7 @@ TEST(Photo, JpgBmpAndTiffLoadWithTheirSizes) {
     EXPECT_EQ(photo.width, 53);
     EXPECT_EQ(photo.height, 37);
     EXPECT_EQ(readImageSize(file), cv::Size(53, 37));
-    const cv::Vec3f p = photo.rgb.at<cv::Vec3f>(18, 26);
+    const Vec3f p = photo.rgbAt(26.5, 18.5);
     const float tolerance = fs::path(file).extension() == ".jpg" ? 0.02f : 1e-6f;  // JPEG is lossy
     EXPECT_NEAR(p[0], 200 / 255.0f, tolerance);
     EXPECT_NEAR(p[1], 120 / 255.0f, tolerance);
@@ -194,8 +216,8 @@ TEST(Photo, MaskFileGivesForeground) {
   EXPECT_EQ(cv::countNonZero(photo.alpha > 0), 200);
   EXPECT_TRUE(photo.isForeground(10.5, 5.5));
   EXPECT_FALSE(photo.isForeground(9.5, 5.5));
-  EXPECT_NEAR(photo.distance.at<float>(5, 5), 5.0f, 1e-4);
-  EXPECT_NEAR(photo.distance.at<float>(0, 5), std::hypot(5.0f, 5.0f), 1e-4);
+  EXPECT_NEAR(distanceOf(photo, 5, 5), 5.0f, 1e-4);
+  EXPECT_NEAR(distanceOf(photo, 0, 5), std::hypot(5.0f, 5.0f), 4e-3);  // half float
 
   // A colour mask with alpha: foreground where a colour channel is non-zero and alpha is non-zero.
   cv::Mat rgbaMask(30, 40, CV_8UC4, cv::Scalar(0, 0, 0, 255));
@@ -232,16 +254,16 @@ TEST(Photo, LoadErrorsNameTheFileAndReason) {
   std::ofstream(text) << "this is not a picture\n";
   message = errorOf([&] { loadPhoto(text); });
   EXPECT_NE(message.find(text), std::string::npos) << message;
-  EXPECT_NE(message.find("not a readable image"), std::string::npos) << message;
+  EXPECT_NE(message.find("not a PNG, JPEG, TIFF or BMP image"), std::string::npos) << message;
   message = errorOf([&] { readImageSize(text); });
-  EXPECT_NE(message.find("not a readable image"), std::string::npos) << message;
+  EXPECT_NE(message.find("not a PNG, JPEG, TIFF or BMP image"), std::string::npos) << message;
 
   const std::string photoPath = write(dir, "p.png", cv::Mat(4, 4, CV_8UC3, cv::Scalar(1, 2, 3)));
   message = errorOf([&] { loadPhoto(photoPath, missing); });
   EXPECT_NE(message.find(missing), std::string::npos) << message;
 
   message = errorOf([&] { loadPhoto(dir); });
-  EXPECT_NE(message.find("not a regular file"), std::string::npos) << message;
+  EXPECT_NE(message.find("is a folder, not a file"), std::string::npos) << message;
 }
 
 TEST(Photo, AllBackgroundIsRejected) {
@@ -389,19 +411,31 @@ TEST(Photo, RealPhotosLoadWithTheirSizes) {
     EXPECT_EQ(photo.height, size.height);
     EXPECT_EQ(photo.rgb.size(), size);
     EXPECT_FALSE(photo.hasBackground);
-    double lo, hi;
-    cv::minMaxLoc(photo.luv.reshape(1), &lo, &hi);
-    EXPECT_GE(lo, -200);
-    EXPECT_LE(hi, 200);
+    for (int k = 0; k < 100; ++k) {
+      const Vec3f luv = photo.luvAt(k * 6.1, k * 6.0);
+      EXPECT_GE(luv.minCoeff(), -200);
+      EXPECT_LE(luv.maxCoeff(), 200);
+    }
     cv::Scalar mean = cv::mean(photo.rgb);
-    EXPECT_GT(mean[0], 0.05);  // not a black image
+    EXPECT_GT(mean[0], 0.05 * 255);  // not a black image
   }
 }
 
 namespace {
 
 bool sameMat(const cv::Mat& a, const cv::Mat& b) {
-  return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0;
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  if (a.depth() != CV_16F) return cv::norm(a, b, cv::NORM_INF) == 0;
+  cv::Mat fa, fb;  // cv::norm has no half floats
+  a.convertTo(fa, CV_32F);
+  b.convertTo(fb, CV_32F);
+  return cv::norm(fa, fb, cv::NORM_INF) == 0;
+}
+
+Photo loadMirrored(const std::string& path, const std::string& mask) {
+  PhotoLoadOptions options;
+  options.mirror = true;
+  return loadPhoto(path, mask, options);
 }
 
 }  // namespace
@@ -422,7 +456,7 @@ TEST(Photo, MirrorFlipsThePhotoAndItsMaskOnLoadLikeAMirroredCopy) {
   const std::string copyMaskPath = write(dir, "m_mirrored.png", flippedMask);
 
   for (const bool withMask : {false, true}) {
-    const Photo mirrored = loadPhoto(photoPath, withMask ? maskPath : "", true);
+    const Photo mirrored = loadMirrored(photoPath, withMask ? maskPath : "");
     const Photo copy = loadPhoto(copyPath, withMask ? copyMaskPath : "");
     EXPECT_TRUE(mirrored.mirrored);
     EXPECT_FALSE(copy.mirrored);
@@ -430,13 +464,13 @@ TEST(Photo, MirrorFlipsThePhotoAndItsMaskOnLoadLikeAMirroredCopy) {
     EXPECT_TRUE(sameMat(mirrored.rgb, copy.rgb)) << "mask " << withMask;
     EXPECT_TRUE(sameMat(mirrored.alpha, copy.alpha)) << "mask " << withMask;
     EXPECT_TRUE(sameMat(mirrored.distance, copy.distance)) << "mask " << withMask;
-    EXPECT_TRUE(sameMat(mirrored.luv, copy.luv)) << "mask " << withMask;
   }
   // And it really is mirrored: the pixel at column c is the file's column 59 - c.
-  const Photo plain = loadPhoto(photoPath, maskPath), mirrored = loadPhoto(photoPath, maskPath, true);
+  const Photo plain = loadPhoto(photoPath, maskPath), mirrored = loadMirrored(photoPath, maskPath);
   EXPECT_FALSE(plain.mirrored);
+  ASSERT_EQ(mirrored.rgb.type(), CV_8UC3);  // compact: the file's depth
   for (int c : {0, 7, 59})
-    EXPECT_EQ(mirrored.rgb.at<cv::Vec3f>(3, c), plain.rgb.at<cv::Vec3f>(3, 59 - c)) << "column " << c;
+    EXPECT_EQ(mirrored.rgb.at<cv::Vec3b>(3, c), plain.rgb.at<cv::Vec3b>(3, 59 - c)) << "column " << c;
   EXPECT_TRUE(plain.isForeground(6, 6));
   EXPECT_FALSE(mirrored.isForeground(6, 6));
   EXPECT_TRUE(mirrored.isForeground(60 - 6, 6));
@@ -449,36 +483,52 @@ TEST(Photo, MaskAlphaIsRelativeToTheMasksLargestValue) {
   cv::Mat labels = cv::Mat::zeros(10, 10, CV_8UC1);
   labels(cv::Rect(2, 2, 5, 5)).setTo(1);
   const Photo fromLabels = loadPhoto(photoPath, write(dir, "labels.png", labels));
-  EXPECT_EQ(fromLabels.alpha.at<float>(3, 3), 1.0f);
-  EXPECT_EQ(fromLabels.alpha.at<float>(0, 0), 0.0f);
+  ASSERT_EQ(fromLabels.alpha.type(), CV_8UC1);  // compact: 8-bit alpha
+  EXPECT_EQ(fromLabels.alpha.at<uchar>(3, 3), 255);
+  EXPECT_EQ(fromLabels.alpha.at<uchar>(0, 0), 0);
+  EXPECT_EQ(fromLabels.alphaAt(3.5, 3.5), 1.0f);
   // A feathered mask: partial alpha on its edge, the same foreground as its binary version.
   cv::Mat feathered = cv::Mat::zeros(10, 10, CV_8UC1);
   feathered(cv::Rect(2, 2, 5, 5)).setTo(255);
   feathered.at<uchar>(2, 2) = 51;
   const Photo fromFeathered = loadPhoto(photoPath, write(dir, "feathered.png", feathered));
-  EXPECT_NEAR(fromFeathered.alpha.at<float>(2, 2), 0.2f, 1e-6);
-  EXPECT_EQ(fromFeathered.alpha.at<float>(4, 4), 1.0f);
+  EXPECT_EQ(fromFeathered.alpha.at<uchar>(2, 2), 51);
+  EXPECT_NEAR(fromFeathered.alphaAt(2.5, 2.5), 0.2f, 1e-6);
+  EXPECT_EQ(fromFeathered.alpha.at<uchar>(4, 4), 255);
+  // A 16-bit mask with a faint largest value: alpha relative to it, and a tiny value stays foreground.
+  cv::Mat faint = cv::Mat::zeros(10, 10, CV_16UC1);
+  faint(cv::Rect(2, 2, 5, 5)).setTo(1000);
+  faint.at<uint16_t>(2, 2) = 1;
+  const Photo fromFaint = loadPhoto(photoPath, write(dir, "faint.png", faint));
+  EXPECT_EQ(fromFaint.alpha.at<uchar>(4, 4), 255);
+  EXPECT_EQ(fromFaint.alpha.at<uchar>(2, 2), 1);
+  EXPECT_EQ(cv::countNonZero(fromFaint.alpha > 0), cv::countNonZero(fromLabels.alpha > 0));
   EXPECT_EQ(cv::countNonZero(fromFeathered.alpha > 0), cv::countNonZero(fromLabels.alpha > 0));
   EXPECT_TRUE(sameMat(fromFeathered.distance, fromLabels.distance));
 }
 
-// The issue's test: a photo mirrored by its flag maps the same as a pre-mirrored copy of the file. On the
-// demo: photo 1's file mirrored on disk (a side view taken "the wrong way round"), then loaded with the flag,
-// against the demo's own photo 1, which is the pre-mirrored copy of that file; same points. And the flag is
-// not inert: the same file without it maps otherwise.
+// The issue's test: a photo mirrored by its flag maps the same as a pre-mirrored copy of the file. The demo's
+// photo 1 (tiger_right.png, with its mask) is the pre-mirrored copy of photo 0's file (scripts/make_demo.py):
+// photo 1 given as photo 0's file and mask with the mirror flag must map exactly as the demo does, with the
+// same points. And the flag is not inert: the same file without it maps otherwise.
 TEST(Photo, AMirroredPhotoMapsLikeAPreMirroredCopy) {
-  const std::string dir = test::tempDir("photo_mirror");
   const Project demo = loadProject(test::assetsDir() + "/demo/project.json");
-  const cv::Mat file = cv::imread(demo.photos[1].path, cv::IMREAD_UNCHANGED);
-  ASSERT_FALSE(file.empty()) << demo.photos[1].path;
-  cv::Mat flipped;
-  cv::flip(file, flipped, 1);
-  const std::string flippedPath = write(dir, "photo_1_flipped.png", flipped);
+  ASSERT_EQ(demo.photos.size(), 2u);
   Project flagged = demo, unflagged = demo;
-  flagged.photos[1].path = unflagged.photos[1].path = flippedPath;
+  flagged.photos[1] = unflagged.photos[1] = demo.photos[0];
   flagged.photos[1].mirror = true;
+  const auto copyScene = loadScene(demo);
+  // The random line searches of each cell are seeded by the cell's content, which names the photo by its
+  // file key (path, size, time: mapping/cells.cpp): the two scenes use the same keys, so that any
+  // difference comes from the pixels.
+  auto flaggedScene = std::make_shared<Scene>(*loadScene(flagged));
+  ASSERT_NE(flaggedScene->photoKeys[1], copyScene->photoKeys[1]);
+  flaggedScene->photoKeys = copyScene->photoKeys;
+  ASSERT_TRUE(sameMat(flaggedScene->photos[1]->rgb, copyScene->photos[1]->rgb)) << "tiger_right is not the mirror";
+  ASSERT_TRUE(sameMat(flaggedScene->photos[1]->alpha, copyScene->photos[1]->alpha));
+  ASSERT_TRUE(sameMat(flaggedScene->photos[1]->distance, copyScene->photos[1]->distance));
 
-  const Mapping byFlag = mapTexture(*loadScene(flagged)), byCopy = mapTexture(*loadScene(demo));
+  const Mapping byFlag = mapTexture(*flaggedScene), byCopy = mapTexture(*copyScene);
   ASSERT_EQ(byFlag.map.facePhoto.size(), byCopy.map.facePhoto.size());
   EXPECT_EQ(byFlag.map.facePhoto, byCopy.map.facePhoto);
   double largest = 0;
@@ -490,6 +540,110 @@ TEST(Photo, AMirroredPhotoMapsLikeAPreMirroredCopy) {
   }
   EXPECT_EQ(largest, 0.0) << "the two mappings differ by up to " << largest << " px";
   EXPECT_GT(inPhoto1, 100) << "photo 1 textures part of the mesh";
-  const Mapping withoutFlag = mapTexture(*loadScene(unflagged));
-  EXPECT_NE(withoutFlag.map.facePhoto, byFlag.map.facePhoto);
+  auto unflaggedScene = std::make_shared<Scene>(*loadScene(unflagged));
+  unflaggedScene->photoKeys = copyScene->photoKeys;
+  const Mapping withoutFlag = mapTexture(*unflaggedScene);
+  int moved = 0;
+  for (size_t f = 0; f < byFlag.map.facePhoto.size(); ++f)
+    moved += withoutFlag.map.facePhoto[f] != byFlag.map.facePhoto[f] ||
+             (byFlag.map.facePhoto[f] >= 0 && (withoutFlag.map.cornerUV[f][0] - byFlag.map.cornerUV[f][0]).norm() > 1);
+  EXPECT_GT(moved, 100) << "without the flag, photo 1's points fall elsewhere in the file";
+}
+
+// ---- Memory and working resolution (issue 15) ----
+
+TEST(Photo, WorkingResolutionKeepsFileCoordinates) {
+  // A 400x300 photo with a foreground rectangle, kept at 100x75: the samplers still take file pixels.
+  const std::string dir = test::tempDir("photo_working");
+  cv::Mat image(300, 400, CV_8UC4, cv::Scalar(0, 0, 0, 0));
+  image(cv::Rect(100, 60, 200, 120)).setTo(cv::Scalar(0, 200, 50, 255));  // B, G, R, A
+  const std::string path = write(dir, "big.png", image);
+  const Photo full = loadPhoto(path);
+  PhotoLoadOptions options;
+  options.maxSide = 100;
+  const Photo small = loadPhoto(path, "", options);
+  EXPECT_EQ(small.width, 400);
+  EXPECT_EQ(small.height, 300);
+  EXPECT_EQ(small.rgb.size(), cv::Size(100, 75));
+  EXPECT_DOUBLE_EQ(small.scale, 0.25);
+  EXPECT_LT(small.bytes() * 15, full.bytes());
+  // The same answers at file coordinates, up to a stored pixel (4 file pixels).
+  EXPECT_TRUE(small.isForeground(200, 120));
+  EXPECT_FALSE(small.isForeground(20, 20));
+  EXPECT_NEAR(small.rgbAt(200, 120)[0], 50 / 255.0f, 1e-6);
+  EXPECT_NEAR(small.rgbAt(200, 120)[1], 200 / 255.0f, 1e-6);
+  for (const Vec2 q : {Vec2(10, 10), Vec2(50, 150), Vec2(390, 290), Vec2(200, 20)})
+    EXPECT_NEAR(small.distanceAt(q.x(), q.y()), full.distanceAt(q.x(), q.y()), 4.0) << q.transpose();
+  EXPECT_GT(small.distanceAt(10, 10), 50);  // in file pixels, not stored ones
+  // A working resolution above the photo's size changes nothing.
+  options.maxSide = 1000;
+  EXPECT_EQ(loadPhoto(path, "", options).rgb.size(), cv::Size(400, 300));
+}
+
+TEST(Photo, InfoStatsMatchTheLoadedPhoto) {
+  const std::string dir = test::tempDir("photo_stats");
+  const std::string path = write(dir, "disc.png", discImage());
+  const PhotoStats stats = photoStats(path);
+  const Photo photo = loadPhoto(path);
+  EXPECT_EQ(stats.width, 64);
+  EXPECT_EQ(stats.height, 48);
+  EXPECT_EQ(stats.channels, 4);
+  EXPECT_EQ(stats.bitsPerChannel, 8);
+  EXPECT_TRUE(stats.hasBackground);
+  EXPECT_NEAR(stats.foreground, cv::countNonZero(photo.alpha) / double(64 * 48), 1e-12);
+  double maxDistance = 0;
+  cv::minMaxLoc(floatDistance(photo), nullptr, &maxDistance);
+  EXPECT_NEAR(stats.maxDistance, maxDistance, maxDistance / 1024);  // the photo keeps half floats
+}
+
+TEST(Photo, InfoStatsOfALargePhotoAreWithinTheirStatedError) {
+  // Above 4096 pixels a side the distance is measured on a coarse mask: the answer must stay within
+  // the stated bound of the exact one (from the loaded photo's full-resolution distance map).
+  const std::string dir = test::tempDir("photo_stats_large");
+  cv::Mat rgba(300, 4500, CV_8UC4, cv::Scalar(0, 0, 0, 0));
+  cv::circle(rgba, cv::Point(4301, 37), 5, cv::Scalar(20, 40, 60, 255), cv::FILLED);
+  rgba.at<cv::Vec4b>(250, 3) = cv::Vec4b(1, 2, 3, 255);  // one lone pixel at an odd position
+  const std::string path = write(dir, "wide.png", rgba);
+  const PhotoStats stats = photoStats(path);
+  EXPECT_EQ(stats.width, 4500);
+  EXPECT_EQ(stats.distanceScale, 2);
+  EXPECT_GT(stats.maxDistanceError, 0);
+  EXPECT_LE(stats.maxDistanceError, 3);
+  const Photo photo = loadPhoto(path);
+  double exact = 0;
+  cv::minMaxLoc(floatDistance(photo), nullptr, &exact);
+  EXPECT_GT(exact, 1000);
+  EXPECT_NEAR(stats.maxDistance, exact, stats.maxDistanceError);
+  EXPECT_NEAR(stats.foreground, cv::countNonZero(photo.alpha) / (4500.0 * 300), 1e-12);
+}
+
+TEST(Photo, SoftAlphaBelowOneLevelStaysForeground) {
+  // 16-bit alpha of 100 (of 65535) and float-like levels must not round to background.
+  const std::string dir = test::tempDir("photo_soft");
+  cv::Mat rgba(4, 4, CV_16UC4, cv::Scalar(1000, 1000, 1000, 0));
+  rgba.at<cv::Vec4w>(1, 1) = cv::Vec4w(1000, 1000, 1000, 100);
+  const Photo photo = loadPhoto(write(dir, "soft.png", rgba));
+  EXPECT_TRUE(photo.hasBackground);
+  EXPECT_TRUE(photo.isForeground(1.5, 1.5));
+  EXPECT_FALSE(photo.isForeground(2.5, 2.5));
+}
+
+TEST(Photo, OnlyKnownFormatsAreDecoded) {
+  // OpenCV picks a decoder by content: a PNM (or WebP, JPEG 2000...) named .png would be decoded.
+  const std::string dir = test::tempDir("photo_formats");
+  const std::string path = (fs::path(dir) / "fake.png").string();
+  std::ofstream(path, std::ios::binary) << "P5\n2 2\n255\n\x01\x02\x03\x04";
+  const std::string message = errorOf([&] { loadPhoto(path); });
+  EXPECT_NE(message.find("not a PNG, JPEG, TIFF or BMP image"), std::string::npos) << message;
+  // A PNG header announcing 20000 x 20000 is refused before anything is allocated.
+  std::string png = "\x89PNG\r\n\x1a\n";
+  png += std::string("\0\0\0\x0dIHDR", 8);
+  png += std::string("\0\0\x4e\x20\0\0\x4e\x20\x08\x06\0\0\0", 13);
+  png += std::string(4, '\0');
+  const std::string huge = (fs::path(dir) / "huge.png").string();
+  std::ofstream(huge, std::ios::binary) << png;
+  EXPECT_NE(errorOf([&] { loadPhoto(huge); }).find("20000x20000 pixels; at most 16384"), std::string::npos);
+  const std::string fromMemory =
+      errorOf([&] { decodeImageRgba8(reinterpret_cast<const unsigned char*>(png.data()), png.size(), "mem"); });
+  EXPECT_NE(fromMemory.find("mem: image is 20000x20000 pixels"), std::string::npos) << fromMemory;
 }

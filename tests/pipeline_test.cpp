@@ -1,16 +1,22 @@
 // The pipeline object (stages, caching, cancel, report) and the `montage` command line end to end.
-#include "io/mesh_io.h"
 #include "pipeline.h"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
 
 #include "bench/eval.h"
-#include "io/model.h"
+#include "bench/render.h"
 #include "bench/synth.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "surface/preview.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -37,9 +43,9 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
     if (seen.empty() || seen.back() != s) seen.push_back(s);
   });
   PipelineResult result = pipeline.run(project, job);
-  const std::vector<StageId> order = {StageId::Load,    StageId::Partition, StageId::Simplify,
-                                      StageId::Map,     StageId::Balance,   StageId::Level,
-                                      StageId::Inpaint, StageId::Bake};
+  const std::vector<StageId> order = {StageId::Load,       StageId::Camera,  StageId::Partition, StageId::Map,
+                                      StageId::Projection, StageId::Balance, StageId::Seams,     StageId::Level,
+                                      StageId::Inpaint,    StageId::Bake};
   ASSERT_EQ(result.stages.size(), order.size());
   for (size_t i = 0; i < order.size(); ++i) EXPECT_EQ(result.stages[i].stage, order[i]);
   EXPECT_EQ(seen, order);
@@ -49,6 +55,10 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
   const Mesh& mesh = result.mapping->partition.mesh;
   EXPECT_GE(mesh.numVertices(), result.scene->mesh->numVertices());
   EXPECT_EQ(result.model->mesh.numFaces(), mesh.numFaces());
+  // The exported model is the input mesh as loaded (exportTopology "original", the default).
+  ASSERT_TRUE(result.exported);
+  EXPECT_EQ(result.exported->mesh.numFaces(), result.scene->mesh->numFaces());
+  EXPECT_EQ(result.exported->mesh.numVertices(), result.scene->mesh->numVertices());
   EXPECT_EQ(result.mapping->map.numFaces(), mesh.numFaces());
   EXPECT_GT(result.mapping->map.numMapped(), 0);
   EXPECT_EQ(result.stages[0].counts["photos"].get<int>(), static_cast<int>(project.photos.size()));
@@ -70,6 +80,22 @@ TEST(Pipeline, SecondRunReusesOutputsAndAFeatureEditRerunsOnlyTheMap) {
   PipelineResult third = pipeline.run(project);
   EXPECT_TRUE(third.stages[0].cached);
   for (int i = 1; i < 4; ++i) EXPECT_FALSE(third.stages[i].cached) << stageName(third.stages[i].stage);
+}
+
+TEST(Pipeline, SeamOptionEditRerunsTheSeamsNotTheMap) {
+  Project project = loadProject(demoProject());
+  Pipeline pipeline;
+  PipelineResult first = pipeline.run(project);
+  ASSERT_TRUE(first.seams);
+  EXPECT_EQ(first.report()["seams"]["faces"].size(), first.report()["seams"]["face_delta_e"].size());
+  project.options.seamLambda = 0.5;
+  PipelineResult second = pipeline.run(project);
+  const int seams = static_cast<int>(StageId::Seams);
+  for (int i = 0; i < seams; ++i) EXPECT_TRUE(second.stages[i].cached) << stageName(second.stages[i].stage);
+  ASSERT_EQ(second.stages[seams].stage, StageId::Seams);
+  EXPECT_FALSE(second.stages[seams].cached);
+  EXPECT_FALSE(second.stages[seams + 1].cached);  // level reads the seamed map
+  EXPECT_NE(second.seams.get(), first.seams.get());
 }
 
 TEST(Pipeline, CancelStopsTheRun) {
@@ -112,33 +138,46 @@ TEST(Pipeline, WritesModelAndReport) {
                            "model_atlas_holes.png", "model.glb", "report.json"})
     EXPECT_TRUE(fs::exists(fs::path(dir) / name)) << name;
   nlohmann::json report = readJson(dir + "/report.json");
-  ASSERT_EQ(report["stages"].size(), 9u);
-  EXPECT_EQ(report["stages"][4]["stage"], "balance");
-  EXPECT_EQ(report["stages"][5]["stage"], "level");
-  EXPECT_EQ(report["stages"][6]["stage"], "inpaint");
-  EXPECT_EQ(report["stages"][7]["stage"], "bake");
-  EXPECT_EQ(report["stages"][8]["stage"], "export");
+  ASSERT_EQ(report["stages"].size(), kStageNames.size());
+  std::map<std::string, nlohmann::json> stage;
+  for (size_t i = 0; i < kStageNames.size(); ++i) {
+    EXPECT_EQ(report["stages"][i]["stage"], kStageNames[i]);
+    stage[kStageNames[i]] = report["stages"][i];
+  }
+  EXPECT_TRUE(stage["seams"]["counts"].contains("delta_e_after"));
+  // The balance stage reports a transform per photo (the demo's two photos share seams).
+  EXPECT_EQ(stage["balance"]["counts"]["gain"].size(), project.photos.size());
+  EXPECT_EQ(stage["balance"]["counts"]["offset"].size(), project.photos.size());
+  EXPECT_TRUE(stage["balance"]["counts"].contains("mismatch_after"));
+  EXPECT_TRUE(report.contains("seams"));
   // The demo has holes: they are inpainted, and the model says which faces were.
-  EXPECT_GT(report["stages"][6]["counts"]["regions"].size(), 0u);
+  EXPECT_GT(stage["inpaint"]["counts"]["regions"].size(), 0u);
   int inpainted = 0;
   for (int s : result.model->faceSource) inpainted += s == kSourceInpainted;
   EXPECT_GT(inpainted, 0);
+  EXPECT_GT(report["surface"]["inpainted_share"].get<double>(), 0.0);
   EXPECT_EQ(report["mesh"]["faces"].get<int>(), result.scene->mesh->numFaces());
   // The rejected pairs and their reasons reach the user.
   EXPECT_EQ(report["map"]["rejected_total"].get<size_t>(), result.mapping->partition.rejected.size());
   ASSERT_FALSE(report["map"]["rejected_pairs"].empty());
   EXPECT_FALSE(report["map"]["rejected_pairs"][0]["reason"].get<std::string>().empty());
   // One atlas: a single textured material, every face's UVs inside [0,1]^2.
-  ASSERT_EQ(result.model->materials.size(), 1u);
-  EXPECT_EQ(result.model->materials[0].texture.cols, project.options.atlasSize);
-  for (const auto& uv : result.model->uv)
+  ASSERT_EQ(result.exported->materials.size(), 1u);
+  // The automatic atlas size: a multiple of 256 that holds the photos at their own resolution.
+  const int atlasSize = result.model->materials[0].texture.cols;
+  EXPECT_EQ(atlasSize % 256, 0);
+  EXPECT_EQ(stage["bake"]["counts"]["size"].get<int>(), atlasSize);
+  EXPECT_DOUBLE_EQ(stage["bake"]["counts"]["scale"].get<double>(), 1.0);
+  const int exportedSize = result.exported->materials[0].texture.cols;
+  EXPECT_EQ(exportedSize % 256, 0);
+  for (const auto& uv : result.exported->uv)
     for (const Vec2f& t : uv) EXPECT_TRUE(t.minCoeff() >= 0 && t.maxCoeff() <= 1) << t.transpose();
-  EXPECT_GT(report["stages"][7]["counts"]["utilisation"].get<double>(), 0.3);
+  EXPECT_GT(stage["bake"]["counts"]["utilisation"].get<double>(), 0.3);
   for (const char* name : {"model.glb", "model.obj"}) {
     TexturedModel back = loadModel(dir + "/" + name);
-    EXPECT_EQ(back.mesh.numFaces(), result.model->mesh.numFaces()) << name;
+    EXPECT_EQ(back.mesh.numFaces(), result.exported->mesh.numFaces()) << name;
     ASSERT_EQ(back.materials.size(), 1u) << name;
-    EXPECT_EQ(back.materials[0].texture.cols, project.options.atlasSize) << name;
+    EXPECT_EQ(back.materials[0].texture.cols, exportedSize) << name;
   }
 }
 
@@ -210,7 +249,8 @@ TEST(PipelineSpot, CoverageAndPsnrRiseWithFeatures) {
     options.size = 1024;
     const std::string dir = test::tempDir("spot_scene");
     writeSynthScene(synthesize(*mesh, meshPath, color, options), dir);
-    const Project project = loadProject(dir + "/project.json");
+    Project project = loadProject(dir + "/project.json");
+    project.options.cameraMode = CameraMode::Off;  // the paper's path (camera_test measures the projection path)
     const PipelineResult result = Pipeline().run(project);
     EXPECT_EQ(result.mapping->stats.flippedFaces, 0);
     EvalOptions evalOptions;
@@ -224,4 +264,320 @@ TEST(PipelineSpot, CoverageAndPsnrRiseWithFeatures) {
   }
   EXPECT_LT(psnr[0], psnr[1]);
   EXPECT_LT(psnr[1], psnr[2]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The live loop: incremental runs equal runs from scratch; undo finds its result; the preview looks
+// like the final bake.
+
+namespace {
+
+// Deletes point `index`, dropping it from chains (a chain left with fewer than two points goes).
+void deletePoint(Project& p, int index) {
+  p.points.erase(p.points.begin() + index);
+  for (FeatureChain& c : p.chains) {
+    c.points.erase(std::remove(c.points.begin(), c.points.end(), index), c.points.end());
+    for (int& i : c.points) i -= i > index;
+  }
+  p.chains.erase(
+      std::remove_if(p.chains.begin(), p.chains.end(), [](const FeatureChain& c) { return c.points.size() < 2; }),
+      p.chains.end());
+}
+
+// Same partition mesh, same mapped faces, UVs within 1e-9 px.
+void expectSameMapping(const Mapping& a, const Mapping& b, const std::string& what) {
+  ASSERT_EQ(a.partition.mesh.numFaces(), b.partition.mesh.numFaces()) << what;
+  ASSERT_EQ(a.map.numFaces(), b.map.numFaces()) << what;
+  EXPECT_EQ(a.map.facePhoto, b.map.facePhoto) << what;
+  double worst = 0;
+  for (int f = 0; f < a.map.numFaces(); ++f)
+    for (int k = 0; k < 3; ++k) worst = std::max(worst, (a.map.cornerUV[f][k] - b.map.cornerUV[f][k]).norm());
+  EXPECT_LE(worst, 1e-9) << what;
+}
+
+}  // namespace
+
+// ---- One validation for info and run, warnings, working resolution (issue 15) ----
+
+namespace {
+
+// A demo point's vertex that has a position in photo 0, and a vertex the demo does not use.
+int unusedVertex(const Project& p, int after) {
+  for (int v = after;; ++v) {
+    bool used = false;
+    for (const FeaturePoint& f : p.points) used = used || f.vertex == v;
+    if (!used) return v;
+  }
+}
+
+}  // namespace
+
+TEST(PipelineIncremental, RandomEditsEqualRunsFromScratch) {
+  const Project base = loadProject(demoProject());
+  std::mt19937 rng(20261201);
+  Pipeline incremental;
+  std::vector<Project> history = {base};
+  std::vector<FeaturePoint> removed;
+  int moves = 0, adds = 0, deletes = 0, undos = 0, reusedCells = 0;
+  for (int step = 0; step < 24; ++step) {
+    Project doc = history.back();
+    const int kind = std::uniform_int_distribution<int>(0, 9)(rng);
+    std::string what;
+    if (kind < 2 && history.size() > 1) {  // undo
+      history.pop_back();
+      doc = history.back();
+      what = "undo";
+      ++undos;
+    } else if (kind < 4 && !removed.empty() &&
+               std::none_of(doc.points.begin(), doc.points.end(),
+                            [&](const FeaturePoint& q) { return q.vertex == removed.back().vertex; })) {
+      // add a deleted point back, a few pixels away
+      FeaturePoint p = removed.back();
+      removed.pop_back();
+      for (PhotoPoint& at : p.at) at.x += std::uniform_real_distribution<double>(-2, 2)(rng);
+      doc.points.push_back(p);
+      what = "add";
+      ++adds;
+    } else if (kind < 6 && doc.points.size() > 20) {  // delete
+      const int i = std::uniform_int_distribution<int>(0, int(doc.points.size()) - 1)(rng);
+      removed.push_back(doc.points[i]);
+      deletePoint(doc, i);
+      what = "delete";
+      ++deletes;
+    } else {  // drag one click by a few pixels
+      const int i = std::uniform_int_distribution<int>(0, int(doc.points.size()) - 1)(rng);
+      if (doc.points[i].at.empty()) continue;
+      PhotoPoint& at = doc.points[i].at[0];
+      at.x = std::clamp(at.x + std::uniform_real_distribution<double>(-4, 4)(rng), 1.0, 1000.0);
+      at.y = std::clamp(at.y + std::uniform_real_distribution<double>(-4, 4)(rng), 1.0, 1000.0);
+      what = "move";
+      ++moves;
+    }
+    if (what != "undo") history.push_back(doc);
+    const PipelineResult inc = incremental.run(doc, {}, Tier::Preview);
+    const PipelineResult fresh = Pipeline().run(doc, {}, Tier::Preview);
+    expectSameMapping(*inc.mapping, *fresh.mapping, "step " + std::to_string(step) + " (" + what + ")");
+    for (const StageRecord& s : inc.stages)
+      if (s.stage == StageId::Map && !s.cached) reusedCells += s.counts["cells_reused"].get<int>();
+  }
+  std::printf("%d moves, %d adds, %d deletes, %d undos; %d cells reused in all\n", moves, adds, deletes, undos,
+              reusedCells);
+  EXPECT_GE(moves + adds + deletes + undos, 20);
+  EXPECT_GT(moves, 0);
+  EXPECT_GT(deletes, 0);
+  EXPECT_GT(undos, 0);
+  EXPECT_GT(reusedCells, 0);  // the incremental runs did reuse cells
+}
+
+TEST(PipelineIncremental, UndoReturnsTheIdenticalResult) {
+  const Project a = loadProject(demoProject());
+  Project b = a;
+  b.points[3].at[0].x += 2;
+  Pipeline pipeline;
+  const PipelineResult first = pipeline.run(a, {}, Tier::Preview);
+  const PipelineResult edited = pipeline.run(b, {}, Tier::Preview);
+  EXPECT_NE(edited.mapping.get(), first.mapping.get());
+  const PipelineResult undone = pipeline.run(a, {}, Tier::Preview);
+  EXPECT_EQ(undone.mapping.get(), first.mapping.get());  // the very same objects, not a recomputation
+  EXPECT_EQ(undone.colors.get(), first.colors.get());
+  for (const StageRecord& s : undone.stages) EXPECT_TRUE(s.cached) << stageName(s.stage);
+  // A final result serves a later preview request of its state; a preview does not serve a final one.
+  const PipelineResult final = pipeline.run(b, {}, Tier::Final);
+  EXPECT_TRUE(final.model);
+  EXPECT_EQ(pipeline.run(b, {}, Tier::Preview).model.get(), final.model.get());
+  EXPECT_EQ(pipeline.findResult(a, Tier::Final), nullptr);
+}
+
+// Every inpainting mode: the preview inpaints on a coarser refinement, which must not change the look.
+TEST(PipelineTiers, PreviewLooksLikeTheFinalBake) {
+  for (InpaintMode mode : {InpaintMode::Harmonic, InpaintMode::Rbf, InpaintMode::Synthesis, InpaintMode::Structure}) {
+    SCOPED_TRACE(kInpaintModeNames[size_t(mode)]);
+    Project project = loadProject(demoProject());
+    project.options.inpaintMode = mode;
+    Pipeline pipeline;
+    const PipelineResult preview = pipeline.run(project, {}, Tier::Preview);
+    const PipelineResult final = pipeline.run(project, {}, Tier::Final);
+    ASSERT_FALSE(preview.model);
+    ASSERT_TRUE(final.model);
+    EXPECT_EQ(preview.mapping.get(), final.mapping.get());  // both tiers come from one mapping
+    std::vector<const Photo*> photos;
+    for (const auto& p : preview.scene->photos) photos.push_back(p.get());
+    const PreviewSurface surface(preview.mapping->map, photos, &preview.colors->levelling, &preview.colors->inpaint);
+    const Mesh& mesh = preview.mapping->partition.mesh;
+    int holesSeen = 0;
+    for (double yaw : {30.0, 150.0, 270.0}) {
+      RenderOptions options;
+      options.size = 512;
+      options.yawDeg = yaw;
+      const cv::Mat a = renderSurface(
+          mesh, [&](int f, const Vec3& b) { return surface.color(f, b); }, options);
+      const cv::Mat b = renderModel(*final.model, options);
+      // Pixels away from silhouettes: the surface on all 8 neighbours too (the background is exact grey).
+      cv::Mat onSurface;
+      cv::inRange(b, cv::Scalar(235, 235, 235, 255), cv::Scalar(235, 235, 235, 255), onSurface);
+      cv::bitwise_not(onSurface, onSurface);
+      cv::erode(onSurface, onSurface, cv::Mat::ones(3, 3, CV_8U));
+      double sum = 0;
+      long n = 0;
+      for (int y = 0; y < a.rows; ++y)
+        for (int x = 0; x < a.cols; ++x) {
+          if (!onSurface.at<uchar>(y, x)) continue;
+          for (int k = 0; k < 3; ++k) {
+            const double d = (a.at<cv::Vec4b>(y, x)[k] - b.at<cv::Vec4b>(y, x)[k]) / 255.0;
+            sum += d * d;
+          }
+          ++n;
+        }
+      ASSERT_GT(n, 1000);
+      const double psnr = 10 * std::log10(3.0 * n / std::max(sum, 1e-12));
+      std::printf("%s, yaw %.0f: preview vs final PSNR %.2f dB over %ld pixels\n", kInpaintModeNames[size_t(mode)], yaw,
+                  psnr, n);
+      EXPECT_GE(psnr, 35.0) << "yaw " << yaw;
+      if (const char* dir = std::getenv("TM_TEST_IMAGES")) {  // to look at: preview | final
+        cv::Mat side;
+        cv::hconcat(a, b, side);
+        cv::cvtColor(side, side, cv::COLOR_RGBA2BGRA);
+        cv::imwrite(std::string(dir) + "/preview_final_" + kInpaintModeNames[size_t(mode)] + "_" +
+                        std::to_string(int(yaw)) + ".png",
+                    side);
+      }
+    }
+    for (int r : preview.colors->inpaint.faceRegion) holesSeen += r >= 0;
+    EXPECT_GT(holesSeen, 0);  // the demo has inpainted faces: the comparison covers them
+  }
+}
+
+TEST(PipelineValidation, InfoAndRunRejectTheSameClone) {
+  // `info` said "project is valid" for a clone that `run` then rejected.
+  Project project = loadProject(demoProject());
+  const auto loaded = loadScene(project);
+  const Scene& scene = *loaded;
+  CloneOp clone;
+  clone.photo = 0;
+  clone.polygon = {Vec2(10, 10), Vec2(60, 10), Vec2(30, 50)};
+  clone.targetFaces = {0, 1, 2};
+  clone.anchorVertex = scene.mesh->faceVertices(0)[0];
+  clone.anchor = Vec2(700, 700);  // the photo maps far from the polygon
+  clone.pixelsPerUnit = 1;
+  project.clones = {clone};
+  const std::string atLoad = test::errorOf([&] { loadScene(project); });
+  EXPECT_NE(atLoad.find("clones[0]: the polygon maps onto no point of the target region inside the photo"),
+            std::string::npos)
+      << atLoad;
+  project.clones[0].anchorVertex = scene.mesh->faceVertices(500)[0];  // not a corner of the target
+  const std::string anchor = test::errorOf([&] { loadScene(project); });
+  EXPECT_NE(anchor.find("clones[0].anchorVertex"), std::string::npos) << anchor;
+  Pipeline pipeline;
+  EXPECT_EQ(test::errorOf([&] { pipeline.run(project); }), anchor);  // run stops at the same check
+}
+
+TEST(PipelineValidation, WarningsNameThePointsAndChains) {
+  Project project = loadProject(demoProject());
+  const auto scene = loadScene(project);
+  // The demo's own clicks: a few outline points lie a few pixels off the tiger's cut-out (warned, by name).
+  const size_t before = scene->warnings.size();
+  for (const std::string& w : scene->warnings)
+    EXPECT_NE(w.find("lies on the background of photo"), std::string::npos) << w;
+  const Photo& photo = *scene->photos[0];
+  // The centre of photo 0's foreground, and a square of four new points around it.
+  cv::Mat points;
+  cv::findNonZero(photo.alpha > 0, points);
+  const cv::Rect box = cv::boundingRect(points);
+  const Vec2 c(box.x + box.width / 2.0, box.y + box.height / 2.0);
+  const Vec2 corner[4] = {c + Vec2(-8, -8), c + Vec2(8, -8), c + Vec2(8, 8), c + Vec2(-8, 8)};
+  const int first = static_cast<int>(project.points.size());
+  int v = 0;
+  for (const Vec2& q : corner) {
+    v = unusedVertex(project, v + 1);
+    project.points.push_back({v, {{0, q.x(), q.y()}}});
+  }
+  v = unusedVertex(project, v + 1);
+  project.points.push_back({v, {{0, 1.5, 1.5}}});  // the photo's corner: background
+  // Two crossing lines (the square's diagonals) and a bow tie (0, 1, 3, 2 crosses itself).
+  project.chains = {{0, {first, first + 2}, false},
+                    {0, {first + 1, first + 3}, false},
+                    {0, {first, first + 1, first + 3, first + 2}, true}};
+  const auto warned = loadScene(project);
+  std::string all;
+  for (const std::string& w : warned->warnings) all += w + "\n";
+  EXPECT_NE(all.find("points[" + std::to_string(first + 4) +
+                     "].at[0]: (1.5, 1.5) lies on the background of photo 0 "
+                     "'tiger_left.png'"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("chains[0] and chains[1] cross in photo 0 'tiger_left.png'"), std::string::npos) << all;
+  EXPECT_NE(all.find("chains[2] crosses itself in photo 0 'tiger_left.png'"), std::string::npos) << all;
+  // The diagonals also cross the bow tie's crossing segments (chains[0]-[2] and [1]-[2] once each), but
+  // not where the chains share a point (each diagonal meets the bow tie at two of its corners).
+  EXPECT_EQ(warned->warnings.size(), before + 5) << all;
+  // run reports the same warnings.
+  Pipeline pipeline;
+  const PipelineResult result = pipeline.run(project);
+  int found = 0;
+  for (const std::string& w : result.warnings) found += w.rfind("project: ", 0) == 0;
+  EXPECT_EQ(found, static_cast<int>(warned->warnings.size()));
+}
+
+TEST(PipelineValidation, WorkingResolutionRunsWithSmallerPhotos) {
+  Project project = loadProject(demoProject());
+  const auto full = loadScene(project);
+  project.options.maxPhotoSide = 256;
+  Pipeline pipeline;
+  const PipelineResult result = pipeline.run(project);
+  size_t fullBytes = 0, smallBytes = 0;
+  for (size_t i = 0; i < full->photos.size(); ++i) {
+    const Photo& small = *result.scene->photos[i];
+    EXPECT_EQ(small.width, full->photos[i]->width);  // coordinates unchanged
+    EXPECT_EQ(std::max(small.rgb.cols, small.rgb.rows), 256);
+    fullBytes += full->photos[i]->bytes();
+    smallBytes += small.bytes();
+  }
+  EXPECT_LT(smallBytes * 2, fullBytes);  // the demo's photos are 453 px wide
+  ASSERT_TRUE(result.model);
+  EXPECT_TRUE(result.model->textured());
+  EXPECT_GT(result.mapping->map.numMapped(), result.mapping->map.numFaces() / 4);
+  // The option is validated with its field.
+  std::vector<std::pair<int, int>> photoSizes;
+  for (const auto& photo : full->photos) photoSizes.emplace_back(photo->width, photo->height);
+  project.options.maxPhotoSide = 100;
+  project.file = "p.json";
+  EXPECT_NE(test::errorOf([&] {
+              validateProject(project, 100000, 100000, photoSizes);
+            }).find("options.maxPhotoSide: 100 is too small"),
+            std::string::npos);
+}
+
+TEST(MontageCli, OutIsCheckedBeforeThePipelineAndLocked) {
+  const std::string dir = test::tempDir("cli_out");
+  std::string log;
+  EXPECT_NE(test::runCommand(test::montageExe() + " run " + demoProject() + " --out '' 2>&1", &log), 0);
+  EXPECT_NE(log.find("output folder: the path is empty"), std::string::npos) << log;
+  EXPECT_EQ(log.find("[load]"), std::string::npos) << "the pipeline started: " << log;
+  std::ofstream(dir + "/file") << "x";
+  EXPECT_NE(test::runCommand(test::montageExe() + " run " + demoProject() + " --out " + dir + "/file 2>&1", &log), 0);
+  EXPECT_NE(log.find(dir + "/file: output folder: is a file, not a folder"), std::string::npos) << log;
+  // Two runs on one folder: the second is refused while the first holds the lock.
+  const std::string out = dir + "/result";
+  ASSERT_EQ(test::runCommand("(" + test::montageExe() + " run " + demoProject() + " --out " + out +
+                                 " >/dev/null 2>&1 &) ; sleep 1; " + test::montageExe() + " run " + demoProject() +
+                                 " --out " + out + " 2>&1; status=$?; sleep 12; exit $status",
+                             &log) != 0,
+            true);
+  EXPECT_NE(log.find("another montage run or editor export is writing this output folder"), std::string::npos) << log;
+}
+
+TEST(MontageCli, RenderAndEvalRefuseWhatTheyCannotDo) {
+  const std::string dir = test::tempDir("cli_refuse");
+  const std::string mesh = test::testDataDir() + "/turtle.obj";
+  std::string log;
+  EXPECT_NE(test::runCommand(test::montageExe() + " render " + mesh + " --yaw nan --out " + dir + "/r.png 2>&1", &log),
+            0);
+  EXPECT_NE(log.find("--yaw and --pitch must be finite"), std::string::npos) << log;
+  // A result with texture coordinates but no texture once gave "100% photo" and 11 dB.
+  std::ofstream(dir + "/nomtl.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+  EXPECT_NE(test::runCommand(test::montageExe() + " eval --result " + dir + "/nomtl.obj --truth " + mesh +
+                                 " --truth-texture " + test::assetsDir() + "/demo/tiger_left.png 2>&1",
+                             &log),
+            0);
+  EXPECT_NE(log.find("nomtl.obj: the result has no texture"), std::string::npos) << log;
 }

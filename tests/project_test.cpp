@@ -65,7 +65,8 @@ class ProjectTest : public ::testing::Test {
   Project sample() const {
     Project p;
     p.mesh = path("mesh.obj");
-    p.photos = {{path("photos/a.png"), path("photos/a_mask.png"), false, true}, {path("photos/b.png"), "", true, false}};
+    p.photos = {{path("photos/a.png"), path("photos/a_mask.png"), false, true},
+                {path("photos/b.png"), "", true, false}};
     p.points = {{12, {{0, 10.25, 20.5}, {1, 1.0 / 3, 2.0 / 7}}},
                 {5, {{0, 0.1, 79.99999999999999}}},
                 {7, {{0, 100, 0}, {1, 49.5, 39.5}}}};
@@ -88,6 +89,11 @@ class ProjectTest : public ::testing::Test {
     p.options.atlasSize = 2048;
     p.options.gutter = 8;
     p.options.seed = 4000000000u;
+    p.options.cameraMode = CameraMode::Off;
+    p.options.cameraThreshold = 0.01;
+    p.options.correction = CorrectionMode::Inliers;
+    p.options.viewSmoothness = 2.5;
+    p.declinedProposals = {{12, 1}, {7, 0}};
     return p;
   }
 
@@ -154,13 +160,41 @@ TEST_F(ProjectTest, SaveLoadRoundTrip) {
   EXPECT_TRUE(loaded.photos[1].mirror);
   EXPECT_TRUE(loaded.photos[0].colorLocked);
   EXPECT_EQ(loaded.options.colorBalance, BalanceMode::GainOffset);
+  other = loaded;
+  other.declinedProposals.pop_back();
+  EXPECT_FALSE(other.sameDocument(loaded));
+  other = loaded;
+  other.options.correction = CorrectionMode::All;
+  EXPECT_FALSE(other.sameDocument(loaded));
+}
+
+TEST_F(ProjectTest, Version1FilesStillLoadAndDeclinedProposalsAreChecked) {
+  json j = sampleJson();
+  EXPECT_EQ(j["declinedProposals"], json::parse(R"([{"vertex": 12, "photo": 1}, {"vertex": 7, "photo": 0}])"));
+  EXPECT_EQ(j["options"]["cameraMode"], "off");
+  EXPECT_EQ(j["options"]["correction"], "inliers");
+  // A version 1 file has no declined proposals (the field did not exist; it is not read).
+  j["version"] = 1;
+  writeText(path("p.json"), j.dump(2));
+  EXPECT_TRUE(loadProject(path("p.json")).declinedProposals.empty());
+  j["version"] = 2;
+  j["declinedProposals"][1]["photo"] = 5;
+  EXPECT_MESSAGE_HAS(loadError(j), "declinedProposals[1].photo: 5 is out of range: the project has 2 photos");
+  j["declinedProposals"][1]["photo"] = "a";
+  EXPECT_MESSAGE_HAS(loadError(j), "declinedProposals[1].photo: must be an integer");
+  j["declinedProposals"][1]["photo"] = 0;
+  j["options"]["correction"] = "some";
+  EXPECT_MESSAGE_HAS(loadError(j), "options.correction: 'some' is not a correction mode");
+  Project p = sample();
+  p.declinedProposals[0].vertex = 20;
+  EXPECT_MESSAGE_HAS(validateError(p), "declinedProposals[0].vertex: 20 is out of range: the mesh has 20 vertices");
 }
 
 TEST_F(ProjectTest, FileIsPrettyVersionedJson) {
   Project p = sample();
   saveProject(p, path("p.json"));
   const std::string text = readFile(path("p.json"));
-  EXPECT_NE(text.find("\n  \"version\": 2,"), std::string::npos) << text;  // two-space indent
+  EXPECT_NE(text.find("\n  \"version\": 3,"), std::string::npos) << text;  // two-space indent
   const json j = json::parse(text);
   EXPECT_EQ(j["format"], "texturemontage-project");
   EXPECT_EQ(j["version"], Project::kVersion);
@@ -323,10 +357,10 @@ TEST_F(ProjectTest, SaveIntoReadOnlyFolderKeepsTheEarlierFile) {
 
 TEST_F(ProjectTest, RejectsUnknownVersion) {
   json j = sampleJson();
-  j["version"] = 3;
+  j["version"] = 4;
   const std::string message = loadError(j);
-  EXPECT_MESSAGE_HAS(message, "version: 3 is not supported");
-  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 2");
+  EXPECT_MESSAGE_HAS(message, "version: 4 is not supported");
+  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 3");
   EXPECT_MESSAGE_HAS(message, "written by a newer TextureMontage");
   j["version"] = 0;
   EXPECT_MESSAGE_HAS(loadError(j), "version: 0 is not supported");
@@ -367,7 +401,7 @@ TEST_F(ProjectTest, RejectsMissingFiles) {
 
   j = sampleJson();
   j["mesh"] = "photos";
-  EXPECT_MESSAGE_HAS(loadError(j), "mesh: file 'photos' is not a regular file");
+  EXPECT_MESSAGE_HAS(loadError(j), "mesh: file 'photos' is a folder, not a file");
   j["mesh"] = "";
   EXPECT_MESSAGE_HAS(loadError(j), "mesh: must not be empty");
   j.erase("mesh");
@@ -384,6 +418,54 @@ TEST_F(ProjectTest, BadJsonNamesLineAndColumn) {
   writeText(path("p.json"), "{\"format\": \"texturemontage-project\",\n\"version\": 1\n");  // unterminated
   message = errorOf([&] { loadProject(path("p.json")); });
   EXPECT_MESSAGE_HAS(message, "line 3, column 1: invalid JSON");
+}
+
+// ---- Hostile files (issue 15) ----
+
+TEST_F(ProjectTest, NumberOverflowIsNamedWithLineAndColumn) {
+  // Was "[json.exception.out_of_range.406] number overflow parsing '1e400'" with no file, line or field.
+  writeText(path("p.json"), "{\n  \"format\": \"texturemontage-project\",\n  \"version\": 1e400\n}\n");
+  const std::string message = errorOf([&] { loadProject(path("p.json")); });
+  EXPECT_MESSAGE_HAS(message, path("p.json") + ": line 3, column 18: invalid JSON: number overflow parsing '1e400'");
+  EXPECT_EQ(message.find("json.exception"), std::string::npos) << message;
+}
+
+TEST_F(ProjectTest, DeepNestingIsRefused) {
+  writeText(path("p.json"), std::string(200000, '[') + std::string(200000, ']'));
+  EXPECT_MESSAGE_HAS(errorOf([&] { loadProject(path("p.json")); }), "invalid JSON: values nested more than 64 deep");
+}
+
+TEST_F(ProjectTest, OversizedFileIsRefusedWithItsSize) {
+  // A 200 MB project once took 4.5 GB to read. The size is checked before anything is read (this file is
+  // sparse: it costs no disk).
+  writeText(path("p.json"), projectToJson(sample(), path("p.json")));
+  fs::resize_file(path("p.json"), 200000000);
+  const std::string message = errorOf([&] { loadProject(path("p.json")); });
+  EXPECT_MESSAGE_HAS(message, path("p.json") + ": project file is 200 MB; at most 67.1 MB are read");
+}
+
+TEST_F(ProjectTest, LongStringsAndControlCharactersInMessages) {
+  json j = sampleJson();
+  j["version"] = std::string(100000, 'v') + "\x1b[2J";
+  std::string message = loadError(j);
+  EXPECT_LT(message.size(), 400u) << message;
+  j = sampleJson();
+  j["format"] = "evil\x1b]0;title\x07";
+  message = loadError(j);
+  EXPECT_EQ(message.find('\x1b'), std::string::npos) << message;
+  EXPECT_EQ(message.find('\x07'), std::string::npos) << message;
+  EXPECT_MESSAGE_HAS(message, "'evil\\x1b]0;title\\x07' is not a TextureMontage project");
+}
+
+TEST_F(ProjectTest, SymlinkLoopIsNamed) {
+  fs::create_symlink("loop_b.obj", path("loop_a.obj"));
+  fs::create_symlink("loop_a.obj", path("loop_b.obj"));
+  json j = sampleJson();
+  j["mesh"] = "loop_a.obj";
+  EXPECT_MESSAGE_HAS(loadError(j), "mesh: file 'loop_a.obj' cannot be opened: symbolic link loop");
+  fs::create_symlink("p_loop2.json", path("p_loop1.json"));
+  fs::create_symlink("p_loop1.json", path("p_loop2.json"));
+  EXPECT_MESSAGE_HAS(errorOf([&] { loadProject(path("p_loop1.json")); }), "symbolic link loop");
 }
 
 TEST_F(ProjectTest, RejectsWrongTypes) {
@@ -416,9 +498,9 @@ TEST_F(ProjectTest, RejectsWrongTypes) {
   EXPECT_MESSAGE_HAS(loadError(j), "strokes[1].vertices[0]: 5000000000 is out of range");
   j = sampleJson();
   j["options"]["inpaintMode"] = "magic";
-  EXPECT_MESSAGE_HAS(
-      loadError(j),
-      "options.inpaintMode: 'magic' is not an inpainting mode (one of 'harmonic', 'rbf', 'strokes', 'off')");
+  EXPECT_MESSAGE_HAS(loadError(j),
+                     "options.inpaintMode: 'magic' is not an inpainting mode (one of 'harmonic', 'rbf', 'strokes', "
+                     "'off', 'synthesis', 'structure')");
   j = sampleJson();
   j["options"]["seed"] = -1;
   EXPECT_MESSAGE_HAS(loadError(j), "options.seed: -1 is out of range 0..4294967295");
@@ -426,8 +508,8 @@ TEST_F(ProjectTest, RejectsWrongTypes) {
 
 TEST_F(ProjectTest, RejectsOptionsOutOfRange) {
   json j = sampleJson();
-  j["options"]["atlasSize"] = 512;
-  EXPECT_MESSAGE_HAS(loadError(j), "options.atlasSize: 512 is out of range 1024..8192");
+  j["options"]["atlasSize"] = 100;
+  EXPECT_MESSAGE_HAS(loadError(j), "options.atlasSize: 100 is neither 0 (automatic) nor in 256..8192");
   j = sampleJson();
   j["options"]["gutter"] = 65;
   EXPECT_MESSAGE_HAS(loadError(j), "options.gutter: 65 is out of range 0..64");
@@ -549,7 +631,7 @@ TEST_F(ProjectTest, ValidateRechecksEditsInMemory) {
                      "chains[1].points[2]: point 1 (vertex 5) has no position in the chain's photo 1");
   p = sample();
   p.options.atlasSize = 9000;
-  EXPECT_MESSAGE_HAS(validateError(p), "options.atlasSize: 9000 is out of range 1024..8192");
+  EXPECT_MESSAGE_HAS(validateError(p), "options.atlasSize: 9000 is out of range 0..8192");
   p = sample();
   EXPECT_MESSAGE_HAS(errorOf([&] { validateProject(p, 20, 10, {{100, 80}}); }), "1 photo sizes given for 2 photos");
 }
@@ -577,24 +659,28 @@ TEST_F(ProjectTest, DocumentedExampleIsWhatSaveWrites) {
   EXPECT_EQ(readFile(path("example.json")), example);
 }
 
-// ---- Version 2: mirrored and colour-locked photos, colour balance ----
+// ---- Version 3: mirrored and colour-locked photos, colour balance ----
 
 TEST_F(ProjectTest, WritesTheLowestVersionThatHoldsTheDocument) {
   Project p = sample();
   for (PhotoRef& ref : p.photos) ref.mirror = ref.colorLocked = false;
   p.options.colorBalance = BalanceMode::Off;
-  EXPECT_EQ(requiredVersion(p), 1);  // an older build reads it and behaves the same
-  EXPECT_EQ(json::parse(projectToJson(p, ""))["version"], 1);
-  Project mirrored = p;
+  EXPECT_EQ(requiredVersion(p), 2);  // declined proposals: version 2
+  EXPECT_EQ(json::parse(projectToJson(p, ""))["version"], 2);
+  Project plain = p;
+  plain.declinedProposals.clear();
+  EXPECT_EQ(requiredVersion(plain), 1);  // an older build reads it and behaves the same
+  EXPECT_EQ(json::parse(projectToJson(plain, ""))["version"], 1);
+  Project mirrored = plain;
   mirrored.photos[1].mirror = true;
-  EXPECT_EQ(requiredVersion(mirrored), 2);  // an older build would ignore the mirror: it must refuse the file
+  EXPECT_EQ(requiredVersion(mirrored), 3);  // an older build would ignore the mirror: it must refuse the file
   Project locked = p;
   locked.photos[0].colorLocked = true;
-  EXPECT_EQ(requiredVersion(locked), 2);
-  Project balanced = p;
+  EXPECT_EQ(requiredVersion(locked), 3);
+  Project balanced = plain;
   balanced.options.colorBalance = BalanceMode::Gain;
-  EXPECT_EQ(requiredVersion(balanced), 2);
-  for (const Project* q : {&p, &mirrored, &locked, &balanced}) {
+  EXPECT_EQ(requiredVersion(balanced), 3);
+  for (const Project* q : {&p, &plain, &mirrored, &locked, &balanced}) {
     Project copy = *q;
     saveProject(copy, path("v.json"));
     EXPECT_TRUE(loadProject(path("v.json")).sameDocument(*q));
@@ -608,6 +694,9 @@ TEST_F(ProjectTest, AbsentColourBalanceDependsOnTheVersion) {
   writeText(path("p.json"), j.dump());
   EXPECT_EQ(loadProject(path("p.json")).options.colorBalance, BalanceMode::Off);  // as version 1 behaved
   j["version"] = 2;
+  writeText(path("p.json"), j.dump());
+  EXPECT_EQ(loadProject(path("p.json")).options.colorBalance, BalanceMode::Off);  // and version 2
+  j["version"] = 3;
   writeText(path("p.json"), j.dump());
   EXPECT_EQ(loadProject(path("p.json")).options.colorBalance, PipelineOptions().colorBalance);
   j["options"]["colorBalance"] = "gain";
@@ -657,7 +746,7 @@ TEST_F(ProjectTest, MissingFilesAreListedWhenAllowed) {
 TEST_F(ProjectTest, WithoutPhotoReferencesKeepsIndices) {
   const Project p = sample();
   const Project q = withoutPhotoReferences(p, {1});
-  EXPECT_EQ(q.photos, p.photos);  // entries stay
+  EXPECT_EQ(q.photos, p.photos);                // entries stay
   ASSERT_EQ(q.points.size(), p.points.size());  // point indices stay
   EXPECT_EQ(q.points[0].at, (std::vector<PhotoPoint>{{0, 10.25, 20.5}}));
   EXPECT_EQ(q.points[2].at, (std::vector<PhotoPoint>{{0, 100, 0}}));

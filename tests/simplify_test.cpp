@@ -656,7 +656,7 @@ TEST(ProgressiveMesh, LargeMeshWithProgress) {
   double lastFraction = -1;
   bool monotone = true;
   JobControl job(nullptr, [&](StageId stage, double fraction, const std::string& what) {
-    EXPECT_EQ(stage, StageId::Simplify);
+    EXPECT_EQ(stage, StageId::Map);
     EXPECT_EQ(what, "simplify");
     monotone &= fraction >= lastFraction;
     lastFraction = fraction;

@@ -14,6 +14,8 @@ namespace montage::test {
 
 std::string assetsDir() { return TM_ASSETS_DIR; }
 
+std::string testDataDir() { return TM_TEST_DATA_DIR; }
+
 std::string sharedDataDir() {
   std::error_code ec;
   if (const char* env = std::getenv("TM_SHARED_DATA_DIR"); env && fs::is_directory(env, ec)) return env;

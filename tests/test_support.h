@@ -11,6 +11,8 @@ namespace montage::test {
 
 // assets/ of the project (always present).
 std::string assetsDir();
+// tests/data: meshes made for the tests (turtle.obj: scripts/demo_mesh.py).
+std::string testDataDir();
 // ../shared/data, or "" when absent.
 std::string sharedDataDir();
 // Path of a file under ../shared/data; calls GTEST_SKIP-compatible logic: returns "" and prints

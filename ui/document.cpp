@@ -237,6 +237,16 @@ int Document::addChain(const FeatureChain& chain) {
   return index;
 }
 
+void Document::declineProposal(int vertex, int photo) {
+  TM_CHECK(vertex >= 0, "decline proposal: vertex " + std::to_string(vertex) + " is not a vertex id");
+  checkIndex("decline proposal", "photo", photo, current_->photos.size());
+  const DeclinedProposal d{vertex, photo};
+  const auto& list = current_->declinedProposals;
+  if (std::find(list.begin(), list.end(), d) != list.end()) return;
+  apply("Decline proposal (vertex " + std::to_string(vertex) + ", photo " + std::to_string(photo) + ")",
+        [&](Project& p) { p.declinedProposals.push_back(d); });
+}
+
 void Document::removeChain(int chain) {
   checkIndex("remove chain", "chain", chain, current_->chains.size());
   apply("Remove chain " + std::to_string(chain), [&](Project& p) { p.chains.erase(p.chains.begin() + chain); });
@@ -305,6 +315,13 @@ void Document::removePhoto(int photo) {
         clones.push_back(std::move(c));
       }
     p.clones = std::move(clones);
+    std::vector<DeclinedProposal> declined;
+    for (DeclinedProposal d : p.declinedProposals)
+      if (d.photo != photo) {
+        if (d.photo > photo) --d.photo;
+        declined.push_back(d);
+      }
+    p.declinedProposals = std::move(declined);
     for (int i = static_cast<int>(p.points.size()) - 1; i >= 0; --i) {
       auto& at = p.points[i].at;
       at.erase(std::remove_if(at.begin(), at.end(), [&](const PhotoPoint& a) { return a.photo == photo; }), at.end());

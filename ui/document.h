@@ -72,6 +72,9 @@ class Document {
   // Removes the position of `point` in `photo`, and the point from the chains drawn in that photo.
   // A point left with no position is removed; a chain left too short (< 2 points, < 3 closed) too.
   void removePosition(int point, int photo);
+  // Records that the correspondence the cameras proposed for `vertex` in `photo` is declined
+  // (Project::declinedProposals); a proposal is accepted with setPosition.
+  void declineProposal(int vertex, int photo);
   // Removes a feature point with all its positions, and from every chain.
   void removePoint(int point);
   // Adds a feature line (closed = false, >= 2 points) or polygon (closed = true, >= 3 points);

@@ -20,6 +20,7 @@
 #include "image/photo.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
+#include "overlay_gl.h"
 #include "overlays.h"
 
 namespace fs = std::filesystem;
@@ -56,7 +57,7 @@ Editor::Editor(EditorOptions options) : options_(std::move(options)) {
     benchOrbit_ = true;
     options_.file = options_.benchOrbit;
   }
-  if (options_.benchWorker) benchOrbit_ = true;
+  if (options_.benchWorker || options_.benchOverlays) benchOrbit_ = true;
   if (scripted_ || benchOrbit_) dialogs_.disableZenity();  // never block a script on a desktop dialog
   if (!options_.file.empty()) openFile(options_.file);
   if (!benchOrbit_) checkRecovery();
@@ -82,8 +83,8 @@ void Editor::initWindow() {
     throw Error("cannot open a window: no OpenGL 3.3 core context (a display with OpenGL 3.3 is needed)");
   }
   glfwMakeContextCurrent(window_);
-  const bool interactive =
-      options_.script.empty() && options_.screenshot.empty() && options_.benchOrbit.empty() && !options_.benchWorker;
+  const bool interactive = options_.script.empty() && options_.screenshot.empty() && options_.benchOrbit.empty() &&
+                           !options_.benchWorker && !options_.benchOverlays;
   glfwSwapInterval(interactive && options_.vsync ? 1 : 0);
 
   IMGUI_CHECKVERSION();
@@ -119,6 +120,7 @@ void Editor::initWindow() {
   pointVbo_ = std::make_unique<VertexBuffer>();
   selectionVbo_ = std::make_unique<VertexBuffer>();
   cloneVbo_ = std::make_unique<VertexBuffer>();
+  initOverlays();
 }
 
 void Editor::shutdownWindow() {
@@ -139,6 +141,7 @@ void Editor::shutdownWindow() {
   pointVbo_.reset();
   selectionVbo_.reset();
   cloneVbo_.reset();
+  overlayGl_.reset();
   if (imguiReady_) {
     ImGui_ImplOpenGL3_Shutdown();
     ImGui_ImplGlfw_Shutdown();
@@ -168,7 +171,7 @@ void Editor::frame() {
     glfwPollEvents();
   } else {
     // Redraw on input; otherwise a few times a second (worker progress, autosave clock).
-    glfwWaitEventsTimeout(busy || dialogs_.active() ? 0.05 : 0.25);
+    glfwWaitEventsTimeout(busy || dialogs_.active() ? 0.05 : autosaveJob_.valid() ? 0.25 : 1.0);
   }
   if (glfwWindowShouldClose(window_)) {
     glfwSetWindowShouldClose(window_, GLFW_FALSE);
@@ -251,6 +254,7 @@ void Editor::syncInputs() {
           input_.faceCentroids[f] = (q[0] + q[1] + q[2]) / 3.0;
         }
         camera_.frame(input_.lo, input_.hi);
+        frameWhenShown_ = true;  // again with the view's width and height, once it is laid out
       } catch (const Error& e) {
         input_.error = e.what();
         reportError(e.what());
@@ -260,7 +264,8 @@ void Editor::syncInputs() {
   photos_.resize(p.photos.size());
   for (size_t i = 0; i < p.photos.size(); ++i) {
     PhotoSlot& slot = photos_[i];
-    const std::string key = p.photos[i].path + "|" + p.photos[i].mask + (p.photos[i].mirror ? "|mirror" : "");
+    const std::string key = p.photos[i].path + "|" + p.photos[i].mask + "|" + std::to_string(p.options.maxPhotoSide) +
+                            (p.photos[i].mirror ? "|mirror" : "");
     if (slot.key == key) continue;
     slot.key = key;
     slot.photo.reset();
@@ -269,17 +274,16 @@ void Editor::syncInputs() {
     slot.tabView.fitted = slot.gridView.fitted = false;
     try {
       // The core's loader, so the foreground (alpha or mask) follows the pipeline's rule exactly.
-      auto photo = std::make_shared<Photo>(loadPhoto(p.photos[i].path, p.photos[i].mask, p.photos[i].mirror));
-      cv::Mat rgb8, rgba;
-      photo->rgb.convertTo(rgb8, CV_8UC3, 255.0);
-      cv::cvtColor(rgb8, rgba, cv::COLOR_RGB2RGBA);
+      PhotoLoadOptions options;
+      options.maxSide = p.options.maxPhotoSide;
+      options.mirror = p.photos[i].mirror;
+      auto photo = std::make_shared<Photo>(loadPhoto(p.photos[i].path, p.photos[i].mask, options));
+      const cv::Mat rgba = toRgba8(photo->rgb, false, photo->path);  // any depth, stored resolution
       if (!slot.texture) slot.texture = std::make_unique<Texture>();
       slot.texture->upload(rgba);
       // Background overlay: a blue tint where the photo is background, clear on the foreground.
-      cv::Mat mask(photo->height, photo->width, CV_8UC4, cv::Scalar(0, 0, 0, 0));
-      for (int y = 0; y < photo->height; ++y)
-        for (int x = 0; x < photo->width; ++x)
-          if (photo->alpha.at<float>(y, x) <= 0) mask.at<cv::Vec4b>(y, x) = cv::Vec4b(40, 70, 220, 80);
+      cv::Mat mask(photo->rgb.size(), CV_8UC4, cv::Scalar(0, 0, 0, 0));
+      if (photo->hasBackground) mask.setTo(cv::Scalar(40, 70, 220, 80), photo->alpha <= 0);
       if (!slot.mask) slot.mask = std::make_unique<Texture>();
       slot.mask->upload(mask);
       slot.photo = photo;

@@ -26,6 +26,7 @@
 #include "geometry/bvh.h"
 #include "image/cutout.h"
 #include "io/mesh_io.h"
+#include "navigation.h"
 #include "script.h"
 #include "view_math.h"
 #include "worker.h"
@@ -33,6 +34,7 @@
 struct GLFWwindow;
 struct ImGuiIO;
 struct ImVec2;
+struct ImDrawList;
 
 namespace montage {
 
@@ -40,6 +42,7 @@ class ShaderProgram;
 class Texture;
 class Framebuffer;
 class VertexBuffer;
+struct OverlayGl;
 
 struct EditorOptions {
   std::string file;              // project (.json) or mesh to open; empty: start empty
@@ -49,8 +52,9 @@ struct EditorOptions {
   std::string script;            // script of UI actions (docs/editor.md)
   double autosaveSeconds = 120;  // autosave interval
   int width = 1280, height = 800;
-  std::string benchOrbit;    // mesh: orbit benchmark
-  bool benchWorker = false;  // with `file`: UI frame times while the worker runs
+  std::string benchOrbit;      // mesh: orbit benchmark
+  bool benchWorker = false;    // with `file`: UI frame times while the worker runs
+  bool benchOverlays = false;  // with `file`: frame times with every overlay shown against none, one run
   int benchFrames = 240;
   bool vsync = true;
 };
@@ -91,8 +95,8 @@ class Editor {
     std::shared_ptr<const Photo> photo;  // null when it failed to load
     std::string error;
     std::unique_ptr<Texture> texture, mask;
-    std::unique_ptr<Texture> balanced;     // the colour-balanced photo of the last result (before/after)
-    const Photo* balancedFrom = nullptr;   // which balanced photo `balanced` holds
+    std::unique_ptr<Texture> balanced;    // the colour-balanced photo of the last result (before/after)
+    const Photo* balancedFrom = nullptr;  // which balanced photo `balanced` holds
     PaneView tabView, gridView;
   };
   // The cut-out tool's session on one photo (editor_photos.cpp). GrabCut runs on a helper thread: the
@@ -102,11 +106,11 @@ class Editor {
     std::string key;  // the photo slot's key when the session started: a reload ends the session
     std::unique_ptr<Cutout> cut;
     std::future<std::pair<std::unique_ptr<Cutout>, std::string>> job;  // the Cutout back, and an error text
-    cv::Mat mask;                         // last result, photo pixels as shown (CV_8UC1, 0..255)
-    std::unique_ptr<Texture> overlay;     // `mask` as a tint
+    cv::Mat mask;                      // last result, photo pixels as shown (CV_8UC1, 0..255)
+    std::unique_ptr<Texture> overlay;  // `mask` as a tint
     bool overlayDirty = false;
-    std::vector<CutoutStroke> strokes;    // drawn so far (shown)
-    std::vector<Vec2> path;               // being drawn
+    std::vector<CutoutStroke> strokes;  // drawn so far (shown)
+    std::vector<Vec2> path;             // being drawn
     bool drawing = false;
     Vec2 dragStart = Vec2::Zero();
     std::optional<cv::Rect2d> rect;
@@ -236,6 +240,19 @@ class Editor {
   std::string newMaskPath(int photo) const;
   void uploadBalanced(PhotoSlot& slot, int photo);
 
+  // Camera feedback in the panes (editor_camera.cpp): wireframe and silhouette, residuals, outliers,
+  // the selected vertex's predicted position, proposals; the path of each photo in its caption.
+  struct CameraLines {
+    std::vector<std::pair<Vec2, Vec2>> wire, silhouette;  // photo pixels
+  };
+  const CameraFit* photoFit(int photo) const;  // the last result's fit of a photo, or nullptr
+  void buildCameraLines();
+  void cameraToolbar();
+  void cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, const Vec2& mouse, bool hovered,
+                     std::string& tooltip);
+  bool clickProposal(int photo, bool decline);  // true when the click went to a proposal
+  std::string cameraCaption(int photo) const;
+
   // Scripts, screenshots, benchmarks (editor_script.cpp).
   void applySyntheticInput(ImGuiIO& io);
   void scriptStep();
@@ -248,6 +265,22 @@ class Editor {
   void takeScreenshot(const std::string& path);
   void benchOrbitStep();
   void benchReport();
+  // Navigation (editor_navigation.cpp).
+  void frameAll();
+  void frameSelected();
+  void setViewPreset(ViewPreset preset);
+  void navigationShortcuts();
+  void navigationMenu();
+  // Overlays from vertex buffers (editor_overlays.cpp).
+  void initOverlays();
+  void drawPaneOverlay(int photo, const PaneView& view, int focusPoint);
+  int paneRejectedCount(int photo, bool* allDrawn) const;
+  void readViewDepth(const Mat4f& view, const Mat4f& projection);  // after the mesh: id visibility
+  void drawMarkers(const Mat4f& view, const Mat4f& projection);
+  void drawFeatureLabels(const Rect& r, const Camera& cam);
+  void benchOverlaysStep();  // editor_bench.cpp
+  void benchOverlaysReport();
+  void setOverlaysShown(bool on);  // features, ids, paths, pane markers, curves, rejected pairs
   bool resultCurrent() const;
 
   EditorOptions options_;
@@ -310,11 +343,20 @@ class Editor {
   bool viewPressed_ = false;
   int viewPressButton_ = -1;
   bool viewDragged_ = false;
+  ClickDrag clickDrag_;
+  Vec3 orbitPivot_ = Vec3::Zero();
+  bool frameWhenShown_ = false;
+  bool orbitAtPick_ = true;  // orbit about the surface point under the cursor at the press
+  MouseBindings bindings_ = MouseBindings::MeshLab;
 
   // Display.
   OrbitCamera camera_;
   bool textured_ = true, wireframe_ = false, showPaths_ = true, showFeatures_ = true, showIds_ = true;
   bool showMask_ = true, showCurves_ = true, showRejected_ = true, showPaneIds_ = true;
+  bool showCamera_ = true;                // camera feedback in the panes
+  int hoverProposal_ = -1;                // proposal under the mouse (index into result_->proposals)
+  std::vector<CameraLines> cameraLines_;  // per photo, for the result cameraLinesFor_
+  const void* cameraLinesFor_ = nullptr;
   FaceColoring coloring_ = FaceColoring::None;
   bool meshDirty_ = true, overlayDirty_ = true, linesDirty_ = true;
   const void* uploadedModel_ = nullptr;  // what the mesh buffer holds (model or input mesh)
@@ -324,8 +366,13 @@ class Editor {
   Rect viewRect_, paneRect_, windowRect_;
   std::map<int, Rect> canvasRects_;  // per photo, last frame
   std::map<std::string, Rect> buttonRects_;
-  std::vector<char> featureVisible_;  // per feature point, recomputed when the camera or document changes
-  std::string visibilityKey_;
+  std::vector<char> featureVisible_;  // per feature point, from the 3D view's depth when it was last drawn
+  std::unique_ptr<OverlayGl> overlayGl_;
+  int hoverVertex_ = -1;      // vertex under the cursor (3D view) or of the hovered photo point
+  int hoverVertexNext_ = -1;  // being found this frame
+  double hoverPickX_ = -1, hoverPickY_ = -1;
+  int hoverPick_ = -1;  // 3D pick at (hoverPickX_, hoverPickY_) from hoverPickEye_
+  Vec3 hoverPickEye_ = Vec3::Zero();
 
   // Files.
   FileDialogs dialogs_;
@@ -347,9 +394,9 @@ class Editor {
   // Photos and the cut-out tool.
   CutoutSession cutout_;
   CutoutMode cutoutMode_ = CutoutMode::Rect;
-  float cutoutRadius_ = 8;   // stroke and brush radius, photo pixels
-  float cutoutFeather_ = 0;  // feathered edge of the mask written, photo pixels
-  std::string listsTab_;  // a Document panel tab to select in the next frame (script's tab)
+  float cutoutRadius_ = 8;     // stroke and brush radius, photo pixels
+  float cutoutFeather_ = 0;    // feathered edge of the mask written, photo pixels
+  std::string listsTab_;       // a Document panel tab to select in the next frame (script's tab)
   bool showBalanced_ = false;  // photo panes: the colour-balanced photos of the last result (after) or the files
 
   // Scripts and benchmarks.
@@ -368,6 +415,13 @@ class Editor {
   std::vector<double> benchTimes_, benchBusyTimes_;
   int benchFrame_ = 0;
   bool benchWasBusy_ = false;
+  struct OverlayBench {
+    int frame = 0;
+    bool full = true;
+    double lastCpu = 0;
+    std::vector<double> bareTimes, fullCpu, bareCpu;
+    std::string load;
+  } bench_;
 };
 
 }  // namespace montage

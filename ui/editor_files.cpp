@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "base/fileio.h"
+#include "base/output_folder.h"
 #include "editor.h"
 #include "gl.h"
 #include "gl_util.h"
@@ -170,9 +171,14 @@ bool Editor::exportTo(const std::string& path) {
     const std::string abs = fs::absolute(path).lexically_normal().string();
     const std::string ext = lowerExtension(abs);
     if (ext == ".glb") {
-      exportGlb(*result_->model, abs);
+      exportGlb(result_->exported ? *result_->exported : *result_->model, abs);
     } else if (ext == ".obj") {
-      exportObj(*result_->model, fs::path(abs).parent_path().string(), fs::path(abs).stem().string());
+      // The OBJ, its MTL and textures are written beside the user's other files: staged in a hidden
+      // folder, then renamed in place textures first and the OBJ last, so a kill never leaves an OBJ
+      // naming a missing file (base/output_folder.h).
+      const std::string stem = fs::path(abs).stem().string();
+      publishFiles(fs::path(abs).parent_path().string(), stem + ".obj", {stem + ".mtl", stem + ".obj"},
+                   [&](const std::string& staging) { exportObj(result_->exported ? *result_->exported : *result_->model, staging, stem); });
     } else {
       throw Error(located(abs, "export: choose a file name ending in .glb or .obj"));
     }

@@ -58,9 +58,14 @@ const std::vector<Shortcut>& editorShortcuts() {
       {"F", "3D view: frame the whole mesh"},
       {"1 ... 9", "show photo 1 ... 9 in the image pane"},
       {"F1", "this help"},
-      {"3D view: left drag", "orbit (stroke tool: draw a stroke; clone tool: paint the target, Ctrl erases)"},
+      {"3D view: left drag",
+       "orbit about the point under the cursor (View > Mouse > Blender: middle drag); stroke tool: draw a stroke; "
+       "clone tool: paint the target, Ctrl erases"},
       {"3D view: right or middle drag, Shift+left drag", "pan"},
-      {"3D view: wheel", "zoom"},
+      {"3D view: wheel", "zoom to the cursor"},
+      {"F, Home / .", "frame all (fits width and height) / frame the selected vertex"},
+      {"Ctrl+1, Ctrl+3, Ctrl+7 (numpad 1, 3, 7)", "front, right side, top view"},
+      {"O (numpad 5)", "orthographic view on / off"},
       {"3D view: left click", "pick the nearest vertex of the triangle under the cursor"},
       {"Photo: left click", "point tool: attach the selected vertex here (or select a point)"},
       {"Photo: left drag on a point", "move it (one undo step)"},
@@ -111,6 +116,7 @@ void Editor::buildUi() {
     photosPanel();
   ImGui::End();
   ImGui::PopStyleVar();
+  hoverVertex_ = hoverVertexNext_;
 
   statusBar(Rect{0, H - statusH, W, statusH});
   errorsWindow();
@@ -189,6 +195,7 @@ void Editor::menuBar() {
     ImGui::MenuItem("Partition paths", nullptr, &showPaths_);
     ImGui::MenuItem("Features", nullptr, &showFeatures_);
     ImGui::MenuItem("Feature ids", nullptr, &showIds_);
+    navigationMenu();
     if (ImGui::BeginMenu("Colour faces by")) {
       for (size_t i = 0; i < kFaceColoringNames.size(); ++i)
         if (ImGui::MenuItem(kFaceColoringNames[i], nullptr, coloring_ == FaceColoring(i))) {
@@ -309,14 +316,14 @@ void Editor::toolsPanel() {
   ImGui::SetNextItemWidth(-1);
   if (ImGui::BeginCombo("##coloring", (std::string("faces: ") + kFaceColoringNames[coloring]).c_str())) {
     for (size_t i = 0; i < kFaceColoringNames.size(); ++i) {
-      // Seam error comes from seam optimisation (paper 4.2), which this pipeline does not run yet.
-      const bool available = FaceColoring(i) != FaceColoring::SeamError;
+      // Seam error comes from the seam optimisation stage (paper 4.2) of the last result.
+      const bool available = FaceColoring(i) != FaceColoring::SeamError || (result_ && result_->seams);
       if (ImGui::Selectable(kFaceColoringNames[i], coloring == int(i), available ? 0 : ImGuiSelectableFlags_Disabled)) {
         coloring_ = FaceColoring(i);
         overlayDirty_ = true;
       }
       if (!available && ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled))
-        ImGui::SetTooltip("the pipeline does not compute seam error yet (seam optimisation, paper 4.2)");
+        ImGui::SetTooltip("run the pipeline first: seam error comes from seam optimisation (paper 4.2)");
     }
     ImGui::EndCombo();
   }
@@ -481,6 +488,16 @@ void Editor::pipelineTab() {
     int searches = o.stretchSearches;
     ImGui::SliderInt("stretch searches", &searches, 0, 64);
     if (ImGui::IsItemDeactivatedAfterEdit()) o.stretchSearches = searches, commit = true;
+    // Seam optimisation (paper 4.2-4.3): stretch weight, rounds, gradient weight (1 - alpha).
+    float lambda = static_cast<float>(o.seamLambda);
+    ImGui::SliderFloat("seam lambda", &lambda, 0, 1, "%.2f");
+    if (ImGui::IsItemDeactivatedAfterEdit()) o.seamLambda = lambda, commit = true;
+    int rounds = o.seamRounds;
+    ImGui::SliderInt("seam rounds", &rounds, 0, 100);
+    if (ImGui::IsItemDeactivatedAfterEdit()) o.seamRounds = rounds, commit = true;
+    float gradient = static_cast<float>(o.gradientWeight);
+    ImGui::SliderFloat("seam gradient weight", &gradient, 0, 1, "%.2f");
+    if (ImGui::IsItemDeactivatedAfterEdit()) o.gradientWeight = gradient, commit = true;
     int seed = static_cast<int>(o.seed);
     ImGui::InputInt("seed", &seed);
     if (ImGui::IsItemDeactivatedAfterEdit()) o.seed = static_cast<unsigned>(std::max(0, seed)), commit = true;
@@ -718,6 +735,7 @@ void Editor::modals() {
 void Editor::shortcuts() {
   ImGuiIO& io = ImGui::GetIO();
   if (io.WantTextInput || ImGui::IsPopupOpen(nullptr, ImGuiPopupFlags_AnyPopupId)) return;
+  navigationShortcuts();
   const bool ctrl = io.KeyCtrl, shift = io.KeyShift;
   auto pressed = [](int key) { return ImGui::IsKeyPressed(key, false); };
   if (ctrl) {
@@ -744,7 +762,7 @@ void Editor::shortcuts() {
     }
   if (pressed(GLFW_KEY_T)) textured_ = !textured_;
   if (pressed(GLFW_KEY_W)) wireframe_ = !wireframe_;
-  if (pressed(GLFW_KEY_F)) camera_.frame(input_.lo, input_.hi);
+  if (pressed(GLFW_KEY_F)) frameAll();
   if (pressed(GLFW_KEY_F1)) showHelp_ = !showHelp_;
   if (pressed(GLFW_KEY_DELETE) || pressed(GLFW_KEY_BACKSPACE)) deleteSelection();
   if (pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)) finishChain();

@@ -13,14 +13,14 @@
 #include "gl_util.h"
 #include "image/photo.h"
 #include "mapping/partition.h"
+#include "overlay_buffers.h"
+#include "overlay_gl.h"
 
 namespace fs = std::filesystem;
 
 namespace montage {
 
 namespace {
-
-constexpr int kMaxRejectedDrawn = 400;  // per photo; more are unreadable and slow
 
 ImVec2 im(const Vec2& v) {
   return ImVec2(float(v.x()), float(v.y()));
@@ -69,6 +69,7 @@ int Editor::hitPosition(int photo, const PaneView& view, double sx, double sy, d
 void Editor::photosPanel() {
   const Project& p = doc_.project();
   canvasRects_.clear();
+  overlayGl_->draws.clear();
   paneRect_ = Rect{ImGui::GetCursorScreenPos().x, ImGui::GetCursorScreenPos().y, ImGui::GetContentRegionAvail().x,
                    ImGui::GetContentRegionAvail().y};
   if (p.photos.empty()) {
@@ -92,6 +93,7 @@ void Editor::photosPanel() {
   ImGui::Checkbox("rejected", &showRejected_);
   ImGui::SameLine();
   ImGui::Checkbox("ids", &showPaneIds_);
+  cameraToolbar();
 
   if (gridPanes_) {
     const int n = static_cast<int>(p.photos.size());
@@ -180,51 +182,44 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   const Vec2 mousePhoto = view.toPhoto(mouse);
   std::string tooltip;
 
-  // Partition curves (accepted pairs) and rejected pairs, from the last result.
-  if (resultUsable() && result_->mapping) {
+  // Partition curves (accepted pairs), rejected pairs and feature markers: a vertex buffer in photo
+  // coordinates drawn by a GL callback (editor_overlays.cpp), rebuilt only when they change.
+  const int hover = hovered ? hitPosition(i, view, mouse.x(), mouse.y(), 8) : -1;
+  drawPaneOverlay(i, view, hover);
+  if (resultUsable() && result_->mapping && showRejected_) {
     const Partition& part = result_->mapping->partition;
-    if (showRejected_) {
-      // Every pair is tried (paper 3.1), so there can be tens of thousands: beyond a few hundred in a
-      // photo, only those of the selected or hovered point are drawn (and hit-tested).
-      const int focus = hovered ? hitPosition(i, view, mouse.x(), mouse.y(), 8) : -1;
-      int inPhoto = 0;
-      for (const RejectedPair& rj : part.rejected) inPhoto += rj.photo == i || rj.photo < 0;
-      const bool all = inPhoto <= kMaxRejectedDrawn;
+    bool all = true;
+    const int inPhoto = paneRejectedCount(i, &all);
+    if (!all)
+      draw->AddText(
+          ImVec2(float(r.x + 6), float(r.y + 4)), IM_COL32(255, 140, 130, 230),
+          (std::to_string(inPhoto) + " rejected pairs: those of the selected or hovered point shown").c_str());
+    if (hovered) {
+      // The reason of the rejected pair under the cursor.
       double best = 5;
-      const RejectedPair* hover = nullptr;
+      const RejectedPair* near = nullptr;
       Vec2 ha, hb;
       for (const RejectedPair& rj : part.rejected) {
         if (rj.photo >= 0 && rj.photo != i) continue;
-        if (!all && rj.fromPoint != selectedPoint_ && rj.toPoint != selectedPoint_ && rj.fromPoint != focus &&
-            rj.toPoint != focus)
+        if (!all && rj.fromPoint != selectedPoint_ && rj.toPoint != selectedPoint_ && rj.fromPoint != hover &&
+            rj.toPoint != hover)
           continue;
         const auto a = positionIn(p, rj.fromPoint, i), b = positionIn(p, rj.toPoint, i);
         if (!a || !b) continue;
         const Vec2 sa = view.toScreen(*a), sb = view.toScreen(*b);
-        dashedLine(draw, sa, sb, IM_COL32(235, 80, 70, 110));
-        if (hovered) {
-          const double d = segmentDistance(mouse, sa, sb);
-          if (d < best) best = d, hover = &rj, ha = sa, hb = sb;
-        }
+        const double d = segmentDistance(mouse, sa, sb);
+        if (d < best) best = d, near = &rj, ha = sa, hb = sb;
       }
-      if (!all)
-        draw->AddText(
-            ImVec2(float(r.x + 6), float(r.y + 4)), IM_COL32(255, 140, 130, 230),
-            (std::to_string(inPhoto) + " rejected pairs: those of the selected or hovered point shown").c_str());
-      if (hover) {
+      if (near) {
         draw->AddLine(im(ha), im(hb), IM_COL32(255, 90, 80, 255), 2.5f);
-        tooltip = "pair " + std::to_string(hover->fromPoint) + "-" + std::to_string(hover->toPoint) + " rejected" +
-                  (hover->photo >= 0 ? " in photo " + std::to_string(hover->photo) : "") + ": " +
-                  kRejectReasonNames[int(hover->reason)] + (hover->detail.empty() ? "" : "\n" + hover->detail);
+        tooltip = "pair " + std::to_string(near->fromPoint) + "-" + std::to_string(near->toPoint) + " rejected" +
+                  (near->photo >= 0 ? " in photo " + std::to_string(near->photo) : "") + ": " +
+                  kRejectReasonNames[int(near->reason)] + (near->detail.empty() ? "" : "\n" + near->detail);
       }
     }
-    if (showCurves_)
-      for (const MeshPath& path : part.paths)
-        for (const Curve& c : path.curves)
-          if (c.photo == i)
-            draw->AddLine(im(view.toScreen(c.from)), im(view.toScreen(c.to)),
-                          path.fromChain ? IM_COL32(255, 150, 40, 255) : IM_COL32(255, 230, 70, 230), 1.5f);
   }
+
+  cameraOverlay(i, view, draw, mouse, hovered, tooltip);  // editor_camera.cpp
 
   // Chains of the document, and the one being drawn.
   for (const FeatureChain& chain : p.chains) {
@@ -256,22 +251,36 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     for (const Vec2& q : clonePolygon_) draw->AddCircleFilled(im(view.toScreen(q)), 3.5f, IM_COL32(80, 240, 230, 255));
   }
 
-  // Feature points.
-  const int hover = hovered ? hitPosition(i, view, mouse.x(), mouse.y(), 8) : -1;
+  // Feature points: rings for the selection and the hover (here or in the 3D view), ids for those and
+  // for every other point whose label overlaps none already drawn.
+  if (hover >= 0) hoverVertexNext_ = p.points[hover].vertex;
+  std::vector<LabelCandidate> labels;
+  std::vector<int> labelPoint;
   for (size_t k = 0; k < p.points.size(); ++k) {
     const auto at = positionIn(p, static_cast<int>(k), i);
     if (!at) continue;
     const ImVec2 s = im(view.toScreen(*at));
-    const bool paired = p.points[k].at.size() >= 2;
-    draw->AddCircleFilled(s, 4.5f, IM_COL32(0, 0, 0, 200));
-    draw->AddCircleFilled(s, 3.2f, paired ? IM_COL32(90, 240, 110, 255) : IM_COL32(245, 245, 245, 255));
-    if (static_cast<int>(k) == selectedPoint_) draw->AddCircle(s, 8.5f, IM_COL32(255, 140, 30, 255), 0, 2.5f);
-    if (static_cast<int>(k) == hover) draw->AddCircle(s, 7.0f, IM_COL32(255, 255, 255, 200), 0, 1.5f);
-    if (showPaneIds_) {
+    if (s.x < lo.x - 20 || s.y < lo.y - 20 || s.x > hi.x + 20 || s.y > hi.y + 20) continue;
+    const bool selected = static_cast<int>(k) == selectedPoint_;
+    const bool hot = static_cast<int>(k) == hover || (hoverVertex_ >= 0 && p.points[k].vertex == hoverVertex_);
+    if (selected) draw->AddCircle(s, 8.5f, IM_COL32(255, 140, 30, 255), 0, 2.5f);
+    if (hot) draw->AddCircle(s, 7.0f, IM_COL32(255, 255, 255, 220), 0, 2.0f);
+    if (showPaneIds_ || selected || hot) {
       const std::string id = std::to_string(k);
-      draw->AddText(ImVec2(s.x + 6, s.y - 15), IM_COL32(0, 0, 0, 200), id.c_str());
-      draw->AddText(ImVec2(s.x + 5, s.y - 16), IM_COL32(255, 255, 255, 230), id.c_str());
+      const ImVec2 size = ImGui::CalcTextSize(id.c_str());
+      LabelCandidate l;
+      l.lo = Vec2(s.x + 5, s.y - 16);
+      l.size = Vec2(size.x + 1, size.y);
+      l.always = selected || hot;
+      labels.push_back(l);
+      labelPoint.push_back(static_cast<int>(k));
     }
+  }
+  for (int n : placeLabels(labels)) {
+    const std::string id = std::to_string(labelPoint[n]);
+    const ImVec2 at(float(labels[n].lo.x()), float(labels[n].lo.y()));
+    draw->AddText(ImVec2(at.x + 1, at.y + 1), IM_COL32(0, 0, 0, 200), id.c_str());
+    draw->AddText(at, labels[n].always ? IM_COL32(255, 230, 120, 255) : IM_COL32(255, 255, 255, 230), id.c_str());
   }
   if (hover >= 0) {
     std::string photos;
@@ -290,9 +299,9 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   }
   // Caption.
   char caption[256];
-  std::snprintf(caption, sizeof(caption), "%s%s%dx%d  %.0f%%%s%s", showName ? std::to_string(i).c_str() : "",
+  std::snprintf(caption, sizeof(caption), "%s%s%dx%d  %.0f%%%s%s%s", showName ? std::to_string(i).c_str() : "",
                 showName ? ": " : "", photo.width, photo.height, view.zoom * 100, photo.mirrored ? "  mirrored" : "",
-                after ? "  balanced" : "");
+                after ? "  balanced" : "", cameraCaption(i).c_str());
   const ImVec2 cs = ImGui::CalcTextSize(caption);
   draw->AddRectFilled(ImVec2(lo.x, hi.y - cs.y - 6), ImVec2(lo.x + cs.x + 12, hi.y), IM_COL32(0, 0, 0, 150));
   draw->AddText(ImVec2(lo.x + 6, hi.y - cs.y - 3),
@@ -313,6 +322,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   if (hovered && ImGui::IsMouseClicked(ImGuiMouseButton_Left)) {
     activePhoto_ = i;
     const bool inside = photo.inside(mousePhoto.x(), mousePhoto.y());
+    if (hover < 0 && clickProposal(i, io.KeyShift)) return;  // a proposal accepted or declined (editor_camera.cpp)
     switch (tool_) {
       case Tool::Point:
         if (hover >= 0) {

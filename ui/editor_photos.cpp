@@ -208,9 +208,7 @@ void Editor::uploadBalanced(PhotoSlot& slot, int photo) {
   if (!balanced || balanced->path != slot.photo->path || balanced->width != slot.photo->width ||
       balanced->mirrored != slot.photo->mirrored || slot.balancedFrom == balanced)
     return;
-  cv::Mat rgb8, rgba;
-  balanced->rgb.convertTo(rgb8, CV_8UC3, 255.0);
-  cv::cvtColor(rgb8, rgba, cv::COLOR_RGB2RGBA);
+  const cv::Mat rgba = toRgba8(balanced->rgb, false, balanced->path);  // any depth, stored resolution
   if (!slot.balanced) slot.balanced = std::make_unique<Texture>();
   slot.balanced->upload(rgba);
   slot.balancedFrom = balanced;
@@ -282,7 +280,7 @@ bool Editor::startCutout(int photo, bool fromCurrentMask) {
   try {
     CutoutOptions options;
     options.featherPx = cutoutFeather_;
-    cutout_.cut = std::make_unique<Cutout>(shown.rgb, options);
+    cutout_.cut = std::make_unique<Cutout>(shown.rgb, options, cv::Size(shown.width, shown.height));
     // Refining what the photo already has (a mask, or alpha): GrabCut starts from it.
     if (fromCurrentMask && shown.hasBackground) cutout_.cut->startFrom(shown.alpha);
   } catch (const Error& e) {

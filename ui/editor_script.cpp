@@ -242,7 +242,28 @@ void Editor::runAction(const ScriptAction& a) {
     camera_.lookFrom(input_.mesh->position(v), normals[v].cast<double>());
   } else if (a.verb == "frame") {
     requireMesh();
-    camera_.frame(input_.lo, input_.hi);
+    frameAll();
+  } else if (a.verb == "frame_selected") {
+    requireMesh();
+    frameSelected();
+  } else if (a.verb == "view_preset") {
+    const auto it = std::find(kViewPresetNames.begin(), kViewPresetNames.end(), a.text(0));
+    TM_CHECK(it != kViewPresetNames.end(), where + ": unknown preset '" + a.text(0) + "'");
+    setViewPreset(ViewPreset(it - kViewPresetNames.begin()));
+  } else if (a.verb == "ortho") {
+    setOrthographic(camera_, optionFlag(a.text(0), where));
+  } else if (a.verb == "mouse") {
+    const auto it = std::find(kMouseBindingNames.begin(), kMouseBindingNames.end(), a.text(0));
+    TM_CHECK(it != kMouseBindingNames.end(), where + ": mouse bindings are meshlab or blender");
+    bindings_ = MouseBindings(it - kMouseBindingNames.begin());
+  } else if (a.verb == "hover_3d") {
+    requireMesh();
+    InputStep s;
+    s.hasPointer = true;
+    s.x = viewRect_.x + a.number(0);
+    s.y = viewRect_.y + a.number(1);
+    inputQueue_.push_back(s);
+    inputQueue_.push_back(s);
   } else if (a.verb == "click_vertex") {
     const int v = a.integer(0);
     requireVertex(v);
@@ -277,10 +298,12 @@ void Editor::runAction(const ScriptAction& a) {
     } else {
       InputStep s;
       s.hasPointer = true;
-      s.x = viewRect_.x + viewRect_.w / 2;
-      s.y = viewRect_.y + viewRect_.h / 2;
+      s.x = viewRect_.x + (a.args.size() >= 3 ? a.number(1) : viewRect_.w / 2);
+      s.y = viewRect_.y + (a.args.size() >= 3 ? a.number(2) : viewRect_.h / 2);
       inputQueue_.push_back(s);
       s.wheel = static_cast<float>(a.number(0));
+      inputQueue_.push_back(s);
+      s.wheel = 0;
       inputQueue_.push_back(s);
     }
   } else if (a.verb == "photo" || a.verb == "click_photo" || a.verb == "drag_photo") {
@@ -514,6 +537,35 @@ void Editor::writeState(const std::string& path) const {
   }
   state["layout"] = {{"window", rect(windowRect_)}, {"view3d", rect(viewRect_)}, {"photos", rect(paneRect_)}};
   state["autosave"] = {{"path", autosavePath()}, {"written_revision", autosavedRevision_}};
+  // Navigation: the camera, the hover, the surface point under the pointer and the mesh's extent
+  // on screen (view pixels), for the navigation tests.
+  state["camera"] = {{"target", {camera_.target.x(), camera_.target.y(), camera_.target.z()}},
+                     {"distance", camera_.distance},
+                     {"yaw", camera_.yawDeg},
+                     {"pitch", camera_.pitchDeg},
+                     {"orthographic", isOrthographic(camera_)}};
+  state["hover_vertex"] = hoverVertex_;
+  const Camera cam = viewCamera();
+  auto pixelOf = [&](int v) -> json {
+    Vec2 px;
+    if (!input_.mesh || v < 0 || v >= input_.mesh->numVertices() || !cam.project(input_.mesh->position(v), px))
+      return nullptr;
+    return {px.x(), px.y()};
+  };
+  state["hover_vertex_pixel"] = pixelOf(hoverVertex_);
+  state["selected_vertex_pixel"] = pixelOf(selectedVertex_);
+  const VertexPick under = pickAt(heldX_, heldY_);
+  state["pointer"] = {{"x", heldX_ - viewRect_.x}, {"y", heldY_ - viewRect_.y}};
+  state["pointer_hit"] = under.face >= 0 ? json{under.point.x(), under.point.y(), under.point.z()} : json(nullptr);
+  if (input_.mesh) {
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    for (int v = 0; v < input_.mesh->numVertices(); ++v) {
+      Vec2 px;
+      if (!cam.project(input_.mesh->position(v), px)) continue;
+      x0 = std::min(x0, px.x()), y0 = std::min(y0, px.y()), x1 = std::max(x1, px.x()), y1 = std::max(y1, px.y());
+    }
+    state["mesh_screen_bounds"] = {x0, y0, x1, y1};
+  }
   if (fs::path(path).has_parent_path()) fs::create_directories(fs::path(path).parent_path());
   writeFileAtomic(path, state.dump(2) + "\n");
 }
@@ -532,6 +584,7 @@ void Editor::takeScreenshot(const std::string& path) {
 // --- Benchmarks -----------------------------------------------------------------------------------
 
 void Editor::benchOrbitStep() {
+  if (options_.benchOverlays) return benchOverlaysStep();
   const int warmup = 10;
   if (!input_.mesh) return;
   ++benchFrame_;
@@ -557,6 +610,7 @@ void Editor::benchOrbitStep() {
 }
 
 void Editor::benchReport() {
+  if (options_.benchOverlays) return benchOverlaysReport();
   auto report = [](const char* what, const std::vector<double>& t) {
     if (t.empty()) {
       std::printf("%s: no frames\n", what);

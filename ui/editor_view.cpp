@@ -13,6 +13,8 @@
 #include "gl_util.h"
 #include "io/mesh_io.h"
 #include "mapping/partition.h"
+#include "navigation.h"
+#include "overlay_gl.h"
 #include "overlays.h"
 #include "surface/inpaint.h"
 
@@ -74,6 +76,10 @@ void Editor::view3d() {
     draw->AddText(ImVec2(pos.x + 16, pos.y + 16), IM_COL32(220, 220, 220, 255), text);
     return;
   }
+  if (frameWhenShown_) {
+    frameWhenShown_ = false;
+    frameAll();
+  }
   view3dInput(viewRect_);
   drawViewLabels(viewRect_);
 }
@@ -86,9 +92,27 @@ void Editor::view3dInput(const Rect& r) {
   const bool hovered = ImGui::IsItemHovered();
   ImGuiIO& io = ImGui::GetIO();
   const ImVec2 mouse = io.MousePos;
-  if (hovered && io.MouseWheel != 0) camera_.zoom(io.MouseWheel);
+  hoverVertexNext_ = -1;
+  if (hovered && !viewPressed_) {
+    // One ray cast when the pointer moved (not one per feature and frame).
+    if (mouse.x != hoverPickX_ || mouse.y != hoverPickY_ || camera_.eye() != hoverPickEye_) {
+      hoverPickX_ = mouse.x;
+      hoverPickY_ = mouse.y;
+      hoverPickEye_ = camera_.eye();
+      hoverPick_ = pickAt(mouse.x, mouse.y).vertex;
+    }
+    hoverVertexNext_ = hoverPick_;
+  }
+  const int W = std::max(1, int(r.w)), H = std::max(1, int(r.h));
+  const double vx = std::floor(mouse.x - r.x) + 0.5, vy = std::floor(mouse.y - r.y) + 0.5;
+  if (hovered && io.MouseWheel != 0) {
+    // Zoom to the cursor: about the surface point under it (or the target's plane there).
+    const VertexPick pick = pickAt(mouse.x, mouse.y);
+    zoomAbout(camera_, anchorAt(camera_, W, H, vx, vy, pick.face >= 0 ? &pick.point : nullptr), io.MouseWheel);
+  }
   const bool strokeTool = tool_ == Tool::Stroke && !io.KeyShift;
   const bool paintTool = tool_ == Tool::Clone && clonePolygonClosed_ && !io.KeyShift;
+  const double t = ImGui::GetTime();
   for (int b = 0; b < 3 && !viewPressed_; ++b)
     if (hovered && ImGui::IsMouseClicked(b)) {
       viewPressed_ = true;
@@ -96,6 +120,12 @@ void Editor::view3dInput(const Rect& r) {
       viewDragged_ = false;
       pressX_ = mouse.x;
       pressY_ = mouse.y;
+      clickDrag_.press(mouse.x, mouse.y, t);
+      orbitPivot_ = camera_.target;
+      if (orbitAtPick_ && dragAction(bindings_, b, io.KeyShift, io.KeyCtrl) == DragAction::Orbit) {
+        const VertexPick pick = pickAt(mouse.x, mouse.y);
+        if (pick.face >= 0) orbitPivot_ = pick.point;
+      }
       if (b == 0 && strokeTool) {
         stroke_.clear();
         strokeAt(mouse.x, mouse.y);
@@ -105,20 +135,32 @@ void Editor::view3dInput(const Rect& r) {
   if (!viewPressed_) return;
   const int b = viewPressButton_;
   if (ImGui::IsMouseDown(b)) {
-    if (std::hypot(mouse.x - pressX_, mouse.y - pressY_) > 3) viewDragged_ = true;
-    const ImVec2 d = io.MouseDelta;
+    // A click until the pointer moved far enough, or slowly enough (ClickDrag); then the whole
+    // movement since the press counts, so nothing is lost to the decision.
+    const bool wasDragging = clickDrag_.dragging();
+    viewDragged_ = clickDrag_.move(mouse.x, mouse.y, t);
+    ImVec2 d = io.MouseDelta;
+    if (viewDragged_ && !wasDragging) d = ImVec2(float(mouse.x - pressX_), float(mouse.y - pressY_));
     if (d.x == 0 && d.y == 0) return;
     if (b == 0 && strokeTool) {
       strokeAt(mouse.x, mouse.y);
     } else if (b == 0 && paintTool) {
       paintCloneAt(mouse.x, mouse.y, io.KeyCtrl);
-    } else if (b == 0 && !io.KeyShift) {
-      camera_.orbit(d.x, d.y);
-    } else {
-      camera_.pan(d.x, d.y, int(r.h));
+    } else if (viewDragged_) {
+      switch (dragAction(bindings_, b, io.KeyShift, io.KeyCtrl)) {
+        case DragAction::Orbit:
+          orbitAbout(camera_, orbitPivot_, d.x, d.y);
+          break;
+        case DragAction::Pan:
+          camera_.pan(d.x, d.y, int(r.h));
+          break;
+        case DragAction::None:
+          break;
+      }
     }
     return;
   }
+  viewDragged_ = !clickDrag_.releaseIsClick(mouse.x, mouse.y, t);
   viewPressed_ = false;
   if (b != 0) return;
   if (strokeTool) {
@@ -252,8 +294,11 @@ void Editor::uploadOverlay() {
       case FaceColoring::Stretch:
         if (static_cast<int>(stretch_.size()) == F) face = stretchOverlay(stretch_);
         break;
-      case FaceColoring::None:
       case FaceColoring::SeamError:
+        if (result_->seams && static_cast<int>(result_->seams->faceError.size()) == F)
+          face = seamErrorOverlay(result_->seams->faceError);
+        break;
+      case FaceColoring::None:
         break;
     }
   }
@@ -375,11 +420,12 @@ void Editor::renderScene() {
   // the worker, spends its frames on the panels only.
   const Vec3 eye = camera_.eye();
   char key[512];
-  std::snprintf(key, sizeof(key), "%.17g %.17g %.17g %.17g %.17g %.17g %.17g %d %d %p %ld %ld %d%d%d%d%d %d %d %zu %d",
-                eye.x(), eye.y(), eye.z(), camera_.target.x(), camera_.target.y(), camera_.target.z(), camera_.fovYDeg,
+  std::snprintf(key, sizeof(key),
+                "%.17g %.17g %.17g %.17g %.17g %.17g %.17g %d %d %p %ld %ld %d%d%d%d%d %d %d %d %zu %d", eye.x(),
+                eye.y(), eye.z(), camera_.target.x(), camera_.target.y(), camera_.target.z(), camera_.fovYDeg,
                 viewFbo_->width(), viewFbo_->height(), uploadedModel_, linesRevision_, uploadCount_, textured_,
-                wireframe_, showPaths_, showFeatures_, int(coloring_), selectedVertex_, cloneVertices_, stroke_.size(),
-                int(cloneFaces_.size()));
+                wireframe_, showPaths_, showFeatures_ * 2 + showIds_, int(coloring_), selectedVertex_, hoverVertex_,
+                cloneVertices_, stroke_.size(), int(cloneFaces_.size()));
   if (sceneKey_ == key) return;
   sceneKey_ = key;
 
@@ -429,26 +475,14 @@ void Editor::renderScene() {
     glDisable(GL_BLEND);
   }
 
+  const Mat4f projection = glProjectionMatrix(cam, camera_.nearPlane(), camera_.farPlane());
+  readViewDepth(view, projection);  // before the lines and markers write depth
   lineShader_->use();
   glUniformMatrix4fv(lineShader_->uniform("uMvp"), 1, GL_FALSE, mvp.data());
   glUniform1i(lineShader_->uniform("uRoundPoints"), 0);
   if (showPaths_) lineVbo_->draw(GL_LINES, 0, pathLineVertices_);
   lineVbo_->draw(GL_LINES, pathLineVertices_, lineVertices_ - pathLineVertices_);
-  glEnable(GL_PROGRAM_POINT_SIZE);
-  glUniform1i(lineShader_->uniform("uRoundPoints"), 1);
-  if (showFeatures_) {
-    glUniform1f(lineShader_->uniform("uPointSize"), 7.0f);
-    pointVbo_->draw(GL_POINTS, 0, pointVertices_);
-  }
-  if (selectedVertex_ >= 0 && selectedVertex_ < input_.mesh->numVertices()) {
-    std::vector<float> sel;
-    pushVertex(sel, input_.mesh->position(selectedVertex_), Vec4f(1.0f, 0.45f, 0.05f, 1));
-    selectionVbo_->upload(sel, {{0, 3}, {1, 4}});
-    glDisable(GL_DEPTH_TEST);  // the selection shows even when the vertex is behind the surface
-    glUniform1f(lineShader_->uniform("uPointSize"), 12.0f);
-    selectionVbo_->draw(GL_POINTS, 0, 1);
-    glEnable(GL_DEPTH_TEST);
-  }
+  drawMarkers(view, projection);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
@@ -456,34 +490,7 @@ void Editor::drawViewLabels(const Rect& r) {
   ImDrawList* draw = ImGui::GetWindowDrawList();
   const Camera cam = viewCamera();
   const Project& p = doc_.project();
-  if (showFeatures_ && showIds_) {
-    // Visibility by ray cast, recomputed when the camera or the document changes.
-    const Vec3 eye = cam.center();
-    char key[256];
-    std::snprintf(key, sizeof(key), "%.9g %.9g %.9g %d %d %ld", eye.x(), eye.y(), eye.z(), cam.width, cam.height,
-                  doc_.revision());
-    if (visibilityKey_ != key) {
-      visibilityKey_ = key;
-      featureVisible_.assign(p.points.size(), 0);
-      for (size_t i = 0; i < p.points.size(); ++i) {
-        const int v = p.points[i].vertex;
-        featureVisible_[i] =
-            v >= 0 && v < input_.mesh->numVertices() && vertexVisible(*input_.mesh, *input_.bvh, cam, v);
-      }
-    }
-    draw->PushClipRect(ImVec2(float(r.x), float(r.y)), ImVec2(float(r.x + r.w), float(r.y + r.h)), true);
-    for (size_t i = 0; i < p.points.size() && i < featureVisible_.size(); ++i) {
-      if (!featureVisible_[i]) continue;
-      Vec2 px;
-      if (!cam.project(input_.mesh->position(p.points[i].vertex), px)) continue;
-      const ImVec2 at(float(r.x + px.x() + 5), float(r.y + px.y() - 15));
-      const std::string id = std::to_string(i);
-      draw->AddText(ImVec2(at.x + 1, at.y + 1), IM_COL32(0, 0, 0, 200), id.c_str());
-      draw->AddText(at, int(i) == selectedPoint_ ? IM_COL32(255, 150, 40, 255) : IM_COL32(255, 255, 255, 230),
-                    id.c_str());
-    }
-    draw->PopClipRect();
-  }
+  drawFeatureLabels(r, cam);
   // Stroke directions: an arrowhead at the end of each stroke.
   draw->PushClipRect(ImVec2(float(r.x), float(r.y)), ImVec2(float(r.x + r.w), float(r.y + r.h)), true);
   for (const Stroke& s : p.strokes) {

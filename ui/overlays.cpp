@@ -103,4 +103,15 @@ std::vector<Vec4f> stretchOverlay(const std::vector<double>& stretch) {
   return out;
 }
 
+std::vector<Vec4f> seamErrorOverlay(const std::vector<float>& faceError) {
+  constexpr double kRed = 20;  // Delta E*uv shown in full red: a clearly visible seam
+  std::vector<Vec4f> out(faceError.size(), kTransparent);
+  for (size_t f = 0; f < faceError.size(); ++f) {
+    if (!(faceError[f] >= 0)) continue;
+    const Vec3f c = heatColor(std::min(1.0, faceError[f] / kRed));
+    out[f] = Vec4f(c.x(), c.y(), c.z(), 0.9f);
+  }
+  return out;
+}
+
 }  // namespace montage

@@ -1,5 +1,5 @@
 // What the 3D view colours faces by, computed from what the pipeline returned (no GL): patches by
-// photo, empty faces and Sander stretch. (The clone tool's preview is core's projectClone.)
+// photo, empty faces, Sander stretch and seam error. (The clone tool's preview is core's projectClone.)
 #pragma once
 
 #include <array>
@@ -29,5 +29,8 @@ std::vector<Vec4f> emptyOverlay(const TexturedModel& model);
 std::vector<double> normalizedStretch(const Mesh& mesh, const TextureMap& map);
 // Heatmap of those values: log2 scale from 1 (blue) to 4 and more (red); flipped black, empty transparent.
 std::vector<Vec4f> stretchOverlay(const std::vector<double>& stretch);
+// Heatmap of the per-face seam error of seam optimisation (SeamResult::faceError, mean Delta E*uv across
+// the face's seam edges): 0 blue to 20 and more red; faces on no seam (-1) transparent.
+std::vector<Vec4f> seamErrorOverlay(const std::vector<float>& faceError);
 
 }  // namespace montage

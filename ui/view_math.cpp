@@ -12,6 +12,7 @@ constexpr double kDeg = M_PI / 180;
 void OrbitCamera::frame(const Vec3& lo, const Vec3& hi) {
   target = 0.5 * (lo + hi);
   sceneRadius = std::max(0.5 * (hi - lo).norm(), 1e-9);
+  sceneCenter = target;
   // Same fit as core's orbitCamera (render.h): the bounding sphere fills the vertical field of view.
   distance = sceneRadius / std::sin(0.5 * fovYDeg * kDeg) * 1.05;
 }
@@ -33,7 +34,8 @@ void OrbitCamera::pan(double dxPixels, double dyPixels, int viewHeight) {
 
 void OrbitCamera::zoom(double wheelSteps) {
   distance *= std::pow(0.85, wheelSteps);
-  distance = std::clamp(distance, sceneRadius * 0.02, sceneRadius * 100);
+  // The far limit grows with a narrow (orthographic) field of view.
+  distance = std::clamp(distance, sceneRadius * 0.02, sceneRadius * 100 * std::max(1.0, 35.0 / fovYDeg));
 }
 
 void OrbitCamera::lookFrom(const Vec3& point, const Vec3& normal) {
@@ -55,10 +57,12 @@ Camera OrbitCamera::camera(int width, int height) const {
 }
 
 double OrbitCamera::nearPlane() const {
-  return std::max(distance - 2 * sceneRadius, distance * 1e-3);
+  // The scene's sphere lies within [d - r, d + r] of the eye, wherever the target was moved to.
+  const double d = (eye() - sceneCenter).norm();
+  return std::max(d - 1.2 * sceneRadius, distance * 1e-3);
 }
 double OrbitCamera::farPlane() const {
-  return distance + 2 * sceneRadius;
+  return std::max((eye() - sceneCenter).norm() + 1.2 * sceneRadius, nearPlane() * 1.01);
 }
 
 Mat4f glViewMatrix(const Camera& camera) {

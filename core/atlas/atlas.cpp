@@ -208,7 +208,7 @@ std::pair<std::vector<int>, std::vector<int>> splitInTwo(const std::vector<int>&
 
 struct Charting {
   std::vector<ChartSeed> charts;
-  int discCuts = 0, stretchSplits = 0;
+  int discCuts = 0, stretchSplits = 0, sizeSplits = 0;
   double lscmSeconds = 0;
 };
 
@@ -237,6 +237,13 @@ void flattenRegion(const std::vector<int>& region, int source, double density, c
     }
     for (int v : vertices) local[v] = -1;
     const bool canSplit = faces.size() > 1;
+    if (canSplit && faces.size() > size_t(std::max(1, options.maxLscmFaces))) {
+      ++out.sizeSplits;
+      auto [x, y] = splitInTwo(faces, mesh, nb, slot, centroid);
+      work.push_back(std::move(x));
+      work.push_back(std::move(y));
+      continue;
+    }
     if (canSplit && !patchTopology(tris).isDisc()) {
       ++out.discCuts;
       auto [x, y] = splitInTwo(faces, mesh, nb, slot, centroid);
@@ -303,6 +310,7 @@ Charting makeCharts(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& 
   // photo coordinates in both (continuous texture); faces of the other kinds when they share an edge.
   const auto sameChart = [&](int f, int k, int g) {
     if (in.faceSource[f] != in.faceSource[g]) return false;
+    if (!in.faceGroup.empty() && in.faceGroup[f] != in.faceGroup[g]) return false;
     if (in.faceSource[f] < 0) return true;
     const auto fv = mesh.faceVertices(f), gv = mesh.faceVertices(g);
     for (int j = 0; j < 2; ++j) {
@@ -625,6 +633,7 @@ nlohmann::json Atlas::stats() const {
           {"lscm_charts", lscmCharts},
           {"disc_cuts", discCuts},
           {"stretch_splits", stretchSplits},
+          {"size_splits", sizeSplits},
           {"pack_attempts", packAttempts},
           {"utilisation", utilisation},
           {"seconds", {{"charts", times.charts}, {"lscm", times.lscm}, {"pack", times.pack}}}};
@@ -633,8 +642,9 @@ nlohmann::json Atlas::stats() const {
 Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& options,
                  const std::function<void(double)>& progress) {
   const int F = mesh.numFaces();
-  TM_CHECK(options.size >= 1024 && options.size <= 8192,
-           "atlas: size " + std::to_string(options.size) + " is outside [1024, 8192]");
+  TM_CHECK(options.size == 0 || (options.size >= kMinAtlasSize && options.size <= kMaxAtlasSize),
+           "atlas: size " + std::to_string(options.size) + " is neither 0 (automatic) nor in [" +
+               std::to_string(kMinAtlasSize) + ", " + std::to_string(kMaxAtlasSize) + "]");
   TM_CHECK(options.gutter >= 0 && options.gutter <= 64,
            "atlas: gutter " + std::to_string(options.gutter) + " is outside [0, 64] texels");
   TM_CHECK(options.maxScale >= 0 && std::isfinite(options.maxScale),
@@ -646,6 +656,9 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   TM_CHECK(
       static_cast<int>(in.faceSource.size()) == F,
       "atlas: faceSource has " + std::to_string(in.faceSource.size()) + " entries for " + std::to_string(F) + " faces");
+  TM_CHECK(
+      in.faceGroup.empty() || static_cast<int>(in.faceGroup.size()) == F,
+      "atlas: faceGroup has " + std::to_string(in.faceGroup.size()) + " entries for " + std::to_string(F) + " faces");
   TM_CHECK(in.faceDensity.empty() || static_cast<int>(in.faceDensity.size()) == F,
            "atlas: faceDensity has " + std::to_string(in.faceDensity.size()) + " entries for " + std::to_string(F) +
                " faces");
@@ -667,7 +680,6 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   }
 
   Atlas atlas;
-  atlas.size = options.size;
   atlas.gutter = options.gutter;
   atlas.faceSource = in.faceSource;
   atlas.faceChart.assign(F, -1);
@@ -680,21 +692,15 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   atlas.times.charts = secondsSince(t0) - charting.lscmSeconds;
   atlas.discCuts = charting.discCuts;
   atlas.stretchSplits = charting.stretchSplits;
+  atlas.sizeSplits = charting.sizeSplits;
   if (progress) progress(0.4);
 
-  // Packing: the largest global scale at which the packer succeeds.
+  // Packing.
   t0 = Clock::now();
   const auto& charts = charting.charts;
   const int n = static_cast<int>(charts.size());
-  PackSetup setup;
-  setup.size = options.size;
-  setup.gutter = options.gutter;
-  setup.cell = std::max(1, options.size / 1024);
-  setup.grid = (options.size + setup.cell - 1) / setup.cell;
-  setup.lo = (options.gutter + setup.cell - 1) / setup.cell;
-  setup.hi = (options.size - options.gutter) / setup.cell;
   std::vector<std::pair<Vec2, Vec2>> bounds(n);
-  double area = 0;
+  double area = 0;  // chart area at scale 1
   for (int i = 0; i < n; ++i) {
     Vec2 lo = Vec2::Constant(kInf), hi = Vec2::Constant(-kInf);
     for (const auto& uv : charts[i].uv)
@@ -702,21 +708,60 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
     bounds[i] = {lo, hi};
     for (const auto& uv : charts[i].uv) area += 0.5 * std::abs(signedArea2(uv));
   }
-  // The packing fills the atlas from the top, so the rows it needs tell how far the scale is from a
-  // tight fit: the next scale is the current one times sqrt(usable rows / needed rows), kept inside
-  // the bracket [largest scale that fit, smallest that did not]. Three to six packings, not a
-  // bisection's ten.
+  auto setupFor = [&](int size) {
+    PackSetup setup;
+    setup.size = size;
+    setup.gutter = options.gutter;
+    setup.cell = std::max(1, size / 1024);
+    setup.grid = (size + setup.cell - 1) / setup.cell;
+    setup.lo = (options.gutter + setup.cell - 1) / setup.cell;
+    setup.hi = (size - options.gutter) / setup.cell;
+    return setup;
+  };
   std::vector<Placement> placements, bestPlacements;
   double bestScale = 0;
   std::size_t signature = 0, failedSignature = 0;
+  PackSetup setup = setupFor(options.size > 0 ? options.size : kMaxAtlasSize);
+  double maxScale = options.maxScale;
+  if (options.size == 0 && n > 0) {
+    // Automatic size: the smallest multiple of kAtlasSizeStep that holds every chart at its own
+    // density (scale 1: a texel per photo pixel), starting from the chart area at a typical packing
+    // density and growing by what the packer says it lacked. When even kMaxAtlasSize is too small,
+    // the charts shrink to fit it (the search below).
+    maxScale = 1;
+    auto roundUp = [](double x) {
+      return std::max(kMinAtlasSize, int(std::ceil(x / kAtlasSizeStep)) * kAtlasSizeStep);
+    };
+    int size = roundUp(std::sqrt(area / 0.7) + 2 * options.gutter);
+    while (size <= kMaxAtlasSize) {
+      setup = setupFor(size);
+      ++atlas.packAttempts;
+      const double needed = packAtScale(charts, bounds, 1.0, setup, options, placements, signature) - setup.lo;
+      const double usable = setup.hi - setup.lo;
+      if (needed <= usable) {
+        bestScale = 1, bestPlacements = placements;
+        break;
+      }
+      const int next = roundUp(size * std::sqrt(std::isfinite(needed) ? needed / usable : 2.0) * 1.01);
+      if (size == kMaxAtlasSize) break;
+      size = std::min(kMaxAtlasSize, std::max(next, size + kAtlasSizeStep));
+    }
+    if (bestScale == 0) setup = setupFor(kMaxAtlasSize);
+  }
+  atlas.size = setup.size;
+  // Fixed size (or automatic beyond the largest): the largest global scale at which the packer
+  // succeeds. The packing fills the atlas from the top, so the rows it needs tell how far the scale is
+  // from a tight fit: the next scale is the current one times sqrt(usable rows / needed rows), kept
+  // inside the bracket [largest scale that fit, smallest that did not]. Three to six packings, not a
+  // bisection's ten.
   const double usableRows = setup.hi - setup.lo;
-  if (n > 0) {
+  if (n > 0 && bestScale == 0) {
     // First guess: charts covering 65% of the atlas (a typical packing density).
     double s = area > 0 ? std::sqrt(0.65 * usableRows * usableRows * setup.cell * setup.cell / area) : 1.0;
     double sLo = 0, sHi = kInf;
     bool stuck = false;
     for (int k = 0; k < 40; ++k) {
-      if (options.maxScale > 0) s = std::min(s, options.maxScale);
+      if (maxScale > 0) s = std::min(s, maxScale);
       ++atlas.packAttempts;
       if (progress) progress(std::min(0.75, 0.4 + 0.03 * atlas.packAttempts));
       const double needed = packAtScale(charts, bounds, s, setup, options, placements, signature) - setup.lo;
@@ -732,7 +777,7 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
         sHi = std::min(sHi, s);
         if (stuck) break;
       }
-      if (options.maxScale > 0 && sLo >= options.maxScale) break;
+      if (maxScale > 0 && sLo >= maxScale) break;
       // Good enough: the packing fills at least 97% of the rows (the scale is within about 1.5% of
       // the tightest fit, closer than the packer's own run-to-run variation), or the bracket is tight.
       if (fits && needed >= 0.97 * usableRows) break;
@@ -743,11 +788,11 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
       if (next >= sHi || next <= sLo) next = sLo > 0 ? std::sqrt(sLo * std::min(sHi, 2 * sLo)) : sHi / 2;
       s = next;
     }
-    TM_CHECK(bestScale > 0, "atlas: " + std::to_string(n) + " charts do not fit into a " +
-                                std::to_string(options.size) + "x" + std::to_string(options.size) + " atlas with a " +
-                                std::to_string(options.gutter) +
+    TM_CHECK(bestScale > 0, "atlas: " + std::to_string(n) + " charts do not fit into a " + std::to_string(setup.size) +
+                                "x" + std::to_string(setup.size) + " atlas with a " + std::to_string(options.gutter) +
                                 "-texel gutter even at a tiny scale: use a larger atlas or a smaller gutter");
   }
+  if (n == 0 && options.size == 0) atlas.size = kMinAtlasSize;
   atlas.scale = bestScale;
   atlas.times.pack = secondsSince(t0);
   if (progress) progress(0.8);
@@ -785,8 +830,8 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
     // The footprint's texel range (see footprintTexels), clipped to the atlas.
     const int x0 = std::max(0, static_cast<int>(std::ceil(amin.x() - 1.5)));
     const int y0 = std::max(0, static_cast<int>(std::ceil(amin.y() - 1.5)));
-    const int x1 = std::min(options.size - 1, static_cast<int>(std::floor(amax.x() + 0.5)));
-    const int y1 = std::min(options.size - 1, static_cast<int>(std::floor(amax.y() + 0.5)));
+    const int x1 = std::min(atlas.size - 1, static_cast<int>(std::floor(amax.x() + 0.5)));
+    const int y1 = std::min(atlas.size - 1, static_cast<int>(std::floor(amax.y() + 0.5)));
     chart.x = x0;
     chart.y = y0;
     chart.width = x1 - x0 + 1;
@@ -805,7 +850,7 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
     }
     atlas.charts.push_back(std::move(chart));
   }
-  atlas.utilisation = coveredArea / (double(options.size) * options.size);
+  atlas.utilisation = coveredArea / (double(atlas.size) * atlas.size);
   if (progress) progress(1.0);
   return atlas;
 }
@@ -891,6 +936,37 @@ void fillFromNearest(cv::Mat& rgba, const cv::Mat& chart) {
   }
 }
 
+// Runs bake(chart index) for every chart on `threads` threads (0 = all cores), largest charts first.
+// Footprints are disjoint, so threads write disjoint texels. The first exception stops the others and
+// is rethrown.
+void forEachChart(const Atlas& atlas, int threads, const std::function<void(int)>& bake) {
+  std::vector<int> order(atlas.charts.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return double(atlas.charts[a].width) * atlas.charts[a].height >
+           double(atlas.charts[b].width) * atlas.charts[b].height;
+  });
+  const int n = std::max(1, std::min<int>(threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency()),
+                                          static_cast<int>(order.size())));
+  std::atomic<size_t> next{0};
+  std::exception_ptr failure;
+  std::mutex failureMutex;
+  const auto worker = [&] {
+    try {
+      for (size_t k; (k = next++) < order.size();) bake(order[k]);
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(failureMutex);
+      if (!failure) failure = std::current_exception();
+      next = order.size();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int i = 1; i < n; ++i) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
 }  // namespace
 
 AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std::shared_ptr<const Photo>>& photos,
@@ -952,12 +1028,14 @@ AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std
   for (size_t i = 0; i < photos.size(); ++i) {
     if (!photos[i]) continue;
     sources[i] = photos[i]->rgb;
-    if (atlas.scale > 0 && atlas.scale < 1 / 1.5) {
+    sourceScale[i] = double(photos[i]->rgb.cols) / photos[i]->width;  // stored pixels per photo pixel
+    const double minify = atlas.scale / sourceScale[i];
+    if (atlas.scale > 0 && minify < 1 / 1.5) {
       cv::Mat small;
-      cv::resize(photos[i]->rgb, small, cv::Size(), atlas.scale, atlas.scale, cv::INTER_AREA);
+      cv::resize(photos[i]->rgb, small, cv::Size(), minify, minify, cv::INTER_AREA);
       if (small.cols > 0 && small.rows > 0) {
         sources[i] = small;
-        sourceScale[i] = double(small.cols) / photos[i]->rgb.cols;
+        sourceScale[i] = double(small.cols) / photos[i]->width;
       }
     }
   }
@@ -1026,35 +1104,48 @@ AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std
       }
   };
 
-  // Footprints are disjoint, so threads write disjoint texels; the largest charts go first.
-  std::vector<int> order(atlas.charts.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) {
-    return double(atlas.charts[a].width) * atlas.charts[a].height >
-           double(atlas.charts[b].width) * atlas.charts[b].height;
-  });
-  const int threads = std::max(
-      1, std::min<int>(options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()),
-                       static_cast<int>(order.size())));
-  std::atomic<size_t> next{0};
-  std::exception_ptr failure;
-  std::mutex failureMutex;
-  const auto worker = [&] {
+  forEachChart(atlas, options.threads, [&](int ci) {
     std::vector<BakeTriangle> tris;
-    try {
-      for (size_t k; (k = next++) < order.size();) bakeChart(order[k], tris);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(failureMutex);
-      if (!failure) failure = std::current_exception();
-      next = order.size();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+    bakeChart(ci, tris);
+  });
+  fillFromNearest(out.rgba, out.chart);
+  out.seconds = secondsSince(t0);
+  return out;
+}
 
+AtlasImage bakeAtlasSurface(const Atlas& atlas, const std::function<Vec3f(int, const Vec3&, unsigned char&)>& color,
+                            const AtlasOptions& options, cv::Mat* labels) {
+  const auto t0 = Clock::now();
+  const int size = atlas.size;
+  TM_CHECK(size > 0 && atlas.faceChart.size() == atlas.cornerUV.size(), "atlas bake: the atlas is not built");
+  AtlasImage out;
+  out.rgba = largeMat(size, size, CV_8UC4);
+  out.rgba.setTo(cv::Scalar(0, 0, 0, 255));
+  out.chart = largeMat(size, size, CV_32SC1);
+  out.chart.setTo(cv::Scalar(-1));
+  cv::Mat priority = largeMat(size, size, CV_8UC1);
+  priority.setTo(cv::Scalar(255));
+  if (labels) *labels = cv::Mat(size, size, CV_8UC1, cv::Scalar(0));
+  const auto toByte = [](float v) { return static_cast<unsigned char>(std::clamp(v, 0.0f, 1.0f) * 255.0f + 0.5f); };
+  forEachChart(atlas, options.threads, [&](int ci) {
+    const AtlasChart& chart = atlas.charts[ci];
+    const int x1 = chart.x + chart.width, y1 = chart.y + chart.height;
+    const auto settled = [&](int x, int y) { return priority.ptr<unsigned char>(y)[x] == 0; };
+    for (const Pass pass : {Pass::Inside, Pass::Band})
+      for (int f : chart.faces)
+        footprintTexels(atlas.cornerUV[f], chart.x, chart.y, x1, y1, pass, settled,
+                        [&](int x, int y, double d, const Vec3& b) {
+                          unsigned char& prio = priority.ptr<unsigned char>(y)[x];
+                          const int mine = d == 0 ? 0 : 1 + std::min(253, static_cast<int>(d * 64));
+                          if (mine >= prio) return;
+                          prio = static_cast<unsigned char>(mine);
+                          unsigned char label = 0;
+                          const Vec3f c = color(f, b, label);
+                          out.rgba.ptr<cv::Vec4b>(y)[x] = cv::Vec4b(toByte(c[0]), toByte(c[1]), toByte(c[2]), 255);
+                          if (labels) labels->ptr<unsigned char>(y)[x] = label;
+                          out.chart.ptr<int>(y)[x] = ci;
+                        });
+  });
   fillFromNearest(out.rgba, out.chart);
   out.seconds = secondsSince(t0);
   return out;
@@ -1086,12 +1177,17 @@ cv::Mat atlasHoleMask(const Atlas& atlas, const AtlasImage& image) {
 }
 
 void writeAtlasLayers(const Atlas& atlas, const AtlasImage& image, const std::string& dir, const std::string& base) {
+  writeAtlasLayers(atlasSourceLayer(atlas, image), dir, base);
+}
+
+void writeAtlasLayers(const cv::Mat& source, const std::string& dir, const std::string& base) {
   namespace fs = std::filesystem;
+  TM_CHECK(source.type() == CV_8UC1, located(dir, "the source layer must be 8-bit, one channel"));
   std::error_code ec;
   fs::create_directories(dir, ec);
+  const cv::Mat holes = source >= 253;  // inpainted (254) and empty (253)
   for (const auto& [suffix, layer] :
-       {std::pair<std::string, cv::Mat>{"_atlas_source.png", atlasSourceLayer(atlas, image)},
-        {"_atlas_holes.png", atlasHoleMask(atlas, image)}}) {
+       {std::pair<std::string, cv::Mat>{"_atlas_source.png", source}, {"_atlas_holes.png", holes}}) {
     const std::string path = (fs::path(dir) / (base + suffix)).string();
     std::vector<unsigned char> bytes;
     TM_CHECK(cv::imencode(".png", layer, bytes), located(path, "cannot encode PNG"));
@@ -1117,12 +1213,26 @@ TexturedModel atlasModel(const Mesh& mesh, const Atlas& atlas, const AtlasImage&
       const Vec2& a = atlas.cornerUV[f][k];
       model.uv[f][k] = Vec2f(static_cast<float>(a.x() * inv), static_cast<float>(1.0 - a.y() * inv));
     }
-  model.faceMaterial.assign(F, 0);
+  // One material per source ("photo_<k>", "inpainted", "empty", in that order), all showing the atlas, so
+  // that viewers list the parts by where their colours come from.
   model.faceSource = atlas.faceSource;
-  Material material;
-  material.name = "atlas";
-  material.texture = image.rgba;
-  model.materials.push_back(material);
+  std::map<int, int> material;  // source -> material, photos first
+  for (int src : atlas.faceSource) material.emplace(src >= 0 ? src : 1'000'000 - src, 0);
+  for (auto& [key, index] : material) {
+    Material m;
+    m.name = key < 1'000'000                       ? "photo_" + std::to_string(key)
+             : key == 1'000'000 - kSourceInpainted ? "inpainted"
+                                                   : "empty";
+    m.texture = image.rgba;
+    m.textureName = "atlas";
+    index = static_cast<int>(model.materials.size());
+    model.materials.push_back(m);
+  }
+  model.faceMaterial.resize(F);
+  for (int f = 0; f < F; ++f) {
+    const int src = atlas.faceSource[f];
+    model.faceMaterial[f] = material.at(src >= 0 ? src : 1'000'000 - src);
+  }
   return model;
 }
 

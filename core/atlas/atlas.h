@@ -33,15 +33,24 @@ struct Photo;
 struct InpaintResult;
 struct SeamLevelling;
 
+inline constexpr int kMinAtlasSize = 256, kMaxAtlasSize = 8192, kAtlasSizeStep = 256;
+
 struct AtlasOptions {
-  int size = 4096;  // atlas width and height in texels, 1024 to 8192
-  int gutter = 4;   // texels between the footprints of two charts and from the border, 0 to 64
-  // Upper bound of the global scale (atlas texels per photo pixel). 0 = none: the charts grow until
-  // they fill the atlas, so small inputs do not leave it mostly empty. 1 never magnifies a photo.
+  // Atlas width and height in texels. 0 (automatic): the smallest multiple of 256 that holds every
+  // chart at its photo's own texel density (never magnified), at most 8192 (beyond, the charts shrink).
+  // 256 to 8192: that size, with the charts grown or shrunk to fill it (up to maxScale).
+  int size = 0;
+  int gutter = 4;  // texels between the footprints of two charts and from the border, 0 to 64
+  // Fixed sizes: upper bound of the global scale (atlas texels per photo pixel). 0 = none: the charts
+  // grow until they fill the atlas. 1 never magnifies a photo. (The automatic size always uses 1.)
   double maxScale = 0;
   // An LSCM chart is split in two while its area-weighted L2 stretch (1 = isometric) exceeds this or
   // while it has flipped triangles. Lower = more, smaller, less distorted charts.
   double maxChartStretch = 1.5;
+  // An LSCM chart with more faces than this is split in two before it is flattened, so that no single
+  // chart's sparse factorisation takes minutes (issue 15: one 1M-face empty chart took 220 s). Lower =
+  // more, smaller charts and faster flattening (docs/atlas.md measures it).
+  int maxLscmFaces = 100000;
   // Texel density of empty charts relative to the others: they are one flat colour.
   double emptyDensity = 0.25;
   bool rotateCharts = true;  // let the packer turn charts by 90 degrees where that packs tighter
@@ -64,6 +73,9 @@ struct AtlasInput {
   // Optional #F: texel density wanted for non-photo faces, in texels per model unit at scale 1
   // (inpainting's refinement density); 0 or empty = the photo charts' mean density.
   std::vector<double> faceDensity;
+  // Optional #F: faces of different groups never share a chart (e.g. the charts of another atlas of
+  // the same surface, so that the new charts follow its seams); empty = no constraint.
+  std::vector<int> faceGroup;
 };
 
 // The input for the pipeline: faces of an inpainted region or clone target (inpaint->faceRegion >= 0)
@@ -99,6 +111,7 @@ struct Atlas {
   int photoCharts = 0, lscmCharts = 0;
   int discCuts = 0;       // splits of closed, annular or higher-genus regions into discs
   int stretchSplits = 0;  // splits of LSCM charts that flipped or stretched beyond the threshold
+  int sizeSplits = 0;     // splits of LSCM charts larger than AtlasOptions::maxLscmFaces
   int packAttempts = 0;   // packings tried while searching the scale
   AtlasTimes times;
   nlohmann::json stats() const;  // figures for report.json (no per-chart data)
@@ -128,6 +141,16 @@ struct AtlasImage {
 AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std::shared_ptr<const Photo>>& photos,
                      const SeamLevelling* levelling, const InpaintResult* inpaint, const AtlasOptions& options = {});
 
+// Bakes any surface colour into the atlas: every footprint texel takes color(face, barycentrics of the
+// face) at its centre when the centre lies in one of its chart's triangles, else at the nearest point of
+// the chart's triangles; then the same gutter fill as bakeAtlas. `color` returns sRGB in [0,1] and may
+// set `label` (0 by default); `labels`, when given, receives the labels as a CV_8UC1 image (0 outside
+// every footprint). `color` is called from several threads at once. Used to transfer a result between
+// two atlases of one surface (atlas/transfer.h).
+AtlasImage bakeAtlasSurface(const Atlas& atlas,
+                            const std::function<Vec3f(int face, const Vec3& bary, unsigned char& label)>& color,
+                            const AtlasOptions& options = {}, cv::Mat* labels = nullptr);
+
 // Extra layers. Source per texel (CV_8UC1): photo index + 1 (up to 250), 254 inpainted, 253 empty,
 // 0 outside every footprint. Hole mask (CV_8UC1): 255 on inpainted and empty charts, 0 elsewhere.
 cv::Mat atlasSourceLayer(const Atlas& atlas, const AtlasImage& image);
@@ -135,10 +158,13 @@ cv::Mat atlasHoleMask(const Atlas& atlas, const AtlasImage& image);
 // Writes DIR/<base>_atlas_source.png and DIR/<base>_atlas_holes.png (atomically).
 void writeAtlasLayers(const Atlas& atlas, const AtlasImage& image, const std::string& dir,
                       const std::string& base = "model");
+// The same from a source layer (atlasSourceLayer's codes); the hole mask is where it is 253 or 254.
+void writeAtlasLayers(const cv::Mat& source, const std::string& dir, const std::string& base = "model");
 
-// The model exportObj/exportGlb write: the mesh, atlas UVs (OBJ convention), the given face sources
-// and ONE material named "atlas" whose texture is the baked image, so exportObj(model, dir, "model")
-// writes model.obj, model.mtl and model_atlas.png.
+// The model exportObj/exportGlb write for the refined topology: the mesh, atlas UVs (OBJ convention), the
+// given face sources and one material per source ("photo_<k>", "inpainted", "empty"), all showing the
+// baked image (texture name "atlas"), so exportObj(model, dir, "model") writes model.obj, model.mtl and
+// one model_atlas.png.
 TexturedModel atlasModel(const Mesh& mesh, const Atlas& atlas, const AtlasImage& image);
 
 }  // namespace montage

@@ -13,12 +13,21 @@ using Vec2f = Eigen::Vector2f;
 using Vec3f = Eigen::Vector3f;
 using Vec4f = Eigen::Vector4f;
 
+// Text safe to show on a terminal or in a log: control characters (C0 including newline and tab
+// unless `keepLines`, DEL, and C1 written as UTF-8) become \xNN (C1 as \u00NN), and bytes that are
+// not valid UTF-8 become \xNN. Valid UTF-8 (accented names) is kept. Idempotent: its output contains
+// none of the escaped bytes, so escaping twice changes nothing.
+std::string printable(const std::string& text, bool keepLines = false);
+
 // Every failure the user can cause (bad file, bad field, impossible request) is reported with this
 // exception. The message names the file, the field or element, and the reason, e.g.
 //   "scene.json: points[3].at[0].x: 1032.5 is outside photo 0 'a.png' (width 1024)".
+// The message goes through printable(): bytes copied from a file or a path (ESC, BEL, newlines) can
+// never reach a terminal raw.
 class Error : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit Error(const std::string& message) : std::runtime_error(printable(message)) {}
+  explicit Error(const char* message) : Error(std::string(message)) {}
 };
 
 // Thrown when a running job sees its cancel flag; never shown to the user as an error.

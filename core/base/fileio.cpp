@@ -1,14 +1,18 @@
 #include "base/fileio.h"
 
+#include <dirent.h>
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <cctype>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <utility>
+#include <vector>
 
 namespace fs = std::filesystem;
 
@@ -50,9 +54,23 @@ void writeFileAtomic(const std::string& path, const std::string& contents) {
   if (fs::is_symlink(target, ec)) target = fs::weakly_canonical(target, ec);  // replace the file, not the link
   const fs::path dir = target.parent_path();
 
-  std::string name = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
-  const int fd = ::mkstemp(name.data());
-  check(fd >= 0, [&] { return "cannot create a temporary file in " + inQuotes(dir.string()); });
+  // A locked temporary file: removeStaleTempFiles() takes only unlocked ones. If a cleaner removed the
+  // new file between mkstemp and flock (it saw it unlocked), make another.
+  std::string name;
+  int fd = -1;
+  for (int attempt = 0; fd < 0; ++attempt) {
+    name = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+    fd = ::mkstemp(name.data());
+    check(fd >= 0, [&] { return "cannot create a temporary file in " + inQuotes(dir.string()); });
+    struct stat mine {
+    }, named{};
+    if (::flock(fd, LOCK_EX) == 0 && ::fstat(fd, &mine) == 0 && ::stat(name.c_str(), &named) == 0 &&
+        mine.st_ino == named.st_ino && mine.st_dev == named.st_dev)
+      break;
+    ::close(fd);
+    fd = -1;
+    check(attempt < 10, [&] { return "cannot lock a temporary file in " + inQuotes(dir.string()); });
+  }
   TempFile temp(name, fd);
 
   struct stat existing {};
@@ -77,6 +95,160 @@ void writeFileAtomic(const std::string& path, const std::string& contents) {
   ::close(dirFd);
   errno = err;
   check(synced, [] { return std::string("written, but cannot sync the folder"); });
+  removeStaleTempFiles(target.string());
+}
+
+int removeStaleTempFiles(const std::string& path) {
+  std::error_code ec;
+  const fs::path target = fs::absolute(path, ec).lexically_normal();
+  if (ec) return 0;
+  const std::string prefix = "." + target.filename().string() + ".tmp-";
+  const fs::path dir = target.parent_path();
+  DIR* folder = ::opendir(dir.c_str());
+  if (!folder) return 0;
+  std::vector<std::string> candidates;
+  while (const dirent* entry = ::readdir(folder)) {
+    const std::string name = entry->d_name;
+    if (name.size() == prefix.size() + 6 && name.compare(0, prefix.size(), prefix) == 0) candidates.push_back(name);
+  }
+  ::closedir(folder);
+  int removed = 0;
+  for (const std::string& name : candidates) {
+    const std::string file = (dir / name).string();
+    const int fd = ::open(file.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC | O_NONBLOCK);
+    if (fd < 0) continue;
+    struct stat mine {
+    }, named{};
+    // Unlocked: its writer is gone (a live writer holds the lock from creation to rename).
+    if (::flock(fd, LOCK_EX | LOCK_NB) == 0 && ::fstat(fd, &mine) == 0 && S_ISREG(mine.st_mode) &&
+        ::lstat(file.c_str(), &named) == 0 && mine.st_ino == named.st_ino && mine.st_dev == named.st_dev)
+      removed += ::unlink(file.c_str()) == 0;
+    ::close(fd);
+  }
+  return removed;
+}
+
+std::string fileProblem(const std::string& path) {
+  if (path.empty()) return "the path is empty";
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    const int err = errno;
+    switch (err) {
+      case ENOENT: {
+        struct stat link {};
+        if (::lstat(path.c_str(), &link) == 0 && S_ISLNK(link.st_mode)) {
+          std::error_code ec;
+          const fs::path to = fs::read_symlink(path, ec);
+          return "is a dangling symbolic link" + (ec ? std::string() : " to " + inQuotes(to.string()));
+        }
+        return "not found";
+      }
+      case ELOOP:
+        return "cannot be opened: symbolic link loop (too many levels of symbolic links)";
+      case EACCES:
+        return "cannot be opened: permission denied";
+      case ENOTDIR:
+        return "not found (a part of the path is a file, not a folder)";
+      case ENAMETOOLONG:
+        return "cannot be opened: the path is too long";
+      default:
+        return std::string("cannot be opened: ") + std::strerror(err);
+    }
+  }
+  if (S_ISDIR(st.st_mode)) return "is a folder, not a file";
+  if (!S_ISREG(st.st_mode)) return "is not a regular file (a device, pipe or socket)";
+  if (::access(path.c_str(), R_OK) != 0) return std::string("cannot be read: ") + std::strerror(errno);
+  return "";
+}
+
+void requireRegularFile(const std::string& path, const std::string& what) {
+  const std::string problem = fileProblem(path);
+  if (!problem.empty()) throw Error(located(path, what.empty() ? problem : what + " " + problem));
+}
+
+std::string readFileBytes(const std::string& path, const std::string& what, uint64_t maxBytes, const std::string& why) {
+  requireRegularFile(path, what);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    const int err = errno;
+    throw Error(located(path, "cannot open " + what + ": " + std::strerror(err)));
+  }
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  const uint64_t size = ::fstat(fd, &st) == 0 ? uint64_t(st.st_size) : 0;
+  const auto tooLarge = [&](uint64_t bytes) {
+    throw Error(located(path, what + " is " + (bytes > size ? "more than " : "") + byteSize(bytes) + "; at most " +
+                                  byteSize(maxBytes) + " are read" + (why.empty() ? "" : " (" + why + ")")));
+  };
+  if (size > maxBytes) tooLarge(size);
+  std::string data;
+  data.reserve(size_t(size));
+  char buffer[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(fd, buffer, sizeof buffer);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      const int err = errno;
+      throw Error(located(path, "read error in " + what + ": " + std::strerror(err)));
+    }
+    if (n == 0) break;
+    if (data.size() + size_t(n) > maxBytes) tooLarge(data.size() + size_t(n));  // grew while read
+    data.append(buffer, size_t(n));
+  }
+  return data;
+}
+
+bool isInsideFolder(const std::string& path, const std::string& folder) {
+  std::error_code ec;
+  const fs::path dir = fs::weakly_canonical(fs::absolute(folder, ec), ec);
+  if (ec) return false;
+  const fs::path file = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  if (ec) return false;
+  auto d = dir.begin(), f = file.begin();
+  for (; d != dir.end(); ++d, ++f)
+    if (f == file.end() || *d != *f) {
+      if (d->empty() && std::next(d) == dir.end()) return true;  // "folder/" ends in an empty element
+      return false;
+    }
+  return true;
+}
+
+void prepareOutputFile(const std::string& path, const std::string& what) {
+  TM_CHECK(!path.empty(), what + ": the path is empty");
+  std::error_code ec;
+  const fs::path target = fs::absolute(path, ec).lexically_normal();
+  if (ec) throw Error(located(path, what + ": cannot resolve the path: " + ec.message()));
+  TM_CHECK(target.has_filename(), located(path, what + ": names a folder, not a file"));
+  struct stat st {};
+  if (::stat(target.c_str(), &st) == 0) {
+    TM_CHECK(!S_ISDIR(st.st_mode), located(path, what + ": is a folder, not a file"));
+  } else if (errno != ENOENT) {
+    throw Error(located(path, what + ": " + fileProblem(target.string())));
+  }
+  const fs::path dir = target.parent_path();
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(located(dir.string(), what + ": cannot create the folder: " + ec.message()));
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    const int err = errno;
+    throw Error(located(dir.string(), what + ": cannot write here: " + std::strerror(err)));
+  }
+}
+
+std::string byteSize(uint64_t bytes) {
+  char text[64];
+  if (bytes < 1000) {
+    std::snprintf(text, sizeof text, "%llu bytes", static_cast<unsigned long long>(bytes));
+  } else {
+    const char* units[] = {"KB", "MB", "GB", "TB", "PB", "EB"};
+    double value = bytes / 1000.0;
+    int u = 0;
+    while (value >= 1000 && u < 5) value /= 1000, ++u;
+    std::snprintf(text, sizeof text, value < 100 ? "%.1f %s" : "%.0f %s", value, units[u]);
+  }
+  return text;
 }
 
 std::string lowerExtension(const std::string& path) {

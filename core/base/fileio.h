@@ -2,6 +2,7 @@
 // partial file.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "base/common.h"
@@ -11,7 +12,39 @@ namespace montage {
 // Writes `contents` to `path` atomically: temporary file in the same folder, fsync, rename, fsync of
 // the folder. An existing file keeps its permissions; a symbolic link is followed (the file it names
 // is replaced, not the link). Throws montage::Error on failure, leaving any earlier file untouched.
+// The temporary file (".<name>.tmp-XXXXXX") is locked (flock) while it is written; temporary files of
+// the same name left by a writer that was killed (unlocked) are removed after a successful write.
 void writeFileAtomic(const std::string& path, const std::string& contents);
+
+// Removes ".<name>.tmp-XXXXXX" files beside `path` that no live writer holds (see writeFileAtomic);
+// returns how many were removed. Never throws.
+int removeStaleTempFiles(const std::string& path);
+
+// Why `path` cannot be read as a regular file, or "" when it can: "not found", "is a folder",
+// "symbolic link loop (too many levels of symbolic links)", "dangling symbolic link to 'x'",
+// "permission denied", "is not a regular file (a device, pipe or socket)"...
+std::string fileProblem(const std::string& path);
+// Throws montage::Error "<path>: <what> <problem>" (e.g. "a.obj: mesh file not found") unless
+// fileProblem(path) is empty. `what` may be empty.
+void requireRegularFile(const std::string& path, const std::string& what = "");
+
+// The whole file as bytes. Throws montage::Error naming the path and the reason when it cannot be
+// read (see fileProblem) or when it is larger than `maxBytes` ("<what> is 200.0 MB; at most 64.0 MB
+// are read", followed by `why`, e.g. a hint of what such a file should hold).
+std::string readFileBytes(const std::string& path, const std::string& what, uint64_t maxBytes = UINT64_MAX,
+                          const std::string& why = "");
+
+// Whether `path` lies inside the folder `folder` (or is in it), after resolving ".." and symbolic
+// links of both (so a link inside the folder that points out of it is outside).
+bool isInsideFolder(const std::string& path, const std::string& folder);
+
+// Checks a path the user gave for an output file before any work is done: not empty, not a folder, its
+// folder present or creatable (it is created). `what` names the option, e.g. "--out". Throws
+// montage::Error naming the path and the reason.
+void prepareOutputFile(const std::string& path, const std::string& what);
+
+// "12.3 MB", "850 KB", "17 bytes": a size for messages (decimal units).
+std::string byteSize(uint64_t bytes);
 
 // The file's extension in lower case, with its dot (".png"), or "" when it has none.
 std::string lowerExtension(const std::string& path);

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -23,6 +24,7 @@
 
 #include "geometry/mesh.h"
 #include "image/color.h"
+#include "mapping/camera.h"
 
 namespace fs = std::filesystem;
 
@@ -294,6 +296,8 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
   if (!(options.borderPx >= 0 && options.borderPx <= options.size / 4.0))
     throw fail("borderPx", "must be in [0, size/4] (got " + std::to_string(options.borderPx) + ")");
   if (!std::isfinite(options.minFacing)) throw fail("minFacing", "must be finite");
+  if (!(options.clickNoisePx >= 0 && options.clickNoisePx <= options.size / 4.0))
+    throw fail("clickNoisePx", "must be in [0, size/4] pixels (got " + std::to_string(options.clickNoisePx) + ")");
   if (!color) throw fail("color", "no surface colour function given");
   if (mesh.numFaces() == 0) throw fail(meshPath.empty() ? "mesh" : meshPath, "the mesh has no faces");
 
@@ -434,6 +438,20 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
     if (progress) progress(static_cast<double>(k + 1) / options.views);
   }
 
+  // Click noise: a seeded Gaussian (Box-Muller on the library-independent generator), in feature order.
+  if (options.clickNoisePx > 0) {
+    std::mt19937 noise(options.seed ^ 0xC11C4A11u);
+    auto gaussian = [&] {
+      const double u1 = (noise() + 0.5) * (1.0 / 4294967296.0), u2 = unit(noise);
+      return std::sqrt(-2 * std::log(u1)) * std::cos(2 * M_PI * u2);
+    };
+    for (auto& positions : seen)
+      for (PhotoPoint& at : positions) {
+        at.x = std::clamp(at.x + options.clickNoisePx * gaussian(), 0.0, double(size));
+        at.y = std::clamp(at.y + options.clickNoisePx * gaussian(), 0.0, double(size));
+      }
+  }
+
   Project& project = scene.project;
   std::error_code ec;
   const fs::path absolute = meshPath.empty() ? fs::path() : fs::absolute(meshPath, ec);
@@ -508,8 +526,61 @@ void writeSynthScene(const SynthScene& scene, const std::string& dir) {
                               {"fov_y_deg", o.fovYDeg},
                               {"min_facing", o.minFacing},
                               {"border_px", o.borderPx},
+                              {"click_noise_px", o.clickNoisePx},
                               {"supersampling", 2}}}};
   writeFileAtomic((folder / "cameras.json").string(), cameras.dump(2) + "\n");
+}
+
+}  // namespace montage
+
+namespace montage {
+
+std::vector<PhotoCamera> readSynthCameras(const std::string& path) {
+  std::ifstream in(path);
+  TM_CHECK(in, located(path, "cannot open the cameras file"));
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(located(path, std::string("invalid JSON: ") + e.what()));
+  }
+  TM_CHECK(j.is_object() && j.value("format", "") == "texturemontage-synth-cameras",
+           located(path, "format: not a TextureMontage synthetic cameras file"));
+  TM_CHECK(j.contains("views") && j["views"].is_array(), located(path, "views: missing or not an array"));
+  std::vector<PhotoCamera> cameras;
+  for (size_t k = 0; k < j["views"].size(); ++k) {
+    const nlohmann::json& v = j["views"][k];
+    const std::string where = "views[" + std::to_string(k) + "]";
+    auto number = [&](const char* field) {
+      TM_CHECK(v.contains(field) && v[field].is_number(),
+               located(path, where + "." + field + ": missing or not a number"));
+      return v[field].get<double>();
+    };
+    auto numbers = [&](const char* field, size_t n) {
+      TM_CHECK(v.contains(field) && v[field].is_array() && v[field].size() == n,
+               located(path, where + "." + field + ": must be an array of " + std::to_string(n) + " numbers"));
+      std::vector<double> out;
+      for (const auto& x : v[field]) {
+        TM_CHECK(x.is_number(), located(path, where + "." + field + ": must hold numbers"));
+        out.push_back(x.get<double>());
+      }
+      return out;
+    };
+    PhotoCamera c;
+    c.pinhole.width = static_cast<int>(number("width"));
+    c.pinhole.height = static_cast<int>(number("height"));
+    TM_CHECK(c.pinhole.width > 0 && c.pinhole.height > 0, located(path, where + ": width and height must be positive"));
+    c.pinhole.fx = number("fx");
+    c.pinhole.fy = number("fy");
+    c.pinhole.cx = number("cx");
+    c.pinhole.cy = number("cy");
+    const std::vector<double> R = numbers("R", 9), t = numbers("t", 3);
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 3; ++col) c.pinhole.R(r, col) = R[3 * r + col];
+    c.pinhole.t = Vec3(t[0], t[1], t[2]);
+    cameras.push_back(c);
+  }
+  return cameras;
 }
 
 }  // namespace montage

@@ -32,6 +32,9 @@ struct SynthOptions {
   // Exposure gain per view on linear colour (view k uses exposures[k % size]; empty = 1): photos of one
   // subject taken with different exposures, for seam levelling tests.
   std::vector<double> exposures;
+  // Standard deviation (pixels) of a seeded Gaussian error added to each click's x and y (clamped to the
+  // photo): clicks as a careful user makes them. 0 = exact projections. The true cameras are unchanged.
+  double clickNoisePx = 0;
 };
 
 struct SynthScene {
@@ -56,5 +59,10 @@ std::vector<int> farthestPointSamples(const Mesh& mesh, int count, unsigned seed
 
 // Writes photos, project.json and cameras.json (ground truth) into `dir`.
 void writeSynthScene(const SynthScene& scene, const std::string& dir);
+
+struct PhotoCamera;
+// Reads the true cameras of a scene's cameras.json (one per photo, in photo order; no distortion).
+// Throws montage::Error naming the file and the field when it is missing or malformed.
+std::vector<PhotoCamera> readSynthCameras(const std::string& path);
 
 }  // namespace montage

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <numeric>
 #include <sstream>
@@ -112,6 +113,10 @@ std::unique_ptr<Mesh> requireUsable(LoadedMesh loaded) {
 namespace {
 
 constexpr int kMaxListed = 50;  // element ids kept per finding
+// Coordinates beyond this (model units) are refused: squared lengths, areas and their products must
+// stay far from overflow (1e30^4 = 1e120), and no real model is this large. Likewise a mesh whose
+// bounding box is below kMinDiagonal would underflow.
+constexpr double kMaxCoordinate = 1e30, kMinDiagonal = 1e-30;
 
 // The elements of one kind of finding: the first kMaxListed ids and the total count.
 struct IdList {
@@ -125,6 +130,12 @@ struct IdList {
 void addFinding(MeshReport& report, MeshFinding::Severity severity, const IdList& list, const std::string& what) {
   if (list.count > 0)
     report.findings.push_back({severity, std::to_string(list.count) + " " + what, list.ids, list.count});
+}
+
+std::string shortNumber(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", x);
+  return text;
 }
 
 // For each point, the first point with a bit-identical position (itself when none); -0 equals +0.
@@ -184,7 +195,65 @@ class CornerEdges {
   std::vector<Entry> entries_;
 };
 
-enum class Drop { None, RepeatedVertex, Duplicate, ComplexEdge, Orientation, NonManifoldVertex };
+enum class Drop { None, RepeatedVertex, Duplicate, ComplexEdge, Orientation, NonManifoldVertex, NonOrientable };
+constexpr int kNumDrops = 7;
+
+// Consistent orientation (breadth first over the faces, through the edges that exactly two faces
+// share): a face that walks a shared edge in the same direction as its neighbour is turned over. In
+// each edge-connected part the orientation most faces had in the file wins. Where the part cannot be
+// oriented (a Moebius band), the face met last at each edge that still disagrees is marked
+// `nonOrientable`; removing those leaves every shared edge consistent. Returns per face whether to
+// turn it over.
+std::vector<char> orientFaces(int nt, const std::vector<int>& cornerVertex, const std::vector<char>& candidate,
+                              const CornerEdges& edges, std::vector<char>& nonOrientable) {
+  // The neighbour across the edge of corner c, and whether it walks the edge the same way (-1: none).
+  const auto across = [&](int c, bool& sameWay) {
+    const int a = cornerVertex[c], b = cornerVertex[CornerEdges::nextCorner(c)];
+    const auto ab = edges.range(a, b), ba = edges.range(b, a);
+    if ((ab.second - ab.first) + (ba.second - ba.first) != 2) return -1;  // boundary or non-manifold
+    if (ba.first != ba.second) {
+      sameWay = false;
+      return ba.first->second / 3;
+    }
+    sameWay = true;
+    return (ab.first->second == c ? ab.first + 1 : ab.first)->second / 3;
+  };
+  std::vector<char> flip(nt, 0), seen(nt, 0);
+  std::vector<int> order(nt, -1), queue, component;
+  int visited = 0;
+  for (int start = 0; start < nt; ++start) {
+    if (!candidate[start] || seen[start]) continue;
+    component.clear();
+    queue.assign(1, start);
+    seen[start] = 1;
+    for (size_t q = 0; q < queue.size(); ++q) {
+      const int t = queue[q];
+      order[t] = visited++;
+      component.push_back(t);
+      for (int k = 0; k < 3; ++k) {
+        bool sameWay = false;
+        const int u = across(3 * t + k, sameWay);
+        if (u < 0 || seen[u]) continue;
+        seen[u] = 1;
+        flip[u] = flip[t] ^ sameWay;
+        queue.push_back(u);
+      }
+    }
+    size_t turned = 0;
+    for (int t : component) turned += flip[t];
+    if (2 * turned > component.size())
+      for (int t : component) flip[t] ^= 1;
+  }
+  for (int t = 0; t < nt; ++t) {
+    if (!candidate[t]) continue;
+    for (int k = 0; k < 3; ++k) {
+      bool sameWay = false;
+      const int u = across(3 * t + k, sameWay);
+      if (u >= 0 && (flip[t] ^ flip[u] ^ sameWay)) nonOrientable[order[t] > order[u] ? t : u] = 1;
+    }
+  }
+  return flip;
+}
 
 // Silences OpenMesh's error stream while the mesh is built: dropped faces are reported instead.
 struct OmerrSilencer {
@@ -254,9 +323,12 @@ LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::a
   // mesh vertex (including the copies made by splitting below) to its input vertex.
   const std::vector<int> first = firstWithSamePosition(vertices);
   std::vector<int> meshVertex(nIn), origin;
-  IdList sharedPositions, nonFinite;
+  IdList sharedPositions, nonFinite, huge;
   for (int i = 0; i < nIn; ++i) {
-    if (!vertices[i].allFinite()) nonFinite.add(i);
+    if (!vertices[i].allFinite())
+      nonFinite.add(i);
+    else if (vertices[i].cwiseAbs().maxCoeff() > kMaxCoordinate)
+      huge.add(i);
     if (options.weldIdenticalPositions) {
       if (first[i] == i) origin.push_back(i);
       meshVertex[i] = first[i] == i ? static_cast<int>(origin.size()) - 1 : meshVertex[first[i]];
@@ -287,9 +359,28 @@ LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::a
   for (size_t i = 1; i < sorted.size(); ++i)
     if (sorted[i].first == sorted[i - 1].first) drop[sorted[i].second] = Drop::Duplicate;
 
-  // Non-manifold input edges (more than two of the remaining faces), counted once at their lowest corner.
+  // Consistent orientation: faces turned over, faces of non-orientable parts dropped.
   std::vector<char> candidate(nt);
   for (int t = 0; t < nt; ++t) candidate[t] = drop[t] == Drop::None;
+  std::vector<char> nonOrientable(nt, 0);
+  const std::vector<char> flip =
+      orientFaces(nt, cornerVertex, candidate, CornerEdges(nv, cornerVertex, candidate), nonOrientable);
+  IdList flipped;
+  for (int t = 0; t < nt; ++t) {
+    if (!candidate[t]) continue;
+    if (nonOrientable[t]) {
+      drop[t] = Drop::NonOrientable;
+      candidate[t] = 0;
+    } else if (flip[t]) {
+      std::swap(cornerVertex[3 * t + 1], cornerVertex[3 * t + 2]);
+      flipped.add(t);
+    }
+  }
+  report.flippedFaces = flipped.count;
+  // Corner k of the built face t is corner inputCorner(t, k) of the input triangle.
+  const auto inputCorner = [&](int t, int k) { return flip[t] && !nonOrientable[t] ? (3 - k) % 3 : k; };
+
+  // Non-manifold input edges (more than two of the remaining faces), counted once at their lowest corner.
   const CornerEdges edges(nv, cornerVertex, candidate);
   for (int c = 0; c < 3 * nt; ++c) {
     if (!candidate[c / 3]) continue;
@@ -385,7 +476,8 @@ LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::a
       const int v0 = mesh.faceVertices(f)[0];
       const int k = finalVertex[3 * t] == v0 ? 0 : finalVertex[3 * t + 1] == v0 ? 1 : 2;
       TM_ASSERT(finalVertex[3 * t + k] == v0);
-      mesh.cornerUV[f] = {uv[t][k], uv[t][(k + 1) % 3], uv[t][(k + 2) % 3]};
+      mesh.cornerUV[f] = {uv[t][inputCorner(t, k)], uv[t][inputCorner(t, (k + 1) % 3)],
+                          uv[t][inputCorner(t, (k + 2) % 3)]};
     }
   }
 
@@ -402,8 +494,16 @@ LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::a
     report.findings.push_back(
         {Severity::Error, nt == 0 ? "no faces" : "no faces left after dropping invalid ones", {}, 0});
   addFinding(report, Severity::Error, nonFinite, "vertices with non-finite coordinates (NaN or infinite)");
+  addFinding(report, Severity::Error, huge,
+             "vertices with coordinates beyond +-1e30 model units: the geometry would overflow (scale the mesh down)");
+  if (nonFinite.count == 0 && huge.count == 0 && report.faces > 0 && report.diagonal < kMinDiagonal)
+    report.findings.push_back({Severity::Error,
+                               "the mesh is too small (bounding-box diagonal " + shortNumber(report.diagonal) +
+                                   " model units, below 1e-30): its areas would underflow (scale the mesh up)",
+                               {},
+                               0});
 
-  IdList dropped[6];
+  IdList dropped[kNumDrops];
   for (int t = 0; t < nt; ++t)
     if (drop[t] != Drop::None) dropped[static_cast<int>(drop[t])].add(t);
   report.duplicateFaces = dropped[static_cast<int>(Drop::Duplicate)].count;
@@ -418,6 +518,12 @@ LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::a
              "faces dropped: orientation conflict (an edge used twice in the same direction)");
   addFinding(report, Severity::Warning, dropped[static_cast<int>(Drop::NonManifoldVertex)],
              "faces dropped: non-manifold vertex (vertex splitting is off)");
+  addFinding(report, Severity::Warning, flipped,
+             "faces turned over to agree with their neighbours (the file's orientation was inconsistent)");
+  report.nonOrientableFaces = dropped[static_cast<int>(Drop::NonOrientable)].count;
+  addFinding(report, Severity::Warning, dropped[static_cast<int>(Drop::NonOrientable)],
+             "faces dropped: the surface is not orientable there (a Moebius-like band); each closed an orientation "
+             "conflict");
   if (report.nonManifoldEdges > 0)
     report.findings.push_back(
         {Severity::Warning,
@@ -431,7 +537,7 @@ LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::a
 
   IdList zeroArea, unreferenced;
   const double minArea = 1e-12 * report.diagonal * report.diagonal;
-  if (nonFinite.count == 0)
+  if (nonFinite.count == 0 && huge.count == 0)
     for (int f = 0; f < mesh.numFaces(); ++f)
       if (const double a = mesh.faceArea(f); a < minArea || a == 0) zeroArea.add(mesh.faceOrigin[f]);
   for (int v = 0; v < nv; ++v)

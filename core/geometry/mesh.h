@@ -78,6 +78,8 @@ struct MeshReport {
   int duplicateFaces = 0;        // same vertex set as an earlier face (dropped)
   int unreferencedVertices = 0;  // no face uses them (kept, ignored by the pipeline)
   int droppedFaces = 0;          // input faces not in the mesh (complex edge, duplicate, repeated vertex)
+  int flippedFaces = 0;          // faces turned over to agree with their neighbours (inconsistent orientation)
+  int nonOrientableFaces = 0;    // faces dropped because their part of the surface cannot be oriented
   bool hasUV = false;
   double diagonal = 0;  // bounding-box diagonal, model units
   std::vector<MeshFinding> findings;

@@ -1,5 +1,5 @@
-// Simple generated meshes: unit icospheres and planar grids. Tests, benchmarks and examples use them
-// where a real mesh is not needed.
+// Simple generated meshes: unit icospheres, planar grids, and midpoint subdivision. Tests, benchmarks and examples use
+// them where a real mesh is not needed.
 #pragma once
 
 #include <memory>
@@ -16,5 +16,9 @@ std::unique_ptr<Mesh> makeIcosphere(int levels);
 // and position (i*step, j*step, 0); each cell split along its (i,j)-(i+1,j+1) diagonal; CCW seen
 // from +z.
 std::unique_ptr<Mesh> makeGrid(int nx, int ny, double step = 1.0);
+
+// Midpoint subdivision, `levels` times: every triangle into four (4^levels times the faces), new
+// vertices at edge midpoints appended after the existing ones (whose ids stay valid).
+std::unique_ptr<Mesh> subdivideMidpoint(const Mesh& mesh, int levels);
 
 }  // namespace montage

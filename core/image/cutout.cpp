@@ -23,10 +23,12 @@ cv::Mat to8uc3(const cv::Mat& rgb) {
   cv::Mat out;
   if (rgb.depth() == CV_8U)
     out = rgb;
+  else if (rgb.depth() == CV_16U)
+    rgb.convertTo(out, CV_8UC3, 1.0 / 257);
   else if (rgb.depth() == CV_32F)
     rgb.convertTo(out, CV_8UC3, 255.0);
   else
-    throw Error("cut-out: expected an 8-bit or float colour image");
+    throw Error("cut-out: expected an 8-bit, 16-bit or float colour image");
   return out;
 }
 
@@ -36,23 +38,26 @@ std::string percent(double share) {
 
 }  // namespace
 
-Cutout::Cutout(const cv::Mat& rgb, const CutoutOptions& options) : options_(options) {
+Cutout::Cutout(const cv::Mat& rgb, const CutoutOptions& options, cv::Size photoSize) : options_(options) {
   TM_CHECK(options.iterations >= 1, "cut-out: iterations must be >= 1, not " + std::to_string(options.iterations));
   TM_CHECK(options.workingSide == 0 || options.workingSide >= 64,
            "cut-out: the working size must be 0 (full resolution) or >= 64 pixels, not " +
                std::to_string(options.workingSide));
   TM_CHECK(std::isfinite(options.featherPx) && options.featherPx >= 0, "cut-out: the feather must be >= 0 pixels");
-  const cv::Mat full = to8uc3(rgb);
-  size_ = full.size();
+  const cv::Mat stored = to8uc3(rgb);
+  size_ = photoSize.empty() ? stored.size() : photoSize;
   const int side = std::max(size_.width, size_.height);
   scale_ = options.workingSide > 0 && side > options.workingSide ? double(options.workingSide) / side : 1.0;
-  if (scale_ < 1) {
-    const cv::Size working(std::max(1, int(std::lround(size_.width * scale_))),
-                           std::max(1, int(std::lround(size_.height * scale_))));
-    cv::resize(full, image_, working, 0, 0, cv::INTER_AREA);
-  } else {
-    image_ = full.clone();
-  }
+  // The working image: the photo at scale_, from its stored pixels (which a working resolution may have
+  // made fewer than the file's: never scaled up beyond them).
+  const double fromStored = double(stored.cols) / size_.width;
+  scale_ = std::min(scale_, fromStored);
+  const cv::Size working(std::max(1, int(std::lround(size_.width * scale_))),
+                         std::max(1, int(std::lround(size_.height * scale_))));
+  if (working != stored.size())
+    cv::resize(stored, image_, working, 0, 0, cv::INTER_AREA);
+  else
+    image_ = stored.clone();
   labels_ = cv::Mat(image_.size(), CV_8UC1, cv::Scalar(cv::GC_PR_BGD));
 }
 
@@ -84,11 +89,13 @@ void Cutout::setRect(const cv::Rect2d& rect) {
 }
 
 void Cutout::startFrom(const cv::Mat& alpha) {
-  TM_CHECK(alpha.size() == size_ && alpha.channels() == 1,
+  const bool sameShape = std::abs(double(alpha.cols) * size_.height - double(alpha.rows) * size_.width) <=
+                         std::max(alpha.cols, size_.width);  // the photo's size or a scaled copy of it
+  TM_CHECK(!alpha.empty() && sameShape && alpha.channels() == 1,
            "cut-out: the mask to start from is " + std::to_string(alpha.cols) + "x" + std::to_string(alpha.rows) +
                " but the photo is " + std::to_string(size_.width) + "x" + std::to_string(size_.height));
   cv::Mat foreground = alpha > 0, small;
-  if (scale_ < 1)
+  if (foreground.size() != image_.size())
     cv::resize(foreground, small, image_.size(), 0, 0, cv::INTER_NEAREST);
   else
     small = foreground;
@@ -246,17 +253,20 @@ double borderForegroundShare(const cv::Mat& alpha) {
 }
 
 std::vector<std::string> foregroundWarnings(const Photo& photo) {
+  return foregroundWarnings(photo.hasBackground, photo.hasBackground ? borderForegroundShare(photo.alpha) : 1.0);
+}
+
+std::vector<std::string> foregroundWarnings(bool hasBackground, double borderShare) {
   std::vector<std::string> out;
-  if (!photo.hasBackground) {
+  if (!hasBackground) {
     out.push_back(
         "no background: the photo has no alpha channel and no mask (or they mark everything as foreground), so the "
         "whole photo, background included, counts as the object; cut it out (montage mask, or the editor's cut-out "
         "tool)");
     return out;
   }
-  const double share = borderForegroundShare(photo.alpha);
-  if (share > 0.5)
-    out.push_back("the foreground covers " + percent(share) +
+  if (borderShare > 0.5)
+    out.push_back("the foreground covers " + percent(borderShare) +
                   " of the image border: the cut-out probably keeps background, which would be mapped onto the mesh; "
                   "refine it (montage mask, or the editor's cut-out tool)");
   return out;

@@ -38,14 +38,17 @@ struct CutoutStroke {
 // working-resolution image) is done once in the constructor.
 class Cutout {
  public:
-  // `rgb`: the photo, CV_32FC3 sRGB in [0,1] (Photo::rgb) or CV_8UC3. Throws montage::Error when empty.
-  explicit Cutout(const cv::Mat& rgb, const CutoutOptions& options = {});
+  // `rgb`: the photo, sRGB, CV_8UC3, CV_16UC3 or CV_32FC3 in [0,1] (Photo::rgb). `photoSize`: the photo's
+  // file size when `rgb` is stored at a working resolution (Photo::width, height; empty = rgb's size):
+  // coordinates and masks are then the file's pixels. Throws montage::Error when empty.
+  explicit Cutout(const cv::Mat& rgb, const CutoutOptions& options = {}, cv::Size photoSize = {});
 
   // Starts over from a rectangle (photo pixels, clipped to the photo): outside is background, inside is
   // unknown; runs GrabCut. Throws montage::Error when the rectangle is empty or covers the whole photo
   // (GrabCut then has no background to learn from).
   void setRect(const cv::Rect2d& rect);
-  // Starts over from an existing foreground (a mask or alpha of the photo's size, > 0 = foreground) as
+  // Starts over from an existing foreground (a mask or alpha of the photo's size or of its stored size,
+  // > 0 = foreground) as
   // GrabCut's probable labels, without running it: strokes then refine it, the brush edits it.
   void startFrom(const cv::Mat& alpha);
   // Marks a stroke as certain foreground or background and runs GrabCut again from the current state.
@@ -104,6 +107,8 @@ double borderForegroundShare(const cv::Mat& alpha);
 // alpha, no mask: the whole photo, background included, counts as the object), or a foreground that
 // covers most of the image border (the cut-out probably kept background). Empty when neither applies.
 std::vector<std::string> foregroundWarnings(const Photo& photo);
+// The same from what photoStats measures: whether the photo has a background, and borderForegroundShare.
+std::vector<std::string> foregroundWarnings(bool hasBackground, double borderShare);
 
 // Writes a mask as an 8-bit grey PNG (atomically). Throws montage::Error naming the file on failure.
 void writeMaskPng(const cv::Mat& mask, const std::string& path);

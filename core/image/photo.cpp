@@ -6,11 +6,15 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <istream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
+#include <streambuf>
 
+#include "base/fileio.h"
 #include "image/color.h"
+#include "image/cutout.h"
 
 namespace fs = std::filesystem;
 
@@ -19,18 +23,39 @@ namespace montage {
 namespace {
 
 constexpr int kMaxSide = 16384;
+constexpr int kStatsSide = 4096;  // photoStats: exact distance maps up to this side
 
 void requireFile(const std::string& path) {
-  std::error_code ec;
-  TM_CHECK(fs::exists(path, ec), located(path, "file not found"));
-  TM_CHECK(fs::is_regular_file(path, ec), located(path, "not a regular file"));
+  requireRegularFile(path, "image file");
 }
 
 // ---- Header parsers: the size of PNG, JPEG, BMP and TIFF files without decoding them. ----
 
+// A read-only stream buffer over bytes in memory, seekable (header parsers jump around).
+class MemoryBuffer : public std::streambuf {
+ public:
+  MemoryBuffer(const unsigned char* data, size_t size) {
+    char* p = const_cast<char*>(reinterpret_cast<const char*>(data));
+    setg(p, p, p + size);
+  }
+
+ protected:
+  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override {
+    const off_type base = dir == std::ios_base::beg   ? 0
+                          : dir == std::ios_base::cur ? gptr() - eback()
+                                                      : egptr() - eback();
+    return seekpos(pos_type(base + off), std::ios_base::in);
+  }
+  pos_type seekpos(pos_type pos, std::ios_base::openmode) override {
+    if (pos < 0 || pos > egptr() - eback()) return pos_type(off_type(-1));
+    setg(eback(), eback() + off_type(pos), egptr());
+    return pos;
+  }
+};
+
 class ByteReader {
  public:
-  explicit ByteReader(const std::string& path) : in_(path, std::ios::binary) {}
+  explicit ByteReader(std::istream& in) : in_(in) {}
   bool ok() const { return bool(in_); }
   bool read(uint8_t* out, size_t n) { return bool(in_.read(reinterpret_cast<char*>(out), std::streamsize(n))); }
   bool seek(uint64_t pos) { return bool(in_.seekg(std::streamoff(pos))); }
@@ -52,7 +77,7 @@ class ByteReader {
   }
 
  private:
-  std::ifstream in_;
+  std::istream& in_;
 };
 
 // PNG: signature, then the IHDR chunk with width and height (big endian).
@@ -131,19 +156,66 @@ std::optional<cv::Size> tiffSize(ByteReader& in, bool bigEndian) {
   return cv::Size(width, height);
 }
 
+enum class ImageFormat { Unknown, Png, Jpeg, Bmp, TiffLittle, TiffBig };
+
+ImageFormat formatOf(const uint8_t (&magic)[8]) {
+  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (std::equal(magic, magic + 8, kPng)) return ImageFormat::Png;
+  if (magic[0] == 0xFF && magic[1] == 0xD8 && magic[2] == 0xFF) return ImageFormat::Jpeg;
+  if (magic[0] == 'B' && magic[1] == 'M') return ImageFormat::Bmp;
+  if (magic[0] == 'I' && magic[1] == 'I' && magic[2] == 42 && magic[3] == 0) return ImageFormat::TiffLittle;
+  if (magic[0] == 'M' && magic[1] == 'M' && magic[2] == 0 && magic[3] == 42) return ImageFormat::TiffBig;
+  return ImageFormat::Unknown;
+}
+
+// The format and, when its header can be read, the size of an image. Only PNG, JPEG, BMP and TIFF are
+// decoded at all: OpenCV would otherwise pick a decoder by content (PNM, WebP, JPEG 2000...) for a
+// file whatever its name.
+struct ImageHeader {
+  ImageFormat format = ImageFormat::Unknown;
+  std::optional<cv::Size> size;
+};
+
+ImageHeader readHeader(std::istream& stream) {
+  ByteReader in(stream);
+  uint8_t magic[8] = {};
+  ImageHeader header;
+  if (!in.ok() || !in.read(magic, 8)) return header;
+  header.format = formatOf(magic);
+  switch (header.format) {
+    case ImageFormat::Png:
+      header.size = pngSize(in);
+      break;
+    case ImageFormat::Jpeg:
+      header.size = jpegSize(in);
+      break;
+    case ImageFormat::Bmp:
+      header.size = bmpSize(in);
+      break;
+    case ImageFormat::TiffLittle:
+    case ImageFormat::TiffBig:
+      header.size = tiffSize(in, header.format == ImageFormat::TiffBig);
+      break;
+    case ImageFormat::Unknown:
+      break;
+  }
+  return header;
+}
+
+ImageHeader fileHeader(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return readHeader(in);
+}
+
 // The size from the file header, or nothing when the format is not one of the above (or the header
 // is damaged); the caller then decodes the file.
 std::optional<cv::Size> headerSize(const std::string& path) {
-  ByteReader in(path);
-  uint8_t magic[8] = {};
-  if (!in.ok() || !in.read(magic, 8)) return std::nullopt;
-  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  if (std::equal(magic, magic + 8, kPng)) return pngSize(in);
-  if (magic[0] == 0xFF && magic[1] == 0xD8 && magic[2] == 0xFF) return jpegSize(in);
-  if (magic[0] == 'B' && magic[1] == 'M') return bmpSize(in);
-  if (magic[0] == 'I' && magic[1] == 'I' && magic[2] == 42 && magic[3] == 0) return tiffSize(in, false);
-  if (magic[0] == 'M' && magic[1] == 'M' && magic[2] == 0 && magic[3] == 42) return tiffSize(in, true);
-  return std::nullopt;
+  return fileHeader(path).size;
+}
+
+void requireKnownFormat(const std::string& where, ImageFormat format) {
+  TM_CHECK(format != ImageFormat::Unknown,
+           located(where, "not a PNG, JPEG, TIFF or BMP image (unknown file signature)"));
 }
 
 void checkSize(const std::string& path, cv::Size size) {
@@ -168,36 +240,37 @@ cv::Mat readUnchanged(const std::string& path) {
 cv::Mat decode(const std::string& path) {
   requireFile(path);
   // Refuse oversized images before allocating them, when the header tells the size.
-  if (auto size = headerSize(path)) checkSize(path, *size);
+  const ImageHeader header = fileHeader(path);
+  requireKnownFormat(path, header.format);
+  if (header.size) checkSize(path, *header.size);
   cv::Mat image = readUnchanged(path);
   checkSize(path, image.size());
   return image;
 }
 
-// Converts any supported depth to float in [0,1].
-cv::Mat toUnitFloat(const std::string& path, const cv::Mat& image) {
-  double scale = 1;
-  switch (image.depth()) {
-    case CV_8U:
-      scale = 1.0 / 255;
-      break;
-    case CV_16U:
-      scale = 1.0 / 65535;
-      break;
-    case CV_32F:
-      break;
-    default:
-      throw Error(located(path, "unsupported pixel format (only 8-bit, 16-bit and float images are read)"));
-  }
+// The depths a photo may have: 8-bit, 16-bit or float (in [0,1]).
+void requirePhotoDepth(const std::string& path, const cv::Mat& image) {
+  TM_CHECK(image.depth() == CV_8U || image.depth() == CV_16U || image.depth() == CV_32F,
+           located(path, "unsupported pixel format (only 8-bit, 16-bit and float images are read)"));
+  TM_CHECK(image.channels() >= 1 && image.channels() <= 4,
+           located(path, std::to_string(image.channels()) + " channels; expected 1 (grey), 3 (RGB) or 4 (RGBA)"));
+}
+
+// An alpha or mask channel of any depth as CV_8UC1: 0 stays 0 (background), any value above 0 becomes at
+// least 1 (foreground), 1.0 / 65535 / 255 become 255.
+cv::Mat alpha8(const cv::Mat& channel) {
+  if (channel.depth() == CV_8U) return channel;
   cv::Mat out;
-  image.convertTo(out, CV_MAKETYPE(CV_32F, image.channels()), scale);
+  channel.convertTo(out, CV_8U, channel.depth() == CV_16U ? 1.0 / 257 : 255.0);
+  out.setTo(1, (channel > 0) & (out == 0));
   return out;
 }
 
 // Foreground from a mask image: a pixel is foreground when one of its colour channels is non-zero and
-// (for masks with alpha) it is not transparent. Its alpha is its largest colour channel relative to the
-// largest value in the mask, so a 0/1 label image and a 0/255 mask both give alpha 1, and a feathered
-// edge (cutout.h) gives partial alpha; the foreground (alpha > 0) is the same either way.
+// (for masks with alpha) it is not transparent. CV_8UC1: its alpha is its largest colour channel relative
+// to the largest value in the mask (255 there), so a 0/1 label image and a 0/255 mask both give 255 on the
+// foreground, and a feathered edge (cutout.h) gives partial alpha; a non-zero value stays at least 1, so
+// the foreground is the same either way.
 cv::Mat maskToAlpha(const cv::Mat& mask) {
   std::vector<cv::Mat> channels;
   cv::split(mask, channels);
@@ -213,7 +286,8 @@ cv::Mat maskToAlpha(const cv::Mat& mask) {
   double largest = 0;
   cv::minMaxLoc(colour, nullptr, &largest);
   cv::Mat alpha;
-  colour.convertTo(alpha, CV_32F, largest > 0 ? 1.0 / largest : 0.0);
+  colour.convertTo(alpha, CV_8U, largest > 0 ? 255.0 / largest : 0.0);
+  alpha.setTo(1, (colour > 0) & (alpha == 0));
   if (colours < mask.channels()) alpha.setTo(0, channels.back() == 0);
   return alpha;
 }
@@ -222,63 +296,160 @@ std::string sizeText(cv::Size s) {
   return std::to_string(s.width) + "x" + std::to_string(s.height);
 }
 
-}  // namespace
+// The stored size of a photo under a working resolution (PhotoLoadOptions::maxSide).
+cv::Size storedSize(cv::Size file, int maxSide) {
+  const int longest = std::max(file.width, file.height);
+  if (maxSide <= 0 || longest <= maxSide) return file;
+  const double s = double(maxSide) / longest;
+  return cv::Size(std::max(1, int(std::lround(file.width * s))), std::max(1, int(std::lround(file.height * s))));
+}
 
-Photo loadPhoto(const std::string& path, const std::string& maskPath, bool mirror) {
-  cv::Mat image = toUnitFloat(path, decode(path));
-  if (mirror) cv::flip(image, image, 1);  // before anything is derived, so all maps are of the mirrored photo
-  Photo photo;
-  photo.path = path;
-  photo.maskPath = maskPath;
-  photo.mirrored = mirror;
-  photo.width = image.cols;
-  photo.height = image.rows;
-
-  std::vector<cv::Mat> channels;
-  cv::split(image, channels);
+// Colour channels of a decoded image (OpenCV order B,G,R(,A) or grey) as R,G,B at its depth.
+cv::Mat toRgb(const cv::Mat& image) {
+  cv::Mat rgb;
   switch (image.channels()) {
     case 1:
-    case 2:
-      cv::merge(std::vector<cv::Mat>{channels[0], channels[0], channels[0]}, photo.rgb);
+      cv::cvtColor(image, rgb, cv::COLOR_GRAY2RGB);
       break;
+    case 2: {
+      cv::Mat grey;
+      cv::extractChannel(image, grey, 0);
+      cv::cvtColor(grey, rgb, cv::COLOR_GRAY2RGB);
+      break;
+    }
     case 3:
-    case 4:  // OpenCV's order is B, G, R(, A)
-      cv::merge(std::vector<cv::Mat>{channels[2], channels[1], channels[0]}, photo.rgb);
+      cv::cvtColor(image, rgb, cv::COLOR_BGR2RGB);
       break;
     default:
-      throw Error(
-          located(path, std::to_string(image.channels()) + " channels; expected 1 (grey), 3 (RGB) or 4 (RGBA)"));
+      cv::cvtColor(image, rgb, cv::COLOR_BGRA2RGB);
+      break;
   }
+  return rgb;
+}
 
+// The foreground of a photo at the file's resolution, CV_8UC1 (0 = background), or empty when the
+// whole photo is foreground (no mask, no alpha channel). Throws when nothing is foreground.
+// `mirror`: the mask is flipped left to right, as the (already flipped) image.
+cv::Mat fileAlpha(const std::string& path, const std::string& maskPath, const cv::Mat& image, bool mirror = false) {
+  cv::Mat alpha;
   if (!maskPath.empty()) {
     cv::Mat mask = decode(maskPath);
     if (mirror) cv::flip(mask, mask, 1);  // a mask is in its photo file's pixels
     TM_CHECK(mask.size() == image.size(),
              located(maskPath, "mask is " + sizeText(mask.size()) + " but photo " + path + " is " +
                                    sizeText(image.size()) + "; they must have the same size"));
-    photo.alpha = maskToAlpha(mask);
+    alpha = maskToAlpha(mask);
   } else if (image.channels() == 2 || image.channels() == 4) {
-    photo.alpha = channels.back();
-    cv::max(photo.alpha, 0.0, photo.alpha);
-    cv::min(photo.alpha, 1.0, photo.alpha);
+    cv::Mat channel;
+    cv::extractChannel(image, channel, image.channels() - 1);
+    alpha = alpha8(channel);
   } else {
-    photo.alpha = cv::Mat(image.size(), CV_32F, cv::Scalar(1));
+    return {};
   }
-
-  const cv::Mat background = photo.alpha <= 0;  // 255 on background pixels
-  const int backgroundCount = cv::countNonZero(background);
   TM_CHECK(
-      backgroundCount < image.rows * image.cols,
+      cv::countNonZero(alpha) > 0,
       located(maskPath.empty() ? path : maskPath,
               "no foreground pixel (" + std::string(maskPath.empty() ? "alpha" : "mask") + " is zero everywhere)"));
-  photo.hasBackground = backgroundCount > 0;
-  if (photo.hasBackground)
-    cv::distanceTransform(background, photo.distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
-  else
-    photo.distance = cv::Mat::zeros(image.size(), CV_32F);
+  return alpha;
+}
 
-  photo.luv = srgbToLuv(photo.rgb);
+// Distance in pixels from every pixel centre to the nearest foreground pixel centre (CV_32FC1).
+cv::Mat distanceToForeground(const cv::Mat& alpha) {
+  cv::Mat distance;
+  {
+    const cv::Mat background = alpha == 0;  // 255 on background pixels
+    cv::distanceTransform(background, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  }
+  return distance;
+}
+
+}  // namespace
+
+Photo loadPhoto(const std::string& path, const std::string& maskPath) {
+  return loadPhoto(path, maskPath, PhotoLoadOptions{});
+}
+
+Photo loadPhoto(const std::string& path, const std::string& maskPath, const PhotoLoadOptions& options) {
+  Photo photo;
+  photo.path = path;
+  photo.maskPath = maskPath;
+  photo.mirrored = options.mirror;
+  cv::Mat alpha;
+  {
+    // Memory: the decoded image is the largest buffer; colour and foreground are taken out of it at the
+    // stored resolution (scaled first under a working resolution) and it is released before the
+    // distance map is made.
+    cv::Mat image = decode(path);
+    requirePhotoDepth(path, image);
+    // Mirrored before anything is derived, so every map is of the mirrored photo.
+    if (options.mirror) cv::flip(image, image, 1);
+    photo.width = image.cols;
+    photo.height = image.rows;
+    alpha = fileAlpha(path, maskPath, image, options.mirror);
+    const cv::Size stored = storedSize(image.size(), options.maxSide);
+    if (stored != image.size()) {
+      cv::resize(image, image, stored, 0, 0, cv::INTER_AREA);
+      if (!alpha.empty()) {
+        cv::resize(alpha, alpha, stored, 0, 0, cv::INTER_AREA);  // soft edges; specks below a stored pixel vanish
+        TM_CHECK(cv::countNonZero(alpha) > 0,
+                 located(maskPath.empty() ? path : maskPath,
+                         "no foreground pixel is left at the working resolution of " + sizeText(stored)));
+      }
+    }
+    photo.rgb = toRgb(image);
+  }
+  photo.scale = double(photo.rgb.cols) / photo.width;
+  photo.hasBackground = !alpha.empty() && cv::countNonZero(alpha) < alpha.rows * alpha.cols;
+  if (photo.hasBackground) {
+    photo.alpha = alpha;
+    alpha.release();
+    // Half floats (relative error below 2^-11, up to 65504 px): half the memory of the float map
+    // (537 MB for a 16384^2 photo), exact enough for the background tests of a few pixels.
+    distanceToForeground(photo.alpha).convertTo(photo.distance, CV_16F, 1 / photo.scale);  // file pixels
+  }
   return photo;
+}
+
+PhotoStats photoStats(const std::string& path) {
+  PhotoStats stats;
+  cv::Mat background;
+  {
+    cv::Mat alpha;
+    {
+      cv::Mat image = decode(path);
+      requirePhotoDepth(path, image);
+      stats.width = image.cols;
+      stats.height = image.rows;
+      stats.channels = image.channels();
+      stats.bitsPerChannel = image.depth() == CV_8U ? 8 : image.depth() == CV_16U ? 16 : 32;
+      alpha = fileAlpha(path, "", image);
+    }
+    const double pixels = double(stats.width) * stats.height;
+    stats.foreground = alpha.empty() ? 1.0 : cv::countNonZero(alpha) / pixels;
+    if (stats.foreground == 1.0) return stats;
+    stats.hasBackground = true;
+    stats.borderForeground = borderForegroundShare(alpha);
+    cv::threshold(alpha, alpha, 0, 255, cv::THRESH_BINARY);  // in place: foreground 255
+    // Photos above 4096 pixels a side: the distance map of a coarse foreground (a coarse pixel is
+    // foreground when any of its pixels is), within sqrt(2) * factor pixels of the exact maximum, in a
+    // sixteenth of the time (a 16384^2 transform alone takes about 9 s).
+    const int factor = (std::max(stats.width, stats.height) + kStatsSide - 1) / kStatsSide;
+    if (factor > 1) {
+      cv::Mat coarse;
+      cv::resize(alpha, coarse, cv::Size((stats.width + factor - 1) / factor, (stats.height + factor - 1) / factor), 0,
+                 0, cv::INTER_AREA);
+      alpha = coarse;
+      stats.maxDistanceError = std::sqrt(2.0) * factor;
+    }
+    background = alpha == 0;
+    stats.distanceScale = factor;
+  }
+  cv::Mat distance;
+  cv::distanceTransform(background, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  background.release();
+  cv::minMaxLoc(distance, nullptr, &stats.maxDistance);
+  stats.maxDistance *= stats.distanceScale;
+  return stats;
 }
 
 cv::Size readImageSize(const std::string& path) {
@@ -291,8 +462,25 @@ cv::Size readImageSize(const std::string& path) {
 }
 
 cv::Mat readImageRgba8(const std::string& path) {
-  requireFile(path);
-  return toRgba8(readUnchanged(path), true, path);
+  return toRgba8(decode(path), true, path);
+}
+
+cv::Mat decodeImageRgba8(const unsigned char* bytes, size_t size, const std::string& where) {
+  MemoryBuffer buffer(bytes, size);
+  std::istream in(&buffer);
+  const ImageHeader header = readHeader(in);
+  requireKnownFormat(where, header.format);
+  if (header.size) checkSize(where, *header.size);
+  TM_CHECK(size <= size_t(INT32_MAX), located(where, "image data is larger than 2 GB"));
+  cv::Mat image;
+  try {
+    image = cv::imdecode(cv::Mat(1, int(size), CV_8U, const_cast<unsigned char*>(bytes)), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw Error(located(where, "cannot decode image: " + e.msg));
+  }
+  TM_CHECK(!image.empty(), located(where, "not a readable image (damaged data)"));
+  checkSize(where, image.size());
+  return toRgba8(image, true, where);
 }
 
 cv::Mat toRgba8(const cv::Mat& image, bool bgr, const std::string& where) {
@@ -337,18 +525,49 @@ cv::Mat toRgba8(const cv::Mat& image, bool bgr, const std::string& where) {
 }
 
 bool Photo::isForeground(double x, double y) const {
-  if (!inside(x, y) || alpha.empty()) return false;
-  const int c = std::min(int(std::floor(x)), width - 1), r = std::min(int(std::floor(y)), height - 1);
-  return alpha.at<float>(r, c) > 0;
+  if (!inside(x, y)) return false;
+  if (alpha.empty()) return true;  // no background
+  const double sx = double(alpha.cols) / width, sy = double(alpha.rows) / height;
+  const int c = std::clamp(int(std::floor(x * sx)), 0, alpha.cols - 1);
+  const int r = std::clamp(int(std::floor(y * sy)), 0, alpha.rows - 1);
+  return alpha.depth() == CV_8U ? alpha.at<uint8_t>(r, c) > 0 : alpha.at<float>(r, c) > 0;
+}
+
+Vec3f Photo::rgbAt(double x, double y) const {
+  return sampleBilinear3(rgb, x * rgb.cols / width, y * rgb.rows / height);
+}
+
+float Photo::alphaAt(double x, double y) const {
+  if (alpha.empty()) return 1;
+  return sampleBilinear1(alpha, x * alpha.cols / width, y * alpha.rows / height);
+}
+
+float Photo::distanceAt(double x, double y) const {
+  if (distance.empty()) return 0;
+  return sampleBilinear1(distance, x * distance.cols / width, y * distance.rows / height);
+}
+
+Vec3f Photo::luvAt(double x, double y) const {
+  return srgbToLuv(rgbAt(x, y));
+}
+
+cv::Mat luvImage(const Photo& photo) {
+  cv::Mat rgb;
+  const double unit = photo.rgb.depth() == CV_8U ? 1.0 / 255 : photo.rgb.depth() == CV_16U ? 1.0 / 65535 : 1.0;
+  photo.rgb.convertTo(rgb, CV_32F, unit);
+  return srgbToLuv(rgb);
+}
+
+size_t Photo::bytes() const {
+  return rgb.total() * rgb.elemSize() + alpha.total() * alpha.elemSize() + distance.total() * distance.elemSize();
 }
 
 namespace {
 
-// Bilinear interpolation of the first min(channels, N) channels; the others are 0.
-template <int N>
-std::array<float, N> bilinear(const cv::Mat& image, double x, double y) {
-  TM_CHECK(!image.empty() && image.depth() == CV_32F && image.channels() <= 4,
-           "sampleBilinear: expected a non-empty float image with at most 4 channels");
+// Bilinear interpolation of the first min(channels, N) channels; the others are 0. Pixels of type T,
+// multiplied by `unit` (1/255 for 8-bit, 1/65535 for 16-bit, 1 for float).
+template <int N, class T>
+std::array<float, N> bilinear(const cv::Mat& image, double x, double y, double unit) {
   const int cn = image.channels();
   // Pixel centres at +0.5; NaN coordinates sample the first pixel rather than reading out of bounds.
   const double u = std::isnan(x) ? 0.0 : std::clamp(x - 0.5, 0.0, double(image.cols - 1));
@@ -356,15 +575,33 @@ std::array<float, N> bilinear(const cv::Mat& image, double x, double y) {
   const int x0 = int(u), y0 = int(v);
   const int x1 = std::min(x0 + 1, image.cols - 1), y1 = std::min(y0 + 1, image.rows - 1);
   const double fx = u - x0, fy = v - y0;
-  const float* r0 = image.ptr<float>(y0);
-  const float* r1 = image.ptr<float>(y1);
+  const T* r0 = image.ptr<T>(y0);
+  const T* r1 = image.ptr<T>(y1);
   std::array<float, N> out{};
   for (int c = 0; c < std::min(cn, N); ++c) {
-    const double top = r0[x0 * cn + c] + fx * (r0[x1 * cn + c] - r0[x0 * cn + c]);
-    const double bottom = r1[x0 * cn + c] + fx * (r1[x1 * cn + c] - r1[x0 * cn + c]);
-    out[c] = float(top + fy * (bottom - top));
+    const double a = r0[x0 * cn + c], b = r0[x1 * cn + c], d = r1[x0 * cn + c], e = r1[x1 * cn + c];
+    const double top = a + fx * (b - a), bottom = d + fx * (e - d);
+    out[c] = float((top + fy * (bottom - top)) * unit);
   }
   return out;
+}
+
+template <int N>
+std::array<float, N> bilinear(const cv::Mat& image, double x, double y) {
+  TM_CHECK(
+      !image.empty() && image.channels() <= 4 &&
+          (image.depth() == CV_32F || image.depth() == CV_16F || image.depth() == CV_8U || image.depth() == CV_16U),
+      "sampleBilinear: expected a non-empty 8-bit, 16-bit, half or float image with at most 4 channels");
+  switch (image.depth()) {
+    case CV_8U:
+      return bilinear<N, uint8_t>(image, x, y, 1.0 / 255);
+    case CV_16U:
+      return bilinear<N, uint16_t>(image, x, y, 1.0 / 65535);
+    case CV_16F:
+      return bilinear<N, cv::float16_t>(image, x, y, 1.0);
+    default:
+      return bilinear<N, float>(image, x, y, 1.0);
+  }
 }
 
 }  // namespace

@@ -284,7 +284,7 @@ void readObj(const std::string& data, Soup& soup) {
     long long i;
     if (!parseInt(s, i)) in.fail("bad face corner " + quote(token) + " (expected v, v/vt, v//vn or v/vt/vn)");
     if (i == 0) in.fail(std::string(what) + " index 0 is invalid (OBJ indices start at 1)");
-    if (i < 0 && -i > static_cast<long long>(count))
+    if (i < 0 && i < -static_cast<long long>(count))  // not -i: -LLONG_MIN overflows
       in.fail(std::string(what) + " index " + std::to_string(i) + " out of range (" + std::to_string(count) +
               " defined before this line)");
     if (i > INT_MAX) in.fail(std::string(what) + " index " + std::to_string(i) + " out of range");
@@ -368,6 +368,11 @@ void readOff(const std::string& data, Soup& soup) {
     in.restOfLine();  // edge count
   }
   if (nv < 0 || nf < 0 || nv > INT_MAX || nf > INT_MAX) in.fail("bad vertex/face counts");
+  // Declared counts against the bytes left: a vertex takes at least 6 ("0 0 0\n"), a face 8 ("3 0 1 2\n").
+  const size_t left = data.size() - in.consumed(data);
+  if (static_cast<unsigned long long>(nv) * 6 + static_cast<unsigned long long>(nf) * 8 > left + 1)
+    in.fail("the header declares " + std::to_string(nv) + " vertices and " + std::to_string(nf) + " faces, but only " +
+            std::to_string(left) + " bytes follow (at least 6 per vertex and 8 per face)");
 
   auto dataLine = [&](const char* what) {
     do
@@ -412,6 +417,25 @@ bool plyType(std::string_view name, PlyType& type) {
   for (const auto& [n, t] : names)
     if (name == n) return type = t, true;
   return false;
+}
+
+// Bytes of one binary value.
+size_t plySize(PlyType type) {
+  switch (type) {
+    case PlyType::Int8:
+    case PlyType::UInt8:
+      return 1;
+    case PlyType::Int16:
+    case PlyType::UInt16:
+      return 2;
+    case PlyType::Int32:
+    case PlyType::UInt32:
+    case PlyType::Float32:
+      return 4;
+    case PlyType::Float64:
+      return 8;
+  }
+  return 1;
 }
 
 // Properties the reader keeps; everything else is read and skipped.
@@ -498,6 +522,7 @@ void readPlyBody(Reader& in, const std::vector<PlyElement>& elements, bool verte
   std::vector<double> values;
   for (const PlyElement& el : elements) {
     const bool isVertex = el.name == "vertex", isFace = el.name == "face";
+    if (el.properties.empty()) continue;  // nothing to read, however many are declared
     for (long long i = 0; i < el.count; ++i) {
       in.element = &el.name;
       in.index = i;
@@ -619,6 +644,21 @@ void readPly(const std::string& data, Soup& soup) {
     for (auto& p : el.properties)
       if (faceUV && (p.role == PlyRole::U || p.role == PlyRole::V)) p.role = PlyRole::Skip;
 
+  // Declared counts against the bytes left, so that a tiny file cannot announce billions of elements:
+  // a binary value takes its size (a list at least its count), an ascii value at least a digit and a
+  // separator.
+  const size_t left = data.size() - in.consumed(data);
+  unsigned long long needed = 0;
+  for (const PlyElement& el : elements) {
+    unsigned long long each = 0;
+    for (const PlyProperty& p : el.properties) each += format == "ascii" ? 2 : plySize(p.list ? p.countType : p.type);
+    needed += each * static_cast<unsigned long long>(el.count);
+    if (needed > left + 1)
+      in.fail("element '" + el.name + "' declares " + std::to_string(el.count) + " instances of at least " +
+              std::to_string(each) + " bytes, but only " + std::to_string(left) + " bytes follow the header" +
+              (&el == &elements.front() ? "" : " (with the elements before it)"));
+  }
+
   if (format == "ascii") {
     PlyAsciiReader reader(in);
     readPlyBody(reader, elements, vertexUV, faceUV, soup);
@@ -701,26 +741,21 @@ void readStl(const std::string& data, Soup& soup) {
 
 // ---- Files -----------------------------------------------------------------------------------------------
 
-std::string readFile(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) failAt(path, 0, "is a folder, not a mesh file");
-  FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) failAt(path, 0, std::string("cannot open mesh file: ") + std::strerror(errno));
-  std::string data;
-  if (std::fseek(f, 0, SEEK_END) == 0)
-    if (const long size = std::ftell(f); size > 0) data.reserve(static_cast<size_t>(size));
-  std::rewind(f);
-  char buffer[1 << 16];
-  while (size_t n = std::fread(buffer, 1, sizeof buffer, f)) data.append(buffer, n);
-  const bool bad = std::ferror(f);
-  std::fclose(f);
-  if (bad) failAt(path, 0, "read error");
-  return data;
-}
-
 void appendNumber(std::string& out, double x) {
   char buf[32];
   out.append(buf, std::to_chars(buf, buf + sizeof buf, x).ptr);
+}
+
+using Reader = void (*)(const std::string&, Soup&);
+
+// The reader of a format ("obj"...); throws naming `path` when there is none.
+Reader meshReader(const std::string& ext, const std::string& path) {
+  static const std::pair<const char*, Reader> readers[] = {
+      {"obj", readObj}, {"off", readOff}, {"ply", readPly}, {"stl", readStl}};
+  const auto reader = std::find_if(std::begin(readers), std::end(readers), [&](auto& r) { return ext == r.first; });
+  if (reader == std::end(readers))
+    failAt(path, 0, "unsupported mesh format " + quote(ext) + " (expected .obj, .ply, .off or .stl)");
+  return reader->second;
 }
 
 }  // namespace
@@ -728,16 +763,16 @@ void appendNumber(std::string& out, double x) {
 LoadedMesh loadMesh(const std::string& path, const MeshLoadOptions& options) {
   std::string ext = lowerExtension(path);
   if (!ext.empty()) ext.erase(0, 1);
-  using Reader = void (*)(const std::string&, Soup&);
-  static const std::pair<const char*, Reader> readers[] = {
-      {"obj", readObj}, {"off", readOff}, {"ply", readPly}, {"stl", readStl}};
-  const auto reader = std::find_if(std::begin(readers), std::end(readers), [&](auto& r) { return ext == r.first; });
-  if (reader == std::end(readers))
-    failAt(path, 0, "unsupported mesh format " + quote(ext) + " (expected .obj, .ply, .off or .stl)");
+  meshReader(ext, path);  // an unknown format is refused before the file is read
+  return parseMesh(readFileBytes(path, "mesh file"), ext, path, options);
+}
 
+LoadedMesh parseMesh(const std::string& bytes, const std::string& ext, const std::string& path,
+                     const MeshLoadOptions& options) {
+  const Reader reader = meshReader(ext, path);
   Soup soup;
   soup.file = path;
-  reader->second(readFile(path), soup);
+  reader(bytes, soup);
   const std::vector<std::array<Vec2, 3>> uv = soup.finish();
 
   MeshLoadOptions opts = options;

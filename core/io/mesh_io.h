@@ -15,6 +15,10 @@ namespace montage {
 // A mesh that parses but cannot be processed (no faces, non-finite coordinates) comes back with
 // Error findings; use requireUsable() where processing must not go on.
 LoadedMesh loadMesh(const std::string& path, const MeshLoadOptions& options = {});
+// The same from the bytes of a file already in memory: `format` is "obj", "ply", "off" or "stl",
+// `name` names the source in messages (the fuzz targets use it).
+LoadedMesh parseMesh(const std::string& bytes, const std::string& format, const std::string& name,
+                     const MeshLoadOptions& options = {});
 
 // Writes positions and faces (and UVs, if any) as OBJ. Throws montage::Error on I/O failure.
 void saveMeshObj(const Mesh& mesh, const std::string& path);

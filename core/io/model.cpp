@@ -14,6 +14,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <numeric>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -23,6 +24,7 @@
 #include <unordered_map>
 
 #include "base/fileio.h"
+#include "base/util.h"
 #include "image/color.h"
 #include "image/photo.h"
 #include "io/mesh_io.h"
@@ -47,6 +49,13 @@ std::string trim(const std::string& s) {
 
 std::string quote(const std::string& s) {
   return "'" + s + "'";
+}
+
+// A name as it may appear in OBJ statements and file names: letters, digits, '_', '-' and '.' only.
+std::string fileNamePart(std::string name) {
+  for (char& c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) c = '_';
+  return name;
 }
 
 // Shortest decimal text that reads back to exactly the same value.
@@ -148,14 +157,8 @@ std::vector<T> perMeshFace(const Mesh& mesh, const std::vector<T>& perInput) {
   return out;
 }
 
-// A per-face array the mesh loader produced: either already per mesh face, or per input face.
 std::vector<int> meshFaceArray(const Mesh& mesh, const std::vector<int>& values) {
-  const size_t nf = static_cast<size_t>(mesh.numFaces());
-  if (values.size() == nf || values.empty()) return values;
-  if (mesh.faceOrigin.size() == nf && std::all_of(mesh.faceOrigin.begin(), mesh.faceOrigin.end(),
-                                                  [&](int o) { return o >= 0 && o < static_cast<int>(values.size()); }))
-    return perMeshFace(mesh, values);
-  return {};
+  return meshFaceValues(mesh, values);
 }
 
 std::vector<std::array<Vec2f, 3>> floatUV(const std::vector<std::array<Vec2, 3>>& uv) {
@@ -170,9 +173,9 @@ std::vector<std::array<Vec2f, 3>> floatUV(const std::vector<std::array<Vec2, 3>>
 
 // Reads the image a map_Kd statement names; `where` is "file.mtl:line".
 cv::Mat readTexture(const fs::path& file, const std::string& where, const std::string& written) {
-  std::error_code ec;
-  TM_CHECK(fs::is_regular_file(file, ec),
-           located(where, "map_Kd texture " + quote(written) + " not found (looked for " + file.string() + ")"));
+  if (const std::string problem = fileProblem(file.string()); !problem.empty())
+    throw Error(
+        located(where, "map_Kd texture " + quote(written) + " " + problem + " (looked for " + file.string() + ")"));
   try {
     return readImageRgba8(file.string());
   } catch (const Error& e) {
@@ -215,11 +218,18 @@ std::string mapFileName(const std::string& args) {
   return name;
 }
 
+// Refuses a file a model names (material library, texture, buffer) outside the model's folder.
+void requireInsideModelFolder(const fs::path& file, const fs::path& modelDir, const std::string& where,
+                              const std::string& what) {
+  TM_CHECK(isInsideFolder(file.string(), modelDir.string()),
+           located(where, what + " is outside the model's folder " + quote(modelDir.string()) + " (resolved to " +
+                              quote(file.string()) + "): a model never reads outside its folder"));
+}
+
 // Parses one .mtl file: newmtl, Kd and map_Kd. Textures are read; a missing one is an error naming
 // the .mtl file, its line and the texture.
 void parseMtl(const fs::path& mtlPath, const fs::path& modelDir, std::map<std::string, Material>& out) {
-  std::ifstream in(mtlPath, std::ios::binary);
-  TM_CHECK(in, located(mtlPath.string(), "cannot open material library"));
+  std::istringstream in(readFileBytes(mtlPath.string(), "material library"));
   std::map<std::string, cv::Mat> cache;  // textures shared between materials
   Material* current = nullptr;
   std::string line;
@@ -246,6 +256,7 @@ void parseMtl(const fs::path& mtlPath, const fs::path& modelDir, std::map<std::s
       const std::string name = mapFileName(rest);
       TM_CHECK(!name.empty(), located(where, "map_Kd without a file name"));
       const fs::path file = (mtlPath.parent_path() / name).lexically_normal();
+      requireInsideModelFolder(file, modelDir, where, "map_Kd texture " + quote(name));
       auto it = cache.find(file.string());
       if (it == cache.end()) it = cache.emplace(file.string(), readTexture(file, where, name)).first;
       current->texture = it->second;
@@ -261,7 +272,7 @@ TexturedModel loadObjModel(const std::string& path) {
   model.mesh = std::move(*mesh);
   const Mesh& m = model.mesh;
   const int nf = m.numFaces();
-  const fs::path modelDir = fs::path(path).parent_path();
+  const fs::path modelDir = fs::absolute(path).lexically_normal().parent_path();
 
   // Material definitions from the material library (or libraries).
   std::map<std::string, Material> defs;
@@ -276,9 +287,11 @@ TexturedModel loadObjModel(const std::string& path) {
       for (std::string w; words >> w;) files.push_back(w);
     }
     for (const std::string& file : files) {
-      const fs::path mtl = modelDir / file;
-      TM_CHECK(fs::is_regular_file(mtl, ec),
-               located(path, "material library " + quote(file) + " not found (looked for " + mtl.string() + ")"));
+      const fs::path mtl = (modelDir / file).lexically_normal();
+      requireInsideModelFolder(mtl, modelDir, path, "material library " + quote(file));
+      if (const std::string problem = fileProblem(mtl.string()); !problem.empty())
+        throw Error(
+            located(path, "material library " + quote(file) + " " + problem + " (looked for " + mtl.string() + ")"));
       parseMtl(mtl, modelDir, defs);
     }
   }
@@ -348,6 +361,13 @@ std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std
   const int csize = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(acc.componentType));
   TM_CHECK(components > 0 && csize > 0, located(at, "invalid type or component type"));
   const size_t count = acc.count;
+  // A declared count is bounded by the bytes that could hold it (an accessor without a bufferView is
+  // all zeros, but still no larger than the buffers), before anything is allocated.
+  size_t bufferBytes = 0;
+  for (const auto& b : gm.buffers) bufferBytes += b.data.size();
+  TM_CHECK(count <= bufferBytes / size_t(components * csize) + 1,
+           located(at, "count " + std::to_string(count) + " is larger than the buffers could hold (" +
+                           std::to_string(bufferBytes) + " bytes)"));
   std::vector<double> out(count * components, 0.0);
 
   const auto decode = [&](const unsigned char* p, int componentType, bool normalized) -> double {
@@ -398,9 +418,11 @@ std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std
     TM_CHECK(view.buffer >= 0 && view.buffer < static_cast<int>(gm.buffers.size()),
              located(at, "buffer " + std::to_string(view.buffer) + " does not exist"));
     const tinygltf::Buffer& buffer = gm.buffers[view.buffer];
-    TM_CHECK(view.byteOffset + view.byteLength <= buffer.data.size(),
+    // Written so that no sum or product of untrusted sizes can overflow.
+    TM_CHECK(view.byteOffset <= buffer.data.size() && view.byteLength <= buffer.data.size() - view.byteOffset,
              located(at, "bufferView " + std::to_string(viewIndex) + " lies outside its buffer (file truncated?)"));
-    TM_CHECK(n == 0 || offset + stride * (n - 1) + elementSize <= view.byteLength,
+    TM_CHECK(n == 0 || (offset <= view.byteLength && elementSize <= view.byteLength - offset &&
+                        n - 1 <= (view.byteLength - offset - elementSize) / std::max<size_t>(stride, 1)),
              located(at, "data lies outside bufferView " + std::to_string(viewIndex)));
     return buffer.data.data() + view.byteOffset + offset;
   };
@@ -465,23 +487,21 @@ Eigen::Matrix4d meshWorldMatrix(const tinygltf::Model& gm) {
     for (size_t i = 0; i < gm.nodes.size(); ++i)
       if (!isChild[i]) roots.push_back(static_cast<int>(i));
   }
-  Eigen::Matrix4d found = Eigen::Matrix4d::Identity();
+  // Depth first with an explicit stack (a file may chain millions of nodes), children in order.
   std::vector<bool> visited(gm.nodes.size(), false);
-  std::function<bool(int, const Eigen::Matrix4d&)> visit = [&](int n, const Eigen::Matrix4d& parent) {
-    if (n < 0 || n >= static_cast<int>(gm.nodes.size()) || visited[n]) return false;
+  std::vector<std::pair<int, Eigen::Matrix4d>> stack;
+  for (auto r = roots.rbegin(); r != roots.rend(); ++r) stack.emplace_back(*r, Eigen::Matrix4d::Identity());
+  while (!stack.empty()) {
+    const auto [n, parent] = stack.back();
+    stack.pop_back();
+    if (n < 0 || n >= static_cast<int>(gm.nodes.size()) || visited[n]) continue;
     visited[n] = true;
     const Eigen::Matrix4d world = parent * nodeMatrix(gm.nodes[n]);
-    if (gm.nodes[n].mesh == 0) {
-      found = world;
-      return true;
-    }
-    for (int c : gm.nodes[n].children)
-      if (visit(c, world)) return true;
-    return false;
-  };
-  for (int r : roots)
-    if (visit(r, Eigen::Matrix4d::Identity())) break;
-  return found;
+    if (gm.nodes[n].mesh == 0) return world;
+    const auto& children = gm.nodes[n].children;
+    for (auto c = children.rbegin(); c != children.rend(); ++c) stack.emplace_back(*c, world);
+  }
+  return Eigen::Matrix4d::Identity();
 }
 
 // The base colour texture of a glTF material as RGBA8 (empty when there is none).
@@ -546,25 +566,167 @@ const char* modeName(int mode) {
   }
 }
 
+uint32_t littleEndian32(const std::string& bytes, size_t at) {
+  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data()) + at;
+  return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
+}
+
+// Checks the layout of a binary glTF file (header, JSON chunk, optional BIN chunk) and returns the JSON
+// text, with messages that say which length is wrong.
+std::string glbJsonChunk(const std::string& bytes, const std::string& path) {
+  const std::string size = std::to_string(bytes.size());
+  TM_CHECK(bytes.size() >= 12 && bytes.compare(0, 4, "glTF") == 0,
+           located(path, "not a binary glTF file (no 'glTF' header)"));
+  const uint32_t version = littleEndian32(bytes, 4), length = littleEndian32(bytes, 8);
+  TM_CHECK(version == 2,
+           located(path, "binary glTF version " + std::to_string(version) + " is not supported (only 2)"));
+  TM_CHECK(length <= bytes.size(), located(path, "file is truncated: its header announces " + std::to_string(length) +
+                                                     " bytes but it has " + size));
+  TM_CHECK(length >= 20, located(path, "header length " + std::to_string(length) +
+                                           " leaves no room for the JSON chunk (at least 20 bytes)"));
+  const uint64_t jsonLength = littleEndian32(bytes, 12), jsonType = littleEndian32(bytes, 16);
+  TM_CHECK(jsonType == 0x4E4F534A,
+           located(path, "the first chunk is not JSON (chunk type " + std::to_string(jsonType) + ")"));
+  TM_CHECK(jsonLength > 0, located(path, "the JSON chunk is empty"));
+  const uint64_t jsonEnd = 20 + jsonLength;
+  TM_CHECK(jsonEnd <= length,
+           located(path, "the JSON chunk length " + std::to_string(jsonLength) +
+                             " runs past the end announced by the header (" + std::to_string(length) + " bytes)"));
+  if (jsonEnd < length) {
+    TM_CHECK(jsonEnd % 4 == 0, located(path, "the JSON chunk length " + std::to_string(jsonLength) +
+                                                 " is not a multiple of 4 (the chunks are misaligned)"));
+    TM_CHECK(jsonEnd + 8 <= length, located(path, "the header length " + std::to_string(length) +
+                                                      " leaves a partial chunk header after the JSON chunk"));
+    const uint64_t binLength = littleEndian32(bytes, size_t(jsonEnd)),
+                   binType = littleEndian32(bytes, size_t(jsonEnd) + 4);
+    TM_CHECK(binType == 0x004E4942,
+             located(path, "the second chunk is not BIN (chunk type " + std::to_string(binType) + ")"));
+    TM_CHECK(jsonEnd + 8 + binLength <= length,
+             located(path, "the BIN chunk length " + std::to_string(binLength) +
+                               " runs past the end announced by the header (" + std::to_string(length) + " bytes)"));
+    TM_CHECK(binLength >= 4 && binLength % 4 == 0,
+             located(path, "the BIN chunk length " + std::to_string(binLength) + " is not a positive multiple of 4"));
+  }
+  return bytes.substr(20, size_t(jsonLength));
+}
+
+// Checks the JSON of a glTF file before tinygltf reads it: nesting depth (its reader recurses), and that
+// every buffer and image URI that is not a data: URI stays inside the model's folder.
+void checkGltfJson(const std::string& text, const fs::path& modelDir, const std::string& path) {
+  constexpr int kMaxDepth = 64;
+  int depth = 0;
+  bool inString = false, escaped = false;
+  for (const char c : text) {
+    if (inString) {
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        inString = false;
+    } else if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{') {
+      TM_CHECK(++depth <= kMaxDepth,
+               located(path, "JSON values nested more than " + std::to_string(kMaxDepth) + " deep"));
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (!j.is_object()) return;  // tinygltf names the syntax error
+  for (const char* list : {"buffers", "images"}) {
+    const auto it = j.find(list);
+    if (it == j.end() || !it->is_array()) continue;
+    for (size_t i = 0; i < it->size(); ++i) {
+      const nlohmann::json& entry = (*it)[i];
+      if (!entry.is_object() || !entry.contains("uri") || !entry["uri"].is_string()) continue;
+      const std::string uri = entry["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) == 0) continue;
+      std::string decoded;  // percent-decoded, as tinygltf resolves it
+      for (size_t k = 0; k < uri.size(); ++k) {
+        int value = 0;
+        if (uri[k] == '%' && k + 2 < uri.size() &&
+            std::from_chars(uri.data() + k + 1, uri.data() + k + 3, value, 16).ptr == uri.data() + k + 3) {
+          decoded += char(value);
+          k += 2;
+        } else {
+          decoded += uri[k];
+        }
+      }
+      const fs::path file = (modelDir / decoded).lexically_normal();
+      requireInsideModelFolder(file, modelDir, path,
+                               std::string(list) + "[" + std::to_string(i) + "].uri " + quote(uri));
+    }
+  }
+}
+
+// File access for tinygltf: reads only regular files inside the model's folder, never expands "~" or
+// shell words, never writes.
+struct GltfFiles {
+  fs::path dir;
+  std::string path;
+  static bool exists(const std::string& file, void* self) {
+    // Files outside the folder "exist" so that read() refuses them with the reason, not "not found".
+    const auto* me = static_cast<GltfFiles*>(self);
+    std::error_code ec;
+    return !isInsideFolder(file, me->dir.string()) || fs::exists(file, ec);
+  }
+  static std::string expand(const std::string& file, void*) { return file; }
+  static bool read(std::vector<unsigned char>* out, std::string* err, const std::string& file, void* self) {
+    const auto* me = static_cast<GltfFiles*>(self);
+    try {
+      requireInsideModelFolder(fs::path(file).lexically_normal(), me->dir, file, "the file");
+      const std::string bytes = readFileBytes(file, "file", uint64_t(UINT32_MAX));
+      out->assign(bytes.begin(), bytes.end());
+      return true;
+    } catch (const Error& e) {
+      if (err) *err = e.what();
+      return false;
+    }
+  }
+  static bool write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+    if (err) *err = "writing is not allowed while reading";
+    return false;
+  }
+  // Images through our decoder: the same formats and size limit as photos, decoded as RGBA8.
+  static bool image(tinygltf::Image* image, const int index, std::string* err, std::string*, int, int,
+                    const unsigned char* bytes, int size, void* self) {
+    const auto* me = static_cast<GltfFiles*>(self);
+    try {
+      const cv::Mat rgba =
+          decodeImageRgba8(bytes, size_t(std::max(size, 0)), me->path + ": images[" + std::to_string(index) + "]");
+      image->width = rgba.cols;
+      image->height = rgba.rows;
+      image->component = 4;
+      image->bits = 8;
+      image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+      image->image.assign(rgba.datastart, rgba.dataend);
+      return true;
+    } catch (const Error& e) {
+      if (err) *err += std::string(e.what()) + "\n";
+      return false;
+    }
+  }
+};
+
 TexturedModel loadGltfModel(const std::string& path, bool binary) {
   tinygltf::TinyGLTF loader;
   tinygltf::Model gm;
   std::string err, warn;
+  GltfFiles files{fs::absolute(path).lexically_normal().parent_path(), path};
+  loader.SetFsCallbacks({&GltfFiles::exists, &GltfFiles::expand, &GltfFiles::read, &GltfFiles::write, &files});
+  loader.SetImageLoader(&GltfFiles::image, &files);
+  const std::string bytes = readFileBytes(path, "glTF file", uint64_t(UINT32_MAX));
   bool ok;
   if (binary) {
-    std::ifstream in(path, std::ios::binary);
-    TM_CHECK(in, located(path, "cannot open file"));
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    TM_CHECK(bytes.size() >= 12 && bytes.compare(0, 4, "glTF") == 0,
-             located(path, "not a binary glTF file (no 'glTF' header)"));
-    uint32_t length = 0;
-    std::memcpy(&length, bytes.data() + 8, 4);
-    TM_CHECK(length <= bytes.size(), located(path, "file is truncated: its header announces " + std::to_string(length) +
-                                                       " bytes but it has " + std::to_string(bytes.size())));
+    checkGltfJson(glbJsonChunk(bytes, path), files.dir, path);
     ok = loader.LoadBinaryFromMemory(&gm, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
-                                     static_cast<unsigned int>(bytes.size()), fs::path(path).parent_path().string());
+                                     static_cast<unsigned int>(bytes.size()), files.dir.string());
   } else {
-    ok = loader.LoadASCIIFromFile(&gm, &err, &warn, path);
+    checkGltfJson(bytes, files.dir, path);
+    ok = loader.LoadASCIIFromString(&gm, &err, &warn, bytes.data(), static_cast<unsigned int>(bytes.size()),
+                                    files.dir.string());
   }
   TM_CHECK(ok, located(path, "cannot read glTF: " + trim(err.empty() ? warn : err)));
   TM_CHECK(!gm.meshes.empty(), located(path, "the file contains no mesh"));
@@ -581,6 +743,7 @@ TexturedModel loadGltfModel(const std::string& path, bool binary) {
   std::vector<Material> materials;
   std::map<int, int> materialIndex;  // glTF material -> ours
   bool anyUV = false, anySource = false;
+  std::map<std::pair<int, int>, int> vertexBase;  // (POSITION, TEXCOORD accessor) -> first vertex
 
   for (size_t p = 0; p < gmesh.primitives.size(); ++p) {
     const tinygltf::Primitive& prim = gmesh.primitives[p];
@@ -624,11 +787,17 @@ TexturedModel loadGltfModel(const std::string& path, bool binary) {
     TM_CHECK(indices.size() % 3 == 0,
              located(where, std::to_string(indices.size()) + " indices is not a multiple of 3 (TRIANGLES)"));
 
-    const int base = static_cast<int>(vertices.size());
-    for (size_t i = 0; i < nv; ++i) {
-      const Eigen::Vector4d h =
-          world * Eigen::Vector4d(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], 1);
-      vertices.emplace_back(h.head<3>());
+    // Primitives that share their vertex accessors share their vertices.
+    const int tcAccessor = tc != prim.attributes.end() ? tc->second : -1;
+    const auto shared = vertexBase.find({pos->second, tcAccessor});
+    const int base = shared != vertexBase.end() ? shared->second : static_cast<int>(vertices.size());
+    if (shared == vertexBase.end()) {
+      vertexBase.emplace(std::make_pair(pos->second, tcAccessor), base);
+      for (size_t i = 0; i < nv; ++i) {
+        const Eigen::Vector4d h =
+            world * Eigen::Vector4d(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], 1);
+        vertices.emplace_back(h.head<3>());
+      }
     }
     auto mit = materialIndex.find(prim.material);
     if (mit == materialIndex.end()) {
@@ -749,6 +918,37 @@ std::vector<Vec3> vertexNormals(const Mesh& mesh) {
 
 // ---------------------------------------------------------------------------------------------
 
+std::vector<int> meshFaceValues(const Mesh& mesh, const std::vector<int>& values) {
+  const size_t nf = static_cast<size_t>(mesh.numFaces());
+  if (values.size() == nf || values.empty()) return values;
+  if (mesh.faceOrigin.size() == nf && std::all_of(mesh.faceOrigin.begin(), mesh.faceOrigin.end(),
+                                                  [&](int o) { return o >= 0 && o < static_cast<int>(values.size()); }))
+    return perMeshFace(mesh, values);
+  return {};
+}
+
+const std::vector<unsigned char>& PngCache::encode(const cv::Mat& rgba, const std::string& where) {
+  for (const auto& [texture, bytes] : cache_)
+    if (texture.data == rgba.data && texture.size == rgba.size && texture.type() == rgba.type()) return bytes;
+  const auto start = Clock::now();
+  TM_CHECK(rgba.type() == CV_8UC4, located(where, "texture is not RGBA8"));
+  cv::Mat alpha;
+  cv::extractChannel(rgba, alpha, 3);
+  double minAlpha = 0;
+  cv::minMaxLoc(alpha, &minAlpha);
+  cv::Mat bgr;
+  cv::cvtColor(rgba, bgr, minAlpha >= 255 ? cv::COLOR_RGBA2BGR : cv::COLOR_RGBA2BGRA);
+  const int level = std::clamp(compression_, 0, 9);
+  const std::vector<int> params = {cv::IMWRITE_PNG_COMPRESSION, level, cv::IMWRITE_PNG_STRATEGY,
+                                   level <= 3 ? cv::IMWRITE_PNG_STRATEGY_RLE : cv::IMWRITE_PNG_STRATEGY_DEFAULT};
+  std::vector<unsigned char> bytes;
+  TM_CHECK(cv::imencode(".png", bgr, bytes, params), located(where, "cannot encode PNG"));
+  ++encodes_;
+  seconds_ += secondsSince(start);
+  cache_.emplace_back(rgba, std::move(bytes));
+  return cache_.back().second;
+}
+
 Vec3f TexturedModel::colorAt(int f, const Vec3& b) const {
   const Material* mat = faceMaterialPtr(*this, f);
   if (!mat) return kDefaultDiffuse;
@@ -822,7 +1022,7 @@ TexturedModel modelFromMesh(const Mesh& mesh, const cv::Mat& textureRgba, const 
   return model;
 }
 
-void exportObj(const TexturedModel& model, const std::string& dir, const std::string& base) {
+void exportObj(const TexturedModel& model, const std::string& dir, const std::string& base, PngCache* pngs) {
   const fs::path folder(dir);
   const std::string objPath = (folder / (base + ".obj")).string();
   checkModel(model, objPath);
@@ -838,9 +1038,7 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
   std::vector<std::string> names;
   std::set<std::string> used;
   for (size_t m = 0; m < model.materials.size(); ++m) {
-    std::string name = model.materials[m].name;
-    for (char& c : name)
-      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) c = '_';
+    std::string name = fileNamePart(model.materials[m].name);
     if (name.empty()) name = "material_" + std::to_string(m);
     std::string unique = name;
     for (int k = 2; used.count(unique); ++k) unique = name + "_" + std::to_string(k);
@@ -849,7 +1047,11 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
   }
   const std::vector<std::string> materialNames = names.empty() ? std::vector<std::string>{"default"} : names;
 
-  // Textures first, then the .mtl, then the .obj: an .obj on disk always has its companions.
+  // Textures first, then the .mtl, then the .obj: an .obj on disk always has its companions. One PNG
+  // per distinct texture, shared by the materials that show it.
+  PngCache localPngs;
+  PngCache& cache = pngs ? *pngs : localPngs;
+  std::vector<std::pair<const uchar*, std::string>> written;  // texture data -> file name
   std::string mtl = "# TextureMontage\n";
   for (size_t m = 0; m < materialNames.size(); ++m) {
     const Material* mat = m < model.materials.size() ? &model.materials[m] : nullptr;
@@ -857,12 +1059,15 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
     mtl += "\nnewmtl " + materialNames[m] + "\nKa 0 0 0\nKd " + number(kd[0]) + " " + number(kd[1]) + " " +
            number(kd[2]) + "\nKs 0 0 0\nd 1\nillum 1\n";
     if (mat && hasTexture(model, static_cast<int>(m))) {
-      const std::string png = base + "_" + materialNames[m] + ".png";
-      cv::Mat bgra;
-      cv::cvtColor(mat->texture, bgra, cv::COLOR_RGBA2BGRA);
-      std::vector<unsigned char> bytes;
-      TM_CHECK(cv::imencode(".png", bgra, bytes), located((folder / png).string(), "cannot encode PNG"));
-      writeFileAtomic((folder / png).string(), std::string(bytes.begin(), bytes.end()));
+      std::string png;
+      for (const auto& [data, file] : written)
+        if (data == mat->texture.data) png = file;
+      if (png.empty()) {
+        png = base + "_" + fileNamePart(mat->textureName.empty() ? materialNames[m] : mat->textureName) + ".png";
+        const std::vector<unsigned char>& bytes = cache.encode(mat->texture, (folder / png).string());
+        writeFileAtomic((folder / png).string(), std::string(bytes.begin(), bytes.end()));
+        written.emplace_back(mat->texture.data, png);
+      }
       mtl += "map_Kd " + png + "\n";
     }
   }
@@ -870,7 +1075,7 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
 
   std::string obj;
   obj.reserve(static_cast<size_t>(mesh.numVertices()) * 40 + static_cast<size_t>(nf) * 60);
-  obj += "# TextureMontage\nmtllib " + base + ".mtl\n";
+  obj += "# TextureMontage\nmtllib " + base + ".mtl\no " + fileNamePart(model.name.empty() ? base : model.name) + "\n";
   for (int v = 0; v < mesh.numVertices(); ++v) {
     const Vec3 p = mesh.position(v);
     obj += "v " + number(p.x()) + " " + number(p.y()) + " " + number(p.z()) + "\n";
@@ -891,22 +1096,29 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
         vt[f][k] = it->second;
       }
   }
-  // Faces ordered by (source, material), model order within each, so that every group and material
-  // appears once: tools list one object per group (the model's own order interleaves them).
+  // With sources: faces ordered by (source, material), model order within each, so that every group
+  // and material appears once: tools list one object per group (the model's own order interleaves
+  // them). Without: the model's order, with the mesh's own groups, as a loaded mesh had them.
   std::vector<int> order(nf);
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    const int sa = model.faceSource.empty() ? 0 : model.faceSource[a];
-    const int sb = model.faceSource.empty() ? 0 : model.faceSource[b];
-    return sa != sb ? sa < sb : materialOf(model, a) < materialOf(model, b);
-  });
+  const bool bySource = !model.faceSource.empty();
+  if (bySource)
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+      const int sa = model.faceSource[a], sb = model.faceSource[b];
+      return sa != sb ? sa < sb : materialOf(model, a) < materialOf(model, b);
+    });
+  const std::vector<int> meshGroup = bySource ? std::vector<int>{} : meshFaceValues(mesh, mesh.faceGroup);
   bool firstGroup = true;
   int group = 0, material = -1;
   for (int f : order) {
-    if (!model.faceSource.empty() && (firstGroup || model.faceSource[f] != group)) {
-      group = model.faceSource[f];
+    const int g = bySource ? model.faceSource[f] : meshGroup.empty() ? -1 : meshGroup[f];
+    if ((bySource || !meshGroup.empty()) && (firstGroup || g != group)) {
+      group = g;
       firstGroup = false;
-      obj += "g " + sourceGroupName(group) + "\n";
+      if (bySource)
+        obj += "g " + sourceGroupName(group) + "\n";
+      else
+        obj += "g " + (g >= 0 && g < static_cast<int>(mesh.groupNames.size()) ? mesh.groupNames[g] : "default") + "\n";
       material = -1;  // restate the material in every group
     }
     const int m = materialOf(model, f);
@@ -925,11 +1137,14 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
   writeFileAtomic(objPath, obj);
 }
 
-void exportGlb(const TexturedModel& model, const std::string& path) {
+void exportGlb(const TexturedModel& model, const std::string& path, PngCache* pngs) {
   checkModel(model, path);
   const Mesh& mesh = model.mesh;
   const int nf = mesh.numFaces();
   const std::vector<Vec3> normals = vertexNormals(mesh);
+  PngCache localPngs;
+  PngCache& cache = pngs ? *pngs : localPngs;
+  const std::string name = model.name.empty() ? "model" : model.name;
 
   GlbBuilder b;
   tinygltf::Model& gm = b.gm;
@@ -937,10 +1152,12 @@ void exportGlb(const TexturedModel& model, const std::string& path) {
   gm.asset.generator = "TextureMontage";
   gm.buffers.emplace_back();
 
-  // Materials actually used, in model order; textured ones get a texture, image and shared sampler.
+  // Materials actually used, in model order; textured ones get a texture (one per distinct image,
+  // shared by the materials that show it) and a shared sampler.
   std::map<int, int> materialIndex;
   for (int f = 0; f < nf; ++f) materialIndex.emplace(materialOf(model, f), 0);
   int sampler = -1;
+  std::vector<std::pair<const uchar*, int>> textures;  // image data -> glTF texture
   for (auto& [m, index] : materialIndex) {
     tinygltf::Material out;
     const Material* mat = m < static_cast<int>(model.materials.size()) ? &model.materials[m] : nullptr;
@@ -957,20 +1174,24 @@ void exportGlb(const TexturedModel& model, const std::string& path) {
         gm.samplers.push_back(s);
         sampler = static_cast<int>(gm.samplers.size()) - 1;
       }
-      cv::Mat bgra;
-      cv::cvtColor(mat->texture, bgra, cv::COLOR_RGBA2BGRA);
-      std::vector<unsigned char> png;
-      TM_CHECK(cv::imencode(".png", bgra, png), located(path, "cannot encode texture " + quote(out.name) + " as PNG"));
-      tinygltf::Image image;
-      image.name = out.name;
-      image.mimeType = "image/png";
-      image.bufferView = b.addView(png.data(), png.size(), 0);
-      gm.images.push_back(image);
-      tinygltf::Texture texture;
-      texture.sampler = sampler;
-      texture.source = static_cast<int>(gm.images.size()) - 1;
-      gm.textures.push_back(texture);
-      out.pbrMetallicRoughness.baseColorTexture.index = static_cast<int>(gm.textures.size()) - 1;
+      int texture = -1;
+      for (const auto& [data, t] : textures)
+        if (data == mat->texture.data) texture = t;
+      if (texture < 0) {
+        const std::vector<unsigned char>& png = cache.encode(mat->texture, path + ": texture " + quote(out.name));
+        tinygltf::Image image;
+        image.name = mat->textureName.empty() ? out.name : mat->textureName;
+        image.mimeType = "image/png";
+        image.bufferView = b.addView(png.data(), png.size(), 0);
+        gm.images.push_back(image);
+        tinygltf::Texture t;
+        t.sampler = sampler;
+        t.source = static_cast<int>(gm.images.size()) - 1;
+        gm.textures.push_back(t);
+        texture = static_cast<int>(gm.textures.size()) - 1;
+        textures.emplace_back(mat->texture.data, texture);
+      }
+      out.pbrMetallicRoughness.baseColorTexture.index = texture;
     } else {
       const Vec3f kd = mat ? mat->diffuse : kDefaultDiffuse;
       out.pbrMetallicRoughness.baseColorFactor = {srgbToLinear(kd[0]), srgbToLinear(kd[1]), srgbToLinear(kd[2]), 1.0};
@@ -979,47 +1200,66 @@ void exportGlb(const TexturedModel& model, const std::string& path) {
     index = static_cast<int>(gm.materials.size()) - 1;
   }
 
+  // One vertex list for all primitives: the mesh's vertices in order (each with the texture
+  // coordinate of its first use), then a copy per further (vertex, texture coordinate) pair.
+  const bool withUV = model.textured();
+  const int nv = mesh.numVertices();
+  std::vector<Vec3f> positions(nv), vnormals(nv);
+  std::vector<Vec2f> texcoords(withUV ? nv : 0, Vec2f::Zero());
+  std::vector<char> assigned(nv, 0);
+  for (int v = 0; v < nv; ++v) {
+    positions[v] = mesh.position(v).cast<float>();
+    vnormals[v] = normals[v].cast<float>().normalized();
+  }
+  std::map<std::tuple<int, uint32_t, uint32_t>, uint32_t> copies;
+  std::vector<std::array<uint32_t, 3>> corner(nf);
+  for (int f = 0; f < nf; ++f) {
+    const auto fv = mesh.faceVertices(f);
+    for (int k = 0; k < 3; ++k) {
+      const int v = fv[k];
+      if (!withUV) {
+        corner[f][k] = static_cast<uint32_t>(v);
+        continue;
+      }
+      const Vec2f t(model.uv[f][k].x(), 1.0f - model.uv[f][k].y());  // glTF: origin at the top-left
+      if (!assigned[v]) assigned[v] = 1, texcoords[v] = t;
+      if (texcoords[v] == t) {
+        corner[f][k] = static_cast<uint32_t>(v);
+        continue;
+      }
+      uint32_t bu, bv;
+      std::memcpy(&bu, &t.x(), 4);
+      std::memcpy(&bv, &t.y(), 4);
+      const auto [it, inserted] = copies.emplace(std::make_tuple(v, bu, bv), static_cast<uint32_t>(positions.size()));
+      if (inserted) {
+        positions.push_back(positions[v]);
+        vnormals.push_back(vnormals[v]);
+        texcoords.push_back(t);
+      }
+      corner[f][k] = it->second;
+    }
+  }
+  const int positionAccessor = b.addFloatAccessor<3>(positions, TINYGLTF_TYPE_VEC3, true);
+  const int normalAccessor = b.addFloatAccessor<3>(vnormals, TINYGLTF_TYPE_VEC3, false);
+  const int uvAccessor = withUV ? b.addFloatAccessor<2>(texcoords, TINYGLTF_TYPE_VEC2, false) : -1;
+
   // One primitive per (material, source); faces keep their model order inside a primitive.
   std::map<std::pair<int, int>, std::vector<int>> groups;
   for (int f = 0; f < nf; ++f)
     groups[{materialOf(model, f), model.faceSource.empty() ? 0 : model.faceSource[f]}].push_back(f);
 
   tinygltf::Mesh gmesh;
-  gmesh.name = "model";
+  gmesh.name = name;
   for (const auto& [key, faces] : groups) {
-    const bool withUV = hasTexture(model, key.first);
-    // Unique (vertex, uv) pairs of this primitive.
-    std::map<std::tuple<int, uint32_t, uint32_t>, uint32_t> index;
-    std::vector<Vec3f> positions, vnormals;
-    std::vector<Vec2f> texcoords;
     std::vector<uint32_t> indices;
     indices.reserve(faces.size() * 3);
-    for (int f : faces) {
-      const auto fv = mesh.faceVertices(f);
-      for (int k = 0; k < 3; ++k) {
-        Vec2f t(0, 0);
-        uint32_t bu = 0, bv = 0;
-        if (withUV) {
-          t = Vec2f(model.uv[f][k].x(), 1.0f - model.uv[f][k].y());  // glTF: origin at the top-left
-          std::memcpy(&bu, &t.x(), 4);
-          std::memcpy(&bv, &t.y(), 4);
-        }
-        const auto [it, inserted] =
-            index.emplace(std::make_tuple(fv[k], bu, bv), static_cast<uint32_t>(positions.size()));
-        if (inserted) {
-          positions.push_back(mesh.position(fv[k]).cast<float>());
-          vnormals.push_back(normals[fv[k]].cast<float>().normalized());
-          if (withUV) texcoords.push_back(t);
-        }
-        indices.push_back(it->second);
-      }
-    }
+    for (int f : faces) indices.insert(indices.end(), corner[f].begin(), corner[f].end());
     tinygltf::Primitive prim;
     prim.mode = TINYGLTF_MODE_TRIANGLES;
     prim.material = materialIndex.at(key.first);
-    prim.attributes["POSITION"] = b.addFloatAccessor<3>(positions, TINYGLTF_TYPE_VEC3, true);
-    prim.attributes["NORMAL"] = b.addFloatAccessor<3>(vnormals, TINYGLTF_TYPE_VEC3, false);
-    if (withUV) prim.attributes["TEXCOORD_0"] = b.addFloatAccessor<2>(texcoords, TINYGLTF_TYPE_VEC2, false);
+    prim.attributes["POSITION"] = positionAccessor;
+    prim.attributes["NORMAL"] = normalAccessor;
+    if (withUV) prim.attributes["TEXCOORD_0"] = uvAccessor;
     prim.indices = b.addIndexAccessor(indices);
     if (!model.faceSource.empty()) {
       tinygltf::Value::Object extras;
@@ -1030,7 +1270,7 @@ void exportGlb(const TexturedModel& model, const std::string& path) {
   }
   gm.meshes.push_back(gmesh);
   tinygltf::Node node;
-  node.name = "model";
+  node.name = name;
   node.mesh = 0;
   gm.nodes.push_back(node);
   tinygltf::Scene scene;

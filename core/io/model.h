@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <list>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -17,12 +18,16 @@ enum FaceSource : int { kSourceEmpty = -2, kSourceInpainted = -1 };
 
 struct Material {
   std::string name;
-  cv::Mat texture;                          // CV_8UC4 RGBA, row 0 = top of the image; empty when untextured
-  std::string textureFile;                  // file name relative to the model (OBJ) or empty; set by the loaders
+  cv::Mat texture;          // CV_8UC4 RGBA, row 0 = top of the image; empty when untextured
+  std::string textureFile;  // file name relative to the model (OBJ) or empty; set by the loaders
+  // Name of the texture image when several materials show the same one (the atlas): the exporters
+  // write one image per distinct texture, named after this or, when empty, the first material using it.
+  std::string textureName;
   Vec3f diffuse = Vec3f(0.7f, 0.7f, 0.7f);  // sRGB [0,1], used where there is no texture
 };
 
 struct TexturedModel {
+  std::string name = "model";  // the glTF mesh and node name and the OBJ object name
   Mesh mesh;
   // #F x 3 texture coordinates, corner order of Mesh::faceVertices; (0,0) = bottom-left of the
   // texture, v up (OBJ convention; the glTF writer and reader flip v).
@@ -42,15 +47,46 @@ struct TexturedModel {
 // "tm_source"), or any plain mesh format (untextured). Throws montage::Error naming the file and reason.
 TexturedModel loadModel(const std::string& path);
 
+// Per-face values of a loaded mesh (Mesh::faceMaterial, Mesh::faceGroup: per mesh face, or per input face
+// mapped through Mesh::faceOrigin). Empty when `values` is empty or does not fit the mesh.
+std::vector<int> meshFaceValues(const Mesh& mesh, const std::vector<int>& values);
+
+// PNG encoding of textures, shared between the exporters so that a texture written to the OBJ's PNG
+// and embedded in the GLB is encoded once (the GLB embeds the same bytes).
+class PngCache {
+ public:
+  // compression: zlib level 0..9. Levels up to 3 use zlib's run-length strategy, which on atlases (flat
+  // gutters, smooth charts) is both faster and smaller than the default filter at the same level.
+  explicit PngCache(int compression = 6) : compression_(compression) {}
+  // The PNG bytes of an RGBA8 texture (written as RGB when every alpha is 255), encoded on first use.
+  // `where` names the file for errors.
+  const std::vector<unsigned char>& encode(const cv::Mat& rgba, const std::string& where);
+  int encodes() const { return encodes_; }     // images encoded so far
+  double seconds() const { return seconds_; }  // time spent encoding
+
+ private:
+  int compression_;
+  int encodes_ = 0;
+  double seconds_ = 0;
+  std::list<std::pair<cv::Mat, std::vector<unsigned char>>> cache_;  // texture (kept alive) -> bytes
+};
+
 // Makes a model from a mesh that carries UVs (Mesh::cornerUV) and one texture image.
 TexturedModel modelFromMesh(const Mesh& mesh, const cv::Mat& textureRgba, const std::string& textureName = "texture");
 
-// Writes DIR/<base>.obj, DIR/<base>.mtl and one PNG per textured material (<base>_<material>.png).
-// Faces are grouped by source ("tm_source_<k>", "tm_inpainted", "tm_empty") so the tags survive.
-void exportObj(const TexturedModel& model, const std::string& dir, const std::string& base = "model");
+// Writes DIR/<base>.obj, DIR/<base>.mtl and one PNG per distinct texture (<base>_<texture name>.png,
+// see Material::textureName). With face sources, faces are grouped by source ("tm_source_<k>",
+// "tm_inpainted", "tm_empty") so the tags survive; without, faces keep the model's order and the mesh's
+// own groups (Mesh::groupNames), so a loaded mesh is written back with its structure. `pngs` (may be
+// null) shares encoded textures with exportGlb.
+void exportObj(const TexturedModel& model, const std::string& dir, const std::string& base = "model",
+               PngCache* pngs = nullptr);
 
-// Writes a glTF 2.0 binary file: one mesh, one primitive per (material, source) group, textures
-// embedded as PNG, per-primitive extras {"tm_source": k}. Throws montage::Error on failure.
-void exportGlb(const TexturedModel& model, const std::string& path);
+// Writes a glTF 2.0 binary file: one mesh and one node named after the model, one primitive per
+// (material, source) group, all primitives sharing one vertex list whose first entries are the
+// mesh's vertices in order (vertices split at texture seams follow), one embedded PNG per distinct
+// texture, per-primitive extras {"tm_source": k} when the model has sources. Throws montage::Error on
+// failure.
+void exportGlb(const TexturedModel& model, const std::string& path, PngCache* pngs = nullptr);
 
 }  // namespace montage

@@ -9,9 +9,12 @@
 namespace montage {
 
 // Guidance of a hole's Poisson fill (paper section 5): d = 0, RBF of the boundary Laplacian, the
-// user's strokes (flow lines), or no fill (the hole stays empty).
-enum class InpaintMode { Harmonic, Rbf, Strokes, Off };
-inline constexpr std::array<const char*, 4> kInpaintModeNames = {"harmonic", "rbf", "strokes", "off"};
+// user's strokes (flow lines), no fill (the hole stays empty), the Laplacian of a texture synthesised
+// from the photo patches around the hole (surface/synthesis.h), or of that texture blurred to its
+// large-scale structure (what continues across the hole, without the grain).
+enum class InpaintMode { Harmonic, Rbf, Strokes, Off, Synthesis, Structure };
+inline constexpr std::array<const char*, 6> kInpaintModeNames = {"harmonic", "rbf",       "strokes",
+                                                                 "off",      "synthesis", "structure"};
 
 // Seam levelling (end of paper section 5): none, one mean colour difference per seam (the paper), or
 // per seam vertex (docs/pipeline.md compares them).
@@ -22,6 +25,24 @@ inline constexpr std::array<const char*, 3> kLevelModeNames = {"off", "seam", "v
 // photo and channel a gain, or a gain and an offset, on linear RGB, solved over the seams between photos.
 enum class BalanceMode { Off, Gain, GainOffset };
 inline constexpr std::array<const char*, 3> kBalanceModeNames = {"off", "gain", "gain-offset"};
+
+// Topology of the exported model: the user's mesh as loaded, with a new UV atlas and the montage baked
+// into it surface to surface (core/atlas/transfer.h), or the partition's refined mesh (input plus Steiner
+// vertices) with the montage's own charts.
+enum class ExportTopology { Original, Refined };
+inline constexpr std::array<const char*, 2> kExportTopologyNames = {"original", "refined"};
+
+// Camera fit per photo (mapping/camera.h): automatic (a photo whose clicks agree with one perspective
+// camera is mapped by projection, the others take the paper's path), or off (every photo takes the
+// paper's path).
+enum class CameraMode { Auto, Off };
+inline constexpr std::array<const char*, 2> kCameraModeNames = {"auto", "off"};
+
+// Which clicks the correction field of projection mapping keeps exact (mapping/projection.h): none
+// (the camera alone), those that agree with the camera, or every click (the paper: clicks are hard
+// constraints).
+enum class CorrectionMode { Off, Inliers, All };
+inline constexpr std::array<const char*, 3> kCorrectionModeNames = {"off", "inliers", "all"};
 
 // Name tables by enum type, for the project reader and writer and the editor's combo boxes.
 template <class E>
@@ -41,6 +62,23 @@ struct EnumNames<BalanceMode> {
   static constexpr const auto& names = kBalanceModeNames;
   static constexpr const char* what = "a colour balance mode";
 };
+template <>
+struct EnumNames<CameraMode> {
+  static constexpr const auto& names = kCameraModeNames;
+  static constexpr const char* what = "a camera mode";
+};
+template <>
+struct EnumNames<CorrectionMode> {
+  static constexpr const auto& names = kCorrectionModeNames;
+  static constexpr const char* what = "a correction mode";
+};
+
+template <>
+struct EnumNames<ExportTopology> {
+  static constexpr const auto& names = kExportTopologyNames;
+  static constexpr const char* what = "an export topology";
+};
+inline constexpr int kMinAtlasSizeOption = 256, kMaxAtlasSizeOption = 8192;  // atlas/atlas.h's limits
 
 struct PipelineOptions {
   double backgroundThresholdPx = 2.0;  // partition: max mean distance (px) of a curve to the foreground
@@ -50,19 +88,33 @@ struct PipelineOptions {
   int seamRounds = 30;                 // seams: alternating optimisation rounds (paper 4.2)
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
   BalanceMode colorBalance = BalanceMode::GainOffset;  // colour balance between photos, before levelling
-  LevelMode seamLevelling = LevelMode::Vertex;  // seam levelling between photos (paper end of 5)
-  InpaintMode inpaintMode = InpaintMode::Rbf;   // inpainting: guidance of holes without strokes
-  int maxInpaintVertices = 2000000;             // inpainting: cap on refined vertices (coarser beyond)
-  int atlasSize = 4096;                         // atlas: width and height in texels (1024..8192)
-  int gutter = 4;                               // atlas: texels between charts and from the border
-  unsigned seed = 1;                            // random line searches: seed, so runs are repeatable
+  LevelMode seamLevelling = LevelMode::Vertex;         // seam levelling between photos (paper end of 5)
+  InpaintMode inpaintMode = InpaintMode::Structure;    // inpainting: guidance of holes without strokes (chosen by
+                                                       // measurement, docs/pipeline.md)
+  int maxInpaintVertices = 2000000;                    // inpainting: cap on refined vertices (coarser beyond)
+  int atlasSize = 0;  // atlas: 0 = the smallest size holding the photos at their own resolution, or a fixed
+                      // width and height (256..8192) that the charts are scaled to fill
+  int gutter = 4;     // atlas: texels between charts and from the border
+  unsigned seed = 1;  // random line searches: seed, so runs are repeatable
+
+  // Export: the user's mesh as loaded with a new atlas (original) or the refined mesh (refined).
+  ExportTopology exportTopology = ExportTopology::Original;
+  int pngCompression = 6;  // export: zlib level of the atlas PNG, 0..9 (1 fast, for previews; 9 smallest)
+  CameraMode cameraMode = CameraMode::Auto;  // camera fit per photo; off = every photo takes the paper's path
+  double cameraThreshold = 0.006;            // camera fit: a click agrees within this share of the image diagonal
+  CorrectionMode correction = CorrectionMode::All;  // projection: clicks the correction field keeps exact
+  double viewSmoothness = 1.0;                      // projection: seam cost of view selection (0 = best view per face)
+  int maxPhotoSide = 0;  // load: working resolution, photos kept at most this many pixels a side (0 = full;
+                         // else 256..16384); coordinates stay the files' pixels; less memory, coarser texture
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
            seamLambda == o.seamLambda && seamRounds == o.seamRounds && gradientWeight == o.gradientWeight &&
            colorBalance == o.colorBalance && seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
-           seed == o.seed;
+           seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression &&
+           cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold && correction == o.correction &&
+           viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide;
   }
 };
 

@@ -39,9 +39,13 @@ std::string number(double v) {
 // Reading: a Field is a JSON value (or its absence) with its path in the document, e.g.
 // "points[2].at[0].photo". Every type check and every message goes through it.
 
-// What a value is, for "must be X, not Y" messages.
+// What a value is, for "must be X, not Y" messages (long strings are cut).
 std::string describe(const json& v) {
-  if (v.is_string()) return "the string \"" + v.get<std::string>() + "\"";
+  if (v.is_string()) {
+    const std::string& text = v.get_ref<const std::string&>();
+    return "the string \"" +
+           (text.size() > 60 ? text.substr(0, 60) + "...\" (" + std::to_string(text.size()) + " bytes)" : text + "\"");
+  }
   if (v.is_number()) return v.dump();
   if (v.is_object()) return "an object";
   if (v.is_array()) return "an array";
@@ -177,6 +181,11 @@ void fromJson(const Field& f, CloneOp& c) {
   c.rotationDeg = f["rotationDeg"].as(0.0);
 }
 
+void fromJson(const Field& f, DeclinedProposal& d) {
+  d.vertex = f["vertex"].as<int>();
+  d.photo = f["photo"].as<int>();
+}
+
 void fromJson(const Field& f, HoleMode& h) {
   h.face = f["face"].as<int>();
   h.mode = f["mode"].as<InpaintMode>();
@@ -192,11 +201,18 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("gradientWeight", o.gradientWeight, 0.0, 1.0);
   visit("colorBalance", o.colorBalance, BalanceMode::Off, BalanceMode::GainOffset);
   visit("seamLevelling", o.seamLevelling, LevelMode::Off, LevelMode::Vertex);
-  visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Off);
+  visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Structure);
   visit("maxInpaintVertices", o.maxInpaintVertices, 1000, 20000000);
-  visit("atlasSize", o.atlasSize, 1024, 8192);
+  visit("atlasSize", o.atlasSize, 0, kMaxAtlasSizeOption);
   visit("gutter", o.gutter, 0, 64);
   visit("seed", o.seed, 0u, UINT_MAX);
+  visit("exportTopology", o.exportTopology, ExportTopology::Original, ExportTopology::Refined);
+  visit("pngCompression", o.pngCompression, 0, 9);
+  visit("cameraMode", o.cameraMode, CameraMode::Auto, CameraMode::Off);
+  visit("cameraThreshold", o.cameraThreshold, 0.0005, 0.2);
+  visit("correction", o.correction, CorrectionMode::Off, CorrectionMode::All);
+  visit("viewSmoothness", o.viewSmoothness, 0.0, 100.0);
+  visit("maxPhotoSide", o.maxPhotoSide, 0, 16384);
 }
 
 void fromJson(const Field& f, PipelineOptions& o) {
@@ -225,6 +241,11 @@ class DocumentCheck {
     checkClones();
     for (size_t i = 0; i < p_.holeModes.size(); ++i)
       index("holeModes[" + std::to_string(i) + "].face", p_.holeModes[i].face, faces(), "faces", "mesh");
+    for (size_t i = 0; i < p_.declinedProposals.size(); ++i) {
+      const std::string path = "declinedProposals[" + std::to_string(i) + "]";
+      index(path + ".vertex", p_.declinedProposals[i].vertex, vertices(), "vertices", "mesh");
+      index(path + ".photo", p_.declinedProposals[i].photo, photos(), "photos", "project");
+    }
   }
 
  private:
@@ -261,6 +282,9 @@ class DocumentCheck {
   }
 
   void checkOptions() const {
+    if (p_.options.maxPhotoSide > 0 && p_.options.maxPhotoSide < 256)
+      fail("options.maxPhotoSide", std::to_string(p_.options.maxPhotoSide) +
+                                       " is too small: 0 (the photos' own resolution) or at least 256 pixels");
     forEachOption(p_.options, [&](const char* name, const auto& value, auto lo, auto hi) {
       using T = std::decay_t<decltype(value)>;
       if constexpr (std::is_floating_point_v<T>) {
@@ -274,6 +298,9 @@ class DocumentCheck {
                number(double(value)) + " is out of range " + number(double(lo)) + ".." + number(double(hi)));
       }
     });
+    if (p_.options.atlasSize > 0 && p_.options.atlasSize < kMinAtlasSizeOption)
+      fail("options.atlasSize", std::to_string(p_.options.atlasSize) + " is neither 0 (automatic) nor in " +
+                                    std::to_string(kMinAtlasSizeOption) + ".." + std::to_string(kMaxAtlasSizeOption));
   }
 
   void checkPoints() const {
@@ -403,34 +430,64 @@ std::string storedPath(const std::string& path, const fs::path& base) {
   return (relative.empty() ? absolute : relative).generic_string();
 }
 
-std::string readText(const std::string& path) {
-  std::error_code ec;
-  TM_CHECK(fs::exists(path, ec), located(path, "file not found"));
-  TM_CHECK(!fs::is_directory(path, ec), located(path, "is a folder, not a project file"));
-  std::ifstream in(path, std::ios::binary);
-  TM_CHECK(in, located(path, std::string("cannot open: ") + std::strerror(errno)));
-  std::ostringstream text;
-  text << in.rdbuf();
-  TM_CHECK(!in.bad(), located(path, "read error"));
-  return text.str();
+// "line L, column C" of the 1-based byte offset `byte` in `text`.
+std::string lineAndColumn(const std::string& text, size_t byte) {
+  const size_t end = std::min(std::max<size_t>(byte, 1) - 1, text.size());
+  size_t lineStart = 0;
+  if (const size_t newline = end ? text.rfind('\n', end - 1) : std::string::npos; newline != std::string::npos)
+    lineStart = newline + 1;
+  const size_t line = 1 + std::count(text.begin(), text.begin() + end, '\n');
+  return "line " + std::to_string(line) + ", column " + std::to_string(end - lineStart + 1);
 }
 
-json parseJson(const std::string& path, const std::string& text) {
-  try {
-    return json::parse(text);
-  } catch (const json::parse_error& e) {
-    // e.byte is the 1-based offset of the character where parsing failed.
-    const size_t end = std::min(std::max<size_t>(e.byte, 1) - 1, text.size());
-    size_t lineStart = 0;
-    if (const size_t newline = end ? text.rfind('\n', end - 1) : std::string::npos; newline != std::string::npos)
-      lineStart = newline + 1;
-    const size_t line = 1 + std::count(text.begin(), text.begin() + end, '\n');
-    const size_t column = end - lineStart + 1;
-    std::string detail = e.what();
-    if (const size_t at = detail.find("syntax error"); at != std::string::npos) detail = detail.substr(at);
-    throw Error(located(
-        path, "line " + std::to_string(line) + ", column " + std::to_string(column) + ": invalid JSON: " + detail));
+// The DOM builder of nlohmann::json with two changes: a failure (syntax error, number overflow such as
+// 1e400) is recorded with its byte position instead of thrown without one, and nesting deeper than
+// kMaxDepth is refused. sax_parse calls these members statically, so hiding the base's is enough.
+class ProjectSax : public nlohmann::detail::json_sax_dom_parser<json> {
+ public:
+  static constexpr int kMaxDepth = 64;
+  explicit ProjectSax(json& root) : json_sax_dom_parser(root, false) {}
+
+  bool start_object(std::size_t n) { return deeper() && json_sax_dom_parser::start_object(n); }
+  bool end_object() { return --depth_, json_sax_dom_parser::end_object(); }
+  bool start_array(std::size_t n) { return deeper() && json_sax_dom_parser::start_array(n); }
+  bool end_array() { return --depth_, json_sax_dom_parser::end_array(); }
+  template <class Exception>
+  bool parse_error(std::size_t position, const std::string&, const Exception& e) {
+    if (error.empty()) {
+      byte = position;
+      error = e.what();
+      // "[json.exception.parse_error.101] parse error at line 1, column 2: syntax error ..." -> "syntax error ..."
+      for (const char* start : {"syntax error", "number overflow"})
+        if (const size_t at = error.find(start); at != std::string::npos) error = error.substr(at);
+    }
+    return false;
   }
+
+  std::string error;
+  size_t byte = 0;
+
+ private:
+  bool deeper() {
+    if (++depth_ <= kMaxDepth) return true;
+    error = "values nested more than " + std::to_string(kMaxDepth) + " deep (a project is at most a few levels deep)";
+    return false;
+  }
+  int depth_ = 0;
+};
+
+json parseJson(const std::string& path, const std::string& text) {
+  json root;
+  ProjectSax sax(root);
+  bool ok = false;
+  try {
+    ok = json::sax_parse(text, &sax);
+  } catch (const json::exception& e) {  // anything the parser throws despite the handler
+    if (sax.error.empty()) sax.error = e.what();
+  }
+  if (ok && sax.error.empty()) return root;
+  if (sax.error.empty()) sax.error = "syntax error";
+  throw Error(located(path, (sax.byte > 0 ? lineAndColumn(text, sax.byte) + ": " : "") + "invalid JSON: " + sax.error));
 }
 
 // A path from the file, made absolute against the project's folder; the file must exist, unless
@@ -440,28 +497,62 @@ std::string resolveFile(const Field& f, const fs::path& dir, std::vector<Missing
   const std::string written = f.as<std::string>();
   if (written.empty()) f.fail("must not be empty");
   const fs::path resolved = (dir / written).lexically_normal();
-  std::error_code ec;
-  if (missing && !fs::exists(resolved, ec)) {
-    missing->push_back(MissingFile{field, resolved.string()});
-    return resolved.string();
+  if (missing) {
+    std::error_code ec;
+    if (!fs::exists(resolved, ec)) {
+      missing->push_back(MissingFile{field, resolved.string()});
+      return resolved.string();
+    }
   }
-  if (!fs::is_regular_file(resolved, ec))
-    f.fail("file " + inQuotes(written) + (fs::exists(resolved, ec) ? " is not a regular file" : " not found") +
-           " (resolved to " + inQuotes(resolved.string()) + ")");
+  if (const std::string problem = fileProblem(resolved.string()); !problem.empty())
+    f.fail("file " + inQuotes(written) + " " + problem + " (resolved to " + inQuotes(resolved.string()) + ")");
   return resolved.string();
 }
+
+Project parseProjectText(const std::string& text, const std::string& path, std::vector<MissingFile>* missing);
 
 }  // namespace
 
 bool Project::sameDocument(const Project& o) const {
   return mesh == o.mesh && photos == o.photos && points == o.points && chains == o.chains && strokes == o.strokes &&
-         clones == o.clones && holeModes == o.holeModes && options == o.options;
+         clones == o.clones && holeModes == o.holeModes && declinedProposals == o.declinedProposals &&
+         options == o.options;
 }
 
 namespace {
 
-Project readProject(const std::string& path, std::vector<MissingFile>* missing) {
-  const std::string text = readText(path);
+std::string readProjectText(const std::string& path) {
+  return readFileBytes(path, "project file", kMaxProjectBytes,
+                       "a project holds paths and correspondences; its size is limited so that reading it needs "
+                       "bounded memory");
+}
+
+Project parseProjectNamed(const std::string& text, const std::string& path, std::vector<MissingFile>* missing) {
+  try {
+    return parseProjectText(text, path, missing);
+  } catch (const json::exception& e) {  // never expected (every read goes through Field): still named
+    throw Error(located(path, std::string("invalid project: ") + e.what()));
+  }
+}
+
+}  // namespace
+
+Project loadProject(const std::string& path) {
+  return parseProjectNamed(readProjectText(path), path, nullptr);
+}
+
+Project loadProjectAllowingMissing(const std::string& path, std::vector<MissingFile>& missing) {
+  missing.clear();
+  return parseProjectNamed(readProjectText(path), path, &missing);
+}
+
+Project parseProject(const std::string& text, const std::string& path) {
+  return parseProjectNamed(text, path, nullptr);
+}
+
+namespace {
+
+Project parseProjectText(const std::string& text, const std::string& path, std::vector<MissingFile>* missing) {
   const json document = parseJson(path, text);
   const Field root(path, &document, "");
   const Field format = root["format"];
@@ -495,24 +586,16 @@ Project readProject(const std::string& path, std::vector<MissingFile>* missing) 
   project.strokes = root["strokes"].as(project.strokes);
   project.clones = root["clones"].as(project.clones);
   project.holeModes = root["holeModes"].as(project.holeModes);
+  if (version >= 2) project.declinedProposals = root["declinedProposals"].as(project.declinedProposals);
   if (root["options"].present()) project.options = root["options"].as<PipelineOptions>();
-  // Version 1 had no colour balance: such a file keeps its behaviour.
-  if (version < 2 && !(root["options"].present() && root["options"]["colorBalance"].present()))
+  // Versions 1 and 2 had no colour balance: such a file keeps its behaviour.
+  if (version < 3 && !(root["options"].present() && root["options"]["colorBalance"].present()))
     project.options.colorBalance = BalanceMode::Off;
   DocumentCheck(project, path, nullptr).run();
   return project;
 }
 
 }  // namespace
-
-Project loadProject(const std::string& path) {
-  return readProject(path, nullptr);
-}
-
-Project loadProjectAllowingMissing(const std::string& path, std::vector<MissingFile>& missing) {
-  missing.clear();
-  return readProject(path, &missing);
-}
 
 Project withoutPhotoReferences(const Project& project, const std::set<int>& photos) {
   Project out = project;
@@ -523,16 +606,17 @@ Project withoutPhotoReferences(const Project& project, const std::set<int>& phot
   out.chains.erase(std::remove_if(out.chains.begin(), out.chains.end(),
                                   [&](const FeatureChain& c) { return photos.count(c.photo) > 0; }),
                    out.chains.end());
-  out.clones.erase(std::remove_if(out.clones.begin(), out.clones.end(),
-                                  [&](const CloneOp& c) { return photos.count(c.photo) > 0; }),
-                   out.clones.end());
+  out.clones.erase(
+      std::remove_if(out.clones.begin(), out.clones.end(), [&](const CloneOp& c) { return photos.count(c.photo) > 0; }),
+      out.clones.end());
   return out;
 }
 
 int requiredVersion(const Project& project) {
   bool photoFlags = false;
   for (const PhotoRef& p : project.photos) photoFlags = photoFlags || p.mirror || p.colorLocked;
-  return photoFlags || project.options.colorBalance != BalanceMode::Off ? 2 : 1;
+  if (photoFlags || project.options.colorBalance != BalanceMode::Off) return 3;
+  return project.declinedProposals.empty() ? 1 : 2;
 }
 
 void validateProject(const Project& project, int numVertices, int numFaces,
@@ -585,6 +669,9 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
   j["holeModes"] = ojson::array();
   for (const HoleMode& h : project.holeModes)
     j["holeModes"].push_back({{"face", h.face}, {"mode", kInpaintModeNames.at(size_t(h.mode))}});
+  j["declinedProposals"] = ojson::array();
+  for (const DeclinedProposal& d : project.declinedProposals)
+    j["declinedProposals"].push_back({{"vertex", d.vertex}, {"photo", d.photo}});
   j["options"] = toJson(project.options);
   requireFinite(j, "");
   return j.dump(2) + "\n";

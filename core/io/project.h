@@ -2,6 +2,7 @@
 // operations, options). Saved as versioned JSON; see docs/project-format.md.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <set>
 #include <string>
@@ -68,6 +69,15 @@ struct HoleMode {
   bool operator==(const HoleMode& o) const { return face == o.face && mode == o.mode; }
 };
 
+// A correspondence the cameras proposed (a feature clicked in one photo that fits a camera, predicted
+// in another such photo where it is visible; mapping/proposals.h) and the user declined: it is not
+// proposed again. Proposals themselves are pipeline output, never stored with the clicks.
+struct DeclinedProposal {
+  int vertex = 0;  // mesh vertex of the feature
+  int photo = 0;   // photo it was proposed in
+  bool operator==(const DeclinedProposal& o) const { return vertex == o.vertex && photo == o.photo; }
+};
+
 struct PhotoRef {
   std::string path;          // absolute once loaded; written relative to the project file
   std::string mask;          // optional foreground mask image (in the file's own pixels); same rules
@@ -79,7 +89,7 @@ struct PhotoRef {
 };
 
 struct Project {
-  static constexpr int kVersion = 2;        // newest format version this build reads and writes
+  static constexpr int kVersion = 3;        // newest format version this build reads and writes
   static constexpr int kOldestVersion = 1;  // oldest version it reads
 
   std::string file;  // where it was loaded from / last saved to (absolute); empty for a new project
@@ -90,6 +100,7 @@ struct Project {
   std::vector<Stroke> strokes;
   std::vector<CloneOp> clones;
   std::vector<HoleMode> holeModes;
+  std::vector<DeclinedProposal> declinedProposals;  // version 2
   PipelineOptions options;
 
   // Document equality (ignores `file`): what save + load must preserve.
@@ -99,7 +110,13 @@ struct Project {
 // Parses a project file and checks everything that needs no mesh or photo: JSON syntax, version,
 // field types, index ranges among the project's own lists, files present. Paths become absolute.
 // Throws montage::Error "<file>: <field>: <reason>", e.g. "a.json: points[2].vertex: must be an integer".
+// Files larger than kMaxProjectBytes are refused with a message (a 64 MB project needs about 1.4 GB
+// while it is parsed; real projects are a few MB).
 Project loadProject(const std::string& path);
+inline constexpr uint64_t kMaxProjectBytes = 64ull << 20;
+// The same from the file's text already in memory; `path` is where it was read (paths in it are
+// relative to its folder) and names it in messages.
+Project parseProject(const std::string& text, const std::string& path);
 
 // A file a project names that does not exist: the JSON field ("mesh", "photos[1].path",
 // "photos[1].mask") and the path it resolves to (absolute).
@@ -113,9 +130,10 @@ struct MissingFile {
 // and offer to relink it. Every other check is the same.
 Project loadProjectAllowingMissing(const std::string& path, std::vector<MissingFile>& missing);
 
-// The version a document needs: 1 unless it uses something version 1 does not have (a mirrored or
-// colour-locked photo, colour balance on), so that an older build refuses the file instead of
-// silently ignoring what it does not know. projectToJson writes this version.
+// The lowest version that holds a document: 1, 2 when it has declined proposals, 3 when it has a mirrored
+// or colour-locked photo or colour balance on, so that an older build refuses the file instead of
+// silently ignoring what it does not know, and reads it when nothing is lost. projectToJson writes this
+// version.
 int requiredVersion(const Project& project);
 
 // Checks a project against its mesh and photo sizes: vertex ids in range, points inside their

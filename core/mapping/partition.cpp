@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <queue>
 #include <set>
@@ -155,8 +156,8 @@ double imageAngle(const Vec2& d) {
 
 class Partitioner {
  public:
-  Partitioner(const Scene& scene, const PartitionOptions& options, const JobControl& job)
-      : scene_(scene), options_(options), job_(job), tri_(out_.mesh.tri) {}
+  Partitioner(const Scene& scene, const PartitionOptions& options, const JobControl& job, PartitionMemo* memo)
+      : scene_(scene), options_(options), job_(job), memo_(memo), tri_(out_.mesh.tri) {}
 
   Partition run() {
     setup();
@@ -229,6 +230,43 @@ class Partitioner {
         if (std::isnan(p.x())) p = Vec2(at.x, at.y);
       }
     }
+    // The state hash: the mesh, the options that shape paths, the feature vertices.
+    for (int v = 0; v < nv; ++v) {
+      const auto& p = tri_.point(VertexHandle(v));
+      for (int k = 0; k < 3; ++k) {
+        uint64_t bits;
+        std::memcpy(&bits, &p[k], sizeof bits);
+        mixState(bits);
+      }
+    }
+    for (int f = 0; f < int(tri_.n_faces()); ++f)
+      for (int v : out_.mesh.faceVertices(f)) mixState(uint64_t(v));
+    mixState(uint64_t(options_.maxSteinerPerPath));
+    for (int a : features_) mixState(uint64_t(vertexOf(a)));
+  }
+
+  // Every change of the mesh or of its blocked vertices enters the state hash (splitmix64 steps).
+  void mixState(uint64_t x) {
+    uint64_t z = (state_ ^ x) + 0x9e3779b97f4a7c15ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    state_ = z ^ (z >> 31);
+  }
+
+  // A search, from the memo when this state asked it before.
+  template <class Search>
+  std::vector<int> memoSearch(const std::string& query, const Search& search) {
+    ++out_.searches;
+    if (!memo_) return search();
+    std::string key(reinterpret_cast<const char*>(&state_), sizeof(state_));
+    key += query;
+    if (const std::vector<int>* hit = memo_->find(key)) {
+      ++out_.searchesReused;
+      return *hit;
+    }
+    std::vector<int> path = search();
+    memo_->store(key, path);
+    return path;
   }
 
   bool hasPos(int point, int photo) const { return !std::isnan(pos_[size_t(point) * numPhotos_ + photo].x()); }
@@ -297,14 +335,14 @@ class Partitioner {
         return false;
       }
     // Paper 3.1: mean distance to the foreground over samples less than a pixel apart.
-    const cv::Mat& distance = scene_.photos[photo]->distance;
-    if (distance.empty()) return true;
+    const Photo& image = *scene_.photos[photo];
+    if (image.distance.empty()) return true;
     const double length = (pb - pa).norm();
     const int segments = int(std::floor(length / options_.curveSampleSpacingPx)) + 1;
     double sum = 0;
     for (int k = 0; k <= segments; ++k) {
       const Vec2 q = pa + (pb - pa) * (double(k) / segments);
-      sum += sampleBilinear1(distance, q.x(), q.y());
+      sum += image.distanceAt(q.x(), q.y());
     }
     const double mean = sum / (segments + 1);
     if (mean > options_.backgroundThresholdPx) {
@@ -480,7 +518,13 @@ class Partitioner {
       if (w == sb.v) return sb.allows(tri_.opposite_halfedge_handle(h));
       return !blocked(w);
     };
-    return aStar(tri_, sa.v, sb.v, stepOk, scratch_, maxLength);
+    std::string query = "S";
+    for (int x : {sa.v, sb.v}) query.append(reinterpret_cast<const char*>(&x), sizeof(x));
+    query.append(reinterpret_cast<const char*>(&maxLength), sizeof(maxLength));
+    query.append(sa.slot.begin(), sa.slot.end());
+    query += '|';
+    query.append(sb.slot.begin(), sb.slot.end());
+    return memoSearch(query, [&] { return aStar(tri_, sa.v, sb.v, stepOk, scratch_, maxLength); });
   }
 
   // Shortest path over free vertices, in any direction. The last result is kept: the queue's length
@@ -488,7 +532,10 @@ class Partitioner {
   const std::vector<int>& searchFree(int from, int to) {
     if (lastFree_.from != from || lastFree_.to != to || lastFree_.version != version_) {
       const auto isBlocked = [this](int v) { return blocked(v); };
-      lastFree_ = {from, to, version_, aStar(tri_, from, to, freeSteps(tri_, to, isBlocked), scratch_)};
+      std::string query = "F";
+      for (int x : {from, to}) query.append(reinterpret_cast<const char*>(&x), sizeof(x));
+      lastFree_ = {from, to, version_,
+                   memoSearch(query, [&] { return aStar(tri_, from, to, freeSteps(tri_, to, isBlocked), scratch_); })};
     }
     return lastFree_.path;
   }
@@ -526,6 +573,9 @@ class Partitioner {
 
   // Splits edge e at its midpoint. New faces inherit the parent of the face they were cut from.
   void splitEdge(EdgeHandle e) {
+    mixState(3);
+    mixState(uint64_t(tri_.from_vertex_handle(tri_.halfedge_handle(e, 0)).idx()));
+    mixState(uint64_t(tri_.to_vertex_handle(tri_.halfedge_handle(e, 0)).idx()));
     std::vector<std::pair<int, int>> sides;  // (vertex opposite the edge, face) per side
     for (int i = 0; i < 2; ++i) {
       const HalfedgeHandle h = tri_.halfedge_handle(e, i);
@@ -633,6 +683,8 @@ class Partitioner {
   void mark(int id, char on) {
     const MeshPath& path = out_.paths[id];
     const auto& v = path.vertices;
+    mixState(on ? 1 : 2);
+    for (int x : v) mixState(uint64_t(x));
     for (size_t k = 1; k + 1 < v.size(); ++k) onPath_[v[k]] = on;
     for (size_t k = 1; k < v.size(); ++k)
       edgeOnPath_[tri_.edge_handle(tri_.find_halfedge(VertexHandle(v[k - 1]), VertexHandle(v[k]))).idx()] = on;
@@ -772,6 +824,8 @@ class Partitioner {
   const Scene& scene_;
   const PartitionOptions& options_;
   const JobControl& job_;
+  PartitionMemo* memo_;
+  uint64_t state_ = 0;  // hash of the mesh state (see PartitionMemo)
   Partition out_;
   TriMesh& tri_;
   int numPhotos_ = 0;
@@ -798,11 +852,32 @@ class Partitioner {
 
 }  // namespace
 
-Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job) {
+void PartitionMemo::beginRun() {
+  previous_ = std::move(current_);
+  current_.clear();
+}
+
+const std::vector<int>* PartitionMemo::find(const std::string& key) {
+  auto it = current_.find(key);
+  if (it != current_.end()) return &it->second;
+  auto old = previous_.find(key);
+  if (old == previous_.end()) return nullptr;
+  auto moved = current_.emplace(key, std::move(old->second)).first;
+  previous_.erase(old);
+  return &moved->second;
+}
+
+void PartitionMemo::store(const std::string& key, const std::vector<int>& path) {
+  current_[key] = path;
+}
+
+Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job,
+                        PartitionMemo* memo) {
   TM_CHECK(scene.mesh, "partition: the scene has no mesh");
   TM_CHECK(options.curveSampleSpacingPx > 0 && options.curveSampleSpacingPx < 1,
            "partition: curveSampleSpacingPx " + number(options.curveSampleSpacingPx) + " must be in (0, 1)");
-  return Partitioner(scene, options, job).run();
+  if (memo) memo->beginRun();
+  return Partitioner(scene, options, job, memo).run();
 }
 
 std::vector<int> shortestPath(const Mesh& mesh, int from, int to, const std::vector<char>& blocked) {

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "base/common.h"
@@ -69,11 +70,30 @@ struct Partition {
   std::vector<int> faceCell;  // #F: cell id, a face-connected region bounded by paths/the border
   int numCells = 0;
   int steinerVertices = 0;  // vertices added by edge splits
+  int searches = 0;         // shortest-path searches the run needed
+  int searchesReused = 0;   // of them, taken from a PartitionMemo
+};
+
+// The shortest-path searches of earlier partition runs, keyed by the state of the mesh when they ran
+// (a hash of the mesh, its feature vertices and every change the run made so far: accepted paths,
+// Steiner splits) and by the query. A rerun that passes through the same states, such as a dragged
+// point whose pairs stay valid, takes its paths from here instead of searching again. Searches not
+// used in the last run are dropped at the start of the next. Not thread-safe.
+class PartitionMemo {
+ public:
+  void beginRun();
+  const std::vector<int>* find(const std::string& key);
+  void store(const std::string& key, const std::vector<int>& path);
+  size_t size() const { return current_.size() + previous_.size(); }
+
+ private:
+  std::unordered_map<std::string, std::vector<int>> current_, previous_;
 };
 
 // Runs the partition on a loaded scene (its project's points and chains, its photos' distance
-// maps). Throws montage::Cancelled when the job is cancelled.
-Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job);
+// maps), reusing the searches in `memo` when given. Throws montage::Cancelled when the job is cancelled.
+Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job,
+                        PartitionMemo* memo = nullptr);
 
 // Shortest path along mesh edges between two vertices (Dijkstra with edge lengths), avoiding the
 // vertices for which `blocked[v]` is true (the end points are always allowed). Returns the vertex

@@ -425,24 +425,41 @@ void eraseNeighbour(std::vector<std::pair<int, int>>& list, int neighbour) {
 
 }  // namespace
 
-ProgressiveMesh::ProgressiveMesh(const Partition& partition, const SimplifyOptions& options, const JobControl& job) {
-  const auto start = std::chrono::steady_clock::now();
+SimplifyInput simplifyInput(const Partition& partition) {
   const Mesh& mesh = partition.mesh;
-  const int nv = mesh.numVertices(), nf = mesh.numFaces();
-  std::vector<Vec3> pos(nv);
-  for (int v = 0; v < nv; ++v) pos[v] = mesh.position(v);
+  SimplifyInput in;
+  in.positions.resize(mesh.numVertices());
+  for (int v = 0; v < mesh.numVertices(); ++v) in.positions[v] = mesh.position(v);
+  in.faces.resize(mesh.numFaces());
+  for (int f = 0; f < mesh.numFaces(); ++f) in.faces[f] = mesh.faceVertices(f);
+  in.pinned.assign(mesh.numVertices(), 0);
+  for (int v : partition.featureVertex)
+    if (v >= 0 && v < mesh.numVertices()) in.pinned[v] = 1;
+  for (const MeshPath& path : partition.paths) in.paths.push_back(path.vertices);
+  return in;
+}
+
+ProgressiveMesh::ProgressiveMesh(const SimplifyInput& input, const SimplifyOptions& options, const JobControl& job) {
+  const auto start = std::chrono::steady_clock::now();
+  const int nv = static_cast<int>(input.positions.size()), nf = static_cast<int>(input.faces.size());
+  const std::vector<Vec3>& pos = input.positions;
   faces_.resize(nf);
   faceAlive_.assign(nf, 1);
   vertexAlive_.assign(nv, 1);
   vertexFaces_.assign(nv, {});
   pathEdges_.assign(nv, {});
   for (int f = 0; f < nf; ++f) {
-    faces_[f] = mesh.faceVertices(f);
-    for (int v : faces_[f]) vertexFaces_[v].push_back(f);
+    faces_[f] = input.faces[f];
+    for (int v : faces_[f]) {
+      TM_ASSERT(v >= 0 && v < nv);
+      vertexFaces_[v].push_back(f);
+    }
   }
   std::vector<char> isFeature(nv, 0);
-  for (int v : partition.featureVertex)
-    if (v >= 0 && v < nv) isFeature[v] = 1;
+  if (!input.pinned.empty()) {
+    TM_ASSERT(static_cast<int>(input.pinned.size()) == nv);
+    isFeature = input.pinned;
+  }
   std::vector<char> pinned = isFeature;  // feature vertices and vertices whose faces are not one fan
 
   // Path edges (section 3.1 paths) with their path id; vertex positions along each path.
@@ -453,8 +470,8 @@ ProgressiveMesh::ProgressiveMesh(const Partition& partition, const SimplifyOptio
         if (x == b) return true;
     return false;
   };
-  for (int p = 0; p < static_cast<int>(partition.paths.size()); ++p) {
-    const auto& pv = partition.paths[p].vertices;
+  for (int p = 0; p < static_cast<int>(input.paths.size()); ++p) {
+    const auto& pv = input.paths[p];
     for (int i = 0; i < static_cast<int>(pv.size()); ++i) {
       TM_ASSERT(pv[i] >= 0 && pv[i] < nv);
       pathIndex[pv[i]].emplace_back(p, i);
@@ -554,14 +571,14 @@ ProgressiveMesh::ProgressiveMesh(const Partition& partition, const SimplifyOptio
       }
     if (records_.size() % 2000 == 0) {
       job.checkCancel();
-      job.progress(StageId::Simplify, std::min(0.99, static_cast<double>(records_.size()) / std::max(1, movableCount)),
+      job.progress(StageId::Map, std::min(0.99, static_cast<double>(records_.size()) / std::max(1, movableCount)),
                    "simplify");
     }
   }
   level_ = static_cast<int>(records_.size());
   for (int v = 0; v < nv; ++v) stats_.baseExtraVertices += vertexAlive_[v] && !vertexFaces_[v].empty() && !isFeature[v];
   stats_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  job.progress(StageId::Simplify, 1.0, "simplify");
+  job.progress(StageId::Map, 1.0, "simplify");
 }
 
 void ProgressiveMesh::apply(const CollapseRecord& r) {

@@ -54,12 +54,28 @@ struct SimplifyOptions {
   double maxNormalFlipDeg = 90;  // refuse collapses that turn a face normal by more than this
 };
 
-// A progressive mesh over the faces of a Partition's mesh. Faces keep their ids at every level: a
+// What a progressive mesh is built over: a manifold triangle mesh, the vertices that must stay
+// (features), and paths (vertex sequences along edges) whose vertices only collapse along them and
+// which never merge with each other or with the mesh border.
+struct SimplifyInput {
+  std::vector<Vec3> positions;            // #V, model units
+  std::vector<std::array<int, 3>> faces;  // #F, indices into positions, counter-clockwise
+  std::vector<char> pinned;               // #V: never removed (empty = none)
+  std::vector<std::vector<int>> paths;    // vertex sequences; consecutive vertices share an edge
+};
+
+// The whole partition mesh with its features pinned and its paths (the paper's global progressive
+// mesh; the pipeline maps cell by cell, see cells.h, and builds one progressive mesh per cell).
+SimplifyInput simplifyInput(const Partition& partition);
+
+// A progressive mesh over the faces of a SimplifyInput. Faces keep their ids at every level: a
 // collapse retires some faces and re-points corners of others, a split undoes exactly that.
 class ProgressiveMesh {
  public:
   // Collapses as far as the constraints allow. The result is at the base level.
-  ProgressiveMesh(const Partition& partition, const SimplifyOptions& options, const JobControl& job);
+  ProgressiveMesh(const SimplifyInput& input, const SimplifyOptions& options, const JobControl& job);
+  ProgressiveMesh(const Partition& partition, const SimplifyOptions& options, const JobControl& job)
+      : ProgressiveMesh(simplifyInput(partition), options, job) {}
 
   const std::vector<CollapseRecord>& records() const { return records_; }
   int level() const { return level_; }  // collapses currently applied; records().size() at the base
@@ -79,7 +95,7 @@ class ProgressiveMesh {
   int aliveFaces() const;
   int aliveVertices() const;
   // Whether the edge (a, b) lies on a path at the current level, and which (index into
-  // Partition::paths); -1 when it does not.
+  // SimplifyInput::paths); -1 when it does not.
   int pathOfEdge(int a, int b) const;
   const SimplifyStats& stats() const { return stats_; }
 

@@ -52,14 +52,14 @@ struct Sample {
   Vec3f flat = Vec3f::Ones();  // per channel: 1 where both sides are flat around the point, towards 0 near edges
 };
 
-// How much a channel varies within `radius` pixels of (x, y): the range (max - min) of 17 bilinear samples
-// (the point and two rings of 8), per channel, in sRGB units.
-Vec3f localRange(const cv::Mat& rgb, double x, double y, double radius) {
-  Vec3f lo = sampleBilinear3(rgb, x, y), hi = lo;
+// How much a channel varies within `radius` file pixels of (x, y): the range (max - min) of 17 bilinear
+// samples (the point and two rings of 8), per channel, in sRGB units.
+Vec3f localRange(const Photo& photo, double x, double y, double radius) {
+  Vec3f lo = photo.rgbAt(x, y), hi = lo;
   for (double r : {0.5 * radius, radius})
     for (int k = 0; k < 8; ++k) {
       const double angle = k * M_PI / 4 + (r < radius ? M_PI / 8 : 0);
-      const Vec3f c = sampleBilinear3(rgb, x + r * std::cos(angle), y + r * std::sin(angle));
+      const Vec3f c = photo.rgbAt(x + r * std::cos(angle), y + r * std::sin(angle));
       lo = lo.cwiseMin(c), hi = hi.cwiseMax(c);
     }
   return hi - lo;
@@ -91,18 +91,18 @@ std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const s
     for (int s = 0; s < n; ++s) {
       const double t = (s + 0.5) / n;
       const Vec2 qa = (1 - t) * ua + t * wa, qb = (1 - t) * ub + t * wb;
-      const float alphaA = A.alpha.empty() ? 1.0f : sampleBilinear1(A.alpha, qa.x(), qa.y());
-      const float alphaB = B.alpha.empty() ? 1.0f : sampleBilinear1(B.alpha, qb.x(), qb.y());
+      const float alphaA = A.alphaAt(qa.x(), qa.y());
+      const float alphaB = B.alphaAt(qb.x(), qb.y());
       if (!(alphaA > 0 && alphaB > 0)) continue;  // a side on the background says nothing about colour
       Sample sample;
       sample.a = pa, sample.b = pb;
-      sample.srgbA = sampleBilinear3(A.rgb, qa.x(), qa.y());
-      sample.srgbB = sampleBilinear3(B.rgb, qb.x(), qb.y());
+      sample.srgbA = A.rgbAt(qa.x(), qa.y());
+      sample.srgbB = B.rgbAt(qb.x(), qb.y());
       sample.weight = std::min({alphaA, alphaB, 1.0f});
       if (options.flatRadiusPx > 0) {
         // A misregistration of up to flatRadiusPx costs nothing where both sides are flat that far around.
-        const Vec3f range = localRange(A.rgb, qa.x(), qa.y(), options.flatRadiusPx)
-                                .cwiseMax(localRange(B.rgb, qb.x(), qb.y(), options.flatRadiusPx));
+        const Vec3f range = localRange(A, qa.x(), qa.y(), options.flatRadiusPx)
+                                .cwiseMax(localRange(B, qb.x(), qb.y(), options.flatRadiusPx));
         for (int c = 0; c < 3; ++c) {
           const float u = range[c] / float(options.flatRange);
           sample.flat[c] = 1 / (1 + u * u);
@@ -412,22 +412,46 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
 std::shared_ptr<const Photo> balancedPhoto(const std::shared_ptr<const Photo>& photo, const ColorTransform& transform) {
   if (!photo || transform.identity()) return photo;
   auto out = std::make_shared<Photo>(*photo);  // shares alpha and distance (cv::Mat is reference counted)
-  cv::Mat rgb(photo->rgb.size(), CV_32FC3);
-  const TransferTables& t = tables();
-  cv::parallel_for_(cv::Range(0, rgb.rows), [&](const cv::Range& rows) {
-    for (int y = rows.start; y < rows.end; ++y) {
-      const cv::Vec3f* in = photo->rgb.ptr<cv::Vec3f>(y);
-      cv::Vec3f* o = rgb.ptr<cv::Vec3f>(y);
-      for (int x = 0; x < rgb.cols; ++x)
-        for (int c = 0; c < 3; ++c) {
-          const float v = transform.linear ? t.linear(in[x][c]) : in[x][c];
-          const float w = std::clamp(transform.gain[c] * v + transform.offset[c], 0.0f, 1.0f);
-          o[x][c] = transform.linear ? t.srgb(w) : w;
-        }
+  const cv::Mat& in = photo->rgb;
+  TM_CHECK(in.channels() == 3, located(photo->path, "colour balance: expected 3 colour channels"));
+  auto map = [&](float v, int c) {
+    const float x = transform.linear ? tables().linear(v) : v;
+    const float y = std::clamp(transform.gain[c] * x + transform.offset[c], 0.0f, 1.0f);
+    return transform.linear ? tables().srgb(y) : y;
+  };
+  cv::Mat rgb(in.size(), in.type());
+  if (in.depth() == CV_8U || in.depth() == CV_16U) {
+    // Integer depths keep their depth (the photo stays compact): one table per channel of every value.
+    const int levels = in.depth() == CV_8U ? 256 : 65536;
+    std::array<std::vector<uint16_t>, 3> table;
+    for (int c = 0; c < 3; ++c) {
+      table[c].resize(levels);
+      for (int v = 0; v < levels; ++v)
+        table[c][v] = uint16_t(std::lround(map(float(v) / (levels - 1), c) * (levels - 1)));
     }
-  });
+    cv::parallel_for_(cv::Range(0, rgb.rows), [&](const cv::Range& rows) {
+      for (int y = rows.start; y < rows.end; ++y)
+        if (in.depth() == CV_8U) {
+          const uint8_t* p = in.ptr<uint8_t>(y);
+          uint8_t* o = rgb.ptr<uint8_t>(y);
+          for (int i = 0; i < 3 * rgb.cols; ++i) o[i] = uint8_t(table[i % 3][p[i]]);
+        } else {
+          const uint16_t* p = in.ptr<uint16_t>(y);
+          uint16_t* o = rgb.ptr<uint16_t>(y);
+          for (int i = 0; i < 3 * rgb.cols; ++i) o[i] = table[i % 3][p[i]];
+        }
+    });
+  } else {
+    TM_CHECK(in.depth() == CV_32F, located(photo->path, "colour balance: unsupported pixel depth"));
+    cv::parallel_for_(cv::Range(0, rgb.rows), [&](const cv::Range& rows) {
+      for (int y = rows.start; y < rows.end; ++y) {
+        const float* p = in.ptr<float>(y);
+        float* o = rgb.ptr<float>(y);
+        for (int i = 0; i < 3 * rgb.cols; ++i) o[i] = map(p[i], i % 3);
+      }
+    });
+  }
   out->rgb = rgb;
-  if (!photo->luv.empty()) out->luv = srgbToLuv(rgb);
   return out;
 }
 

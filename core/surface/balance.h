@@ -81,8 +81,9 @@ struct ColorBalance {
 ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
                            const std::vector<bool>& locked, const BalanceOptions& options, const JobControl& job);
 
-// The photo with its colours transformed: a new Photo sharing the original's alpha and distance maps,
-// or `photo` itself (the same object, bit for bit) when the transform is the identity.
+// The photo with its colours transformed: a new Photo sharing the original's alpha and distance maps, its
+// colours at the original's depth (8-bit, 16-bit or float) and stored resolution, or `photo` itself (the
+// same object, bit for bit) when the transform is the identity.
 std::shared_ptr<const Photo> balancedPhoto(const std::shared_ptr<const Photo>& photo, const ColorTransform& transform);
 
 }  // namespace montage

@@ -16,6 +16,7 @@
 #include "geometry/predicates.h"
 #include "image/photo.h"
 #include "io/scene.h"
+#include "surface/synthesis.h"
 
 namespace montage {
 
@@ -112,6 +113,42 @@ Eigen::MatrixXd laplacianOf(const TriangleMesh& m, const Eigen::MatrixXd& f) {
   Eigen::MatrixXd lap = -(cotangentLaplacian(m) * f);
   for (int v = 0; v < m.numVertices(); ++v) lap.row(v) /= std::max(area[v], 1e-300);
   return lap;
+}
+
+// Keeps a guided fill f inside the per-channel range [lo, hi] of the fixed (border) values: see
+// GuidanceBound. `harmonic` is the fill with d = 0, inside the range by the maximum principle.
+void boundFill(GuidanceBound bound, const std::vector<char>& fixed, const Eigen::MatrixXd& fixedValues,
+               const Eigen::MatrixXd& harmonic, Eigen::MatrixXd& f) {
+  if (bound == GuidanceBound::None) return;
+  const int n = static_cast<int>(fixed.size());
+  Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(kInf), hi = Eigen::RowVector3d::Constant(-kInf);
+  for (int v = 0; v < n; ++v)
+    if (fixed[v]) lo = lo.cwiseMin(fixedValues.row(v)), hi = hi.cwiseMax(fixedValues.row(v));
+  if (!(lo[0] < kInf)) return;
+  for (int c = 0; c < 3; ++c) {
+    double scale = 1;
+    for (int v = 0; v < n; ++v) {
+      if (fixed[v]) continue;
+      const double h = std::clamp(harmonic(v, c), lo[c], hi[c]), g = f(v, c) - h;
+      const double room = g > 0 ? hi[c] - h : h - lo[c];
+      switch (bound) {
+        case GuidanceBound::Clamp:
+          f(v, c) = std::clamp(f(v, c), lo[c], hi[c]);
+          break;
+        case GuidanceBound::Scale:
+          if (std::abs(g) > room) scale = std::min(scale, room / std::abs(g));
+          break;
+        case GuidanceBound::Soft:
+          f(v, c) = h + (room > 0 ? room * std::tanh(g / room) : 0.0);
+          break;
+        case GuidanceBound::None:
+          break;
+      }
+    }
+    if (bound == GuidanceBound::Scale)
+      for (int v = 0; v < n; ++v)
+        if (!fixed[v]) f(v, c) = harmonic(v, c) + scale * (f(v, c) - harmonic(v, c));
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -739,7 +776,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     else if (ringArea[r] > 0 && ringPix[r] > 0)
       density = std::sqrt(ringPix[r] / ringArea[r]);
     if (opt.texelsPerUnit > 0) density = opt.texelsPerUnit;
-    res.regions[r].texelsPerUnit = density;
+    res.regions[r].texelsPerUnit = density * opt.detail;
   }
   std::vector<double> maxEdge(nf, kInf);
   for (int f = 0; f < nf; ++f) {
@@ -792,7 +829,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       if (photo.hasBackground) {
         const auto& uv = map.cornerUV[f];
         const Vec2 q = b[0] * uv[0] + b[1] * uv[1] + b[2] * uv[2];
-        if (sampleBilinear1(photo.alpha, q.x(), q.y()) < 0.5f) continue;
+        if (photo.alphaAt(q.x(), q.y()) < 0.5f) continue;
       }
       res.colors.row(v) += mappedColor(map, in.photos, in.levelling, f, b).transpose();
       known[v]++;
@@ -840,12 +877,15 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
   }
 
   // Factorises a region once, solves all three channels and writes the unknowns' colours back.
+  // Guided hole fills (`bounded`) stay inside their border's colour range (GuidanceBound).
   auto solveRegion = [&](InpaintRegion& reg, const SubMesh& sub, const std::vector<char>& fixed,
-                         const Eigen::MatrixXd& d, const Eigen::MatrixXd& fixedValues) {
+                         const Eigen::MatrixXd& d, const Eigen::MatrixXd& fixedValues, bool bounded = false) {
     const PoissonSolver solver(sub.mesh, fixed);
     reg.factorSeconds = solver.factorSeconds();
     const auto solveStart = Clock::now();
-    const Eigen::MatrixXd f = solver.solve(d, fixedValues);
+    Eigen::MatrixXd f = solver.solve(d, fixedValues);
+    if (bounded && opt.bound != GuidanceBound::None)
+      boundFill(opt.bound, fixed, fixedValues, solver.solve(Eigen::MatrixXd::Zero(d.rows(), 3), fixedValues), f);
     reg.solveSeconds = secondsSince(solveStart);
     for (int l = 0; l < sub.mesh.numVertices(); ++l)
       if (!fixed[l]) res.colors.row(sub.vertex[l]) = f.row(l).cast<float>().cwiseMax(0.f).cwiseMin(1.f);
@@ -883,7 +923,39 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       Eigen::MatrixXd bd(n, 3);
       for (int l = 0; l < n; ++l) bd.row(l) = boundaryD.row(sub.vertex[l]);
       const Graph subGraph = buildGraph(sub.mesh);
-      if (reg.mode == InpaintMode::Rbf) {
+      bool synthesised = false;
+      if (reg.mode == InpaintMode::Synthesis || reg.mode == InpaintMode::Structure) {
+        SynthesisInput sin;
+        sin.mesh = &mesh;
+        sin.map = &map;
+        sin.photos = in.photos;
+        sin.levelling = in.levelling;
+        for (int f = 0; f < nf; ++f)
+          if (faceLabel[f] == r) sin.holeFaces.push_back(f);
+        sin.texelsPerUnit = reg.texelsPerUnit;
+        SynthesisOptions synOptions;
+        if (reg.mode == InpaintMode::Structure) synOptions.blur = opt.structureBlur;
+        const SynthesisResult syn = synthesiseHole(sin, synOptions);
+        reg.note = syn.note;
+        if (syn.ok) {
+          // d = the Laplacian of the synthesised texture: the Poisson solve keeps its structure and
+          // blends its border into the photos' colours.
+          Eigen::MatrixXd g(n, 3);
+          for (size_t i = 0; i < regionTris[r].size(); ++i) {
+            const int t = regionTris[r][i];
+            for (int k = 0; k < 3; ++k)
+              g.row(sub.mesh.triangles[i][k]) = syn.colorAt(rs.parentFace[t], rs.parentBary[t][k]).cast<double>();
+          }
+          d = laplacianOf(sub.mesh, g);
+          synthesised = true;
+        } else {
+          warn("hole " + std::to_string(r) + ": " + syn.note + ": filled with \"rbf\" instead");
+        }
+      }
+      if (synthesised) {
+        // d is the synthesised texture's Laplacian (above)
+      } else if (reg.mode == InpaintMode::Rbf || reg.mode == InpaintMode::Synthesis ||
+                 reg.mode == InpaintMode::Structure) {
         d = rbfGuidance(sub, subGraph, fixed, bd, opt.rbfCentres);
       } else {
         std::vector<StrokeSample> samples;
@@ -904,7 +976,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       }
     }
     reg.guidanceSeconds = secondsSince(guideStart);
-    solveRegion(reg, sub, fixed, d, fixedValues);
+    solveRegion(reg, sub, fixed, d, fixedValues, reg.mode != InpaintMode::Harmonic);
   }
 
   // Clones, in project order, on top of everything else: d = Laplacian of the photo projected onto the
@@ -947,7 +1019,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     int unknowns = 0;
     for (int l = 0; l < n; ++l) {
       const Vec2& q = pixel[l];
-      g.row(l) = sampleBilinear3(photo.rgb, q.x(), q.y()).cast<double>().transpose();
+      g.row(l) = photo.rgbAt(q.x(), q.y()).cast<double>().transpose();
       fixedValues.row(l) = res.colors.row(sub.vertex[l]).cast<double>();
       if (outside[sub.vertex[l]] == 0 && photo.inside(q.x(), q.y()) && insidePolygon(clone.polygon, q))
         fixed[l] = 0, ++unknowns;

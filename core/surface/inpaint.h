@@ -59,12 +59,22 @@ struct InpaintResult {
   double seconds = 0;
 };
 
+// How a guided fill (any mode but harmonic) is kept inside the per-channel range of the colours on the
+// hole's border, so that guidance never invents colours: not at all, by clamping each colour, by
+// scaling the guided part f - f_harmonic down per channel until it fits, or by compressing it per
+// vertex with tanh into the room left by the harmonic fill (smooth, so no facets; docs/pipeline.md).
+enum class GuidanceBound { None, Clamp, Scale, Soft };
+inline constexpr std::array<const char*, 4> kGuidanceBoundNames = {"none", "clamp", "scale", "soft"};
+
 struct InpaintOptions {
-  InpaintMode mode = InpaintMode::Rbf;  // holes without a HoleMode entry and without strokes
+  InpaintMode mode = InpaintMode::Structure;  // holes without a HoleMode entry and without strokes
+  GuidanceBound bound = GuidanceBound::Soft;  // keeps guided fills inside the border's colour range
+  double structureBlur = 0.35;  // structure: blur of the synthesised texture, in hole radii (SynthesisOptions::blur)
   double texelsPerUnit = 0;             // refinement density; 0 = from the mapped faces around each hole
   int maxRefinedVertices = 2000000;     // cap on the refined vertices of all regions (coarser beyond)
   int rbfCentres = 256;                 // RBF: boundary centres per hole (boundary values averaged per centre)
   double emptyTexelsPerUnit = 0;        // density when no face is mapped at all (0: 1024 texels across the bbox)
+  double detail = 1;                    // refinement density relative to the texel density (the preview uses less)
 };
 
 // What the inpainting reads besides the mapping. Strokes, clones and hole modes use the ids of the

@@ -16,7 +16,7 @@ Vec3f mappedColor(const TextureMap& map, const std::vector<const Photo*>& photos
                   int face, const Vec3& b) {
   const auto& uv = map.cornerUV[face];
   const Vec2 p = b[0] * uv[0] + b[1] * uv[1] + b[2] * uv[2];
-  Vec3f c = sampleBilinear3(photos[map.facePhoto[face]]->rgb, p.x(), p.y());
+  Vec3f c = photos[map.facePhoto[face]]->rgbAt(p.x(), p.y());
   if (levelling && !levelling->cornerOffset.empty()) {
     const auto& o = levelling->cornerOffset[face];
     c += float(b[0]) * o[0] + float(b[1]) * o[1] + float(b[2]) * o[2];

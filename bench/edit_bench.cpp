@@ -1,0 +1,223 @@
+// The live loop's benchmark (issue "the live loop"): a scripted edit sequence in one process, as the
+// editor's worker sees it. Per project, `--runs` times with a fresh Pipeline each time:
+//
+//   cold    the first final run (`montage run`: every stage, the atlas bake)
+//   drag    one photo point moved by 3 px, preview tier (what the editor shows after the edit)
+//   delete  another feature deleted, preview tier
+//   add     that feature added back 1 px away from where it was, preview tier
+//   undo    back to the state after "delete", preview tier (an earlier document state)
+//   final   the last state's final tier (the editor's background bake when idle)
+//
+//   tm_edit_bench PROJECT... [--runs N] [--json FILE]
+//   tm_edit_bench --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]
+//
+// The second form first synthesises a scene (montage synth) from M, subdivided L times by midpoint
+// subdivision (the 832k-face armadillo is CGAL's armadillo with --subdivide 2). Prints one JSON object:
+// per project and step the median wall and CPU milliseconds (user + sys of the whole process, all
+// threads), the figures of the last run, the peak memory and the load average.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "base/fileio.h"
+#include "bench/synth.h"
+#include "geometry/shapes.h"
+#include "io/mesh_io.h"
+#include "io/project.h"
+#include "pipeline.h"
+
+namespace fs = std::filesystem;
+using namespace montage;
+
+namespace {
+
+double cpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_utime.tv_sec + u.ru_utime.tv_usec * 1e-6 + u.ru_stime.tv_sec + u.ru_stime.tv_usec * 1e-6;
+}
+
+double peakMiB() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss / 1024.0;
+}
+
+std::string loadAverage() {
+  std::ifstream in("/proc/loadavg");
+  std::string a, b, c;
+  in >> a >> b >> c;
+  return a + " " + b + " " + c;
+}
+
+struct Timed {
+  double wallMs = 0, cpuMs = 0;
+  nlohmann::json figures;
+};
+
+Timed timedRun(Pipeline& pipeline, const Project& project, Tier tier) {
+  const double cpu0 = cpuSeconds();
+  const auto t0 = std::chrono::steady_clock::now();
+  const PipelineResult result = pipeline.run(project, {}, tier);
+  Timed t;
+  t.wallMs = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  t.cpuMs = 1e3 * (cpuSeconds() - cpu0);
+  for (const StageRecord& s : result.stages) {
+    t.figures[stageName(s.stage)] = {{"seconds", s.seconds}, {"cached", s.cached}};
+    if (s.stage == StageId::Map) {
+      t.figures["map"]["cells_mapped"] = s.counts.value("cells_mapped", 0);
+      t.figures["map"]["cells_reused"] = s.counts.value("cells_reused", 0);
+    }
+  }
+  t.figures["mapped_faces"] = result.mapping->map.numMapped();
+  return t;
+}
+
+// A point to drag (one with a position in a photo, not in a chain) and another one to delete.
+std::pair<int, int> choosePoints(const Project& project) {
+  std::vector<char> inChain(project.points.size(), 0);
+  for (const FeatureChain& c : project.chains)
+    for (int p : c.points) inChain[p] = 1;
+  std::vector<int> free;
+  for (int i = 0; i < static_cast<int>(project.points.size()); ++i)
+    if (!inChain[i] && !project.points[i].at.empty()) free.push_back(i);
+  TM_CHECK(free.size() >= 2, "tm_edit_bench: the project needs two points outside chains");
+  return {free[free.size() / 2], free[free.size() / 3]};
+}
+
+Project withoutPoint(Project p, int index) {
+  p.points.erase(p.points.begin() + index);
+  for (FeatureChain& c : p.chains)
+    for (int& i : c.points) i -= i > index;
+  return p;
+}
+
+nlohmann::json benchProject(const std::string& path, int runs) {
+  const Project base = loadProject(path);
+  const auto [drag, del] = choosePoints(base);
+  Project dragged = base;
+  PhotoPoint& moved = dragged.points[drag].at[0];
+  moved.x += moved.x > 10 ? -3 : 3;
+  const Project deleted = withoutPoint(dragged, del);
+  Project added = deleted;
+  FeaturePoint back = base.points[del];
+  back.at[0].x += back.at[0].x > 10 ? -1 : 1;
+  added.points.push_back(back);
+
+  const std::vector<std::pair<std::string, std::pair<const Project*, Tier>>> steps = {
+      {"cold", {&base, Tier::Final}},   {"drag", {&dragged, Tier::Preview}}, {"delete", {&deleted, Tier::Preview}},
+      {"add", {&added, Tier::Preview}}, {"undo", {&deleted, Tier::Preview}}, {"final", {&added, Tier::Final}}};
+  std::vector<std::vector<Timed>> times(steps.size());
+  for (int r = 0; r < runs; ++r) {
+    Pipeline pipeline;
+    for (size_t s = 0; s < steps.size(); ++s)
+      times[s].push_back(timedRun(pipeline, *steps[s].second.first, steps[s].second.second));
+  }
+  nlohmann::json out;
+  out["project"] = path;
+  out["points"] = base.points.size();
+  for (size_t s = 0; s < steps.size(); ++s) {
+    std::vector<double> wall, cpu;
+    for (const Timed& t : times[s]) wall.push_back(t.wallMs), cpu.push_back(t.cpuMs);
+    std::sort(wall.begin(), wall.end());
+    std::sort(cpu.begin(), cpu.end());
+    out["steps"][steps[s].first] = {{"wall_ms", wall[wall.size() / 2]},
+                                    {"cpu_ms", cpu[cpu.size() / 2]},
+                                    {"tier", kTierNames[size_t(steps[s].second.second)]},
+                                    {"last_run", times[s].back().figures}};
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> projects;
+  std::string mesh, work, jsonPath;
+  int runs = 3, subdivide = 0;
+  SynthOptions synth;
+  synth.views = 9;
+  synth.features = 342;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "%s needs a value\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--runs")
+      runs = std::max(1, std::stoi(value()));
+    else if (a == "--json")
+      jsonPath = value();
+    else if (a == "--mesh")
+      mesh = value();
+    else if (a == "--subdivide")
+      subdivide = std::stoi(value());
+    else if (a == "--views")
+      synth.views = std::stoi(value());
+    else if (a == "--features")
+      synth.features = std::stoi(value());
+    else if (a == "--seed")
+      synth.seed = static_cast<unsigned>(std::stoul(value()));
+    else if (a == "--work")
+      work = value();
+    else if (a.rfind("--", 0) == 0) {
+      std::fprintf(stderr,
+                   "usage: %s PROJECT... [--runs N] [--json FILE]\n"
+                   "       %s --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]\n",
+                   argv[0], argv[0]);
+      return 2;
+    } else
+      projects.push_back(a);
+  }
+  try {
+    if (!mesh.empty()) {
+      TM_CHECK(!work.empty(), "tm_edit_bench: --mesh needs --work DIR");
+      std::unique_ptr<Mesh> m = requireUsable(loadMesh(mesh));
+      if (subdivide > 0) m = subdivideMidpoint(*m, subdivide);
+      fs::create_directories(work);
+      const std::string meshFile = (fs::path(work) / "mesh.obj").string();
+      saveMeshObj(*m, meshFile);
+      Vec3 lo, hi;
+      m->bounds(lo, hi);
+      const double scale = (hi - lo).norm() / 4;
+      const SynthScene scene = synthesize(
+          *m, meshFile,
+          [&](int f, const Vec3& b) {
+            const auto q = m->facePositions(f);
+            return solidPattern(b.x() * q[0] + b.y() * q[1] + b.z() * q[2], scale);
+          },
+          synth);
+      writeSynthScene(scene, work);
+      projects.push_back((fs::path(work) / "project.json").string());
+      std::fprintf(stderr, "synthesised %s: %d faces, %zu points\n", work.c_str(), m->numFaces(),
+                   scene.project.points.size());
+    }
+    nlohmann::json all;
+    all["load_average_before"] = loadAverage();
+    all["runs"] = runs;
+    for (const std::string& p : projects) {
+      std::fprintf(stderr, "benchmarking %s\n", p.c_str());
+      all["projects"].push_back(benchProject(p, runs));
+    }
+    all["load_average_after"] = loadAverage();
+    all["peak_mib"] = peakMiB();
+    const std::string text = all.dump(2) + "\n";
+    std::fputs(text.c_str(), stdout);
+    if (!jsonPath.empty()) writeFileAtomic(jsonPath, text);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,102 @@
+// Export on the original topology: the user's mesh exactly as loaded (vertex order and positions, faces,
+// groups, material names), with a new UV atlas of its own faces, and the montage result transferred
+// into it by surface-to-surface baking.
+//
+// The pipeline works on the partition's mesh: the input mesh plus Steiner vertices on input edges
+// (Partition::faceParent gives the input face every refined face lies in). A point of input face f at
+// barycentrics b lies in exactly one refined child of f, so the correspondence between the two
+// surfaces is exact (no ray casting): RefinedLocator finds the child and the point's barycentrics in
+// it. The new atlas (charts by LSCM and the packer of atlas.h) follows the montage's charts: an input
+// face joins the chart of the refined chart that covers most of its area, so charts break along the
+// montage's seams to within one input face. Each texel of the new atlas then takes the montage's colour
+// at its surface point.
+#pragma once
+
+#include <array>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "atlas/atlas.h"
+#include "base/common.h"
+#include "geometry/mesh.h"
+#include "io/model.h"
+
+namespace montage {
+
+// Point location from the input mesh into its refinement.
+class RefinedLocator {
+ public:
+  // input: the mesh as loaded; refined: the partition's mesh; faceParent: #F(refined), the input face
+  // each refined face lies in. Throws montage::Error when the sizes do not match or a parent is out of
+  // range.
+  RefinedLocator(const Mesh& input, const Mesh& refined, const std::vector<int>& faceParent);
+  // The refined face containing the point at barycentrics b (corner order of faceVertices) of input
+  // face f, and the point's barycentrics in it (clamped into the triangle). -1 when f has no child.
+  int locate(int f, const Vec3& b, Vec3& childBary) const;
+  const std::vector<int>& children(int f) const { return children_[f]; }
+
+ private:
+  std::vector<std::vector<int>> children_;    // per input face: its refined faces
+  std::vector<std::array<Vec3, 3>> corners_;  // per refined face: its corners' barycentrics in the parent
+};
+
+// The montage result's colour at a point of the refined surface (sRGB in [0,1]): face of `refined`,
+// barycentrics in it. Called from several threads at once.
+using SurfaceColor = std::function<Vec3f(int refinedFace, const Vec3& bary)>;
+
+struct TransferOptions {
+  // Texel density of the new atlas relative to the refined atlas's. LSCM's map is not the photo's, so
+  // the new atlas needs more texels than the photo has pixels to keep what it shows (docs/atlas.md).
+  double oversample = 3.0;
+  int samples = 200000;  // area-weighted surface samples of the loss measurement
+  unsigned seed = 7;     // their random seed
+};
+
+// Loss of the transfer: PSNR (RGB in [0,255]) of the original-topology model against the refined
+// model at the same surface points, overall and split by where it is lost.
+struct TransferLoss {
+  int samples = 0;
+  double psnr = 0;          // dB, whole surface
+  double psnrInterior = 0;  // dB, faces away from the new atlas's chart borders
+  double psnrBorder = 0;    // dB, faces with an edge on a chart border of the new atlas
+  double psnrSmall = 0;     // dB, thin features: faces under 2 texels of new-atlas area (0 when none)
+  double borderShare = 0;   // area fraction of chart-border faces
+  double smallShare = 0;    // area fraction of thin faces
+  // Against the montage's own colours (when measureTransfer gets them): what each export loses by
+  // sampling the surface into its atlas. At the photos' own resolution two exports of a detailed photo
+  // differ more from each other than either does from the montage (two independent resamplings).
+  double psnrOriginalVsMontage = 0, psnrRefinedVsMontage = 0;
+  nlohmann::json toJson() const;
+};
+
+struct OriginalModel {
+  Atlas atlas;          // charts over the input mesh's faces
+  AtlasImage image;     // the transferred colours
+  cv::Mat source;       // CV_8UC1 per texel: the codes of atlasSourceLayer (photo + 1, 254 inpainted, 253 empty)
+  TexturedModel model;  // the input mesh, atlas UVs, the input's materials (all showing the atlas), no face sources
+  TransferLoss loss;    // measured against atlasModel(refined mesh, refined atlas, refined image)
+  double seconds = 0;   // all of it
+  // Where the time goes: charts + LSCM + packing, the bake (colours and source layer), the loss.
+  double atlasSeconds = 0, bakeSeconds = 0, measureSeconds = 0;
+};
+
+// Builds the new atlas over `input`, bakes the refined result into it and measures the loss.
+// refinedAtlas/refinedImage: the montage's atlas over `refined` (bakeAtlas): its charts and densities
+// shape the new atlas, and the loss is measured against it. `color`, when given, is where the new
+// atlas's texels take their colour (the montage's own colours, e.g. surface/preview.h over the final
+// tier: one resampling of the photos, as the refined atlas's); otherwise they are looked up in
+// refinedImage (a second resampling). Options: the atlas size and gutter of the new atlas.
+OriginalModel bakeOriginalTopology(const Mesh& input, const Mesh& refined, const std::vector<int>& faceParent,
+                                   const Atlas& refinedAtlas, const AtlasImage& refinedImage,
+                                   const AtlasOptions& options = {}, const TransferOptions& transfer = {},
+                                   const SurfaceColor& color = {});
+
+// The loss measurement alone: samples `original`'s surface (area-weighted), compares its colour with
+// `refined`'s at the same point (via locator) and classifies samples by the faces of `originalAtlas`.
+TransferLoss measureTransfer(const TexturedModel& original, const TexturedModel& refined, const RefinedLocator& locator,
+                             const Atlas& originalAtlas, const TransferOptions& options = {},
+                             const SurfaceColor& montage = {});
+
+}  // namespace montage

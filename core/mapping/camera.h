@@ -1,0 +1,117 @@
+// Camera fit per photo (the stage between load and partition): from one photo's clicks (mesh vertex
+// <-> pixel), a perspective camera with unknown focal length and pose, principal point at the image
+// centre, square pixels, no skew, and optional radial distortion. A photo whose clicks agree with
+// one camera shows the object itself and is mapped by projection (projection.h); one whose clicks do
+// not is a photo of another subject and takes the paper's path (partition, progressive mesh,
+// coarse-to-fine).
+//
+// Method: for a sweep of focal lengths, RANSAC over minimal PnP samples (OpenCV solvePnPRansac) gives
+// the start with the most clicks in agreement; Levenberg-Marquardt (OpenCV calibrateCamera with the
+// principal point, aspect ratio and tangential terms fixed) refines focal, pose and, with enough
+// clicks, the radial terms on the clicks that agree. Inliers are re-classified against the refined
+// camera and the refinement repeats until they are stable. Every click keeps its reprojection
+// residual.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "base/common.h"
+#include "geometry/raster.h"
+
+namespace montage {
+
+struct Mesh;
+struct Photo;
+struct Project;
+class JobControl;
+
+// A perspective camera with radial distortion (OpenCV's model with k1, k2): a world point p goes to
+// camera coordinates c = R p + t, to normalised coordinates (x, y) = (c.x / c.z, c.y / c.z), is
+// distorted by the factor 1 + k1 r^2 + k2 r^4 (r^2 = x^2 + y^2), and lands at pixel
+// (fx x' + cx, fy y' + cy) (photo.h convention: origin at the top-left corner, y down).
+struct PhotoCamera {
+  Camera pinhole;  // intrinsics, pose and image size; pinhole.project() is the undistorted projection
+  double k1 = 0, k2 = 0;
+
+  // Projects a world point; false when it is behind the camera. `depth` is c.z.
+  bool project(const Vec3& p, Vec2& pixel, double* depth = nullptr) const;
+  double focal() const { return pinhole.fx; }
+  // Vertical field of view in degrees.
+  double fovYDeg() const;
+};
+
+// One click of a photo: a mesh vertex and where the user put it.
+struct CameraClick {
+  int point = -1;  // index into Project::points (or -1 when made by hand)
+  int vertex = 0;  // mesh vertex id
+  Vec2 pixel = Vec2::Zero();
+};
+
+// The clicks of photo `photo` in a project, in point order.
+std::vector<CameraClick> photoClicks(const Project& project, int photo);
+
+struct CameraFitOptions {
+  int minInliers = 6;                // a photo fits when at least this many clicks agree with one camera...
+  double minInlierRatio = 0.6;       // ...and they are at least this share of its clicks
+  double thresholdFraction = 0.006;  // a click agrees when its residual is below this share of the image
+                                     // diagonal (6.1 px at 1024 x 768); never below minThresholdPx
+  double minThresholdPx = 2.0;       // lower bound of the agreement threshold, pixels
+  bool radialDistortion = true;      // fit k1 (and k2 from 20 inliers on) when enough clicks agree
+  int minInliersForDistortion = 12;  // fewer agreeing clicks: no radial terms
+  double minDistortionRmsPx = 0.02;  // the pinhole fit's RMS residual must exceed this for radial terms to be tried
+  double distortionF = 10;           // keep the radial terms only when their F statistic (residual drop per term
+                                     // over the residual variance) exceeds this: p < 0.005, not a fit to noise
+  double minFovDeg = 2, maxFovDeg = 150;  // focal lengths outside this field of view are implausible
+  int focalSamples = 16;                  // focal lengths tried for the RANSAC start (log-spaced over the fov range)
+  int ransacIterations = 300;             // RANSAC iterations per focal length
+  unsigned seed = 1;                      // RANSAC seed, so fits are repeatable
+  // Silhouette refinement (refineOnSilhouette), for photos with a background:
+  bool silhouette = true;                 // refine the camera on the photo's silhouette as well as the clicks
+  double silhouetteMinClickRmsPx = 0.15;  // clicks that agree better than this fix the camera on their own
+  double silhouetteSigmaPx = 0.5;         // accuracy of the photo's silhouette (the clicks': their RMS residual)
+  double silhouetteSpacingPx = 2;         // sample spacing along the mesh's projected contour, pixels
+  double silhouetteHuberPx = 1.5;         // silhouette residuals beyond this count linearly (Huber)
+};
+
+// The fit of one photo.
+struct CameraFit {
+  bool fits = false;                // the clicks agree with one camera (see CameraFitOptions)
+  std::string reason;               // why it does not fit, or a summary when it does
+  PhotoCamera camera;               // valid when `fits` (and the best attempt otherwise, when there was one)
+  double thresholdPx = 0;           // agreement threshold used for this photo
+  std::vector<CameraClick> clicks;  // the clicks, as given
+  std::vector<Vec2> reprojected;    // per click: where the camera puts its vertex (NaN when behind it)
+  std::vector<double> residual;     // per click: distance click - reprojection, pixels (inf when behind)
+  std::vector<char> inlier;         // per click: residual below thresholdPx
+  int inliers = 0;
+  double medianResidual = 0, maxResidual = 0;  // over the inliers, pixels
+  double rmsResidual = 0;                      // over the inliers, pixels
+  int silhouettePoints = 0;                    // contour samples of the silhouette refinement (0: not refined)
+  double silhouetteResidualPx = 0;             // their mean distance to the photo's silhouette, pixels
+  double seconds = 0;                          // time of the fit
+};
+
+// Fits a camera to one photo's clicks on `mesh` (vertex ids index mesh). `width` x `height` is the
+// photo size in pixels. Never throws for clicks that do not fit: `fits` is false with a reason.
+// Throws montage::Error for a vertex id out of range or a non-positive size.
+CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height,
+                    const CameraFitOptions& options = {});
+
+// Refines a fitted camera on the photo's silhouette, after Lensch, Heidrich and Seidel 2001: the mesh's
+// outer contour (edges between front- and back-facing faces that the z-buffer shows on the rendered
+// outline) must land on the edge of the photo's foreground (sub-pixel from the antialiased alpha).
+// Levenberg-Marquardt on the agreeing clicks plus the contour samples (Huber, reweighted), the contour
+// re-extracted each round. Kept only when the clicks still agree as well as their noise allows. Does
+// nothing for photos without a background, fits that do not fit, or clicks that already agree to
+// silhouetteMinClickRmsPx.
+void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, const CameraFitOptions& options = {});
+
+// A fit made from a known camera (the synthetic scenes' true cameras: the projection oracle), with
+// the residuals of `clicks` against it. Always `fits`.
+CameraFit fitFromCamera(const Mesh& mesh, const PhotoCamera& camera, const std::vector<CameraClick>& clicks);
+
+// A one-line summary: "fits: focal 1123 px (fov 49.1 deg), 42/43 clicks agree, median 0.21 px, max 0.80 px".
+std::string describeFit(const CameraFit& fit);
+
+}  // namespace montage

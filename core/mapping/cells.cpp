@@ -1,0 +1,461 @@
+#include "mapping/cells.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <set>
+#include <unordered_map>
+
+#include "base/job.h"
+#include "geometry/predicates.h"
+#include "geometry/stretch.h"
+#include "image/photo.h"
+#include "io/scene.h"
+#include "mapping/partition.h"
+
+namespace montage {
+
+namespace {
+
+uint64_t edgeKey(int a, int b) {
+  if (a > b) std::swap(a, b);
+  return (uint64_t(uint32_t(a)) << 32) | uint32_t(b);
+}
+
+Vec2 flipY(const Vec2& p) {
+  return Vec2(p.x(), -p.y());
+}
+
+const Curve* curveIn(const MeshPath& path, int photo) {
+  for (const Curve& c : path.curves)
+    if (c.photo == photo) return &c;
+  return nullptr;
+}
+
+std::string pointsText(const Partition& partition, const MeshPath& path) {
+  return std::to_string(path.fromPoint) + "-" + std::to_string(path.toPoint);
+}
+
+// The cell's boundary: one loop of half-edges with the cell on their left, as vertex sequence.
+struct Loop {
+  std::vector<int> vertices;  // counter-clockwise seen from outside; closed implicitly
+  bool ok = false;
+  bool touchesBorder = false;
+  bool dangling = false;  // a path edge with the cell on both sides
+};
+
+Loop boundaryLoop(const Partition& partition, const std::vector<int>& faces, int cell,
+                  const std::unordered_map<uint64_t, int>& edgePath) {
+  const TriMesh& tri = partition.mesh.tri;
+  Loop loop;
+  std::unordered_map<int, int> next;  // from -> to of boundary half-edges
+  int pinches = 0;
+  for (int f : faces) {
+    for (auto h = tri.cfh_iter(TriMesh::FaceHandle(f)); h.is_valid(); ++h) {
+      const auto g = tri.opposite_face_handle(*h);
+      const int from = tri.from_vertex_handle(*h).idx(), to = tri.to_vertex_handle(*h).idx();
+      if (!g.is_valid()) {
+        loop.touchesBorder = true;
+        continue;
+      }
+      if (partition.faceCell[g.idx()] == cell) {
+        if (edgePath.count(edgeKey(from, to))) loop.dangling = true;
+        continue;
+      }
+      if (!next.emplace(from, to).second) ++pinches;
+    }
+  }
+  if (loop.touchesBorder || loop.dangling || pinches > 0 || next.empty()) return loop;
+  const int start = next.begin()->first;
+  int v = start;
+  do {
+    loop.vertices.push_back(v);
+    const auto it = next.find(v);
+    if (it == next.end()) return loop;
+    v = it->second;
+    if (loop.vertices.size() > next.size()) return loop;
+  } while (v != start);
+  loop.ok = loop.vertices.size() == next.size();  // one loop uses every boundary half-edge
+  return loop;
+}
+
+}  // namespace
+
+std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) {
+  const Mesh& mesh = partition.mesh;
+  const TriMesh& tri = mesh.tri;
+  std::vector<CellPlan> plans(std::max(partition.numCells, 0));
+  for (int c = 0; c < partition.numCells; ++c) plans[c].cell = c;
+  for (int f = 0; f < mesh.numFaces(); ++f) plans[partition.faceCell[f]].faces.push_back(f);
+
+  std::unordered_map<uint64_t, int> edgePath;
+  for (int p = 0; p < static_cast<int>(partition.paths.size()); ++p) {
+    const auto& pv = partition.paths[p].vertices;
+    for (size_t i = 1; i < pv.size(); ++i) edgePath[edgeKey(pv[i - 1], pv[i])] = p;
+  }
+  std::vector<char> isFeature(mesh.numVertices(), 0);
+  for (int v : partition.featureVertex)
+    if (v >= 0 && v < mesh.numVertices()) isFeature[v] = 1;
+
+  std::vector<int> mark(mesh.numVertices(), -1);
+  for (CellPlan& plan : plans) {
+    const int c = plan.cell;
+    const Loop loop = boundaryLoop(partition, plan.faces, c, edgePath);
+    if (loop.touchesBorder) {
+      plan.status = CellStatus::TouchesBorder;
+      plan.detail = "the region reaches the border of the mesh: only regions closed by paths map to a photo";
+      continue;
+    }
+    if (loop.dangling) {
+      plan.status = CellStatus::NotTriangle;
+      plan.detail = "a path ends inside the region: its end feature needs paths to two more features";
+      continue;
+    }
+    // Euler characteristic of a disc: V - E + F = 1.
+    std::set<uint64_t> edges;
+    int vertices = 0;
+    for (int f : plan.faces) {
+      const auto fv = mesh.faceVertices(f);
+      for (int k = 0; k < 3; ++k) {
+        edges.insert(edgeKey(fv[k], fv[(k + 1) % 3]));
+        if (mark[fv[k]] != c) mark[fv[k]] = c, ++vertices;
+      }
+    }
+    if (!loop.ok || vertices - int(edges.size()) + int(plan.faces.size()) != 1) {
+      plan.status = CellStatus::NotDisc;
+      plan.detail =
+          "the region is not a disc (it wraps around a handle or has several borders): add features "
+          "and paths across it";
+      continue;
+    }
+    // Corners: the feature vertices on the loop; sides: one path between consecutive corners.
+    std::vector<int> cornerAt;
+    for (size_t i = 0; i < loop.vertices.size(); ++i)
+      if (isFeature[loop.vertices[i]]) cornerAt.push_back(static_cast<int>(i));
+    bool sidesOk = cornerAt.size() == 3;
+    const int n = static_cast<int>(loop.vertices.size());
+    for (size_t k = 0; k < cornerAt.size() && sidesOk; ++k) {
+      const int from = cornerAt[k], to = cornerAt[(k + 1) % cornerAt.size()];
+      int path = -1;
+      for (int i = from; i != to; i = (i + 1) % n) {
+        const auto it = edgePath.find(edgeKey(loop.vertices[i], loop.vertices[(i + 1) % n]));
+        if (it == edgePath.end() || (path >= 0 && it->second != path)) {
+          sidesOk = false;
+          break;
+        }
+        path = it->second;
+      }
+      if (sidesOk && k < 3) plan.sides[k] = path, plan.corners[k] = loop.vertices[from];
+    }
+    if (!sidesOk) {
+      plan.status = CellStatus::NotTriangle;
+      plan.detail = "the region is bounded by " + std::to_string(cornerAt.size()) +
+                    " features and their paths, not by three: add paths (features clicked in a common photo) "
+                    "to cut it into triangles";
+      continue;
+    }
+    int inside = -1;
+    for (int f : plan.faces)
+      for (int v : mesh.faceVertices(f))
+        if (isFeature[v] && std::find(plan.corners.begin(), plan.corners.end(), v) == plan.corners.end()) inside = v;
+    if (inside >= 0) {
+      plan.status = CellStatus::FeatureInside;
+      plan.detail = "the feature at vertex " + std::to_string(inside) +
+                    " lies inside the region without paths to its corners: click it in a photo that shows them";
+      continue;
+    }
+    // Photos with a curve on all three sides; the texture triangle must keep the orientation.
+    std::vector<int> photos;
+    for (const Curve& cv : partition.paths[plan.sides[0]].curves)
+      if (curveIn(partition.paths[plan.sides[1]], cv.photo) && curveIn(partition.paths[plan.sides[2]], cv.photo))
+        photos.push_back(cv.photo);
+    if (photos.empty()) {
+      plan.status = CellStatus::NoCommonPhoto;
+      plan.detail = "its three paths (points";
+      for (int s : plan.sides) plan.detail += " " + pointsText(partition, partition.paths[s]);
+      plan.detail += ") have no photo in common: click its three corner features in one photo";
+      continue;
+    }
+    const std::array<Vec3, 3> q = {mesh.position(plan.corners[0]), mesh.position(plan.corners[1]),
+                                   mesh.position(plan.corners[2])};
+    double bestGamma = std::numeric_limits<double>::infinity();
+    for (int p : photos) {
+      std::array<Vec2, 3> uv;
+      for (int k = 0; k < 3; ++k) {
+        const MeshPath& side = partition.paths[plan.sides[k]];
+        const Curve* curve = curveIn(side, p);
+        uv[k] = flipY(side.vertices.front() == plan.corners[k] ? curve->from : curve->to);
+      }
+      const TriangleStretch s = triangleStretch(q, uv);
+      if (s.flipped || !std::isfinite(s.gamma)) continue;
+      if (s.gamma < bestGamma) bestGamma = s.gamma, plan.photo = p;
+    }
+    if (plan.photo == TextureMap::kEmpty) {
+      plan.status = CellStatus::Mirrored;
+      plan.detail = "its texture triangle is mirrored in every photo of its paths (the photos show its back side)";
+      continue;
+    }
+    plan.status = CellStatus::Mapped;
+  }
+  (void)tri;
+  return plans;
+}
+
+std::vector<Vec2> pathUVs(const Mesh& mesh, const MeshPath& path, const Curve& curve, const Photo& photo) {
+  const auto& pv = path.vertices;
+  const int n = static_cast<int>(pv.size());
+  std::vector<double> along(n, 0.0);
+  for (int i = 1; i < n; ++i) along[i] = along[i - 1] + (mesh.position(pv[i]) - mesh.position(pv[i - 1])).norm();
+  const double total = along.back();
+  std::vector<Vec2> uv(n);
+  uv.front() = curve.from;
+  uv.back() = curve.to;
+  if (n <= 2) return uv;
+  const Vec2 d = curve.to - curve.from;
+  // Cumulative foreground length along the curve, sampled every <= 0.5 px.
+  const int samples = std::max(2, int(std::ceil(d.norm() / 0.5)) + 1);
+  std::vector<double> fg(samples, 0.0);
+  auto foreground = [&](double s) {
+    const Vec2 x = curve.from + s * d;
+    return photo.alpha.empty() ? photo.inside(x.x(), x.y()) : photo.isForeground(x.x(), x.y());
+  };
+  bool prev = foreground(0);
+  for (int k = 1; k < samples; ++k) {
+    const bool here = foreground(double(k) / (samples - 1));
+    fg[k] = fg[k - 1] + ((prev && here) ? 1.0 : (prev || here) ? 0.5 : 0.0);
+    prev = here;
+  }
+  const bool skipGaps = fg.back() > 0;
+  for (int i = 1; i + 1 < n; ++i) {
+    const double t = total > 0 ? along[i] / total : double(i) / (n - 1);
+    double s = t;
+    if (skipGaps) {
+      // The curve parameter where the foreground length reaches t times its total.
+      const double target = t * fg.back();
+      const int k = int(std::lower_bound(fg.begin(), fg.end(), target) - fg.begin());
+      if (k <= 0) {
+        s = 0;
+      } else {
+        const double step = fg[k] - fg[k - 1];
+        const double frac = step > 0 ? (target - fg[k - 1]) / step : 0.0;
+        s = (k - 1 + frac) / (samples - 1);
+      }
+    }
+    uv[i] = curve.from + s * d;
+  }
+  return uv;
+}
+
+std::shared_ptr<const CellMap> CellCache::find(const std::string& key) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = entries_.find(key);
+  if (it == entries_.end()) return nullptr;
+  it->second.lastRun = run_;
+  return it->second.map;
+}
+
+void CellCache::insert(const std::string& key, std::shared_ptr<const CellMap> map) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  entries_[key] = {std::move(map), run_};
+}
+
+void CellCache::endRun() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (auto it = entries_.begin(); it != entries_.end();)
+    it = run_ - it->second.lastRun >= keepRuns_ ? entries_.erase(it) : std::next(it);
+  ++run_;
+}
+
+size_t CellCache::size() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return entries_.size();
+}
+
+namespace {
+
+template <class T>
+void appendBytes(std::string& out, const T& value) {
+  out.append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+// One mapped cell's problem in canonical form, with the way back to the partition's mesh.
+struct CellJob {
+  int plan = -1;
+  CellProblem problem;
+  std::vector<int> globalVertex;  // local -> Partition::mesh vertex
+  std::shared_ptr<const CellMap> result;
+  bool cacheable = false;
+};
+
+CellJob buildJob(const Scene& scene, const Partition& partition, const CellPlan& plan, const FineMapOptions& options,
+                 const std::vector<std::vector<Vec2>>& sideUV) {
+  const Mesh& mesh = partition.mesh;
+  const int inputVertices = scene.mesh ? scene.mesh->numVertices() : mesh.numVertices();
+  CellJob job;
+  std::vector<int>& global = job.globalVertex;
+  for (int f : plan.faces)
+    for (int v : mesh.faceVertices(f)) global.push_back(v);
+  std::sort(global.begin(), global.end());
+  global.erase(std::unique(global.begin(), global.end()), global.end());
+  // Canonical order: input vertices by id, then Steiner vertices by position (their ids depend on the
+  // order in which the partition split edges, which other cells influence).
+  std::sort(global.begin(), global.end(), [&](int a, int b) {
+    const bool sa = a >= inputVertices, sb = b >= inputVertices;
+    if (sa != sb) return !sa;
+    if (!sa) return a < b;
+    const Vec3 pa = mesh.position(a), pb = mesh.position(b);
+    if (pa.x() != pb.x()) return pa.x() < pb.x();
+    if (pa.y() != pb.y()) return pa.y() < pb.y();
+    if (pa.z() != pb.z()) return pa.z() < pb.z();
+    return a < b;
+  });
+  std::unordered_map<int, int> local;
+  local.reserve(global.size() * 2);
+  for (int i = 0; i < static_cast<int>(global.size()); ++i) local[global[i]] = i;
+  CellProblem& pr = job.problem;
+  const int n = static_cast<int>(global.size());
+  pr.positions.resize(n);
+  for (int i = 0; i < n; ++i) pr.positions[i] = mesh.position(global[i]);
+  for (int f : plan.faces) {
+    const auto fv = mesh.faceVertices(f);
+    std::array<int, 3> t = {local[fv[0]], local[fv[1]], local[fv[2]]};
+    std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    pr.faces.push_back(t);
+  }
+  std::sort(pr.faces.begin(), pr.faces.end());
+  pr.fixed.assign(n, 0);
+  pr.fixedUV.assign(n, Vec2::Zero());
+  for (int k = 0; k < 3; ++k) {
+    const MeshPath& path = partition.paths[plan.sides[k]];
+    std::vector<int> side;
+    for (size_t i = 0; i < path.vertices.size(); ++i) {
+      const int l = local.at(path.vertices[i]);
+      pr.fixed[l] = 1;
+      pr.fixedUV[l] = sideUV[k][i];
+      side.push_back(l);
+    }
+    if (path.vertices.front() != plan.corners[k]) std::reverse(side.begin(), side.end());
+    pr.sides.push_back(side);
+  }
+  // Sides in a canonical order too: starting at the side whose first corner has the smallest local id.
+  std::rotate(pr.sides.begin(),
+              std::min_element(pr.sides.begin(), pr.sides.end(),
+                               [](const auto& a, const auto& b) { return a.front() < b.front(); }),
+              pr.sides.end());
+
+  std::string& key = pr.key;
+  key = "cell1|";
+  key += scene.photoKeys.size() > size_t(plan.photo) ? scene.photoKeys[plan.photo] : std::string();
+  job.cacheable = !(scene.photoKeys.size() <= size_t(plan.photo) || scene.photoKeys[plan.photo].empty());
+  key += '|';
+  appendBytes(key, options.lineSearches);
+  appendBytes(key, options.searchSteps);
+  appendBytes(key, options.finalSweeps);
+  appendBytes(key, options.seed);
+  appendBytes(key, n);
+  for (const Vec3& p : pr.positions) appendBytes(key, p.x()), appendBytes(key, p.y()), appendBytes(key, p.z());
+  for (const auto& t : pr.faces) appendBytes(key, t);
+  for (const auto& side : pr.sides) {
+    appendBytes(key, int(side.size()));
+    for (int l : side) appendBytes(key, l), appendBytes(key, pr.fixedUV[l].x()), appendBytes(key, pr.fixedUV[l].y());
+  }
+  return job;
+}
+
+}  // namespace
+
+CellMapping mapCells(const Scene& scene, const Partition& partition, const FineMapOptions& options,
+                     const JobControl& job, CellCache* cache) {
+  const Mesh& mesh = partition.mesh;
+  CellMapping out;
+  out.map = TextureMap::allEmpty(mesh.numFaces());
+  for (int f = 0; f < mesh.numFaces(); ++f) out.map.facePatch[f] = partition.faceCell[f];
+  out.cells = planCells(scene, partition);
+
+  // Fixed UVs of every path, per photo it is used in.
+  std::map<std::pair<int, int>, std::vector<Vec2>> pathUV;  // (path, photo) -> per path vertex
+  std::vector<CellJob> jobs;
+  for (int i = 0; i < static_cast<int>(out.cells.size()); ++i) {
+    const CellPlan& plan = out.cells[i];
+    if (plan.status != CellStatus::Mapped) continue;
+    std::vector<std::vector<Vec2>> sideUV(3);
+    for (int k = 0; k < 3; ++k) {
+      const MeshPath& path = partition.paths[plan.sides[k]];
+      auto it = pathUV.find({plan.sides[k], plan.photo});
+      if (it == pathUV.end())
+        it = pathUV
+                 .emplace(std::make_pair(plan.sides[k], plan.photo),
+                          pathUVs(mesh, path, *curveIn(path, plan.photo), *scene.photos[plan.photo]))
+                 .first;
+      sideUV[k] = it->second;
+    }
+    jobs.push_back(buildJob(scene, partition, plan, options, sideUV));
+    jobs.back().plan = i;
+  }
+  job.checkCancel();
+
+  // Cached cells first; the others are mapped in parallel, largest first.
+  std::vector<int> todo;
+  for (int j = 0; j < static_cast<int>(jobs.size()); ++j) {
+    if (cache && jobs[j].cacheable) jobs[j].result = cache->find(jobs[j].problem.key);
+    if (jobs[j].result)
+      ++out.cellsReused;
+    else
+      todo.push_back(j);
+  }
+  std::sort(todo.begin(), todo.end(),
+            [&](int a, int b) { return jobs[a].problem.faces.size() > jobs[b].problem.faces.size(); });
+  std::atomic<int> done{0};
+  std::mutex progressMutex;
+  tbb::parallel_for(size_t(0), todo.size(), size_t(1), [&](size_t i) {
+    CellJob& cj = jobs[todo[i]];
+    const CellPlan& plan = out.cells[cj.plan];
+    auto result = std::make_shared<CellMap>(coarseToFineCell(cj.problem, *scene.photos[plan.photo], options, job));
+    cj.result = result;
+    if (cache && cj.cacheable) cache->insert(cj.problem.key, result);
+    const int d = ++done;
+    if (d % 16 == 0) {
+      std::lock_guard<std::mutex> lock(progressMutex);
+      job.progress(StageId::Map, double(d) / todo.size(), "coarse-to-fine");
+    }
+  });
+  out.cellsMapped = static_cast<int>(todo.size());
+
+  // Assemble the texture map.
+  std::map<CellStatus, int> empty;
+  for (const CellJob& cj : jobs) {
+    CellPlan& plan = out.cells[cj.plan];
+    const CellMap& m = *cj.result;
+    if (!m.failure.empty()) {
+      plan.status = CellStatus::Failed;
+      plan.detail = m.failure;
+      continue;
+    }
+    out.stats.add(m.stats);
+    std::unordered_map<int, int> local;
+    for (int i = 0; i < static_cast<int>(cj.globalVertex.size()); ++i) local[cj.globalVertex[i]] = i;
+    for (int f : plan.faces) {
+      const auto fv = mesh.faceVertices(f);
+      out.map.facePhoto[f] = plan.photo;
+      for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = m.uv[local.at(fv[k])];
+    }
+  }
+  for (const CellPlan& plan : out.cells)
+    if (plan.status != CellStatus::Mapped) ++empty[plan.status];
+  for (const auto& [status, count] : empty)
+    out.map.notes.push_back(std::to_string(count) + (count == 1 ? " region is" : " regions are") +
+                            " left empty: " + kCellStatusNames[static_cast<int>(status)]);
+  if (out.stats.flippedFaces > 0)
+    out.map.notes.push_back(std::to_string(out.stats.flippedFaces) + " mapped faces are flipped in their photo");
+  if (out.stats.onBackground > 0)
+    out.map.notes.push_back(std::to_string(out.stats.onBackground) +
+                            " texture coordinates could not leave the photo background");
+  job.progress(StageId::Map, 1.0, "coarse-to-fine");
+  return out;
+}
+
+}  // namespace montage

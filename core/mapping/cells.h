@@ -1,0 +1,105 @@
+// The map stage, cell by cell (paper sections 3.2 and 4.1, made incremental).
+//
+// The partition (3.1) cuts the mesh into cells along its paths. A cell maps into a photo when it is a
+// disc bounded by three paths between three feature vertices, with no other feature inside, and the
+// three paths have curves in that photo whose texture triangle keeps the cell's orientation (the
+// paper's base triangle "that corresponds to a texture triangle in one image"); among several such
+// photos, the most frontal view (smallest L-infinity stretch of the texture triangle).
+//
+// Each mapped cell's boundary is fixed: its corners at their clicks and every path vertex on the
+// path's straight curve, at its arc length along the path (pathUVs). A cell's map then depends only
+// on its own content, so every cell is mapped on its own (coarseToFineCell: its own progressive mesh
+// and coarse-to-fine), independent cells run in parallel, and a cell whose content, boundary and
+// photo did not change since an earlier run is taken from a CellCache instead of being mapped again.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "base/common.h"
+#include "mapping/fine_map.h"
+#include "mapping/texture_map.h"
+
+namespace montage {
+
+struct Scene;
+struct Partition;
+struct MeshPath;
+struct Curve;
+struct Mesh;
+struct Photo;
+class JobControl;
+
+// Why a cell is mapped or left empty.
+enum class CellStatus {
+  Mapped,         // mapped into `photo`
+  TouchesBorder,  // the cell reaches the mesh border
+  NotDisc,        // the cell is not a disc (a handle, a pinch, or several boundary loops)
+  NotTriangle,    // its boundary does not run along exactly three paths between three features
+  FeatureInside,  // a feature vertex lies inside the cell
+  NoCommonPhoto,  // its three paths have no photo in common
+  Mirrored,       // in every common photo the texture triangle is mirrored (the photo shows its back)
+  Failed,         // the cell's map could not be built (see CellPlan::detail)
+};
+inline constexpr const char* kCellStatusNames[] = {
+    "mapped",         "touches the mesh border", "not a disc", "not a triangle",
+    "feature inside", "no common photo",         "mirrored",   "failed"};
+
+struct CellPlan {
+  int cell = -1;  // Partition cell id
+  CellStatus status = CellStatus::NotTriangle;
+  int photo = TextureMap::kEmpty;          // the photo it maps into (Mapped)
+  std::vector<int> faces;                  // faces of Partition::mesh
+  std::array<int, 3> corners{-1, -1, -1};  // feature vertices, counter-clockwise seen from outside
+  std::array<int, 3> sides{-1, -1, -1};    // Partition::paths index of the side from corner k to k + 1
+  std::string detail;                      // for the user: what keeps the cell empty
+};
+
+// Decides, per cell of the partition, whether and into which photo it maps.
+std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition);
+
+// The fixed UVs (pixels) of a path's vertices in one photo: on the straight curve between the two
+// clicks, at each vertex's arc length along the mesh path, measured along the curve's foreground
+// only (a vertex never lands on a background gap the curve crosses). One UV per path vertex.
+std::vector<Vec2> pathUVs(const Mesh& mesh, const MeshPath& path, const Curve& curve, const Photo& photo);
+
+// Cell maps from earlier runs, by CellProblem::key. Entries not used for `keepRuns` runs are evicted.
+// Thread-safe.
+class CellCache {
+ public:
+  explicit CellCache(int keepRuns = 16) : keepRuns_(keepRuns) {}
+  std::shared_ptr<const CellMap> find(const std::string& key);
+  void insert(const std::string& key, std::shared_ptr<const CellMap> map);
+  void endRun();  // one run finished: age the entries, drop the old ones
+  size_t size() const;
+
+ private:
+  struct Entry {
+    std::shared_ptr<const CellMap> map;
+    long lastRun = 0;
+  };
+  mutable std::mutex mutex_;
+  std::unordered_map<std::string, Entry> entries_;
+  long run_ = 0;
+  int keepRuns_;
+};
+
+struct CellMapping {
+  TextureMap map;               // over Partition::mesh
+  std::vector<CellPlan> cells;  // per partition cell
+  FineMapStats stats;           // summed over mapped cells
+  int cellsMapped = 0;          // cells whose map was computed in this run
+  int cellsReused = 0;          // cells taken from the cache
+};
+
+// Plans the cells, builds each mapped cell's problem and maps it (in parallel), reusing `cache`
+// entries when given. Scene::photoKeys identify the photos' contents; a photo without a key is never
+// cached. Throws montage::Cancelled when the job is cancelled.
+CellMapping mapCells(const Scene& scene, const Partition& partition, const FineMapOptions& options,
+                     const JobControl& job, CellCache* cache = nullptr);
+
+}  // namespace montage

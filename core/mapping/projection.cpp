@@ -1,0 +1,403 @@
+// Projection mapping, view selection and the projection stage (see projection.h).
+//
+// Choices beyond the outline:
+// - Visibility: the mesh is rasterised with the fitted pinhole camera (radial distortion moves pixels
+//   along rays from the centre and never changes what is in front). A vertex is seen when the
+//   z-buffer at its pixel shows one of its faces, lies within depthTolerance of its depth, or is empty
+//   (the vertex is on the silhouette). A face is seen when its three corners are, when four points
+//   inside it (centroid and three points near the corners) pass the same test, and when it faces the
+//   camera (cosine >= minCos).
+// - Quality of a view of a face (the data term): its projected area in pixels squared (resolution,
+//   distance and obliqueness in one figure, as Allene et al. 2008 use it), times a factor falling
+//   linearly from 1 to 0.1 within silhouetteMarginPx of the silhouette (rendered from the mesh, and the
+//   photo's own foreground edge): there a small camera error mixes in background colours.
+// - Refused: a face whose corrected UV triangle is flipped or degenerate relative to its projection,
+//   and a face whose UVs (corners or centroid) lie farther than maxBackgroundPx from the photo's
+//   foreground (the paper's background restriction).
+// - Smoothness: a Potts term per interior edge, weight smoothness x (edge length / mean edge length)
+//   x (1 + dE / 10), dE the mean CIE Delta E*uv between the candidate photos at the edge's midpoint:
+//   cuts are cheap where the photos agree (seams "fall where the photos agree") and dear where they do
+//   not; 10 is a clearly visible colour difference. Data costs are (1 - q / q_best) x face area / mean
+//   face area, so the balance does not depend on the mesh's resolution.
+#include "mapping/projection.h"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "base/job.h"
+#include "base/util.h"
+#include "geometry/mesh.h"
+#include "geometry/raster.h"
+#include "image/photo.h"
+#include "io/scene.h"
+#include "mapping/partition.h"
+#include "mapping/view_select.h"
+
+namespace montage {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double wendland(double r, double support) {
+  if (r >= support) return 0;
+  const double q = 1 - r / support;
+  const double q2 = q * q;
+  return q2 * q2 * (4 * r / support + 1);
+}
+
+double cross2(const Vec2& a, const Vec2& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+double diagonalOf(const Mesh& mesh) {
+  Vec3 lo, hi;
+  mesh.bounds(lo, hi);
+  return (hi - lo).norm();
+}
+
+// Nearest-pixel lookup of a CV_32F map, clamped to the image.
+float at(const cv::Mat& m, const Vec2& px) {
+  const int c = std::clamp(static_cast<int>(std::floor(px.x())), 0, m.cols - 1);
+  const int r = std::clamp(static_cast<int>(std::floor(px.y())), 0, m.rows - 1);
+  return m.at<float>(r, c);
+}
+
+}  // namespace
+
+Vec2 CorrectionField::at(const Vec3& p) const {
+  Vec2 d = Vec2::Zero();
+  for (size_t i = 0; i < centres.size(); ++i) {
+    const double r2 = (p - centres[i]).squaredNorm();
+    if (r2 < localSupport[i] * localSupport[i]) d += wendland(std::sqrt(r2), localSupport[i]) * local[i];
+  }
+  return d;
+}
+
+CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode, double localRadiusPx) {
+  CorrectionField field;
+  if (mode == CorrectionMode::Off) return field;
+  std::vector<Vec2> residual;
+  std::vector<double> pixelSize;  // model units per photo pixel at the click's depth
+  for (size_t i = 0; i < fit.clicks.size(); ++i) {
+    if (!std::isfinite(fit.residual[i])) continue;  // behind the camera: no projection to correct
+    if (mode == CorrectionMode::Inliers && !fit.inlier[i]) continue;
+    const Vec3 p = mesh.position(fit.clicks[i].vertex);
+    field.centres.push_back(p);
+    residual.push_back(fit.clicks[i].pixel - fit.reprojected[i]);
+    pixelSize.push_back(fit.camera.pinhole.toCamera(p).z() / fit.camera.focal());
+  }
+  const int n = static_cast<int>(field.centres.size());
+  if (n == 0) return field;
+  Eigen::MatrixXd r(n, 2);
+  for (int i = 0; i < n; ++i) r.row(i) = residual[i].transpose();
+
+  // Local part: exact at every click.
+  field.localSupport.resize(n);
+  for (int i = 0; i < n; ++i) field.localSupport[i] = std::max(localRadiusPx, 4 * r.row(i).norm()) * pixelSize[i];
+  Eigen::MatrixXd phi(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      phi(i, j) = wendland((field.centres[i] - field.centres[j]).norm(), field.localSupport[j]);
+  const Eigen::MatrixXd w = phi.partialPivLu().solve(r);
+  field.local.assign(n, Vec2::Zero());
+  if (w.allFinite())
+    for (int i = 0; i < n; ++i) field.local[i] = w.row(i).transpose();
+  return field;
+}
+
+bool predictPixel(const CameraFit& fit, const CorrectionField& field, const Vec3& p, Vec2& pixel) {
+  if (!fit.camera.project(p, pixel)) return false;
+  pixel += field.at(p);
+  return true;
+}
+
+PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const CameraFit& fit,
+                    const CorrectionField& field, const ProjectionOptions& o) {
+  PhotoView view;
+  view.photo = photoIndex;
+  const Camera& cam = fit.camera.pinhole;
+  TM_CHECK(cam.width == photo.width && cam.height == photo.height,
+           located(photo.path, "camera fit is for a " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                                   " image, the photo is " + std::to_string(photo.width) + "x" +
+                                   std::to_string(photo.height)));
+  const int nv = mesh.numVertices(), nf = mesh.numFaces();
+  const RasterBuffers raster = rasterize(mesh, cam);
+  const double tol = o.depthTolerance * diagonalOf(mesh);
+  const Vec3 eye = cam.center();
+
+  // Distance (pixels) to the silhouette: of the rendered mesh, and of the photo's own foreground.
+  cv::Mat covered(cam.height, cam.width, CV_8U);
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) covered.at<uchar>(y, x) = raster.face[raster.index(x, y)] >= 0 ? 255 : 0;
+  cv::Mat silhouette;
+  cv::distanceTransform(covered, silhouette, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  if (photo.hasBackground) {
+    cv::Mat foreground = photo.alpha > 0, inside;  // stored resolution: brought to the camera's pixels
+    if (foreground.cols != cam.width || foreground.rows != cam.height)
+      cv::resize(foreground, foreground, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_NEAREST);
+    cv::distanceTransform(foreground, inside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    silhouette = cv::min(silhouette, inside);
+  }
+
+  // Seen at a pinhole pixel with depth z: the z-buffer shows `face` (or a face of `vertex`), or
+  // something no nearer than z - tol, or nothing.
+  auto seenAt = [&](const Vec2& px, double z, int face, int vertex) {
+    if (!(px.x() >= 0 && px.y() >= 0 && px.x() < cam.width && px.y() < cam.height)) return false;
+    const int i = raster.index(static_cast<int>(px.x()), static_cast<int>(px.y()));
+    const int shown = raster.face[i];
+    if (shown < 0 || shown == face || raster.depth[i] >= z - tol) return true;
+    if (vertex >= 0)
+      for (int c : mesh.faceVertices(shown))
+        if (c == vertex) return true;
+    return false;
+  };
+
+  std::vector<Vec2> pinhole(nv, Vec2::Constant(kNaN));
+  view.vertexUV.assign(nv, Vec2::Constant(kNaN));
+  view.vertexVisible.assign(nv, 0);
+  view.vertexSilhouettePx.assign(nv, 0.0f);
+  for (int v = 0; v < nv; ++v) {
+    const Vec3 p = mesh.position(v);
+    double z = 0;
+    Vec2 px;
+    if (!cam.project(p, px, &z)) continue;
+    pinhole[v] = px;
+    Vec2 uv;
+    if (predictPixel(fit, field, p, uv)) view.vertexUV[v] = uv;
+    view.vertexVisible[v] = seenAt(px, z, -1, v) ? 1 : 0;
+    if (view.vertexVisible[v]) view.vertexSilhouettePx[v] = at(silhouette, px);
+  }
+
+  view.faceQuality.assign(nf, 0.0f);
+  const std::array<Vec3, 4> samples = {Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3), Vec3(0.8, 0.1, 0.1), Vec3(0.1, 0.8, 0.1),
+                                       Vec3(0.1, 0.1, 0.8)};
+  for (int f = 0; f < nf; ++f) {
+    const auto c = mesh.faceVertices(f);
+    if (!view.vertexVisible[c[0]] || !view.vertexVisible[c[1]] || !view.vertexVisible[c[2]]) continue;
+    const auto q = mesh.facePositions(f);
+    const Vec3 centroid = (q[0] + q[1] + q[2]) / 3;
+    const Vec3 normal = mesh.faceNormal(f);
+    if (normal.dot((eye - centroid).normalized()) < o.minCos) continue;
+    bool seen = true;
+    double silhouetteDistance = std::numeric_limits<double>::infinity();
+    for (const Vec3& b : samples) {
+      const Vec3 point = b[0] * q[0] + b[1] * q[1] + b[2] * q[2];
+      Vec2 px;
+      double z = 0;
+      if (!cam.project(point, px, &z) || !seenAt(px, z, f, -1)) {
+        seen = false;
+        break;
+      }
+      silhouetteDistance = std::min<double>(silhouetteDistance, at(silhouette, px));
+    }
+    if (!seen) continue;
+    const std::array<Vec2, 3> uv = {view.vertexUV[c[0]], view.vertexUV[c[1]], view.vertexUV[c[2]]};
+    const double projected = cross2(pinhole[c[1]] - pinhole[c[0]], pinhole[c[2]] - pinhole[c[0]]);
+    const double mapped = cross2(uv[1] - uv[0], uv[2] - uv[0]);
+    if (!std::isfinite(mapped) || projected * mapped <= 0 || std::abs(mapped) < 1e-6) {
+      ++view.refusedFlipped;
+      continue;
+    }
+    bool background = false;
+    for (const Vec2& x : {uv[0], uv[1], uv[2], Vec2((uv[0] + uv[1] + uv[2]) / 3)}) {
+      if (!photo.inside(x.x(), x.y()))
+        background = true;
+      else if (photo.hasBackground && photo.distanceAt(x.x(), x.y()) > o.maxBackgroundPx)
+        background = true;
+    }
+    if (background) {
+      ++view.refusedBackground;
+      continue;
+    }
+    const double factor = std::clamp(silhouetteDistance / std::max(1e-9, o.silhouetteMarginPx), 0.1, 1.0);
+    view.faceQuality[f] = static_cast<float>(0.5 * std::abs(mapped) * factor);
+    if (!(view.faceQuality[f] > 0)) view.faceQuality[f] = std::numeric_limits<float>::min();
+  }
+  return view;
+}
+
+ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
+                                const std::vector<CameraFit>& fits, const ProjectionOptions& o, const JobControl& job) {
+  const auto start = Clock::now();
+  const Mesh& mesh = partition.mesh;
+  const int nf = mesh.numFaces();
+  const int np = static_cast<int>(scene.photos.size());
+  TM_CHECK(static_cast<int>(fits.size()) == np,
+           "projectionFill: " + std::to_string(fits.size()) + " camera fits for " + std::to_string(np) + " photos");
+  TM_CHECK(paperMap.numFaces() == nf, "projectionFill: the texture map is not over the partition's mesh");
+  ProjectionResult out;
+  out.map = paperMap;
+  out.fields.resize(np);
+  out.views.resize(np);
+  out.photoFaces.assign(np, 0);
+  out.photoProjectedFaces.assign(np, 0);
+  out.photoRefusedFlipped.assign(np, 0);
+  out.photoRefusedBackground.assign(np, 0);
+  std::vector<int> fitted;
+  for (int p = 0; p < np; ++p)
+    if (fits[p].fits) fitted.push_back(p);
+  out.fittedPhotos = static_cast<int>(fitted.size());
+  for (int p = 0; p < np; ++p)
+    out.map.notes.push_back("photo " + std::to_string(p) +
+                            (fits[p].fits ? " maps by projection: " : " takes the paper's path: ") +
+                            (fits[p].fits ? describeFit(fits[p]) : fits[p].reason));
+  auto countFaces = [&] {
+    for (int f = 0; f < nf; ++f)
+      if (out.map.facePhoto[f] >= 0) ++out.photoFaces[out.map.facePhoto[f]];
+  };
+  if (fitted.empty()) {
+    countFaces();
+    out.seconds = secondsSince(start);
+    return out;
+  }
+
+  // Views of the fitted photos.
+  auto t = Clock::now();
+  for (size_t k = 0; k < fitted.size(); ++k) {
+    const int p = fitted[k];
+    job.progress(StageId::Projection, 0.6 * k / fitted.size(), "view of photo " + std::to_string(p));
+    out.fields[p] = correctionField(mesh, fits[p], o.correction, o.localRadiusPx);
+    out.views[p] = viewPhoto(mesh, *scene.photos[p], p, fits[p], out.fields[p], o);
+    out.photoRefusedFlipped[p] = out.views[p].refusedFlipped;
+    out.photoRefusedBackground[p] = out.views[p].refusedBackground;
+  }
+  out.viewSeconds = secondsSince(t);
+  job.progress(StageId::Projection, 0.6, "view selection");
+
+  // Labels: photo indices (0..np-1), and np for "empty".
+  t = Clock::now();
+  const int kEmptyLabel = np;
+  PottsProblem problem;
+  problem.numNodes = nf;
+  problem.numLabels = np + 1;
+  problem.cost.assign(size_t(nf) * problem.numLabels, PottsProblem::kForbidden);
+  std::vector<int> labels(nf, -1);
+  std::vector<char> free(nf, 0);
+  double meanArea = 0;
+  for (int f = 0; f < nf; ++f) meanArea += mesh.faceArea(f);
+  meanArea = nf ? meanArea / nf : 1;
+  if (!(meanArea > 0)) meanArea = 1;
+  for (int f = 0; f < nf; ++f) {
+    auto cost = [&](int label) -> double& { return problem.cost[size_t(f) * problem.numLabels + label]; };
+    const int paper = paperMap.facePhoto[f];
+    if (paper >= 0 && !fits[paper].fits) {  // the paper's path: fixed
+      cost(paper) = 0;
+      labels[f] = paper;
+      continue;
+    }
+    float best = 0;
+    for (int p : fitted) best = std::max(best, out.views[p].faceQuality[f]);
+    if (!(best > 0)) {  // no fitted photo can texture it
+      cost(kEmptyLabel) = 0;
+      labels[f] = kEmptyLabel;
+      continue;
+    }
+    ++out.seenFaces;
+    if (o.keepCellPhotos && paper >= 0 && out.views[paper].faceQuality[f] > 0) {
+      cost(paper) = 0;
+      labels[f] = paper;
+      continue;
+    }
+    free[f] = 1;
+    const double area = mesh.faceArea(f) / meanArea;
+    for (int p : fitted) {
+      const float q = out.views[p].faceQuality[f];
+      if (q > 0) cost(p) = (1.0 - q / best) * area;
+    }
+  }
+  // Smoothness over interior edges.
+  const TriMesh& tri = mesh.tri;
+  double meanLength = 0;
+  int interior = 0;
+  for (auto eh : tri.edges()) {
+    if (tri.is_boundary(eh)) continue;
+    meanLength += tri.calc_edge_length(eh);
+    ++interior;
+  }
+  meanLength = interior ? meanLength / interior : 1;
+  if (!(meanLength > 0)) meanLength = 1;
+  if (o.smoothness > 0) {
+    for (auto eh : tri.edges()) {
+      if (tri.is_boundary(eh)) continue;
+      const auto h0 = tri.halfedge_handle(eh, 0);
+      const int f = tri.face_handle(h0).idx(), g = tri.opposite_face_handle(h0).idx();
+      if (!free[f] && !free[g]) continue;
+      const int a = tri.from_vertex_handle(h0).idx(), b = tri.to_vertex_handle(h0).idx();
+      // Mean colour difference between the photos that can texture both faces, at the edge's midpoint.
+      std::vector<Vec3f> colours;
+      for (int p : fitted)
+        if (out.views[p].faceQuality[f] > 0 && out.views[p].faceQuality[g] > 0) {
+          const Vec2 mid = 0.5 * (out.views[p].vertexUV[a] + out.views[p].vertexUV[b]);
+          colours.push_back(scene.photos[p]->luvAt(mid.x(), mid.y()));
+        }
+      double disagreement = 0;
+      int pairs = 0;
+      for (size_t i = 0; i < colours.size(); ++i)
+        for (size_t j = i + 1; j < colours.size(); ++j) disagreement += (colours[i] - colours[j]).norm(), ++pairs;
+      if (pairs) disagreement /= pairs;
+      const double w = o.smoothness * tri.calc_edge_length(eh) / meanLength * (1 + disagreement / 10.0);
+      problem.edges.push_back({f, g});
+      problem.weights.push_back(w);
+    }
+  }
+  job.checkCancel();
+  PottsStats stats;
+  labels = solvePotts(problem, labels, 8, &stats);
+  out.selectionSweeps = stats.sweeps;
+  out.selectionEnergy = stats.finalEnergy;
+  out.selectSeconds = secondsSince(t);
+
+  // The map: projection UVs for faces on fitted photos; paper UVs for the others.
+  int nextPatch = 0;
+  for (int p : paperMap.facePatch) nextPatch = std::max(nextPatch, p + 1);
+  std::vector<int> patchOf(nf, -1);
+  for (int f = 0; f < nf; ++f) {
+    const int label = labels[f];
+    const int paper = paperMap.facePhoto[f];
+    if (label < 0 || label == kEmptyLabel) {
+      if (paper >= 0) ++out.droppedFaces;
+      out.map.facePhoto[f] = TextureMap::kEmpty;
+      ++out.emptyFaces;
+      continue;
+    }
+    if (!fits[label].fits) continue;  // paper's path, unchanged
+    if (paper == TextureMap::kEmpty)
+      ++out.filledFaces;
+    else if (paper != label)
+      ++out.relabelledFaces;
+    out.map.facePhoto[f] = label;
+    const auto c = mesh.faceVertices(f);
+    for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = out.views[label].vertexUV[c[k]];
+    ++out.photoProjectedFaces[label];
+  }
+  // Patch ids of projected faces: edge-connected sets of faces on one photo.
+  for (int f = 0; f < nf; ++f) {
+    const int label = out.map.facePhoto[f];
+    if (label < 0 || !fits[label].fits || patchOf[f] >= 0) continue;
+    std::vector<int> stack = {f};
+    patchOf[f] = nextPatch;
+    while (!stack.empty()) {
+      const int g = stack.back();
+      stack.pop_back();
+      out.map.facePatch[g] = nextPatch;
+      for (auto fh : tri.ff_range(tri.face_handle(g))) {
+        const int h = fh.idx();
+        if (patchOf[h] < 0 && out.map.facePhoto[h] == label) {
+          patchOf[h] = nextPatch;
+          stack.push_back(h);
+        }
+      }
+    }
+    ++nextPatch;
+  }
+  countFaces();
+  out.seconds = secondsSince(start);
+  job.progress(StageId::Projection, 1.0);
+  return out;
+}
+
+}  // namespace montage

@@ -1,0 +1,106 @@
+// Projection mapping for photos that fit a camera (camera.h): every vertex a fitted photo sees gets
+// its projection as UV, plus a smooth correction field that keeps the photo's clicks exact; faces are
+// given to photos by view selection (view_select.h), as photogrammetric texturers do. Faces the
+// paper's path mapped to photos of another subject keep that mapping; faces no photo sees stay
+// empty for inpainting.
+//
+// Shapes and units: vertex ids and face ids are those of the mesh given (the partition's mesh, whose
+// first vertices are the input mesh's); UVs are photo pixel coordinates (photo.h).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "base/common.h"
+#include "io/options.h"
+#include "mapping/camera.h"
+#include "mapping/texture_map.h"
+
+namespace montage {
+
+struct Mesh;
+struct Photo;
+struct Scene;
+struct Partition;
+class JobControl;
+
+// A smooth 2D field over the surface that equals the clicks' residuals (click - projection) at their
+// vertices: around each click a compactly supported Wendland C2 bump (3D distance) reaching
+// max(localRadiusPx, 4 x its residual) pixels in the photo, so that no bump can fold the texture
+// (gradient about 1/4 at most) and there is no step at its edge; 0 beyond, where the camera alone
+// rules. Where bumps overlap, their weights are solved so that every click stays exact.
+// (A second, coherent part, Wendland RBFs over the click spacing ridge-regularised by generalised
+// cross-validation, was measured and dropped: it spread click noise over the surface, docs/pipeline.md.)
+struct CorrectionField {
+  std::vector<Vec3> centres;         // click vertex positions, model units
+  std::vector<Vec2> local;           // weights of the bumps, pixels
+  std::vector<double> localSupport;  // per click, model units
+  Vec2 at(const Vec3& p) const;      // pixels
+  bool empty() const { return centres.empty(); }
+};
+
+// The field of one photo's clicks (mode decides which), over the positions of `mesh`.
+// `localRadiusPx`: the smallest reach of a click's bump, photo pixels.
+CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode, double localRadiusPx = 8);
+
+// Where a fitted photo puts a surface point: its projection plus the correction. False when behind.
+bool predictPixel(const CameraFit& fit, const CorrectionField& field, const Vec3& p, Vec2& pixel);
+
+struct ProjectionOptions {
+  CorrectionMode correction = CorrectionMode::All;  // clicks kept exact by the correction field
+  double localRadiusPx = 8;       // correction: a click's own bump reaches at least this far (photo pixels)
+  double smoothness = 1.0;        // view selection: weight of a seam edge (Potts, per mean edge length) against
+                                  // the data cost of a face (per mean face area); 0 = best view per face
+  bool keepCellPhotos = false;    // cells the paper's partition gave to a fitted photo keep it where it sees
+                                  // them (view selection only fills the rest); false = view selection everywhere
+  double minCos = 0.05;           // faces seen more obliquely than this (cosine) are not textured from a photo
+  double silhouetteMarginPx = 4;  // view quality falls linearly within this distance of the silhouette
+  double depthTolerance = 0.005;  // occlusion test tolerance, share of the bounding-box diagonal
+  double maxBackgroundPx = 1.0;   // a face whose UVs lie farther than this from the foreground is refused
+};
+
+// What one fitted photo sees of a mesh.
+struct PhotoView {
+  int photo = -1;
+  std::vector<Vec2> vertexUV;             // #V: projection + correction, pixels (NaN behind the camera)
+  std::vector<char> vertexVisible;        // #V: in the image, in front, not occluded
+  std::vector<float> vertexSilhouettePx;  // #V: distance of the projection to the silhouette (mesh or photo), px
+  std::vector<float> faceQuality;         // #F: > 0 when the photo can texture the face (projected area in px^2
+                                          // times the silhouette factor); 0 when not
+  int refusedFlipped = 0, refusedBackground = 0;  // faces otherwise seen, refused for a flip / the background
+};
+
+// Computes the view of photo `fit` (its camera and correction field) on `mesh`.
+PhotoView viewPhoto(const Mesh& mesh, const Photo& photo, int photoIndex, const CameraFit& fit,
+                    const CorrectionField& field, const ProjectionOptions& options);
+
+// The projection stage's output: the final texture map and its figures.
+struct ProjectionResult {
+  TextureMap map;                           // the paper's map with projection-mapped faces replaced/filled
+  std::vector<CorrectionField> fields;      // per photo (empty for photos that do not fit)
+  std::vector<PhotoView> views;             // per photo (empty for photos that do not fit)
+  std::vector<int> photoFaces;              // per photo: faces mapped to it in the final map
+  std::vector<int> photoProjectedFaces;     // per photo: of those, mapped by projection
+  std::vector<int> photoRefusedFlipped;     // per photo: faces refused for a flip
+  std::vector<int> photoRefusedBackground;  // per photo: faces refused for landing on the background
+  int fittedPhotos = 0;
+  int filledFaces = 0;      // faces empty after the paper's path, now mapped by projection
+  int relabelledFaces = 0;  // faces the paper's path gave to a fitted photo, now mapped to another one
+  int droppedFaces = 0;     // faces the paper's path gave to a fitted photo that no fitted photo can texture
+                            // (occluded, flipped or on the background there): left for inpainting
+  int seenFaces = 0;        // faces some fitted photo can texture
+  int emptyFaces = 0;       // faces left empty (for inpainting)
+  int selectionSweeps = 0;  // alpha-expansion sweeps of the view selection
+  double selectionEnergy = 0;
+  double viewSeconds = 0, selectSeconds = 0, seconds = 0;
+};
+
+// Maps by projection every face a fitted photo can texture (fits[p].fits), keeping the paper's
+// mapping of faces on photos that do not fit. `paperMap` is over partition.mesh. When no photo fits,
+// the map is returned unchanged.
+ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
+                                const std::vector<CameraFit>& fits, const ProjectionOptions& options,
+                                const JobControl& job);
+
+}  // namespace montage

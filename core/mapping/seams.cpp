@@ -1,0 +1,557 @@
+// Sections 4.2-4.3: content-based seam optimisation (see seams.h).
+//
+// Choices, beyond what the paper says:
+// - It runs over the final map, not during the coarse-to-fine replay (docs/pipeline.md: the mapping
+//   is built per partition cell with fixed cell borders, and the camera path has no replay at all).
+// - "Sides": the corners of a vertex are grouped by (photo, UV). A vertex between two photos has two
+//   sides, one between two patches of one photo mapped discontinuously has two as well; both are seams.
+// - Normalisation: E_tex per sample is |dLUV| / 100 (100 = black against white), the gradient term
+//   |dG'| / 50 L*u*v* per pixel (a black-white step over two pixels), each clamped to 1, averaged over
+//   the samples the side's move changes; E_geo is Sander's L-infinity stretch times the photo's mean
+//   scale (pixels per model unit over the photo's faces), so 1 = isometric at that scale.
+// - Line search: the random direction's chord through the kernel (no flip), at most the fan's size
+//   long, is sampled at 8 points first (E_tex is not quasi-convex along a line, unlike the stretch),
+//   then refined by golden section around the best sample.
+// - The gradient G' is the chain rule through the hinge map: G'(s) = G(p) * T * H^-1, where T maps
+//   barycentric to image and H barycentric to the hinge plane (the paper writes psi(G), which applied
+//   to the gradient as a vector would be the transpose of that).
+
+#include "mapping/seams.h"
+
+#include <tbb/parallel_for.h>
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <unordered_map>
+
+#include "base/job.h"
+#include "base/util.h"
+#include "geometry/mesh.h"
+#include "geometry/predicates.h"
+#include "geometry/stretch.h"
+#include "image/photo.h"
+
+namespace montage {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kColourNorm = 100;        // L*u*v* difference that counts as 1 in E_tex
+constexpr double kGradientNorm = 50;       // L*u*v* per pixel gradient difference that counts as 1
+constexpr double kSampleSpacing = 0.4;     // pixels between samples (the paper: under half a pixel)
+constexpr int kMaxSamplesPerEdge = 512;    // cap for very long edges
+constexpr int kCoarseSamples = 6;          // samples of a search chord before the golden section
+constexpr double kMargin = 1e-3;           // relative margin kept from the kernel border
+constexpr double kStopGain = 1e-3;         // rounds stop when the total E falls by less than this (relative)
+constexpr double kNoticeableDeltaE = 2.3;  // a seam matching better than this (mean Delta E*uv) is left as it is
+constexpr double kSideGain = 1e-2;  // a side whose E fell by less than this (relative) does not wake its neighbours
+
+uint64_t edgeKey(int a, int b) {
+  if (a > b) std::swap(a, b);
+  return (uint64_t(uint32_t(a)) << 32) | uint32_t(b);
+}
+
+// One side of a vertex: its corners that show one photo through one UV.
+struct Side {
+  int vertex = -1, photo = -1;
+  Vec2 uv;
+  Vec2 start;                                // its UV before the optimisation
+  bool projected = false;                    // in a photo mapped by projection (SeamInput::projectedPhotos)
+  std::vector<std::pair<int, int>> corners;  // (face, corner)
+  std::vector<int> edges;                    // seam edges whose samples depend on this side's UV
+  bool fixed = false;                        // a feature vertex, or a degenerate face around it
+  bool onSeam = false;                       // an end of a seam edge
+  bool closed = false;                       // its faces are all the faces around the vertex
+  double scale = 0;                          // largest distance to a corner of its faces (pixels)
+};
+
+// A seam edge a-b between face f (third vertex c, on one side of the hinge) and face g (third vertex
+// d, on the other). s[0..2] are the sides of f's corners at a, b, c; t[0..2] those of g's at a, b, d.
+struct SeamEdge {
+  int f = -1, g = -1;
+  std::array<int, 3> s{}, t{};
+  Vec2 c2, d2;  // hinge map: a at the origin, b at (length, 0), c above, d below
+  double length = 0;
+  double pixelsPerUnit = 1;  // reference scale for the gradients (geometric mean of the two photos')
+  int samples = 0;
+};
+
+class SeamOptimiser {
+ public:
+  SeamOptimiser(const SeamInput& in, const SeamOptions& options, const JobControl& job)
+      : in_(in), mesh_(*in.mesh), options_(options), job_(job) {
+    for (const Photo* p : in.photos) {
+      luv_.push_back(luvImage(*p));
+      luvScale_.push_back(p->width > 0 ? double(luv_.back().cols) / p->width : 1.0);
+    }
+  }
+
+  SeamResult run();
+
+ private:
+  void buildSides();
+  void buildSeams();
+  // Sum over the edge's samples of the per-sample E_tex (normalised); optionally the sums of the raw
+  // colour (Delta E) and gradient differences.
+  double edgeError(const SeamEdge& e, double* deltaE = nullptr, double* gradient = nullptr) const;
+  double faceStretch(int face) const;  // normalised L-infinity stretch, kInf when flipped
+  double sideEnergy(const Side& side) const;
+  double totalEnergy() const;
+  double maxStep(const Side& side, const Vec2& x, const Vec2& d) const;
+  bool onForeground(int photo, const Vec2& x) const;
+  // Random line searches on one side (directions from `rng`); returns the energy decrease.
+  double optimiseSide(int i, std::mt19937& rng);
+  // The sides whose UVs side i's energy reads (its faces' corners and its seam edges' ends), itself included.
+  std::vector<int> touchedSides(int i) const;
+  void measure(double& deltaE, double& gradient, double& maxStretch) const;
+
+  Vec2 uvOf(int face, int corner) const { return sides_[faceSide_[face][corner]].uv; }
+
+  const SeamInput& in_;
+  const Mesh& mesh_;
+  const SeamOptions& options_;
+  const JobControl& job_;
+  double alpha_ = 1;
+
+  std::vector<cv::Mat> luv_;      // per photo: its L*u*v* image (stored resolution)
+  std::vector<double> luvScale_;  // per photo: stored pixels per file pixel
+  std::vector<Side> sides_;
+  std::vector<std::array<int, 3>> faceSide_;  // #F x 3, -1 for unmapped faces
+  std::vector<double> faceSign_;              // #F: orientation of the texture triangle (+1 / -1, 0 = degenerate)
+  std::vector<double> photoScale_;            // per photo: pixels per model unit over its faces
+  std::vector<SeamEdge> seams_;
+};
+
+bool SeamOptimiser::onForeground(int photo, const Vec2& x) const {
+  const Photo& ph = *in_.photos[photo];
+  if (!ph.inside(x.x(), x.y())) return false;
+  return !ph.hasBackground || ph.isForeground(x.x(), x.y());
+}
+
+void SeamOptimiser::buildSides() {
+  const TextureMap& map = *in_.map;
+  const int nf = mesh_.numFaces(), nv = mesh_.numVertices();
+  std::vector<std::vector<int>> sidesOf(nv);
+  std::vector<int> valence(nv, 0);
+  faceSide_.assign(nf, {-1, -1, -1});
+  faceSign_.assign(nf, 0);
+  std::vector<double> pixelArea(in_.photos.size(), 0), surfaceArea(in_.photos.size(), 0);
+  for (int f = 0; f < nf; ++f) {
+    const auto fv = mesh_.faceVertices(f);
+    for (int v : fv) valence[v]++;
+    const int p = map.facePhoto[f];
+    if (p < 0) continue;
+    const auto& uv = map.cornerUV[f];
+    const double area = orient2(uv[0], uv[1], uv[2]);
+    faceSign_[f] = area > 0 ? 1 : (area < 0 ? -1 : 0);
+    pixelArea[p] += 0.5 * std::abs(area);
+    surfaceArea[p] += mesh_.faceArea(f);
+    for (int k = 0; k < 3; ++k) {
+      const int v = fv[k];
+      int id = -1;
+      for (int s : sidesOf[v])
+        if (sides_[s].photo == p && sides_[s].uv == uv[k]) id = s;
+      if (id < 0) {
+        id = static_cast<int>(sides_.size());
+        Side side;
+        side.vertex = v, side.photo = p, side.uv = side.start = uv[k];
+        side.projected = p < static_cast<int>(in_.projectedPhotos.size()) && in_.projectedPhotos[p];
+        sides_.push_back(side);
+        sidesOf[v].push_back(id);
+      }
+      sides_[id].corners.emplace_back(f, k);
+      faceSide_[f][k] = id;
+    }
+  }
+  photoScale_.assign(in_.photos.size(), 1);
+  for (size_t p = 0; p < in_.photos.size(); ++p)
+    if (surfaceArea[p] > 0 && pixelArea[p] > 0) photoScale_[p] = std::sqrt(pixelArea[p] / surfaceArea[p]);
+  std::vector<char> isFixed(nv, 0);
+  for (int v : in_.fixedVertices)
+    if (v >= 0 && v < nv) isFixed[v] = 1;
+  for (Side& s : sides_) {
+    s.fixed = isFixed[s.vertex];
+    s.closed = static_cast<int>(s.corners.size()) == valence[s.vertex];
+    for (const auto& [f, k] : s.corners) {
+      if (faceSign_[f] == 0) s.fixed = true;
+      for (int j = 1; j < 3; ++j) s.scale = std::max(s.scale, (uvOf(f, (k + j) % 3) - s.uv).norm());
+    }
+  }
+}
+
+void SeamOptimiser::buildSeams() {
+  const TextureMap& map = *in_.map;
+  const int nf = mesh_.numFaces();
+  std::unordered_map<uint64_t, std::vector<std::pair<int, int>>> edgeFaces;  // edge -> (face, corner of its start)
+  edgeFaces.reserve(size_t(nf) * 2);
+  for (int f = 0; f < nf; ++f) {
+    const auto fv = mesh_.faceVertices(f);
+    for (int k = 0; k < 3; ++k) edgeFaces[edgeKey(fv[k], fv[(k + 1) % 3])].emplace_back(f, k);
+  }
+  for (const auto& [key, faces] : edgeFaces) {
+    if (faces.size() != 2) continue;
+    const auto [f, kf] = faces[0];
+    const auto [g, kg] = faces[1];
+    if (map.facePhoto[f] < 0 || map.facePhoto[g] < 0) continue;
+    // f runs a -> b from corner kf; g runs b -> a from corner kg (consistent orientation).
+    SeamEdge e;
+    e.f = f, e.g = g;
+    e.s = {faceSide_[f][kf], faceSide_[f][(kf + 1) % 3], faceSide_[f][(kf + 2) % 3]};
+    const auto gv = mesh_.faceVertices(g);
+    const int a = mesh_.faceVertices(f)[kf];
+    const int ga = gv[kg] == a ? kg : (kg + 1) % 3;  // g's corner at a
+    const int gb = gv[kg] == a ? (kg + 1) % 3 : kg;
+    e.t = {faceSide_[g][ga], faceSide_[g][gb], faceSide_[g][3 - ga - gb]};
+    if (e.s[0] == e.t[0] && e.s[1] == e.t[1]) continue;  // continuous texture across the edge
+    const Vec3 pa = mesh_.position(a), pb = mesh_.position(mesh_.faceVertices(f)[(kf + 1) % 3]);
+    const Vec3 pc = mesh_.position(mesh_.faceVertices(f)[(kf + 2) % 3]), pd = mesh_.position(gv[3 - ga - gb]);
+    e.length = (pb - pa).norm();
+    if (!(e.length > 0)) continue;
+    const Vec3 ex = (pb - pa) / e.length;
+    auto hinge = [&](const Vec3& p, double sign) {
+      const Vec3 w = p - pa;
+      const double x = w.dot(ex);
+      return Vec2(x, sign * (w - x * ex).norm());
+    };
+    e.c2 = hinge(pc, +1);
+    e.d2 = hinge(pd, -1);
+    e.pixelsPerUnit = std::sqrt(photoScale_[map.facePhoto[f]] * photoScale_[map.facePhoto[g]]);
+    const double len1 = (sides_[e.s[1]].uv - sides_[e.s[0]].uv).norm();
+    const double len2 = (sides_[e.t[1]].uv - sides_[e.t[0]].uv).norm();
+    e.samples = std::clamp(int(std::ceil(std::max(len1, len2) / kSampleSpacing)), 2, kMaxSamplesPerEdge);
+    const int id = static_cast<int>(seams_.size());
+    seams_.push_back(e);
+    for (int j = 0; j < 2; ++j) {
+      sides_[e.s[j]].onSeam = sides_[e.t[j]].onSeam = true;
+      sides_[e.s[j]].edges.push_back(id);
+      sides_[e.t[j]].edges.push_back(id);
+    }
+    if (alpha_ < 1) {
+      sides_[e.s[2]].edges.push_back(id);
+      sides_[e.t[2]].edges.push_back(id);
+    }
+  }
+  for (Side& s : sides_) {
+    std::sort(s.edges.begin(), s.edges.end());
+    s.edges.erase(std::unique(s.edges.begin(), s.edges.end()), s.edges.end());
+  }
+}
+
+double SeamOptimiser::edgeError(const SeamEdge& e, double* deltaE, double* gradient) const {
+  const TextureMap& map = *in_.map;
+  const int ph1 = map.facePhoto[e.f], ph2 = map.facePhoto[e.g];
+  const cv::Mat &luv1 = luv_[ph1], &luv2 = luv_[ph2];
+  const double s1 = luvScale_[ph1], s2 = luvScale_[ph2];
+  const Vec2 a1 = sides_[e.s[0]].uv, b1 = sides_[e.s[1]].uv, c1 = sides_[e.s[2]].uv;
+  const Vec2 a2 = sides_[e.t[0]].uv, b2 = sides_[e.t[1]].uv, d2 = sides_[e.t[2]].uv;
+  const bool gradients = alpha_ < 1 || gradient;
+  // Image gradient (3 x 2, per pixel) -> hinge-plane gradient, per pixel of the reference scale.
+  Eigen::Matrix2d toPlane1 = Eigen::Matrix2d::Zero(), toPlane2 = Eigen::Matrix2d::Zero();
+  if (gradients) {
+    Eigen::Matrix2d t1, t2, h1, h2;
+    t1 << (b1 - a1), (c1 - a1);
+    t2 << (b2 - a2), (d2 - a2);
+    h1 << Vec2(e.length, 0), e.c2;
+    h2 << Vec2(e.length, 0), e.d2;
+    if (std::abs(h1.determinant()) > 1e-300) toPlane1 = t1 * h1.inverse() / e.pixelsPerUnit;
+    if (std::abs(h2.determinant()) > 1e-300) toPlane2 = t2 * h2.inverse() / e.pixelsPerUnit;
+  }
+  double sum = 0, sumDeltaE = 0, sumGradient = 0;
+  for (int k = 0; k < e.samples; ++k) {
+    const double t = (k + 0.5) / e.samples;
+    const Vec2 q1 = (1 - t) * a1 + t * b1, q2 = (1 - t) * a2 + t * b2;
+    const double de =
+        (sampleBilinear3(luv1, s1 * q1.x(), s1 * q1.y()) - sampleBilinear3(luv2, s2 * q2.x(), s2 * q2.y()))
+            .cast<double>()
+            .norm();
+    sumDeltaE += de;
+    double err = alpha_ * std::min(de / kColourNorm, 1.0);
+    if (gradients) {
+      Vec3f dx1, dy1, dx2, dy2;
+      sampleGradient3(luv1, s1 * q1.x(), s1 * q1.y(), dx1, dy1);  // per stored pixel
+      sampleGradient3(luv2, s2 * q2.x(), s2 * q2.y(), dx2, dy2);
+      dx1 *= float(s1), dy1 *= float(s1), dx2 *= float(s2), dy2 *= float(s2);  // per file pixel
+      Eigen::Matrix<double, 3, 2> g1, g2;
+      g1 << dx1.cast<double>(), dy1.cast<double>();
+      g2 << dx2.cast<double>(), dy2.cast<double>();
+      const double dg = (g1 * toPlane1 - g2 * toPlane2).norm();
+      sumGradient += dg;
+      err += (1 - alpha_) * std::min(dg / kGradientNorm, 1.0);
+    }
+    sum += err;
+  }
+  if (deltaE) *deltaE = sumDeltaE;
+  if (gradient) *gradient = sumGradient;
+  return sum;
+}
+
+double SeamOptimiser::faceStretch(int face) const {
+  const auto fv = mesh_.faceVertices(face);
+  std::array<Vec2, 3> uv = {uvOf(face, 0), uvOf(face, 1), uvOf(face, 2)};
+  // triangleStretch wants a counter-clockwise texture triangle: mirror clockwise ones (photos are y-down).
+  if (faceSign_[face] < 0)
+    for (Vec2& p : uv) p.y() = -p.y();
+  const TriangleStretch s = triangleStretch({mesh_.position(fv[0]), mesh_.position(fv[1]), mesh_.position(fv[2])}, uv);
+  if (s.flipped || !std::isfinite(s.gamma)) return kInf;
+  return s.gamma * photoScale_[in_.map->facePhoto[face]];
+}
+
+double SeamOptimiser::sideEnergy(const Side& side) const {
+  double geo = 0;
+  for (const auto& [f, k] : side.corners) geo = std::max(geo, faceStretch(f));
+  if (!std::isfinite(geo)) return kInf;
+  if (side.projected) geo = (side.uv - side.start).squaredNorm();  // no flip (above), and near the projection
+  double tex = 0;
+  int n = 0;
+  for (int e : side.edges) tex += edgeError(seams_[e]), n += seams_[e].samples;
+  if (n > 0) tex /= n;
+  return options_.lambda * geo + (1 - options_.lambda) * tex;
+}
+
+double SeamOptimiser::totalEnergy() const {
+  double tex = 0, geo = 0;
+  int n = 0, sides = 0;
+  for (const SeamEdge& e : seams_) tex += edgeError(e), n += e.samples;
+  for (const Side& s : sides_) {
+    if (!s.onSeam) continue;
+    double g = 0;
+    for (const auto& [f, k] : s.corners) g = std::max(g, faceStretch(f));
+    geo += g, ++sides;
+  }
+  return options_.lambda * (sides ? geo / sides : 0) + (1 - options_.lambda) * (n ? tex / n : 0);
+}
+
+// The largest step t along d from x that keeps every face of the side oriented as it was; unbounded
+// (open fans) is capped at twice the fan's size.
+double SeamOptimiser::maxStep(const Side& side, const Vec2& x, const Vec2& d) const {
+  double t = kInf;
+  for (const auto& [f, k] : side.corners) {
+    const Vec2 a = uvOf(f, (k + 1) % 3), b = uvOf(f, (k + 2) % 3);
+    const double g0 = faceSign_[f] * orient2(x, a, b);
+    const double dg = faceSign_[f] * cross2(b - a, d);
+    if (dg < 0) t = std::min(t, g0 / -dg);
+  }
+  t = std::min(t, 2 * side.scale / std::max(d.norm(), 1e-300));
+  return std::max(0.0, t * (1 - kMargin));
+}
+
+std::vector<int> SeamOptimiser::touchedSides(int i) const {
+  std::vector<int> out;
+  for (const auto& [f, k] : sides_[i].corners)
+    for (int j = 0; j < 3; ++j) out.push_back(faceSide_[f][j]);
+  for (int e : sides_[i].edges)
+    for (int j = 0; j < 3; ++j) out.push_back(seams_[e].s[j]), out.push_back(seams_[e].t[j]);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+double SeamOptimiser::optimiseSide(int i, std::mt19937& rng) {
+  Side& side = sides_[i];
+  const double start = sideEnergy(side);
+  if (!std::isfinite(start)) return 0;
+  double e = start;
+  Vec2 x = side.uv;
+  auto energyAt = [&](const Vec2& y) {
+    side.uv = y;
+    const double ey = sideEnergy(side);
+    side.uv = x;
+    return ey;
+  };
+  for (int s = 0; s < options_.lineSearches; ++s) {
+    const double angle = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng);
+    const Vec2 d(std::cos(angle), std::sin(angle));
+    const double lo = -maxStep(side, x, -d), hi = maxStep(side, x, d);
+    if (!(hi > lo)) continue;
+    // Coarse samples of the chord, then golden section around the best.
+    double bestT = 0, bestE = e;
+    for (int j = 0; j <= kCoarseSamples; ++j) {
+      const double t = lo + (hi - lo) * j / kCoarseSamples;
+      if (t == 0) continue;
+      const double et = energyAt(x + t * d);
+      if (et < bestE) bestE = et, bestT = t;
+    }
+    constexpr double kGolden = 0.6180339887498949;
+    const double h = (hi - lo) / kCoarseSamples;
+    double a = std::max(lo, bestT - h), b = std::min(hi, bestT + h);
+    double c = b - kGolden * (b - a), m = a + kGolden * (b - a);
+    double fc = energyAt(x + c * d), fm = energyAt(x + m * d);
+    for (int k = 0; k < options_.searchSteps; ++k) {
+      if (fc < fm) {
+        b = m, m = c, fm = fc;
+        c = b - kGolden * (b - a);
+        fc = energyAt(x + c * d);
+      } else {
+        a = c, c = m, fc = fm;
+        m = a + kGolden * (b - a);
+        fm = energyAt(x + m * d);
+      }
+    }
+    if (fc < bestE) bestE = fc, bestT = c;
+    if (fm < bestE) bestE = fm, bestT = m;
+    if (bestE < e && onForeground(side.photo, x + bestT * d)) {
+      x += bestT * d;
+      e = bestE;
+      side.uv = x;
+    }
+  }
+  return start - e;
+}
+
+void SeamOptimiser::measure(double& deltaE, double& gradient, double& maxStretch) const {
+  double de = 0, dg = 0;
+  long n = 0;
+  for (const SeamEdge& e : seams_) {
+    double a = 0, b = 0;
+    edgeError(e, &a, &b);
+    de += a, dg += b, n += e.samples;
+  }
+  deltaE = n ? de / n : 0;
+  gradient = n ? dg / n : 0;
+  maxStretch = 0;
+  for (int f = 0; f < mesh_.numFaces(); ++f)
+    if (faceSide_[f][0] >= 0 && faceSign_[f] != 0) maxStretch = std::max(maxStretch, faceStretch(f));
+}
+
+SeamResult SeamOptimiser::run() {
+  const auto start = Clock::now();
+  const TextureMap& map = *in_.map;
+  const int nf = mesh_.numFaces();
+  TM_CHECK(map.numFaces() == nf && static_cast<int>(map.cornerUV.size()) == nf,
+           "seams: the texture map has " + std::to_string(map.numFaces()) + " faces, the mesh " + std::to_string(nf));
+  for (int f = 0; f < nf; ++f)
+    TM_CHECK(map.facePhoto[f] < static_cast<int>(in_.photos.size()) && map.facePhoto[f] >= TextureMap::kEmpty,
+             "seams: face " + std::to_string(f) + " names photo " + std::to_string(map.facePhoto[f]) +
+                 ", which does not exist (" + std::to_string(in_.photos.size()) + " photos)");
+  TM_CHECK(options_.lambda >= 0 && options_.lambda <= 1,
+           "seams: seamLambda must be in [0, 1] (got " + std::to_string(options_.lambda) + ")");
+  TM_CHECK(options_.gradientWeight >= 0 && options_.gradientWeight <= 1,
+           "seams: gradientWeight must be in [0, 1] (got " + std::to_string(options_.gradientWeight) + ")");
+  alpha_ = 1 - options_.gradientWeight;
+
+  SeamResult out;
+  buildSides();
+  buildSeams();
+  measure(out.deltaEBefore, out.gradientBefore, out.maxStretchBefore);
+  std::vector<int> seamSides, neighbours;
+  std::vector<char> seamVertex(mesh_.numVertices(), 0);
+  for (int i = 0; i < static_cast<int>(sides_.size()); ++i) {
+    const Side& s = sides_[i];
+    if (s.fixed || s.edges.empty()) continue;
+    if (s.onSeam) {
+      seamSides.push_back(i);
+      seamVertex[s.vertex] = 1;
+    } else if (s.closed) {
+      neighbours.push_back(i);  // only with gradients: its edges are the seam edges its faces touch
+    }
+  }
+  out.seamEdges = static_cast<int>(seams_.size());
+  out.seamVertices = static_cast<int>(std::count(seamVertex.begin(), seamVertex.end(), 1));
+  out.neighbourVertices = static_cast<int>(neighbours.size());
+  // Alternate the sides of each vertex (section 4.2): sort the seam sides by vertex.
+  std::stable_sort(seamSides.begin(), seamSides.end(),
+                   [&](int a, int b) { return sides_[a].vertex < sides_[b].vertex; });
+  std::vector<Vec2> initial(sides_.size());
+  for (size_t i = 0; i < sides_.size(); ++i) initial[i] = sides_[i].uv;
+
+  // The order of one round: the seam sides (by vertex), then the gradient neighbours. Sides that read
+  // none of each other's UVs are independent: a greedy colouring in that order gives batches that run in
+  // parallel, batch after batch, so the result does not depend on the number of threads.
+  std::vector<int> order = seamSides;
+  order.insert(order.end(), neighbours.begin(), neighbours.end());
+  std::vector<std::vector<int>> touched(sides_.size());
+  for (int i : order) touched[i] = touchedSides(i);
+  std::vector<int> colour(sides_.size(), -1);
+  int colours = 0;
+  {
+    std::vector<std::vector<int>> readers(sides_.size());  // side -> optimised sides whose energy reads it
+    for (int i : order)
+      for (int j : touched[i]) readers[j].push_back(i);
+    std::vector<int> seen(order.size() + 1, -1);
+    for (int i : order) {
+      for (int j : touched[i])
+        if (colour[j] >= 0) seen[colour[j]] = i;  // i reads j
+      for (int r : readers[i])
+        if (colour[r] >= 0) seen[colour[r]] = i;  // r reads i
+      int c = 0;
+      while (seen[c] == i) ++c;
+      colour[i] = c;
+      colours = std::max(colours, c + 1);
+    }
+  }
+  std::vector<std::vector<int>> batches(colours);
+  for (int i : order) batches[colour[i]].push_back(i);
+
+  // Rounds over the active sides: all at first, then those a move in the last round may have changed
+  // (the moved side and every side whose UVs its energy reads).
+  // A side whose seam edges already match below the just-noticeable difference starts asleep.
+  std::vector<char> active(sides_.size(), 0), next(sides_.size(), 0);
+  std::vector<double> edgeDeltaE(seams_.size(), 0);
+  for (size_t e = 0; e < seams_.size(); ++e) edgeError(seams_[e], &edgeDeltaE[e]);
+  for (int i : order) {
+    double de = 0;
+    int n = 0;
+    for (int e : sides_[i].edges) de += edgeDeltaE[e], n += seams_[e].samples;
+    active[i] = n > 0 && de / n > kNoticeableDeltaE;
+    out.sleepingSides += !active[i];
+  }
+  double energy = totalEnergy();
+  for (int round = 0; round < options_.rounds && !order.empty(); ++round) {
+    job_.progress(StageId::Seams, double(round) / options_.rounds, "round " + std::to_string(round + 1));
+    std::vector<char> moved(sides_.size(), 0);
+    for (const std::vector<int>& batch : batches)
+      tbb::parallel_for(size_t(0), batch.size(), [&](size_t b) {
+        const int i = batch[b];
+        if (!active[i]) return;
+        std::seed_seq seq{options_.seed, unsigned(round), unsigned(i)};
+        std::mt19937 rng(seq);
+        const double e = sideEnergy(sides_[i]);
+        const double gain = optimiseSide(i, rng);
+        moved[i] = gain > kSideGain * e;
+      });
+    std::fill(next.begin(), next.end(), 0);
+    for (int i : order)
+      if (moved[i])
+        for (int j : touched[i]) next[j] = 1;
+    active.swap(next);
+    out.rounds = round + 1;
+    const double after = totalEnergy();
+    const bool falls = after < energy * (1 - kStopGain);
+    energy = after;
+    if (!falls || std::find(active.begin(), active.end(), 1) == active.end()) break;
+  }
+  for (size_t i = 0; i < sides_.size(); ++i) out.movedSides += sides_[i].uv != initial[i];
+
+  out.map = map;
+  for (int f = 0; f < nf; ++f)
+    if (faceSide_[f][0] >= 0)
+      for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = uvOf(f, k);
+  measure(out.deltaEAfter, out.gradientAfter, out.maxStretchAfter);
+  // Per face: mean Delta E over its seam edges' samples.
+  std::vector<double> sum(nf, 0);
+  std::vector<int> count(nf, 0);
+  for (const SeamEdge& e : seams_) {
+    double de = 0;
+    edgeError(e, &de);
+    for (int f : {e.f, e.g}) sum[f] += de, count[f] += e.samples;
+  }
+  out.faceError.assign(nf, -1.f);
+  for (int f = 0; f < nf; ++f)
+    if (count[f] > 0) out.faceError[f] = float(sum[f] / count[f]);
+  out.seconds = secondsSince(start);
+  job_.progress(StageId::Seams, 1.0);
+  return out;
+}
+
+}  // namespace
+
+SeamResult optimiseSeams(const SeamInput& input, const SeamOptions& options, const JobControl& job) {
+  TM_CHECK(input.mesh && input.map, "seams: no mesh or no texture map");
+  SeamOptimiser optimiser(input, options, job);
+  return optimiser.run();
+}
+
+}  // namespace montage

@@ -1,0 +1,70 @@
+// Paper sections 4.2 and 4.3: content-based optimisation of the texture coordinates along the seams,
+// as a pass over the final texture map (docs/pipeline.md explains why it does not run inside the
+// coarse-to-fine replay as in the paper).
+//
+// A vertex on a seam (an edge whose two faces show different photos, or the same photo through
+// different texture coordinates) has one UV per side. Each side's UV moves by random line searches
+// (Sander et al. 2001) that minimise
+//     E_boundary = lambda * E_geo + (1 - lambda) * E_tex                                    (eq. 2)
+// where E_geo is the L-infinity stretch of the side's faces (Sander's, normalised per photo so that
+// 1 = isometric at the photo's mean scale) and E_tex the mean, over sample points spaced under half a
+// pixel in both photos along the vertex's seam edges, of
+//     alpha * |I1(s) - I2(s)|_LUV / 100 + (1 - alpha) * |G'1(s) - G'2(s)| / 50               (eq. 3, 4)
+// each term clamped to [0, 1], with bilinear samples of the photos' L*u*v* images. G' is the colour
+// gradient carried into the plane of the hinge map of the edge's two triangles (section 4.3); with
+// gradients on (alpha < 1) the one-ring neighbours inside the patches move too, since they change
+// that map. The sides of a vertex alternate, each search seeing the other side's latest position.
+// Feature vertices never move; no texture triangle flips; no vertex lands on a photo's background.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "base/common.h"
+#include "base/job.h"
+#include "mapping/texture_map.h"
+
+namespace montage {
+
+struct Mesh;
+struct Photo;
+
+struct SeamOptions {
+  double lambda = 0.1;        // weight of E_geo against E_tex (eq. 2): higher keeps the stretch lower, 1 = no move
+  int rounds = 30;            // alternating rounds over the seam vertices (fewer when E stops falling); 0 = off
+  double gradientWeight = 0;  // 1 - alpha of eq. (4): weight of the gradient mismatch against the colour one
+  int lineSearches = 4;       // random directions per side and round
+  int searchSteps = 6;        // golden-section steps per line search (after 6 coarse samples of the chord)
+  unsigned seed = 1;          // random directions: runs are repeatable
+};
+
+struct SeamInput {
+  const Mesh* mesh = nullptr;       // the mesh the map is over (Partition::mesh)
+  const TextureMap* map = nullptr;  // per face a photo and its corner UVs in pixels
+  std::vector<const Photo*> photos;
+  std::vector<int> fixedVertices;  // vertices whose UVs never move (Partition::featureVertex; -1 entries ignored)
+  // Per photo (empty = none): photos mapped by a camera's projection (mapping/projection.h). There the
+  // projection is the geometric truth, so E_geo of a side in such a photo is its squared distance from
+  // where the projection put it, in pixels, instead of the stretch (which would pull it off the truth).
+  std::vector<char> projectedPhotos;
+};
+
+struct SeamResult {
+  TextureMap map;                // the input map with the seam vertices (and, with gradients, their neighbours) moved
+  std::vector<float> faceError;  // #F: mean Delta E*uv over the samples of the face's seam edges; -1 = no seam edge
+  int seamEdges = 0, seamVertices = 0;  // edges with a texture discontinuity; non-feature vertices on them
+  int neighbourVertices = 0;            // one-ring neighbours optimised for the gradient term
+  int sleepingSides = 0;  // sides left as they were: their seams matched below the noticeable difference at the start
+  int movedSides = 0;     // vertex sides whose UV moved
+  int rounds = 0;         // rounds run
+  double deltaEBefore = 0, deltaEAfter = 0;          // mean Delta E*uv over all seam samples
+  double gradientBefore = 0, gradientAfter = 0;      // mean |G'1 - G'2| (L*u*v* per pixel) over seam samples
+  double maxStretchBefore = 0, maxStretchAfter = 0;  // L-infinity stretch over mapped faces, normalised per photo
+  double seconds = 0;
+};
+
+// Runs sections 4.2-4.3 on `input.map`. Throws montage::Error when the map does not match the mesh or
+// names a photo that does not exist; montage::Cancelled when the job is cancelled.
+SeamResult optimiseSeams(const SeamInput& input, const SeamOptions& options = {}, const JobControl& job = {});
+
+}  // namespace montage

@@ -1,0 +1,57 @@
+// Texture synthesis in a hole (inpaintMode "synthesis", the paper's future work): the hole and a band
+// of mapped faces around it are flattened into one chart (LSCM), the band is drawn into it from the
+// photos (levelled colours), and the hole's texels are synthesised from the band by exemplar-based
+// inpainting (OpenCV xphoto shift-map, He and Sun 2012: it copies whole patches, so fur, stripes and
+// skin keep their structure). inpaint.cpp then takes the synthesised colours as the guidance of its
+// Poisson solve (d = their Laplacian), so the border blends into the photos without a seam.
+#pragma once
+
+#include <array>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "base/common.h"
+#include "mapping/texture_map.h"
+
+namespace montage {
+
+struct Mesh;
+struct Photo;
+struct SeamLevelling;
+
+struct SynthesisOptions {
+  double bandAreaRatio = 3;  // band of mapped faces around the hole: this many times the hole's area (3 = as wide
+                             // as a round hole's radius), grown ring by ring
+  int maxRings = 24;         // at most this many rings of faces in the band
+  int maxCanvas = 640;       // largest side of the chart's canvas in texels (coarser texels beyond)
+  double blur = 0;           // Gaussian blur of the synthesised texture, sigma in units of the hole's radius
+                             // (sqrt(area / pi)): keeps the structure that continues from the border, drops
+                             // the grain (0 = the texture as synthesised)
+};
+
+struct SynthesisInput {
+  const Mesh* mesh = nullptr;  // the mesh the map is over
+  const TextureMap* map = nullptr;
+  std::vector<const Photo*> photos;
+  const SeamLevelling* levelling = nullptr;  // offsets added to photo colours (may be null)
+  std::vector<int> holeFaces;                // the hole: faces of `mesh` without a photo, edge-connected
+  double texelsPerUnit = 0;                  // canvas density (texels per model unit)
+};
+
+struct SynthesisResult {
+  bool ok = false;
+  std::string note;                         // what was done, or why it failed (the caller then falls back)
+  std::vector<int> faceSlot;                // #F of mesh: index into `corner`, or -1 for faces not in the chart
+  std::vector<std::array<Vec2, 3>> corner;  // per chart face: its corners on the canvas (pixels)
+  cv::Mat image;                            // CV_32FC3 sRGB [0,1]: band from the photos, hole synthesised
+  cv::Mat known;                            // CV_8UC1: 255 where the canvas came from a photo
+  int bandFaces = 0, rings = 0;
+  // The synthesised colour at barycentrics b of face f (which must be in the chart).
+  Vec3f colorAt(int face, const Vec3& b) const;
+};
+
+// Synthesises one hole; never throws for a hole it cannot chart (ok = false and a note instead).
+SynthesisResult synthesiseHole(const SynthesisInput& input, const SynthesisOptions& options = {});
+
+}  // namespace montage

@@ -1,0 +1,474 @@
+// Camera-aware mapping (issue 11): the camera fit per photo (mapping/camera.h), projection mapping and
+// view selection (mapping/projection.h, mapping/view_select.h), proposals (mapping/proposals.h), the
+// synthetic click noise and the projection oracle, on synthetic scenes whose cameras are known.
+#include "mapping/camera.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numeric>
+#include <random>
+
+#include "bench/eval.h"
+#include "bench/synth.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "mapping/projection.h"
+#include "mapping/proposals.h"
+#include "mapping/view_select.h"
+#include "pipeline.h"
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+using namespace montage;
+
+namespace {
+
+std::string demoMeshPath() {
+  return test::testDataDir() + "/turtle.obj";
+}
+
+SurfaceColor patternOf(const Mesh& mesh) {
+  Vec3 lo, hi;
+  mesh.bounds(lo, hi);
+  const double scale = 0.25 * (hi - lo).norm();
+  return [&mesh, scale](int f, const Vec3& b) {
+    const auto q = mesh.facePositions(f);
+    return solidPattern(b[0] * q[0] + b[1] * q[1] + b[2] * q[2], scale);
+  };
+}
+
+// A synthetic scene of the demo mesh (always present), written to a fresh folder.
+struct DemoScene {
+  std::unique_ptr<Mesh> mesh;
+  SynthScene scene;
+  std::string dir;
+};
+
+DemoScene demoScene(const std::string& tag, int views, int features, double noise = 0, int size = 512) {
+  DemoScene d;
+  d.mesh = requireUsable(loadMesh(demoMeshPath()));
+  SynthOptions o;
+  o.views = views;
+  o.features = features;
+  o.size = size;
+  o.clickNoisePx = noise;
+  d.scene = synthesize(*d.mesh, demoMeshPath(), patternOf(*d.mesh), o);
+  d.dir = test::tempDir(tag);
+  writeSynthScene(d.scene, d.dir);
+  return d;
+}
+
+PhotoCamera trueCamera(const SynthScene& s, int k) {
+  PhotoCamera c;
+  c.pinhole = s.cameras[k];
+  return c;
+}
+
+// Largest distance between two cameras' projections of the mesh's vertices that both see in front.
+double projectionGap(const Mesh& mesh, const PhotoCamera& a, const PhotoCamera& b) {
+  double worst = 0;
+  for (int v = 0; v < mesh.numVertices(); ++v) {
+    Vec2 pa, pb;
+    if (!a.project(mesh.position(v), pa) || !b.project(mesh.position(v), pb)) continue;
+    if (pa.x() < 0 || pa.y() < 0 || pa.x() > a.pinhole.width || pa.y() > a.pinhole.height) continue;
+    worst = std::max(worst, (pa - pb).norm());
+  }
+  return worst;
+}
+
+}  // namespace
+
+// ---- Camera fit ----
+
+void expectRecoversCameras(const Mesh& mesh, const SynthScene& s) {
+  for (int k = 0; k < static_cast<int>(s.cameras.size()); ++k) {
+    const std::vector<CameraClick> clicks = photoClicks(s.project, k);
+    ASSERT_GE(clicks.size(), 6u) << "photo " << k;
+    const CameraFit fit = fitCamera(mesh, clicks, s.options.size, s.options.size);
+    ASSERT_TRUE(fit.fits) << "photo " << k << ": " << fit.reason;
+    EXPECT_NEAR(fit.camera.focal() / s.cameras[k].fx, 1.0, 0.01) << "photo " << k;
+    EXPECT_EQ(fit.inliers, static_cast<int>(clicks.size()));
+    EXPECT_LT(fit.maxResidual, 0.1) << "photo " << k;
+    for (double r : fit.residual) EXPECT_LT(r, 0.1);
+    EXPECT_LT((fit.camera.pinhole.center() - s.cameras[k].center()).norm(), 1e-3 * s.cameras[k].center().norm());
+    EXPECT_LT(projectionGap(mesh, trueCamera(s, k), fit.camera), 0.1) << "photo " << k;
+  }
+}
+
+TEST(CameraFit, RecoversSynthCamerasOfTheDemoMesh) {
+  DemoScene d = demoScene("camera_fit_demo", 4, 120);
+  expectRecoversCameras(*d.mesh, d.scene);
+}
+
+TEST(CameraFit, RecoversSynthCamerasOfSpot) {
+  TM_REQUIRE_SHARED(obj, "meshes/spot/spot_triangulated.obj");
+  auto mesh = requireUsable(loadMesh(obj));
+  SynthOptions o;
+  o.views = 6;
+  o.features = 150;
+  o.size = 800;
+  const SynthScene s = synthesize(*mesh, obj, patternOf(*mesh), o);
+  expectRecoversCameras(*mesh, s);
+}
+
+TEST(CameraFit, OneWrongClickAmongThirtyIsAnOutlierAndTheFitIsUnchanged) {
+  DemoScene d = demoScene("camera_fit_outlier", 4, 200);
+  std::vector<CameraClick> clicks = photoClicks(d.scene.project, 0);
+  ASSERT_GE(clicks.size(), 30u);
+  clicks.resize(30);
+  const CameraFit clean = fitCamera(*d.mesh, std::vector<CameraClick>(clicks.begin() + 1, clicks.end()), 512, 512);
+  ASSERT_TRUE(clean.fits);
+  // The first click is put 40 px away from where its vertex is.
+  clicks[0].pixel += Vec2(28, -28.5);
+  const CameraFit fit = fitCamera(*d.mesh, clicks, 512, 512);
+  ASSERT_TRUE(fit.fits) << fit.reason;
+  EXPECT_FALSE(fit.inlier[0]);
+  EXPECT_NEAR(fit.residual[0], 40, 0.5);
+  EXPECT_EQ(fit.inliers, 29);
+  for (int i = 1; i < 30; ++i) EXPECT_TRUE(fit.inlier[i]) << i;
+  EXPECT_NEAR(fit.camera.focal() / clean.camera.focal(), 1.0, 1e-6);
+  EXPECT_LT(projectionGap(*d.mesh, clean.camera, fit.camera), 1e-3);
+  // Without the robust start and re-classification the wrong click would pull the camera: a plain
+  // least-squares fit of all 30 (threshold so large that every click agrees) moves the projection.
+  CameraFitOptions loose;
+  loose.thresholdFraction = 1;
+  const CameraFit pulled = fitCamera(*d.mesh, clicks, 512, 512, loose);
+  EXPECT_GT(projectionGap(*d.mesh, clean.camera, pulled.camera), 0.5);
+}
+
+TEST(CameraFit, TooFewOrInconsistentClicksDoNotFit) {
+  DemoScene d = demoScene("camera_fit_few", 4, 200);
+  std::vector<CameraClick> clicks = photoClicks(d.scene.project, 0);
+  ASSERT_GE(clicks.size(), 20u);
+  const CameraFit five = fitCamera(*d.mesh, std::vector<CameraClick>(clicks.begin(), clicks.begin() + 5), 512, 512);
+  EXPECT_FALSE(five.fits);
+  EXPECT_NE(five.reason.find("at least 6"), std::string::npos) << five.reason;
+  // The positions shuffled among the vertices: a photo of something else.
+  std::vector<CameraClick> shuffled = clicks;
+  std::mt19937 rng(3);
+  for (size_t i = shuffled.size() - 1; i > 0; --i) std::swap(shuffled[i].pixel, shuffled[rng() % (i + 1)].pixel);
+  const CameraFit other = fitCamera(*d.mesh, shuffled, 512, 512);
+  EXPECT_FALSE(other.fits);
+  EXPECT_NE(other.reason.find("another subject"), std::string::npos) << other.reason;
+  EXPECT_NE(describeFit(other).find("does not fit"), std::string::npos);
+  // Bad input is an error naming the click.
+  std::vector<CameraClick> bad = clicks;
+  bad[3].vertex = d.mesh->numVertices();
+  EXPECT_NE(test::errorOf([&] { fitCamera(*d.mesh, bad, 512, 512); }).find("clicks[3].vertex"), std::string::npos);
+}
+
+TEST(CameraFit, RadialDistortionIsFittedWhenThePhotoHasIt) {
+  DemoScene d = demoScene("camera_fit_radial", 4, 250);
+  const int k = 1;
+  PhotoCamera distorted = trueCamera(d.scene, k);
+  distorted.k1 = -0.15;
+  std::vector<CameraClick> clicks = photoClicks(d.scene.project, k);
+  for (CameraClick& c : clicks) ASSERT_TRUE(distorted.project(d.mesh->position(c.vertex), c.pixel));
+  const CameraFit fit = fitCamera(*d.mesh, clicks, 512, 512);
+  ASSERT_TRUE(fit.fits) << fit.reason;
+  EXPECT_NEAR(fit.camera.k1, -0.15, 0.01);
+  EXPECT_LT(fit.maxResidual, 0.05);
+  CameraFitOptions pinholeOnly;
+  pinholeOnly.radialDistortion = false;
+  const CameraFit plain = fitCamera(*d.mesh, clicks, 512, 512, pinholeOnly);
+  EXPECT_EQ(plain.camera.k1, 0);
+  EXPECT_GT(plain.rmsResidual, 5 * fit.rmsResidual);
+  // Exact undistorted clicks do not get radial terms (the F-test keeps them out).
+  const CameraFit exact = fitCamera(*d.mesh, photoClicks(d.scene.project, k), 512, 512);
+  EXPECT_EQ(exact.camera.k1, 0);
+  EXPECT_EQ(exact.camera.k2, 0);
+}
+
+TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
+  DemoScene d = demoScene("camera_fit_silhouette", 4, 150, 1.0, 768);
+  for (int k = 0; k < 4; ++k) {
+    const Photo photo = loadPhoto(d.dir + "/photo_" + std::to_string(k) + ".png");
+    ASSERT_TRUE(photo.hasBackground);
+    CameraFit fit = fitCamera(*d.mesh, photoClicks(d.scene.project, k), 768, 768);
+    ASSERT_TRUE(fit.fits) << fit.reason;
+    const double before = projectionGap(*d.mesh, trueCamera(d.scene, k), fit.camera);
+    refineOnSilhouette(*d.mesh, photo, fit);
+    const double after = projectionGap(*d.mesh, trueCamera(d.scene, k), fit.camera);
+    EXPECT_GT(fit.silhouettePoints, 100) << "photo " << k;
+    EXPECT_LT(fit.silhouetteResidualPx, 0.5) << "photo " << k;
+    EXPECT_LT(after, 0.5 * before) << "photo " << k << ": " << before << " -> " << after << " px";
+    EXPECT_LT(after, 0.5) << "photo " << k;
+    EXPECT_NE(fit.reason.find("on the silhouette"), std::string::npos);
+  }
+  // Exact clicks need no silhouette: the fit is left as it is.
+  DemoScene exact = demoScene("camera_fit_silhouette_exact", 2, 100, 0, 512);
+  const Photo photo = loadPhoto(exact.dir + "/photo_0.png");
+  CameraFit fit = fitCamera(*exact.mesh, photoClicks(exact.scene.project, 0), 512, 512);
+  const double focal = fit.camera.focal();
+  refineOnSilhouette(*exact.mesh, photo, fit);
+  EXPECT_EQ(fit.silhouettePoints, 0);
+  EXPECT_EQ(fit.camera.focal(), focal);
+}
+
+// ---- Synthetic click noise ----
+
+TEST(CameraSynth, ClickNoiseIsSeededGaussian) {
+  auto mesh = requireUsable(loadMesh(demoMeshPath()));
+  SynthOptions o;
+  o.views = 3;
+  o.features = 120;
+  o.size = 512;
+  const SynthScene exact = synthesize(*mesh, demoMeshPath(), patternOf(*mesh), o);
+  o.clickNoisePx = 1.5;
+  const SynthScene noisy = synthesize(*mesh, demoMeshPath(), patternOf(*mesh), o);
+  const SynthScene again = synthesize(*mesh, demoMeshPath(), patternOf(*mesh), o);
+  ASSERT_EQ(exact.project.points.size(), noisy.project.points.size());
+  EXPECT_TRUE(noisy.project.points == again.project.points);  // repeatable
+  double sum2 = 0;
+  int n = 0;
+  for (size_t i = 0; i < exact.project.points.size(); ++i)
+    for (size_t j = 0; j < exact.project.points[i].at.size(); ++j) {
+      const PhotoPoint& a = exact.project.points[i].at[j];
+      const PhotoPoint& b = noisy.project.points[i].at[j];
+      sum2 += (a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y);
+      n += 2;
+    }
+  ASSERT_GT(n, 100);
+  EXPECT_NEAR(std::sqrt(sum2 / n), 1.5, 0.25);
+  o.clickNoisePx = -1;
+  EXPECT_NE(test::errorOf([&] { synthesize(*mesh, demoMeshPath(), patternOf(*mesh), o); }).find("clickNoisePx"),
+            std::string::npos);
+}
+
+// ---- Potts labelling ----
+
+TEST(ViewSelect, AlphaExpansionMatchesBruteForceOnSmallProblems) {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 40; ++trial) {
+    PottsProblem p;
+    p.numNodes = 7;
+    p.numLabels = 3;
+    for (int i = 0; i < p.numNodes * p.numLabels; ++i)
+      p.cost.push_back(rng() % 5 == 0 && i % p.numLabels != (i / p.numLabels) % p.numLabels  // one label always allowed
+                           ? PottsProblem::kForbidden
+                           : (rng() % 100) / 10.0);
+    for (int l = 0; l < p.numLabels; ++l) p.cost[l] = l == 1 ? 0.5 : PottsProblem::kForbidden;  // node 0: only 1
+    for (int a = 0; a < p.numNodes; ++a)
+      for (int b = a + 1; b < p.numNodes; ++b)
+        if (rng() % 3 == 0) p.edges.push_back({a, b}), p.weights.push_back((rng() % 60) / 10.0);
+    double best = PottsProblem::kForbidden;
+    std::vector<int> labels(p.numNodes, 0);
+    for (int code = 0; code < 2187; ++code) {  // 3^7
+      int c = code;
+      for (int n = 0; n < p.numNodes; ++n) labels[n] = c % 3, c /= 3;
+      best = std::min(best, p.energy(labels));
+    }
+    PottsStats stats;
+    const std::vector<int> solved = solvePotts(p, std::vector<int>(p.numNodes, -1), 8, &stats);
+    const double e = p.energy(solved);
+    ASSERT_TRUE(std::isfinite(best));
+    ASSERT_TRUE(std::isfinite(e));
+    EXPECT_EQ(solved[0], 1);
+    // Alpha-expansion is within a factor 2 of the optimum for Potts (Boykov et al. 2001).
+    EXPECT_LE(e, 2 * best + 1e-9) << "trial " << trial;
+    EXPECT_LE(stats.finalEnergy, stats.initialEnergy);
+  }
+}
+
+TEST(ViewSelect, SmoothnessRemovesIsolatedLabels) {
+  // A chain of 20 nodes preferring label 0, except node 10 that slightly prefers 1.
+  PottsProblem p;
+  p.numNodes = 20;
+  p.numLabels = 2;
+  for (int n = 0; n < p.numNodes; ++n) {
+    p.cost.push_back(n == 10 ? 0.6 : 0.0);
+    p.cost.push_back(n == 10 ? 0.0 : 0.6);
+  }
+  for (int n = 0; n + 1 < p.numNodes; ++n) p.edges.push_back({n, n + 1}), p.weights.push_back(1.0);
+  const std::vector<int> smooth = solvePotts(p, std::vector<int>(20, -1));
+  EXPECT_EQ(smooth[10], 0);
+  for (double& w : p.weights) w = 0.1;
+  EXPECT_EQ(solvePotts(p, std::vector<int>(20, -1))[10], 1);
+}
+
+// ---- Pipeline: projection path, paper path, mixed projects, proposals ----
+
+TEST(CameraPipeline, PhotosOfTheObjectAreMappedByProjectionWithClicksExact) {
+  DemoScene d = demoScene("camera_pipeline_projection", 4, 150, 1.0);
+  const Project project = loadProject(d.dir + "/project.json");
+  Pipeline pipeline;
+  const PipelineResult r = pipeline.run(project);
+  ASSERT_TRUE(r.cameras);
+  EXPECT_EQ(r.cameras->fitted, 4);
+  const nlohmann::json report = r.report();
+  ASSERT_EQ(report["cameras"].size(), 4u);
+  for (const auto& c : report["cameras"]) {
+    EXPECT_EQ(c["path"], "projection");
+    EXPECT_NEAR(c["focal_px"].get<double>() / d.scene.cameras[0].fx, 1.0, 0.15);  // 1 px noise at 512 px
+    EXPECT_GT(c["residual_median_px"].get<double>(), 0.3);                        // the click noise
+    EXPECT_LT(c["residual_max_px"].get<double>(), 5.0);
+  }
+  // Every click of a photo lands exactly where it was clicked, in every face mapped to that photo.
+  const Mapping& m = *r.mapping;
+  const Mesh& mesh = m.partition.mesh;
+  int checked = 0;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    const int p = m.map.facePhoto[f];
+    if (p < 0) continue;
+    const auto c = mesh.faceVertices(f);
+    for (int k = 0; k < 3; ++k)
+      for (const FeaturePoint& point : project.points)
+        if (point.vertex == c[k])
+          for (const PhotoPoint& at : point.at)
+            if (at.photo == p) {
+              EXPECT_LT((m.map.cornerUV[f][k] - Vec2(at.x, at.y)).norm(), 1e-6);
+              ++checked;
+            }
+  }
+  EXPECT_GT(checked, 100);
+  // The stages and their order.
+  std::vector<StageId> order;
+  for (const StageRecord& s : r.stages) order.push_back(s.stage);
+  const std::vector<StageId> expected = {StageId::Load,       StageId::Camera,  StageId::Partition, StageId::Map,
+                                         StageId::Projection, StageId::Balance, StageId::Seams,     StageId::Level,
+                                         StageId::Inpaint,    StageId::Bake};
+  EXPECT_EQ(order, expected);
+  // Most of what the photos see is mapped; no flip.
+  EXPECT_GT(r.projection->result.seenFaces, mesh.numFaces() / 2);
+  EXPECT_EQ(r.projection->result.emptyFaces, mesh.numFaces() - m.map.numMapped());
+}
+
+TEST(CameraPipeline, PhotosOfAnotherSubjectTakeThePapersPath) {
+  // The demo: real photos of a tiger clicked onto a cat. No camera explains them.
+  {
+    const PipelineResult demo = Pipeline().run(loadProject(test::assetsDir() + "/demo/project.json"));
+    ASSERT_TRUE(demo.cameras);
+    EXPECT_EQ(demo.cameras->fitted, 0);
+    for (const auto& c : demo.report()["cameras"]) EXPECT_EQ(c["path"], "paper");
+  }
+  // A synthetic scene fits; with its points shuffled between vertices it is a photo of another subject.
+  DemoScene d = demoScene("camera_pipeline_shuffled", 3, 150);
+  Project project = loadProject(d.dir + "/project.json");
+  EXPECT_EQ(Pipeline().run(project).cameras->fitted, 3);
+  std::vector<int> vertices;
+  for (const FeaturePoint& p : project.points) vertices.push_back(p.vertex);
+  std::mt19937 rng(11);
+  std::shuffle(vertices.begin(), vertices.end(), rng);
+  for (size_t i = 0; i < vertices.size(); ++i) project.points[i].vertex = vertices[i];
+  Pipeline pipeline;
+  const PipelineResult r = pipeline.run(project);
+  ASSERT_TRUE(r.cameras);
+  EXPECT_EQ(r.cameras->fitted, 0);
+  for (const CameraFit& fit : r.cameras->fits) {
+    EXPECT_FALSE(fit.fits);
+    EXPECT_FALSE(fit.reason.empty());
+  }
+  // The paper's path ran and its mapping is the final one.
+  EXPECT_EQ(r.projection->result.fittedPhotos, 0);
+  EXPECT_EQ(r.mapping.get(), r.projection->mapping.get());
+  EXPECT_GT(r.mapping->partition.paths.size(), 0u);
+  EXPECT_TRUE(r.proposals.empty());
+  for (const auto& c : r.report()["cameras"]) EXPECT_EQ(c["path"], "paper");
+}
+
+TEST(CameraPipeline, MixedProjectsKeepEachPhotosPath) {
+  DemoScene d = demoScene("camera_pipeline_mixed", 3, 150);
+  Project project = loadProject(d.dir + "/project.json");
+  // Photo 2's positions shuffled among its points: it no longer fits.
+  std::vector<PhotoPoint*> inTwo;
+  for (FeaturePoint& p : project.points)
+    for (PhotoPoint& at : p.at)
+      if (at.photo == 2) inTwo.push_back(&at);
+  ASSERT_GE(inTwo.size(), 10u);
+  std::mt19937 rng(2);
+  for (size_t i = inTwo.size() - 1; i > 0; --i) {
+    PhotoPoint* other = inTwo[rng() % (i + 1)];
+    std::swap(inTwo[i]->x, other->x);
+    std::swap(inTwo[i]->y, other->y);
+  }
+  Pipeline pipeline;
+  const PipelineResult r = pipeline.run(project);
+  ASSERT_EQ(r.cameras->fits.size(), 3u);
+  EXPECT_TRUE(r.cameras->fits[0].fits);
+  EXPECT_TRUE(r.cameras->fits[1].fits);
+  EXPECT_FALSE(r.cameras->fits[2].fits);
+  const nlohmann::json report = r.report();
+  EXPECT_EQ(report["cameras"][0]["path"], "projection");
+  EXPECT_EQ(report["cameras"][2]["path"], "paper");
+  // Faces the paper's path gave to photo 2 keep photo 2 and their UVs; the others are projected.
+  const ProjectionResult& pr = r.projection->result;
+  EXPECT_EQ(pr.photoProjectedFaces[2], 0);
+  EXPECT_GT(pr.photoProjectedFaces[0], 0);
+  EXPECT_GT(pr.photoProjectedFaces[1], 0);
+  bool warned = false;
+  for (const std::string& w : r.warnings) warned |= w.find("photo 2 takes the paper's path") != std::string::npos;
+  EXPECT_TRUE(warned);
+  // The camera option off sends every photo down the paper's path.
+  project.options.cameraMode = CameraMode::Off;
+  const PipelineResult off = pipeline.run(project);
+  EXPECT_EQ(off.cameras->fitted, 0);
+  EXPECT_EQ(off.projection->result.fittedPhotos, 0);
+  EXPECT_EQ(off.projection->result.map.numFaces(), 0);  // nothing projected: the paper's map goes on to the seams
+}
+
+TEST(CameraPipeline, ProposalsLieWithinOnePixelOfTheTrueProjection) {
+  DemoScene d = demoScene("camera_pipeline_proposals", 4, 150, 0, 768);
+  Project project = loadProject(d.dir + "/project.json");
+  // Remove photo 1's click of every other point that is also clicked elsewhere.
+  std::vector<int> removed;
+  for (size_t i = 0; i < project.points.size(); i += 2) {
+    auto& at = project.points[i].at;
+    const auto it = std::find_if(at.begin(), at.end(), [](const PhotoPoint& a) { return a.photo == 1; });
+    if (it != at.end() && at.size() >= 2) {
+      at.erase(it);
+      removed.push_back(static_cast<int>(i));
+    }
+  }
+  ASSERT_GE(removed.size(), 5u);
+  project.declinedProposals.push_back({project.points[removed[0]].vertex, 1});
+  const PipelineResult r = Pipeline().run(project);
+  int found = 0;
+  for (const Proposal& p : r.proposals) {
+    Vec2 truth;
+    ASSERT_TRUE(d.scene.cameras[p.photo].project(d.mesh->position(p.vertex), truth));
+    EXPECT_LT((p.pixel - truth).norm(), 1.0) << "point " << p.point << " photo " << p.photo;
+    EXPECT_FALSE(p.point == removed[0] && p.photo == 1);                                   // declined
+    for (const PhotoPoint& at : project.points[p.point].at) EXPECT_NE(at.photo, p.photo);  // never where clicked
+    found += p.photo == 1 && std::find(removed.begin(), removed.end(), p.point) != removed.end();
+  }
+  // Most of the removed clicks come back as proposals (all but the declined one, where photo 1 sees them).
+  EXPECT_GE(found, static_cast<int>(removed.size()) - 2);
+  EXPECT_EQ(r.report()["proposals"].size(), r.proposals.size());
+}
+
+TEST(CameraPipeline, ExactClicksComeWithinOneAndAHalfDecibelsOfTheOracle) {
+  TM_REQUIRE_SHARED(obj, "meshes/spot/spot_triangulated.obj");
+  TM_REQUIRE_SHARED(png, "meshes/spot/spot_texture.png");
+  auto mesh = requireUsable(loadMesh(obj));
+  const TexturedModel truth = modelFromMesh(*mesh, readImageRgba8(png));
+  SynthOptions o;
+  o.views = 4;
+  o.features = 150;
+  o.size = 768;
+  const SynthScene s = synthesize(
+      *mesh, obj, [&truth](int f, const Vec3& b) { return truth.colorAt(f, b); }, o);
+  const std::string dir = test::tempDir("camera_oracle");
+  writeSynthScene(s, dir);
+  const Project project = loadProject(dir + "/project.json");
+  const PipelineResult result = Pipeline().run(project);
+  std::vector<PhotoCamera> cameras = readSynthCameras(dir + "/cameras.json");
+  ASSERT_EQ(cameras.size(), 4u);
+  EXPECT_EQ(cameras[2].pinhole.R, s.cameras[2].R);
+  const PipelineResult oracle = projectionOracle(project, cameras);
+  EvalOptions eo;
+  eo.samples = 60000;
+  const EvalResult a = evaluate(*result.model, truth, eo), b = evaluate(*oracle.model, truth, eo);
+  EXPECT_GE(a.psnrCovered, b.psnrCovered - 1.5);
+  EXPECT_GT(b.psnrCovered, 30);
+  EXPECT_EQ(a.flippedTriangles, 0);
+  EXPECT_LE(a.coverageInpainted + a.coverageEmpty, b.coverageInpainted + b.coverageEmpty + 0.05);
+  // The paper's path alone (camera fit off) is far below: the reason for this path.
+  Project paper = project;
+  paper.options.cameraMode = CameraMode::Off;
+  const EvalResult c = evaluate(*Pipeline().run(paper).model, truth, eo);
+  EXPECT_LT(c.psnrCovered, a.psnrCovered - 5);
+}

@@ -1,0 +1,451 @@
+// Export on the original topology (atlas/transfer.h), the structure of the exported files, the PNG
+// encoded once, and the review renders of `montage render` (turntable, layer, size).
+#include "atlas/transfer.h"
+
+#include <tiny_gltf.h>
+
+#include <Eigen/QR>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <regex>
+
+#include "bench/eval.h"
+#include "bench/render.h"
+#include "bench/synth.h"
+#include "io/mesh_io.h"
+#include "pipeline.h"
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+using namespace montage;
+
+namespace {
+
+std::string demoProject() {
+  return test::assetsDir() + "/demo/project.json";
+}
+
+nlohmann::json readJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+std::string readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// One run of the demo, shared by the tests that only read it (the run takes seconds).
+struct DemoRun {
+  Project project;
+  PipelineResult result;
+  std::string dir;
+};
+const DemoRun& demoRun() {
+  static const DemoRun run = [] {
+    DemoRun r;
+    r.project = loadProject(demoProject());
+    r.result = Pipeline().run(r.project);
+    r.dir = test::tempDir("transfer_demo");
+    writeRunOutputs(r.result, r.dir);
+    return r;
+  }();
+  return run;
+}
+
+// Same triangle with the same orientation (corners may start elsewhere).
+bool sameTriangle(std::array<int, 3> a, std::array<int, 3> b) {
+  for (int r = 0; r < 3; ++r) {
+    if (a == b) return true;
+    std::rotate(b.begin(), b.begin() + 1, b.end());
+  }
+  return false;
+}
+
+// The report's entry of the named stage (null when the stage did not run).
+nlohmann::json stageReport(const nlohmann::json& report, const std::string& name) {
+  for (const nlohmann::json& s : report["stages"])
+    if (s["stage"] == name) return s;
+  return nullptr;
+}
+
+bool validatorReady() {
+  const std::string nodeDir = TM_GLTF_NODE_DIR;
+  return !nodeDir.empty() && fs::exists(nodeDir + "/.tm_gltf_validator_ready");
+}
+
+std::string validate(const std::string& file, int* rc) {
+  std::string out;
+  *rc = test::runCommand(std::string("NODE_PATH='") + TM_GLTF_NODE_DIR + "/node_modules' node '" + TM_GLTF_VALIDATE_JS +
+                             "' '" + file + "'",
+                         &out);
+  return out;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------------------------
+// Point location between a mesh and its refinement
+
+// A unit square of two triangles; the refinement splits the diagonal at its midpoint (a Steiner vertex,
+// as the partition adds them), so each input face has two children.
+TEST(RefinedLocator, FindsTheChildAndItsBarycentricsExactly) {
+  const std::vector<Vec3> v = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  auto input = requireUsable(buildMesh(v, {{0, 1, 2}, {0, 2, 3}}));
+  std::vector<Vec3> rv = v;
+  rv.push_back({0.5, 0.5, 0});
+  auto refined = requireUsable(buildMesh(rv, {{0, 1, 4}, {1, 2, 4}, {0, 4, 3}, {4, 2, 3}}));
+  const std::vector<int> parent = {0, 0, 1, 1};
+  const RefinedLocator locator(*input, *refined, parent);
+  EXPECT_EQ(locator.children(0).size(), 2u);
+  for (const Vec3& b : {Vec3(0.6, 0.3, 0.1), Vec3(0.1, 0.2, 0.7), Vec3(0.2, 0.7, 0.1), Vec3(1, 0, 0)})
+    for (int f : {0, 1}) {
+      Vec3 cb;
+      const int r = locator.locate(f, b, cb);
+      ASSERT_GE(r, 0);
+      EXPECT_EQ(parent[r], f);
+      const auto p = input->facePositions(f), q = refined->facePositions(r);
+      const Vec3 want = b[0] * p[0] + b[1] * p[1] + b[2] * p[2];
+      const Vec3 got = cb[0] * q[0] + cb[1] * q[1] + cb[2] * q[2];
+      EXPECT_LT((want - got).norm(), 1e-12) << "face " << f << " b " << b.transpose();
+      EXPECT_GE(cb.minCoeff(), 0.0);
+    }
+  EXPECT_NE(test::errorOf([&] { RefinedLocator(*input, *refined, {0, 0, 1}); }).find("faceParent"), std::string::npos);
+}
+
+// ------------------------------------------------------------------------------------------------
+// The original-topology export of the demo
+
+TEST(OriginalTopology, ExportIsTheInputMeshVertexForVertex) {
+  const DemoRun& run = demoRun();
+  ASSERT_TRUE(run.result.baked && run.result.baked->original) << "original topology is the default";
+  const LoadedMesh input = loadMesh(run.project.mesh);
+  const LoadedMesh obj = loadMesh(run.dir + "/model.obj");
+  ASSERT_TRUE(input.mesh && obj.mesh);
+  // The refined mesh has more vertices; the export has exactly the input's, in order, at the same
+  // positions (bit for bit: numbers are written in shortest round-trip form), and the same faces.
+  EXPECT_GT(run.result.mapping->partition.mesh.numVertices(), input.mesh->numVertices());
+  ASSERT_EQ(obj.mesh->numVertices(), input.mesh->numVertices());
+  for (int v = 0; v < input.mesh->numVertices(); ++v)
+    ASSERT_EQ(obj.mesh->position(v), input.mesh->position(v)) << "vertex " << v;
+  ASSERT_EQ(obj.mesh->numFaces(), input.mesh->numFaces());
+  for (int f = 0; f < input.mesh->numFaces(); ++f)
+    ASSERT_TRUE(sameTriangle(obj.mesh->faceVertices(f), input.mesh->faceVertices(f))) << "face " << f;
+  EXPECT_TRUE(obj.mesh->hasUV());
+
+  // The GLB: one vertex list whose first entries are the input's vertices in order.
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model gm;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromFile(&gm, &err, &warn, run.dir + "/model.glb")) << err;
+  ASSERT_EQ(gm.meshes.size(), 1u);
+  ASSERT_EQ(gm.nodes.size(), 1u);
+  const std::string stem = fs::path(run.project.mesh).stem().string();
+  EXPECT_EQ(gm.meshes[0].name, stem);
+  EXPECT_EQ(gm.nodes[0].name, stem);
+  const tinygltf::Accessor& acc = gm.accessors[gm.meshes[0].primitives[0].attributes.at("POSITION")];
+  ASSERT_GE(acc.count, static_cast<size_t>(input.mesh->numVertices()));
+  const tinygltf::BufferView& view = gm.bufferViews[acc.bufferView];
+  const float* p = reinterpret_cast<const float*>(gm.buffers[view.buffer].data.data() + view.byteOffset);
+  for (int v = 0; v < input.mesh->numVertices(); ++v)
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(p[3 * v + k], static_cast<float>(input.mesh->position(v)[k])) << v;
+  for (const auto& prim : gm.meshes[0].primitives)  // one shared vertex list
+    EXPECT_EQ(prim.attributes.at("POSITION"), gm.meshes[0].primitives[0].attributes.at("POSITION"));
+  const TexturedModel back = loadModel(run.dir + "/model.glb");
+  EXPECT_EQ(back.mesh.numFaces(), input.mesh->numFaces());
+}
+
+// The transfer loses little: PSNR of the original-topology export against the refined one over the
+// surface, measured by the bake and again from the written files.
+TEST(OriginalTopology, TransferLossIsAtLeast40dB) {
+  const DemoRun& run = demoRun();
+  const TransferLoss& loss = run.result.baked->originalModel.loss;
+  std::printf(
+      "demo transfer: PSNR %.2f dB (interior %.2f, chart borders %.2f on %.1f%% of the area, thin %.2f on "
+      "%.1f%%)\n",
+      loss.psnr, loss.psnrInterior, loss.psnrBorder, 100 * loss.borderShare, loss.psnrSmall, 100 * loss.smallShare);
+  std::printf("against the montage's own colours: original export %.2f dB, refined export %.2f dB\n",
+              loss.psnrOriginalVsMontage, loss.psnrRefinedVsMontage);
+  // The original export's atlas oversamples its LSCM charts (TransferOptions::oversample) so that it
+  // stays 40 dB from the refined export and from the montage's own colours; the refined export, whose
+  // charts are the photos' own maps, is closer still.
+  EXPECT_GE(loss.psnr, 40.0);
+  EXPECT_GE(loss.psnrOriginalVsMontage, 40.0);
+  EXPECT_GT(loss.psnrRefinedVsMontage, loss.psnrOriginalVsMontage);
+  EXPECT_GT(loss.samples, 100000);
+  const nlohmann::json report = readJson(run.dir + "/report.json");
+  const nlohmann::json bake = stageReport(report, "bake");
+  ASSERT_EQ(bake["stage"], "bake");
+  EXPECT_EQ(bake["counts"]["export_topology"], "original");
+  EXPECT_DOUBLE_EQ(bake["counts"]["original"]["transfer_loss"]["psnr"].get<double>(), loss.psnr);
+
+  // The measurement can fail: a flat grey texture on the original mesh is far from the montage.
+  TexturedModel grey = run.result.baked->originalModel.model;
+  for (Material& m : grey.materials) m.texture = cv::Mat(64, 64, CV_8UC4, cv::Scalar(128, 128, 128, 255));
+  const RefinedLocator locator(*run.result.scene->mesh, run.result.mapping->partition.mesh,
+                               run.result.mapping->partition.faceParent);
+  const TransferLoss bad =
+      measureTransfer(grey, run.result.baked->model, locator, run.result.baked->originalModel.atlas, {20000, 3});
+  EXPECT_LT(bad.psnr, 25.0);
+}
+
+TEST(OriginalTopology, RefinedTopologyStaysAnOption) {
+  Project project = loadProject(demoProject());
+  project.options.exportTopology = ExportTopology::Refined;
+  const PipelineResult result = Pipeline().run(project);
+  ASSERT_FALSE(result.baked->original);
+  EXPECT_EQ(result.exported.get(), result.model.get());
+  EXPECT_EQ(result.model->mesh.numVertices(), result.mapping->partition.mesh.numVertices());
+  // One material per source, named so, all showing the one atlas.
+  ASSERT_GE(result.model->materials.size(), 2u);
+  for (const Material& m : result.model->materials) {
+    EXPECT_TRUE(std::regex_match(m.name, std::regex("photo_[0-9]+|inpainted|empty"))) << m.name;
+    EXPECT_EQ(m.texture.data, result.model->materials[0].texture.data);
+  }
+  const std::string dir = test::tempDir("transfer_refined");
+  writeRunOutputs(result, dir);
+  const TexturedModel back = loadModel(dir + "/model.glb");
+  EXPECT_EQ(back.mesh.numFaces(), result.mapping->partition.mesh.numFaces());
+  EXPECT_EQ(back.materials.size(), result.model->materials.size());
+  EXPECT_EQ(stageReport(readJson(dir + "/report.json"), "export")["counts"]["png_encodes"], 1);
+}
+
+// The atlas PNG is encoded once: model_atlas.png and the image embedded in the GLB are the same bytes.
+TEST(OriginalTopology, PngIsEncodedOnceAndTheGlbEmbedsTheSameBytes) {
+  const DemoRun& run = demoRun();
+  const nlohmann::json report = readJson(run.dir + "/report.json");
+  const nlohmann::json exported = stageReport(report, "export");
+  ASSERT_EQ(exported["stage"], "export");
+  EXPECT_EQ(exported["counts"]["png_encodes"], 1);
+  const std::string png = readBytes(run.dir + "/model_atlas.png");
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model gm;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromFile(&gm, &err, &warn, run.dir + "/model.glb")) << err;
+  ASSERT_EQ(gm.images.size(), 1u);
+  const tinygltf::BufferView& view = gm.bufferViews[gm.images[0].bufferView];
+  const std::string embedded(reinterpret_cast<const char*>(gm.buffers[view.buffer].data.data() + view.byteOffset),
+                             view.byteLength);
+  EXPECT_EQ(embedded.size(), png.size());
+  EXPECT_TRUE(embedded == png);
+}
+
+// The compression level does what it says: level 1 is larger than level 9 on the same atlas, and both
+// decode to the same pixels.
+TEST(OriginalTopology, PngCompressionLevelTradesSizeForSpeed) {
+  const cv::Mat& atlas = demoRun().result.model->materials[0].texture;
+  PngCache fast(1), small(9);
+  const std::vector<unsigned char>& a = fast.encode(atlas, "fast");
+  const std::vector<unsigned char>& b = small.encode(atlas, "small");
+  std::printf("atlas PNG: level 1 %.2f MB in %.2f s, level 9 %.2f MB in %.2f s\n", a.size() / 1e6, fast.seconds(),
+              b.size() / 1e6, small.seconds());
+  EXPECT_GT(a.size(), b.size());
+  EXPECT_EQ(&fast.encode(atlas, "again"), &a);  // cached, not re-encoded
+  EXPECT_EQ(fast.encodes(), 1);
+  cv::Mat da = cv::imdecode(a, cv::IMREAD_UNCHANGED), db = cv::imdecode(b, cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(cv::norm(da, db, cv::NORM_INF), 0);
+}
+
+TEST(OriginalTopology, GltfValidatorReportsNoErrorsOrWarnings) {
+  if (!validatorReady())
+    GTEST_SKIP() << "the Khronos glTF validator is not installed in '" << TM_GLTF_NODE_DIR
+                 << "': the ctest test npm_gltf_validator_setup installs it";
+  int rc = 0;
+  const std::string out = validate(demoRun().dir + "/model.glb", &rc);
+  std::printf("%s", out.c_str());
+  EXPECT_EQ(rc, 0) << out;
+  EXPECT_NE(out.find("errors: 0, warnings: 0,"), std::string::npos) << out;
+}
+
+TEST(OriginalTopology, AssimpShowsOneNamedMeshWithItsMaterials) {
+  if (test::runCommand("command -v assimp") != 0)
+    GTEST_SKIP() << "assimp is not installed (Debian package assimp-utils)";
+  const DemoRun& run = demoRun();
+  const std::string stem = fs::path(run.project.mesh).stem().string();
+  for (const std::string name : {"model.glb", "model.obj"}) {
+    std::string out;
+    ASSERT_EQ(test::runCommand("assimp info '" + run.dir + "/" + name + "'", &out), 0) << out;
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(out, m, std::regex("Faces:\\s+(\\d+)"))) << out;
+    EXPECT_EQ(std::stoi(m[1]), run.result.scene->mesh->numFaces()) << name;
+    ASSERT_TRUE(std::regex_search(out, m, std::regex("Vertices:\\s+(\\d+)"))) << out;
+    EXPECT_GE(std::stoi(m[1]), run.result.scene->mesh->numVertices()) << name;
+    EXPECT_NE(out.find(stem), std::string::npos) << name << ": the model is named after the input mesh\n" << out;
+    EXPECT_EQ(out.find("model-"), std::string::npos) << name << ": no generated part names\n" << out;
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
+// A spot round trip through the original-topology export still matches the ground truth.
+
+// The export path alone: spot's own texture stands for the montage result on the refined mesh of a real
+// partition (a synthetic scene's, with its Steiner vertices), is transferred onto spot as loaded,
+// written, and compared with the truth by `montage eval`. Then the whole pipeline on the same scene:
+// the original-topology export matches the truth as well as the refined export does.
+TEST(OriginalTopologySpot, RoundTripMatchesTheGroundTruth) {
+  TM_REQUIRE_SHARED(meshPath, "meshes/spot/spot_triangulated.obj");
+  const std::string texturePath = test::sharedFile("meshes/spot/spot_texture.png");
+  const auto mesh = requireUsable(loadMesh(meshPath));
+  const TexturedModel truth = modelFromMesh(*mesh, readImageRgba8(texturePath));
+  SynthOptions options;
+  options.views = 4;
+  options.features = 150;
+  options.size = 1024;
+  const std::string dir = test::tempDir("transfer_spot");
+  writeSynthScene(synthesize(
+                      *mesh, meshPath, [&](int f, const Vec3& b) { return truth.colorAt(f, b); }, options),
+                  dir);
+  const PipelineResult result = Pipeline().run(loadProject(dir + "/project.json"));
+  const Partition& partition = result.mapping->partition;
+  ASSERT_GT(partition.steinerVertices, 0);
+
+  // The truth on the refined mesh: every refined face shows spot's texture (photo 0) at the UVs its
+  // corners have in their input face (the UV map is linear over each input face, so this is exact).
+  const auto photo = std::make_shared<const Photo>(loadPhoto(texturePath));
+  const RefinedLocator locator(*mesh, partition.mesh, partition.faceParent);
+  AtlasInput in;
+  in.photoSizes = {cv::Size(photo->width, photo->height)};
+  in.faceSource.assign(partition.mesh.numFaces(), 0);
+  in.cornerUV.resize(partition.mesh.numFaces());
+  for (int r = 0; r < partition.mesh.numFaces(); ++r) {
+    const int f = partition.faceParent[r];
+    const auto q = partition.mesh.facePositions(r);
+    const auto p = mesh->facePositions(f);
+    for (int k = 0; k < 3; ++k) {
+      // Barycentrics of the refined corner in its parent, by least squares in the parent's plane.
+      Eigen::Matrix<double, 3, 2> A;
+      A << p[1] - p[0], p[2] - p[0];
+      const Vec2 st = A.colPivHouseholderQr().solve(q[k] - p[0]);
+      const auto& t = mesh->cornerUV[f];
+      const Vec2 uv = (1 - st[0] - st[1]) * t[0] + st[0] * t[1] + st[1] * t[2];
+      in.cornerUV[r][k] = Vec2(uv.x() * photo->width, (1 - uv.y()) * photo->height);
+    }
+  }
+  AtlasOptions atlasOptions;
+  atlasOptions.size = 2048;
+  const Atlas refinedAtlas = buildAtlas(partition.mesh, in, atlasOptions);
+  const AtlasImage refinedImage = bakeAtlas(refinedAtlas, partition.mesh, {photo}, nullptr, nullptr, atlasOptions);
+  const OriginalModel original =
+      bakeOriginalTopology(*mesh, partition.mesh, partition.faceParent, refinedAtlas, refinedImage, atlasOptions);
+  exportObj(original.model, dir + "/truth_original", "model");
+  std::string log;
+  const std::string eval = test::montageExe() + " eval --truth " + meshPath + " --truth-texture " + texturePath +
+                           " --samples 100000 --json ";
+  ASSERT_EQ(test::runCommand(eval + dir + "/t.json --result " + dir + "/truth_original/model.obj", &log), 0) << log;
+  const nlohmann::json roundTrip = readJson(dir + "/t.json");
+  std::printf(
+      "spot truth through a refined atlas and the original-topology export: %.2f dB against the truth "
+      "(transfer %.2f dB: interior %.2f, borders %.2f)\n",
+      roundTrip["psnr_all"].get<double>(), original.loss.psnr, original.loss.psnrInterior, original.loss.psnrBorder);
+  EXPECT_GE(roundTrip["psnr_all"].get<double>(), 35.0) << roundTrip.dump();
+  EXPECT_GE(original.loss.psnr, 40.0);
+  EXPECT_EQ(roundTrip["flipped_triangles"].get<int>(), 0);
+
+  // The pipeline's own result on this scene, exported both ways.
+  writeRunOutputs(result, dir + "/out");
+  ASSERT_EQ(test::runCommand(eval + dir + "/o.json --result " + dir + "/out/model.obj", &log), 0) << log;
+  const double exported = readJson(dir + "/o.json")["psnr_all"].get<double>();
+  const EvalResult refined = evaluate(*result.model, truth, {100000, 7, 4});
+  std::printf(
+      "spot pipeline (4 views, 150 features): original-topology export %.2f dB, refined %.2f dB against the "
+      "truth (transfer %.2f dB)\n",
+      exported, refined.psnrAll, result.baked->originalModel.loss.psnr);
+  EXPECT_GT(exported, refined.psnrAll - 0.5);
+}
+
+// ------------------------------------------------------------------------------------------------
+// Review renders
+
+TEST(MontageRender, TurntableWritesNViewsAndAContactSheet) {
+  const DemoRun& run = demoRun();
+  const std::string dir = test::tempDir("render_turntable");
+  std::string log;
+  ASSERT_EQ(test::runCommand(test::montageExe() + " render " + run.dir + "/model.glb --turntable 5 --size 96 --out " +
+                                 dir + "/turn.png",
+                             &log),
+            0)
+      << log;
+  for (int k = 0; k < 5; ++k) {
+    const cv::Mat view = cv::imread(dir + "/turn_0" + std::to_string(k) + ".png");
+    ASSERT_FALSE(view.empty()) << k;
+    EXPECT_EQ(view.size(), cv::Size(96, 96));
+  }
+  EXPECT_FALSE(fs::exists(dir + "/turn_05.png"));
+  const cv::Mat sheet = cv::imread(dir + "/turn.png");
+  ASSERT_FALSE(sheet.empty());
+  EXPECT_GT(sheet.cols, 2 * 96);
+  EXPECT_GT(sheet.rows, 96);
+  // The views differ: the model turns.
+  EXPECT_GT(cv::norm(cv::imread(dir + "/turn_00.png"), cv::imread(dir + "/turn_02.png"), cv::NORM_L1), 0);
+}
+
+TEST(MontageRender, SizeTakesWOrWxH) {
+  const DemoRun& run = demoRun();
+  const std::string dir = test::tempDir("render_size");
+  std::string log;
+  ASSERT_EQ(test::runCommand(
+                test::montageExe() + " render " + run.dir + "/model.obj --size 800x600 --out " + dir + "/a.png", &log),
+            0)
+      << log;
+  EXPECT_EQ(cv::imread(dir + "/a.png").size(), cv::Size(800, 600));
+  ASSERT_EQ(test::runCommand(test::montageExe() + " render " + run.dir + "/model.obj --size 64 --out " + dir + "/b.png",
+                             &log),
+            0)
+      << log;
+  EXPECT_EQ(cv::imread(dir + "/b.png").size(), cv::Size(64, 64));
+  EXPECT_NE(test::runCommand(
+                test::montageExe() + " render " + run.dir + "/model.obj --size 80:60 --out " + dir + "/c.png", &log),
+            0);
+  EXPECT_NE(log.find("W or WxH"), std::string::npos) << log;
+  ASSERT_EQ(test::runCommand(test::montageExe() + " render --help", &log), 0);
+  EXPECT_NE(log.find("WxH"), std::string::npos) << log;
+}
+
+// --layer paints the source layer: photo colours and the inpainted colour appear, with a legend.
+TEST(MontageRender, LayerShowsSourcesWithALegend) {
+  const DemoRun& run = demoRun();
+  const std::string dir = test::tempDir("render_layer");
+  std::string log;
+  ASSERT_EQ(test::runCommand(
+                test::montageExe() + " render " + run.dir + "/model.obj --layer --size 400 --out " + dir + "/layer.png",
+                &log),
+            0)
+      << log;
+  cv::Mat bgr = cv::imread(dir + "/layer.png");
+  ASSERT_FALSE(bgr.empty());
+  const auto count = [&](const cv::Vec4b& rgba) {
+    const cv::Vec3b c(rgba[2], rgba[1], rgba[0]);
+    int n = 0;
+    for (int y = 0; y < bgr.rows; ++y)
+      for (int x = 0; x < bgr.cols; ++x) n += bgr.at<cv::Vec3b>(y, x) == c;
+    return n;
+  };
+  EXPECT_GT(count(sourceLayerColor(1)) + count(sourceLayerColor(2)), 1000) << "the photos' colours";
+  EXPECT_GT(count(sourceLayerColor(254)), 20) << "the inpainted colour";
+  // Without the layer file next to the model, a clear error.
+  fs::copy_file(run.dir + "/model.glb", dir + "/alone.glb");
+  EXPECT_NE(
+      test::runCommand(test::montageExe() + " render " + dir + "/alone.glb --layer --out " + dir + "/x.png", &log), 0);
+  EXPECT_NE(log.find("alone_atlas_source.png"), std::string::npos) << log;
+}
+
+// ------------------------------------------------------------------------------------------------
+// The bundled demo: a real mesh (the CC BY 4.0 cat) textured from a real photo (a tiger, cut out by
+// grabCut, and its mirror image for the other side) maps most of its surface from the photos.
+
+TEST(Demo, MapsMostOfItsSurfaceFromThePhotos) {
+  const DemoRun& run = demoRun();
+  ASSERT_EQ(run.project.photos.size(), 2u);
+  for (const PhotoRef& photo : run.project.photos) EXPECT_FALSE(photo.mask.empty()) << "a cut-out mask";
+  bool line = false, polygon = false;
+  for (const FeatureChain& c : run.project.chains) (c.closed ? polygon : line) = true;
+  EXPECT_TRUE(line && polygon) << "points, at least one feature line and one feature polygon";
+  const nlohmann::json report = readJson(run.dir + "/report.json");
+  const double photo = report["surface"]["photo_share"].get<double>();
+  const double inpainted = report["surface"]["inpainted_share"].get<double>();
+  std::printf("demo: %.1f%% of the surface from the photos, %.1f%% inpainted\n", 100 * photo, 100 * inpainted);
+  EXPECT_GE(photo, 0.58);  // README: "about 60%"
+  EXPECT_NEAR(photo + inpainted + report["surface"]["empty_share"].get<double>(), 1.0, 1e-9);
+}

@@ -1,0 +1,191 @@
+// Camera feedback in the image panes (issue 11): for a photo whose clicks fit a camera, the mesh's
+// projected wireframe and silhouette over the photo, each click's residual as a short line (x10),
+// outlier clicks marked, the selected vertex's predicted position, and the proposed correspondences
+// (click to accept, shift+click to decline). The caption says which path each photo takes.
+#include <imgui.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "editor.h"
+#include "mapping/camera.h"
+#include "mapping/projection.h"
+
+namespace montage {
+
+namespace {
+
+constexpr int kMaxWireEdges = 40000;   // per photo; beyond, every k-th edge is drawn
+constexpr double kResidualScale = 10;  // residual lines are drawn this many times longer
+constexpr double kMaxResidualScreen = 60;
+
+ImVec2 im(const Vec2& v) {
+  return ImVec2(float(v.x()), float(v.y()));
+}
+
+}  // namespace
+
+const CameraFit* Editor::photoFit(int photo) const {
+  if (!resultUsable() || !result_->cameras) return nullptr;
+  const auto& fits = result_->cameras->fits;
+  return photo >= 0 && photo < static_cast<int>(fits.size()) ? &fits[photo] : nullptr;
+}
+
+void Editor::buildCameraLines() {
+  const void* key = result_.get();
+  if (cameraLinesFor_ == key) return;
+  cameraLinesFor_ = key;
+  cameraLines_.clear();
+  if (!resultUsable() || !result_->projection || !result_->mapping) return;
+  const Mesh& mesh = result_->mapping->partition.mesh;
+  const auto& views = result_->projection->result.views;
+  cameraLines_.resize(views.size());
+  for (size_t p = 0; p < views.size(); ++p) {
+    const PhotoView& view = views[p];
+    const CameraFit* fit = photoFit(static_cast<int>(p));
+    if (view.vertexVisible.empty() || !fit || !fit->fits) continue;
+    const Vec3 eye = fit->camera.pinhole.center();
+    const TriMesh& tri = mesh.tri;
+    const int edges = static_cast<int>(tri.n_edges());
+    const int step = std::max(1, edges / kMaxWireEdges);
+    CameraLines& lines = cameraLines_[p];
+    for (auto eh : tri.edges()) {
+      const auto h = tri.halfedge_handle(eh, 0);
+      const int a = tri.from_vertex_handle(h).idx(), b = tri.to_vertex_handle(h).idx();
+      if (!view.vertexVisible[a] || !view.vertexVisible[b]) continue;
+      const auto f0 = tri.face_handle(h), f1 = tri.opposite_face_handle(h);
+      auto facing = [&](OpenMesh::FaceHandle f) {
+        if (!f.is_valid()) return false;
+        const auto q = mesh.facePositions(f.idx());
+        return mesh.faceNormal(f.idx()).dot(eye - (q[0] + q[1] + q[2]) / 3) > 0;
+      };
+      const bool silhouette = !f0.is_valid() || !f1.is_valid() || facing(f0) != facing(f1);
+      if (silhouette) {
+        lines.silhouette.push_back({view.vertexUV[a], view.vertexUV[b]});
+      } else if (eh.idx() % step == 0) {
+        lines.wire.push_back({view.vertexUV[a], view.vertexUV[b]});
+      }
+    }
+  }
+}
+
+void Editor::cameraToolbar() {
+  ImGui::SameLine();
+  ImGui::Checkbox("camera", &showCamera_);
+  if (!showCamera_ || !resultUsable()) return;
+  int pending = 0;
+  for (const Proposal& pr : result_->proposals)
+    pending += pr.photo == activePhoto_ && doc_.pointAt(pr.vertex, pr.photo) < 0;
+  if (pending == 0) return;
+  ImGui::SameLine();
+  const std::string label = "Accept " + std::to_string(pending) + " proposals";
+  if (button(label.c_str())) {
+    doc_.beginGroup("Accept proposals in photo " + std::to_string(activePhoto_));
+    for (const Proposal& pr : result_->proposals)
+      if (pr.photo == activePhoto_ && doc_.pointAt(pr.vertex, pr.photo) < 0)
+        edit([&] { doc_.setPosition(pr.vertex, pr.photo, pr.pixel.x(), pr.pixel.y()); });
+    doc_.endGroup();
+  }
+}
+
+void Editor::cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, const Vec2& mouse, bool hovered,
+                           std::string& tooltip) {
+  hoverProposal_ = hovered ? -1 : hoverProposal_;
+  if (!showCamera_) return;
+  const CameraFit* fit = photoFit(photo);
+  if (!fit || !fit->fits) return;
+  buildCameraLines();
+  // Wireframe and silhouette of the mesh as the camera sees it.
+  if (photo < static_cast<int>(cameraLines_.size())) {
+    for (const auto& [a, b] : cameraLines_[photo].wire)
+      draw->AddLine(im(view.toScreen(a)), im(view.toScreen(b)), IM_COL32(120, 220, 255, 45), 1.0f);
+    for (const auto& [a, b] : cameraLines_[photo].silhouette)
+      draw->AddLine(im(view.toScreen(a)), im(view.toScreen(b)), IM_COL32(60, 230, 255, 220), 1.5f);
+  }
+  // Residuals (x10) and outliers.
+  for (size_t i = 0; i < fit->clicks.size(); ++i) {
+    if (!std::isfinite(fit->residual[i])) continue;
+    const Vec2 s = view.toScreen(fit->clicks[i].pixel);
+    Vec2 d = kResidualScale * view.zoom * (fit->reprojected[i] - fit->clicks[i].pixel);
+    if (d.norm() > kMaxResidualScreen) d *= kMaxResidualScreen / d.norm();
+    const bool outlier = !fit->inlier[i];
+    draw->AddLine(im(s), im(s + d), outlier ? IM_COL32(255, 60, 50, 255) : IM_COL32(255, 235, 60, 230), 2.0f);
+    if (outlier) {
+      draw->AddCircle(im(s), 9.0f, IM_COL32(255, 60, 50, 255), 0, 2.0f);
+      draw->AddLine(im(s + Vec2(-6, -6)), im(s + Vec2(6, 6)), IM_COL32(255, 60, 50, 255), 2.0f);
+      draw->AddLine(im(s + Vec2(-6, 6)), im(s + Vec2(6, -6)), IM_COL32(255, 60, 50, 255), 2.0f);
+    }
+    if (hovered && (mouse - s).norm() < 8) {
+      char text[160];
+      std::snprintf(text, sizeof text, "residual %.2f px%s", fit->residual[i],
+                    outlier ? " (outlier: above the camera's threshold)" : "");
+      tooltip += (tooltip.empty() ? "" : "\n") + std::string(text);
+    }
+  }
+  // The selected vertex where the camera predicts it.
+  const auto& fields = result_->projection ? result_->projection->result.fields : std::vector<CorrectionField>{};
+  const Mesh& mesh = result_->mapping->partition.mesh;
+  if (selectedVertex_ >= 0 && selectedVertex_ < mesh.numVertices() && photo < static_cast<int>(fields.size())) {
+    Vec2 px;
+    if (predictPixel(*fit, fields[photo], mesh.position(selectedVertex_), px)) {
+      const ImVec2 s = im(view.toScreen(px));
+      const ImU32 c = IM_COL32(80, 255, 200, 255);
+      draw->AddCircle(s, 7.0f, c, 0, 1.5f);
+      draw->AddLine(ImVec2(s.x - 12, s.y), ImVec2(s.x - 4, s.y), c, 1.5f);
+      draw->AddLine(ImVec2(s.x + 4, s.y), ImVec2(s.x + 12, s.y), c, 1.5f);
+      draw->AddLine(ImVec2(s.x, s.y - 12), ImVec2(s.x, s.y - 4), c, 1.5f);
+      draw->AddLine(ImVec2(s.x, s.y + 4), ImVec2(s.x, s.y + 12), c, 1.5f);
+      draw->AddText(ImVec2(s.x + 10, s.y + 6), c, ("predicted " + std::to_string(selectedVertex_)).c_str());
+    }
+  }
+  // Proposals (not yet clicked, not declined).
+  for (size_t k = 0; k < result_->proposals.size(); ++k) {
+    const Proposal& pr = result_->proposals[k];
+    if (pr.photo != photo || doc_.pointAt(pr.vertex, pr.photo) >= 0) continue;
+    const auto& declined = doc_.project().declinedProposals;
+    if (std::find(declined.begin(), declined.end(), DeclinedProposal{pr.vertex, pr.photo}) != declined.end()) continue;
+    const Vec2 s = view.toScreen(pr.pixel);
+    const bool over = hovered && (mouse - s).norm() < 7;
+    const ImU32 c = over ? IM_COL32(255, 120, 255, 255) : IM_COL32(235, 90, 235, 230);
+    draw->AddQuad(im(s + Vec2(0, -6)), im(s + Vec2(6, 0)), im(s + Vec2(0, 6)), im(s + Vec2(-6, 0)), c,
+                  over ? 2.5f : 1.5f);
+    if (over) {
+      hoverProposal_ = static_cast<int>(k);
+      tooltip = "proposed: point #" + std::to_string(pr.point) + " (vertex " + std::to_string(pr.vertex) +
+                "), clicked in photo " + std::to_string(pr.from) + "\nclick: accept, shift+click: decline";
+    }
+  }
+}
+
+bool Editor::clickProposal(int photo, bool decline) {
+  if (hoverProposal_ < 0 || !resultUsable() || hoverProposal_ >= static_cast<int>(result_->proposals.size()))
+    return false;
+  const Proposal pr = result_->proposals[hoverProposal_];
+  if (pr.photo != photo) return false;
+  hoverProposal_ = -1;
+  if (decline) {
+    edit([&] { doc_.declineProposal(pr.vertex, pr.photo); });
+    setStatus("declined the proposal of vertex " + std::to_string(pr.vertex) + " in photo " + std::to_string(photo));
+  } else {
+    int index = -1;
+    if (edit([&] { index = doc_.setPosition(pr.vertex, pr.photo, pr.pixel.x(), pr.pixel.y()); })) {
+      selectedPoint_ = index;
+      selectedVertex_ = pr.vertex;
+    }
+    setStatus("accepted the proposal of vertex " + std::to_string(pr.vertex) + " in photo " + std::to_string(photo));
+  }
+  return true;
+}
+
+std::string Editor::cameraCaption(int photo) const {
+  const CameraFit* fit = photoFit(photo);
+  if (!fit) return "";
+  if (!fit->fits) return "  paper's path";
+  char text[160];
+  std::snprintf(text, sizeof text, "  projection: f %.0f px, %d/%zu agree, median %.2f px, max %.2f px",
+                fit->camera.focal(), fit->inliers, fit->clicks.size(), fit->medianResidual, fit->maxResidual);
+  return text;
+}
+
+}  // namespace montage

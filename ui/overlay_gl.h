@@ -1,0 +1,39 @@
+// GL state of the editor's overlays (editor_overlays.cpp): the 3D view's marker shader and the depth
+// it read back after drawing the mesh, and per photo pane a vertex buffer of its markers, curves and
+// rejected pairs, rebuilt only when what it shows changes. Destroyed with the other GL objects.
+#pragma once
+
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gl_util.h"
+
+namespace montage {
+
+struct OverlayGl {
+  std::unique_ptr<ShaderProgram> markerShader, paneShader;
+  std::unique_ptr<VertexBuffer> highlightVbo;  // hovered and selected vertex markers
+  struct Pane {
+    std::unique_ptr<VertexBuffer> vbo;
+    std::string key;  // what the buffer holds
+    int lines = 0, points = 0;
+    int rejectedInPhoto = 0;
+    bool allRejectedDrawn = true;
+  };
+  std::map<int, Pane> panes;  // by photo
+  // One ImGui draw callback per pane drawn this frame (stable addresses until ImGui renders).
+  struct PaneDraw {
+    OverlayGl* gl = nullptr;
+    int photo = -1;
+    float originX = 0, originY = 0, zoom = 1;
+  };
+  std::deque<PaneDraw> draws;
+  std::vector<float> depth;  // 3D view depth after the mesh (GL rows, bottom-up), for id visibility
+  int depthWidth = 0, depthHeight = 0;
+  long paneBuilds = 0;  // buffers rebuilt so far (tests: panning rebuilds nothing)
+};
+
+}  // namespace montage

@@ -27,6 +27,7 @@ p.setdefault("options", {})
 p["options"]["colorBalance"] = balance
 p["options"]["seamLevelling"] = level
 p["options"]["stretchSearches"] = int(searches)
+p["options"]["exportTopology"] = "refined"  # a source per face: montage eval's photo-seam figures need it
 json.dump(p, open(out, "w"), indent=2)
 PY
 }

@@ -49,9 +49,8 @@ for name in "${meshes[@]}"; do
     for balance in off gain-offset; do
       for level in off vertex; do
         dir=$work/$name-$scene/run-$balance-$level
-        mkdir -p "$dir"
         set_options "$work/$name-$scene/project.json" "$work/$name-$scene/p-$balance-$level.json" $balance $level
-        "$montage" run "$work/$name-$scene/p-$balance-$level.json" --out "$dir" >"$dir/log.txt" 2>&1
+        "$montage" run "$work/$name-$scene/p-$balance-$level.json" --out "$dir" >"$dir.log" 2>&1  # montage run replaces $dir as a whole
         "$montage" eval --result "$dir/model.obj" --truth "$mesh" --truth-texture "$tex" --json "$dir/eval.json" >/dev/null
         python3 - "$dir" "$name" "$scene" "$balance" "$level" <<'PY'
 import json, sys

@@ -5,6 +5,7 @@
 //   montage render MODEL --out PNG          headless shaded render
 //   montage run PROJECT --out DIR           run the pipeline and export
 //   montage bench                           per-stage times and peak memory
+//   montage mask PHOTO --rect x,y,w,h ...   cut-out mask (GrabCut) of a photo
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -18,10 +19,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "base/util.h"
 #include "bench/eval.h"
 #include "bench/render.h"
 #include "bench/synth.h"
 #include "geometry/mesh.h"
+#include "image/cutout.h"
 #include "image/photo.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
@@ -112,6 +115,8 @@ int cmdInfo(const std::string& file) {
     if (stats.maxDistanceError > 0)
       say(" (within %.1f px: measured at 1/%d resolution)", stats.maxDistanceError, stats.distanceScale);
     say("\n");
+    for (const std::string& w : foregroundWarnings(stats.hasBackground, stats.borderForeground))
+      say("  warning: %s\n", w.c_str());
     return 0;
   }
   if (ext == ".glb" || ext == ".gltf") {
@@ -322,8 +327,14 @@ void printStages(const PipelineResult& result) {
 
 int cmdRun(const std::string& projectPath, const std::string& out, int pngCompression) {
   // --out is checked and locked before the pipeline: a bad folder or a second run on it is refused at
-  // once, not after minutes of work.
-  Project project = loadProject(projectPath);
+  // once, not after minutes of work. A missing photo or mask disables only that photo (the pipeline
+  // skips it with a warning); the mesh must be there.
+  std::vector<MissingFile> missing;
+  Project project = loadProjectAllowingMissing(projectPath, missing);
+  for (const MissingFile& m : missing) {
+    TM_CHECK(m.field != "mesh", located(projectPath, "mesh: file '" + m.path + "' not found"));
+    say("  warning: %s: %s not found\n", m.field.c_str(), m.path.c_str());
+  }
   if (pngCompression >= 0) project.options.pngCompression = pngCompression;
   OutputFolder folder(out);
   Pipeline pipeline;
@@ -366,6 +377,45 @@ int cmdBench(BenchArgs args) {
   PipelineResult again = pipeline.run(project);
   std::printf("  rerun with nothing changed: %.3f s\n", std::chrono::duration<double>(Clock::now() - t0).count());
   std::printf("  peak memory: %.1f MiB\n", peakMemoryMiB());
+  return 0;
+}
+
+struct MaskArgs {
+  std::string photo, fg, bg, out;
+  std::vector<double> rect;
+  CutoutOptions options;
+};
+
+// Reads a stroke image (non-zero = stroke) for `montage mask`.
+cv::Mat readStrokes(const std::string& path) {
+  if (path.empty()) return {};
+  cv::Mat rgba = readImageRgba8(path), grey;
+  cv::cvtColor(rgba, grey, cv::COLOR_RGBA2GRAY);
+  std::vector<cv::Mat> channels;
+  cv::split(rgba, channels);
+  return (grey > 0) & (channels[3] > 0);  // transparent pixels are not strokes
+}
+
+int cmdMask(const MaskArgs& args) {
+  TM_CHECK(args.rect.size() == 4, "--rect: expected x,y,w,h (4 numbers), not " + std::to_string(args.rect.size()));
+  const Photo photo = loadPhoto(args.photo);
+  const auto start = Clock::now();
+  Cutout cut(photo.rgb, args.options);
+  cut.setRect(cv::Rect2d(args.rect[0], args.rect[1], args.rect[2], args.rect[3]));
+  const cv::Mat fg = readStrokes(args.fg), bg = readStrokes(args.bg);
+  try {
+    if (!fg.empty() || !bg.empty()) cut.addStrokeMasks(fg, bg);
+  } catch (const Error& e) {
+    throw Error(located(args.fg.empty() ? args.bg : args.fg, e.what()));
+  }
+  const cv::Mat mask = cut.mask();
+  const double seconds = secondsSince(start);
+  writeMaskPng(mask, args.out);
+  const double share = cv::countNonZero(mask) / double(mask.total());
+  std::printf("wrote %s (%dx%d): foreground %.1f%% of the photo, border %.1f%%, %.2f s\n", args.out.c_str(), mask.cols,
+              mask.rows, 100 * share, 100 * borderForegroundShare(mask), seconds);
+  Photo masked = loadPhoto(args.photo, args.out);
+  for (const std::string& w : foregroundWarnings(masked)) std::printf("  warning: %s\n", w.c_str());
   return 0;
 }
 
@@ -448,6 +498,24 @@ int main(int argc, char** argv) {
   benchCmd->add_option("--size", bench.synth.size, "photo size");
   benchCmd->add_option("--work", bench.work, "scratch folder (default: $TMPDIR/tm_bench)");
 
+  MaskArgs mask;
+  auto* maskCmd = app.add_subcommand(
+      "mask", "Cut a photo's foreground out (GrabCut from a rectangle and strokes) into a mask PNG for the project");
+  maskCmd->add_option("PHOTO", mask.photo, "photo to cut out")->required();
+  maskCmd->add_option("--rect", mask.rect, "x,y,w,h: a rectangle around the object (photo pixels)")
+      ->delimiter(',')
+      ->required();
+  maskCmd->add_option("--fg", mask.fg, "image of foreground strokes (non-zero pixels), the photo's size");
+  maskCmd->add_option("--bg", mask.bg, "image of background strokes (non-zero pixels), the photo's size");
+  maskCmd->add_option("--feather", mask.options.featherPx, "feathered edge width, pixels (default 0: hard edge)")
+      ->check(CLI::Range(0.0, 1000.0));
+  maskCmd->add_option("--iterations", mask.options.iterations, "GrabCut iterations")->check(CLI::Range(1, 100));
+  maskCmd
+      ->add_option("--working-size", mask.options.workingSide,
+                   "GrabCut runs at most this many pixels a side (0 = full resolution)")
+      ->check(CLI::Range(0, 16384));
+  maskCmd->add_option("--out", mask.out, "mask PNG to write (8-bit grey: 0 background, 255 foreground)")->required();
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*info) return cmdInfo(infoFile);
@@ -456,6 +524,7 @@ int main(int argc, char** argv) {
     if (*render) return cmdRender(renderArgs);
     if (*run) return cmdRun(runProject, runOut, runPng);
     if (*benchCmd) return cmdBench(bench);
+    if (*maskCmd) return cmdMask(mask);
   } catch (const std::exception& e) {  // montage::Error and anything else: one line, exit status 1
     std::fprintf(stderr, "error: %s\n", printable(e.what()).c_str());
     return 1;

@@ -7,10 +7,12 @@
 #include <filesystem>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <set>
 #include <sstream>
 
 #include "base/util.h"
 #include "geometry/predicates.h"
+#include "image/cutout.h"
 #include "io/mesh_io.h"
 #include "io/project_warnings.h"
 #include "mapping/simplify.h"
@@ -34,7 +36,25 @@ std::string fileKey(const std::string& path) {
 
 std::string photoKey(const PhotoRef& ref, const PipelineOptions& options) {
   return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask)) +
-         "|side:" + std::to_string(options.maxPhotoSide);
+         "|side:" + std::to_string(options.maxPhotoSide) + (ref.mirror ? "|mirror" : "");
+}
+
+// A photo that could not be loaded: 1 x 1 and all background, so that nothing maps into it.
+std::shared_ptr<const Photo> placeholderPhoto(const PhotoRef& ref) {
+  auto photo = std::make_shared<Photo>();
+  photo->path = ref.path;
+  photo->maskPath = ref.mask;
+  photo->mirrored = ref.mirror;
+  photo->width = photo->height = 1;
+  photo->rgb = cv::Mat::zeros(1, 1, CV_8UC3);
+  photo->alpha = cv::Mat::zeros(1, 1, CV_8UC1);
+  photo->distance = cv::Mat(1, 1, CV_32FC1, cv::Scalar(1e6));
+  photo->hasBackground = true;
+  return photo;
+}
+
+std::string photoName(const Project& project, int i) {
+  return "photo " + std::to_string(i) + " '" + fs::path(project.photos[i].path).filename().string() + "'";
 }
 
 std::vector<std::pair<int, int>> photoSizes(const std::vector<std::shared_ptr<const Photo>>& photos) {
@@ -202,6 +222,33 @@ Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches)
   return out;
 }
 
+BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping, const JobControl& job) {
+  job.progress(StageId::Balance, 0.0);
+  BalanceOptions options;
+  options.mode = scene->project.options.colorBalance;
+  std::vector<bool> locked;
+  std::vector<const Photo*> photos;
+  for (size_t i = 0; i < scene->photos.size(); ++i) {
+    locked.push_back(scene->project.photos[i].colorLocked || scene->skippedPhotos.count(int(i)));
+    photos.push_back(scene->photos[i].get());
+  }
+  BalancedScene out;
+  out.balance = balanceColors(mapping.partition.mesh, mapping.map, photos, locked, options, job);
+  bool changed = false;
+  for (const ColorTransform& t : out.balance.transforms) changed = changed || !t.identity();
+  if (!changed) {
+    out.scene = scene;
+    return out;
+  }
+  auto balanced = std::make_shared<Scene>(*scene);
+  for (size_t i = 0; i < balanced->photos.size(); ++i) {
+    job.progress(StageId::Balance, 0.5 + 0.5 * i / balanced->photos.size(), "applying");
+    balanced->photos[i] = balancedPhoto(scene->photos[i], out.balance.transforms[i]);
+  }
+  out.scene = balanced;
+  return out;
+}
+
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job,
@@ -310,29 +357,46 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   scene->meshReport = cachedMeshReport_;
   std::vector<CachedPhoto> photos;
   for (size_t i = 0; i < project.photos.size(); ++i) {
-    const std::string key = photoKey(project.photos[i], project.options);
+    const PhotoRef& ref = project.photos[i];
+    std::string key = photoKey(ref, project.options);
     CachedPhoto entry;
     for (const CachedPhoto& c : cachedPhotos_)
       if (c.key == key) entry = c;
     if (!entry.photo) {
       job.progress(StageId::Load, double(i + 1) / (project.photos.size() + 1),
-                   "photo " + fs::path(project.photos[i].path).filename().string());
+                   "photo " + fs::path(ref.path).filename().string());
+      try {
+        PhotoLoadOptions options;
+        options.maxSide = project.options.maxPhotoSide;
+        options.mirror = ref.mirror;
+        entry.photo = std::make_shared<Photo>(loadPhoto(ref.path, ref.mask, options));
+        if (entry.photo->hasBackground) entry.silhouette = std::make_shared<const SilhouetteDistance>(*entry.photo);
+      } catch (const Error& e) {
+        // A broken photo disables only itself: the others still texture. Its key never matches a
+        // photo's, so the next run tries the file again.
+        scene->skippedPhotos[int(i)] = e.what();
+        entry.photo = placeholderPhoto(ref);
+        key = "skipped:" + key;
+      }
       entry.key = key;
-      entry.photo = std::make_shared<Photo>(
-          loadPhoto(project.photos[i].path, project.photos[i].mask, PhotoLoadOptions{project.options.maxPhotoSide}));
-      if (entry.photo->hasBackground) entry.silhouette = std::make_shared<const SilhouetteDistance>(*entry.photo);
       cached = false;
     }
     photos.push_back(entry);
     scene->photos.push_back(entry.photo);
-    scene->photoKeys.push_back(key);
+    scene->photoKeys.push_back(scene->skippedPhotos.count(int(i)) ? std::string() : key);
   }
   cachedPhotos_ = std::move(photos);
-  validateProject(project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
-  checkClones(project, *scene->mesh, scene->photos);
+  if (!scene->skippedPhotos.empty()) {
+    std::set<int> skipped;
+    for (const auto& [i, reason] : scene->skippedPhotos) skipped.insert(i);
+    scene->requested = project;
+    scene->project = withoutPhotoReferences(project, skipped);
+  }
+  validateProject(scene->project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
+  checkClones(scene->project, *scene->mesh, scene->photos);
   std::vector<const Photo*> photoPointers;
   for (const auto& p : scene->photos) photoPointers.push_back(p.get());
-  scene->warnings = projectWarnings(project, photoPointers);
+  scene->warnings = projectWarnings(scene->project, photoPointers);
   return scene;
 }
 
@@ -379,6 +443,20 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   result.stages.push_back(load);
   for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
   for (const auto& w : scene->warnings) result.warnings.push_back("project: " + w);
+  for (const auto& [i, reason] : scene->skippedPhotos) {
+    int positions = 0, chains = 0, clones = 0;
+    for (const FeaturePoint& pt : project.points)
+      for (const PhotoPoint& a : pt.at) positions += a.photo == i;
+    for (const FeatureChain& c : project.chains) chains += c.photo == i;
+    for (const CloneOp& c : project.clones) clones += c.photo == i;
+    result.warnings.push_back(photoName(project, i) + " skipped (" + reason + "): its " + std::to_string(positions) +
+                              " positions, " + std::to_string(chains) + " chains and " + std::to_string(clones) +
+                              " clones are left out of this run; relink or remove it");
+  }
+  for (size_t i = 0; i < scene->photos.size(); ++i)
+    if (!scene->skippedPhotos.count(int(i)))
+      for (const std::string& w : foregroundWarnings(*scene->photos[i]))
+        result.warnings.push_back(photoName(project, int(i)) + ": " + w);
 
   // Camera: a fit per photo, reused while the photo's clicks, the photo, the mesh and the options stay.
   const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
@@ -534,17 +612,58 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   result.proposals =
       proposeCorrespondences(project, projection.mapping->partition.mesh, cameras->fits, projection.result.views);
 
-  // Seams: rerun when the mapping or the seam options changed. Later stages read the seamed mapping.
+  // Balance: rerun when the final mapping, the mode or the locks changed. It reads the seams between
+  // photos of the final mapping (which photo each face shows: seam optimisation moves UVs, never a face
+  // to another photo); seams, levelling, inpainting and bake read its balanced photos.
+  key << opts["colorBalance"].dump() << '|';
+  for (const PhotoRef& ref : project.photos) key << ref.colorLocked;
+  const bool balanceCached = projectionCached && key.str() == balanceKey_ && cachedBalance_;
+  if (!balanceCached) {
+    cachedBalance_ = std::make_shared<const BalancedScene>(balanceScene(scene, *projection.mapping, job));
+    balanceKey_ = key.str();
+  }
+  const ColorBalance& bal = cachedBalance_->balance;
+  {
+    nlohmann::json gains = nlohmann::json::array(), offsets = nlohmann::json::array();
+    nlohmann::json references = nlohmann::json::array();
+    for (size_t i = 0; i < bal.transforms.size(); ++i) {
+      const ColorTransform& t = bal.transforms[i];
+      gains.push_back({t.gain[0], t.gain[1], t.gain[2]});
+      offsets.push_back({t.offset[0], t.offset[1], t.offset[2]});
+      if (bal.reference[i]) references.push_back(i);
+    }
+    result.stages.push_back({StageId::Balance,
+                             balanceCached,
+                             balanceCached ? 0 : bal.seconds,
+                             {{"mode", kBalanceModeNames[size_t(project.options.colorBalance)]},
+                              {"samples", bal.samples},
+                              {"photo_pairs", bal.pairs},
+                              {"references", references},
+                              {"gain", gains},
+                              {"offset", offsets},
+                              {"iterations", bal.iterations},
+                              {"outlier_share", bal.outlierShare},
+                              {"mismatch_before", bal.mismatchBefore},
+                              {"mismatch_after", bal.mismatchAfter}}});
+    for (const auto& w : bal.warnings) result.warnings.push_back("balance: " + w);
+  }
+  const Scene& colorScene = *cachedBalance_->scene;
+
+  // Seams: rerun when the mapping, the balance or the seam options changed. Later stages read the
+  // seamed mapping.
   key << opts["seamLambda"].dump() << opts["seamRounds"].dump() << opts["gradientWeight"].dump();
-  const bool seamCached = projectionCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
+  const bool seamCached = balanceCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
   if (!seamCached) {
     auto seams = std::make_shared<SeamResult>();
+    // The photos' L*u*v* images, kept with the loaded photos (a balanced photo is a new image: its own).
     std::vector<std::shared_ptr<const cv::Mat>> luv;
-    for (CachedPhoto& c : cachedPhotos_) {
-      if (!c.luv) c.luv = std::make_shared<const cv::Mat>(luvImage(*c.photo));
-      luv.push_back(c.luv);
+    for (size_t i = 0; i < cachedPhotos_.size(); ++i) {
+      CachedPhoto& c = cachedPhotos_[i];
+      const bool same = i < colorScene.photos.size() && colorScene.photos[i] == c.photo;
+      if (same && !c.luv) c.luv = std::make_shared<const cv::Mat>(luvImage(*c.photo));
+      luv.push_back(same ? c.luv : nullptr);
     }
-    cachedSeamed_ = optimiseMappingSeams(*scene, projection.mapping, cameras.get(), *seams, job, std::move(luv));
+    cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv));
     seams->map = TextureMap();  // the seamed mapping holds it
     cachedSeams_ = seams;
     seamKey_ = key.str();
@@ -566,14 +685,15 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"max_stretch_before", sr.maxStretchBefore},
                             {"max_stretch_after", sr.maxStretchAfter}}});
 
-  // Level + Inpaint: rerun when the mapping, the tier or what they read (strokes, clones, hole
-  // modes, their options) changed.
+  // Level + Inpaint: rerun when the mapping, the balance, the tier or what they read (strokes, clones,
+  // hole modes, their options) changed.
   key << document["strokes"].dump() << document["clones"].dump() << document["holeModes"].dump()
       << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump() << '|'
       << kTierNames[size_t(tier)];
   const bool colorCached = seamCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
-    cachedColors_ = std::make_shared<const SurfaceColors>(colorSurface(*scene, *cachedSeamed_, job, tier, &solvers_));
+    cachedColors_ =
+        std::make_shared<const SurfaceColors>(colorSurface(colorScene, *cachedSeamed_, job, tier, &solvers_));
     solvers_.endRun();
     colorKey_ = key.str();
   }
@@ -615,7 +735,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     const bool bakeCached = colorCached && key.str() == bakeKey_ && cachedBake_;
     start = Clock::now();
     if (!bakeCached) {
-      cachedBake_ = std::make_shared<const BakeResult>(bakeModel(*scene, *cachedSeamed_, colors, job));
+      cachedBake_ = std::make_shared<const BakeResult>(bakeModel(colorScene, *cachedSeamed_, colors, job));
       bakeKey_ = key.str();
     }
     const BakeResult& baked = *cachedBake_;
@@ -649,6 +769,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   result.cameras = cameras;
   result.projection = cachedProjection_;
   result.mapping = cachedSeamed_;
+  result.balanced = cachedBalance_;
   result.seams = cachedSeams_;
   result.colors = cachedColors_;
 
@@ -786,10 +907,14 @@ PipelineResult projectionOracle(const Project& project, const std::vector<PhotoC
        secondsSince(start),
        {{"seen_faces", result.projection->result.seenFaces}, {"empty_faces", result.projection->result.emptyFaces}}});
   start = Clock::now();
-  result.colors = std::make_shared<const SurfaceColors>(colorSurface(scene, *result.mapping, job));
+  result.balanced = std::make_shared<const BalancedScene>(balanceScene(result.scene, *result.mapping, job));
+  const Scene& colorScene = *result.balanced->scene;
+  result.stages.push_back({StageId::Balance, false, secondsSince(start), {}});
+  start = Clock::now();
+  result.colors = std::make_shared<const SurfaceColors>(colorSurface(colorScene, *result.mapping, job));
   result.stages.push_back({StageId::Inpaint, false, secondsSince(start), {}});
   start = Clock::now();
-  auto baked = std::make_shared<const BakeResult>(bakeModel(scene, *result.mapping, *result.colors, job));
+  auto baked = std::make_shared<const BakeResult>(bakeModel(colorScene, *result.mapping, *result.colors, job));
   result.stages.push_back({StageId::Bake, false, secondsSince(start), {}});
   result.baked = baked;
   result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);

@@ -28,6 +28,7 @@
 #include "mapping/proposals.h"
 #include "mapping/seams.h"
 #include "mapping/texture_map.h"
+#include "surface/balance.h"
 #include "surface/inpaint.h"
 
 namespace montage {
@@ -68,6 +69,15 @@ struct ProjectionStage {
   ProjectionResult result;                 // result.map is moved into mapping->map
 };
 
+// Colour balance between photos (balance.h), after the final mapping and before every stage that reads
+// colours (seams, level, inpaint, bake): the transforms, and the scene those stages read, whose photos are
+// the balanced copies (a reference photo, or one left as it is, is the loaded object itself: unchanged bit
+// for bit).
+struct BalancedScene {
+  ColorBalance balance;
+  std::shared_ptr<const Scene> scene;
+};
+
 // What the colour stages add to a mapping: seam levelling offsets and the inpainted/cloned regions.
 struct SurfaceColors {
   SeamLevelling levelling;
@@ -101,9 +111,10 @@ struct PipelineResult {
   std::shared_ptr<const Scene> scene;
   std::shared_ptr<const CameraStage> cameras;
   std::shared_ptr<const ProjectionStage> projection;
-  std::shared_ptr<const Mapping> mapping;   // the final mapping: paper path + projection, then seams (baked)
-  std::vector<Proposal> proposals;          // correspondences the cameras propose (proposals.h)
-  std::shared_ptr<const SeamResult> seams;  // seam optimisation's figures and per-face seam error
+  std::shared_ptr<const Mapping> mapping;         // the final mapping: paper path + projection, then seams (baked)
+  std::shared_ptr<const BalancedScene> balanced;  // balanced->scene is what seams, levelling, inpainting and bake read
+  std::vector<Proposal> proposals;                // correspondences the cameras propose (proposals.h)
+  std::shared_ptr<const SeamResult> seams;        // seam optimisation's figures and per-face seam error
   std::shared_ptr<const SurfaceColors> colors;
   std::shared_ptr<const BakeResult> baked;        // final tier only
   std::shared_ptr<const TexturedModel> model;     // baked->model: the atlas over the refined mesh (final tier only)
@@ -131,6 +142,10 @@ Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* ca
 ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
                                const CameraStage& cameras, const JobControl& job = {},
                                ViewFrameCache* frames = nullptr);
+// Balance: colour transforms per photo over the seams between photos of the final mapping
+// (options.colorBalance, photos' colorLocked); the photos the later stages read.
+BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping,
+                           const JobControl& job = {});
 // Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
 // when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
 // `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
@@ -187,6 +202,8 @@ class Pipeline {
   std::string seamKey_;
   std::shared_ptr<const Mapping> cachedSeamed_;
   std::shared_ptr<const SeamResult> cachedSeams_;
+  std::string balanceKey_;
+  std::shared_ptr<const BalancedScene> cachedBalance_;
   std::string colorKey_;
   std::shared_ptr<const SurfaceColors> cachedColors_;
   std::string bakeKey_;
@@ -200,8 +217,8 @@ class Pipeline {
 
 // The projection oracle of a synthetic scene (`montage eval --oracle`): the project's mesh and photos
 // textured through the given true cameras (one per photo, e.g. synth's cameras.json) with no clicks:
-// projection mapping, view selection, levelling, inpainting and bake, as the pipeline does them. The
-// covered PSNR of its model is the ceiling of any result on that scene.
+// projection mapping, view selection, colour balance, levelling, inpainting and bake, as the pipeline does
+// them. The covered PSNR of its model is the ceiling of any result on that scene.
 PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
                                 const JobControl& job = {});
 

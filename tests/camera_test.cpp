@@ -328,9 +328,9 @@ TEST(CameraPipeline, PhotosOfTheObjectAreMappedByProjectionWithClicksExact) {
   // The stages and their order.
   std::vector<StageId> order;
   for (const StageRecord& s : r.stages) order.push_back(s.stage);
-  const std::vector<StageId> expected = {StageId::Load,  StageId::Camera,     StageId::Partition,
-                                         StageId::Map,   StageId::Projection, StageId::Seams,
-                                         StageId::Level, StageId::Inpaint,    StageId::Bake};
+  const std::vector<StageId> expected = {StageId::Load,       StageId::Camera,  StageId::Partition, StageId::Map,
+                                         StageId::Projection, StageId::Balance, StageId::Seams,     StageId::Level,
+                                         StageId::Inpaint,    StageId::Bake};
   EXPECT_EQ(order, expected);
   // Most of what the photos see is mapped; no flip.
   EXPECT_GT(r.projection->result.seenFaces, mesh.numFaces() / 2);

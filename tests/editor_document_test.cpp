@@ -35,6 +35,32 @@ Project twoPhotos() {
   return p;
 }
 
+// Four photos for the photo-management tests: the demo's two, then photo 0's file again with every position
+// and chain of photo 0, then photo 1's file again with the positions of every other point seen in photo 1
+// (so some points are seen only in photo 1).
+Project fourPhotos() {
+  Project p = demo();
+  EXPECT_EQ(p.photos.size(), 2u);
+  p.photos.push_back(p.photos[0]);
+  p.photos.push_back(p.photos[1]);
+  for (size_t i = 0; i < p.points.size(); ++i) {
+    std::vector<PhotoPoint> extra;
+    for (const PhotoPoint& a : p.points[i].at) {
+      if (a.photo == 0) extra.push_back({2, a.x, a.y});
+      if (a.photo == 1 && i % 2 == 0) extra.push_back({3, a.x, a.y});
+    }
+    p.points[i].at.insert(p.points[i].at.end(), extra.begin(), extra.end());
+  }
+  const size_t chains = p.chains.size();
+  for (size_t c = 0; c < chains; ++c)
+    if (p.chains[c].photo == 0) {
+      FeatureChain copy = p.chains[c];
+      copy.photo = 2;
+      p.chains.push_back(copy);
+    }
+  return p;
+}
+
 }  // namespace
 
 TEST(EditorDocument, SetPositionAddsMovesAndExtendsPoints) {
@@ -367,4 +393,116 @@ TEST(EditorOverlays, StretchIsOneForAnIsometricMapAndClonePreviewFits) {
   EXPECT_NEAR(maxX - minX, 2 * 80 / 1.5, 1e-6);
   EXPECT_TRUE(insidePolygon(clone.polygon, Vec2(150, 140)));
   EXPECT_FALSE(insidePolygon(clone.polygon, Vec2(250, 140)));
+}
+
+// ---- Managing photos: remove, reorder, mirror, mask, lock, relink (issue 13) ----
+
+TEST(EditorDocument, RemovingAPhotoReindexesPointsAndUndoRestoresThemExactly) {
+  const Project p = fourPhotos();
+  Document doc(p);
+  // Photo 1's positions go; points seen only in photo 1 go (later point indices shift down); chains in
+  // photo 1 go; positions in photos 2 and 3 become photos 1 and 2.
+  doc.removePhoto(1);
+  const Project& q = doc.project();
+  ASSERT_EQ(q.photos.size(), 3u);
+  EXPECT_EQ(q.photos[1].path, p.photos[2].path);
+  size_t kept = 0;
+  for (const FeaturePoint& pt : p.points) {
+    std::vector<PhotoPoint> expect;
+    for (const PhotoPoint& a : pt.at)
+      if (a.photo != 1) expect.push_back({a.photo > 1 ? a.photo - 1 : a.photo, a.x, a.y});
+    if (expect.empty()) continue;
+    ASSERT_LT(kept, q.points.size());
+    EXPECT_EQ(q.points[kept].vertex, pt.vertex);
+    EXPECT_EQ(q.points[kept].at, expect) << "point " << kept;
+    ++kept;
+  }
+  EXPECT_EQ(kept, q.points.size());
+  EXPECT_LT(q.points.size(), p.points.size()) << "fourPhotos() has points seen only in photo 1";
+  for (const FeatureChain& c : q.chains) EXPECT_LT(c.photo, 3);
+  EXPECT_EQ(doc.history().back().label, "Remove photo 1");
+  doc.undo();
+  EXPECT_TRUE(doc.project().sameDocument(p));
+  EXPECT_EQ(doc.project().points, p.points);
+  EXPECT_EQ(doc.project().chains, p.chains);
+  doc.redo();
+  EXPECT_TRUE(doc.project().sameDocument(q));
+}
+
+TEST(EditorDocument, MovingAPhotoCarriesItsPositionsChainsAndClones) {
+  Project p = fourPhotos();
+  CloneOp clone;
+  clone.photo = 3;
+  clone.polygon = {Vec2(1, 1), Vec2(20, 1), Vec2(1, 20)};
+  clone.targetFaces = {0};
+  p.clones = {clone};
+  Document doc(p);
+  doc.movePhoto(3, 0);  // 3 first: 0, 1, 2 become 1, 2, 3
+  const Project& q = doc.project();
+  EXPECT_EQ(q.photos[0].path, p.photos[3].path);
+  EXPECT_EQ(q.photos[1].path, p.photos[0].path);
+  EXPECT_EQ(q.photos[3].path, p.photos[2].path);
+  const int newIndex[4] = {1, 2, 3, 0};
+  ASSERT_EQ(q.points.size(), p.points.size());
+  for (size_t i = 0; i < p.points.size(); ++i)
+    for (size_t k = 0; k < p.points[i].at.size(); ++k) {
+      EXPECT_EQ(q.points[i].at[k].photo, newIndex[p.points[i].at[k].photo]);
+      EXPECT_EQ(q.points[i].at[k].x, p.points[i].at[k].x);
+    }
+  for (size_t i = 0; i < p.chains.size(); ++i) EXPECT_EQ(q.chains[i].photo, newIndex[p.chains[i].photo]);
+  EXPECT_EQ(q.clones[0].photo, 0);
+  doc.movePhoto(0, 3);  // and back
+  EXPECT_TRUE(doc.project().sameDocument(p));
+  doc.undo();
+  doc.undo();
+  EXPECT_TRUE(doc.project().sameDocument(p));
+  EXPECT_EQ(doc.history().size(), 2u);
+  EXPECT_NE(test::errorOf([&] { doc.movePhoto(0, 4); }).find("move photo: position 4 does not exist"),
+            std::string::npos);
+}
+
+TEST(EditorDocument, MirroringAPhotoKeepsItsPointsOnTheSameContent) {
+  Project p = fourPhotos();
+  Document doc(p);
+  doc.setPhotoMirror(2, true, 1024);
+  const Project& q = doc.project();
+  EXPECT_TRUE(q.photos[2].mirror);
+  for (size_t i = 0; i < p.points.size(); ++i)
+    for (size_t k = 0; k < p.points[i].at.size(); ++k) {
+      const PhotoPoint& a = p.points[i].at[k];
+      EXPECT_EQ(q.points[i].at[k].x, a.photo == 2 ? 1024 - a.x : a.x);
+      EXPECT_EQ(q.points[i].at[k].y, a.y);
+    }
+  doc.setPhotoMirror(2, false, 1024);  // mirrored twice: as before (up to rounding of width - x)
+  for (size_t i = 0; i < p.points.size(); ++i)
+    for (size_t k = 0; k < p.points[i].at.size(); ++k)
+      EXPECT_NEAR(doc.project().points[i].at[k].x, p.points[i].at[k].x, 1e-9);
+  EXPECT_FALSE(doc.project().photos[2].mirror);
+  doc.undo();
+  doc.undo();  // undo is exact
+  EXPECT_TRUE(doc.project().sameDocument(p));
+  // A photo with points needs its width.
+  EXPECT_NE(test::errorOf([&] { doc.setPhotoMirror(2, true, 0); }).find("width is unknown"), std::string::npos);
+  Document empty(twoPhotos());
+  empty.setPhotoMirror(1, true, 0);  // no points: no width needed
+  EXPECT_TRUE(empty.project().photos[1].mirror);
+}
+
+TEST(EditorDocument, MaskLockAndRelinkAreUndoableEdits) {
+  const Project p = twoPhotos();
+  Document doc(p);
+  doc.setPhotoMask(0, "/tmp/a_mask.png");
+  doc.setColorLocked(1, true);
+  doc.relinkPhoto(0, "/elsewhere/photo_0.png");
+  doc.relinkMesh("/elsewhere/demo_mesh.obj");
+  const Project& q = doc.project();
+  EXPECT_EQ(q.photos[0].mask, "/tmp/a_mask.png");
+  EXPECT_TRUE(q.photos[1].colorLocked);
+  EXPECT_EQ(q.photos[0].path, "/elsewhere/photo_0.png");
+  EXPECT_EQ(q.mesh, "/elsewhere/demo_mesh.obj");
+  EXPECT_EQ(doc.history().size(), 4u);
+  EXPECT_EQ(doc.history()[0].label, "Set mask of photo 0");
+  EXPECT_EQ(doc.history()[1].label, "Lock colours of photo 1");
+  doc.jumpTo(0);
+  EXPECT_TRUE(doc.project().sameDocument(p));
 }

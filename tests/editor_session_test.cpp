@@ -12,9 +12,12 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 #include <thread>
 
+#include "document.h"
 #include "io/project.h"
+#include "pipeline.h"
 #include "test_support.h"
 
 using namespace montage;
@@ -267,4 +270,235 @@ TEST(EditorSession, AutosaveIsRecoveredAfterSigkill) {
   EXPECT_TRUE(recovered["modified"].get<bool>()) << "recovered work is not saved until the user saves";
   expectDemoPlusOne(loadProject(dir + "/proj.json"), project);
   EXPECT_FALSE(fs::exists(side)) << "saving removes the side file";
+}
+
+// ---- Photos (issue 13): missing files, drop, remove and reorder with undo, the cut-out tool, the
+// colour balance's before/after.
+
+namespace {
+
+// A copy of the demo (project, mesh, photos) in `dir`, so that files can be moved and masks written.
+void copyDemo(const std::string& dir) {
+  for (const auto& entry : fs::directory_iterator(test::assetsDir() + "/demo"))
+    fs::copy_file(entry.path(), fs::path(dir) / entry.path().filename(), fs::copy_options::overwrite_existing);
+}
+
+bool hasWarning(const json& state, const std::string& part) {
+  for (const auto& w : state["result"]["warnings"])
+    if (w.get<std::string>().find(part) != std::string::npos) return true;
+  return false;
+}
+
+}  // namespace
+
+TEST(EditorSession, AProjectWithAMissingPhotoOpensSaysSoAndIsRelinked) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = test::tempDir("editor_missing");
+  copyDemo(dir);
+  fs::create_directories(dir + "/moved");
+  fs::rename(dir + "/tiger_right.png", dir + "/moved/tiger_right.png");
+  writeText(dir + "/s.txt",
+            "wait_frames 3\nstate opened.json\nwait_worker 900\nstate skipped.json\nscreenshot missing.png\n"
+            "relink 1 moved/tiger_right.png\nwait_worker 900\nstate relinked.json\nsave relinked_project.json\nquit\n");
+  std::string out;
+  ASSERT_EQ(runEditor(dir, "project.json --script s.txt", &out), 0) << out;
+  const Project demo = loadProject(demoProject());
+
+  // It opened, with everything in it, and says what is missing.
+  const json opened = readJson(dir + "/opened.json");
+  EXPECT_EQ(opened["counts"]["photos"], 2);
+  EXPECT_EQ(opened["counts"]["points"], demo.points.size());
+  ASSERT_EQ(opened["missing"].size(), 1u) << opened["missing"].dump();
+  EXPECT_EQ(opened["missing"][0]["field"], "photos[1].path");
+  EXPECT_TRUE(opened["missing_window"].get<bool>());
+  EXPECT_FALSE(opened["photos"][1]["loaded"].get<bool>());
+  EXPECT_NE(opened["photos"][1]["error"].get<std::string>().find("tiger_right.png: "), std::string::npos);
+  EXPECT_NE(opened["photos"][1]["error"].get<std::string>().find("not found"), std::string::npos);
+  EXPECT_TRUE(opened["photos"][0]["loaded"].get<bool>());
+
+  // The broken photo disables only itself: the others still texture, and the warning names it.
+  const json skipped = readJson(dir + "/skipped.json");
+  ASSERT_FALSE(skipped["result"].is_null()) << skipped["worker"].dump();
+  EXPECT_TRUE(skipped["result"]["matches_document"].get<bool>());
+  EXPECT_TRUE(hasWarning(skipped, "photo 1 'tiger_right.png' skipped")) << skipped["result"]["warnings"].dump();
+  const auto faces = skipped["result"]["faces_per_photo"].get<std::vector<int>>();
+  ASSERT_EQ(faces.size(), 2u);
+  EXPECT_EQ(faces[1], 0);
+  EXPECT_GT(faces[0], 0);
+
+  // Relinked: nothing missing, the photo textures again, the project names its new place.
+  const json relinked = readJson(dir + "/relinked.json");
+  EXPECT_TRUE(relinked["missing"].empty());
+  EXPECT_TRUE(relinked["photos"][1]["loaded"].get<bool>());
+  EXPECT_FALSE(hasWarning(relinked, "skipped"));
+  EXPECT_GT(relinked["result"]["faces_per_photo"][1].get<int>(), 0);
+  const Project saved = loadProject(dir + "/relinked_project.json");
+  EXPECT_EQ(saved.photos[1].path, dir + "/moved/tiger_right.png");
+  EXPECT_EQ(saved.points, demo.points);
+}
+
+TEST(EditorSession, PhotosAreDroppedRemovedAndReorderedAndEveryStepUndoes) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = test::tempDir("editor_photos");
+  copyDemo(dir);
+  writeText(dir + "/s.txt",
+            "wait_frames 2\ndrop tiger_left.png tiger_right.png tiger_sumatran_stamp.png\nwait_frames 3\n"
+            "state dropped.json\nopen project.json\ntab photos\nclick_button \"remove photo 1\"\nwait_frames 2\n"
+            "state removed.json\nsave removed.json\nkey ctrl+z\nsave undone.json\nclick_button \"photo down 0\"\n"
+            "wait_frames 2\nsave moved.json\nkey ctrl+z\nsave moved_undone.json\nphoto_flag 1 mirror on\n"
+            "save mirrored.json\nkey ctrl+z\nsave mirror_undone.json\ndrop cat.obj\nwait_frames 3\n"
+            "state reopened.json\nquit\n");
+  std::string out;
+  ASSERT_EQ(runEditor(dir, "cat.obj --script s.txt", &out), 0) << out;
+  const Project demo = loadProject(dir + "/project.json");
+
+  // Dropped images join the project opened on the mesh: three photos, one undo step.
+  const json dropped = readJson(dir + "/dropped.json");
+  EXPECT_EQ(dropped["counts"]["photos"], 3);
+  EXPECT_EQ(dropped["history"]["steps"], 1);
+  EXPECT_EQ(dropped["photos"][1]["path"], dir + "/tiger_right.png");
+
+  // Removing photo 1 re-indexes the points as the document does; undo restores them exactly.
+  Document expected(demo);
+  expected.removePhoto(1);
+  const Project removed = loadProject(dir + "/removed.json");
+  EXPECT_EQ(removed.photos.size(), demo.photos.size() - 1);
+  EXPECT_EQ(removed.points, expected.project().points);
+  EXPECT_EQ(removed.chains, expected.project().chains);
+  EXPECT_TRUE(loadProject(dir + "/undone.json").sameDocument(demo));
+  // Moving photo 0 down swaps it with photo 1, its points follow; undo again.
+  const Project moved = loadProject(dir + "/moved.json");
+  EXPECT_EQ(moved.photos[0].path, demo.photos[1].path);
+  EXPECT_EQ(moved.photos[1].path, demo.photos[0].path);
+  for (size_t i = 0; i < demo.points.size(); ++i)
+    for (size_t k = 0; k < demo.points[i].at.size(); ++k) {
+      const int was = demo.points[i].at[k].photo;
+      EXPECT_EQ(moved.points[i].at[k].photo, was == 0 ? 1 : was == 1 ? 0 : was);
+    }
+  EXPECT_TRUE(loadProject(dir + "/moved_undone.json").sameDocument(demo));
+  // Mirroring flips the photo's points (x -> width - x; the tiger photos are 453 pixels wide).
+  const Project mirrored = loadProject(dir + "/mirrored.json");
+  EXPECT_TRUE(mirrored.photos[1].mirror);
+  int flipped = 0;
+  for (size_t i = 0; i < demo.points.size(); ++i)
+    for (size_t k = 0; k < demo.points[i].at.size(); ++k)
+      if (demo.points[i].at[k].photo == 1) {
+        EXPECT_DOUBLE_EQ(mirrored.points[i].at[k].x, 453 - demo.points[i].at[k].x);
+        ++flipped;
+      }
+  EXPECT_GT(flipped, 50);
+  EXPECT_TRUE(loadProject(dir + "/mirror_undone.json").sameDocument(demo));
+  // A dropped mesh opens (the document was just saved: no question asked).
+  const json reopened = readJson(dir + "/reopened.json");
+  EXPECT_EQ(reopened["mesh"], dir + "/cat.obj");
+  EXPECT_EQ(reopened["counts"]["photos"], 0);
+}
+
+TEST(EditorSession, TheCutOutToolMasksAPhotoWithoutAlpha) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = test::tempDir("editor_cutout");
+  copyDemo(dir);
+  // The demo's tiger (Tux Paint's stamp: a real photo cut out with alpha, the size of the demo's photo 0)
+  // flattened onto a busy background, without alpha: what a user's photo looks like.
+  const cv::Mat stamp = cv::imread(dir + "/tiger_sumatran_stamp.png", cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(stamp.type(), CV_8UC4);
+  // The stamp fills its frame: framed with background on every side (80 px left and right, 60 px above and
+  // below), as a photo of an object shows it.
+  cv::Mat rgba;
+  cv::copyMakeBorder(stamp, rgba, 60, 60, 80, 80, cv::BORDER_CONSTANT, cv::Scalar(0, 0, 0, 0));
+  cv::Mat flat(rgba.size(), CV_8UC3), truth(rgba.size(), CV_8U, cv::Scalar(0));
+  for (int y = 0; y < rgba.rows; ++y)
+    for (int x = 0; x < rgba.cols; ++x) {
+      const cv::Vec4b s = rgba.at<cv::Vec4b>(y, x);
+      const cv::Vec3b bg(uchar(90 + 70 * std::sin(x / 9.0)), uchar(140 + 60 * std::cos(y / 13.0)),
+                         uchar((x / 24 + y / 31) % 2 ? 200 : 60));
+      const double a = s[3] / 255.0;
+      for (int c = 0; c < 3; ++c) flat.at<cv::Vec3b>(y, x)[c] = cv::saturate_cast<uchar>(a * s[c] + (1 - a) * bg[c]);
+      truth.at<uchar>(y, x) = s[3] > 127 ? 255 : 0;
+    }
+  ASSERT_TRUE(cv::imwrite(dir + "/flat.png", flat));
+  // Photo 0 is the framed photo, without mask; the demo's points (for the unframed photo) are left out.
+  Project project = loadProject(dir + "/project.json");
+  project.photos[0].path = dir + "/flat.png";
+  project.photos[0].mask.clear();
+  project.points.clear();
+  project.chains.clear();
+  saveProject(project, dir + "/cut.json");
+  const cv::Rect box = cv::boundingRect(truth);
+  const int gx = box.width / 16, gy = box.height / 16;
+  const int x0 = std::max(0, box.x - gx), y0 = std::max(0, box.y - gy);
+  const int x1 = std::min(rgba.cols - 1, box.x + box.width + gx), y1 = std::min(rgba.rows - 1, box.y + box.height + gy);
+  // A background stroke along the rectangle's top inner edge, where nothing of the object is.
+  std::ostringstream script;
+  script << "wait_frames 2\ntool cutout\nphoto 0\ncutout_mode rect\ndrag_photo 0 " << x0 << " " << y0 << " " << x1
+         << " " << y1 << "\nwait_cutout 120\nstate rect.json\ncutout_mode background 4 2\ndrag_photo 0 " << x0 + 6
+         << " " << y0 + 4 << " " << x0 + 40 << " " << y0 + 4 << "\nwait_cutout 120\nscreenshot cutout.png\n"
+         << "click_button \"Use mask\"\nwait_frames 3\nstate masked_state.json\nsave masked.json\nkey ctrl+z\n"
+         << "save unmasked.json\nquit\n";
+  writeText(dir + "/s.txt", script.str());
+  std::string out;
+  ASSERT_EQ(runEditor(dir, "cut.json --script s.txt", &out), 0) << out;
+
+  const json rect = readJson(dir + "/rect.json");
+  EXPECT_EQ(rect["cutout"]["photo"], 0);
+  EXPECT_TRUE(rect["cutout"]["started"].get<bool>());
+  EXPECT_GT(rect["cutout"]["foreground_pixels"].get<int>(), 0);
+  const Project masked = loadProject(dir + "/masked.json");
+  EXPECT_EQ(masked.photos[0].mask, dir + "/masks/flat_mask.png");
+  const cv::Mat mask = cv::imread(masked.photos[0].mask, cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(mask.type(), CV_8UC1);
+  const double inter = cv::countNonZero((mask > 0) & truth), uni = cv::countNonZero((mask > 0) | truth);
+  std::printf("editor cut-out: IoU %.4f against the true alpha\n", inter / uni);
+  // A real photo (the tiger, striped, with grass at its feet that the stamp's alpha keeps) from a rectangle
+  // and one stroke: 0.81 when written (docs/photos.md measures GrabCut's IoU against the issue's 0.9 target on
+  // real photos with tm_cutout_bench); this guards against the tool getting worse.
+  EXPECT_GT(inter / uni, 0.78);
+  EXPECT_GT(cv::countNonZero((mask > 0) & (mask < 255)), 0) << "the feathered edge has partial alpha";
+  const json state = readJson(dir + "/masked_state.json");
+  EXPECT_TRUE(state["photos"][0]["loaded"].get<bool>());
+  // Undo goes back to no mask; the file written stays (undo/redo may need it).
+  EXPECT_TRUE(loadProject(dir + "/unmasked.json").photos[0].mask.empty());
+  EXPECT_TRUE(fs::exists(dir + "/masks/flat_mask.png"));
+}
+
+TEST(EditorSession, ColourBalanceLockAndBeforeAfter) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = test::tempDir("editor_balance");
+  ASSERT_EQ(test::runCommand(test::montageExe() + " synth --mesh " + test::testDataDir() +
+                             "/turtle.obj --views 4 --features 100 --size 512 --exposure 1,0.55,1.3,0.8 --out " + dir +
+                             "/scene >/dev/null 2>&1"),
+            0);
+  writeText(dir + "/s.txt",
+            "wait_frames 2\nphoto_flag 1 lock on\nwait_worker 900\nview grid on\nview balanced on\nwait_frames 3\n"
+            "screenshot after.png\nview balanced off\nwait_frames 3\nscreenshot before.png\nstate state.json\nquit\n");
+  std::string out;
+  ASSERT_EQ(runEditor(dir, "scene/project.json --script s.txt", &out), 0) << out;
+  const json state = readJson(dir + "/state.json");
+  ASSERT_TRUE(state.contains("balance")) << state["result"].dump();
+  const json& balance = state["balance"];
+  ASSERT_EQ(balance.size(), 4u);
+  EXPECT_TRUE(balance[1]["reference"].get<bool>()) << "the locked photo is the reference";
+  EXPECT_FALSE(balance[0]["reference"].get<bool>());
+  // The editor shows what the pipeline computes with photo 1 locked...
+  Project locked = loadProject(dir + "/scene/project.json");
+  locked.photos[1].colorLocked = true;
+  Pipeline pipeline;
+  const PipelineResult expected = pipeline.run(locked);
+  ASSERT_TRUE(expected.balanced);
+  for (int p = 0; p < 4; ++p)
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(balance[p]["gain"][c].get<double>(), expected.balanced->balance.transforms[p].gain[c], 1e-4)
+          << "photo " << p << " channel " << c;
+  // ...which matches everything to photo 1 (exposure 0.55): photo 0 by about 0.55 / 1 on linear light, photo 2
+  // by 0.55 / 1.3. Synth's fine rainbow pattern at 512 pixels is the hard case of the balance (every seam
+  // sample near an edge): the mean over the channels is within 20% here; the accuracy tests are balance_test's.
+  auto meanGain = [&](int p) {
+    return (balance[p]["gain"][0].get<double>() + balance[p]["gain"][1].get<double>() +
+            balance[p]["gain"][2].get<double>()) /
+           3;
+  };
+  EXPECT_NEAR(meanGain(0), 0.55, 0.55 * 0.2);
+  EXPECT_NEAR(meanGain(2), 0.55 / 1.3, 0.55 / 1.3 * 0.2);
+  EXPECT_TRUE(loadProject(dir + "/scene/project.json").photos[1].colorLocked == false) << "not saved";
+  EXPECT_TRUE(fs::exists(dir + "/after.png") && fs::exists(dir + "/before.png"));
 }

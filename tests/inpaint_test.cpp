@@ -663,6 +663,7 @@ TEST(SeamLevelling, MontageEvalSeamMismatchDropsOnTwoExposureScene) {
   for (int m = 0; m < 3; ++m) {
     Project project = loadProject(dir + "/scene/project.json");
     project.options.seamLevelling = LevelMode(m);
+    project.options.colorBalance = BalanceMode::Off;  // levelling alone (the balance has its own tests)
     // The refined model carries a source per face, which the photo-seam figures of `montage eval` need
     // (the original-topology export has a source per texel only).
     project.options.exportTopology = ExportTopology::Refined;

@@ -10,6 +10,8 @@
 #include <random>
 
 #include "image/color.h"
+#include "io/project.h"
+#include "pipeline.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -417,6 +419,135 @@ TEST(Photo, RealPhotosLoadWithTheirSizes) {
     cv::Scalar mean = cv::mean(photo.rgb);
     EXPECT_GT(mean[0], 0.05 * 255);  // not a black image
   }
+}
+
+namespace {
+
+bool sameMat(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  if (a.depth() != CV_16F) return cv::norm(a, b, cv::NORM_INF) == 0;
+  cv::Mat fa, fb;  // cv::norm has no half floats
+  a.convertTo(fa, CV_32F);
+  b.convertTo(fb, CV_32F);
+  return cv::norm(fa, fb, cv::NORM_INF) == 0;
+}
+
+Photo loadMirrored(const std::string& path, const std::string& mask) {
+  PhotoLoadOptions options;
+  options.mirror = true;
+  return loadPhoto(path, mask, options);
+}
+
+}  // namespace
+
+TEST(Photo, MirrorFlipsThePhotoAndItsMaskOnLoadLikeAMirroredCopy) {
+  const std::string dir = test::tempDir("photo");
+  // An asymmetric photo with alpha, and a mask (in the file's own pixels) that differs from the alpha.
+  cv::Mat image(40, 60, CV_8UC4);
+  cv::randu(image, cv::Scalar::all(0), cv::Scalar::all(255));
+  image(cv::Rect(0, 0, 60, 40)).forEach<cv::Vec4b>([](cv::Vec4b& p, const int* at) { p[3] = at[1] < 35 ? 255 : 0; });
+  cv::Mat mask = cv::Mat::zeros(40, 60, CV_8UC1);
+  mask(cv::Rect(5, 5, 20, 30)).setTo(255);
+  cv::Mat flippedImage, flippedMask;
+  cv::flip(image, flippedImage, 1);
+  cv::flip(mask, flippedMask, 1);
+  const std::string photoPath = write(dir, "p.png", image), maskPath = write(dir, "m.png", mask);
+  const std::string copyPath = write(dir, "p_mirrored.png", flippedImage);
+  const std::string copyMaskPath = write(dir, "m_mirrored.png", flippedMask);
+
+  for (const bool withMask : {false, true}) {
+    const Photo mirrored = loadMirrored(photoPath, withMask ? maskPath : "");
+    const Photo copy = loadPhoto(copyPath, withMask ? copyMaskPath : "");
+    EXPECT_TRUE(mirrored.mirrored);
+    EXPECT_FALSE(copy.mirrored);
+    EXPECT_EQ(mirrored.width, 60);
+    EXPECT_TRUE(sameMat(mirrored.rgb, copy.rgb)) << "mask " << withMask;
+    EXPECT_TRUE(sameMat(mirrored.alpha, copy.alpha)) << "mask " << withMask;
+    EXPECT_TRUE(sameMat(mirrored.distance, copy.distance)) << "mask " << withMask;
+  }
+  // And it really is mirrored: the pixel at column c is the file's column 59 - c.
+  const Photo plain = loadPhoto(photoPath, maskPath), mirrored = loadMirrored(photoPath, maskPath);
+  EXPECT_FALSE(plain.mirrored);
+  ASSERT_EQ(mirrored.rgb.type(), CV_8UC3);  // compact: the file's depth
+  for (int c : {0, 7, 59})
+    EXPECT_EQ(mirrored.rgb.at<cv::Vec3b>(3, c), plain.rgb.at<cv::Vec3b>(3, 59 - c)) << "column " << c;
+  EXPECT_TRUE(plain.isForeground(6, 6));
+  EXPECT_FALSE(mirrored.isForeground(6, 6));
+  EXPECT_TRUE(mirrored.isForeground(60 - 6, 6));
+}
+
+TEST(Photo, MaskAlphaIsRelativeToTheMasksLargestValue) {
+  const std::string dir = test::tempDir("photo");
+  const std::string photoPath = write(dir, "p.png", cv::Mat(10, 10, CV_8UC3, cv::Scalar(40, 80, 120)));
+  // A 0/1 label image: full alpha (not 1/255), so a label mask is not a faint one.
+  cv::Mat labels = cv::Mat::zeros(10, 10, CV_8UC1);
+  labels(cv::Rect(2, 2, 5, 5)).setTo(1);
+  const Photo fromLabels = loadPhoto(photoPath, write(dir, "labels.png", labels));
+  ASSERT_EQ(fromLabels.alpha.type(), CV_8UC1);  // compact: 8-bit alpha
+  EXPECT_EQ(fromLabels.alpha.at<uchar>(3, 3), 255);
+  EXPECT_EQ(fromLabels.alpha.at<uchar>(0, 0), 0);
+  EXPECT_EQ(fromLabels.alphaAt(3.5, 3.5), 1.0f);
+  // A feathered mask: partial alpha on its edge, the same foreground as its binary version.
+  cv::Mat feathered = cv::Mat::zeros(10, 10, CV_8UC1);
+  feathered(cv::Rect(2, 2, 5, 5)).setTo(255);
+  feathered.at<uchar>(2, 2) = 51;
+  const Photo fromFeathered = loadPhoto(photoPath, write(dir, "feathered.png", feathered));
+  EXPECT_EQ(fromFeathered.alpha.at<uchar>(2, 2), 51);
+  EXPECT_NEAR(fromFeathered.alphaAt(2.5, 2.5), 0.2f, 1e-6);
+  EXPECT_EQ(fromFeathered.alpha.at<uchar>(4, 4), 255);
+  // A 16-bit mask with a faint largest value: alpha relative to it, and a tiny value stays foreground.
+  cv::Mat faint = cv::Mat::zeros(10, 10, CV_16UC1);
+  faint(cv::Rect(2, 2, 5, 5)).setTo(1000);
+  faint.at<uint16_t>(2, 2) = 1;
+  const Photo fromFaint = loadPhoto(photoPath, write(dir, "faint.png", faint));
+  EXPECT_EQ(fromFaint.alpha.at<uchar>(4, 4), 255);
+  EXPECT_EQ(fromFaint.alpha.at<uchar>(2, 2), 1);
+  EXPECT_EQ(cv::countNonZero(fromFaint.alpha > 0), cv::countNonZero(fromLabels.alpha > 0));
+  EXPECT_EQ(cv::countNonZero(fromFeathered.alpha > 0), cv::countNonZero(fromLabels.alpha > 0));
+  EXPECT_TRUE(sameMat(fromFeathered.distance, fromLabels.distance));
+}
+
+// The issue's test: a photo mirrored by its flag maps the same as a pre-mirrored copy of the file. The demo's
+// photo 1 (tiger_right.png, with its mask) is the pre-mirrored copy of photo 0's file (scripts/make_demo.py):
+// photo 1 given as photo 0's file and mask with the mirror flag must map exactly as the demo does, with the
+// same points. And the flag is not inert: the same file without it maps otherwise.
+TEST(Photo, AMirroredPhotoMapsLikeAPreMirroredCopy) {
+  const Project demo = loadProject(test::assetsDir() + "/demo/project.json");
+  ASSERT_EQ(demo.photos.size(), 2u);
+  Project flagged = demo, unflagged = demo;
+  flagged.photos[1] = unflagged.photos[1] = demo.photos[0];
+  flagged.photos[1].mirror = true;
+  const auto copyScene = loadScene(demo);
+  // The random line searches of each cell are seeded by the cell's content, which names the photo by its
+  // file key (path, size, time: mapping/cells.cpp): the two scenes use the same keys, so that any
+  // difference comes from the pixels.
+  auto flaggedScene = std::make_shared<Scene>(*loadScene(flagged));
+  ASSERT_NE(flaggedScene->photoKeys[1], copyScene->photoKeys[1]);
+  flaggedScene->photoKeys = copyScene->photoKeys;
+  ASSERT_TRUE(sameMat(flaggedScene->photos[1]->rgb, copyScene->photos[1]->rgb)) << "tiger_right is not the mirror";
+  ASSERT_TRUE(sameMat(flaggedScene->photos[1]->alpha, copyScene->photos[1]->alpha));
+  ASSERT_TRUE(sameMat(flaggedScene->photos[1]->distance, copyScene->photos[1]->distance));
+
+  const Mapping byFlag = mapTexture(*flaggedScene), byCopy = mapTexture(*copyScene);
+  ASSERT_EQ(byFlag.map.facePhoto.size(), byCopy.map.facePhoto.size());
+  EXPECT_EQ(byFlag.map.facePhoto, byCopy.map.facePhoto);
+  double largest = 0;
+  int inPhoto1 = 0;
+  for (size_t f = 0; f < byFlag.map.facePhoto.size(); ++f) {
+    for (int k = 0; k < 3; ++k)
+      largest = std::max(largest, (byFlag.map.cornerUV[f][k] - byCopy.map.cornerUV[f][k]).norm());
+    if (byFlag.map.facePhoto[f] == 1) ++inPhoto1;
+  }
+  EXPECT_EQ(largest, 0.0) << "the two mappings differ by up to " << largest << " px";
+  EXPECT_GT(inPhoto1, 100) << "photo 1 textures part of the mesh";
+  auto unflaggedScene = std::make_shared<Scene>(*loadScene(unflagged));
+  unflaggedScene->photoKeys = copyScene->photoKeys;
+  const Mapping withoutFlag = mapTexture(*unflaggedScene);
+  int moved = 0;
+  for (size_t f = 0; f < byFlag.map.facePhoto.size(); ++f)
+    moved += withoutFlag.map.facePhoto[f] != byFlag.map.facePhoto[f] ||
+             (byFlag.map.facePhoto[f] >= 0 && (withoutFlag.map.cornerUV[f][0] - byFlag.map.cornerUV[f][0]).norm() > 1);
+  EXPECT_GT(moved, 100) << "without the flag, photo 1's points fall elsewhere in the file";
 }
 
 // ---- Memory and working resolution (issue 15) ----

@@ -44,9 +44,9 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
     if (seen.empty() || seen.back() != s) seen.push_back(s);
   });
   PipelineResult result = pipeline.run(project, job);
-  const std::vector<StageId> order = {StageId::Load,  StageId::Camera,     StageId::Partition,
-                                      StageId::Map,   StageId::Projection, StageId::Seams,
-                                      StageId::Level, StageId::Inpaint,    StageId::Bake};
+  const std::vector<StageId> order = {StageId::Load,       StageId::Camera,  StageId::Partition, StageId::Map,
+                                      StageId::Projection, StageId::Balance, StageId::Seams,     StageId::Level,
+                                      StageId::Inpaint,    StageId::Bake};
   ASSERT_EQ(result.stages.size(), order.size());
   for (size_t i = 0; i < order.size(); ++i) EXPECT_EQ(result.stages[i].stage, order[i]);
   EXPECT_EQ(seen, order);
@@ -146,6 +146,10 @@ TEST(Pipeline, WritesModelAndReport) {
     stage[kStageNames[i]] = report["stages"][i];
   }
   EXPECT_TRUE(stage["seams"]["counts"].contains("delta_e_after"));
+  // The balance stage reports a transform per photo (the demo's two photos share seams).
+  EXPECT_EQ(stage["balance"]["counts"]["gain"].size(), project.photos.size());
+  EXPECT_EQ(stage["balance"]["counts"]["offset"].size(), project.photos.size());
+  EXPECT_TRUE(stage["balance"]["counts"].contains("mismatch_after"));
   EXPECT_TRUE(report.contains("seams"));
   // The demo has holes: they are inpainted, and the model says which faces were.
   EXPECT_GT(stage["inpaint"]["counts"]["regions"].size(), 0u);
@@ -398,14 +402,14 @@ TEST(PipelineTiers, PreviewLooksLikeTheFinalBake) {
     ASSERT_TRUE(final.model);
     EXPECT_EQ(preview.mapping.get(), final.mapping.get());  // both tiers come from one mapping
     std::vector<const Photo*> photos;
-    for (const auto& p : preview.scene->photos) photos.push_back(p.get());
+    for (const auto& p : preview.balanced->scene->photos) photos.push_back(p.get());
     const PreviewSurface surface(preview.mapping->map, photos, &preview.colors->levelling, &preview.colors->inpaint);
     const Mesh& mesh = preview.mapping->partition.mesh;
     // The preview model the editor draws (photos sampled through their UVs plus the corner colours,
     // as shaders/mesh.frag does), checked against the final bake as well.
     std::vector<cv::Mat> textures;
     for (const Photo* p : photos) textures.push_back(previewTexture(*p));
-    const TexturedModel gpu = previewModel(mesh, preview.mapping->map, preview.scene->photos, textures,
+    const TexturedModel gpu = previewModel(mesh, preview.mapping->map, preview.balanced->scene->photos, textures,
                                            &preview.colors->levelling, &preview.colors->inpaint);
     auto gpuColor = [&](int f, const Vec3& b) {
       Vec3f c = gpu.colorAt(f, b);

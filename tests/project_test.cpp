@@ -65,7 +65,8 @@ class ProjectTest : public ::testing::Test {
   Project sample() const {
     Project p;
     p.mesh = path("mesh.obj");
-    p.photos = {{path("photos/a.png"), path("photos/a_mask.png")}, {path("photos/b.png"), ""}};
+    p.photos = {{path("photos/a.png"), path("photos/a_mask.png"), false, true},
+                {path("photos/b.png"), "", true, false}};
     p.points = {{12, {{0, 10.25, 20.5}, {1, 1.0 / 3, 2.0 / 7}}},
                 {5, {{0, 0.1, 79.99999999999999}}},
                 {7, {{0, 100, 0}, {1, 49.5, 39.5}}}};
@@ -151,6 +152,15 @@ TEST_F(ProjectTest, SaveLoadRoundTrip) {
   other.photos[0].mask.clear();
   EXPECT_FALSE(other.sameDocument(loaded));
   other = loaded;
+  other.photos[1].mirror = false;
+  EXPECT_FALSE(other.sameDocument(loaded));
+  other = loaded;
+  other.photos[0].colorLocked = false;
+  EXPECT_FALSE(other.sameDocument(loaded));
+  EXPECT_TRUE(loaded.photos[1].mirror);
+  EXPECT_TRUE(loaded.photos[0].colorLocked);
+  EXPECT_EQ(loaded.options.colorBalance, BalanceMode::GainOffset);
+  other = loaded;
   other.declinedProposals.pop_back();
   EXPECT_FALSE(other.sameDocument(loaded));
   other = loaded;
@@ -184,10 +194,14 @@ TEST_F(ProjectTest, FileIsPrettyVersionedJson) {
   Project p = sample();
   saveProject(p, path("p.json"));
   const std::string text = readFile(path("p.json"));
-  EXPECT_NE(text.find("\n  \"version\": 2,"), std::string::npos) << text;  // two-space indent
+  EXPECT_NE(text.find("\n  \"version\": 3,"), std::string::npos) << text;  // two-space indent
   const json j = json::parse(text);
   EXPECT_EQ(j["format"], "texturemontage-project");
   EXPECT_EQ(j["version"], Project::kVersion);
+  EXPECT_EQ(j["photos"][1]["mirror"], true);
+  EXPECT_FALSE(j["photos"][0].contains("mirror"));  // false: no field
+  EXPECT_EQ(j["photos"][0]["colorLocked"], true);
+  EXPECT_EQ(j["options"]["colorBalance"], "gain-offset");
   EXPECT_EQ(j["options"]["inpaintMode"], "strokes");
   EXPECT_EQ(j["options"]["atlasSize"], 2048);
   EXPECT_EQ(j["clones"][0]["anchor"], json::array({5.5, 6.25}));
@@ -233,7 +247,9 @@ TEST_F(ProjectTest, MinimalFileGetsDefaultsAndUnknownFieldsAreIgnored) {
   EXPECT_EQ(minimal.mesh, path("mesh.obj"));
   EXPECT_TRUE(minimal.photos.empty() && minimal.points.empty() && minimal.chains.empty() && minimal.strokes.empty() &&
               minimal.clones.empty());
-  EXPECT_EQ(minimal.options, PipelineOptions());
+  PipelineOptions version1;  // a version-1 file keeps its behaviour: no colour balance
+  version1.colorBalance = BalanceMode::Off;
+  EXPECT_EQ(minimal.options, version1);
 
   json j = sampleJson();
   j["comment"] = "written by a later build";
@@ -341,10 +357,11 @@ TEST_F(ProjectTest, SaveIntoReadOnlyFolderKeepsTheEarlierFile) {
 
 TEST_F(ProjectTest, RejectsUnknownVersion) {
   json j = sampleJson();
-  j["version"] = 3;
+  j["version"] = 4;
   const std::string message = loadError(j);
-  EXPECT_MESSAGE_HAS(message, "version: 3 is not supported");
-  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 2");
+  EXPECT_MESSAGE_HAS(message, "version: 4 is not supported");
+  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 3");
+  EXPECT_MESSAGE_HAS(message, "written by a newer TextureMontage");
   j["version"] = 0;
   EXPECT_MESSAGE_HAS(loadError(j), "version: 0 is not supported");
   j["version"] = "1";
@@ -481,9 +498,9 @@ TEST_F(ProjectTest, RejectsWrongTypes) {
   EXPECT_MESSAGE_HAS(loadError(j), "strokes[1].vertices[0]: 5000000000 is out of range");
   j = sampleJson();
   j["options"]["inpaintMode"] = "magic";
-  EXPECT_MESSAGE_HAS(
-      loadError(j),
-      "options.inpaintMode: 'magic' is not an inpainting mode (one of 'harmonic', 'rbf', 'strokes', 'off', 'synthesis', 'structure')");
+  EXPECT_MESSAGE_HAS(loadError(j),
+                     "options.inpaintMode: 'magic' is not an inpainting mode (one of 'harmonic', 'rbf', 'strokes', "
+                     "'off', 'synthesis', 'structure')");
   j = sampleJson();
   j["options"]["seed"] = -1;
   EXPECT_MESSAGE_HAS(loadError(j), "options.seed: -1 is out of range 0..4294967295");
@@ -635,7 +652,109 @@ TEST_F(ProjectTest, DocumentedExampleIsWhatSaveWrites) {
   Project project = loadProject(path("example.json"));
   EXPECT_EQ(project.photos[0].mask, path("photos/front_mask.png"));
   EXPECT_TRUE(project.chains[0].closed);
+  EXPECT_TRUE(project.photos[0].colorLocked);
+  EXPECT_TRUE(project.photos[1].mirror);
   validateProject(project, 2000, 1000, {{1024, 768}, {640, 480}});
   saveProject(project, path("example.json"));
   EXPECT_EQ(readFile(path("example.json")), example);
+}
+
+// ---- Version 3: mirrored and colour-locked photos, colour balance ----
+
+TEST_F(ProjectTest, WritesTheLowestVersionThatHoldsTheDocument) {
+  Project p = sample();
+  for (PhotoRef& ref : p.photos) ref.mirror = ref.colorLocked = false;
+  p.options.colorBalance = BalanceMode::Off;
+  EXPECT_EQ(requiredVersion(p), 2);  // declined proposals: version 2
+  EXPECT_EQ(json::parse(projectToJson(p, ""))["version"], 2);
+  Project plain = p;
+  plain.declinedProposals.clear();
+  EXPECT_EQ(requiredVersion(plain), 1);  // an older build reads it and behaves the same
+  EXPECT_EQ(json::parse(projectToJson(plain, ""))["version"], 1);
+  Project mirrored = plain;
+  mirrored.photos[1].mirror = true;
+  EXPECT_EQ(requiredVersion(mirrored), 3);  // an older build would ignore the mirror: it must refuse the file
+  Project locked = p;
+  locked.photos[0].colorLocked = true;
+  EXPECT_EQ(requiredVersion(locked), 3);
+  Project balanced = plain;
+  balanced.options.colorBalance = BalanceMode::Gain;
+  EXPECT_EQ(requiredVersion(balanced), 3);
+  for (const Project* q : {&p, &plain, &mirrored, &locked, &balanced}) {
+    Project copy = *q;
+    saveProject(copy, path("v.json"));
+    EXPECT_TRUE(loadProject(path("v.json")).sameDocument(*q));
+  }
+}
+
+TEST_F(ProjectTest, AbsentColourBalanceDependsOnTheVersion) {
+  json j = sampleJson();
+  j["options"].erase("colorBalance");
+  j["version"] = 1;
+  writeText(path("p.json"), j.dump());
+  EXPECT_EQ(loadProject(path("p.json")).options.colorBalance, BalanceMode::Off);  // as version 1 behaved
+  j["version"] = 2;
+  writeText(path("p.json"), j.dump());
+  EXPECT_EQ(loadProject(path("p.json")).options.colorBalance, BalanceMode::Off);  // and version 2
+  j["version"] = 3;
+  writeText(path("p.json"), j.dump());
+  EXPECT_EQ(loadProject(path("p.json")).options.colorBalance, PipelineOptions().colorBalance);
+  j["options"]["colorBalance"] = "gain";
+  j["version"] = 1;  // a version-1 file that names it (written by this build with balance off) keeps it
+  writeText(path("p.json"), j.dump());
+  EXPECT_EQ(loadProject(path("p.json")).options.colorBalance, BalanceMode::Gain);
+  j["options"]["colorBalance"] = "curves";
+  EXPECT_MESSAGE_HAS(loadError(j), "options.colorBalance: 'curves' is not a colour balance mode");
+  j["options"]["colorBalance"] = "gain";
+  j["photos"][0]["mirror"] = "yes";
+  EXPECT_MESSAGE_HAS(loadError(j), "photos[0].mirror: must be true or false, not the string \"yes\"");
+  j["photos"][0]["mirror"] = false;
+  j["photos"][1]["colorLocked"] = 1;
+  EXPECT_MESSAGE_HAS(loadError(j), "photos[1].colorLocked: must be true or false, not 1");
+}
+
+TEST_F(ProjectTest, MissingFilesAreListedWhenAllowed) {
+  Project p = sample();
+  saveProject(p, path("p.json"));
+  fs::rename(path("photos/b.png"), path("photos/b_moved.png"));
+  fs::remove(path("photos/a_mask.png"));
+  // The strict loader names the first missing file...
+  const std::string message = errorOf([&] { loadProject(path("p.json")); });
+  EXPECT_MESSAGE_HAS(message, "photos[0].mask: file 'photos/a_mask.png' not found");
+  // ...the lenient one opens the project and lists them all.
+  std::vector<MissingFile> missing;
+  const Project opened = loadProjectAllowingMissing(path("p.json"), missing);
+  EXPECT_TRUE(opened.sameDocument(p));
+  ASSERT_EQ(missing.size(), 2u);
+  EXPECT_EQ(missing[0].field, "photos[0].mask");
+  EXPECT_EQ(missing[0].path, path("photos/a_mask.png"));
+  EXPECT_EQ(missing[1].field, "photos[1].path");
+  EXPECT_EQ(missing[1].path, path("photos/b.png"));
+  // Every other check still applies.
+  json j = json::parse(readFile(path("p.json")));
+  j["points"][0]["vertex"] = "12";
+  writeText(path("p.json"), j.dump());
+  EXPECT_MESSAGE_HAS(errorOf([&] { loadProjectAllowingMissing(path("p.json"), missing); }), "points[0].vertex");
+  fs::remove(path("mesh.obj"));
+  j["points"][0]["vertex"] = 12;
+  writeText(path("p.json"), j.dump());
+  loadProjectAllowingMissing(path("p.json"), missing);
+  ASSERT_EQ(missing.size(), 3u);
+  EXPECT_EQ(missing[0].field, "mesh");
+}
+
+TEST_F(ProjectTest, WithoutPhotoReferencesKeepsIndices) {
+  const Project p = sample();
+  const Project q = withoutPhotoReferences(p, {1});
+  EXPECT_EQ(q.photos, p.photos);                // entries stay
+  ASSERT_EQ(q.points.size(), p.points.size());  // point indices stay
+  EXPECT_EQ(q.points[0].at, (std::vector<PhotoPoint>{{0, 10.25, 20.5}}));
+  EXPECT_EQ(q.points[2].at, (std::vector<PhotoPoint>{{0, 100, 0}}));
+  ASSERT_EQ(q.chains.size(), 1u);  // the chain drawn in photo 1 goes
+  EXPECT_EQ(q.chains[0].photo, 0);
+  EXPECT_TRUE(q.clones.empty());  // the clone from photo 1 goes
+  validateProject(q, 20, 10, {{100, 80}, {50, 40}});
+  const Project none = withoutPhotoReferences(p, {0, 1});
+  for (const FeaturePoint& pt : none.points) EXPECT_TRUE(pt.at.empty());
+  EXPECT_TRUE(none.chains.empty());
 }

@@ -335,4 +335,71 @@ void Document::removePhoto(int photo) {
   });
 }
 
+void Document::movePhoto(int from, int to) {
+  checkIndex("move photo", "photo", from, current_->photos.size());
+  checkIndex("move photo", "position", to, current_->photos.size());
+  if (from == to) return;
+  // New index of every old photo index.
+  const int n = static_cast<int>(current_->photos.size());
+  std::vector<int> order(n);
+  for (int i = 0; i < n; ++i) order[i] = i;
+  order.erase(order.begin() + from);
+  order.insert(order.begin() + to, from);
+  std::vector<int> newIndex(n);
+  for (int i = 0; i < n; ++i) newIndex[order[i]] = i;
+  apply("Move photo " + std::to_string(from) + " to " + std::to_string(to), [&](Project& p) {
+    std::vector<PhotoRef> photos(n);
+    for (int i = 0; i < n; ++i) photos[newIndex[i]] = p.photos[i];
+    p.photos = std::move(photos);
+    for (FeaturePoint& pt : p.points)
+      for (PhotoPoint& a : pt.at) a.photo = newIndex[a.photo];
+    for (FeatureChain& c : p.chains) c.photo = newIndex[c.photo];
+    for (CloneOp& c : p.clones) c.photo = newIndex[c.photo];
+  });
+}
+
+void Document::setPhotoMirror(int photo, bool mirror, int width) {
+  checkIndex("mirror photo", "photo", photo, current_->photos.size());
+  if (current_->photos[photo].mirror == mirror) return;
+  bool used = false;
+  for (const FeaturePoint& pt : current_->points) used = used || hasPosition(pt, photo);
+  for (const CloneOp& c : current_->clones) used = used || c.photo == photo;
+  TM_CHECK(!used || width > 0, "mirror photo: photo " + std::to_string(photo) +
+                                   " has points or clones and its width is unknown (it did not load)");
+  apply(std::string(mirror ? "Mirror photo " : "Unmirror photo ") + std::to_string(photo), [&](Project& p) {
+    p.photos[photo].mirror = mirror;
+    for (FeaturePoint& pt : p.points)
+      for (PhotoPoint& a : pt.at)
+        if (a.photo == photo) a.x = width - a.x;
+    for (CloneOp& c : p.clones)
+      if (c.photo == photo) {
+        for (Vec2& q : c.polygon) q.x() = width - q.x();
+        c.anchor.x() = width - c.anchor.x();  // the same region (its clone is mirrored, as the photo is)
+      }
+  });
+}
+
+void Document::setPhotoMask(int photo, const std::string& mask) {
+  checkIndex("set mask", "photo", photo, current_->photos.size());
+  apply((mask.empty() ? "Remove mask of photo " : "Set mask of photo ") + std::to_string(photo),
+        [&](Project& p) { p.photos[photo].mask = mask; });
+}
+
+void Document::setColorLocked(int photo, bool locked) {
+  checkIndex("lock colours", "photo", photo, current_->photos.size());
+  apply((locked ? "Lock colours of photo " : "Unlock colours of photo ") + std::to_string(photo),
+        [&](Project& p) { p.photos[photo].colorLocked = locked; });
+}
+
+void Document::relinkPhoto(int photo, const std::string& path) {
+  checkIndex("relink photo", "photo", photo, current_->photos.size());
+  TM_CHECK(!path.empty(), "relink photo: the new path is empty");
+  apply("Relink photo " + std::to_string(photo), [&](Project& p) { p.photos[photo].path = path; });
+}
+
+void Document::relinkMesh(const std::string& path) {
+  TM_CHECK(!path.empty(), "relink mesh: the new path is empty");
+  apply("Relink mesh", [&](Project& p) { p.mesh = path; });
+}
+
 }  // namespace montage

@@ -90,6 +90,20 @@ class Document {
   int addPhotos(const std::vector<PhotoRef>& photos);
   // Removes a photo with every position, chain and clone in it; later photo indices shift down.
   void removePhoto(int photo);
+  // Moves photo `from` to position `to` (the photos in between shift by one); every position, chain and
+  // clone follows its photo.
+  void movePhoto(int from, int to);
+  // Mirrors a photo left to right on load (PhotoRef::mirror) or not. Its positions and clone polygons
+  // keep pointing at the same content: x becomes `width` - x, `width` being the photo's width in pixels
+  // (needed only when the photo has positions or clones).
+  void setPhotoMirror(int photo, bool mirror, int width);
+  // Sets (or, with "", removes) the foreground mask image of a photo (absolute path).
+  void setPhotoMask(int photo, const std::string& mask);
+  // Locks a photo's colours for the colour balance (the others are matched to it) or unlocks them.
+  void setColorLocked(int photo, bool locked);
+  // Points a photo, or the mesh, at another file (a moved or renamed one); everything else stays.
+  void relinkPhoto(int photo, const std::string& path);
+  void relinkMesh(const std::string& path);
 
   // Index of the feature point of `vertex` that has a position in `photo`, or -1.
   int pointAt(int vertex, int photo) const;

@@ -101,6 +101,13 @@ void Editor::initWindow() {
   std::error_code ec;
   if (fs::exists(font, ec)) io.Fonts->AddFontFromFileTTF(font, 15.0f);
   ImGui_ImplGlfw_InitForOpenGL(window_, true);
+  // Files dropped on the window: kept for the next frame's UI (the only place the document changes).
+  // The ImGui backend uses neither the window's user pointer nor the drop callback.
+  glfwSetWindowUserPointer(window_, this);
+  glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
+    auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
+    for (int i = 0; i < count; ++i) editor->dropped_.push_back(paths[i]);
+  });
   ImGui_ImplOpenGL3_Init("#version 330 core");
   imguiReady_ = true;
 
@@ -187,6 +194,7 @@ void Editor::frame() {
   ImGui::NewFrame();
 
   syncInputs();
+  pollCutout();
   buildUi();
   validateSelection();
   pollWorker();
@@ -256,16 +264,20 @@ void Editor::syncInputs() {
   photos_.resize(p.photos.size());
   for (size_t i = 0; i < p.photos.size(); ++i) {
     PhotoSlot& slot = photos_[i];
-    const std::string key = p.photos[i].path + "|" + p.photos[i].mask + "|" + std::to_string(p.options.maxPhotoSide);
+    const std::string key = p.photos[i].path + "|" + p.photos[i].mask + "|" + std::to_string(p.options.maxPhotoSide) +
+                            (p.photos[i].mirror ? "|mirror" : "");
     if (slot.key == key) continue;
     slot.key = key;
     slot.photo.reset();
     slot.error.clear();
+    slot.balancedFrom = nullptr;
     slot.tabView.fitted = slot.gridView.fitted = false;
     try {
       // The core's loader, so the foreground (alpha or mask) follows the pipeline's rule exactly.
-      auto photo = std::make_shared<Photo>(
-          loadPhoto(p.photos[i].path, p.photos[i].mask, PhotoLoadOptions{p.options.maxPhotoSide}));
+      PhotoLoadOptions options;
+      options.maxSide = p.options.maxPhotoSide;
+      options.mirror = p.photos[i].mirror;
+      auto photo = std::make_shared<Photo>(loadPhoto(p.photos[i].path, p.photos[i].mask, options));
       const cv::Mat rgba = toRgba8(photo->rgb, false, photo->path);  // any depth, stored resolution
       if (!slot.texture) slot.texture = std::make_unique<Texture>();
       slot.texture->upload(rgba);
@@ -311,7 +323,7 @@ const TexturedModel* Editor::shownModel() const {
 }
 
 bool Editor::resultCurrent() const {
-  return resultUsable() && result_->scene->project.sameDocument(doc_.project());
+  return resultUsable() && result_->scene->document().sameDocument(doc_.project());
 }
 
 void Editor::pollWorker() {
@@ -413,12 +425,19 @@ void Editor::cancelInProgress() {
 
 // --- UI -------------------------------------------------------------------------------------------
 
-bool Editor::button(const char* label, const ImVec2* size) {
+bool Editor::button(const char* label, const ImVec2* size, const std::string& scriptName) {
   const bool pressed = ImGui::Button(label, size ? *size : ImVec2(0, 0));
-  const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
-  std::string name = label;
+  // The part of the button on screen (a panel may clip it), so that a scripted click lands on it.
+  const ImVec2 clipLo = ImGui::GetWindowDrawList()->GetClipRectMin(),
+               clipHi = ImGui::GetWindowDrawList()->GetClipRectMax();
+  const ImVec2 lo(std::max(ImGui::GetItemRectMin().x, clipLo.x), std::max(ImGui::GetItemRectMin().y, clipLo.y));
+  const ImVec2 hi(std::min(ImGui::GetItemRectMax().x, clipHi.x), std::min(ImGui::GetItemRectMax().y, clipHi.y));
+  std::string name = scriptName.empty() ? label : scriptName;
   if (auto pos = name.find("##"); pos != std::string::npos) name = name.substr(0, pos);
-  buttonRects_[name] = Rect{lo.x, lo.y, hi.x - lo.x, hi.y - lo.y};
+  if (hi.x > lo.x && hi.y > lo.y)
+    buttonRects_[name] = Rect{lo.x, lo.y, hi.x - lo.x, hi.y - lo.y};
+  else
+    buttonRects_.erase(name);  // scrolled out of sight: a scripted click waits for it
   return pressed;
 }
 

@@ -24,6 +24,7 @@
 #include "document.h"
 #include "file_dialog.h"
 #include "geometry/bvh.h"
+#include "image/cutout.h"
 #include "io/mesh_io.h"
 #include "navigation.h"
 #include "script.h"
@@ -58,8 +59,13 @@ struct EditorOptions {
   bool vsync = true;
 };
 
-enum class Tool { Point, Line, Polygon, Stroke, Clone };
-inline constexpr std::array<const char*, 5> kToolNames = {"point", "line", "polygon", "stroke", "clone"};
+enum class Tool { Point, Line, Polygon, Stroke, Clone, Cutout };
+inline constexpr std::array<const char*, 6> kToolNames = {"point", "line", "polygon", "stroke", "clone", "cutout"};
+
+// What a drag in a photo does with the cut-out tool: draw the rectangle GrabCut starts from, a foreground
+// or background stroke (GrabCut runs again), or the mask brush (add, erase; no GrabCut).
+enum class CutoutMode { Rect, Foreground, Background, Add, Erase };
+inline constexpr std::array<const char*, 5> kCutoutModeNames = {"rect", "foreground", "background", "add", "erase"};
 
 // Colour faces of the 3D view by...
 enum class FaceColoring { None, Patches, Empty, Stretch, SeamError };
@@ -89,7 +95,26 @@ class Editor {
     std::shared_ptr<const Photo> photo;  // null when it failed to load
     std::string error;
     std::unique_ptr<Texture> texture, mask;
+    std::unique_ptr<Texture> balanced;    // the colour-balanced photo of the last result (before/after)
+    const Photo* balancedFrom = nullptr;  // which balanced photo `balanced` holds
     PaneView tabView, gridView;
+  };
+  // The cut-out tool's session on one photo (editor_photos.cpp). GrabCut runs on a helper thread: the
+  // Cutout object travels to it and back, so the UI never touches it while it runs.
+  struct CutoutSession {
+    int photo = -1;
+    std::string key;  // the photo slot's key when the session started: a reload ends the session
+    std::unique_ptr<Cutout> cut;
+    std::future<std::pair<std::unique_ptr<Cutout>, std::string>> job;  // the Cutout back, and an error text
+    cv::Mat mask;                      // last result, photo pixels as shown (CV_8UC1, 0..255)
+    std::unique_ptr<Texture> overlay;  // `mask` as a tint
+    bool overlayDirty = false;
+    std::vector<CutoutStroke> strokes;  // drawn so far (shown)
+    std::vector<Vec2> path;             // being drawn
+    bool drawing = false;
+    Vec2 dragStart = Vec2::Zero();
+    std::optional<cv::Rect2d> rect;
+    double seconds = 0;
   };
   struct InputMesh {
     std::string path;
@@ -128,6 +153,7 @@ class Editor {
   void strokesClonesTab();
   void historyTab();
   void pipelineTab();
+  void photosTab();
   void errorsWindow();
   void helpWindow();
   void modals();
@@ -136,7 +162,8 @@ class Editor {
   void autosaveTick();
   void syncInputs();  // load the mesh / photos the document names
   void validateSelection();
-  bool button(const char* label, const ImVec2* size = nullptr);  // ImGui::Button that scripts can click
+  // ImGui::Button that scripts can click, by its label (without ##...) or by `scriptName` when given.
+  bool button(const char* label, const ImVec2* size = nullptr, const std::string& scriptName = "");
 
   // Files (editor.cpp).
   bool openFile(const std::string& path);
@@ -146,6 +173,14 @@ class Editor {
   void requestSaveAs();
   bool exportTo(const std::string& path);
   void addPhotosFrom(const std::string& path);
+  // Adds images (and every image of the folders) among `paths` as one undo step; returns how many.
+  int addPhotoFiles(const std::vector<std::string>& paths);
+  // Files dropped on the window (GLFW's drop callback, or the script's drop): a project or mesh opens,
+  // images are added to the project.
+  void handleDrop(const std::vector<std::string>& paths);
+  bool relinkPhoto(int photo, const std::string& path);
+  bool relinkMesh(const std::string& path);
+  void missingFilesWindow();
   void requestClose();
   void guardUnsaved(std::function<void()> then);  // asks when there are unsaved changes
   void reportError(const std::string& message);
@@ -196,6 +231,17 @@ class Editor {
   void photosPanel();
   void photoCanvas(int photo, const Rect& r, PaneView& view, bool showName);
   int hitPosition(int photo, const PaneView& view, double sx, double sy, double radius) const;
+
+  // Photos: the list (add, remove, reorder, mirror, lock, relink, mask) and the cut-out tool
+  // (editor_photos.cpp).
+  void cutoutPanel();
+  void cutoutCanvas(int photo, const PaneView& view, bool hovered);
+  bool startCutout(int photo, bool fromCurrentMask);
+  void runCutout(std::function<void(Cutout&)> step);
+  void pollCutout();
+  bool applyCutoutMask();
+  std::string newMaskPath(int photo) const;
+  void uploadBalanced(PhotoSlot& slot, int photo);
 
   // Camera feedback in the panes (editor_camera.cpp): wireframe and silhouette, residuals, outliers,
   // the selected vertex's predicted position, proposals; the path of each photo in its caption.
@@ -345,6 +391,17 @@ class Editor {
   std::function<void()> afterUnsaved_;
   bool unsavedPopup_ = false;
   std::string exportFormat_ = ".glb";
+  std::vector<MissingFile> missing_;  // what the opened project names but is not there (relink offered)
+  bool missingPopup_ = false;
+  std::vector<std::string> dropped_;  // files dropped on the window, handled in the next frame
+
+  // Photos and the cut-out tool.
+  CutoutSession cutout_;
+  CutoutMode cutoutMode_ = CutoutMode::Rect;
+  float cutoutRadius_ = 8;     // stroke and brush radius, photo pixels
+  float cutoutFeather_ = 0;    // feathered edge of the mask written, photo pixels
+  std::string listsTab_;       // a Document panel tab to select in the next frame (script's tab)
+  bool showBalanced_ = false;  // photo panes: the colour-balanced photos of the last result (after) or the files
 
   // Scripts and benchmarks.
   std::vector<ScriptAction> script_;

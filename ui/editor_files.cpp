@@ -10,6 +10,7 @@
 #include "base/output_folder.h"
 #include "editor.h"
 #include "gl.h"
+#include "gl_util.h"
 #include "image/photo.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
@@ -86,8 +87,10 @@ bool Editor::openFile(const std::string& path) {
     const std::string abs = fs::absolute(path).lexically_normal().string();
     const std::string ext = lowerExtension(abs);
     Project project;
+    std::vector<MissingFile> missing;
     if (ext == ".json") {
-      project = loadProject(abs);
+      // A project whose files moved still opens: what is missing is listed, with a relink offered.
+      project = loadProjectAllowingMissing(abs, missing);
     } else {
       std::error_code ec;
       TM_CHECK(fs::is_regular_file(abs, ec), located(abs, "file not found"));
@@ -96,6 +99,10 @@ bool Editor::openFile(const std::string& path) {
       project.mesh = abs;  // a new, unsaved project on this mesh
     }
     doc_.reset(std::move(project));
+    missing_ = std::move(missing);
+    missingPopup_ = !missing_.empty();
+    for (const MissingFile& m : missing_) reportError(located(abs, m.field + ": file '" + m.path + "' not found"));
+    cutout_ = CutoutSession{};
     selectedVertex_ = selectedPoint_ = -1;
     chain_.clear();
     stroke_.clear();
@@ -192,28 +199,102 @@ bool Editor::exportTo(const std::string& path) {
 }
 
 void Editor::addPhotosFrom(const std::string& path) {
+  addPhotoFiles({path});
+}
+
+int Editor::addPhotoFiles(const std::vector<std::string>& paths) {
   std::vector<PhotoRef> refs;
-  std::error_code ec;
-  const std::string abs = fs::absolute(path).lexically_normal().string();
-  if (fs::is_directory(abs, ec)) {
-    std::vector<std::string> files;
-    for (fs::directory_iterator it(abs, ec), end; !ec && it != end; it.increment(ec))
-      if (it->is_regular_file() && isImageExtension(lowerExtension(it->path().string())))
-        files.push_back(it->path().string());
-    std::sort(files.begin(), files.end());
-    for (const auto& f : files) refs.push_back(PhotoRef{f, ""});
-    if (refs.empty()) {
-      reportError(located(abs, "no images (.png .jpg .jpeg .tif .tiff .bmp) in this folder"));
-      return;
+  for (const std::string& path : paths) {
+    std::error_code ec;
+    const std::string abs = fs::absolute(path).lexically_normal().string();
+    if (fs::is_directory(abs, ec)) {
+      std::vector<std::string> files;
+      for (fs::directory_iterator it(abs, ec), end; !ec && it != end; it.increment(ec))
+        if (it->is_regular_file() && isImageExtension(lowerExtension(it->path().string())))
+          files.push_back(it->path().string());
+      std::sort(files.begin(), files.end());
+      for (const auto& f : files) refs.push_back(PhotoRef{f, ""});
+      if (files.empty()) reportError(located(abs, "no images (.png .jpg .jpeg .tif .tiff .bmp) in this folder"));
+    } else if (fs::is_regular_file(abs, ec) && isImageExtension(lowerExtension(abs))) {
+      refs.push_back(PhotoRef{abs, ""});
+    } else {
+      reportError(located(abs, "not an image file or a folder of images"));
     }
-  } else if (fs::is_regular_file(abs, ec) && isImageExtension(lowerExtension(abs))) {
-    refs.push_back(PhotoRef{abs, ""});
-  } else {
-    reportError(located(abs, "not an image file or a folder of images"));
+  }
+  if (refs.empty()) return 0;
+  if (doc_.project().mesh.empty()) {
+    reportError("add photos: open a mesh or a project first (the photos are added to it)");
+    return 0;
+  }
+  if (!edit([&] { activePhoto_ = doc_.addPhotos(refs); })) return 0;
+  setStatus("added " + std::to_string(refs.size()) + " photo(s)");
+  return static_cast<int>(refs.size());
+}
+
+void Editor::handleDrop(const std::vector<std::string>& paths) {
+  // A project or a mesh among the files opens first (asking about unsaved changes); the images then
+  // join the opened document.
+  std::string open;
+  std::vector<std::string> images;
+  for (const std::string& p : paths) {
+    const std::string ext = lowerExtension(p);
+    const bool openable = ext == ".json" || ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl";
+    if (openable && open.empty())
+      open = p;
+    else if (openable)
+      reportError(located(p, "dropped with another project or mesh: only one opens at a time"));
+    else
+      images.push_back(p);
+  }
+  if (open.empty()) {
+    addPhotoFiles(images);
     return;
   }
-  if (edit([&] { activePhoto_ = doc_.addPhotos(refs); }))
-    setStatus("added " + std::to_string(refs.size()) + " photo(s)");
+  guardUnsaved([this, open, images] {
+    if (openFile(open)) {
+      checkRecovery();
+      if (!images.empty()) addPhotoFiles(images);
+    }
+  });
+}
+
+bool Editor::relinkPhoto(int photo, const std::string& path) {
+  const std::string abs = fs::absolute(path).lexically_normal().string();
+  try {
+    // The new file must be an image; a photo with points must keep its size (the points are in its pixels).
+    const cv::Size size = readImageSize(abs);
+    const PhotoSlot* slot = photo < static_cast<int>(photos_.size()) ? &photos_[photo] : nullptr;
+    if (slot && slot->photo)
+      TM_CHECK(slot->photo->width == size.width && slot->photo->height == size.height,
+               located(abs, "is " + std::to_string(size.width) + "x" + std::to_string(size.height) + " but photo " +
+                                std::to_string(photo) + " was " + std::to_string(slot->photo->width) + "x" +
+                                std::to_string(slot->photo->height) + ": relink to the same photo, moved or renamed"));
+  } catch (const Error& e) {
+    reportError(e.what());
+    return false;
+  }
+  if (!edit([&] { doc_.relinkPhoto(photo, abs); })) return false;
+  missing_.erase(std::remove_if(missing_.begin(), missing_.end(),
+                                [&](const MissingFile& m) {
+                                  return m.field == "photos[" + std::to_string(photo) + "].path";
+                                }),
+                 missing_.end());
+  setStatus("photo " + std::to_string(photo) + " relinked to " + abs);
+  return true;
+}
+
+bool Editor::relinkMesh(const std::string& path) {
+  const std::string abs = fs::absolute(path).lexically_normal().string();
+  std::error_code ec;
+  if (!fs::is_regular_file(abs, ec)) {
+    reportError(located(abs, "file not found"));
+    return false;
+  }
+  if (!edit([&] { doc_.relinkMesh(abs); })) return false;
+  missing_.erase(std::remove_if(missing_.begin(), missing_.end(), [](const MissingFile& m) { return m.field == "mesh"; }),
+                 missing_.end());
+  setStatus("mesh relinked to " + abs);
+  return true;
 }
 
 void Editor::guardUnsaved(std::function<void()> then) {

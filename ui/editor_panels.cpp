@@ -34,7 +34,7 @@ std::string timeText(std::time_t t) {
   return buffer;
 }
 
-const char* const kToolKeys[] = {"P", "L", "G", "S", "C"};
+const char* const kToolKeys[] = {"P", "L", "G", "S", "C", "K"};
 const ImVec4 kErrorColor(1.0f, 0.45f, 0.4f, 1.0f);
 const ImVec4 kDimColor(0.6f, 0.6f, 0.6f, 1.0f);
 
@@ -49,7 +49,7 @@ const std::vector<Shortcut>& editorShortcuts() {
       {"Ctrl+Shift+S", "save as"},
       {"Ctrl+E", "export the current result (.glb or .obj)"},
       {"Ctrl+Q", "quit (asks when there are unsaved changes)"},
-      {"P / L / G / S / C", "tool: point, line, polygon, stroke, clone"},
+      {"P / L / G / S / C / K", "tool: point, line, polygon, stroke, clone, cut-out"},
       {"Delete, Backspace", "remove the selected point from the active photo"},
       {"Enter", "finish the line or polygon (or clone polygon) being drawn"},
       {"Escape", "cancel what is being drawn, then clear the selection"},
@@ -71,6 +71,8 @@ const std::vector<Shortcut>& editorShortcuts() {
       {"Photo: left drag on a point", "move it (one undo step)"},
       {"Photo: wheel / right or middle drag", "zoom at the cursor / pan"},
       {"Photo: click the first point", "close the polygon being drawn"},
+      {"Photo, cut-out tool: left drag", "rectangle, foreground / background stroke, or mask brush (tool options)"},
+      {"Drop files on the window", "a project or mesh opens; photos are added"},
   };
   return shortcuts;
 }
@@ -127,8 +129,17 @@ void Editor::buildUi() {
     }
     if (chosen->purpose == "save_as") saveTo(chosen->path);
     if (chosen->purpose == "export") exportTo(chosen->path);
-    if (chosen->purpose == "add_photos") addPhotosFrom(chosen->path);
+    if (chosen->purpose == "add_photos") addPhotoFiles(chosen->paths);
+    if (chosen->purpose == "relink_mesh") relinkMesh(chosen->path);
+    if (chosen->purpose.rfind("relink_photo:", 0) == 0)
+      relinkPhoto(std::stoi(chosen->purpose.substr(std::string("relink_photo:").size())), chosen->path);
   }
+  if (!dropped_.empty()) {
+    std::vector<std::string> files;
+    files.swap(dropped_);
+    handleDrop(files);
+  }
+  missingFilesWindow();
   shortcuts();
 }
 
@@ -151,8 +162,8 @@ void Editor::menuBar() {
     }
     ImGui::Separator();
     const bool hasMesh = !doc_.project().mesh.empty();
-    if (ImGui::MenuItem("Add photo...", nullptr, false, hasMesh))
-      dialogs_.request(DialogKind::OpenFile, "Add a photo",
+    if (ImGui::MenuItem("Add photos...", nullptr, false, hasMesh))
+      dialogs_.request(DialogKind::OpenFiles, "Add photos (select several)",
                        {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}}, "add_photos",
                        fs::path(doc_.project().mesh).parent_path().string());
     if (ImGui::MenuItem("Add photos folder...", nullptr, false, hasMesh))
@@ -247,6 +258,9 @@ void Editor::toolsPanel() {
       ImGui::TextWrapped("Left-drag on the mesh to draw a guidance stroke (direction = direction of travel).");
       ImGui::Text("%zu stroke(s) in the project", p.strokes.size());
       break;
+    case Tool::Cutout:
+      cutoutPanel();
+      break;
     case Tool::Clone: {
       ImGui::TextWrapped(
           "1. Click a polygon in a photo (close: first point or Enter). 2. Paint the target on the mesh (Ctrl "
@@ -317,23 +331,33 @@ void Editor::toolsPanel() {
 
 void Editor::listsPanel() {
   if (!ImGui::BeginTabBar("##lists")) return;
-  if (ImGui::BeginTabItem("Points")) {
+  // A tab asked for by a script is selected once (ImGui applies it in the next frame).
+  auto flags = [this](const char* name) {
+    if (listsTab_ != name) return ImGuiTabItemFlags(0);
+    listsTab_.clear();
+    return ImGuiTabItemFlags(ImGuiTabItemFlags_SetSelected);
+  };
+  if (ImGui::BeginTabItem("Points", nullptr, flags("points"))) {
     featuresTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Chains")) {
+  if (ImGui::BeginTabItem("Chains", nullptr, flags("chains"))) {
     chainsTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Strokes")) {
+  if (ImGui::BeginTabItem("Photos", nullptr, flags("photos"))) {
+    photosTab();
+    ImGui::EndTabItem();
+  }
+  if (ImGui::BeginTabItem("Strokes", nullptr, flags("strokes"))) {
     strokesClonesTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("History")) {
+  if (ImGui::BeginTabItem("History", nullptr, flags("history"))) {
     historyTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Pipeline")) {
+  if (ImGui::BeginTabItem("Pipeline", nullptr, flags("pipeline"))) {
     pipelineTab();
     ImGui::EndTabItem();
   }
@@ -730,7 +754,8 @@ void Editor::shortcuts() {
                                         {GLFW_KEY_L, Tool::Line},
                                         {GLFW_KEY_G, Tool::Polygon},
                                         {GLFW_KEY_S, Tool::Stroke},
-                                        {GLFW_KEY_C, Tool::Clone}};
+                                        {GLFW_KEY_C, Tool::Clone},
+                                        {GLFW_KEY_K, Tool::Cutout}};
   for (const auto& [key, tool] : tools)
     if (pressed(key) && tool_ != tool) {
       cancelInProgress();

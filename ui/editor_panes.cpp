@@ -148,15 +148,34 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     draw->AddText(ImVec2(lo.x + 10, lo.y + 10), IM_COL32(255, 120, 110, 255),
                   slot.error.empty() ? "loading..." : slot.error.c_str());
     draw->PopClipRect();
+    if (!slot.error.empty()) {
+      // A photo that cannot load: the others still texture; offer to point it at its file again.
+      ImGui::SetCursorScreenPos(ImVec2(lo.x + 10, lo.y + 34));
+      ImGui::PushID(i);
+      if (button("Relink...", nullptr, "relink photo " + std::to_string(i) + " (pane)"))
+        dialogs_.request(DialogKind::OpenFile, "Relink photo " + std::to_string(i),
+                         {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}},
+                         "relink_photo:" + std::to_string(i), fs::path(p.photos[i].path).parent_path().string());
+      ImGui::SameLine();
+      if (button("Remove photo", nullptr, "remove photo " + std::to_string(i) + " (pane)"))
+        edit([&] { doc_.removePhoto(i); });
+      ImGui::PopID();
+    }
     return;
   }
   const Photo& photo = *slot.photo;
   if (!view.fitted) view.fit(photo.width, photo.height, Vec2(r.x, r.y), Vec2(r.w, r.h));
-  const ImTextureID tex = reinterpret_cast<ImTextureID>(static_cast<intptr_t>(slot.texture->id()));
-  draw->AddImage(tex, im(view.toScreen(Vec2(0, 0))), im(view.toScreen(Vec2(photo.width, photo.height))));
-  if (showMask_ && photo.hasBackground && slot.mask)
+  // Before / after the colour balance: the file's colours, or the last result's balanced photo.
+  if (showBalanced_) uploadBalanced(slot, i);
+  const bool after = showBalanced_ && slot.balanced && slot.balancedFrom;
+  const Texture& shown = after ? *slot.balanced : *slot.texture;
+  draw->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(shown.id())), im(view.toScreen(Vec2(0, 0))),
+                 im(view.toScreen(Vec2(photo.width, photo.height))));
+  const bool cutting = tool_ == Tool::Cutout;
+  if (showMask_ && photo.hasBackground && slot.mask && !(cutting && cutout_.photo == i))
     draw->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(slot.mask->id())), im(view.toScreen(Vec2(0, 0))),
                    im(view.toScreen(Vec2(photo.width, photo.height))));
+  if (cutting) cutoutCanvas(i, view, hovered);
 
   ImGuiIO& io = ImGui::GetIO();
   const Vec2 mouse(io.MousePos.x, io.MousePos.y);
@@ -280,8 +299,9 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   }
   // Caption.
   char caption[256];
-  std::snprintf(caption, sizeof(caption), "%s%s%dx%d  %.0f%%%s", showName ? std::to_string(i).c_str() : "",
-                showName ? ": " : "", photo.width, photo.height, view.zoom * 100, cameraCaption(i).c_str());
+  std::snprintf(caption, sizeof(caption), "%s%s%dx%d  %.0f%%%s%s%s", showName ? std::to_string(i).c_str() : "",
+                showName ? ": " : "", photo.width, photo.height, view.zoom * 100, photo.mirrored ? "  mirrored" : "",
+                after ? "  balanced" : "", cameraCaption(i).c_str());
   const ImVec2 cs = ImGui::CalcTextSize(caption);
   draw->AddRectFilled(ImVec2(lo.x, hi.y - cs.y - 6), ImVec2(lo.x + cs.x + 12, hi.y), IM_COL32(0, 0, 0, 150));
   draw->AddText(ImVec2(lo.x + 6, hi.y - cs.y - 3),
@@ -376,6 +396,8 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
         break;
       case Tool::Stroke:
         setStatus("the stroke tool draws on the mesh: left-drag in the 3D view");
+        break;
+      case Tool::Cutout:  // cutoutCanvas handles it
         break;
     }
   }

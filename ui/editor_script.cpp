@@ -214,7 +214,7 @@ void Editor::runAction(const ScriptAction& a) {
   } else if (a.verb == "tool") {
     const auto it = std::find(kToolNames.begin(), kToolNames.end(), a.text(0));
     TM_CHECK(it != kToolNames.end(),
-             where + ": unknown tool '" + a.text(0) + "' (point, line, polygon, stroke, clone)");
+             where + ": unknown tool '" + a.text(0) + "' (point, line, polygon, stroke, clone, cutout)");
     cancelInProgress();
     tool_ = Tool(it - kToolNames.begin());
   } else if (a.verb == "view") {
@@ -240,6 +240,8 @@ void Editor::runAction(const ScriptAction& a) {
       coloring_ = on ? FaceColoring::SeamError : FaceColoring::None;
     else if (what == "grid")
       gridPanes_ = on;
+    else if (what == "balanced")
+      showBalanced_ = on;
     else
       throw Error(where + ": unknown display setting '" + what + "'");
     overlayDirty_ = true;
@@ -348,6 +350,13 @@ void Editor::runAction(const ScriptAction& a) {
       inputQueue_.insert(inputQueue_.end(), rest.begin(), rest.end());
     };
     inputQueue_.push_back(std::move(call));
+  } else if (a.verb == "tab") {
+    const std::string& name = a.text(0);
+    TM_CHECK(name == "points" || name == "chains" || name == "photos" || name == "strokes" || name == "history" ||
+                 name == "pipeline",
+             where + ": unknown tab '" + name + "' (points, chains, photos, strokes, history, pipeline)");
+    listsTab_ = name;
+    waitFor(where, 10, [this] { return listsTab_.empty(); });
   } else if (a.verb == "key") {
     queueKey(parseKeyCombo(a.text(0)));
   } else if (a.verb == "click_button") {
@@ -400,6 +409,42 @@ void Editor::runAction(const ScriptAction& a) {
     addPhotosFrom(a.text(0));
     TM_CHECK(doc_.project().photos.size() > before,
              where + ": " + (errors_.empty() ? "no photo added" : errors_.back()));
+  } else if (a.verb == "drop") {
+    dropped_.insert(dropped_.end(), a.args.begin(), a.args.end());  // as GLFW's drop callback does
+  } else if (a.verb == "relink") {
+    bool ok = false;
+    if (a.text(0) == "mesh") {
+      ok = relinkMesh(a.text(1));
+    } else {
+      requirePhoto(a.integer(0));
+      ok = relinkPhoto(a.integer(0), a.text(1));
+    }
+    TM_CHECK(ok, where + ": " + (errors_.empty() ? "refused" : errors_.back()));
+  } else if (a.verb == "photo_flag") {
+    const int photo = a.integer(0);
+    requirePhoto(photo);
+    const bool on = optionFlag(a.text(2), where);
+    bool ok = false;
+    if (a.text(1) == "mirror") {
+      const int width = photo < static_cast<int>(photos_.size()) && photos_[photo].photo ? photos_[photo].photo->width : 0;
+      ok = edit([&] { doc_.setPhotoMirror(photo, on, width); });
+    } else if (a.text(1) == "lock") {
+      ok = edit([&] { doc_.setColorLocked(photo, on); });
+    } else {
+      throw Error(where + ": unknown flag '" + a.text(1) + "' (mirror, lock)");
+    }
+    TM_CHECK(ok, where + ": " + (errors_.empty() ? "refused" : errors_.back()));
+  } else if (a.verb == "cutout_mode") {
+    const auto it = std::find(kCutoutModeNames.begin(), kCutoutModeNames.end(), a.text(0));
+    TM_CHECK(it != kCutoutModeNames.end(),
+             where + ": unknown cut-out mode '" + a.text(0) + "' (rect, foreground, background, add, erase)");
+    cutoutMode_ = CutoutMode(it - kCutoutModeNames.begin());
+    if (a.args.size() > 1) cutoutRadius_ = static_cast<float>(a.number(1));
+    if (a.args.size() > 2) cutoutFeather_ = static_cast<float>(a.number(2));
+  } else if (a.verb == "wait_cutout") {
+    waitFor(where + " (GrabCut did not finish)", a.args.empty() ? 120 : timeout, [this] {
+      return !cutout_.job.valid();
+    });
   } else if (a.verb == "save") {
     const std::string path = a.args.empty() ? p.file : a.text(0);
     TM_CHECK(!path.empty(), where + ": the project has no file yet: give a path");
@@ -452,8 +497,16 @@ void Editor::writeState(const std::string& path) const {
     json stages = json::array();
     for (const StageRecord& s : result_->stages)
       stages.push_back({{"stage", stageName(s.stage)}, {"seconds", s.seconds}, {"cached", s.cached}});
+    json perPhoto = json::array();
+    if (result_->mapping) {
+      std::vector<int> count(p.photos.size(), 0);
+      for (int photo : result_->mapping->map.facePhoto)
+        if (photo >= 0 && photo < static_cast<int>(count.size())) ++count[photo];
+      perPhoto = count;
+    }
     state["result"] = {{"matches_document", resultCurrent()},
-                       {"project", json::parse(projectToJson(result_->scene->project, ""))},
+                       {"faces_per_photo", perPhoto},
+                       {"project", json::parse(projectToJson(result_->scene->document(), ""))},
                        {"faces", result_->model ? result_->model->mesh.numFaces() : 0},
                        {"stages", stages},
                        {"warnings", result_->warnings}};
@@ -461,6 +514,37 @@ void Editor::writeState(const std::string& path) const {
     state["result"] = nullptr;
   }
   state["errors"] = errors_;
+  json photos = json::array();
+  for (size_t i = 0; i < p.photos.size(); ++i) {
+    const PhotoSlot* slot = i < photos_.size() ? &photos_[i] : nullptr;
+    json entry = {{"path", p.photos[i].path},
+                  {"mask", p.photos[i].mask},
+                  {"mirror", p.photos[i].mirror},
+                  {"color_locked", p.photos[i].colorLocked},
+                  {"loaded", slot && slot->photo != nullptr},
+                  {"error", slot ? slot->error : ""}};
+    if (slot && slot->photo) entry["size"] = {slot->photo->width, slot->photo->height};
+    photos.push_back(entry);
+  }
+  state["photos"] = photos;
+  json missing = json::array();
+  for (const MissingFile& m : missing_) missing.push_back({{"field", m.field}, {"path", m.path}});
+  state["missing"] = missing;
+  state["missing_window"] = missingPopup_;
+  state["cutout"] = {{"photo", cutout_.photo},
+                     {"running", cutout_.job.valid()},
+                     {"started", cutout_.cut && cutout_.cut->started()},
+                     {"foreground_pixels", cutout_.mask.empty() ? 0 : cv::countNonZero(cutout_.mask)}};
+  if (result_ && result_->balanced) {
+    json transforms = json::array();
+    for (size_t i = 0; i < result_->balanced->balance.transforms.size(); ++i) {
+      const ColorTransform& t = result_->balanced->balance.transforms[i];
+      transforms.push_back({{"gain", {t.gain[0], t.gain[1], t.gain[2]}},
+                            {"offset", {t.offset[0], t.offset[1], t.offset[2]}},
+                            {"reference", bool(result_->balanced->balance.reference[i])}});
+    }
+    state["balance"] = transforms;
+  }
   state["layout"] = {{"window", rect(windowRect_)}, {"view3d", rect(viewRect_)}, {"photos", rect(paneRect_)}};
   state["autosave"] = {{"path", autosavePath()}, {"written_revision", autosavedRevision_}};
   // Navigation: the camera, the hover, the surface point under the pointer and the mesh's extent

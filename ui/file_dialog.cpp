@@ -68,12 +68,15 @@ bool FileDialogs::request(DialogKind kind, const std::string& title, const std::
   dir_ = !startDir.empty() && fs::is_directory(startDir, ec) ? startDir : fs::current_path(ec).string();
   name_.clear();
   error_.clear();
+  selected_.clear();
   chosen_.reset();
+  chosenMany_.clear();
   done_ = false;
   if (zenity_) {
     std::string cmd = "zenity --file-selection --title=" + shellQuote(title);
     if (kind == DialogKind::SaveFile) cmd += " --save --confirm-overwrite";
     if (kind == DialogKind::OpenFolder) cmd += " --directory";
+    if (kind == DialogKind::OpenFiles) cmd += " --multiple --separator='\n'";
     cmd += " --filename=" + shellQuote(dir_ + "/");
     for (const auto& f : filters) {
       std::string spec = f.name + " |";
@@ -105,7 +108,19 @@ std::optional<DialogResult> FileDialogs::frame() {
   if (zenity_) {
     if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
       active_ = false;
-      if (auto path = pending_.get()) return DialogResult{purpose_, fs::absolute(*path).lexically_normal().string()};
+      if (auto out = pending_.get()) {
+        // One path, or one per line (--multiple).
+        DialogResult result{purpose_, "", {}};
+        size_t start = 0;
+        while (start <= out->size()) {
+          const size_t end = std::min(out->find('\n', start), out->size());
+          if (end > start) result.paths.push_back(fs::absolute(out->substr(start, end - start)).lexically_normal().string());
+          start = end + 1;
+        }
+        if (result.paths.empty()) return std::nullopt;
+        result.path = result.paths.front();
+        return result;
+      }
     }
     return std::nullopt;
   }
@@ -113,7 +128,16 @@ std::optional<DialogResult> FileDialogs::frame() {
   if (done_) {
     active_ = false;
     done_ = false;
-    if (chosen_) return DialogResult{purpose_, fs::absolute(*chosen_).lexically_normal().string()};
+    if (!chosenMany_.empty()) {
+      DialogResult result{purpose_, "", {}};
+      for (const auto& p : chosenMany_) result.paths.push_back(fs::absolute(p).lexically_normal().string());
+      result.path = result.paths.front();
+      return result;
+    }
+    if (chosen_) {
+      const std::string path = fs::absolute(*chosen_).lexically_normal().string();
+      return DialogResult{purpose_, path, {path}};
+    }
   }
   return std::nullopt;
 }
@@ -158,9 +182,22 @@ void FileDialogs::drawBrowser() {
     const bool isDir = entry.is_directory(e);
     if (!isDir && (kind_ == DialogKind::OpenFolder || !matches(name, filters_))) continue;
     const std::string label = (isDir ? "[dir] " : "      ") + name;
-    if (ImGui::Selectable(label.c_str(), !isDir && name == name_, ImGuiSelectableFlags_AllowDoubleClick)) {
+    const bool many = kind_ == DialogKind::OpenFiles;
+    const bool isSelected = many ? std::find(selected_.begin(), selected_.end(), name) != selected_.end() : name == name_;
+    if (ImGui::Selectable(label.c_str(), !isDir && isSelected, ImGuiSelectableFlags_AllowDoubleClick)) {
       if (isDir) {
-        if (ImGui::IsMouseDoubleClicked(0)) dir_ = entry.path().string();
+        if (ImGui::IsMouseDoubleClicked(0)) {
+          dir_ = entry.path().string();
+          selected_.clear();
+        }
+      } else if (many && !ImGui::IsMouseDoubleClicked(0)) {
+        // A click toggles the file in the selection.
+        if (isSelected)
+          selected_.erase(std::find(selected_.begin(), selected_.end(), name));
+        else
+          selected_.push_back(name);
+        name_.clear();
+        for (const auto& n : selected_) name_ += (name_.empty() ? "" : "; ") + n;
       } else {
         name_ = name;
         if (ImGui::IsMouseDoubleClicked(0)) {
@@ -182,12 +219,15 @@ void FileDialogs::drawBrowser() {
     if (kind_ == DialogKind::OpenFolder) {
       chosen_ = dir_;
       done_ = true;
+    } else if (kind_ == DialogKind::OpenFiles && !selected_.empty()) {
+      for (const auto& n : selected_) chosenMany_.push_back((fs::path(dir_) / n).string());
+      done_ = true;
     } else if (name_.empty()) {
       error_ = "type or choose a file name";
     } else {
       const fs::path path = fs::path(name_).is_absolute() ? fs::path(name_) : fs::path(dir_) / name_;
       std::error_code e;
-      if (kind_ == DialogKind::OpenFile && !fs::is_regular_file(path, e)) {
+      if ((kind_ == DialogKind::OpenFile || kind_ == DialogKind::OpenFiles) && !fs::is_regular_file(path, e)) {
         error_ = path.string() + ": no such file";
       } else {
         chosen_ = path.string();

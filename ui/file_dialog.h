@@ -9,7 +9,7 @@
 
 namespace montage {
 
-enum class DialogKind { OpenFile, SaveFile, OpenFolder };
+enum class DialogKind { OpenFile, OpenFiles, SaveFile, OpenFolder };  // OpenFiles: several at once
 
 struct FileFilter {
   std::string name;                   // "Projects"
@@ -17,8 +17,9 @@ struct FileFilter {
 };
 
 struct DialogResult {
-  std::string purpose;  // what the caller asked the dialog for ("open", "save_as", ...)
-  std::string path;     // chosen path (absolute)
+  std::string purpose;             // what the caller asked the dialog for ("open", "save_as", ...)
+  std::string path;                // chosen path (absolute); the first one for OpenFiles
+  std::vector<std::string> paths;  // every chosen path (absolute), in order
 };
 
 class FileDialogs {
@@ -46,7 +47,9 @@ class FileDialogs {
   std::future<std::optional<std::string>> pending_;  // zenity's answer
   // Built-in browser state.
   std::string dir_, name_, error_;
+  std::vector<std::string> selected_;  // OpenFiles: file names selected in dir_
   std::optional<std::string> chosen_;
+  std::vector<std::string> chosenMany_;
   bool done_ = false;
 };
 

@@ -61,16 +61,18 @@ bool PipelineWorker::runTier(const Project& project, Tier tier, WorkerOutcome& o
       // The preview model: the photos as textures (converted once per photo), the mapping's faces.
       std::vector<cv::Mat> textures;
       std::map<const Photo*, std::pair<std::weak_ptr<const Photo>, cv::Mat>> kept;
-      for (const auto& p : r.scene->photos) {
+      // The photos the colour stages read (balanced ones when colour balance is on).
+      const Scene& colorScene = r.balanced && r.balanced->scene ? *r.balanced->scene : *r.scene;
+      for (const auto& p : colorScene.photos) {
         auto it = photoTextures_.find(p.get());
         const bool reuse = it != photoTextures_.end() && it->second.first.lock() == p;
         textures.push_back(reuse ? it->second.second : previewTexture(*p));
         kept[p.get()] = {p, textures.back()};
       }
       photoTextures_ = std::move(kept);
-      outcome.preview =
-          std::make_shared<const TexturedModel>(previewModel(r.mapping->partition.mesh, r.mapping->map, r.scene->photos,
-                                                             textures, &r.colors->levelling, &r.colors->inpaint));
+      outcome.preview = std::make_shared<const TexturedModel>(previewModel(r.mapping->partition.mesh, r.mapping->map,
+                                                                           colorScene.photos, textures,
+                                                                           &r.colors->levelling, &r.colors->inpaint));
     }
     return true;
   } catch (const Cancelled&) {

@@ -14,12 +14,13 @@ namespace montage {
 
 // The stages, in pipeline order (paper Figure 2): load, camera (a camera fit per photo), partition
 // (3.1), map (per cell: progressive mesh 3.2 and coarse-to-fine 4.1), projection (photos that fit a
-// camera: projection mapping and view selection), seams (content-based seam optimisation 4.2-4.3, over
-// the final map), level (seam levelling, end of 5), inpaint (5: holes, strokes, clones), bake (atlas:
-// charts, LSCM, packing, baking), export.
-enum class StageId { Load, Camera, Partition, Map, Projection, Seams, Level, Inpaint, Bake, Export };
-inline constexpr std::array<const char*, 10> kStageNames = {"load",  "camera", "partition", "map",  "projection",
-                                                            "seams", "level",  "inpaint",   "bake", "export"};
+// camera: projection mapping and view selection), balance (colour balance between photos, the paper's
+// Photoshop step, over the seams of the final map), seams (content-based seam optimisation 4.2-4.3, over
+// the final map and the balanced photos), level (seam levelling, end of 5), inpaint (5: holes, strokes,
+// clones), bake (atlas: charts, LSCM, packing, baking), export.
+enum class StageId { Load, Camera, Partition, Map, Projection, Balance, Seams, Level, Inpaint, Bake, Export };
+inline constexpr std::array<const char*, 11> kStageNames = {
+    "load", "camera", "partition", "map", "projection", "balance", "seams", "level", "inpaint", "bake", "export"};
 inline const char* stageName(StageId s) {
   return kStageNames[static_cast<int>(s)];
 }

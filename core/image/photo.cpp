@@ -14,6 +14,7 @@
 
 #include "base/fileio.h"
 #include "image/color.h"
+#include "image/cutout.h"
 
 namespace fs = std::filesystem;
 
@@ -266,15 +267,29 @@ cv::Mat alpha8(const cv::Mat& channel) {
 }
 
 // Foreground from a mask image: a pixel is foreground when one of its colour channels is non-zero and
-// (for masks with alpha) it is not transparent. CV_8UC1, 255 on the foreground.
+// (for masks with alpha) it is not transparent. CV_8UC1: its alpha is its largest colour channel relative
+// to the largest value in the mask (255 there), so a 0/1 label image and a 0/255 mask both give 255 on the
+// foreground, and a feathered edge (cutout.h) gives partial alpha; a non-zero value stays at least 1, so
+// the foreground is the same either way.
 cv::Mat maskToAlpha(const cv::Mat& mask) {
   std::vector<cv::Mat> channels;
   cv::split(mask, channels);
   const int colours = mask.channels() == 2 || mask.channels() == 4 ? mask.channels() - 1 : mask.channels();
-  cv::Mat colour = channels[0] != 0;
-  for (int c = 1; c < colours; ++c) colour |= channels[c] != 0;
-  if (colours < mask.channels()) colour &= channels.back() != 0;
-  return colour;
+  cv::Mat colour;
+  channels[0].convertTo(colour, CV_32F);
+  for (int c = 1; c < colours; ++c) {
+    cv::Mat other;
+    channels[c].convertTo(other, CV_32F);
+    cv::max(colour, other, colour);
+  }
+  cv::max(colour, 0.0, colour);
+  double largest = 0;
+  cv::minMaxLoc(colour, nullptr, &largest);
+  cv::Mat alpha;
+  colour.convertTo(alpha, CV_8U, largest > 0 ? 255.0 / largest : 0.0);
+  alpha.setTo(1, (colour > 0) & (alpha == 0));
+  if (colours < mask.channels()) alpha.setTo(0, channels.back() == 0);
+  return alpha;
 }
 
 std::string sizeText(cv::Size s) {
@@ -314,10 +329,12 @@ cv::Mat toRgb(const cv::Mat& image) {
 
 // The foreground of a photo at the file's resolution, CV_8UC1 (0 = background), or empty when the
 // whole photo is foreground (no mask, no alpha channel). Throws when nothing is foreground.
-cv::Mat fileAlpha(const std::string& path, const std::string& maskPath, const cv::Mat& image) {
+// `mirror`: the mask is flipped left to right, as the (already flipped) image.
+cv::Mat fileAlpha(const std::string& path, const std::string& maskPath, const cv::Mat& image, bool mirror = false) {
   cv::Mat alpha;
   if (!maskPath.empty()) {
-    const cv::Mat mask = decode(maskPath);
+    cv::Mat mask = decode(maskPath);
+    if (mirror) cv::flip(mask, mask, 1);  // a mask is in its photo file's pixels
     TM_CHECK(mask.size() == image.size(),
              located(maskPath, "mask is " + sizeText(mask.size()) + " but photo " + path + " is " +
                                    sizeText(image.size()) + "; they must have the same size"));
@@ -356,6 +373,7 @@ Photo loadPhoto(const std::string& path, const std::string& maskPath, const Phot
   Photo photo;
   photo.path = path;
   photo.maskPath = maskPath;
+  photo.mirrored = options.mirror;
   cv::Mat alpha;
   {
     // Memory: the decoded image is the largest buffer; colour and foreground are taken out of it at the
@@ -363,9 +381,11 @@ Photo loadPhoto(const std::string& path, const std::string& maskPath, const Phot
     // distance map is made.
     cv::Mat image = decode(path);
     requirePhotoDepth(path, image);
+    // Mirrored before anything is derived, so every map is of the mirrored photo.
+    if (options.mirror) cv::flip(image, image, 1);
     photo.width = image.cols;
     photo.height = image.rows;
-    alpha = fileAlpha(path, maskPath, image);
+    alpha = fileAlpha(path, maskPath, image, options.mirror);
     const cv::Size stored = storedSize(image.size(), options.maxSide);
     if (stored != image.size()) {
       cv::resize(image, image, stored, 0, 0, cv::INTER_AREA);
@@ -408,6 +428,7 @@ PhotoStats photoStats(const std::string& path) {
     stats.foreground = alpha.empty() ? 1.0 : cv::countNonZero(alpha) / pixels;
     if (stats.foreground == 1.0) return stats;
     stats.hasBackground = true;
+    stats.borderForeground = borderForegroundShare(alpha);
     cv::threshold(alpha, alpha, 0, 255, cv::THRESH_BINARY);  // in place: foreground 255
     // Photos above 4096 pixels a side: the distance map of a coarse foreground (a coarse pixel is
     // foreground when any of its pixels is), within sqrt(2) * factor pixels of the exact maximum, in a

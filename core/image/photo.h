@@ -18,6 +18,9 @@ struct PhotoLoadOptions {
   // Working resolution: a photo whose longer side has more pixels than this is stored downscaled to it
   // (area averaging); coordinates stay the file's pixels (Photo::scale). 0 = the file's resolution.
   int maxSide = 0;
+  // The photo (and its mask, which is in the file's own pixels) is flipped left to right on load, no copy
+  // of the file needed; pixel coordinates then refer to the mirrored photo (Photo::mirrored).
+  bool mirror = false;
 };
 
 // A photo as the pipeline keeps it: compact maps at the stored resolution (the file's, or a working
@@ -40,6 +43,7 @@ struct Photo {
                                // the nearest foreground pixel centre (0 on the foreground); empty when there is
                                // no background
   bool hasBackground = false;  // false when every pixel is foreground (no alpha, no mask)
+  bool mirrored = false;       // loaded mirrored left to right (every map above is of the mirrored photo)
 
   bool inside(double x, double y) const { return x >= 0 && y >= 0 && x <= width && y <= height; }
   // Foreground test at a point, by the stored pixel containing it (true everywhere inside without background).
@@ -61,9 +65,9 @@ struct Photo {
 cv::Mat luvImage(const Photo& photo);
 
 // Loads a photo. Foreground comes from `maskPath` when given (non-zero = foreground, any channel
-// count, must match the photo's size), otherwise from the alpha channel, otherwise the whole photo
-// is foreground. Throws montage::Error naming the file and the reason (missing, unreadable, empty, size
-// mismatch, more than 16384 pixels a side, not PNG/JPEG/TIFF/BMP).
+// count, must match the photo's size; alpha = the value relative to the mask's largest value), otherwise
+// from the alpha channel, otherwise the whole photo is foreground. Throws montage::Error naming the file and the reason
+// (missing, unreadable, empty, size mismatch, more than 16384 pixels a side, not PNG/JPEG/TIFF/BMP).
 Photo loadPhoto(const std::string& path, const std::string& maskPath = "");
 Photo loadPhoto(const std::string& path, const std::string& maskPath, const PhotoLoadOptions& options);
 
@@ -72,7 +76,8 @@ Photo loadPhoto(const std::string& path, const std::string& maskPath, const Phot
 // measured on a coarse mask (maxDistanceError says how far off it may be).
 struct PhotoStats {
   int width = 0, height = 0, channels = 0, bitsPerChannel = 0;
-  double foreground = 1;  // fraction of foreground pixels
+  double foreground = 1;        // fraction of foreground pixels
+  double borderForeground = 1;  // fraction of the border pixels (outermost rows and columns) that are foreground
   bool hasBackground = false;
   double maxDistance = 0;       // largest distance of a pixel to the foreground, pixels
   double maxDistanceError = 0;  // bound on |maxDistance - exact|, pixels (0 = exact)

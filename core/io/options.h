@@ -21,6 +21,11 @@ inline constexpr std::array<const char*, 6> kInpaintModeNames = {"harmonic", "rb
 enum class LevelMode { Off, Seam, Vertex };
 inline constexpr std::array<const char*, 3> kLevelModeNames = {"off", "seam", "vertex"};
 
+// Colour balance between photos (the paper's Photoshop step, automated; docs/pipeline.md): off, or per
+// photo and channel a gain, or a gain and an offset, on linear RGB, solved over the seams between photos.
+enum class BalanceMode { Off, Gain, GainOffset };
+inline constexpr std::array<const char*, 3> kBalanceModeNames = {"off", "gain", "gain-offset"};
+
 // Topology of the exported model: the user's mesh as loaded, with a new UV atlas and the montage baked
 // into it surface to surface (core/atlas/transfer.h), or the partition's refined mesh (input plus Steiner
 // vertices) with the montage's own charts.
@@ -53,6 +58,11 @@ struct EnumNames<LevelMode> {
   static constexpr const char* what = "a seam levelling mode";
 };
 template <>
+struct EnumNames<BalanceMode> {
+  static constexpr const auto& names = kBalanceModeNames;
+  static constexpr const char* what = "a colour balance mode";
+};
+template <>
 struct EnumNames<CameraMode> {
   static constexpr const auto& names = kCameraModeNames;
   static constexpr const char* what = "a camera mode";
@@ -77,10 +87,11 @@ struct PipelineOptions {
   double seamLambda = 0.1;             // seams: weight of geometric stretch vs texture mismatch (paper 4.2)
   int seamRounds = 30;                 // seams: alternating optimisation rounds (paper 4.2)
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
-  LevelMode seamLevelling = LevelMode::Vertex;       // seam levelling between photos (paper end of 5)
-  InpaintMode inpaintMode = InpaintMode::Structure;  // inpainting: guidance of holes without strokes (chosen by
-                                                     // measurement, docs/pipeline.md)
-  int maxInpaintVertices = 2000000;                  // inpainting: cap on refined vertices (coarser beyond)
+  BalanceMode colorBalance = BalanceMode::GainOffset;  // colour balance between photos, before levelling
+  LevelMode seamLevelling = LevelMode::Vertex;         // seam levelling between photos (paper end of 5)
+  InpaintMode inpaintMode = InpaintMode::Structure;    // inpainting: guidance of holes without strokes (chosen by
+                                                       // measurement, docs/pipeline.md)
+  int maxInpaintVertices = 2000000;                    // inpainting: cap on refined vertices (coarser beyond)
   int atlasSize = 0;  // atlas: 0 = the smallest size holding the photos at their own resolution, or a fixed
                       // width and height (256..8192) that the charts are scaled to fill
   int gutter = 4;     // atlas: texels between charts and from the border
@@ -100,7 +111,7 @@ struct PipelineOptions {
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
            seamLambda == o.seamLambda && seamRounds == o.seamRounds && gradientWeight == o.gradientWeight &&
-           seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
+           colorBalance == o.colorBalance && seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
            seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression &&
            cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold && correction == o.correction &&

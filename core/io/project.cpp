@@ -199,6 +199,7 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("seamLambda", o.seamLambda, 0.0, 1.0);
   visit("seamRounds", o.seamRounds, 0, 1000);
   visit("gradientWeight", o.gradientWeight, 0.0, 1.0);
+  visit("colorBalance", o.colorBalance, BalanceMode::Off, BalanceMode::GainOffset);
   visit("seamLevelling", o.seamLevelling, LevelMode::Off, LevelMode::Vertex);
   visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Structure);
   visit("maxInpaintVertices", o.maxInpaintVertices, 1000, 20000000);
@@ -489,17 +490,26 @@ json parseJson(const std::string& path, const std::string& text) {
   throw Error(located(path, (sax.byte > 0 ? lineAndColumn(text, sax.byte) + ": " : "") + "invalid JSON: " + sax.error));
 }
 
-// A path from the file, made absolute against the project's folder; the file must exist.
-std::string resolveFile(const Field& f, const fs::path& dir) {
+// A path from the file, made absolute against the project's folder; the file must exist, unless
+// `missing` is given: a file that does not exist is then listed there (`field` names it).
+std::string resolveFile(const Field& f, const fs::path& dir, std::vector<MissingFile>* missing = nullptr,
+                        const std::string& field = "") {
   const std::string written = f.as<std::string>();
   if (written.empty()) f.fail("must not be empty");
   const fs::path resolved = (dir / written).lexically_normal();
+  if (missing) {
+    std::error_code ec;
+    if (!fs::exists(resolved, ec)) {
+      missing->push_back(MissingFile{field, resolved.string()});
+      return resolved.string();
+    }
+  }
   if (const std::string problem = fileProblem(resolved.string()); !problem.empty())
     f.fail("file " + inQuotes(written) + " " + problem + " (resolved to " + inQuotes(resolved.string()) + ")");
   return resolved.string();
 }
 
-Project parseProjectText(const std::string& text, const std::string& path);
+Project parseProjectText(const std::string& text, const std::string& path, std::vector<MissingFile>* missing);
 
 }  // namespace
 
@@ -509,24 +519,40 @@ bool Project::sameDocument(const Project& o) const {
          options == o.options;
 }
 
-Project loadProject(const std::string& path) {
-  return parseProject(readFileBytes(path, "project file", kMaxProjectBytes,
-                                    "a project holds paths and correspondences; its size is limited so that "
-                                    "reading it needs bounded memory"),
-                      path);
+namespace {
+
+std::string readProjectText(const std::string& path) {
+  return readFileBytes(path, "project file", kMaxProjectBytes,
+                       "a project holds paths and correspondences; its size is limited so that reading it needs "
+                       "bounded memory");
 }
 
-Project parseProject(const std::string& text, const std::string& path) {
+Project parseProjectNamed(const std::string& text, const std::string& path, std::vector<MissingFile>* missing) {
   try {
-    return parseProjectText(text, path);
+    return parseProjectText(text, path, missing);
   } catch (const json::exception& e) {  // never expected (every read goes through Field): still named
     throw Error(located(path, std::string("invalid project: ") + e.what()));
   }
 }
 
+}  // namespace
+
+Project loadProject(const std::string& path) {
+  return parseProjectNamed(readProjectText(path), path, nullptr);
+}
+
+Project loadProjectAllowingMissing(const std::string& path, std::vector<MissingFile>& missing) {
+  missing.clear();
+  return parseProjectNamed(readProjectText(path), path, &missing);
+}
+
+Project parseProject(const std::string& text, const std::string& path) {
+  return parseProjectNamed(text, path, nullptr);
+}
+
 namespace {
 
-Project parseProjectText(const std::string& text, const std::string& path) {
+Project parseProjectText(const std::string& text, const std::string& path, std::vector<MissingFile>* missing) {
   const json document = parseJson(path, text);
   const Field root(path, &document, "");
   const Field format = root["format"];
@@ -536,20 +562,23 @@ Project parseProjectText(const std::string& text, const std::string& path) {
     format.fail(inQuotes(format.as<std::string>()) + " is not a TextureMontage project (expected " + inQuotes(kFormat) +
                 ")");
   const int version = root["version"].as<int>();
-  if (version < 1 || version > Project::kVersion)
-    root["version"].fail(std::to_string(version) + " is not supported: this build reads versions 1 to " +
-                         std::to_string(Project::kVersion) +
+  if (version < Project::kOldestVersion || version > Project::kVersion)
+    root["version"].fail(std::to_string(version) + " is not supported: this build reads versions " +
+                         std::to_string(Project::kOldestVersion) + " to " + std::to_string(Project::kVersion) +
                          (version > Project::kVersion ? " (the file was written by a newer TextureMontage)" : ""));
 
   Project project;
   project.file = fs::absolute(path).lexically_normal().string();
   const fs::path dir = fs::path(project.file).parent_path();
-  project.mesh = resolveFile(root["mesh"], dir);
+  project.mesh = resolveFile(root["mesh"], dir, missing, "mesh");
   const Field photos = root["photos"];
   for (size_t i = 0, n = photos.present() ? photos.size() : 0; i < n; ++i) {
     PhotoRef ref;
-    ref.path = resolveFile(photos[i]["path"], dir);
-    if (photos[i]["mask"].present()) ref.mask = resolveFile(photos[i]["mask"], dir);
+    const std::string at = "photos[" + std::to_string(i) + "]";
+    ref.path = resolveFile(photos[i]["path"], dir, missing, at + ".path");
+    if (photos[i]["mask"].present()) ref.mask = resolveFile(photos[i]["mask"], dir, missing, at + ".mask");
+    ref.mirror = photos[i]["mirror"].as(false);
+    ref.colorLocked = photos[i]["colorLocked"].as(false);
     project.photos.push_back(ref);
   }
   project.points = root["points"].as(project.points);
@@ -559,11 +588,36 @@ Project parseProjectText(const std::string& text, const std::string& path) {
   project.holeModes = root["holeModes"].as(project.holeModes);
   if (version >= 2) project.declinedProposals = root["declinedProposals"].as(project.declinedProposals);
   if (root["options"].present()) project.options = root["options"].as<PipelineOptions>();
+  // Versions 1 and 2 had no colour balance: such a file keeps its behaviour.
+  if (version < 3 && !(root["options"].present() && root["options"]["colorBalance"].present()))
+    project.options.colorBalance = BalanceMode::Off;
   DocumentCheck(project, path, nullptr).run();
   return project;
 }
 
 }  // namespace
+
+Project withoutPhotoReferences(const Project& project, const std::set<int>& photos) {
+  Project out = project;
+  for (FeaturePoint& point : out.points)
+    point.at.erase(std::remove_if(point.at.begin(), point.at.end(),
+                                  [&](const PhotoPoint& a) { return photos.count(a.photo) > 0; }),
+                   point.at.end());
+  out.chains.erase(std::remove_if(out.chains.begin(), out.chains.end(),
+                                  [&](const FeatureChain& c) { return photos.count(c.photo) > 0; }),
+                   out.chains.end());
+  out.clones.erase(
+      std::remove_if(out.clones.begin(), out.clones.end(), [&](const CloneOp& c) { return photos.count(c.photo) > 0; }),
+      out.clones.end());
+  return out;
+}
+
+int requiredVersion(const Project& project) {
+  bool photoFlags = false;
+  for (const PhotoRef& p : project.photos) photoFlags = photoFlags || p.mirror || p.colorLocked;
+  if (photoFlags || project.options.colorBalance != BalanceMode::Off) return 3;
+  return project.declinedProposals.empty() ? 1 : 2;
+}
 
 void validateProject(const Project& project, int numVertices, int numFaces,
                      const std::vector<std::pair<int, int>>& photoSizes) {
@@ -579,12 +633,14 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
   const fs::path base = relativeTo.empty() ? fs::path() : fs::absolute(relativeTo).lexically_normal().parent_path();
   ojson j;
   j["format"] = kFormat;
-  j["version"] = Project::kVersion;
+  j["version"] = requiredVersion(project);
   j["mesh"] = storedPath(project.mesh, base);
   j["photos"] = ojson::array();
   for (const PhotoRef& photo : project.photos) {
     ojson p = {{"path", storedPath(photo.path, base)}};
     if (!photo.mask.empty()) p["mask"] = storedPath(photo.mask, base);
+    if (photo.mirror) p["mirror"] = true;
+    if (photo.colorLocked) p["colorLocked"] = true;
     j["photos"].push_back(p);
   }
   j["points"] = ojson::array();

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -78,13 +79,18 @@ struct DeclinedProposal {
 };
 
 struct PhotoRef {
-  std::string path;  // absolute once loaded; written relative to the project file
-  std::string mask;  // optional foreground mask image; same rules
-  bool operator==(const PhotoRef& o) const { return path == o.path && mask == o.mask; }
+  std::string path;          // absolute once loaded; written relative to the project file
+  std::string mask;          // optional foreground mask image (in the file's own pixels); same rules
+  bool mirror = false;       // flipped left to right on load; positions are in the mirrored photo
+  bool colorLocked = false;  // colour balance keeps this photo as it is and matches the others to it
+  bool operator==(const PhotoRef& o) const {
+    return path == o.path && mask == o.mask && mirror == o.mirror && colorLocked == o.colorLocked;
+  }
 };
 
 struct Project {
-  static constexpr int kVersion = 2;  // format version written by this build (reads 1 and 2)
+  static constexpr int kVersion = 3;        // newest format version this build reads and writes
+  static constexpr int kOldestVersion = 1;  // oldest version it reads
 
   std::string file;  // where it was loaded from / last saved to (absolute); empty for a new project
   std::string mesh;  // absolute path
@@ -112,12 +118,36 @@ inline constexpr uint64_t kMaxProjectBytes = 64ull << 20;
 // relative to its folder) and names it in messages.
 Project parseProject(const std::string& text, const std::string& path);
 
+// A file a project names that does not exist: the JSON field ("mesh", "photos[1].path",
+// "photos[1].mask") and the path it resolves to (absolute).
+struct MissingFile {
+  std::string field;
+  std::string path;
+};
+
+// Like loadProject, but a mesh, photo or mask file that does not exist is not an error: its path is
+// kept (absolute) and listed in `missing`, so that the editor can open the project, say what is missing
+// and offer to relink it. Every other check is the same.
+Project loadProjectAllowingMissing(const std::string& path, std::vector<MissingFile>& missing);
+
+// The lowest version that holds a document: 1, 2 when it has declined proposals, 3 when it has a mirrored
+// or colour-locked photo or colour balance on, so that an older build refuses the file instead of
+// silently ignoring what it does not know, and reads it when nothing is lost. projectToJson writes this
+// version.
+int requiredVersion(const Project& project);
+
 // Checks a project against its mesh and photo sizes: vertex ids in range, points inside their
 // photo, the same vertex not given two points in one photo, chains whose points have a position
 // in the chain's photo, stroke and clone indices in range. `photoSizes[i]` is photo i's size.
 // Throws montage::Error naming the project file, the field and the reason.
 void validateProject(const Project& project, int numVertices, int numFaces,
                      const std::vector<std::pair<int, int>>& photoSizes);
+
+// The project with every reference to the photos in `photos` left out: their positions (a point left
+// with none stays, with no position, so point indices do not change), and the chains and clones drawn in
+// them. Photo entries and photo indices stay as they are. The pipeline runs on this when a photo cannot
+// be loaded, so that a broken photo disables only itself.
+Project withoutPhotoReferences(const Project& project, const std::set<int>& photos);
 
 // Serialises to JSON text (paths relative to `relativeTo`'s folder when given).
 std::string projectToJson(const Project& project, const std::string& relativeTo);

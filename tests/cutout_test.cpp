@@ -1,0 +1,249 @@
+// Tests of core/image/cutout: GrabCut from a rectangle and from strokes on synthetic photos whose true
+// foreground is known, the mask brush, the feathered edge, the foreground warnings, and `montage mask`.
+#include "image/cutout.h"
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "image/photo.h"
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+using namespace montage;
+using montage::test::errorOf;
+
+namespace {
+
+double iou(const cv::Mat& a, const cv::Mat& b) {
+  const double inter = cv::countNonZero((a > 0) & (b > 0)), uni = cv::countNonZero((a > 0) | (b > 0));
+  return uni > 0 ? inter / uni : 1.0;
+}
+
+// A 320x240 photo (CV_32FC3 sRGB): a textured background (green-blue noise with stripes) and a
+// reddish noisy disc of radius 60 around (150, 120); `truth` is the disc.
+cv::Mat discScene(cv::Mat& truth, unsigned seed = 3) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> noise(-0.12f, 0.12f);
+  cv::Mat rgb(240, 320, CV_32FC3);
+  truth = cv::Mat::zeros(240, 320, CV_8U);
+  for (int y = 0; y < rgb.rows; ++y)
+    for (int x = 0; x < rgb.cols; ++x) {
+      const bool disc = (x + 0.5 - 150) * (x + 0.5 - 150) + (y + 0.5 - 120) * (y + 0.5 - 120) <= 60 * 60;
+      cv::Vec3f c;
+      if (disc) {
+        c = cv::Vec3f(0.8f, 0.35f, 0.25f);
+        truth.at<uchar>(y, x) = 255;
+      } else {
+        const float stripe = ((x / 12 + y / 17) % 2) ? 0.15f : -0.05f;
+        c = cv::Vec3f(0.2f, 0.5f + stripe, 0.45f - stripe);
+      }
+      for (int k = 0; k < 3; ++k) c[k] = std::clamp(c[k] + noise(rng), 0.0f, 1.0f);
+      rgb.at<cv::Vec3f>(y, x) = c;
+    }
+  return rgb;
+}
+
+}  // namespace
+
+TEST(Cutout, GrabCutSeparatesADiscFromATexturedBackground) {
+  cv::Mat truth;
+  const cv::Mat rgb = discScene(truth);
+  Cutout cut(rgb);
+  EXPECT_FALSE(cut.started());
+  EXPECT_EQ(cv::countNonZero(cut.mask()), 0);
+  cut.setRect(cv::Rect2d(80, 50, 140, 140));  // a loose box around the disc
+  const double score = iou(cut.binaryMask(), truth);
+  std::printf("IoU from the rectangle: %.4f (%.3f s)\n", score, cut.lastSeconds());
+  EXPECT_GT(score, 0.95);
+  // Nothing outside the rectangle is foreground.
+  cv::Mat outside = cut.binaryMask().clone();
+  outside(cv::Rect(80, 50, 140, 140)).setTo(0);
+  EXPECT_EQ(cv::countNonZero(outside), 0);
+  // The one-shot function gives the same mask.
+  EXPECT_EQ(cv::norm(cutoutMask(rgb, cv::Rect2d(80, 50, 140, 140)), cut.mask(), cv::NORM_INF), 0);
+}
+
+TEST(Cutout, StrokesFixWhatTheRectangleGetsWrong) {
+  cv::Mat truth;
+  cv::Mat rgb = discScene(truth);
+  // A patch of the disc's colour in the background, inside the rectangle and touching the disc: from the
+  // rectangle alone GrabCut keeps it (it looks like the object), so the user strokes it as background.
+  const cv::Rect patch(200, 100, 25, 40);
+  rgb(patch).setTo(cv::Scalar(0.8, 0.35, 0.25));
+  Cutout cut(rgb);
+  cut.setRect(cv::Rect2d(80, 50, 150, 140));
+  const double fromRect = iou(cut.binaryMask(), truth);
+  const auto wrongInPatch = [&] { return cv::countNonZero((cut.binaryMask() & ~truth)(patch)); };
+  const int wrongBefore = wrongInPatch();
+  EXPECT_GT(wrongBefore, 400) << "the test needs a rectangle-only error";
+  CutoutStroke stroke;
+  stroke.points = {Vec2(214, 102), Vec2(214, 138)};
+  stroke.radius = 9;
+  stroke.foreground = false;
+  cut.addStroke(stroke);
+  const double afterStroke = iou(cut.binaryMask(), truth);
+  std::printf("IoU: rectangle %.4f, + background stroke %.4f\n", fromRect, afterStroke);
+  EXPECT_LT(wrongInPatch(), wrongBefore / 10);
+  EXPECT_GT(afterStroke, 0.95);
+  EXPECT_GT(afterStroke, fromRect + 0.02);
+
+  // The same from stroke images (the command line's --bg file).
+  cv::Mat bg = cv::Mat::zeros(rgb.size(), CV_8U);
+  cv::line(bg, cv::Point(212, 105), cv::Point(212, 135), 255, 10);
+  const cv::Mat viaFiles = cutoutMask(rgb, cv::Rect2d(80, 50, 150, 140), {}, bg);
+  EXPECT_GT(iou(viaFiles, truth), 0.95);
+}
+
+TEST(Cutout, StrokesAloneStartACutOutAndWorkAtAReducedWorkingSize) {
+  cv::Mat truth;
+  const cv::Mat rgb = discScene(truth);
+  CutoutOptions options;
+  options.workingSide = 160;  // half size: the mask comes back at full size with a smooth edge
+  Cutout cut(rgb, options);
+  CutoutStroke fg;
+  fg.points = {Vec2(120, 120), Vec2(180, 120)};
+  fg.radius = 8;
+  CutoutStroke bg;
+  bg.points = {Vec2(10, 10), Vec2(310, 10), Vec2(310, 230), Vec2(10, 230), Vec2(10, 10)};
+  bg.radius = 8;
+  bg.foreground = false;
+  cut.addStrokes({fg, bg});
+  const cv::Mat mask = cut.binaryMask();
+  ASSERT_EQ(mask.size(), rgb.size());
+  const double score = iou(mask, truth);
+  std::printf("IoU from strokes alone at half size: %.4f\n", score);
+  EXPECT_GT(score, 0.9);
+  // Without any foreground mark there is nothing to learn the object from.
+  Cutout empty(rgb);
+  EXPECT_NE(errorOf([&] { empty.addStroke(bg); }).find("nothing is marked as foreground"), std::string::npos);
+}
+
+TEST(Cutout, BrushEditsTheMaskWithoutGrabCut) {
+  cv::Mat truth;
+  const cv::Mat rgb = discScene(truth);
+  Cutout cut(rgb);
+  cut.setRect(cv::Rect2d(80, 50, 140, 140));
+  const cv::Mat before = cut.binaryMask().clone();
+  CutoutStroke erase;
+  erase.points = {Vec2(150.5, 120.5)};
+  erase.radius = 10;
+  erase.foreground = false;
+  cut.brush(erase);
+  const cv::Mat erased = cut.binaryMask();
+  EXPECT_EQ(erased.at<uchar>(120, 150), 0);
+  EXPECT_EQ(erased.at<uchar>(120, 157), 0);    // 7 px away: under the brush (radius 10)
+  EXPECT_EQ(erased.at<uchar>(120, 175), 255);  // 25 px away: untouched
+  const int removed = cv::countNonZero(before) - cv::countNonZero(erased);
+  EXPECT_NEAR(removed, M_PI * 100, 40);  // the brush's disc, no more
+  CutoutStroke add;
+  add.points = {Vec2(20.5, 20.5), Vec2(40.5, 20.5)};
+  add.radius = 3;
+  cut.brush(add);
+  EXPECT_EQ(cut.binaryMask().at<uchar>(20, 30), 255);
+  // Brushed pixels are certain: a later GrabCut run keeps them.
+  CutoutStroke fg;
+  fg.points = {Vec2(130, 120)};
+  fg.radius = 4;
+  cut.addStroke(fg);
+  EXPECT_EQ(cut.binaryMask().at<uchar>(20, 30), 255);
+  EXPECT_EQ(cut.binaryMask().at<uchar>(120, 150), 0);
+}
+
+TEST(Cutout, FeatheredEdgeKeepsTheForegroundAndSoftensItsEdge) {
+  cv::Mat binary = cv::Mat::zeros(50, 50, CV_8U);
+  binary(cv::Rect(10, 10, 30, 30)).setTo(255);
+  const cv::Mat hard = featherMask(binary, 0);
+  EXPECT_EQ(cv::norm(hard, binary, cv::NORM_INF), 0);
+  const cv::Mat soft = featherMask(binary, 4);
+  EXPECT_EQ(cv::countNonZero(soft), cv::countNonZero(binary));  // same foreground
+  EXPECT_EQ(soft.at<uchar>(25, 25), 255);                       // inside: full alpha
+  EXPECT_EQ(soft.at<uchar>(25, 10), 64);                        // edge pixel, 1 px from the background: 1/4
+  EXPECT_EQ(soft.at<uchar>(25, 12), 191);                       // 3 px in: 3/4
+  EXPECT_EQ(soft.at<uchar>(0, 0), 0);
+  // Written and loaded as a photo's mask: the alpha the loader sees is the feathered one.
+  const std::string dir = test::tempDir("cutout");
+  const std::string photoPath = (fs::path(dir) / "p.png").string();
+  cv::imwrite(photoPath, cv::Mat(50, 50, CV_8UC3, cv::Scalar(90, 90, 90)));
+  writeMaskPng(soft, (fs::path(dir) / "masks/p_mask.png").string());
+  const Photo photo = loadPhoto(photoPath, (fs::path(dir) / "masks/p_mask.png").string());
+  ASSERT_EQ(photo.alpha.type(), CV_8UC1);
+  EXPECT_EQ(photo.alpha.at<uchar>(25, 10), 64);
+  EXPECT_NEAR(photo.alphaAt(10.5, 25.5), 64 / 255.0f, 1e-6);
+  EXPECT_EQ(photo.alpha.at<uchar>(25, 25), 255);
+  EXPECT_EQ(cv::countNonZero(photo.alpha > 0), cv::countNonZero(binary));
+}
+
+TEST(Cutout, WarningsForNoBackgroundAndForABorderCoveringForeground) {
+  const std::string dir = test::tempDir("cutout");
+  const std::string photoPath = (fs::path(dir) / "p.png").string();
+  cv::imwrite(photoPath, cv::Mat(60, 80, CV_8UC3, cv::Scalar(90, 120, 150)));
+  // No alpha, no mask.
+  auto warnings = foregroundWarnings(loadPhoto(photoPath));
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("no alpha channel and no mask"), std::string::npos) << warnings[0];
+  // A mask that keeps most of the border (background kept around the object).
+  cv::Mat mask(60, 80, CV_8U, cv::Scalar(255));
+  mask(cv::Rect(0, 50, 30, 10)).setTo(0);
+  const std::string maskPath = (fs::path(dir) / "m.png").string();
+  writeMaskPng(mask, maskPath);
+  EXPECT_NEAR(borderForegroundShare(mask), 1 - 30.0 / (2 * 80 + 2 * 58) - 9.0 / (2 * 80 + 2 * 58), 1e-9);
+  warnings = foregroundWarnings(loadPhoto(photoPath, maskPath));
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("of the image border"), std::string::npos) << warnings[0];
+  // An object cut out inside the frame, touching one side: no warning.
+  mask.setTo(0);
+  mask(cv::Rect(20, 10, 40, 50)).setTo(255);
+  writeMaskPng(mask, maskPath);
+  EXPECT_LT(borderForegroundShare(mask), 0.2);
+  EXPECT_TRUE(foregroundWarnings(loadPhoto(photoPath, maskPath)).empty());
+}
+
+TEST(Cutout, BadRequestsAreClearErrors) {
+  cv::Mat truth;
+  const cv::Mat rgb = discScene(truth);
+  Cutout cut(rgb);
+  EXPECT_NE(errorOf([&] { cut.setRect(cv::Rect2d(400, 300, 50, 50)); }).find("outside the photo"), std::string::npos);
+  EXPECT_NE(errorOf([&] { cut.setRect(cv::Rect2d(-10, -10, 400, 300)); }).find("covers the whole photo"),
+            std::string::npos);
+  CutoutStroke bad;
+  bad.radius = 0;
+  bad.points = {Vec2(1, 1)};
+  EXPECT_NE(errorOf([&] { cut.brush(bad); }).find("radius must be > 0"), std::string::npos);
+  CutoutOptions options;
+  options.iterations = 0;
+  EXPECT_NE(errorOf([&] { Cutout c(rgb, options); }).find("iterations must be >= 1"), std::string::npos);
+  EXPECT_NE(errorOf([&] { Cutout c{cv::Mat()}; }).find("empty"), std::string::npos);
+  EXPECT_NE(errorOf([&] { cut.addStrokeMasks(cv::Mat::zeros(10, 10, CV_8U), {}); }).find("10x10"), std::string::npos);
+}
+
+TEST(Cutout, MontageMaskWritesAMaskTheProjectCanUse) {
+  cv::Mat truth;
+  const cv::Mat rgb = discScene(truth);
+  const std::string dir = test::tempDir("cutout_cli");
+  cv::Mat bgr8;
+  rgb.convertTo(bgr8, CV_8UC3, 255);
+  cv::cvtColor(bgr8, bgr8, cv::COLOR_RGB2BGR);
+  cv::imwrite(dir + "/photo.png", bgr8);
+  std::string out;
+  ASSERT_EQ(test::runCommand(test::montageExe() + " mask " + dir +
+                                 "/photo.png --rect 80,50,140,140 --feather 2 --out " + dir + "/mask.png 2>&1",
+                             &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("wrote " + dir + "/mask.png (320x240)"), std::string::npos) << out;
+  const Photo photo = loadPhoto(dir + "/photo.png", dir + "/mask.png");
+  EXPECT_GT(iou(photo.alpha > 0, truth), 0.95);
+  EXPECT_TRUE(foregroundWarnings(photo).empty());
+  // Errors name what is wrong.
+  EXPECT_NE(test::runCommand(
+                test::montageExe() + " mask " + dir + "/photo.png --rect 1,2,3 --out " + dir + "/m2.png 2>&1", &out),
+            0);
+  EXPECT_NE(out.find("--rect: expected x,y,w,h"), std::string::npos) << out;
+  EXPECT_NE(test::runCommand(test::montageExe() + " mask " + dir + "/photo.png --rect 0,0,10,10 --fg " + dir +
+                                 "/nothere.png --out " + dir + "/m2.png 2>&1",
+                             &out),
+            0);
+  EXPECT_NE(out.find("nothere.png: image file not found"), std::string::npos) << out;
+}

@@ -1,0 +1,474 @@
+// Photos in the editor: the photo list (add several at once, remove, reorder, mirror, colour lock, relink,
+// mask), the missing-files window, the before/after of the colour balance, and the cut-out tool in the
+// photo panes (GrabCut from a rectangle and strokes, refined by more strokes; the mask brush; a feathered
+// edge; the mask written as a PNG beside the project and referenced from the photo's entry).
+#include <imgui.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgproc.hpp>
+
+#include "editor.h"
+#include "gl.h"
+#include "gl_util.h"
+#include "image/photo.h"
+
+namespace fs = std::filesystem;
+
+namespace montage {
+
+namespace {
+
+const ImVec4 kErrorText(1.0f, 0.45f, 0.4f, 1.0f);
+
+ImVec2 im(const Vec2& v) {
+  return ImVec2(float(v.x()), float(v.y()));
+}
+
+ImTextureID imTexture(const Texture& t) {
+  return reinterpret_cast<ImTextureID>(static_cast<intptr_t>(t.id()));
+}
+
+ImU32 strokeColour(const CutoutStroke& s, bool brush) {
+  if (brush) return s.foreground ? IM_COL32(255, 255, 255, 150) : IM_COL32(20, 20, 20, 170);
+  return s.foreground ? IM_COL32(70, 230, 90, 200) : IM_COL32(240, 70, 60, 200);
+}
+
+// The session key: a cut-out belongs to a photo file as shown (mirrored or not), whatever its mask.
+std::string cutoutKey(const PhotoRef& ref) {
+  return ref.path + (ref.mirror ? "|mirror" : "");
+}
+
+}  // namespace
+
+// --- The photo list ------------------------------------------------------------------------------
+
+void Editor::photosTab() {
+  const Project& p = doc_.project();
+  const bool hasMesh = !p.mesh.empty();
+  if (!hasMesh) ImGui::BeginDisabled();
+  if (button("Add photos..."))
+    dialogs_.request(DialogKind::OpenFiles, "Add photos (select several)",
+                     {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}}, "add_photos",
+                     fs::path(p.mesh).parent_path().string());
+  ImGui::SameLine();
+  if (button("Add folder..."))
+    dialogs_.request(DialogKind::OpenFolder, "Add every photo of a folder", {}, "add_photos",
+                     fs::path(p.mesh).parent_path().string());
+  if (!hasMesh) ImGui::EndDisabled();
+  ImGui::SameLine();
+  ImGui::TextDisabled("or drop files here");
+  ImGui::Checkbox("show balanced colours", &showBalanced_);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip(
+        "photo panes: the photos after the colour balance of the last result (after), or as in their "
+        "files (before)");
+  const ColorBalance* balance = resultUsable() && result_->balanced ? &result_->balanced->balance : nullptr;
+
+  int remove = -1, moveFrom = -1, moveTo = -1, cut = -1;
+  for (int i = 0; i < static_cast<int>(p.photos.size()); ++i) {
+    const PhotoRef& ref = p.photos[i];
+    const PhotoSlot* slot = i < static_cast<int>(photos_.size()) ? &photos_[i] : nullptr;
+    const std::string id = std::to_string(i);
+    ImGui::PushID(i);
+    ImGui::Separator();
+    const std::string name = id + ": " + fs::path(ref.path).filename().string();
+    if (ImGui::Selectable(name.c_str(), activePhoto_ == i, 0, ImVec2(ImGui::GetContentRegionAvail().x * 0.55f, 0)))
+      activePhoto_ = i;
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("%s%s%s", ref.path.c_str(), ref.mask.empty() ? "" : "\nmask: ", ref.mask.c_str());
+    ImGui::SameLine();
+    if (slot && slot->photo) {
+      ImGui::TextDisabled("%dx%d%s", slot->photo->width, slot->photo->height,
+                          ref.mask.empty() ? (slot->photo->hasBackground ? " alpha" : " no mask") : " mask");
+    } else {
+      ImGui::TextColored(kErrorText, "%s", slot && !slot->error.empty() ? "cannot load" : "loading");
+      if (slot && !slot->error.empty() && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", slot->error.c_str());
+    }
+    bool mirror = ref.mirror, locked = ref.colorLocked;
+    if (ImGui::Checkbox("mirror", &mirror)) {
+      const int width = slot && slot->photo ? slot->photo->width : 0;
+      edit([&] { doc_.setPhotoMirror(i, mirror, width); });
+    }
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("flip left to right on load (the file is not changed)");
+    ImGui::SameLine();
+    if (ImGui::Checkbox("lock colours", &locked)) edit([&] { doc_.setColorLocked(i, locked); });
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("colour balance: keep this photo as it is and match the others to it");
+    ImGui::SameLine();
+    if (i == 0) ImGui::BeginDisabled();
+    if (button("^", nullptr, "photo up " + id)) moveFrom = i, moveTo = i - 1;
+    if (i == 0) ImGui::EndDisabled();
+    ImGui::SameLine();
+    if (i + 1 == static_cast<int>(p.photos.size())) ImGui::BeginDisabled();
+    if (button("v", nullptr, "photo down " + id)) moveFrom = i, moveTo = i + 1;
+    if (i + 1 == static_cast<int>(p.photos.size())) ImGui::EndDisabled();
+    ImGui::SameLine();
+    if (button("x", nullptr, "remove photo " + id)) remove = i;
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("remove the photo with its points, chains and clones (undoable)");
+    if (button("Cut out", nullptr, "cut out photo " + id)) cut = i;
+    ImGui::SameLine();
+    if (button("Relink...", nullptr, "relink photo " + id))
+      dialogs_.request(DialogKind::OpenFile, "Relink photo " + id,
+                       {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}}, "relink_photo:" + id,
+                       fs::path(ref.path).parent_path().string());
+    if (!ref.mask.empty()) {
+      ImGui::SameLine();
+      if (button("No mask", nullptr, "remove mask " + id)) edit([&] { doc_.setPhotoMask(i, ""); });
+    }
+    if (balance && i < static_cast<int>(balance->transforms.size())) {
+      const ColorTransform& t = balance->transforms[i];
+      if (balance->reference[i])
+        ImGui::TextDisabled("colour balance: reference (kept as it is)");
+      else
+        ImGui::TextDisabled("colour balance: gain %.3f %.3f %.3f, offset %+.3f %+.3f %+.3f", t.gain[0], t.gain[1],
+                            t.gain[2], t.offset[0], t.offset[1], t.offset[2]);
+    }
+    ImGui::PopID();
+  }
+  if (remove >= 0 && edit([&] { doc_.removePhoto(remove); })) setStatus("photo " + std::to_string(remove) + " removed");
+  if (moveFrom >= 0) edit([&] { doc_.movePhoto(moveFrom, moveTo); });
+  if (cut >= 0) {
+    cancelInProgress();
+    tool_ = Tool::Cutout;
+    activePhoto_ = cut;
+    startCutout(cut, true);
+  }
+}
+
+void Editor::missingFilesWindow() {
+  // Only what the document still names and is still not there.
+  const Project& p = doc_.project();
+  missing_.erase(std::remove_if(missing_.begin(), missing_.end(),
+                                [&](const MissingFile& m) {
+                                  std::error_code ec;
+                                  if (fs::exists(m.path, ec)) return true;
+                                  if (m.field == "mesh") return p.mesh != m.path;
+                                  for (const PhotoRef& ref : p.photos)
+                                    if (ref.path == m.path || ref.mask == m.path) return false;
+                                  return true;
+                                }),
+                 missing_.end());
+  if (missing_.empty()) missingPopup_ = false;
+  if (!missingPopup_) return;
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y * 0.35f), ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
+  ImGui::SetNextWindowSize(ImVec2(std::min(720.f, display.x * 0.7f), 0), ImGuiCond_Appearing);
+  if (ImGui::Begin("Missing files", &missingPopup_, ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoCollapse)) {
+    ImGui::TextWrapped(
+        "The project opened, but these files are not where it says. Relink each to its new place, or "
+        "remove the photo; a photo that cannot load is left out of the preview, the others still "
+        "texture.");
+    for (size_t k = 0; k < missing_.size(); ++k) {
+      const MissingFile& m = missing_[k];
+      ImGui::PushID(static_cast<int>(k));
+      ImGui::Separator();
+      ImGui::TextColored(kErrorText, "%s", m.field.c_str());
+      ImGui::SameLine();
+      ImGui::TextWrapped("%s", m.path.c_str());
+      int photo = -1;
+      bool mask = false;
+      for (int i = 0; i < static_cast<int>(p.photos.size()); ++i) {
+        if (p.photos[i].path == m.path) photo = i;
+        if (p.photos[i].mask == m.path) photo = i, mask = true;
+      }
+      const std::string start = fs::path(p.file.empty() ? p.mesh : p.file).parent_path().string();
+      if (m.field == "mesh") {
+        if (button("Relink...", nullptr, "relink mesh"))
+          dialogs_.request(DialogKind::OpenFile, "Relink the mesh",
+                           {{"Meshes", {"*.obj", "*.ply", "*.off", "*.stl"}}, {"All files", {"*"}}}, "relink_mesh",
+                           start);
+      } else if (photo >= 0 && !mask) {
+        if (button("Relink...", nullptr, "relink photo " + std::to_string(photo)))
+          dialogs_.request(DialogKind::OpenFile, "Relink photo " + std::to_string(photo),
+                           {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}},
+                           "relink_photo:" + std::to_string(photo), start);
+        ImGui::SameLine();
+        if (button("Remove photo", nullptr, "remove photo " + std::to_string(photo)))
+          edit([&] { doc_.removePhoto(photo); });
+      } else if (photo >= 0) {
+        if (button("Drop the mask", nullptr, "remove mask " + std::to_string(photo)))
+          edit([&] { doc_.setPhotoMask(photo, ""); });
+      }
+      ImGui::PopID();
+    }
+  }
+  ImGui::End();
+}
+
+// --- Colour balance: before / after --------------------------------------------------------------
+
+void Editor::uploadBalanced(PhotoSlot& slot, int photo) {
+  if (!resultUsable() || !result_->balanced || !result_->balanced->scene) return;
+  const auto& photos = result_->balanced->scene->photos;
+  if (photo >= static_cast<int>(photos.size()) || !slot.photo) return;
+  const Photo* balanced = photos[photo].get();
+  // Only a result for this very file (the document may have changed since) is shown.
+  if (!balanced || balanced->path != slot.photo->path || balanced->width != slot.photo->width ||
+      balanced->mirrored != slot.photo->mirrored || slot.balancedFrom == balanced)
+    return;
+  const cv::Mat rgba = toRgba8(balanced->rgb, false, balanced->path);  // any depth, stored resolution
+  if (!slot.balanced) slot.balanced = std::make_unique<Texture>();
+  slot.balanced->upload(rgba);
+  slot.balancedFrom = balanced;
+}
+
+// --- The cut-out tool ----------------------------------------------------------------------------
+
+void Editor::cutoutPanel() {
+  int mode = static_cast<int>(cutoutMode_);
+  const char* labels[] = {"rectangle", "foreground", "background", "add", "erase"};
+  for (int m = 0; m < 5; ++m) {
+    if (m % 3) ImGui::SameLine();
+    if (ImGui::RadioButton(labels[m], mode == m)) cutoutMode_ = CutoutMode(m);
+  }
+  ImGui::SliderFloat("radius", &cutoutRadius_, 1, 60, "%.0f px");
+  ImGui::SliderFloat("feather", &cutoutFeather_, 0, 20, "%.1f px");
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("soft edge of the mask written: alpha ramps up over this width");
+  if (cutout_.cut && std::abs(cutout_.cut->options().featherPx - cutoutFeather_) > 1e-6 && !cutout_.job.valid()) {
+    cutout_.cut->setFeather(cutoutFeather_);
+    cutout_.mask = cutout_.cut->mask();
+    cutout_.overlayDirty = true;
+  }
+  const bool running = cutout_.job.valid();
+  if (cutout_.photo >= 0) {
+    if (running) {
+      ImGui::Text("photo %d: GrabCut running...", cutout_.photo);
+    } else if (!cutout_.mask.empty()) {
+      const double share = cv::countNonZero(cutout_.mask) / double(cutout_.mask.total());
+      ImGui::Text("photo %d: foreground %.1f%%%s", cutout_.photo, 100 * share,
+                  cutout_.seconds > 0 ? "" : " (not cut yet)");
+      if (cutout_.seconds > 0) {
+        ImGui::SameLine();
+        ImGui::TextDisabled("GrabCut %.2f s", cutout_.seconds);
+      }
+    }
+  } else {
+    ImGui::TextDisabled("no cut-out yet: drag in a photo");
+  }
+  const bool ready = cutout_.cut && cutout_.cut->started() && !running;
+  if (!ready) ImGui::BeginDisabled();
+  if (button("Use mask")) applyCutoutMask();
+  if (!ready) ImGui::EndDisabled();
+  ImGui::SameLine();
+  if (button("Start over##cutout")) {
+    const int photo = cutout_.photo;
+    if (!running) cutout_ = CutoutSession{};
+    if (photo >= 0) startCutout(photo, false);
+  }
+  // The help last, so that the buttons stay on screen in a short panel.
+  ImGui::TextWrapped(
+      "Drag a rectangle around the object in a photo; GrabCut separates it. Then drag strokes on what is wrong "
+      "(foreground / background), or paint the mask (add / erase). Use mask writes it beside the project.");
+}
+
+bool Editor::startCutout(int photo, bool fromCurrentMask) {
+  if (cutout_.job.valid()) {
+    setStatus("cut-out: GrabCut is still running");
+    return false;
+  }
+  const Project& p = doc_.project();
+  if (photo < 0 || photo >= static_cast<int>(photos_.size()) || !photos_[photo].photo) {
+    setStatus("cut-out: photo " + std::to_string(photo) + " is not loaded");
+    return false;
+  }
+  const Photo& shown = *photos_[photo].photo;
+  cutout_ = CutoutSession{};
+  cutout_.photo = photo;
+  cutout_.key = cutoutKey(p.photos[photo]);
+  try {
+    CutoutOptions options;
+    options.featherPx = cutoutFeather_;
+    cutout_.cut = std::make_unique<Cutout>(shown.rgb, options, cv::Size(shown.width, shown.height));
+    // Refining what the photo already has (a mask, or alpha): GrabCut starts from it.
+    if (fromCurrentMask && shown.hasBackground) cutout_.cut->startFrom(shown.alpha);
+  } catch (const Error& e) {
+    reportError(e.what());
+    cutout_ = CutoutSession{};
+    return false;
+  }
+  cutout_.mask = cutout_.cut->mask();
+  cutout_.overlayDirty = true;
+  return true;
+}
+
+void Editor::runCutout(std::function<void(Cutout&)> step) {
+  if (!cutout_.cut || cutout_.job.valid()) return;
+  // The Cutout goes to the helper thread and comes back with the result (pollCutout).
+  cutout_.job = std::async(std::launch::async, [cut = std::move(cutout_.cut), step = std::move(step)]() mutable {
+    std::string error;
+    try {
+      step(*cut);
+    } catch (const Error& e) {
+      error = e.what();
+    } catch (const std::exception& e) {
+      error = std::string("cut-out: ") + e.what();
+    }
+    return std::make_pair(std::move(cut), error);
+  });
+}
+
+void Editor::pollCutout() {
+  if (cutout_.job.valid() && cutout_.job.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    auto [cut, error] = cutout_.job.get();
+    cutout_.cut = std::move(cut);
+    if (!error.empty()) {
+      setStatus(error);
+      reportError(error);
+    }
+    cutout_.cut->setFeather(cutoutFeather_);
+    cutout_.mask = cutout_.cut->mask();
+    cutout_.seconds = cutout_.cut->lastSeconds();
+    cutout_.overlayDirty = true;
+  }
+  // The session ends when its photo goes away or shows another file.
+  const Project& p = doc_.project();
+  if (cutout_.photo >= 0 && !cutout_.job.valid() &&
+      (cutout_.photo >= static_cast<int>(p.photos.size()) || cutoutKey(p.photos[cutout_.photo]) != cutout_.key))
+    cutout_ = CutoutSession{};
+}
+
+std::string Editor::newMaskPath(int photo) const {
+  // Beside the project (its folder, or the mesh's while it is unsaved), in masks/; a new name each time,
+  // so that undo goes back to the previous file, which stays as it was.
+  const Project& p = doc_.project();
+  const fs::path dir = fs::path(p.file.empty() ? p.mesh : p.file).parent_path() / "masks";
+  const std::string stem = fs::path(p.photos[photo].path).stem().string();
+  for (int n = 1;; ++n) {
+    const fs::path candidate = dir / (stem + (n == 1 ? "_mask.png" : "_mask_" + std::to_string(n) + ".png"));
+    std::error_code ec;
+    if (!fs::exists(candidate, ec)) return candidate.string();
+  }
+}
+
+bool Editor::applyCutoutMask() {
+  if (!cutout_.cut || !cutout_.cut->started() || cutout_.job.valid()) return false;
+  const int photo = cutout_.photo;
+  const Project& p = doc_.project();
+  if (photo < 0 || photo >= static_cast<int>(p.photos.size())) return false;
+  try {
+    cv::Mat mask = cutout_.cut->mask();
+    TM_CHECK(cv::countNonZero(mask) > 0, "cut-out: the mask is empty (no foreground): nothing to use");
+    // A mask is in its photo file's own pixels: undo the mirror the pane shows.
+    if (p.photos[photo].mirror) cv::flip(mask, mask, 1);
+    const std::string path = newMaskPath(photo);
+    writeMaskPng(mask, path);
+    if (!edit([&] { doc_.setPhotoMask(photo, path); })) return false;
+    setStatus("mask of photo " + std::to_string(photo) + " written to " + path);
+    return true;
+  } catch (const Error& e) {
+    reportError(e.what());
+    return false;
+  }
+}
+
+void Editor::cutoutCanvas(int i, const PaneView& view, bool hovered) {
+  ImDrawList* draw = ImGui::GetWindowDrawList();
+  const PhotoSlot& slot = photos_[i];
+  if (!slot.photo) return;
+  const Photo& photo = *slot.photo;
+  ImGuiIO& io = ImGui::GetIO();
+  const Vec2 mouse(io.MousePos.x, io.MousePos.y);
+  const Vec2 at = view.toPhoto(mouse);
+  const bool mine = cutout_.photo == i;
+
+  // The cut-out so far: the background tinted, the rectangle, the strokes.
+  if (mine && !cutout_.mask.empty()) {
+    if (cutout_.overlayDirty) {
+      cv::Mat rgba(cutout_.mask.size(), CV_8UC4, cv::Scalar(0, 0, 0, 0));
+      rgba.forEach<cv::Vec4b>([&](cv::Vec4b& px, const int* pos) {
+        const int a = cutout_.mask.at<uchar>(pos[0], pos[1]);
+        px = cv::Vec4b(200, 40, 160, uchar(140 * (255 - a) / 255));
+      });
+      if (!cutout_.overlay) cutout_.overlay = std::make_unique<Texture>();
+      cutout_.overlay->upload(rgba);
+      cutout_.overlayDirty = false;
+    }
+    draw->AddImage(imTexture(*cutout_.overlay), im(view.toScreen(Vec2(0, 0))),
+                   im(view.toScreen(Vec2(photo.width, photo.height))));
+  }
+  const float zoom = float(view.zoom);
+  if (mine && cutout_.rect)
+    draw->AddRect(
+        im(view.toScreen(Vec2(cutout_.rect->x, cutout_.rect->y))),
+        im(view.toScreen(Vec2(cutout_.rect->x + cutout_.rect->width, cutout_.rect->y + cutout_.rect->height))),
+        IM_COL32(255, 220, 60, 255), 0, 0, 2);
+  auto drawPath = [&](const std::vector<Vec2>& pts, float radius, ImU32 colour) {
+    const float width = std::max(1.5f, 2 * radius * zoom);
+    if (pts.size() == 1) draw->AddCircleFilled(im(view.toScreen(pts[0])), width / 2, colour);
+    for (size_t k = 0; k + 1 < pts.size(); ++k)
+      draw->AddLine(im(view.toScreen(pts[k])), im(view.toScreen(pts[k + 1])), colour, width);
+  };
+  if (mine)
+    for (const CutoutStroke& s : cutout_.strokes) drawPath(s.points, float(s.radius), strokeColour(s, false));
+  const bool brush = cutoutMode_ == CutoutMode::Add || cutoutMode_ == CutoutMode::Erase;
+  const bool fg = cutoutMode_ == CutoutMode::Foreground || cutoutMode_ == CutoutMode::Add;
+  if (mine && cutout_.drawing) {
+    if (cutoutMode_ == CutoutMode::Rect && !cutout_.path.empty())
+      draw->AddRect(im(view.toScreen(cutout_.dragStart)), im(view.toScreen(cutout_.path.back())),
+                    IM_COL32(255, 220, 60, 200), 0, 0, 1.5f);
+    else
+      drawPath(cutout_.path, cutoutRadius_, strokeColour(CutoutStroke{{}, 0, fg}, brush));
+  }
+  if (hovered && cutoutMode_ != CutoutMode::Rect)
+    draw->AddCircle(im(mouse), std::max(2.0f, cutoutRadius_ * zoom), IM_COL32(255, 255, 255, 200), 0, 1.0f);
+  if (mine && cutout_.job.valid() && canvasRects_.count(i))
+    draw->AddText(ImVec2(float(canvasRects_[i].x) + 8, float(canvasRects_[i].y) + 8), IM_COL32(255, 230, 120, 255),
+                  "GrabCut running...");
+
+  // Input: press, drag, release.
+  const auto clamped = [&](Vec2 q) {
+    return Vec2(std::clamp(q.x(), 0.0, double(photo.width)), std::clamp(q.y(), 0.0, double(photo.height)));
+  };
+  if (hovered && ImGui::IsMouseClicked(ImGuiMouseButton_Left)) {
+    activePhoto_ = i;
+    if (cutout_.job.valid()) {
+      setStatus("cut-out: GrabCut is running; wait for it");
+    } else if (mine || startCutout(i, cutoutMode_ != CutoutMode::Rect)) {
+      cutout_.drawing = true;
+      cutout_.dragStart = clamped(at);
+      cutout_.path = {cutout_.dragStart};
+    }
+  }
+  if (!mine || !cutout_.drawing) return;
+  if (ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
+    const Vec2 q = clamped(at);
+    if ((view.toScreen(q) - view.toScreen(cutout_.path.back())).norm() >= 2) cutout_.path.push_back(q);
+    return;
+  }
+  // Released.
+  cutout_.drawing = false;
+  const std::vector<Vec2> path = std::move(cutout_.path);
+  cutout_.path.clear();
+  if (!cutout_.cut) return;
+  if (cutoutMode_ == CutoutMode::Rect) {
+    const Vec2 a = cutout_.dragStart, b = path.back();
+    const cv::Rect2d rect(std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::abs(b.x() - a.x()),
+                          std::abs(b.y() - a.y()));
+    if (rect.width < 3 || rect.height < 3) {
+      setStatus("cut-out: drag a rectangle around the object");
+      return;
+    }
+    cutout_.rect = rect;
+    cutout_.strokes.clear();
+    runCutout([rect](Cutout& c) { c.setRect(rect); });
+    return;
+  }
+  CutoutStroke stroke{path, cutoutRadius_, fg};
+  cutout_.strokes.push_back(stroke);
+  if (brush) {
+    // The brush edits the mask directly: no GrabCut, no wait.
+    try {
+      cutout_.cut->brush(stroke);
+      cutout_.mask = cutout_.cut->mask();
+      cutout_.overlayDirty = true;
+    } catch (const Error& e) {
+      reportError(e.what());
+    }
+  } else {
+    runCutout([stroke](Cutout& c) { c.addStroke(stroke); });
+  }
+}
+
+}  // namespace montage

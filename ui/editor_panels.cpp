@@ -315,26 +315,39 @@ void Editor::toolsPanel() {
   }
 }
 
+// A tab of the lists panel; the script's `tab` verb selects one by name (case-insensitive).
+bool Editor::listTab(const char* name) {
+  std::string lower = name;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  const bool select = requestedTab_ == lower;
+  if (select) requestedTab_.clear();
+  return ImGui::BeginTabItem(name, nullptr, select ? ImGuiTabItemFlags_SetSelected : 0);
+}
+
 void Editor::listsPanel() {
   if (!ImGui::BeginTabBar("##lists")) return;
-  if (ImGui::BeginTabItem("Points")) {
+  if (listTab("Points")) {
     featuresTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Chains")) {
+  if (listTab("Chains")) {
     chainsTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Strokes")) {
+  if (listTab("Strokes")) {
     strokesClonesTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("History")) {
+  if (listTab("History")) {
     historyTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Pipeline")) {
+  if (listTab("Pipeline")) {
     pipelineTab();
+    ImGui::EndTabItem();
+  }
+  if (listTab("Coverage")) {
+    coverageTab();
     ImGui::EndTabItem();
   }
   ImGui::EndTabBar();

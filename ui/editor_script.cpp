@@ -12,6 +12,7 @@
 #include <numeric>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
 
 #include "editor.h"
 #include "gl.h"
@@ -248,6 +249,10 @@ void Editor::runAction(const ScriptAction& a) {
     const auto it = std::find(kViewPresetNames.begin(), kViewPresetNames.end(), a.text(0));
     TM_CHECK(it != kViewPresetNames.end(), where + ": unknown preset '" + a.text(0) + "'");
     setViewPreset(ViewPreset(it - kViewPresetNames.begin()));
+  } else if (a.verb == "tab") {
+    static const std::set<std::string> tabs = {"points", "chains", "strokes", "history", "pipeline", "coverage"};
+    TM_CHECK(tabs.count(a.text(0)), where + ": unknown tab '" + a.text(0) + "'");
+    requestedTab_ = a.text(0);
   } else if (a.verb == "ortho") {
     setOrthographic(camera_, optionFlag(a.text(0), where));
   } else if (a.verb == "mouse") {
@@ -452,6 +457,7 @@ void Editor::writeState(const std::string& path) const {
   }
   state["errors"] = errors_;
   state["layout"] = {{"window", rect(windowRect_)}, {"view3d", rect(viewRect_)}, {"photos", rect(paneRect_)}};
+  state["coverage"] = coverageState();
   state["autosave"] = {{"path", autosavePath()}, {"written_revision", autosavedRevision_}};
   // Navigation: the camera, the hover, the surface point under the pointer and the mesh's extent
   // on screen (view pixels), for the navigation tests.

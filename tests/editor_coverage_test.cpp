@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -89,3 +90,38 @@ TEST(EditorCoverage, TheTabListsTheRegionsAndFlyToCentresOne) {
   EXPECT_TRUE(fs::exists(dir + "/coverage.png"));
 }
 
+// A photo that does not decode is reported by the UI's own load and again by the worker's: listed once.
+TEST(EditorErrors, ALoadErrorIsListedOnce) {
+  if (montage::test::runCommand("command -v xvfb-run >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "xvfb-run is absent (package xvfb): the editor tests need a virtual display";
+  const std::string dir = montage::test::tempDir("editor_errors");
+  json project = readJson(montage::test::assetsDir() + "/demo/project.json");
+  const fs::path demo = fs::path(montage::test::assetsDir()) / "demo";
+  project["mesh"] = (demo / project["mesh"].get<std::string>()).string();
+  for (auto& photo : project["photos"]) {
+    photo["path"] = (demo / photo["path"].get<std::string>()).string();
+    if (photo.contains("mask") && photo["mask"].is_string() && !photo["mask"].get<std::string>().empty())
+      photo["mask"] = (demo / photo["mask"].get<std::string>()).string();
+  }
+  project["photos"][0]["path"] = dir + "/broken.png";
+  std::ofstream(dir + "/broken.png") << "not a png";
+  std::ofstream(dir + "/project.json") << project.dump(1);
+  std::ofstream(dir + "/script.txt") << "wait_worker\nwait_frames 3\nstate state.json\nquit\n";
+  std::string out;
+  const std::string cmd = "cd '" + dir + "' && XDG_STATE_HOME='" + dir +
+                          "/state' TM_NO_ZENITY=1 xvfb-run -a -s '-screen 0 1600x1000x24' '" +
+                          std::string(TM_EDITOR_EXE) + "' project.json --script script.txt --size 1280x800 2>&1";
+  ASSERT_EQ(montage::test::runCommand(cmd, &out), 0) << out;
+  const json state = readJson(dir + "/state.json");
+  ASSERT_FALSE(state["errors"].empty()) << "the missing photo was not reported";
+  std::vector<std::string> bare;
+  for (const auto& e : state["errors"]) {
+    std::string m = e.get<std::string>();
+    if (m.rfind("pipeline: ", 0) == 0) m = m.substr(10);
+    EXPECT_EQ(std::count(bare.begin(), bare.end(), m), 0) << "listed twice: " << m;
+    bare.push_back(m);
+  }
+  bool named = false;
+  for (const std::string& m : bare) named = named || m.find("broken.png") != std::string::npos;
+  EXPECT_TRUE(named) << state["errors"].dump();
+}

@@ -850,6 +850,8 @@ nlohmann::json PipelineResult::report() const {
                 {"rejected_pairs", rejected},
                 {"rejected_total", mapping->partition.rejected.size()}};
   }
+  // Every unmapped region: its area, why it is empty and the fix; where to click next (coverage.h).
+  if (mapping) j["coverage"] = coverageJson(coverageOf(*this));
   if (seams) {
     // Per face of the map, the mean Delta E*uv across its seam edges (faces on no seam left out).
     nlohmann::json faces = nlohmann::json::array(), error = nlohmann::json::array();
@@ -861,6 +863,21 @@ nlohmann::json PipelineResult::report() const {
                   {"face_delta_e", error}};
   }
   return j;
+}
+
+CoverageReport coverageOf(const PipelineResult& result, const CoverageOptions& options) {
+  if (!result.mapping) return {};
+  static const std::vector<CameraFit> noFits;
+  static const std::vector<PhotoView> noViews;
+  const Mapping& m = *result.mapping;
+  const bool views = result.projection && result.projection->mapping &&
+                     result.projection->mapping->partition.mesh.numFaces() == m.partition.mesh.numFaces();
+  return analyseCoverage({result.scene ? result.scene->project : Project{}, m.partition, m.map, m.cells,
+                          result.cameras ? result.cameras->fits : noFits,
+                          views ? result.projection->result.views : noViews,
+                          result.scene ? static_cast<int>(result.scene->photos.size()) : 0,
+                          result.scene && result.scene->mesh ? result.scene->mesh->numVertices() : 0},
+                         options);
 }
 
 PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,

@@ -22,6 +22,7 @@
 #include "io/scene.h"
 #include "mapping/camera.h"
 #include "mapping/cells.h"
+#include "mapping/coverage.h"
 #include "mapping/fine_map.h"
 #include "mapping/partition.h"
 #include "mapping/projection.h"
@@ -221,6 +222,10 @@ class Pipeline {
 // them. The covered PSNR of its model is the ceiling of any result on that scene.
 PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
                                 const JobControl& job = {});
+
+// Guidance to full coverage (mapping/coverage.h) over a result's final mapping, its cameras and views;
+// an empty report (mapped share 0, no regions) when the result has no mapping.
+CoverageReport coverageOf(const PipelineResult& result, const CoverageOptions& options = {});
 
 // Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers
 // DIR/model_atlas_source.png and DIR/model_atlas_holes.png (when the result has an atlas) and

@@ -15,6 +15,7 @@
 #include <future>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <string>
@@ -148,6 +149,7 @@ class Editor {
   void statusBar(const Rect& r);
   void toolsPanel();
   void listsPanel();
+  bool listTab(const char* name);  // ImGui::BeginTabItem that the script's `tab` verb can select
   void featuresTab();
   void chainsTab();
   void strokesClonesTab();
@@ -255,6 +257,14 @@ class Editor {
                      std::string& tooltip);
   bool clickProposal(int photo, bool decline);  // true when the click went to a proposal
   std::string cameraCaption(int photo) const;
+
+  // Coverage tab (editor_coverage.cpp): the empty regions of the result with why and the fix, where to
+  // click next, fly to a region (and outline it), rejected pairs by reason.
+  const CoverageReport* coverage();  // of the current result (computed once per result), or nullptr
+  void coverageTab();
+  void flyToRegion(int index);
+  void appendCoverageLines(std::vector<float>& lines);  // the highlighted region's edges (uploadLines)
+  nlohmann::json coverageState() const;                 // for the script's `state`
 
   // Scripts, screenshots, benchmarks (editor_script.cpp).
   void applySyntheticInput(ImGuiIO& io);
@@ -378,6 +388,13 @@ class Editor {
   int hoverPick_ = -1;  // 3D pick at (hoverPickX_, hoverPickY_) from hoverPickEye_
   Vec3 hoverPickEye_ = Vec3::Zero();
 
+  // Coverage.
+  std::shared_ptr<const CoverageReport> coverage_;
+  const void* coverageFor_ = nullptr;  // the result coverage_ describes
+  int coverageRegion_ = -1;            // the highlighted region
+  bool showExpectedRejected_ = false;  // list rejected pairs around no empty region too
+  std::string requestedTab_;           // lists-panel tab to select next frame (script `tab`)
+
   // Files.
   FileDialogs dialogs_;
   RecentFiles recent_;
@@ -400,7 +417,6 @@ class Editor {
   CutoutMode cutoutMode_ = CutoutMode::Rect;
   float cutoutRadius_ = 8;     // stroke and brush radius, photo pixels
   float cutoutFeather_ = 0;    // feathered edge of the mask written, photo pixels
-  std::string listsTab_;       // a Document panel tab to select in the next frame (script's tab)
   bool showBalanced_ = false;  // photo panes: the colour-balanced photos of the last result (after) or the files
 
   // Scripts and benchmarks.

@@ -71,6 +71,12 @@ void Editor::checkRecovery() {
 // --- Files ----------------------------------------------------------------------------------------
 
 void Editor::reportError(const std::string& message) {
+  // Each error once: the same message again (also as the worker's "pipeline: ..." of a load error the UI
+  // reported itself) moves the listed one to the newest place instead of repeating it.
+  const auto bare = [](const std::string& m) { return m.rfind("pipeline: ", 0) == 0 ? m.substr(10) : m; };
+  const auto same =
+      std::find_if(errors_.begin(), errors_.end(), [&](const std::string& e) { return bare(e) == bare(message); });
+  if (same != errors_.end()) errors_.erase(same);
   errors_.push_back(message);
   if (errors_.size() > 200) errors_.erase(errors_.begin());
   showErrors_ = true;

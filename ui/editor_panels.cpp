@@ -329,36 +329,43 @@ void Editor::toolsPanel() {
   }
 }
 
+// A tab of the lists panel; the script's `tab` verb selects one by name (case-insensitive).
+bool Editor::listTab(const char* name) {
+  std::string lower = name;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+  const bool select = requestedTab_ == lower;
+  if (select) requestedTab_.clear();
+  return ImGui::BeginTabItem(name, nullptr, select ? ImGuiTabItemFlags_SetSelected : 0);
+}
+
 void Editor::listsPanel() {
   if (!ImGui::BeginTabBar("##lists")) return;
-  // A tab asked for by a script is selected once (ImGui applies it in the next frame).
-  auto flags = [this](const char* name) {
-    if (listsTab_ != name) return ImGuiTabItemFlags(0);
-    listsTab_.clear();
-    return ImGuiTabItemFlags(ImGuiTabItemFlags_SetSelected);
-  };
-  if (ImGui::BeginTabItem("Points", nullptr, flags("points"))) {
+  if (listTab("Points")) {
     featuresTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Chains", nullptr, flags("chains"))) {
+  if (listTab("Chains")) {
     chainsTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Photos", nullptr, flags("photos"))) {
+  if (listTab("Photos")) {
     photosTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Strokes", nullptr, flags("strokes"))) {
+  if (listTab("Strokes")) {
     strokesClonesTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("History", nullptr, flags("history"))) {
+  if (listTab("History")) {
     historyTab();
     ImGui::EndTabItem();
   }
-  if (ImGui::BeginTabItem("Pipeline", nullptr, flags("pipeline"))) {
+  if (listTab("Pipeline")) {
     pipelineTab();
+    ImGui::EndTabItem();
+  }
+  if (listTab("Coverage")) {
+    coverageTab();
     ImGui::EndTabItem();
   }
   ImGui::EndTabBar();
@@ -750,12 +757,9 @@ void Editor::shortcuts() {
     if (pressed(GLFW_KEY_Q)) requestClose();
     return;
   }
-  const std::pair<int, Tool> tools[] = {{GLFW_KEY_P, Tool::Point},
-                                        {GLFW_KEY_L, Tool::Line},
-                                        {GLFW_KEY_G, Tool::Polygon},
-                                        {GLFW_KEY_S, Tool::Stroke},
-                                        {GLFW_KEY_C, Tool::Clone},
-                                        {GLFW_KEY_K, Tool::Cutout}};
+  const std::pair<int, Tool> tools[] = {{GLFW_KEY_P, Tool::Point},   {GLFW_KEY_L, Tool::Line},
+                                        {GLFW_KEY_G, Tool::Polygon}, {GLFW_KEY_S, Tool::Stroke},
+                                        {GLFW_KEY_C, Tool::Clone},   {GLFW_KEY_K, Tool::Cutout}};
   for (const auto& [key, tool] : tools)
     if (pressed(key) && tool_ != tool) {
       cancelInProgress();

@@ -12,6 +12,7 @@
 #include <numeric>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
 
 #include "editor.h"
 #include "gl.h"
@@ -260,6 +261,13 @@ void Editor::runAction(const ScriptAction& a) {
     const auto it = std::find(kViewPresetNames.begin(), kViewPresetNames.end(), a.text(0));
     TM_CHECK(it != kViewPresetNames.end(), where + ": unknown preset '" + a.text(0) + "'");
     setViewPreset(ViewPreset(it - kViewPresetNames.begin()));
+  } else if (a.verb == "tab") {
+    static const std::set<std::string> tabs = {"points",  "chains",   "photos",  "strokes",
+                                               "history", "pipeline", "coverage"};
+    TM_CHECK(tabs.count(a.text(0)), where + ": unknown tab '" + a.text(0) +
+                                        "' (points, chains, photos, strokes, history, pipeline, coverage)");
+    requestedTab_ = a.text(0);
+    waitFor(where, 10, [this] { return requestedTab_.empty(); });  // selected in the next frame
   } else if (a.verb == "ortho") {
     setOrthographic(camera_, optionFlag(a.text(0), where));
   } else if (a.verb == "mouse") {
@@ -350,13 +358,6 @@ void Editor::runAction(const ScriptAction& a) {
       inputQueue_.insert(inputQueue_.end(), rest.begin(), rest.end());
     };
     inputQueue_.push_back(std::move(call));
-  } else if (a.verb == "tab") {
-    const std::string& name = a.text(0);
-    TM_CHECK(name == "points" || name == "chains" || name == "photos" || name == "strokes" || name == "history" ||
-                 name == "pipeline",
-             where + ": unknown tab '" + name + "' (points, chains, photos, strokes, history, pipeline)");
-    listsTab_ = name;
-    waitFor(where, 10, [this] { return listsTab_.empty(); });
   } else if (a.verb == "key") {
     queueKey(parseKeyCombo(a.text(0)));
   } else if (a.verb == "click_button") {
@@ -426,7 +427,8 @@ void Editor::runAction(const ScriptAction& a) {
     const bool on = optionFlag(a.text(2), where);
     bool ok = false;
     if (a.text(1) == "mirror") {
-      const int width = photo < static_cast<int>(photos_.size()) && photos_[photo].photo ? photos_[photo].photo->width : 0;
+      const int width =
+          photo < static_cast<int>(photos_.size()) && photos_[photo].photo ? photos_[photo].photo->width : 0;
       ok = edit([&] { doc_.setPhotoMirror(photo, on, width); });
     } else if (a.text(1) == "lock") {
       ok = edit([&] { doc_.setColorLocked(photo, on); });
@@ -442,9 +444,8 @@ void Editor::runAction(const ScriptAction& a) {
     if (a.args.size() > 1) cutoutRadius_ = static_cast<float>(a.number(1));
     if (a.args.size() > 2) cutoutFeather_ = static_cast<float>(a.number(2));
   } else if (a.verb == "wait_cutout") {
-    waitFor(where + " (GrabCut did not finish)", a.args.empty() ? 120 : timeout, [this] {
-      return !cutout_.job.valid();
-    });
+    waitFor(where + " (GrabCut did not finish)", a.args.empty() ? 120 : timeout,
+            [this] { return !cutout_.job.valid(); });
   } else if (a.verb == "save") {
     const std::string path = a.args.empty() ? p.file : a.text(0);
     TM_CHECK(!path.empty(), where + ": the project has no file yet: give a path");
@@ -546,6 +547,7 @@ void Editor::writeState(const std::string& path) const {
     state["balance"] = transforms;
   }
   state["layout"] = {{"window", rect(windowRect_)}, {"view3d", rect(viewRect_)}, {"photos", rect(paneRect_)}};
+  state["coverage"] = coverageState();
   state["autosave"] = {{"path", autosavePath()}, {"written_revision", autosavedRevision_}};
   // Navigation: the camera, the hover, the surface point under the pointer and the mesh's extent
   // on screen (view pixels), for the navigation tests.

@@ -350,6 +350,7 @@ void Editor::uploadLines() {
   };
   for (const Stroke& s : doc_.project().strokes) addStroke(s.vertices, Vec4f(0.2f, 0.85f, 1.0f, 1));
   addStroke(stroke_, Vec4f(0.6f, 1.0f, 1.0f, 1));
+  appendCoverageLines(lines);
   lineVertices_ = static_cast<int>(lines.size() / 7);
   lineVbo_->upload(lines, {{0, 3}, {1, 4}});
 

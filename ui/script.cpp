@@ -37,7 +37,7 @@ const std::vector<ScriptVerb>& scriptVerbs() {
       {"frame_selected", 0, 0, "", "centre the selected vertex (key .)"},
       {"mouse", 1, 1, "meshlab|blender", "3D-view mouse bindings"},
       {"photo", 1, 1, "P", "show photo P in the image pane"},
-      {"tab", 1, 1, "points|chains|photos|strokes|history|pipeline", "show that tab of the Document panel"},
+      {"tab", 1, 1, "points|chains|photos|strokes|history|pipeline|coverage", "show that tab of the Document panel"},
       {"click_photo", 3, 3, "P X Y", "click at pixel (X, Y) of photo P (photo pixel coordinates)"},
       {"drag_photo", 5, 5, "P X0 Y0 X1 Y1", "drag with the left button from (X0, Y0) to (X1, Y1) in photo P"},
       {"key", 1, 1, "COMBO", "press a key combination: ctrl+z, ctrl+shift+z, delete, enter, escape, w, f1..."},

@@ -62,8 +62,9 @@ std::vector<PhotoView> trueViews(const PipelineResult& r, const SynthScene& synt
     CameraFit fit;
     fit.fits = true;
     fit.camera.pinhole = synth.cameras[k];
-    views.push_back(viewPhoto(r.mapping->partition.mesh, *r.scene->photos[k], static_cast<int>(k), fit,
-                              CorrectionField{}, ProjectionOptions{}));
+    const ViewFrame frame = viewFrame(*r.scene->mesh, *r.scene->photos[k], fit.camera.pinhole);
+    views.push_back(viewPhoto(r.mapping->partition.mesh, r.mapping->partition.faceParent, frame, *r.scene->photos[k],
+                              static_cast<int>(k), fit, CorrectionField{}, ProjectionOptions{}));
   }
   return views;
 }

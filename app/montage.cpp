@@ -153,14 +153,7 @@ int cmdSynth(const SynthArgs& args) {
     truth = std::make_shared<TexturedModel>(loadTruth(args.mesh, args.texture));
     color = [truth](int f, const Vec3& b) { return truth->colorAt(f, b); };
   } else {
-    Vec3 lo, hi;
-    mesh->bounds(lo, hi);
-    const double scale = 0.25 * (hi - lo).norm();
-    const Mesh* m = mesh.get();
-    color = [m, scale](int f, const Vec3& b) {
-      const auto q = m->facePositions(f);
-      return solidPattern(b[0] * q[0] + b[1] * q[1] + b[2] * q[2], scale);
-    };
+    color = meshPattern(*mesh);
   }
   ProgressLine line;
   SynthScene scene = synthesize(*mesh, fs::absolute(args.mesh).lexically_normal().string(), color, args.options,

@@ -188,16 +188,7 @@ int main(int argc, char** argv) {
       fs::create_directories(work);
       const std::string meshFile = (fs::path(work) / "mesh.obj").string();
       saveMeshObj(*m, meshFile);
-      Vec3 lo, hi;
-      m->bounds(lo, hi);
-      const double scale = (hi - lo).norm() / 4;
-      const SynthScene scene = synthesize(
-          *m, meshFile,
-          [&](int f, const Vec3& b) {
-            const auto q = m->facePositions(f);
-            return solidPattern(b.x() * q[0] + b.y() * q[1] + b.z() * q[2], scale);
-          },
-          synth);
+      const SynthScene scene = synthesize(*m, meshFile, meshPattern(*m), synth);
       writeSynthScene(scene, work);
       projects.push_back((fs::path(work) / "project.json").string());
       std::fprintf(stderr, "synthesised %s: %d faces, %zu points\n", work.c_str(), m->numFaces(),

@@ -220,14 +220,7 @@ namespace {
 Project exposedScene(const std::string& meshPath, const std::string& dir, const std::vector<double>& exposures,
                      const SurfaceColor* color = nullptr) {
   auto mesh = requireUsable(loadMesh(meshPath));
-  Vec3 lo, hi;
-  mesh->bounds(lo, hi);
-  const double scale = 0.25 * (hi - lo).norm();
-  const Mesh* m = mesh.get();
-  const SurfaceColor pattern = [m, scale](int f, const Vec3& b) {
-    const auto q = m->facePositions(f);
-    return solidPattern(b[0] * q[0] + b[1] * q[1] + b[2] * q[2], scale);
-  };
+  const SurfaceColor pattern = meshPattern(*mesh);
   SynthOptions options;
   options.size = 768;
   options.exposures = exposures;

@@ -32,13 +32,7 @@ std::string demoMeshPath() {
 }
 
 SurfaceColor patternOf(const Mesh& mesh) {
-  Vec3 lo, hi;
-  mesh.bounds(lo, hi);
-  const double scale = 0.25 * (hi - lo).norm();
-  return [&mesh, scale](int f, const Vec3& b) {
-    const auto q = mesh.facePositions(f);
-    return solidPattern(b[0] * q[0] + b[1] * q[1] + b[2] * q[2], scale);
-  };
+  return meshPattern(mesh);
 }
 
 // A synthetic scene of the demo mesh (always present), written to a fresh folder.

@@ -33,21 +33,12 @@ struct Scene40 {
 Scene40 synthScene(const std::string& tag, int views, int features, CameraMode cameras) {
   Scene40 s;
   s.mesh = requireUsable(loadMesh(turtlePath()));
-  Vec3 lo, hi;
-  s.mesh->bounds(lo, hi);
-  const double scale = 0.25 * (hi - lo).norm();
   const Mesh& mesh = *s.mesh;
   SynthOptions o;
   o.views = views;
   o.features = features;
   o.size = 512;
-  s.synth = synthesize(
-      mesh, turtlePath(),
-      [&mesh, scale](int f, const Vec3& b) {
-        const auto q = mesh.facePositions(f);
-        return solidPattern(b[0] * q[0] + b[1] * q[1] + b[2] * q[2], scale);
-      },
-      o);
+  s.synth = synthesize(mesh, turtlePath(), meshPattern(mesh), o);
   const std::string dir = test::tempDir(tag);
   writeSynthScene(s.synth, dir);
   s.project = loadProject(dir + "/project.json");

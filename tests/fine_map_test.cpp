@@ -434,20 +434,11 @@ SpotCase makeSpot(const std::string& obj) {
   c.scene = std::make_shared<Scene>();
   std::shared_ptr<const Mesh> mesh = requireUsable(loadMesh(obj));
   c.scene->mesh = mesh;
-  Vec3 lo, hi;
-  mesh->bounds(lo, hi);
-  const double scale = (hi - lo).norm() / 4;
   SynthOptions options;
   options.views = 1;
   options.features = 150;
   options.size = 768;
-  const SynthScene synth = synthesize(
-      *mesh, obj,
-      [&](int f, const Vec3& b) {
-        const auto q = mesh->facePositions(f);
-        return solidPattern(b.x() * q[0] + b.y() * q[1] + b.z() * q[2], scale);
-      },
-      options);
+  const SynthScene synth = synthesize(*mesh, obj, meshPattern(*mesh), options);
   const std::string dir = test::tempDir("fine_map_spot");
   writeSynthScene(synth, dir);
   c.scene->project = synth.project;

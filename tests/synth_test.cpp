@@ -1,6 +1,5 @@
 // Tests of synthetic ground-truth scenes (core/synth.h): photos, feature visibility and positions,
 // farthest-point sampling, determinism, the solid pattern and the files written.
-#include "io/mesh_io.h"
 #include "bench/synth.h"
 
 #include <algorithm>
@@ -16,8 +15,9 @@
 #include <set>
 
 #include "geometry/mesh.h"
-#include "io/model.h"
 #include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
 #include "io/project.h"
 #include "test_support.h"
 
@@ -403,14 +403,7 @@ TEST(Synth, SolidPatternOnAMeshWithoutUvs) {
   TM_REQUIRE_SHARED(obj, "meshes/bunny/bunny.obj");
   const auto mesh = requireUsable(loadMesh(obj));
   ASSERT_FALSE(mesh->hasUV());
-  Vec3 lo, hi;
-  mesh->bounds(lo, hi);
-  const double scale = (hi - lo).norm() / 4;
-  const Mesh* m = mesh.get();
-  const SurfaceColor color = [m, scale](int f, const Vec3& b) {
-    const auto q = m->facePositions(f);
-    return solidPattern(b[0] * q[0] + b[1] * q[1] + b[2] * q[2], scale);
-  };
+  const SurfaceColor color = meshPattern(*mesh);
   SynthOptions o;
   o.views = 2;
   o.features = 50;

@@ -167,6 +167,16 @@ nlohmann::json vecJson(const Vec3& v) {
 
 }  // namespace
 
+SurfaceColor meshPattern(const Mesh& mesh) {
+  Vec3 lo, hi;
+  mesh.bounds(lo, hi);
+  const double scale = 0.25 * (hi - lo).norm();
+  return [&mesh, scale](int f, const Vec3& b) {
+    const auto q = mesh.facePositions(f);
+    return solidPattern(b[0] * q[0] + b[1] * q[1] + b[2] * q[2], scale);
+  };
+}
+
 Vec3f solidPattern(const Vec3& p, double scale) {
   const Vec3 q = p / (scale > 0 ? scale : 1.0);
 

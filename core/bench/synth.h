@@ -47,6 +47,9 @@ struct SynthScene {
 
 // The ground-truth colour function of the surface: colour at a point of face f with barycentrics b.
 using SurfaceColor = std::function<Vec3f(int face, const Vec3& bary)>;
+// solidPattern over a mesh's surface, its largest structure a quarter of the bounding-box diagonal.
+// The mesh must outlive the function.
+SurfaceColor meshPattern(const Mesh& mesh);
 
 // Renders and samples a scene. `color` gives the surface colour (texture lookup or solidPattern).
 // Progress is reported through `progress(fraction)` when given.

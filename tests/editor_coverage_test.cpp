@@ -16,15 +16,7 @@
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-namespace {
-
-json readJson(const std::string& path) {
-  std::ifstream in(path);
-  EXPECT_TRUE(in) << "missing " << path;
-  return in ? json::parse(in) : json();
-}
-
-}  // namespace
+namespace {}  // namespace
 
 TEST(EditorCoverage, TheTabListsTheRegionsAndFlyToCentresOne) {
   if (montage::test::runCommand("command -v xvfb-run >/dev/null 2>&1") != 0)
@@ -40,7 +32,7 @@ TEST(EditorCoverage, TheTabListsTheRegionsAndFlyToCentresOne) {
       0)
       << out;
   // The paper's path (no camera): the regions come from the partition, with causes and clicks.
-  json project = readJson(dir + "/scene/project.json");
+  json project = montage::test::readJson(dir + "/scene/project.json");
   project["options"]["cameraMode"] = "off";
   std::ofstream(dir + "/scene/project.json") << project.dump(1);
   ASSERT_EQ(montage::test::runCommand("'" + montage::test::montageExe() + "' run '" + dir +
@@ -48,7 +40,7 @@ TEST(EditorCoverage, TheTabListsTheRegionsAndFlyToCentresOne) {
                                       &out),
             0)
       << out;
-  const json report = readJson(dir + "/run/report.json")["coverage"];
+  const json report = montage::test::readJson(dir + "/run/report.json")["coverage"];
   ASSERT_GE(report["regions"].size(), 2u) << "the scene should leave several regions empty";
 
   std::ofstream(dir + "/script.txt") << "wait_worker\n"
@@ -65,7 +57,7 @@ TEST(EditorCoverage, TheTabListsTheRegionsAndFlyToCentresOne) {
                           std::string(TM_EDITOR_EXE) + "' scene/project.json --script script.txt --size 1280x800 2>&1";
   ASSERT_EQ(montage::test::runCommand(cmd, &out), 0) << out;
 
-  const json before = readJson(dir + "/before.json");
+  const json before = montage::test::readJson(dir + "/before.json");
   ASSERT_TRUE(before["coverage"].is_object()) << before.dump();
   const json& regions = before["coverage"]["regions"];
   // The same regions as report.json's (the editor's preview runs the same mapping).
@@ -77,7 +69,7 @@ TEST(EditorCoverage, TheTabListsTheRegionsAndFlyToCentresOne) {
   }
   EXPECT_EQ(before["coverage"]["highlighted"].get<int>(), -1);
 
-  const json after = readJson(dir + "/after.json");
+  const json after = montage::test::readJson(dir + "/after.json");
   EXPECT_EQ(after["coverage"]["highlighted"].get<int>(), 1);
   const json& flown = after["coverage"]["regions"][1];
   ASSERT_FALSE(flown["centre_pixel"].is_null());
@@ -95,7 +87,7 @@ TEST(EditorErrors, ALoadErrorIsListedOnce) {
   if (montage::test::runCommand("command -v xvfb-run >/dev/null 2>&1") != 0)
     GTEST_SKIP() << "xvfb-run is absent (package xvfb): the editor tests need a virtual display";
   const std::string dir = montage::test::tempDir("editor_errors");
-  json project = readJson(montage::test::assetsDir() + "/demo/project.json");
+  json project = montage::test::readJson(montage::test::assetsDir() + "/demo/project.json");
   const fs::path demo = fs::path(montage::test::assetsDir()) / "demo";
   project["mesh"] = (demo / project["mesh"].get<std::string>()).string();
   for (auto& photo : project["photos"]) {
@@ -112,7 +104,7 @@ TEST(EditorErrors, ALoadErrorIsListedOnce) {
                           "/state' TM_NO_ZENITY=1 xvfb-run -a -s '-screen 0 1600x1000x24' '" +
                           std::string(TM_EDITOR_EXE) + "' project.json --script script.txt --size 1280x800 2>&1";
   ASSERT_EQ(montage::test::runCommand(cmd, &out), 0) << out;
-  const json state = readJson(dir + "/state.json");
+  const json state = montage::test::readJson(dir + "/state.json");
   ASSERT_FALSE(state["errors"].empty()) << "the missing photo was not reported";
   std::vector<std::string> bare;
   for (const auto& e : state["errors"]) {

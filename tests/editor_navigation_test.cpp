@@ -46,12 +46,6 @@ int runScript(const std::string& dir, const std::string& script, const std::stri
   return montage::test::runCommand(cmd, output);
 }
 
-json readJson(const std::string& path) {
-  std::ifstream in(path);
-  EXPECT_TRUE(in) << "missing " << path;
-  return in ? json::parse(in) : json();
-}
-
 }  // namespace
 
 TEST(EditorNavigation, ZoomToCursorKeepsTheSurfacePointUnderTheCursor) {
@@ -71,12 +65,12 @@ TEST(EditorNavigation, ZoomToCursorKeepsTheSurfacePointUnderTheCursor) {
   script += "quit\n";
   std::string out;
   ASSERT_EQ(runScript(dir, script, "1280x800", "1600x1000x24", &out), 0) << out;
-  const json frame = readJson(dir + "/frame.json");
+  const json frame = montage::test::readJson(dir + "/frame.json");
   ASSERT_EQ(frame["layout"]["view3d"]["w"].get<double>(), 486) << "the layout changed: update the candidates";
   int tested = 0;
   for (int k = 0; k < 5; ++k) {
-    const json b = readJson(dir + "/before" + std::to_string(k) + ".json");
-    const json a = readJson(dir + "/after" + std::to_string(k) + ".json");
+    const json b = montage::test::readJson(dir + "/before" + std::to_string(k) + ".json");
+    const json a = montage::test::readJson(dir + "/after" + std::to_string(k) + ".json");
     if (b["pointer_hit"].is_null()) continue;
     ASSERT_FALSE(a["pointer_hit"].is_null()) << "zooming lost the surface under the cursor at candidate " << k;
     double moved = 0;
@@ -99,7 +93,7 @@ TEST(EditorNavigation, FrameAllFitsTheMeshAt800x600And2560x1600) {
     std::string out;
     ASSERT_EQ(runScript(dir, "view_preset right\nframe\nwait_frames 2\nstate s.json\nquit\n", size, screen, &out), 0)
         << out;
-    const json s = readJson(dir + "/s.json");
+    const json s = montage::test::readJson(dir + "/s.json");
     const double w = s["layout"]["view3d"]["w"].get<double>(), h = s["layout"]["view3d"]["h"].get<double>();
     const json& b = s["mesh_screen_bounds"];
     EXPECT_GE(b[0].get<double>(), 0) << size;
@@ -131,10 +125,10 @@ TEST(EditorNavigation, HoverHighlightsTheVertexUnderThePointer) {
   ASSERT_EQ(runScript(dir, script, "1280x800", "1600x1000x24", &out), 0) << out;
   size_t hit = candidates.size();
   for (size_t i = 0; i < candidates.size() && hit == candidates.size(); ++i)
-    if (readJson(dir + "/s" + std::to_string(i) + ".json")["hover_vertex"].get<int>() >= 0) hit = i;
+    if (montage::test::readJson(dir + "/s" + std::to_string(i) + ".json")["hover_vertex"].get<int>() >= 0) hit = i;
   ASSERT_LT(hit, candidates.size()) << "no candidate position is over the mesh";
   const auto [x, y] = candidates[hit];
-  const json s = readJson(dir + "/s" + std::to_string(hit) + ".json");
+  const json s = montage::test::readJson(dir + "/s" + std::to_string(hit) + ".json");
   const double px = s["hover_vertex_pixel"][0].get<double>(), py = s["hover_vertex_pixel"][1].get<double>();
   EXPECT_LT(std::hypot(px - x, py - y), 25) << "the hovered vertex is not near the pointer";
   // The highlight: a white marker at the vertex (the shaded mesh is at most 72% grey).

@@ -52,12 +52,6 @@ void writeText(const std::string& path, const std::string& text) {
   out << text;
 }
 
-json readJson(const std::string& path) {
-  std::ifstream in(path);
-  EXPECT_TRUE(in) << "missing " << path;
-  return json::parse(in);
-}
-
 // A vertex of the demo mesh that is not a feature yet, and a point in photo 0 to put it at.
 constexpr int kNewVertex = 100;
 constexpr double kPhotoX = 200.25, kPhotoY = 80.5;
@@ -102,12 +96,12 @@ TEST(EditorSession, PickClickUndoSaveReload) {
   std::string out;
   ASSERT_EQ(runEditor(dir, "'" + demoProject() + "' --script s.txt", &out), 0) << out;
 
-  const json afterClick = readJson(dir + "/after_click.json");
+  const json afterClick = test::readJson(dir + "/after_click.json");
   EXPECT_EQ(afterClick["selected_vertex"], kNewVertex) << "the ray-cast pick selected another vertex";
   EXPECT_EQ(afterClick["counts"]["points"], demo.points.size() + 1);
   EXPECT_EQ(afterClick["history"]["steps"], 1) << "placing a point is one undo step";
   EXPECT_TRUE(afterClick["modified"].get<bool>());
-  EXPECT_EQ(readJson(dir + "/after_undo.json")["counts"]["points"], demo.points.size());
+  EXPECT_EQ(test::readJson(dir + "/after_undo.json")["counts"]["points"], demo.points.size());
 
   const Project added = loadProject(dir + "/added.json");
   expectDemoPlusOne(added, demo);
@@ -176,7 +170,7 @@ TEST(EditorSession, ScreenshotShowsTheTexturedResult) {
             "view paths off\nview features off\nview shaded\nwait_frames 3\nscreenshot flat.png\nquit\n");
   ASSERT_EQ(runEditor(dir, "'" + demoProject() + "' --script flat.txt", &out), 0) << out;
 
-  const json state = readJson(dir + "/state.json");
+  const json state = test::readJson(dir + "/state.json");
   ASSERT_FALSE(state["result"].is_null()) << "no pipeline result: " << state["worker"].dump();
   EXPECT_TRUE(state["result"]["matches_document"].get<bool>());
   EXPECT_GT(state["result"]["faces"].get<int>(), 0);
@@ -207,8 +201,8 @@ TEST(EditorSession, AnEditDuringARunRestartsTheWorkerAndTheLastSnapshotWins) {
                                 pickAndClick() + "wait_worker 900\nstate done.json\nsave final.json\nquit\n");
   std::string out;
   ASSERT_EQ(runEditor(dir, "'" + demoProject() + "' --script s.txt", &out), 0) << out;
-  const json busy = readJson(dir + "/busy.json");
-  const json done = readJson(dir + "/done.json");
+  const json busy = test::readJson(dir + "/busy.json");
+  const json done = test::readJson(dir + "/done.json");
   ASSERT_TRUE(busy["worker"]["busy"].get<bool>());
   const long busyGeneration = busy["worker"]["submitted_generation"];
   const long lastGeneration = done["worker"]["submitted_generation"];
@@ -253,7 +247,7 @@ TEST(EditorSession, AutosaveIsRecoveredAfterSigkill) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   ASSERT_TRUE(fs::exists(dir + "/crashed.json")) << "no autosave within 240 s";
-  const json crashed = readJson(dir + "/crashed.json");
+  const json crashed = test::readJson(dir + "/crashed.json");
   const pid_t editor = crashed["pid"].get<long long>();
   const std::string side = crashed["autosave"]["path"];
   ASSERT_EQ(kill(editor, SIGKILL), 0);
@@ -266,7 +260,7 @@ TEST(EditorSession, AutosaveIsRecoveredAfterSigkill) {
   writeText(dir + "/recover.txt", "click_button Recover\nwait_frames 2\nstate recovered.json\nsave proj.json\nquit\n");
   std::string out;
   ASSERT_EQ(runEditor(dir, "proj.json --script recover.txt", &out), 0) << out;
-  const json recovered = readJson(dir + "/recovered.json");
+  const json recovered = test::readJson(dir + "/recovered.json");
   EXPECT_TRUE(recovered["modified"].get<bool>()) << "recovered work is not saved until the user saves";
   expectDemoPlusOne(loadProject(dir + "/proj.json"), project);
   EXPECT_FALSE(fs::exists(side)) << "saving removes the side file";
@@ -305,7 +299,7 @@ TEST(EditorSession, AProjectWithAMissingPhotoOpensSaysSoAndIsRelinked) {
   const Project demo = loadProject(demoProject());
 
   // It opened, with everything in it, and says what is missing.
-  const json opened = readJson(dir + "/opened.json");
+  const json opened = test::readJson(dir + "/opened.json");
   EXPECT_EQ(opened["counts"]["photos"], 2);
   EXPECT_EQ(opened["counts"]["points"], demo.points.size());
   ASSERT_EQ(opened["missing"].size(), 1u) << opened["missing"].dump();
@@ -317,7 +311,7 @@ TEST(EditorSession, AProjectWithAMissingPhotoOpensSaysSoAndIsRelinked) {
   EXPECT_TRUE(opened["photos"][0]["loaded"].get<bool>());
 
   // The broken photo disables only itself: the others still texture, and the warning names it.
-  const json skipped = readJson(dir + "/skipped.json");
+  const json skipped = test::readJson(dir + "/skipped.json");
   ASSERT_FALSE(skipped["result"].is_null()) << skipped["worker"].dump();
   EXPECT_TRUE(skipped["result"]["matches_document"].get<bool>());
   EXPECT_TRUE(hasWarning(skipped, "photo 1 'tiger_right.png' skipped")) << skipped["result"]["warnings"].dump();
@@ -327,7 +321,7 @@ TEST(EditorSession, AProjectWithAMissingPhotoOpensSaysSoAndIsRelinked) {
   EXPECT_GT(faces[0], 0);
 
   // Relinked: nothing missing, the photo textures again, the project names its new place.
-  const json relinked = readJson(dir + "/relinked.json");
+  const json relinked = test::readJson(dir + "/relinked.json");
   EXPECT_TRUE(relinked["missing"].empty());
   EXPECT_TRUE(relinked["photos"][1]["loaded"].get<bool>());
   EXPECT_FALSE(hasWarning(relinked, "skipped"));
@@ -353,7 +347,7 @@ TEST(EditorSession, PhotosAreDroppedRemovedAndReorderedAndEveryStepUndoes) {
   const Project demo = loadProject(dir + "/project.json");
 
   // Dropped images join the project opened on the mesh: three photos, one undo step.
-  const json dropped = readJson(dir + "/dropped.json");
+  const json dropped = test::readJson(dir + "/dropped.json");
   EXPECT_EQ(dropped["counts"]["photos"], 3);
   EXPECT_EQ(dropped["history"]["steps"], 1);
   EXPECT_EQ(dropped["photos"][1]["path"], dir + "/tiger_right.png");
@@ -389,7 +383,7 @@ TEST(EditorSession, PhotosAreDroppedRemovedAndReorderedAndEveryStepUndoes) {
   EXPECT_GT(flipped, 50);
   EXPECT_TRUE(loadProject(dir + "/mirror_undone.json").sameDocument(demo));
   // A dropped mesh opens (the document was just saved: no question asked).
-  const json reopened = readJson(dir + "/reopened.json");
+  const json reopened = test::readJson(dir + "/reopened.json");
   EXPECT_EQ(reopened["mesh"], dir + "/cat.obj");
   EXPECT_EQ(reopened["counts"]["photos"], 0);
 }
@@ -439,7 +433,7 @@ TEST(EditorSession, TheCutOutToolMasksAPhotoWithoutAlpha) {
   std::string out;
   ASSERT_EQ(runEditor(dir, "cut.json --script s.txt", &out), 0) << out;
 
-  const json rect = readJson(dir + "/rect.json");
+  const json rect = test::readJson(dir + "/rect.json");
   EXPECT_EQ(rect["cutout"]["photo"], 0);
   EXPECT_TRUE(rect["cutout"]["started"].get<bool>());
   EXPECT_GT(rect["cutout"]["foreground_pixels"].get<int>(), 0);
@@ -454,7 +448,7 @@ TEST(EditorSession, TheCutOutToolMasksAPhotoWithoutAlpha) {
   // real photos with tm_cutout_bench); this guards against the tool getting worse.
   EXPECT_GT(inter / uni, 0.78);
   EXPECT_GT(cv::countNonZero((mask > 0) & (mask < 255)), 0) << "the feathered edge has partial alpha";
-  const json state = readJson(dir + "/masked_state.json");
+  const json state = test::readJson(dir + "/masked_state.json");
   EXPECT_TRUE(state["photos"][0]["loaded"].get<bool>());
   // Undo goes back to no mask; the file written stays (undo/redo may need it).
   EXPECT_TRUE(loadProject(dir + "/unmasked.json").photos[0].mask.empty());
@@ -473,7 +467,7 @@ TEST(EditorSession, ColourBalanceLockAndBeforeAfter) {
             "screenshot after.png\nview balanced off\nwait_frames 3\nscreenshot before.png\nstate state.json\nquit\n");
   std::string out;
   ASSERT_EQ(runEditor(dir, "scene/project.json --script s.txt", &out), 0) << out;
-  const json state = readJson(dir + "/state.json");
+  const json state = test::readJson(dir + "/state.json");
   ASSERT_TRUE(state.contains("balance")) << state["result"].dump();
   const json& balance = state["balance"];
   ASSERT_EQ(balance.size(), 4u);

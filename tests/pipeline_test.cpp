@@ -29,11 +29,6 @@ std::string demoProject() {
   return test::assetsDir() + "/demo/project.json";
 }
 
-nlohmann::json readJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
-
 }  // namespace
 
 TEST(Pipeline, RunsDemoAndReportsEveryStage) {
@@ -138,7 +133,7 @@ TEST(Pipeline, WritesModelAndReport) {
   for (const char* name : {"model.obj", "model.mtl", "model_atlas.png", "model_atlas_source.png",
                            "model_atlas_holes.png", "model.glb", "report.json"})
     EXPECT_TRUE(fs::exists(fs::path(dir) / name)) << name;
-  nlohmann::json report = readJson(dir + "/report.json");
+  nlohmann::json report = test::readJson(dir + "/report.json");
   ASSERT_EQ(report["stages"].size(), kStageNames.size());
   std::map<std::string, nlohmann::json> stage;
   for (size_t i = 0; i < kStageNames.size(); ++i) {
@@ -228,7 +223,7 @@ TEST(MontageCli, EvalOfSpotAgainstItselfAndAgainstFlatGrey) {
       test::runCommand(test::montageExe() + " eval --result " + dir + "/grey/model.obj" + args + dir + "/g.json", &log),
       0)
       << log;
-  nlohmann::json truth = readJson(dir + "/t.json"), grey = readJson(dir + "/g.json");
+  nlohmann::json truth = test::readJson(dir + "/t.json"), grey = test::readJson(dir + "/g.json");
   EXPECT_GE(truth["psnr_all"].get<double>(), 60.0) << truth.dump();
   EXPECT_EQ(truth["flipped_triangles"].get<int>(), 0);
   EXPECT_LT(grey["psnr_all"].get<double>(), 20.0) << grey.dump();

@@ -1,20 +1,25 @@
 #include "test_support.h"
 
+#include <sys/wait.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <vector>
-
-#include <sys/wait.h>
 
 namespace fs = std::filesystem;
 
 namespace montage::test {
 
-std::string assetsDir() { return TM_ASSETS_DIR; }
+std::string assetsDir() {
+  return TM_ASSETS_DIR;
+}
 
-std::string testDataDir() { return TM_TEST_DATA_DIR; }
+std::string testDataDir() {
+  return TM_TEST_DATA_DIR;
+}
 
 std::string sharedDataDir() {
   std::error_code ec;
@@ -60,7 +65,9 @@ std::string tempDir(const std::string& tag) {
   return buf.data();
 }
 
-std::string montageExe() { return TM_MONTAGE_EXE; }
+std::string montageExe() {
+  return TM_MONTAGE_EXE;
+}
 
 int runCommand(const std::string& command, std::string* output) {
   std::string cmd = command + " 2>&1";
@@ -72,6 +79,12 @@ int runCommand(const std::string& command, std::string* output) {
   int status = pclose(pipe);
   if (output) *output = out;
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+nlohmann::json readJson(const std::string& path) {
+  std::ifstream in(path);
+  EXPECT_TRUE(in) << "missing " << path;
+  return in ? nlohmann::json::parse(in) : nlohmann::json();
 }
 
 }  // namespace montage::test

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "base/common.h"
@@ -22,6 +23,8 @@ std::string sharedFile(const std::string& rel);
 std::string tempDir(const std::string& tag);
 // Path of the montage executable.
 std::string montageExe();
+// A JSON file's content; a test failure naming the file (and null) when it is missing.
+nlohmann::json readJson(const std::string& path);
 // Runs a shell command, returns its exit status; output goes to `output` when given.
 int runCommand(const std::string& command, std::string* output = nullptr);
 

@@ -27,11 +27,6 @@ std::string demoProject() {
   return test::assetsDir() + "/demo/project.json";
 }
 
-nlohmann::json readJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
-
 std::string readBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -175,7 +170,7 @@ TEST(OriginalTopology, TransferLossIsAtLeast40dB) {
   EXPECT_GE(loss.psnrOriginalVsMontage, 40.0);
   EXPECT_GT(loss.psnrRefinedVsMontage, loss.psnrOriginalVsMontage);
   EXPECT_GT(loss.samples, 100000);
-  const nlohmann::json report = readJson(run.dir + "/report.json");
+  const nlohmann::json report = test::readJson(run.dir + "/report.json");
   const nlohmann::json bake = stageReport(report, "bake");
   ASSERT_EQ(bake["stage"], "bake");
   EXPECT_EQ(bake["counts"]["export_topology"], "original");
@@ -209,13 +204,13 @@ TEST(OriginalTopology, RefinedTopologyStaysAnOption) {
   const TexturedModel back = loadModel(dir + "/model.glb");
   EXPECT_EQ(back.mesh.numFaces(), result.mapping->partition.mesh.numFaces());
   EXPECT_EQ(back.materials.size(), result.model->materials.size());
-  EXPECT_EQ(stageReport(readJson(dir + "/report.json"), "export")["counts"]["png_encodes"], 1);
+  EXPECT_EQ(stageReport(test::readJson(dir + "/report.json"), "export")["counts"]["png_encodes"], 1);
 }
 
 // The atlas PNG is encoded once: model_atlas.png and the image embedded in the GLB are the same bytes.
 TEST(OriginalTopology, PngIsEncodedOnceAndTheGlbEmbedsTheSameBytes) {
   const DemoRun& run = demoRun();
-  const nlohmann::json report = readJson(run.dir + "/report.json");
+  const nlohmann::json report = test::readJson(run.dir + "/report.json");
   const nlohmann::json exported = stageReport(report, "export");
   ASSERT_EQ(exported["stage"], "export");
   EXPECT_EQ(exported["counts"]["png_encodes"], 1);
@@ -334,7 +329,7 @@ TEST(OriginalTopologySpot, RoundTripMatchesTheGroundTruth) {
   const std::string eval = test::montageExe() + " eval --truth " + meshPath + " --truth-texture " + texturePath +
                            " --samples 100000 --json ";
   ASSERT_EQ(test::runCommand(eval + dir + "/t.json --result " + dir + "/truth_original/model.obj", &log), 0) << log;
-  const nlohmann::json roundTrip = readJson(dir + "/t.json");
+  const nlohmann::json roundTrip = test::readJson(dir + "/t.json");
   std::printf(
       "spot truth through a refined atlas and the original-topology export: %.2f dB against the truth "
       "(transfer %.2f dB: interior %.2f, borders %.2f)\n",
@@ -346,7 +341,7 @@ TEST(OriginalTopologySpot, RoundTripMatchesTheGroundTruth) {
   // The pipeline's own result on this scene, exported both ways.
   writeRunOutputs(result, dir + "/out");
   ASSERT_EQ(test::runCommand(eval + dir + "/o.json --result " + dir + "/out/model.obj", &log), 0) << log;
-  const double exported = readJson(dir + "/o.json")["psnr_all"].get<double>();
+  const double exported = test::readJson(dir + "/o.json")["psnr_all"].get<double>();
   const EvalResult refined = evaluate(*result.model, truth, {100000, 7, 4});
   std::printf(
       "spot pipeline (4 views, 150 features): original-topology export %.2f dB, refined %.2f dB against the "
@@ -442,7 +437,7 @@ TEST(Demo, MapsMostOfItsSurfaceFromThePhotos) {
   bool line = false, polygon = false;
   for (const FeatureChain& c : run.project.chains) (c.closed ? polygon : line) = true;
   EXPECT_TRUE(line && polygon) << "points, at least one feature line and one feature polygon";
-  const nlohmann::json report = readJson(run.dir + "/report.json");
+  const nlohmann::json report = test::readJson(run.dir + "/report.json");
   const double photo = report["surface"]["photo_share"].get<double>();
   const double inpainted = report["surface"]["inpainted_share"].get<double>();
   std::printf("demo: %.1f%% of the surface from the photos, %.1f%% inpainted\n", 100 * photo, 100 * inpainted);

@@ -1,7 +1,5 @@
 #include "atlas/preview_model.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include "geometry/mesh.h"
 #include "image/photo.h"
 #include "surface/inpaint.h"
@@ -11,11 +9,7 @@
 namespace montage {
 
 cv::Mat previewTexture(const Photo& photo) {
-  cv::Mat rgb8, rgba;
-  const double unit = photo.rgb.depth() == CV_8U ? 1.0 : photo.rgb.depth() == CV_16U ? 255.0 / 65535 : 255.0;
-  photo.rgb.convertTo(rgb8, CV_8U, unit);
-  cv::cvtColor(rgb8, rgba, cv::COLOR_RGB2RGBA);
-  return rgba;
+  return toRgba8(photo.rgb, false, photo.path);
 }
 
 TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
@@ -98,41 +92,39 @@ TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
   in.cornerUV.assign(sf, {Vec2::Zero(), Vec2::Zero(), Vec2::Zero()});
   in.faceDensity.resize(sf);
   std::vector<int> parent(sf);
+  // Per sub-mesh corner, the parent face's corner at the same position (buildMesh keeps a triangle's
+  // corners but may start a face at another one).
+  std::vector<std::array<int, 3>> cornerOf(sf, {0, 1, 2});
   for (int g = 0; g < sf; ++g) {
     parent[g] = inpaintedFaces[sub->faceOrigin[g]];
     in.faceDensity[g] = inpaint->regions[inpaint->faceRegion[parent[g]]].texelsPerUnit;
+    const auto q = sub->facePositions(g);
+    const auto c = mesh.faceVertices(parent[g]);
+    for (int k = 0; k < 3; ++k)
+      for (int j = 0; j < 3; ++j)
+        if (q[k] == mesh.position(c[j])) cornerOf[g][k] = j;
   }
   const Atlas atlas = buildAtlas(*sub, in, options);
   std::vector<const Photo*> photoPointers;
   for (const auto& p : photos) photoPointers.push_back(p.get());
   const PreviewSurface surface(map, photoPointers, levelling, inpaint, options.emptyColor);
-  // The sub-mesh's corners in the mesh's corner order (buildMesh keeps the triangle's corner order, but
-  // a face's first corner may differ): by position.
   const AtlasImage image = bakeAtlasSurface(
       atlas,
       [&](int g, const Vec3& b, unsigned char&) {
-        const int f = parent[g];
-        const auto q = sub->facePositions(g);
-        const auto c = mesh.faceVertices(f);
         Vec3 bf = Vec3::Zero();
-        for (int k = 0; k < 3; ++k)
-          for (int j = 0; j < 3; ++j)
-            if (q[k] == mesh.position(c[j])) bf[j] += b[k];
-        return surface.color(f, bf);
+        for (int k = 0; k < 3; ++k) bf[cornerOf[g][k]] = b[k];
+        return surface.color(parent[g], bf);
       },
       options);
   model.materials[inpaintedMaterial].texture = image.rgba;
   const double size = atlas.size;
   for (int g = 0; g < sf; ++g) {
     const int f = parent[g];
-    const auto q = sub->facePositions(g);
-    const auto c = mesh.faceVertices(f);
     model.faceMaterial[f] = inpaintedMaterial;
     model.faceSource[f] = kSourceInpainted;
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        if (q[k] == mesh.position(c[j]))
-          model.uv[f][j] = Vec2f(float(atlas.cornerUV[g][k].x() / size), float(1.0 - atlas.cornerUV[g][k].y() / size));
+    for (int k = 0; k < 3; ++k)
+      model.uv[f][cornerOf[g][k]] =
+          Vec2f(float(atlas.cornerUV[g][k].x() / size), float(1.0 - atlas.cornerUV[g][k].y() / size));
   }
   return model;
 }

@@ -72,6 +72,8 @@ Timed timedRun(Pipeline& pipeline, const Project& project, Tier tier) {
   t.cpuMs = 1e3 * (cpuSeconds() - cpu0);
   for (const StageRecord& s : result.stages) {
     t.figures[stageName(s.stage)] = {{"seconds", s.seconds}, {"cached", s.cached}};
+    for (const auto& [key, value] : s.counts.items())  // the stage's own breakdown (view_seconds, ...)
+      if (key.size() > 8 && key.compare(key.size() - 8, 8, "_seconds") == 0) t.figures[stageName(s.stage)][key] = value;
     if (s.stage == StageId::Map) {
       t.figures["map"]["cells_mapped"] = s.counts.value("cells_mapped", 0);
       t.figures["map"]["cells_reused"] = s.counts.value("cells_reused", 0);

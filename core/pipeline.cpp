@@ -118,8 +118,12 @@ CameraFitOptions cameraFitOptions(const PipelineOptions& o) {
   return options;
 }
 
-// One photo's fit (or the reason there is none) under the project's options.
-CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silhouette) {
+constexpr const char* kWarm = "#warm";  // camera keys of the preview's warm-started fits
+
+// One photo's fit (or the reason there is none) under the project's options. `start`: the preview's
+// warm start (see fitCamera), with one silhouette round instead of the final's four.
+CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silhouette,
+                   const PhotoCamera* start = nullptr) {
   const Photo& p = *scene.photos[photo];
   std::vector<CameraClick> clicks = photoClicks(scene.project, photo);
   if (scene.project.options.cameraMode == CameraMode::Off) {
@@ -131,8 +135,10 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
     fit.reason = "camera fit is off (options.cameraMode)";
     return fit;
   }
-  const CameraFitOptions options = cameraFitOptions(scene.project.options);
-  CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options);
+  CameraFitOptions options = cameraFitOptions(scene.project.options);
+  if (start) options.silhouetteRounds = 1;
+  CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options, start);
+  if (start && !fit.fits) return fitPhoto(scene, photo, silhouette);  // too far from the start
   refineOnSilhouette(*scene.mesh, p, fit, options, silhouette);
   return fit;
 }
@@ -177,15 +183,29 @@ nlohmann::json fitJson(const CameraFit& fit, int photo) {
 }  // namespace
 
 ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
-                               const CameraStage& cameras, const JobControl& job, ViewFrameCache* frames) {
+                               const CameraStage& cameras, const JobControl& job, ViewFrameCache* frames,
+                               const ProjectionStage* previous) {
   TM_CHECK(paper, "projectMapping: no mapping");
   const PipelineOptions& o = scene.project.options;
   ProjectionOptions options;
   options.correction = o.correction;
   options.smoothness = o.viewSmoothness;
+  std::vector<int> start;  // per input face: the photo the previous run showed on it (-1: none)
+  if (previous && previous->mapping) {
+    const Partition& last = previous->mapping->partition;
+    start.assign(scene.mesh->numFaces(), -1);
+    for (size_t f = 0; f < last.faceParent.size(); ++f)
+      if (last.faceParent[f] < static_cast<int>(start.size()))
+        start[last.faceParent[f]] = std::max(previous->mapping->map.facePhoto[f], -1);
+    // kEmpty (< 0) starts as "empty", the label after the photos
+    for (int& l : start)
+      if (l < 0) l = static_cast<int>(scene.photos.size());
+    options.maxSweeps = 1;
+  }
   ProjectionStage out;
   job.progress(StageId::Projection, 0.0);
-  out.result = projectionFill(scene, paper->partition, paper->map, cameras.fits, options, job, frames);
+  out.result = projectionFill(scene, paper->partition, paper->map, cameras.fits, options, job, frames,
+                              start.empty() ? nullptr : &start);
   if (out.result.fittedPhotos == 0) {
     out.mapping = paper;
   } else {
@@ -459,6 +479,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
         result.warnings.push_back(photoName(project, int(i)) + ": " + w);
 
   // Camera: a fit per photo, reused while the photo's clicks, the photo, the mesh and the options stay.
+  // The preview refits a photo whose clicks changed from its last camera (fitCamera's warm start); its
+  // key says so, so that the final tier fits from scratch and matches a fresh run exactly.
   const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
   const nlohmann::json& opts = document["options"];
   start = Clock::now();
@@ -474,11 +496,13 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
       photoClickLists[p] = photoClicks(project, static_cast<int>(p));
       nlohmann::json clicks = nlohmann::json::array();
       for (const CameraClick& c : photoClickLists[p]) clicks.push_back({c.vertex, c.pixel.x(), c.pixel.y()});
+      std::string key;
       fits[p].first = meshKey_ + '#' + cachedPhotos_[p].key + clicks.dump() + opts["cameraMode"].dump() +
                       opts["cameraThreshold"].dump() + opts["seed"].dump();
       for (const auto& [k, f] : cachedFits_)
-        if (k == fits[p].first) fits[p].second = f;
+        if (k == fits[p].first || (tier == Tier::Preview && k == fits[p].first + kWarm)) fits[p].second = f, key = k;
       if (fits[p].second) {
+        fits[p].first = key;
         ++cameras->reused;
         if (fits[p].second->clicks.size() == photoClickLists[p].size()) {
           bool same = true;
@@ -498,8 +522,13 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     job.progress(StageId::Camera, 0.0, std::to_string(toFit.size()) + " photos");
     tbb::parallel_for(size_t(0), toFit.size(), [&](size_t k) {
       const size_t p = toFit[k];
-      fits[p].second =
-          std::make_shared<const CameraFit>(fitPhoto(*scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get()));
+      const CameraFit* last = p < cachedFits_.size() && cachedFits_[p].second ? cachedFits_[p].second.get() : nullptr;
+      const std::string photoKey = meshKey_ + '#' + cachedPhotos_[p].key;
+      const bool warm = tier == Tier::Preview && last && last->fits &&
+                        cachedFits_[p].first.compare(0, photoKey.size(), photoKey) == 0;
+      fits[p].second = std::make_shared<const CameraFit>(
+          fitPhoto(*scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), warm ? &last->camera : nullptr));
+      if (warm) fits[p].first += kWarm;
     });
     job.checkCancel();
     for (const auto& [key, fit] : fits) {
@@ -574,12 +603,16 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   // Projection: rerun when the paper's mapping, a fit or the projection options changed.
   for (const auto& [k, f] : cachedFits_) key << "#fit:" << k;
   key << opts["correction"].dump() << opts["viewSmoothness"].dump();
+  // The preview's view selection starts from the last run's choices (one sweep): its result is its own.
+  const bool warmSelection =
+      tier == Tier::Preview && cachedProjection_ && cachedProjection_->mapping->partition.faceParent.size() > 0;
+  if (warmSelection) key << "#warm-selection";
   const bool projectionCached = mapCached && key.str() == projectionKey_ && cachedProjection_;
   if (!projectionCached) {
     frames_.photoKeys.clear();
     for (const CachedPhoto& c : cachedPhotos_) frames_.photoKeys.push_back(meshKey_ + '#' + c.key);
-    cachedProjection_ =
-        std::make_shared<const ProjectionStage>(projectMapping(*scene, cachedMapping_, *cameras, job, &frames_));
+    cachedProjection_ = std::make_shared<const ProjectionStage>(projectMapping(
+        *scene, cachedMapping_, *cameras, job, &frames_, warmSelection ? cachedProjection_.get() : nullptr));
     frames_.endRun();
     projectionKey_ = key.str();
   }
@@ -872,12 +905,12 @@ CoverageReport coverageOf(const PipelineResult& result, const CoverageOptions& o
   const Mapping& m = *result.mapping;
   const bool views = result.projection && result.projection->mapping &&
                      result.projection->mapping->partition.mesh.numFaces() == m.partition.mesh.numFaces();
-  return analyseCoverage({result.scene ? result.scene->project : Project{}, m.partition, m.map, m.cells,
-                          result.cameras ? result.cameras->fits : noFits,
-                          views ? result.projection->result.views : noViews,
-                          result.scene ? static_cast<int>(result.scene->photos.size()) : 0,
-                          result.scene && result.scene->mesh ? result.scene->mesh->numVertices() : 0},
-                         options);
+  return analyseCoverage(
+      {result.scene ? result.scene->project : Project{}, m.partition, m.map, m.cells,
+       result.cameras ? result.cameras->fits : noFits, views ? result.projection->result.views : noViews,
+       result.scene ? static_cast<int>(result.scene->photos.size()) : 0,
+       result.scene && result.scene->mesh ? result.scene->mesh->numVertices() : 0},
+      options);
 }
 
 PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,

@@ -139,10 +139,11 @@ Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* ca
 // Projection: faces that photos fitting a camera see are mapped by projection, the photo chosen per
 // face by view selection; the paper's mapping of the other photos is kept (projection.h), and the
 // cameras propose correspondences (proposals.h).
-// `frames` (may be null) keeps the photos' frames across runs (projection.h).
+// `frames` (may be null) keeps the photos' frames across runs (projection.h). `previous` (may be null):
+// the last run's projection, from whose choices the preview's view selection starts (one sweep).
 ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
-                               const CameraStage& cameras, const JobControl& job = {},
-                               ViewFrameCache* frames = nullptr);
+                               const CameraStage& cameras, const JobControl& job = {}, ViewFrameCache* frames = nullptr,
+                               const ProjectionStage* previous = nullptr);
 // Balance: colour transforms per photo over the seams between photos of the final mapping
 // (options.colorBalance, photos' colorLocked); the photos the later stages read.
 BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping,

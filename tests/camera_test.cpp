@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <numeric>
 #include <random>
+#include <set>
 
 #include "bench/eval.h"
 #include "bench/synth.h"
@@ -465,4 +466,59 @@ TEST(CameraPipeline, ExactClicksComeWithinOneAndAHalfDecibelsOfTheOracle) {
   paper.options.cameraMode = CameraMode::Off;
   const EvalResult c = evaluate(*Pipeline().run(paper).model, truth, eo);
   EXPECT_LT(c.psnrCovered, a.psnrCovered - 5);
+}
+
+// The editor's preview refits a dragged photo from its last camera and starts view selection from the
+// last choices; the final tier of the same document still equals a fresh run exactly.
+TEST(CameraPipeline, ThePreviewStartsFromTheLastRunAndTheFinalMatchesAFreshRun) {
+  DemoScene d = demoScene("camera_pipeline_warm", 4, 150, 1.0);
+  Project doc = loadProject(d.dir + "/project.json");
+  ASSERT_TRUE(doc.chains.empty());
+  Pipeline pipeline;
+  ASSERT_EQ(pipeline.run(doc).cameras->fitted, 4);
+  std::mt19937 rng(7);
+  for (int step = 0; step < 2; ++step) {
+    SCOPED_TRACE("step " + std::to_string(step));
+    std::set<int> changed;  // photos whose clicks change
+    if (step == 1) {        // a delete: the photos of its clicks are refitted
+      for (const PhotoPoint& at : doc.points[5].at) changed.insert(at.photo);
+      doc.points.erase(doc.points.begin() + 5);
+    } else {  // a drag of a photo-0 click by a few pixels
+      changed.insert(0);
+      for (FeaturePoint& p : doc.points)
+        if (!p.at.empty() && p.at[0].photo == 0) {
+          p.at[0].x += std::uniform_real_distribution<double>(2, 4)(rng);
+          p.at[0].y -= std::uniform_real_distribution<double>(2, 4)(rng);
+          break;
+        }
+    }
+    const PipelineResult preview = pipeline.run(doc, {}, Tier::Preview);
+    // A fresh pipeline has no last run: its preview mapping is the final's.
+    const PipelineResult fresh = Pipeline().run(doc, {}, Tier::Preview);
+    ASSERT_EQ(preview.cameras->fitted, 4);
+    EXPECT_EQ(preview.projection->result.selectionSweeps, 1);  // one sweep from the last labels
+    // The warm camera lands within a fraction of a pixel of the fit from scratch.
+    for (int k = 0; k < 4; ++k) {
+      const double gap = projectionGap(*d.mesh, preview.cameras->fits[k].camera, fresh.cameras->fits[k].camera);
+      EXPECT_LT(gap, 0.5) << "photo " << k;
+      if (changed.count(k))
+        EXPECT_GT(gap, 0) << "photo " << k << " was refitted from scratch";
+      else
+        EXPECT_EQ(gap, 0) << "photo " << k << ", whose clicks did not change, was refitted";
+    }
+    // It shows nearly the same photo choices and UVs as the final.
+    const TextureMap& a = preview.mapping->map;
+    const TextureMap& b = fresh.mapping->map;
+    ASSERT_EQ(a.numFaces(), b.numFaces());
+    int same = 0, mapped = 0;
+    for (int f = 0; f < a.numFaces(); ++f) {
+      mapped += b.facePhoto[f] >= 0;
+      same += b.facePhoto[f] >= 0 && a.facePhoto[f] == b.facePhoto[f];
+    }
+    EXPECT_GT(same, 0.97 * mapped);
+    // The final of the same document: exactly the fresh run's.
+    const PipelineResult final = pipeline.run(doc, {}, Tier::Final);
+    EXPECT_GT(final.projection->result.selectionSweeps, 1);
+    test::expectSameMapping(*final.mapping, *fresh.mapping, "final after the preview");
+  }
 }

@@ -280,17 +280,6 @@ void deletePoint(Project& p, int index) {
       p.chains.end());
 }
 
-// Same partition mesh, same mapped faces, UVs within 1e-9 px.
-void expectSameMapping(const Mapping& a, const Mapping& b, const std::string& what) {
-  ASSERT_EQ(a.partition.mesh.numFaces(), b.partition.mesh.numFaces()) << what;
-  ASSERT_EQ(a.map.numFaces(), b.map.numFaces()) << what;
-  EXPECT_EQ(a.map.facePhoto, b.map.facePhoto) << what;
-  double worst = 0;
-  for (int f = 0; f < a.map.numFaces(); ++f)
-    for (int k = 0; k < 3; ++k) worst = std::max(worst, (a.map.cornerUV[f][k] - b.map.cornerUV[f][k]).norm());
-  EXPECT_LE(worst, 1e-9) << what;
-}
-
 }  // namespace
 
 // ---- One validation for info and run, warnings, working resolution (issue 15) ----
@@ -352,7 +341,7 @@ TEST(PipelineIncremental, RandomEditsEqualRunsFromScratch) {
     if (what != "undo") history.push_back(doc);
     const PipelineResult inc = incremental.run(doc, {}, Tier::Preview);
     const PipelineResult fresh = Pipeline().run(doc, {}, Tier::Preview);
-    expectSameMapping(*inc.mapping, *fresh.mapping, "step " + std::to_string(step) + " (" + what + ")");
+    test::expectSameMapping(*inc.mapping, *fresh.mapping, "step " + std::to_string(step) + " (" + what + ")");
     for (const StageRecord& s : inc.stages)
       if (s.stage == StageId::Map && !s.cached) reusedCells += s.counts["cells_reused"].get<int>();
   }

@@ -9,6 +9,8 @@
 #include <mutex>
 #include <vector>
 
+#include "pipeline.h"
+
 namespace fs = std::filesystem;
 
 namespace montage::test {
@@ -85,6 +87,16 @@ nlohmann::json readJson(const std::string& path) {
   std::ifstream in(path);
   EXPECT_TRUE(in) << "missing " << path;
   return in ? nlohmann::json::parse(in) : nlohmann::json();
+}
+
+void expectSameMapping(const Mapping& a, const Mapping& b, const std::string& what) {
+  ASSERT_EQ(a.partition.mesh.numFaces(), b.partition.mesh.numFaces()) << what;
+  ASSERT_EQ(a.map.numFaces(), b.map.numFaces()) << what;
+  EXPECT_EQ(a.map.facePhoto, b.map.facePhoto) << what;
+  double worst = 0;
+  for (int f = 0; f < a.map.numFaces(); ++f)
+    for (int k = 0; k < 3; ++k) worst = std::max(worst, (a.map.cornerUV[f][k] - b.map.cornerUV[f][k]).norm());
+  EXPECT_LE(worst, 1e-9) << what;
 }
 
 }  // namespace montage::test

@@ -8,6 +8,10 @@
 
 #include "base/common.h"
 
+namespace montage {
+struct Mapping;
+}
+
 namespace montage::test {
 
 // assets/ of the project (always present).
@@ -27,6 +31,10 @@ std::string montageExe();
 nlohmann::json readJson(const std::string& path);
 // Runs a shell command, returns its exit status; output goes to `output` when given.
 int runCommand(const std::string& command, std::string* output = nullptr);
+
+// Test failures (labelled `what`) unless a and b map the same faces to the same photos with corner UVs
+// within 1e-9 px: the incremental-equals-from-scratch invariant.
+void expectSameMapping(const Mapping& a, const Mapping& b, const std::string& what);
 
 // The message of the montage::Error thrown by `fn`, or "" (and a test failure) when none is thrown.
 template <class Fn>

@@ -252,7 +252,7 @@ void checkInputs(const Mesh& mesh, const std::vector<CameraClick>& clicks, int w
 }  // namespace
 
 CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height,
-                    const CameraFitOptions& o) {
+                    const CameraFitOptions& o, const PhotoCamera* startCamera) {
   const auto start = Clock::now();
   checkInputs(mesh, clicks, width, height);
   TM_CHECK(o.minInliers >= 4, "camera fit: minInliers: must be >= 4 (got " + std::to_string(o.minInliers) + ")");
@@ -296,13 +296,26 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
     img[i] = cv::Point2d(clicks[i].pixel.x(), clicks[i].pixel.y());
   }
 
-  // Start: focal sweep x RANSAC PnP, best MSAC score.
+  // Start: the given camera, or a focal sweep x RANSAC PnP with the best MSAC score.
+  Params best;
+  double bestScore = kInf;
+  if (startCamera && startCamera->pinhole.width == width && startCamera->pinhole.height == height) {
+    const Camera& c = startCamera->pinhole;
+    cv::Matx33d R;
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) R(r, k) = c.R(r, k);
+    cv::Mat rvec;
+    cv::Rodrigues(R, rvec);
+    best.rvec = cv::Vec3d(rvec);
+    const Vec3 t = c.t + c.R * centre;  // the translation of the centred points
+    best.tvec = cv::Vec3d(t.x(), t.y(), t.z());
+    best.focal = c.fx;
+    bestScore = msac(residuals(obj, img, best, cx, cy), tau);
+  }
   const double halfSize = 0.5 * std::max(width, height);
   const double fLo = halfSize / std::tan(0.5 * o.maxFovDeg * M_PI / 180);
   const double fHi = halfSize / std::tan(0.5 * o.minFovDeg * M_PI / 180);
-  const int samples = std::max(2, o.focalSamples);
-  Params best;
-  double bestScore = kInf;
+  const int samples = std::isfinite(bestScore) ? 0 : std::max(2, o.focalSamples);
   cv::theRNG().state = 0x9E3779B97F4A7C15ull ^ o.seed;
   for (int s = 0; s < samples; ++s) {
     Params p;
@@ -579,19 +592,22 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
     if (count) *count = n;
     return n ? sum / n : std::numeric_limits<double>::infinity();
   };
-  const double before = meanDistance(fit.camera.pinhole, fit.camera, nullptr);
-  for (int round = 0; round < 4; ++round) {
+  double before = 0;  // mean distance of the fit's own contour (round 0 extracts it)
+  for (int round = 0; round < o.silhouetteRounds; ++round) {
     const std::vector<Vec3> contour = outerContour(mesh, refined.camera.pinhole, o.silhouetteSpacingPx);
     if (contour.size() < 10) return;
     std::vector<cv::Point3d> c3;
     std::vector<double> w;
+    double sum = 0;
     for (const Vec3& x : contour) {
       Vec2 px;
       if (!refined.camera.project(x, px)) continue;
       const double d = std::abs(distance.at(px));
+      sum += d;
       c3.emplace_back(x.x(), x.y(), x.z());
       w.push_back(weight * (d <= o.silhouetteHuberPx ? 1.0 : o.silhouetteHuberPx / d));
     }
+    if (round == 0) before = c3.empty() ? kInf : sum / c3.size();
     auto callback = cv::makePtr<SilhouetteFit>(clicks3, clicks2, c3, w, distance, fit.camera.pinhole.cx,
                                                fit.camera.pinhole.cy, radial);
     cv::Mat x = callback->pack(p);

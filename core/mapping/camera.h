@@ -74,6 +74,7 @@ struct CameraFitOptions {
   double silhouetteSigmaPx = 0.5;         // accuracy of the photo's silhouette (the clicks': their RMS residual)
   double silhouetteSpacingPx = 2;         // sample spacing along the mesh's projected contour, pixels
   double silhouetteHuberPx = 1.5;         // silhouette residuals beyond this count linearly (Huber)
+  int silhouetteRounds = 4;               // LM rounds, each on the contour re-extracted from the last camera
 };
 
 // The fit of one photo.
@@ -97,8 +98,10 @@ struct CameraFit {
 // Fits a camera to one photo's clicks on `mesh` (vertex ids index mesh). `width` x `height` is the
 // photo size in pixels. Never throws for clicks that do not fit: `fits` is false with a reason.
 // Throws montage::Error for a vertex id out of range or a non-positive size.
+// `start`: a camera close to the answer (the fit before a small edit of the clicks) replaces the focal
+// sweep and RANSAC as the refinement's start; the rest is the same. The editor's preview refits so.
 CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height,
-                    const CameraFitOptions& options = {});
+                    const CameraFitOptions& options = {}, const PhotoCamera* start = nullptr);
 
 // Refines a fitted camera on the photo's silhouette, after Lensch, Heidrich and Seidel 2001: the mesh's
 // outer contour (edges between front- and back-facing faces that the z-buffer shows on the rendered

@@ -272,7 +272,7 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
 
 ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
                                 const std::vector<CameraFit>& fits, const ProjectionOptions& o, const JobControl& job,
-                                ViewFrameCache* cache) {
+                                ViewFrameCache* cache, const std::vector<int>* startLabels) {
   const auto start = Clock::now();
   const Mesh& mesh = partition.mesh;
   const int nf = mesh.numFaces();
@@ -368,6 +368,11 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       const float q = out.views[p].faceQuality[f];
       if (q > 0) cost(p) = (1.0 - q / best) * area;
     }
+    if (startLabels) {
+      const int parent = partition.faceParent[f];
+      const int start = parent < static_cast<int>(startLabels->size()) ? (*startLabels)[parent] : -1;
+      if (start >= 0 && start <= kEmptyLabel && std::isfinite(cost(start))) labels[f] = start;
+    }
   }
   // Smoothness over interior edges.
   const TriMesh& tri = mesh.tri;
@@ -406,7 +411,7 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   }
   job.checkCancel();
   PottsStats stats;
-  labels = solvePotts(problem, labels, 8, &stats);
+  labels = solvePotts(problem, labels, o.maxSweeps, &stats);
   out.selectionSweeps = stats.sweeps;
   out.selectionEnergy = stats.finalEnergy;
   out.selectSeconds = secondsSince(t);

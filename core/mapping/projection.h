@@ -62,6 +62,8 @@ struct ProjectionOptions {
   double silhouetteMarginPx = 4;  // view quality falls linearly within this distance of the silhouette
   double depthTolerance = 0.005;  // occlusion test tolerance, share of the bounding-box diagonal
   double maxBackgroundPx = 1.0;   // a face whose UVs lie farther than this from the foreground is refused
+  int maxSweeps = 8;              // view selection: alpha-expansion sweeps at most (it stops when one changes
+                                  // nothing; the editor's preview runs one, from the last run's labels)
 };
 
 // What a fitted photo's view needs from its camera alone: the input mesh rendered through the camera
@@ -133,8 +135,11 @@ struct ProjectionResult {
 // mapping of faces on photos that do not fit. `paperMap` is over partition.mesh. When no photo fits,
 // the map is returned unchanged.
 // Views of fitted photos are computed in parallel; their frames come from `frames` when given.
+// `startLabels` (per input face, the range of partition.faceParent; may be null): the photo (or -1) view
+// selection starts a face from where it is allowed, e.g. the last run's choice; else its cheapest photo.
 ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
                                 const std::vector<CameraFit>& fits, const ProjectionOptions& options,
-                                const JobControl& job, ViewFrameCache* frames = nullptr);
+                                const JobControl& job, ViewFrameCache* frames = nullptr,
+                                const std::vector<int>* startLabels = nullptr);
 
 }  // namespace montage

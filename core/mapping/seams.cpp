@@ -103,14 +103,20 @@ class SeamOptimiser {
   double edgeError(const SeamEdge& e, double* deltaE = nullptr, double* gradient = nullptr) const;
   double faceStretch(int face) const;  // normalised L-infinity stretch, kInf when flipped
   double sideEnergy(const Side& side) const;
-  double totalEnergy() const;
+  // Per seam edge: edgeError's sum, Delta E and gradient sums, all edges in parallel.
+  struct EdgeFigures {
+    std::vector<double> error, deltaE, gradient;
+  };
+  EdgeFigures measureEdges(bool gradients) const;
+  double totalEnergy(const std::vector<double>& edgeErrors) const;
+  double totalEnergy() const { return totalEnergy(measureEdges(false).error); }
   double maxStep(const Side& side, const Vec2& x, const Vec2& d) const;
   bool onForeground(int photo, const Vec2& x) const;
   // Random line searches on one side (directions from `rng`); returns the energy decrease.
   double optimiseSide(int i, std::mt19937& rng);
   // The sides whose UVs side i's energy reads (its faces' corners and its seam edges' ends), itself included.
   std::vector<int> touchedSides(int i) const;
-  void measure(double& deltaE, double& gradient, double& maxStretch) const;
+  void measure(const EdgeFigures& edges, double& deltaE, double& gradient, double& maxStretch) const;
 
   Vec2 uvOf(int face, int corner) const { return sides_[faceSide_[face][corner]].uv; }
 
@@ -315,10 +321,19 @@ double SeamOptimiser::sideEnergy(const Side& side) const {
   return options_.lambda * geo + (1 - options_.lambda) * tex;
 }
 
-double SeamOptimiser::totalEnergy() const {
+SeamOptimiser::EdgeFigures SeamOptimiser::measureEdges(bool gradients) const {
+  const size_t m = seams_.size();
+  EdgeFigures out{std::vector<double>(m), std::vector<double>(m), std::vector<double>(m)};
+  tbb::parallel_for(size_t(0), m, [&](size_t e) {
+    out.error[e] = edgeError(seams_[e], &out.deltaE[e], gradients ? &out.gradient[e] : nullptr);
+  });
+  return out;
+}
+
+double SeamOptimiser::totalEnergy(const std::vector<double>& edgeErrors) const {
   double tex = 0, geo = 0;
   int n = 0, sides = 0;
-  for (const SeamEdge& e : seams_) tex += edgeError(e), n += e.samples;
+  for (size_t e = 0; e < seams_.size(); ++e) tex += edgeErrors[e], n += seams_[e].samples;
   for (const Side& s : sides_) {
     if (!s.onSeam) continue;
     double g = 0;
@@ -405,14 +420,10 @@ double SeamOptimiser::optimiseSide(int i, std::mt19937& rng) {
   return start - e;
 }
 
-void SeamOptimiser::measure(double& deltaE, double& gradient, double& maxStretch) const {
+void SeamOptimiser::measure(const EdgeFigures& edges, double& deltaE, double& gradient, double& maxStretch) const {
   double de = 0, dg = 0;
   long n = 0;
-  for (const SeamEdge& e : seams_) {
-    double a = 0, b = 0;
-    edgeError(e, &a, &b);
-    de += a, dg += b, n += e.samples;
-  }
+  for (size_t e = 0; e < seams_.size(); ++e) de += edges.deltaE[e], dg += edges.gradient[e], n += seams_[e].samples;
   deltaE = n ? de / n : 0;
   gradient = n ? dg / n : 0;
   maxStretch = 0;
@@ -439,7 +450,8 @@ SeamResult SeamOptimiser::run() {
   SeamResult out;
   buildSides();
   buildSeams();
-  measure(out.deltaEBefore, out.gradientBefore, out.maxStretchBefore);
+  const EdgeFigures before = measureEdges(true);
+  measure(before, out.deltaEBefore, out.gradientBefore, out.maxStretchBefore);
   std::vector<int> seamSides, neighbours;
   std::vector<char> seamVertex(mesh_.numVertices(), 0);
   for (int i = 0; i < static_cast<int>(sides_.size()); ++i) {
@@ -493,16 +505,14 @@ SeamResult SeamOptimiser::run() {
   // (the moved side and every side whose UVs its energy reads).
   // A side whose seam edges already match below the just-noticeable difference starts asleep.
   std::vector<char> active(sides_.size(), 0), next(sides_.size(), 0);
-  std::vector<double> edgeDeltaE(seams_.size(), 0);
-  for (size_t e = 0; e < seams_.size(); ++e) edgeError(seams_[e], &edgeDeltaE[e]);
   for (int i : order) {
     double de = 0;
     int n = 0;
-    for (int e : sides_[i].edges) de += edgeDeltaE[e], n += seams_[e].samples;
+    for (int e : sides_[i].edges) de += before.deltaE[e], n += seams_[e].samples;
     active[i] = n > 0 && de / n > kNoticeableDeltaE;
     out.sleepingSides += !active[i];
   }
-  double energy = totalEnergy();
+  double energy = totalEnergy(before.error);
   for (int round = 0; round < options_.rounds && !order.empty(); ++round) {
     job_.progress(StageId::Seams, double(round) / options_.rounds, "round " + std::to_string(round + 1));
     std::vector<char> moved(sides_.size(), 0);
@@ -533,15 +543,13 @@ SeamResult SeamOptimiser::run() {
   for (int f = 0; f < nf; ++f)
     if (faceSide_[f][0] >= 0)
       for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = uvOf(f, k);
-  measure(out.deltaEAfter, out.gradientAfter, out.maxStretchAfter);
+  const EdgeFigures after = measureEdges(true);
+  measure(after, out.deltaEAfter, out.gradientAfter, out.maxStretchAfter);
   // Per face: mean Delta E over its seam edges' samples.
   std::vector<double> sum(nf, 0);
   std::vector<int> count(nf, 0);
-  for (const SeamEdge& e : seams_) {
-    double de = 0;
-    edgeError(e, &de);
-    for (int f : {e.f, e.g}) sum[f] += de, count[f] += e.samples;
-  }
+  for (size_t e = 0; e < seams_.size(); ++e)
+    for (int f : {seams_[e].f, seams_[e].g}) sum[f] += after.deltaE[e], count[f] += seams_[e].samples;
   out.faceError.assign(nf, -1.f);
   for (int f = 0; f < nf; ++f)
     if (count[f] > 0) out.faceError[f] = float(sum[f] / count[f]);

@@ -45,6 +45,7 @@ constexpr double kSampleSpacing = 0.4;     // pixels between samples (the paper:
 constexpr int kMaxSamplesPerEdge = 512;    // cap for very long edges
 constexpr int kCoarseSamples = 6;          // samples of a search chord before the golden section
 constexpr double kMargin = 1e-3;           // relative margin kept from the kernel border
+constexpr double kMaxStretchGrowth = 2;    // a projected side's move may at most double its faces' stretch
 constexpr double kStopGain = 1e-3;         // rounds stop when the total E falls by less than this (relative)
 constexpr double kNoticeableDeltaE = 2.3;  // a seam matching better than this (mean Delta E*uv) is left as it is
 constexpr double kSideGain = 1e-2;  // a side whose E fell by less than this (relative) does not wake its neighbours
@@ -66,6 +67,7 @@ struct Side {
   bool onSeam = false;                       // an end of a seam edge
   bool closed = false;                       // its faces are all the faces around the vertex
   double scale = 0;                          // largest distance to a corner of its faces (pixels)
+  double startStretch = 0;                   // largest stretch of its faces before the optimisation
 };
 
 // A seam edge a-b between face f (third vertex c, on one side of the hinge) and face g (third vertex
@@ -313,7 +315,10 @@ double SeamOptimiser::sideEnergy(const Side& side) const {
   double geo = 0;
   for (const auto& [f, k] : side.corners) geo = std::max(geo, faceStretch(f));
   if (!std::isfinite(geo)) return kInf;
-  if (side.projected) geo = (side.uv - side.start).squaredNorm();  // no flip (above), and near the projection
+  // Projected sides: no flip (above), no face stretched past kMaxStretchGrowth x its projection's (a move
+  // towards a degenerate texture triangle smears a texel across the face), and near the projection.
+  if (side.projected && geo > kMaxStretchGrowth * side.startStretch) return kInf;
+  if (side.projected) geo = (side.uv - side.start).squaredNorm();
   double tex = 0;
   int n = 0;
   for (int e : side.edges) tex += edgeError(seams_[e]), n += seams_[e].samples;
@@ -450,6 +455,8 @@ SeamResult SeamOptimiser::run() {
   SeamResult out;
   buildSides();
   buildSeams();
+  for (Side& s : sides_)
+    for (const auto& [f, k] : s.corners) s.startStretch = std::max(s.startStretch, faceStretch(f));
   const EdgeFigures before = measureEdges(true);
   measure(before, out.deltaEBefore, out.gradientBefore, out.maxStretchBefore);
   std::vector<int> seamSides, neighbours;

@@ -638,6 +638,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                               {"empty_faces", pr.emptyFaces},
                               {"selection_sweeps", pr.selectionSweeps},
                               {"view_seconds", pr.viewSeconds},
+                              {"frame_seconds", pr.frameSeconds},
                               {"frames_reused", pr.framesReused},
                               {"select_seconds", pr.selectSeconds},
                               {"photos", photos}}});

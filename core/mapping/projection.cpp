@@ -122,7 +122,17 @@ size_t ViewFrame::bytes() const {
          silhouette.total() * silhouette.elemSize();
 }
 
-ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& cam) {
+cv::Mat foregroundDistance(const Photo& photo, int width, int height) {
+  cv::Mat inside;
+  if (!photo.hasBackground) return inside;
+  cv::Mat foreground = photo.alpha > 0;  // stored resolution: brought to the camera's pixels
+  if (foreground.cols != width || foreground.rows != height)
+    cv::resize(foreground, foreground, cv::Size(width, height), 0, 0, cv::INTER_NEAREST);
+  cv::distanceTransform(foreground, inside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  return inside;
+}
+
+ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& cam, const cv::Mat* foreground) {
   TM_CHECK(cam.width == photo.width && cam.height == photo.height,
            located(photo.path, "camera fit is for a " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
                                    " image, the photo is " + std::to_string(photo.width) + "x" +
@@ -137,42 +147,49 @@ ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& cam) {
   for (int y = 0; y < cam.height; ++y)
     for (int x = 0; x < cam.width; ++x) covered.at<uchar>(y, x) = raster.face[raster.index(x, y)] >= 0 ? 255 : 0;
   cv::distanceTransform(covered, frame.silhouette, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  if (photo.hasBackground) {
-    cv::Mat foreground = photo.alpha > 0, inside;  // stored resolution: brought to the camera's pixels
-    if (foreground.cols != cam.width || foreground.rows != cam.height)
-      cv::resize(foreground, foreground, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_NEAREST);
-    cv::distanceTransform(foreground, inside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-    frame.silhouette = cv::min(frame.silhouette, inside);
-  }
+  if (photo.hasBackground)
+    frame.silhouette =
+        cv::min(frame.silhouette, foreground && foreground->cols == cam.width && foreground->rows == cam.height
+                                      ? *foreground
+                                      : foregroundDistance(photo, cam.width, cam.height));
   return frame;
 }
 
 std::shared_ptr<const ViewFrame> ViewFrameCache::frame(int photo, const Mesh& input, const Photo& image,
                                                        const PhotoCamera& camera) {
   const Camera& c = camera.pinhole;
-  std::string key = photo < static_cast<int>(photoKeys.size()) ? photoKeys[photo] : std::to_string(photo);
+  const std::string photoKey = (photo < static_cast<int>(photoKeys.size()) ? photoKeys[photo] : std::to_string(photo)) +
+                               '@' + std::to_string(c.width) + 'x' + std::to_string(c.height);
+  std::string key = photoKey;
   auto add = [&key](const void* data, size_t n) { key.append(static_cast<const char*>(data), n); };
-  add(&c.width, sizeof c.width);
-  add(&c.height, sizeof c.height);
   for (double v : {c.fx, c.fy, c.cx, c.cy}) add(&v, sizeof v);
   add(c.R.data(), 9 * sizeof(double));
   add(c.t.data(), 3 * sizeof(double));
-  if (auto it = used_.find(key); it != used_.end()) return it->second;
-  std::shared_ptr<const ViewFrame> out;
-  if (auto it = frames_.find(key); it != frames_.end()) {
-    out = it->second;
-    ++reused;
-  } else {
-    out = std::make_shared<const ViewFrame>(viewFrame(input, image, c));
-    ++computed;
+  cv::Mat foreground;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    usedForeground_.insert(photoKey);
+    if (auto it = used_.find(key); it != used_.end()) return it->second;
+    if (auto it = frames_.find(key); it != frames_.end()) {
+      ++reused;
+      return used_[key] = it->second;
+    }
+    foreground = foreground_[photoKey];
   }
-  used_[key] = out;
-  return out;
+  if (image.hasBackground && foreground.empty()) foreground = foregroundDistance(image, c.width, c.height);
+  auto out = std::make_shared<const ViewFrame>(viewFrame(input, image, c, &foreground));
+  std::lock_guard<std::mutex> lock(mutex_);
+  foreground_[photoKey] = foreground;
+  ++computed;
+  return used_[key] = out;
 }
 
 void ViewFrameCache::endRun() {
   frames_ = std::move(used_);
   used_.clear();
+  for (auto it = foreground_.begin(); it != foreground_.end();)
+    it = usedForeground_.count(it->first) ? std::next(it) : foreground_.erase(it);
+  usedForeground_.clear();
   reused = computed = 0;
 }
 
@@ -306,17 +323,18 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
     return out;
   }
 
-  // Views of the fitted photos: frames first (from the cache, in order), then the views in parallel.
+  // Views of the fitted photos: frames first (from the cache), then the views, each in parallel.
   auto t = Clock::now();
   std::vector<std::shared_ptr<const ViewFrame>> frames(np);
-  for (size_t k = 0; k < fitted.size(); ++k) {
+  job.progress(StageId::Projection, 0.0, "views of " + std::to_string(fitted.size()) + " photos");
+  tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
     const int p = fitted[k];
-    job.progress(StageId::Projection, 0.3 * k / fitted.size(), "view of photo " + std::to_string(p));
     frames[p] =
         cache ? cache->frame(p, *scene.mesh, *scene.photos[p], fits[p].camera)
               : std::make_shared<const ViewFrame>(viewFrame(*scene.mesh, *scene.photos[p], fits[p].camera.pinhole));
-  }
+  });
   if (cache) out.framesReused = cache->reused;
+  out.frameSeconds = secondsSince(t);
   job.checkCancel();
   tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
     const int p = fitted[k];

@@ -11,7 +11,9 @@
 #include <array>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <opencv2/core.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -77,19 +79,28 @@ struct ViewFrame {
 };
 
 // Renders `input` through `camera` for `photo` (sizes must agree).
-ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& camera);
+// `foreground`: the photo's foregroundDistance at the camera's size when the caller keeps one.
+ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& camera, const cv::Mat* foreground = nullptr);
+
+// Distance (pixels, CV_32F at width x height) to the edge of the photo's own foreground, inside it; empty
+// for photos without a background. It depends on the photo alone.
+cv::Mat foregroundDistance(const Photo& photo, int width, int height);
 
 // Frames kept across runs, keyed by the caller's identity of each photo (file, mask, mesh) and the camera.
 class ViewFrameCache {
  public:
   // Per photo: what identifies the photo and the input mesh (the pipeline's photo and mesh keys).
   std::vector<std::string> photoKeys;
+  // Thread-safe: frames of several photos may be asked for at once.
   std::shared_ptr<const ViewFrame> frame(int photo, const Mesh& input, const Photo& image, const PhotoCamera& camera);
   void endRun();                 // forgets frames this run did not use
   int reused = 0, computed = 0;  // this run
 
  private:
+  std::mutex mutex_;  // frame() is called for several photos at once
   std::map<std::string, std::shared_ptr<const ViewFrame>> frames_, used_;
+  std::map<std::string, cv::Mat> foreground_;  // per photo key and size: foregroundDistance
+  std::set<std::string> usedForeground_;       // photo keys this run asked for
 };
 
 // What one fitted photo sees of a mesh.
@@ -127,7 +138,8 @@ struct ProjectionResult {
   int emptyFaces = 0;       // faces left empty (for inpainting)
   int selectionSweeps = 0;  // alpha-expansion sweeps of the view selection
   double selectionEnergy = 0;
-  int framesReused = 0;  // fitted photos whose frame (ViewFrame) came from the cache
+  int framesReused = 0;     // fitted photos whose frame (ViewFrame) came from the cache
+  double frameSeconds = 0;  // the frames not in the cache (part of viewSeconds)
   double viewSeconds = 0, selectSeconds = 0, seconds = 0;
 };
 

@@ -272,7 +272,8 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job,
-                                                    std::vector<std::shared_ptr<const cv::Mat>> luv) {
+                                                    std::vector<std::shared_ptr<const cv::Mat>> luv,
+                                                    const SeamMemo* warm) {
   const PipelineOptions& o = scene.project.options;
   SeamInput in;
   in.mesh = &mapping->partition.mesh;
@@ -280,6 +281,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   for (const auto& p : scene.photos) in.photos.push_back(p.get());
   in.fixedVertices = mapping->partition.featureVertex;
   in.luv = std::move(luv);
+  in.warm = warm;
   if (cameras)
     for (const CameraFit& fit : cameras->fits) in.projectedPhotos.push_back(fit.fits);
   SeamOptions options;
@@ -686,6 +688,9 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   // Seams: rerun when the mapping, the balance or the seam options changed. Later stages read the
   // seamed mapping.
   key << opts["seamLambda"].dump() << opts["seamRounds"].dump() << opts["gradientWeight"].dump();
+  // The preview starts from the last run's sides (SeamMemo): its result is its own.
+  const SeamMemo* warmSeams = tier == Tier::Preview && cachedSeams_ ? cachedSeams_->memo.get() : nullptr;
+  if (warmSeams) key << "#warm-seams";
   const bool seamCached = balanceCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
   if (!seamCached) {
     auto seams = std::make_shared<SeamResult>();
@@ -697,7 +702,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
       if (same && !c.luv) c.luv = std::make_shared<const cv::Mat>(luvImage(*c.photo));
       luv.push_back(same ? c.luv : nullptr);
     }
-    cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv));
+    cachedSeamed_ =
+        optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv), warmSeams);
     seams->map = TextureMap();  // the seamed mapping holds it
     cachedSeams_ = seams;
     seamKey_ = key.str();
@@ -712,6 +718,10 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"moved_sides", sr.movedSides},
                             {"sleeping_sides", sr.sleepingSides},
                             {"rounds", sr.rounds},
+                            {"warm_sides", sr.warmSides},
+                            {"setup_seconds", sr.setupSeconds},
+                            {"measure_seconds", sr.measureSeconds},
+                            {"round_seconds", sr.roundSeconds},
                             {"delta_e_before", sr.deltaEBefore},
                             {"delta_e_after", sr.deltaEAfter},
                             {"gradient_before", sr.gradientBefore},

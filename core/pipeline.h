@@ -151,11 +151,13 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
 // Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
 // when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
 // `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
-// `luv` (per photo, may be empty) holds luvImage() of photos the caller keeps (SeamInput::luv).
+// `luv` (per photo, may be empty) holds luvImage() of photos the caller keeps (SeamInput::luv); `warm`
+// (may be null) the last run's sides for the preview's warm start (SeamMemo).
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job = {},
-                                                    std::vector<std::shared_ptr<const cv::Mat>> luv = {});
+                                                    std::vector<std::shared_ptr<const cv::Mat>> luv = {},
+                                                    const SeamMemo* warm = nullptr);
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
 // preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
 // density); guided fills keep the final density, since their colours depend on it.

@@ -521,6 +521,15 @@ TEST(CameraPipeline, ThePreviewStartsFromTheLastRunAndTheFinalMatchesAFreshRun) 
       same += b.facePhoto[f] >= 0 && a.facePhoto[f] == b.facePhoto[f];
     }
     EXPECT_GT(same, 0.97 * mapped);
+    // The seams start from the last run's sides and match as well as a fresh optimisation's.
+    auto seamFigure = [](const PipelineResult& r, const char* name) {
+      for (const StageRecord& s : r.stages)
+        if (s.stage == StageId::Seams) return s.counts[name].get<double>();
+      return -1.0;
+    };
+    EXPECT_GT(seamFigure(preview, "warm_sides"), 0);
+    EXPECT_EQ(seamFigure(fresh, "warm_sides"), 0);
+    EXPECT_LT(seamFigure(preview, "delta_e_after"), 1.1 * seamFigure(fresh, "delta_e_after") + 0.1);
     // The final of the same document: exactly the fresh run's.
     const PipelineResult final = pipeline.run(doc, {}, Tier::Final);
     EXPECT_GT(final.projection->result.selectionSweeps, 1);

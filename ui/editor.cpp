@@ -38,7 +38,7 @@ double now() {
 Editor::Editor(EditorOptions options) : options_(std::move(options)) {
   autosaveClock_.setInterval(options_.autosaveSeconds);
   initWindow();
-  worker_ = std::make_unique<PipelineWorker>();
+  worker_ = std::make_unique<PipelineWorker>([] { glfwPostEmptyEvent(); });  // a result wakes the event loop
   if (!options_.script.empty()) {
     script_ = loadScript(options_.script);
     scripted_ = true;
@@ -167,11 +167,15 @@ int Editor::run() {
 void Editor::frame() {
   const double start = now();
   const bool busy = worker_->status().busy;
-  if (scripted_ || benchOrbit_ || !inputQueue_.empty()) {
+  // A script waiting for the worker waits as a user would (below), so that its timings are the user's.
+  const bool scriptRuns = scripted_ && (frameNumber_ < 2 || !waitUntil_ || !waitOnEvents_);
+  if (scriptRuns || benchOrbit_ || !inputQueue_.empty()) {
     glfwPollEvents();
   } else {
-    // Redraw on input; otherwise a few times a second (worker progress, autosave clock).
-    glfwWaitEventsTimeout(busy || dialogs_.active() ? 0.05 : autosaveJob_.valid() ? 0.25 : 1.0);
+    // Redraw on input and when the worker has a result (it posts an event); otherwise a few times a
+    // second (worker progress, dialogs, autosave clock). A redraw costs a core under software GL, which
+    // the worker needs.
+    glfwWaitEventsTimeout(busy ? 0.25 : dialogs_.active() ? 0.05 : autosaveJob_.valid() ? 0.25 : 1.0);
   }
   if (glfwWindowShouldClose(window_)) {
     glfwSetWindowShouldClose(window_, GLFW_FALSE);
@@ -202,11 +206,20 @@ void Editor::frame() {
   // its final state only, so the pipeline is not restarted at every mouse move.
   if (!doc_.project().mesh.empty() && doc_.revision() != submittedRevision_ && !doc_.inGroup()) {
     submittedGeneration_ = worker_->submit(doc_.snapshot());
+    submittedAt_[submittedGeneration_] = std::chrono::steady_clock::now();
+    while (submittedAt_.size() > 64) submittedAt_.erase(submittedAt_.begin());
     submittedRevision_ = doc_.revision();
     generationRevision_[submittedGeneration_] = submittedRevision_;
   }
   autosaveTick();
   renderScene();
+  if (shownGeneration_ >= 0) {  // the result taken this frame is drawn: the edit's latency
+    if (auto it = submittedAt_.find(shownGeneration_); it != submittedAt_.end())
+      shownLatency_[result_->tier == Tier::Final ? 1 : 0] =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - it->second).count();
+    shownGeneration_ = -1;
+    glfwPostEmptyEvent();  // one more frame at once: a script waiting for this result, the layout settling
+  }
 
   ImGui::Render();
   int fbw = 0, fbh = 0;
@@ -336,6 +349,7 @@ void Editor::pollWorker() {
     result_ = outcome->result;
     resultPreview_ = outcome->preview;
     resultGeneration_ = outcome->generation;
+    shownGeneration_ = outcome->generation;
     lastError_.clear();
     meshDirty_ = overlayDirty_ = linesDirty_ = true;
     stretch_.clear();

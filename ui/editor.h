@@ -9,6 +9,7 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -270,7 +271,9 @@ class Editor {
   void applySyntheticInput(ImGuiIO& io);
   void scriptStep();
   void runAction(const ScriptAction& action);
-  void waitFor(const std::string& what, double seconds, std::function<bool()> condition);
+  // `onEvents`: frames meanwhile wait for events as a user's editor does (worker waits), instead of
+  // running back to back.
+  void waitFor(const std::string& what, double seconds, std::function<bool()> condition, bool onEvents = false);
   void queueClick(double x, double y, int button = 0);
   void queueDrag(double x0, double y0, double x1, double y1, int button, int steps = 8);
   void queueKey(const KeyCombo& combo);
@@ -318,6 +321,11 @@ class Editor {
   Document doc_;
   std::unique_ptr<PipelineWorker> worker_;
   long submittedRevision_ = -1, submittedGeneration_ = 0;
+  // Edit -> result on screen: when each generation was submitted, and the last latency per tier
+  // (seconds from the submit to the end of the frame that first drew the result; -1 = none yet).
+  std::map<long, std::chrono::steady_clock::time_point> submittedAt_;
+  long shownGeneration_ = -1;  // generation taken this frame, measured after it is drawn
+  std::array<double, 2> shownLatency_ = {-1, -1};
   std::shared_ptr<const PipelineResult> result_;
   std::shared_ptr<const TexturedModel> resultPreview_;  // the worker's preview model of result_ (preview tier)
   long resultGeneration_ = 0;
@@ -428,6 +436,7 @@ class Editor {
   double heldX_ = 0, heldY_ = 0;  // synthetic pointer position, kept between steps
   std::vector<int> syntheticKeys_;
   std::function<bool()> waitUntil_;
+  bool waitOnEvents_ = false;
   double waitDeadline_ = 0;
   std::string waitWhat_;
   std::string pendingScreenshot_;

@@ -157,7 +157,8 @@ void Editor::applySyntheticInput(ImGuiIO& io) {
 
 // --- Script actions -------------------------------------------------------------------------------
 
-void Editor::waitFor(const std::string& what, double seconds, std::function<bool()> condition) {
+void Editor::waitFor(const std::string& what, double seconds, std::function<bool()> condition, bool onEvents) {
+  waitOnEvents_ = onEvents;
   waitWhat_ = what;
   waitDeadline_ = now() + seconds;
   waitUntil_ = std::move(condition);
@@ -184,23 +185,31 @@ void Editor::runAction(const ScriptAction& a) {
     const long target = frameNumber_ + a.integer(0);
     waitFor(where, std::numeric_limits<double>::infinity(), [this, target] { return frameNumber_ >= target; });
   } else if (a.verb == "wait_worker") {
-    waitFor(where + " (the worker did not finish)", a.args.empty() ? 300 : timeout, [this] {
-      if (doc_.project().mesh.empty()) return true;
-      if (doc_.inGroup() || submittedRevision_ != doc_.revision() || worker_->status().busy) return false;
-      // Done when the newest submission came back (its final result, or an error) and its buffers are
-      // uploaded.
-      const bool answered = (resultGeneration_ == submittedGeneration_ && result_ && result_->tier == Tier::Final) ||
-                            lastErrorGeneration_ == submittedGeneration_;
-      return answered && !meshDirty_ && uploadedModel_ != nullptr;
-    });
+    waitFor(
+        where + " (the worker did not finish)", a.args.empty() ? 300 : timeout,
+        [this] {
+          if (doc_.project().mesh.empty()) return true;
+          if (doc_.inGroup() || submittedRevision_ != doc_.revision() || worker_->status().busy) return false;
+          // Done when the newest submission came back (its final result, or an error) and its buffers are
+          // uploaded.
+          const bool answered =
+              (resultGeneration_ == submittedGeneration_ && result_ && result_->tier == Tier::Final) ||
+              lastErrorGeneration_ == submittedGeneration_;
+          return answered && !meshDirty_ && uploadedModel_ != nullptr;
+        },
+        true);
   } else if (a.verb == "wait_result") {
     // The first result of the newest submission is shown (the preview; the final bake may still run).
-    waitFor(where + " (no result came back)", a.args.empty() ? 300 : timeout, [this] {
-      if (doc_.project().mesh.empty()) return true;
-      if (doc_.inGroup() || submittedRevision_ != doc_.revision()) return false;
-      const bool answered = resultGeneration_ == submittedGeneration_ || lastErrorGeneration_ == submittedGeneration_;
-      return answered && !meshDirty_ && uploadedModel_ != nullptr;
-    });
+    waitFor(
+        where + " (no result came back)", a.args.empty() ? 300 : timeout,
+        [this] {
+          if (doc_.project().mesh.empty()) return true;
+          if (doc_.inGroup() || submittedRevision_ != doc_.revision()) return false;
+          const bool answered =
+              resultGeneration_ == submittedGeneration_ || lastErrorGeneration_ == submittedGeneration_;
+          return answered && !meshDirty_ && uploadedModel_ != nullptr;
+        },
+        true);
   } else if (a.verb == "wait_busy") {
     waitFor(where + " (the worker never started)", a.args.empty() ? 60 : timeout, [this] {
       const WorkerStatus s = worker_->status();
@@ -493,6 +502,8 @@ void Editor::writeState(const std::string& path) const {
                      {"submitted_generation", submittedGeneration_},
                      {"result_generation", resultGeneration_},
                      {"outcome_generations", outcomeGenerations_},
+                     {"preview_latency_seconds", shownLatency_[0]},  // last edit -> preview drawn
+                     {"final_latency_seconds", shownLatency_[1]},    // last edit -> final drawn
                      {"last_error", lastError_}};
   if (result_) {
     json stages = json::array();

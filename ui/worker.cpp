@@ -7,7 +7,8 @@
 
 namespace montage {
 
-PipelineWorker::PipelineWorker() : thread_([this] { loop(); }) {}
+PipelineWorker::PipelineWorker(std::function<void()> notify)
+    : notify_(std::move(notify)), thread_([this] { loop(); }) {}
 
 PipelineWorker::~PipelineWorker() {
   {
@@ -109,6 +110,7 @@ void PipelineWorker::loop() {
       const bool succeeded = finished && outcome.result;
       if (!overtaken) finished_ = std::move(outcome);
       wake_.notify_all();
+      if (!overtaken && notify_) notify_();
       // The final tier follows only when the preview succeeded and nothing newer is waiting.
       if (overtaken || !succeeded) break;
     }

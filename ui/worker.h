@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -39,7 +40,9 @@ struct WorkerOutcome {
 
 class PipelineWorker {
  public:
-  PipelineWorker();
+  // `notify` (may be empty) is called from the worker thread whenever an outcome is ready to take (the
+  // editor wakes its event loop with it).
+  explicit PipelineWorker(std::function<void()> notify = {});
   ~PipelineWorker();  // cancels the running job and joins the thread
   PipelineWorker(const PipelineWorker&) = delete;
   PipelineWorker& operator=(const PipelineWorker&) = delete;
@@ -66,6 +69,7 @@ class PipelineWorker {
   WorkerStatus status_;
   std::atomic<bool> cancel_{false};
   bool quit_ = false;
+  std::function<void()> notify_;
   Pipeline pipeline_;  // owned and used by the worker thread only
   // Worker thread only: each photo's preview texture (previewTexture), while the pipeline keeps the photo.
   std::map<const Photo*, std::pair<std::weak_ptr<const Photo>, cv::Mat>> photoTextures_;

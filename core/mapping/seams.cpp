@@ -23,6 +23,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <unordered_map>
@@ -49,6 +50,18 @@ constexpr double kMaxStretchGrowth = 2;    // a projected side's move may at mos
 constexpr double kStopGain = 1e-3;         // rounds stop when the total E falls by less than this (relative)
 constexpr double kNoticeableDeltaE = 2.3;  // a seam matching better than this (mean Delta E*uv) is left as it is
 constexpr double kSideGain = 1e-2;  // a side whose E fell by less than this (relative) does not wake its neighbours
+
+uint64_t mix(uint64_t h, uint64_t v) {
+  v *= 0x9E3779B97F4A7C15ull;
+  v ^= v >> 31;
+  return (h ^ v) * 0xBF58476D1CE4E5B9ull + 0x94D049BB133111EBull;
+}
+
+uint64_t mix(uint64_t h, double d) {
+  uint64_t bits;
+  std::memcpy(&bits, &d, sizeof bits);
+  return mix(h, bits);
+}
 
 uint64_t edgeKey(int a, int b) {
   if (a > b) std::swap(a, b);
@@ -118,6 +131,7 @@ class SeamOptimiser {
   double optimiseSide(int i, std::mt19937& rng);
   // The sides whose UVs side i's energy reads (its faces' corners and its seam edges' ends), itself included.
   std::vector<int> touchedSides(int i) const;
+  std::vector<uint64_t> sideKeys() const;  // per side: its SeamMemo key (before any move)
   void measure(const EdgeFigures& edges, double& deltaE, double& gradient, double& maxStretch) const;
 
   Vec2 uvOf(int face, int corner) const { return sides_[faceSide_[face][corner]].uv; }
@@ -425,6 +439,37 @@ double SeamOptimiser::optimiseSide(int i, std::mt19937& rng) {
   return start - e;
 }
 
+std::vector<uint64_t> SeamOptimiser::sideKeys() const {
+  const TextureMap& map = *in_.map;
+  std::vector<uint64_t> faceHash(mesh_.numFaces(), 0);
+  for (int f = 0; f < mesh_.numFaces(); ++f) {
+    if (map.facePhoto[f] < 0) continue;
+    uint64_t h = mix(0, uint64_t(map.facePhoto[f]));
+    const auto fv = mesh_.faceVertices(f);
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 p = mesh_.position(fv[k]);
+      h = mix(mix(mix(mix(mix(h, p.x()), p.y()), p.z()), map.cornerUV[f][k].x()), map.cornerUV[f][k].y());
+    }
+    faceHash[f] = h;
+  }
+  std::vector<uint64_t> keys(sides_.size());
+  std::vector<uint64_t> around;
+  for (size_t i = 0; i < sides_.size(); ++i) {
+    const Side& side = sides_[i];
+    around.clear();
+    for (const auto& [f, k] : side.corners) around.push_back(faceHash[f]);
+    for (int e : side.edges) around.push_back(faceHash[seams_[e].f]), around.push_back(faceHash[seams_[e].g]);
+    std::sort(around.begin(), around.end());
+    around.erase(std::unique(around.begin(), around.end()), around.end());
+    const Vec3 p = mesh_.position(side.vertex);
+    uint64_t h =
+        mix(mix(mix(mix(mix(mix(0, uint64_t(side.photo)), p.x()), p.y()), p.z()), side.start.x()), side.start.y());
+    for (uint64_t a : around) h = mix(h, a);
+    keys[i] = h;
+  }
+  return keys;
+}
+
 void SeamOptimiser::measure(const EdgeFigures& edges, double& deltaE, double& gradient, double& maxStretch) const {
   double de = 0, dg = 0;
   long n = 0;
@@ -455,10 +500,13 @@ SeamResult SeamOptimiser::run() {
   SeamResult out;
   buildSides();
   buildSeams();
+  out.setupSeconds = secondsSince(start);
+  auto t = Clock::now();
   for (Side& s : sides_)
     for (const auto& [f, k] : s.corners) s.startStretch = std::max(s.startStretch, faceStretch(f));
   const EdgeFigures before = measureEdges(true);
   measure(before, out.deltaEBefore, out.gradientBefore, out.maxStretchBefore);
+  out.measureSeconds = secondsSince(t);
   std::vector<int> seamSides, neighbours;
   std::vector<char> seamVertex(mesh_.numVertices(), 0);
   for (int i = 0; i < static_cast<int>(sides_.size()); ++i) {
@@ -477,8 +525,6 @@ SeamResult SeamOptimiser::run() {
   // Alternate the sides of each vertex (section 4.2): sort the seam sides by vertex.
   std::stable_sort(seamSides.begin(), seamSides.end(),
                    [&](int a, int b) { return sides_[a].vertex < sides_[b].vertex; });
-  std::vector<Vec2> initial(sides_.size());
-  for (size_t i = 0; i < sides_.size(); ++i) initial[i] = sides_[i].uv;
 
   // The order of one round: the seam sides (by vertex), then the gradient neighbours. Sides that read
   // none of each other's UVs are independent: a greedy colouring in that order gives batches that run in
@@ -519,7 +565,39 @@ SeamResult SeamOptimiser::run() {
     active[i] = n > 0 && de / n > kNoticeableDeltaE;
     out.sleepingSides += !active[i];
   }
-  double energy = totalEnergy(before.error);
+  // Warm start (SeamMemo): sides whose surroundings the last run saw take its UVs and start asleep; a
+  // face that would come out flipped or degenerate puts its sides back where they started.
+  const std::vector<uint64_t> keys = sideKeys();
+  if (in_.warm) {
+    std::vector<char> warm(sides_.size(), 0);
+    for (size_t i = 0; i < sides_.size(); ++i) {
+      if (sides_[i].fixed) continue;
+      const auto it = in_.warm->uv.find(keys[i]);
+      if (it == in_.warm->uv.end()) continue;
+      sides_[i].uv = it->second;
+      warm[i] = 1;
+    }
+    for (bool again = true; again;) {
+      again = false;
+      for (int f = 0; f < nf; ++f) {
+        if (faceSide_[f][0] < 0) continue;
+        const auto& fs = faceSide_[f];
+        if (!warm[fs[0]] && !warm[fs[1]] && !warm[fs[2]]) continue;
+        const double area = orient2(uvOf(f, 0), uvOf(f, 1), uvOf(f, 2));
+        if (area * faceSign_[f] > 0) continue;
+        for (int side : fs)
+          if (warm[side]) sides_[side].uv = sides_[side].start, warm[side] = 0, again = true;
+      }
+    }
+    for (size_t i = 0; i < sides_.size(); ++i)
+      if (warm[i]) {
+        out.sleepingSides += active[i];
+        active[i] = 0;
+        ++out.warmSides;
+      }
+  }
+  double energy = in_.warm ? totalEnergy() : totalEnergy(before.error);
+  t = Clock::now();
   for (int round = 0; round < options_.rounds && !order.empty(); ++round) {
     job_.progress(StageId::Seams, double(round) / options_.rounds, "round " + std::to_string(round + 1));
     std::vector<char> moved(sides_.size(), 0);
@@ -544,7 +622,14 @@ SeamResult SeamOptimiser::run() {
     energy = after;
     if (!falls || std::find(active.begin(), active.end(), 1) == active.end()) break;
   }
-  for (size_t i = 0; i < sides_.size(); ++i) out.movedSides += sides_[i].uv != initial[i];
+  for (const Side& side : sides_) out.movedSides += side.uv != side.start;
+  out.roundSeconds = secondsSince(t);
+  auto memo = std::make_shared<SeamMemo>();
+  memo->uv.reserve(sides_.size());
+  for (size_t i = 0; i < sides_.size(); ++i)
+    if (!sides_[i].fixed) memo->uv[keys[i]] = sides_[i].uv;
+  out.memo = memo;
+  t = Clock::now();
 
   out.map = map;
   for (int f = 0; f < nf; ++f)
@@ -560,6 +645,7 @@ SeamResult SeamOptimiser::run() {
   out.faceError.assign(nf, -1.f);
   for (int f = 0; f < nf; ++f)
     if (count[f] > 0) out.faceError[f] = float(sum[f] / count[f]);
+  out.measureSeconds += secondsSince(t);
   out.seconds = secondsSince(start);
   job_.progress(StageId::Seams, 1.0);
   return out;

@@ -20,6 +20,7 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "base/common.h"
@@ -40,6 +41,14 @@ struct SeamOptions {
   unsigned seed = 1;          // random directions: runs are repeatable
 };
 
+// A run's optimised sides, keyed by what a side's energy reads: its faces and the faces across its seam
+// edges (positions, photos, UVs before the optimisation). The editor's preview passes the last run's
+// (SeamInput::warm): a side found there takes its UV from it and starts asleep, so only the sides an
+// edit changed are optimised.
+struct SeamMemo {
+  std::unordered_map<uint64_t, Vec2> uv;
+};
+
 struct SeamInput {
   const Mesh* mesh = nullptr;       // the mesh the map is over (Partition::mesh)
   const TextureMap* map = nullptr;  // per face a photo and its corner UVs in pixels
@@ -51,6 +60,7 @@ struct SeamInput {
   std::vector<char> projectedPhotos;
   // Per photo (empty = computed here): its luvImage(), when the caller keeps one across runs.
   std::vector<std::shared_ptr<const cv::Mat>> luv;
+  const SeamMemo* warm = nullptr;  // may be null: see SeamMemo
 };
 
 struct SeamResult {
@@ -61,9 +71,13 @@ struct SeamResult {
   int sleepingSides = 0;  // sides left as they were: their seams matched below the noticeable difference at the start
   int movedSides = 0;     // vertex sides whose UV moved
   int rounds = 0;         // rounds run
+  int warmSides = 0;      // sides that took their UV from SeamInput::warm
+  std::shared_ptr<const SeamMemo> memo;              // this run's sides, for the next run's SeamInput::warm
   double deltaEBefore = 0, deltaEAfter = 0;          // mean Delta E*uv over all seam samples
   double gradientBefore = 0, gradientAfter = 0;      // mean |G'1 - G'2| (L*u*v* per pixel) over seam samples
   double maxStretchBefore = 0, maxStretchAfter = 0;  // L-infinity stretch over mapped faces, normalised per photo
+  double setupSeconds = 0, measureSeconds = 0, roundSeconds = 0;  // parts of `seconds`: sides and seam edges;
+                                                                  // the figures before and after; the rounds
   double seconds = 0;
 };
 

@@ -63,11 +63,6 @@ uint64_t mix(uint64_t h, double d) {
   return mix(h, bits);
 }
 
-uint64_t edgeKey(int a, int b) {
-  if (a > b) std::swap(a, b);
-  return (uint64_t(uint32_t(a)) << 32) | uint32_t(b);
-}
-
 // One side of a vertex: its corners that show one photo through one UV.
 struct Side {
   int vertex = -1, photo = -1;
@@ -210,17 +205,21 @@ void SeamOptimiser::buildSides() {
 
 void SeamOptimiser::buildSeams() {
   const TextureMap& map = *in_.map;
-  const int nf = mesh_.numFaces();
-  std::unordered_map<uint64_t, std::vector<std::pair<int, int>>> edgeFaces;  // edge -> (face, corner of its start)
-  edgeFaces.reserve(size_t(nf) * 2);
-  for (int f = 0; f < nf; ++f) {
-    const auto fv = mesh_.faceVertices(f);
-    for (int k = 0; k < 3; ++k) edgeFaces[edgeKey(fv[k], fv[(k + 1) % 3])].emplace_back(f, k);
-  }
-  for (const auto& [key, faces] : edgeFaces) {
-    if (faces.size() != 2) continue;
-    const auto [f, kf] = faces[0];
-    const auto [g, kg] = faces[1];
+  // Interior edges from the mesh's connectivity: face f holds the edge as corner kf -> kf + 1.
+  const TriMesh& tri = mesh_.tri;
+  auto cornerOf = [&](int face, int vertex) {
+    const auto fv = mesh_.faceVertices(face);
+    return fv[0] == vertex ? 0 : fv[1] == vertex ? 1 : 2;
+  };
+  for (auto eh : tri.edges()) {
+    if (tri.is_boundary(eh)) continue;
+    const auto h0 = tri.halfedge_handle(eh, 0), h1 = tri.halfedge_handle(eh, 1);
+    const int f0 = tri.face_handle(h0).idx(), f1 = tri.face_handle(h1).idx();
+    const bool first = f0 < f1;  // the lower face index is f (as before: faces in index order)
+    const auto hf = first ? h0 : h1;
+    const int f = first ? f0 : f1, g = first ? f1 : f0;
+    const int kf = cornerOf(f, tri.from_vertex_handle(hf).idx());
+    const int kg = cornerOf(g, tri.to_vertex_handle(hf).idx());
     if (map.facePhoto[f] < 0 || map.facePhoto[g] < 0) continue;
     // f runs a -> b from corner kf; g runs b -> a from corner kg (consistent orientation).
     SeamEdge e;

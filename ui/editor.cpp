@@ -202,6 +202,7 @@ void Editor::frame() {
   // its final state only, so the pipeline is not restarted at every mouse move.
   if (!doc_.project().mesh.empty() && doc_.revision() != submittedRevision_ && !doc_.inGroup()) {
     submittedGeneration_ = worker_->submit(doc_.snapshot());
+    cancelled_ = false;
     submittedRevision_ = doc_.revision();
     generationRevision_[submittedGeneration_] = submittedRevision_;
   }
@@ -255,11 +256,16 @@ void Editor::syncInputs() {
         }
         camera_.frame(input_.lo, input_.hi);
         frameWhenShown_ = true;  // again with the view's width and height, once it is laid out
+        if (!pendingRecent_.empty()) recent_.add(pendingRecent_);
       } catch (const Error& e) {
         input_.error = e.what();
-        reportError(e.what());
+        // A mesh the opened project names but that is missing is listed already (openFile).
+        const bool listed =
+            std::any_of(missing_.begin(), missing_.end(), [](const MissingFile& m) { return m.field == "mesh"; });
+        if (!listed) reportError(e.what());
       }
     }
+    pendingRecent_.clear();
   }
   photos_.resize(p.photos.size());
   for (size_t i = 0; i < p.photos.size(); ++i) {
@@ -289,7 +295,11 @@ void Editor::syncInputs() {
       slot.photo = photo;
     } catch (const Error& e) {
       slot.error = e.what();
-      reportError(e.what());
+      // A photo the opened project names but that is missing is listed already (openFile).
+      const std::string field = "photos[" + std::to_string(i) + "]";
+      const bool listed = std::any_of(missing_.begin(), missing_.end(),
+                                      [&](const MissingFile& m) { return m.field.rfind(field, 0) == 0; });
+      if (!listed) reportError(e.what());
     }
   }
 }
@@ -335,6 +345,7 @@ void Editor::pollWorker() {
     if (!outcome->result->scene || outcome->result->scene->project.mesh != doc_.project().mesh) return;
     result_ = outcome->result;
     resultPreview_ = outcome->preview;
+    progress_.record(outcome->tier, result_->stages);  // the next run's progress weights
     resultGeneration_ = outcome->generation;
     lastError_.clear();
     meshDirty_ = overlayDirty_ = linesDirty_ = true;
@@ -343,7 +354,20 @@ void Editor::pollWorker() {
   } else {
     lastError_ = outcome->error;
     lastErrorGeneration_ = outcome->generation;
-    reportError("pipeline: " + outcome->error);
+    // Each error once: the pipeline's failure to read a file the UI has already reported (a missing
+    // or broken mesh or photo, worded by another loader) is not listed again.
+    const Project& p = doc_.project();
+    std::vector<std::string> files = {p.mesh};
+    for (const PhotoRef& photo : p.photos) files.push_back(photo.path), files.push_back(photo.mask);
+    bool listed = false;
+    for (const std::string& f : files)
+      if (!f.empty() && outcome->error.find(f) != std::string::npos)
+        listed = listed || std::any_of(errors_.begin(), errors_.end(),
+                                       [&](const std::string& e) { return e.find(f) != std::string::npos; });
+    if (listed)
+      lastProblem_ = "pipeline: " + outcome->error;
+    else
+      reportError("pipeline: " + outcome->error);
   }
 }
 
@@ -403,6 +427,14 @@ void Editor::finishChain() {
   }
   if ((tool_ != Tool::Line && tool_ != Tool::Polygon) || chain_.empty()) return;
   FeatureChain chain{chainPhoto_, chain_, tool_ == Tool::Polygon};
+  const size_t needed = chain.closed ? 3 : 2;
+  if (chain_.size() < needed) {
+    // A slip, not an error: say what is missing where the tool is explained; the chain stays open.
+    hint(std::string(chain.closed ? "a polygon needs at least 3 points" : "a line needs at least 2 points") +
+         ": click " + std::to_string(needed - chain_.size()) + " more in photo " + std::to_string(chainPhoto_) +
+         ", or Escape to cancel");
+    return;
+  }
   if (edit([&] { doc_.addChain(chain); })) {
     setStatus(std::string(chain.closed ? "polygon" : "line") + " of " + std::to_string(chain.points.size()) +
               " points added");
@@ -427,18 +459,22 @@ void Editor::cancelInProgress() {
 
 bool Editor::button(const char* label, const ImVec2* size, const std::string& scriptName) {
   const bool pressed = ImGui::Button(label, size ? *size : ImVec2(0, 0));
+  std::string name = scriptName.empty() ? label : scriptName;
+  if (auto pos = name.find("##"); pos != std::string::npos) name = name.substr(0, pos);
+  scriptButton(name);
+  return pressed;
+}
+
+void Editor::scriptButton(const std::string& name) {
   // The part of the button on screen (a panel may clip it), so that a scripted click lands on it.
   const ImVec2 clipLo = ImGui::GetWindowDrawList()->GetClipRectMin(),
                clipHi = ImGui::GetWindowDrawList()->GetClipRectMax();
   const ImVec2 lo(std::max(ImGui::GetItemRectMin().x, clipLo.x), std::max(ImGui::GetItemRectMin().y, clipLo.y));
   const ImVec2 hi(std::min(ImGui::GetItemRectMax().x, clipHi.x), std::min(ImGui::GetItemRectMax().y, clipHi.y));
-  std::string name = scriptName.empty() ? label : scriptName;
-  if (auto pos = name.find("##"); pos != std::string::npos) name = name.substr(0, pos);
   if (hi.x > lo.x && hi.y > lo.y)
     buttonRects_[name] = Rect{lo.x, lo.y, hi.x - lo.x, hi.y - lo.y};
   else
     buttonRects_.erase(name);  // scrolled out of sight: a scripted click waits for it
-  return pressed;
 }
 
 }  // namespace montage

@@ -75,9 +75,7 @@ void Editor::photosPanel() {
   if (p.photos.empty()) {
     ImGui::TextWrapped(p.mesh.empty() ? "Open a project or a mesh first."
                                       : "No photos yet: add the photos of the object (File > Add photos folder).");
-    if (!p.mesh.empty() && button("Add photos folder..."))
-      dialogs_.request(DialogKind::OpenFolder, "Add every photo of a folder", {}, "add_photos",
-                       fs::path(p.mesh).parent_path().string());
+    if (!p.mesh.empty() && button("Add photos folder...")) requestAddPhotos(true);
     return;
   }
   ImGui::Checkbox("grid", &gridPanes_);

@@ -48,14 +48,9 @@ void Editor::photosTab() {
   const Project& p = doc_.project();
   const bool hasMesh = !p.mesh.empty();
   if (!hasMesh) ImGui::BeginDisabled();
-  if (button("Add photos..."))
-    dialogs_.request(DialogKind::OpenFiles, "Add photos (select several)",
-                     {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}}, "add_photos",
-                     fs::path(p.mesh).parent_path().string());
+  if (button("Add photos...")) requestAddPhotos(false);
   ImGui::SameLine();
-  if (button("Add folder..."))
-    dialogs_.request(DialogKind::OpenFolder, "Add every photo of a folder", {}, "add_photos",
-                     fs::path(p.mesh).parent_path().string());
+  if (button("Add folder...")) requestAddPhotos(true);
   if (!hasMesh) ImGui::EndDisabled();
   ImGui::SameLine();
   ImGui::TextDisabled("or drop files here");

@@ -56,6 +56,9 @@ const std::vector<ScriptVerb>& scriptVerbs() {
       {"export", 1, 1, "PATH", "export the current result (.obj or .glb)"},
       {"screenshot", 1, 1, "PNG", "save the window as a PNG after the next frame"},
       {"state", 1, 1, "JSON", "write the editor's state (document, selection, worker, layout) as JSON"},
+      {"menu", 1, 1, "MENU/ITEM",
+       "choose a menu item as a click would, e.g. File/Save, \"View/Photos in a grid\" (fails when it is disabled)"},
+      {"dialog_filter", 1, 1, "NAME", "choose the open file dialog's type filter by its name (e.g. Meshes)"},
       {"close", 0, 0, "", "close the window like its close button (asks when there are unsaved changes)"},
       {"quit", 0, 0, "", "exit now, cleanly, without asking (removes the autosave)"},
   };

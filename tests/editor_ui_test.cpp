@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "layout.h"
 #include "progress.h"
 #include "test_support.h"
 
@@ -265,4 +266,83 @@ TEST(EditorPhotos, KeyNShowsThePhotoWhoseTabSaysN) {
   // Tabs read "0: tiger_left.png", "1: tiger_right.png": key 1 shows photo 1, key 0 photo 0.
   EXPECT_EQ(read(dir, "one.json")["active_photo"], 1);
   EXPECT_EQ(read(dir, "zero.json")["active_photo"], 0);
+}
+
+TEST(EditorLayout, DefaultsKeepTheFormerLayoutAndSplittersStopAtMinimumSizes) {
+  montage::LayoutPrefs prefs;
+  const double top = 21, bottom = 29;
+  montage::PanelLayout l = montage::computeLayout(prefs, 1280, 800, top, bottom, 1);
+  EXPECT_EQ(l.tools.w, 307);  // 24% of 1280, as before the splitters
+  EXPECT_EQ(l.view.w, 486);
+  EXPECT_EQ(l.view.x + l.view.w, l.photos.x);
+  EXPECT_EQ(l.photos.x + l.photos.w, 1280);
+  // The view bar moves the boundary between the view and the photos by the drag.
+  ASSERT_TRUE(montage::dragSplitter(prefs, "view", 100, 0, 1280, 800, top, bottom, 1));
+  l = montage::computeLayout(prefs, 1280, 800, top, bottom, 1);
+  EXPECT_NEAR(l.view.w, 586, 1);
+  // The left bar resizes the column and the view; the photos keep their width.
+  const double photos = l.photos.w;
+  ASSERT_TRUE(montage::dragSplitter(prefs, "left", -50, 0, 1280, 800, top, bottom, 1));
+  l = montage::computeLayout(prefs, 1280, 800, top, bottom, 1);
+  EXPECT_NEAR(l.tools.w, 257, 1);
+  EXPECT_NEAR(l.view.w, 636, 1);
+  EXPECT_NEAR(l.photos.w, photos, 1);
+  // Dragged far away, every panel keeps a minimum size.
+  ASSERT_TRUE(montage::dragSplitter(prefs, "view", 5000, 0, 1280, 800, top, bottom, 1));
+  ASSERT_TRUE(montage::dragSplitter(prefs, "tools", 0, -5000, 1280, 800, top, bottom, 1));
+  l = montage::computeLayout(prefs, 1280, 800, top, bottom, 1);
+  EXPECT_GE(l.photos.w, 119);
+  EXPECT_GE(l.tools.h, 79);
+  EXPECT_FALSE(montage::dragSplitter(prefs, "middle", 1, 1, 1280, 800, top, bottom, 1));
+  // At scale 2 the default column is twice as wide (within its limits).
+  montage::LayoutPrefs fresh;
+  EXPECT_EQ(montage::computeLayout(fresh, 2560, 1600, 2 * top, 2 * bottom, 2).tools.w, 614);
+}
+
+TEST(EditorLayout, ASplitterDragResizesThe3DViewAndTheLayoutIsRemembered) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_layout");
+  std::string out;
+  const std::string script =
+      "state a.json\ndrag_splitter view 150 0\ndrag_splitter left -60 0\nmenu \"View/Photos in a grid\"\n"
+      "wait_frames 3\nstate b.json\nscreenshot b.png\nquit\n";
+  ASSERT_EQ(runEditor(dir, demoProject(), script, "1280x800", &out), 0) << out;
+  const json a = read(dir, "a.json")["layout"], b = read(dir, "b.json")["layout"];
+  const double aw = a["view3d"]["w"].get<double>(), bw = b["view3d"]["w"].get<double>();
+  EXPECT_NEAR(bw, aw + 150 + 60, 2) << "the 3D view did not follow the splitters";
+  EXPECT_NEAR(b["view3d"]["x"].get<double>(), a["view3d"]["x"].get<double>() - 60, 2);
+  EXPECT_NEAR(b["photos"]["w"].get<double>(), a["photos"]["w"].get<double>() - 150, 2);
+  // The next start (same state folder) has the same layout and the photo grid.
+  ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate c.json\nquit\n", "1280x800", &out), 0) << out;
+  const json c = read(dir, "c.json");
+  EXPECT_NEAR(c["layout"]["view3d"]["w"].get<double>(), bw, 1);
+  EXPECT_NEAR(c["layout"]["view3d"]["x"].get<double>(), b["view3d"]["x"].get<double>(), 1);
+  EXPECT_TRUE(c["grid"].get<bool>());
+}
+
+TEST(EditorLayout, ScaleTwoDoublesFontsAndSizesAt2560x1600) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_hidpi");
+  std::string out;
+  ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate s.json\nscreenshot s.png\nquit\n", "2560x1600", &out,
+                      "--scale 2"),
+            0)
+      << out;
+  const json s = read(dir, "s.json");
+  EXPECT_EQ(s["scale"].get<double>(), 2);
+  EXPECT_EQ(s["font_size"].get<double>(), 30);
+  // The left column at twice its width; the splitter bars twice as thick.
+  EXPECT_EQ(s["layout"]["view3d"]["x"].get<double>(), 614);
+  EXPECT_EQ(s["layout"]["splitters"]["view"]["w"].get<double>(), 12);
+  // The status bar is twice as tall and its parts still do not overlap.
+  std::vector<std::pair<double, double>> spans;
+  for (const auto& [part, r] : s["status_bar"].items()) {
+    EXPECT_GE(r["h"].get<double>(), 29) << part;
+    spans.emplace_back(r["x"].get<double>(), r["x"].get<double>() + r["w"].get<double>());
+  }
+  std::sort(spans.begin(), spans.end());
+  for (size_t i = 1; i < spans.size(); ++i) EXPECT_LE(spans[i - 1].second, spans[i].first);
+  // Without the flag, Xvfb's content scale is 1.
+  ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate one.json\nquit\n", "1280x800", &out), 0) << out;
+  EXPECT_EQ(read(dir, "one.json")["font_size"].get<double>(), 15);
 }

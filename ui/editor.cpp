@@ -37,6 +37,11 @@ double now() {
 
 Editor::Editor(EditorOptions options) : options_(std::move(options)) {
   autosaveClock_.setInterval(options_.autosaveSeconds);
+  layout_ = loadLayout();
+  savedLayout_ = layout_.toJson();
+  gridPanes_ = layout_.grid;
+  for (size_t i = 0; i < kMouseBindingNames.size(); ++i)
+    if (layout_.mouse == kMouseBindingNames[i]) bindings_ = MouseBindings(i);
   initWindow();
   worker_ = std::make_unique<PipelineWorker>();
   if (!options_.script.empty()) {
@@ -91,15 +96,10 @@ void Editor::initWindow() {
   ImGui::CreateContext();
   ImGuiIO& io = ImGui::GetIO();
   io.IniFilename = nullptr;  // the layout is computed; nothing to store in the working folder
-  ImGui::StyleColorsDark();
-  ImGuiStyle& style = ImGui::GetStyle();
-  style.WindowRounding = 0;
-  style.FrameRounding = 3;
-  style.WindowBorderSize = 1;
-  style.ItemSpacing = ImVec2(7, 5);
-  const char* font = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
-  std::error_code ec;
-  if (fs::exists(font, ec)) io.Fonts->AddFontFromFileTTF(font, 15.0f);
+  // HiDPI: fonts and sizes follow the monitor's content scale (or --scale), and its changes.
+  float xs = 1, ys = 1;
+  glfwGetWindowContentScale(window_, &xs, &ys);
+  applyScale(options_.scale > 0 ? static_cast<float>(options_.scale) : std::max({xs, ys, 1.0f}));
   ImGui_ImplGlfw_InitForOpenGL(window_, true);
   // Files dropped on the window: kept for the next frame's UI (the only place the document changes).
   // The ImGui backend uses neither the window's user pointer nor the drop callback.
@@ -107,6 +107,10 @@ void Editor::initWindow() {
   glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
     auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
     for (int i = 0; i < count; ++i) editor->dropped_.push_back(paths[i]);
+  });
+  glfwSetWindowContentScaleCallback(window_, [](GLFWwindow* window, float x, float y) {
+    auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
+    if (editor->options_.scale <= 0) editor->pendingScale_ = std::max(x, y);
   });
   ImGui_ImplOpenGL3_Init("#version 330 core");
   imguiReady_ = true;
@@ -121,6 +125,35 @@ void Editor::initWindow() {
   selectionVbo_ = std::make_unique<VertexBuffer>();
   cloneVbo_ = std::make_unique<VertexBuffer>();
   initOverlays();
+}
+
+void Editor::applyScale(float scale) {
+  scale_ = std::clamp(scale, 0.5f, 4.0f);
+  ImGuiIO& io = ImGui::GetIO();
+  const bool rebuild = io.Fonts->IsBuilt();
+  io.Fonts->Clear();
+  const char* font = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+  std::error_code ec;
+  if (fs::exists(font, ec)) {
+    io.Fonts->AddFontFromFileTTF(font, std::round(15.0f * scale_));
+  } else {
+    ImFontConfig config;
+    config.SizePixels = std::round(13.0f * scale_);
+    io.Fonts->AddFontDefault(&config);
+  }
+  ImGuiStyle& style = ImGui::GetStyle();
+  style = ImGuiStyle();
+  ImGui::StyleColorsDark();
+  style.WindowRounding = 0;
+  style.FrameRounding = 3;
+  style.WindowBorderSize = 1;
+  style.ItemSpacing = ImVec2(7, 5);
+  style.ScaleAllSizes(scale_);
+  if (rebuild) {
+    // A scale change after start-up: the font texture again.
+    ImGui_ImplOpenGL3_DestroyFontsTexture();
+    ImGui_ImplOpenGL3_CreateFontsTexture();
+  }
 }
 
 void Editor::shutdownWindow() {
@@ -177,6 +210,8 @@ void Editor::frame() {
     glfwSetWindowShouldClose(window_, GLFW_FALSE);
     requestClose();
   }
+  if (pendingScale_ > 0 && pendingScale_ != scale_) applyScale(pendingScale_);
+  pendingScale_ = 0;
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGuiIO& io = ImGui::GetIO();
@@ -463,6 +498,16 @@ bool Editor::button(const char* label, const ImVec2* size, const std::string& sc
   if (auto pos = name.find("##"); pos != std::string::npos) name = name.substr(0, pos);
   scriptButton(name);
   return pressed;
+}
+
+void Editor::sameLineIfFits(float width) {
+  const float right = ImGui::GetItemRectMax().x + ImGui::GetStyle().ItemSpacing.x + width;
+  if (right <= ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x) ImGui::SameLine();
+}
+
+float Editor::checkboxWidth(const char* label) {
+  const ImGuiStyle& style = ImGui::GetStyle();
+  return ImGui::GetFrameHeight() + style.ItemInnerSpacing.x + ImGui::CalcTextSize(label).x;
 }
 
 void Editor::scriptButton(const std::string& name) {

@@ -27,6 +27,7 @@
 #include "geometry/bvh.h"
 #include "image/cutout.h"
 #include "io/mesh_io.h"
+#include "layout.h"
 #include "navigation.h"
 #include "progress.h"
 #include "script.h"
@@ -146,6 +147,10 @@ class Editor {
 
   // Lifecycle and frame (editor.cpp).
   void initWindow();
+  void applyScale(float scale);  // fonts and style sizes for a UI scale (HiDPI)
+  // A splitter bar the user drags (layout.h): resizes the panels around it.
+  void splitter(const char* name, const LayoutRect& bar, bool vertical, float top, float bottom);
+  void rememberLayout();  // writes layout.json when the layout, grid choice or bindings changed
   void shutdownWindow();
   void frame();
   void buildUi();
@@ -180,6 +185,10 @@ class Editor {
   // ImGui::Button that scripts can click, by its label (without ##...) or by `scriptName` when given.
   bool button(const char* label, const ImVec2* size = nullptr, const std::string& scriptName = "");
   void scriptButton(const std::string& name);  // the last item is clickable by scripts as `name`
+  // Layout helpers that keep a row from clipping: SameLine when an item `width` pixels wide still fits the
+  // window's row, else a new row; the width of a checkbox with its label.
+  static void sameLineIfFits(float width);
+  static float checkboxWidth(const char* label);
 
   // Files (editor.cpp).
   bool openFile(const std::string& path);
@@ -321,7 +330,12 @@ class Editor {
   int exitStatus_ = 0;
   bool quit_ = false;
   long frameNumber_ = 0;
-  float scale_ = 1;  // UI scale: fonts and sizes (HiDPI); px() scales a size given for scale 1
+  float scale_ = 1;          // UI scale: fonts and sizes (HiDPI); px() scales a size given for scale 1
+  float pendingScale_ = 0;   // the monitor's content scale changed (GLFW callback): applied next frame
+  LayoutPrefs layout_;       // splitter positions, grid or tabs, mouse bindings (remembered)
+  std::string savedLayout_;  // layout_ as last written
+  bool splitterActive_ = false;
+  std::map<std::string, Rect> splitterRects_;  // last frame's splitter bars (scripts, state)
   float px(float v) const { return v * scale_; }
   double lastFrameSeconds_ = 0, frameMs_ = 0;
 

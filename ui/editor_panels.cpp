@@ -119,41 +119,44 @@ void Editor::buildUi() {
   const ImGuiIO& io = ImGui::GetIO();
   menuBar();
   const float top = ImGui::GetFrameHeight();
-  const float statusH = ImGui::GetFrameHeight() + 8;
+  const float statusH = ImGui::GetFrameHeight() + px(8);
   const float W = io.DisplaySize.x, H = io.DisplaySize.y;
-  const float leftW = std::clamp(std::floor(W * 0.24f), 280.0f, 400.0f);
-  const float mainH = H - top - statusH;
-  const float viewW = std::floor((W - leftW) * 0.5f);
   windowRect_ = Rect{0, 0, W, H};
+  // The panels where the splitters put them (layout.h).
+  const PanelLayout l = computeLayout(layout_, W, H, top, statusH, scale_);
+  auto place = [](const LayoutRect& r) {
+    ImGui::SetNextWindowPos(ImVec2(float(r.x), float(r.y)));
+    ImGui::SetNextWindowSize(ImVec2(float(r.w), float(r.h)));
+  };
 
   const ImGuiWindowFlags fixed = ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
                                  ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoBringToFrontOnFocus;
-  const float toolsH = std::floor(mainH * 0.42f);
-  ImGui::SetNextWindowPos(ImVec2(0, top));
-  ImGui::SetNextWindowSize(ImVec2(leftW, toolsH));
+  place(l.tools);
   if (ImGui::Begin("Tools", nullptr, fixed)) toolsPanel();
   ImGui::End();
-  ImGui::SetNextWindowPos(ImVec2(0, top + toolsH));
-  ImGui::SetNextWindowSize(ImVec2(leftW, mainH - toolsH));
+  place(l.document);
   if (ImGui::Begin("Document", nullptr, fixed)) listsPanel();
   ImGui::End();
 
-  ImGui::SetNextWindowPos(ImVec2(leftW, top));
-  ImGui::SetNextWindowSize(ImVec2(viewW, mainH));
+  place(l.view);
   ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
   if (ImGui::Begin("3D view", nullptr, fixed | ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse))
     view3d();
   ImGui::End();
   ImGui::PopStyleVar();
 
-  ImGui::SetNextWindowPos(ImVec2(leftW + viewW, top));
-  ImGui::SetNextWindowSize(ImVec2(W - leftW - viewW, mainH));
-  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(4, 4));
+  place(l.photos);
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(px(4), px(4)));
   if (ImGui::Begin("Photos", nullptr, fixed | ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse))
     photosPanel();
   ImGui::End();
   ImGui::PopStyleVar();
   hoverVertex_ = hoverVertexNext_;
+  splitterActive_ = false;
+  splitter("left", l.leftBar, true, top, statusH);
+  splitter("tools", l.toolsBar, false, top, statusH);
+  splitter("view", l.viewBar, true, top, statusH);
+  rememberLayout();
 
   statusBar(Rect{0, H - statusH, W, statusH});
   errorsWindow();
@@ -178,6 +181,44 @@ void Editor::buildUi() {
   }
   missingFilesWindow();
   shortcuts();
+}
+
+void Editor::splitter(const char* name, const LayoutRect& bar, bool vertical, float top, float bottom) {
+  ImGui::SetNextWindowPos(ImVec2(float(bar.x), float(bar.y)));
+  ImGui::SetNextWindowSize(ImVec2(float(bar.w), float(bar.h)));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowMinSize, ImVec2(1, 1));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowBorderSize, 0);
+  ImGui::Begin((std::string("##splitter_") + name).c_str(), nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoSavedSettings |
+                   ImGuiWindowFlags_NoBackground | ImGuiWindowFlags_NoFocusOnAppearing |
+                   ImGuiWindowFlags_NoScrollWithMouse);
+  ImGui::InvisibleButton("##bar", ImVec2(float(std::max(1.0, bar.w)), float(std::max(1.0, bar.h))));
+  const bool active = ImGui::IsItemActive(), hovered = ImGui::IsItemHovered();
+  const ImGuiIO& io = ImGui::GetIO();
+  if (active || hovered) {
+    ImGui::SetMouseCursor(vertical ? ImGuiMouseCursor_ResizeEW : ImGuiMouseCursor_ResizeNS);
+    const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
+    ImGui::GetWindowDrawList()->AddRectFilled(lo, hi,
+                                              active ? IM_COL32(255, 160, 60, 200) : IM_COL32(120, 160, 230, 150));
+  }
+  if (active && (io.MouseDelta.x != 0 || io.MouseDelta.y != 0))
+    dragSplitter(layout_, name, io.MouseDelta.x, io.MouseDelta.y, io.DisplaySize.x, io.DisplaySize.y, top, bottom,
+                 scale_);
+  splitterActive_ = splitterActive_ || active;
+  splitterRects_[name] = Rect{bar.x, bar.y, bar.w, bar.h};
+  ImGui::End();
+  ImGui::PopStyleVar(3);
+}
+
+void Editor::rememberLayout() {
+  layout_.grid = gridPanes_;
+  layout_.mouse = kMouseBindingNames[static_cast<int>(bindings_)];
+  if (splitterActive_ || benchOrbit_) return;  // written once the drag ends; benchmarks change nothing
+  const std::string now = layout_.toJson();
+  if (now == savedLayout_) return;
+  saveLayout(layout_);
+  savedLayout_ = now;
 }
 
 void Editor::menuBar() {
@@ -310,8 +351,12 @@ bool Editor::menuToggle(const char* label, const char* shortcut, bool* value, bo
 }
 
 void Editor::toolsPanel() {
+  // The tools in as many columns as fit the panel's width (nothing clips at any width or scale).
+  float column = 0;
+  for (const char* name : kToolNames) column = std::max(column, checkboxWidth(name) + ImGui::GetStyle().ItemSpacing.x);
+  const int columns = std::max(1, int(ImGui::GetContentRegionAvail().x / column));
   for (size_t i = 0; i < kToolNames.size(); ++i) {
-    if (i % 3 != 0) ImGui::SameLine(8 + 92.0f * (i % 3));
+    if (i % columns != 0) ImGui::SameLine(ImGui::GetStyle().WindowPadding.x + column * (i % columns));
     if (ImGui::RadioButton(kToolNames[i], tool_ == Tool(i)) && tool_ != Tool(i)) {
       cancelInProgress();
       tool_ = Tool(i);
@@ -425,7 +470,9 @@ bool Editor::listTab(const char* name) {
 }
 
 void Editor::listsPanel() {
-  if (!ImGui::BeginTabBar("##lists")) return;
+  // Tabs keep their whole names: when they do not fit, the bar scrolls (arrows) and lists them (menu).
+  if (!ImGui::BeginTabBar("##lists", ImGuiTabBarFlags_FittingPolicyScroll | ImGuiTabBarFlags_TabListPopupButton))
+    return;
   if (listTab("Points")) {
     featuresTab();
     ImGui::EndTabItem();
@@ -470,8 +517,8 @@ void Editor::featuresTab() {
   const ImGuiTableFlags flags = ImGuiTableFlags_RowBg | ImGuiTableFlags_ScrollY | ImGuiTableFlags_BordersInnerV;
   if (!ImGui::BeginTable("##points", 3, flags)) return;
   ImGui::TableSetupScrollFreeze(0, 1);
-  ImGui::TableSetupColumn("#", ImGuiTableColumnFlags_WidthFixed, 36);
-  ImGui::TableSetupColumn("vertex", ImGuiTableColumnFlags_WidthFixed, 60);
+  ImGui::TableSetupColumn("#", ImGuiTableColumnFlags_WidthFixed, ImGui::CalcTextSize("00000").x);
+  ImGui::TableSetupColumn("vertex", ImGuiTableColumnFlags_WidthFixed, ImGui::CalcTextSize("0000000").x);
   ImGui::TableSetupColumn("photos");
   ImGui::TableHeadersRow();
   ImGuiListClipper clipper;
@@ -775,8 +822,8 @@ void Editor::cancelRun() {
 void Editor::errorsWindow() {
   if (!showErrors_) return;
   const ImVec2 display = ImGui::GetIO().DisplaySize;
-  ImGui::SetNextWindowSize(ImVec2(std::min(640.f, display.x * 0.6f), 240), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y - 60), ImGuiCond_FirstUseEver, ImVec2(0.5f, 1.0f));
+  ImGui::SetNextWindowSize(ImVec2(std::min(px(640), display.x * 0.6f), px(240)), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y - px(60)), ImGuiCond_FirstUseEver, ImVec2(0.5f, 1.0f));
   if (ImGui::Begin("Errors", &showErrors_, ImGuiWindowFlags_NoSavedSettings)) {
     if (button("Clear")) errors_.clear(), lastError_.clear();
     ImGui::Separator();
@@ -791,15 +838,18 @@ void Editor::errorsWindow() {
 
 void Editor::helpWindow() {
   if (!showHelp_) return;
-  ImGui::SetNextWindowSize(ImVec2(620, 560), ImGuiCond_FirstUseEver);
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowSize(ImVec2(std::min(px(620), display.x * 0.9f), std::min(px(560), display.y * 0.85f)),
+                           ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y * 0.5f), ImGuiCond_FirstUseEver, ImVec2(0.5f, 0.5f));
   if (ImGui::Begin("Help: shortcuts and mouse", &showHelp_, ImGuiWindowFlags_NoSavedSettings)) {
     if (ImGui::BeginTable("##keys", 2, ImGuiTableFlags_RowBg | ImGuiTableFlags_BordersInnerV)) {
-      ImGui::TableSetupColumn("keys", ImGuiTableColumnFlags_WidthFixed, 250);
-      ImGui::TableSetupColumn("action");
+      ImGui::TableSetupColumn("keys", ImGuiTableColumnFlags_WidthStretch, 0.4f);
+      ImGui::TableSetupColumn("action", ImGuiTableColumnFlags_WidthStretch, 0.6f);
       for (const Shortcut& s : editorShortcuts()) {
         ImGui::TableNextRow();
         ImGui::TableNextColumn();
-        ImGui::TextUnformatted(s.keys);
+        ImGui::TextWrapped("%s", s.keys);
         ImGui::TableNextColumn();
         ImGui::TextWrapped("%s", s.action);
       }

@@ -78,19 +78,19 @@ void Editor::photosPanel() {
     if (!p.mesh.empty() && button("Add photos folder...")) requestAddPhotos(true);
     return;
   }
+  // The toolbar wraps onto a second line when the pane is narrow (nothing clips).
   ImGui::Checkbox("grid", &gridPanes_);
-  ImGui::SameLine();
+  sameLineIfFits(ImGui::CalcTextSize("Fit").x + ImGui::GetStyle().FramePadding.x * 2);
   if (button("Fit")) {
     for (auto& slot : photos_) slot.tabView.fitted = slot.gridView.fitted = false;
   }
-  ImGui::SameLine();
-  ImGui::Checkbox("mask", &showMask_);
-  ImGui::SameLine();
-  ImGui::Checkbox("curves", &showCurves_);
-  ImGui::SameLine();
-  ImGui::Checkbox("rejected", &showRejected_);
-  ImGui::SameLine();
-  ImGui::Checkbox("ids", &showPaneIds_);
+  for (auto [label, value] : {std::pair<const char*, bool*>{"mask", &showMask_},
+                              {"curves", &showCurves_},
+                              {"rejected", &showRejected_},
+                              {"ids", &showPaneIds_}}) {
+    sameLineIfFits(checkboxWidth(label));
+    ImGui::Checkbox(label, value);
+  }
   cameraToolbar();
 
   if (gridPanes_) {
@@ -143,12 +143,16 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   draw->PushClipRect(lo, hi, true);
   draw->AddRectFilled(lo, hi, IM_COL32(28, 29, 32, 255));
   if (!slot.photo) {
-    draw->AddText(ImVec2(lo.x + 10, lo.y + 10), IM_COL32(255, 120, 110, 255),
-                  slot.error.empty() ? "loading..." : slot.error.c_str());
+    // The error wraps within the pane; the buttons follow it.
+    const char* text = slot.error.empty() ? "loading..." : slot.error.c_str();
+    const float wrap = std::max(40.0f, float(r.w) - px(20));
+    draw->AddText(ImGui::GetFont(), ImGui::GetFontSize(), ImVec2(lo.x + px(10), lo.y + px(10)),
+                  IM_COL32(255, 120, 110, 255), text, nullptr, wrap);
+    const float textH = ImGui::CalcTextSize(text, nullptr, false, wrap).y;
     draw->PopClipRect();
     if (!slot.error.empty()) {
       // A photo that cannot load: the others still texture; offer to point it at its file again.
-      ImGui::SetCursorScreenPos(ImVec2(lo.x + 10, lo.y + 34));
+      ImGui::SetCursorScreenPos(ImVec2(lo.x + px(10), lo.y + px(16) + textH));
       ImGui::PushID(i);
       if (button("Relink...", nullptr, "relink photo " + std::to_string(i) + " (pane)"))
         dialogs_.request(DialogKind::OpenFile, "Relink photo " + std::to_string(i),
@@ -182,7 +186,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
 
   // Partition curves (accepted pairs), rejected pairs and feature markers: a vertex buffer in photo
   // coordinates drawn by a GL callback (editor_overlays.cpp), rebuilt only when they change.
-  const int hover = hovered ? hitPosition(i, view, mouse.x(), mouse.y(), 8) : -1;
+  const int hover = hovered ? hitPosition(i, view, mouse.x(), mouse.y(), px(8)) : -1;
   drawPaneOverlay(i, view, hover);
   if (resultUsable() && result_->mapping && showRejected_) {
     const Partition& part = result_->mapping->partition;
@@ -261,13 +265,13 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     if (s.x < lo.x - 20 || s.y < lo.y - 20 || s.x > hi.x + 20 || s.y > hi.y + 20) continue;
     const bool selected = static_cast<int>(k) == selectedPoint_;
     const bool hot = static_cast<int>(k) == hover || (hoverVertex_ >= 0 && p.points[k].vertex == hoverVertex_);
-    if (selected) draw->AddCircle(s, 8.5f, IM_COL32(255, 140, 30, 255), 0, 2.5f);
-    if (hot) draw->AddCircle(s, 7.0f, IM_COL32(255, 255, 255, 220), 0, 2.0f);
+    if (selected) draw->AddCircle(s, px(8.5f), IM_COL32(255, 140, 30, 255), 0, px(2.5f));
+    if (hot) draw->AddCircle(s, px(7.0f), IM_COL32(255, 255, 255, 220), 0, px(2.0f));
     if (showPaneIds_ || selected || hot) {
       const std::string id = std::to_string(k);
       const ImVec2 size = ImGui::CalcTextSize(id.c_str());
       LabelCandidate l;
-      l.lo = Vec2(s.x + 5, s.y - 16);
+      l.lo = Vec2(s.x + px(5), s.y - px(16));
       l.size = Vec2(size.x + 1, size.y);
       l.always = selected || hot;
       labels.push_back(l);

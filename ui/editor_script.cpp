@@ -470,6 +470,12 @@ void Editor::runAction(const ScriptAction& a) {
   } else if (a.verb == "dialog_filter") {
     TM_CHECK(dialogs_.active(), where + ": no file dialog is open");
     TM_CHECK(dialogs_.chooseFilter(a.text(0)), where + ": the dialog has no filter '" + a.text(0) + "'");
+  } else if (a.verb == "drag_splitter") {
+    // Press on the bar's centre, move by (DX, DY), release: as a user drags it.
+    const std::string bar = a.text(0);
+    TM_CHECK(splitterRects_.count(bar), where + ": no splitter '" + bar + "' (left, tools, view)");
+    const Rect r = splitterRects_.at(bar);
+    queueDrag(r.x + r.w / 2, r.y + r.h / 2, r.x + r.w / 2 + a.number(1), r.y + r.h / 2 + a.number(2), 0);
   } else if (a.verb == "close") {
     requestClose();
   } else if (a.verb == "quit") {
@@ -583,6 +589,7 @@ void Editor::writeState(const std::string& path) const {
     state["balance"] = transforms;
   }
   state["layout"] = {{"window", rect(windowRect_)}, {"view3d", rect(viewRect_)}, {"photos", rect(paneRect_)}};
+  for (const auto& [name, r] : splitterRects_) state["layout"]["splitters"][name] = rect(r);
   state["coverage"] = coverageState();
   state["autosave"] = {{"path", autosavePath()}, {"written_revision", autosavedRevision_}};
   // Navigation: the camera, the hover, the surface point under the pointer and the mesh's extent

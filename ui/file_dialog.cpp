@@ -266,7 +266,8 @@ void FileDialogs::drawBrowser() {
   }
   if (!error_.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error_.c_str());
   const char* ok = kind_ == DialogKind::SaveFile ? "Save" : kind_ == DialogKind::OpenFolder ? "Choose folder" : "Open";
-  if (ImGui::Button(ok, ImVec2(120, 0)) || (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Enter)) && !done_)) {
+  if (ImGui::Button(ok, ImVec2(ImGui::GetFontSize() * 8, 0)) ||
+      (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Enter)) && !done_)) {
     if (kind_ == DialogKind::OpenFolder) {
       chosen_ = dir_;
       done_ = true;
@@ -287,7 +288,8 @@ void FileDialogs::drawBrowser() {
     }
   }
   ImGui::SameLine();
-  if (ImGui::Button("Cancel", ImVec2(120, 0)) || ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape))) {
+  if (ImGui::Button("Cancel", ImVec2(ImGui::GetFontSize() * 8, 0)) ||
+      ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape))) {
     chosen_.reset();
     done_ = true;
   }

@@ -59,6 +59,8 @@ const std::vector<ScriptVerb>& scriptVerbs() {
       {"menu", 1, 1, "MENU/ITEM",
        "choose a menu item as a click would, e.g. File/Save, \"View/Photos in a grid\" (fails when it is disabled)"},
       {"dialog_filter", 1, 1, "NAME", "choose the open file dialog's type filter by its name (e.g. Meshes)"},
+      {"drag_splitter", 3, 3, "left|tools|view DX DY",
+       "drag a splitter bar by (DX, DY) pixels: left column | 3D view, Tools / Document, 3D view | photos"},
       {"close", 0, 0, "", "close the window like its close button (asks when there are unsaved changes)"},
       {"quit", 0, 0, "", "exit now, cleanly, without asking (removes the autosave)"},
   };

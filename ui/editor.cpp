@@ -438,7 +438,7 @@ void Editor::selectVertex(int vertex) {
 
 void Editor::deleteSelection() {
   if (selectedPoint_ < 0) {
-    setStatus("nothing selected to delete");
+    hint("nothing selected to delete");
     return;
   }
   const auto& at = doc_.project().points[selectedPoint_].at;

@@ -335,9 +335,9 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
           pressX_ = mouse.x();
           pressY_ = mouse.y();
         } else if (selectedVertex_ < 0) {
-          setStatus("pick a vertex in the 3D view first (left click on the mesh), then click here");
+          hint("pick a vertex in the 3D view first (left click on the mesh), then click here");
         } else if (!inside) {
-          setStatus("that is outside the photo");
+          hint("that is outside the photo");
         } else {
           // Placing and the drag that may follow are one undo step.
           doc_.beginGroup("Place vertex " + std::to_string(selectedVertex_) + " in photo " + std::to_string(i));
@@ -360,8 +360,10 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
         if (index < 0 && selectedVertex_ >= 0 && inside)
           edit([&] { index = doc_.setPosition(selectedVertex_, i, mousePhoto.x(), mousePhoto.y()); });
         if (index < 0) {
-          setStatus(selectedVertex_ < 0 ? "click a point of this photo, or pick a vertex in the 3D view first"
-                                        : "that is outside the photo");
+          // (A refused placement has said why already.)
+          if (selectedVertex_ < 0 || !inside)
+            hint(selectedVertex_ < 0 ? "click a point of this photo, or pick a vertex in the 3D view first"
+                                     : "that is outside the photo");
           break;
         }
         if (chainPhoto_ != i) {
@@ -373,7 +375,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
         if (tool_ == Tool::Polygon && chain_.size() >= 3 && index == chain_.front()) {
           finishChain();
         } else if (std::find(chain_.begin(), chain_.end(), index) != chain_.end()) {
-          setStatus("point " + std::to_string(index) + " is already in the chain");
+          hint("point " + std::to_string(index) + " is already in the chain");
         } else {
           chain_.push_back(index);
         }
@@ -381,7 +383,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
       }
       case Tool::Clone:
         if (clonePolygonClosed_) {
-          setStatus("clone: paint the target region on the mesh, or Cancel to draw another polygon");
+          hint("clone: paint the target region on the mesh, or Cancel to draw another polygon");
         } else {
           if (clonePhoto_ != i) {
             clonePolygon_.clear();
@@ -397,7 +399,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
         }
         break;
       case Tool::Stroke:
-        setStatus("the stroke tool draws on the mesh: left-drag in the 3D view");
+        hint("the stroke tool draws on the mesh: left-drag in the 3D view");
         break;
       case Tool::Cutout:  // cutoutCanvas handles it
         break;

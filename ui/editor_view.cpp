@@ -169,7 +169,7 @@ void Editor::view3dInput(const Rect& r) {
       const Stroke stroke{stroke_};
       if (edit([&] { doc_.addStroke(stroke); })) setStatus("stroke of " + std::to_string(stroke_.size()) + " vertices");
     } else if (!stroke_.empty()) {
-      setStatus("stroke: drag across the surface to draw one");
+      hint("stroke: drag across the surface to draw one");
     }
     stroke_.clear();
     linesDirty_ = true;

@@ -110,7 +110,8 @@ void Editor::cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, co
     Vec2 d = kResidualScale * view.zoom * (fit->reprojected[i] - fit->clicks[i].pixel);
     if (d.norm() > kMaxResidualScreen) d *= kMaxResidualScreen / d.norm();
     const bool outlier = !fit->inlier[i];
-    draw->AddLine(im(s), im(s + d), outlier ? IM_COL32(255, 60, 50, 255) : IM_COL32(255, 235, 60, 230), 2.0f);
+    // Orange, so that a residual never reads as one of the partition's (yellow) curves.
+    draw->AddLine(im(s), im(s + d), outlier ? IM_COL32(255, 60, 50, 255) : IM_COL32(255, 150, 40, 240), px(2.5f));
     if (outlier) {
       draw->AddCircle(im(s), px(9.0f), IM_COL32(255, 60, 50, 255), 0, px(2.0f));
       draw->AddLine(im(s + Vec2(-6, -6)), im(s + Vec2(6, 6)), IM_COL32(255, 60, 50, 255), 2.0f);

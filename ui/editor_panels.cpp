@@ -622,6 +622,9 @@ void Editor::pipelineTab() {
     static_assert(sizeof(float) == 4);
     PipelineOptions o = doc_.project().options;
     bool commit = false;
+    // The fields leave room for their labels (nothing clips in a narrow column).
+    const float labels = ImGui::CalcTextSize("seam gradient weight").x + ImGui::GetStyle().ItemInnerSpacing.x;
+    ImGui::PushItemWidth(std::max(px(60), ImGui::GetContentRegionAvail().x - labels));
     float threshold = static_cast<float>(o.backgroundThresholdPx);
     ImGui::SliderFloat("background px", &threshold, 0, 20, "%.1f");
     if (ImGui::IsItemDeactivatedAfterEdit()) o.backgroundThresholdPx = threshold, commit = true;
@@ -644,6 +647,7 @@ void Editor::pipelineTab() {
     int mode = static_cast<int>(o.inpaintMode);
     if (ImGui::Combo("inpainting", &mode, kInpaintModeNames.data(), static_cast<int>(kInpaintModeNames.size())))
       o.inpaintMode = InpaintMode(mode), commit = true;
+    ImGui::PopItemWidth();
     if (commit) edit([&] { doc_.setOptions(o); });
   }
   if (!result_) {

@@ -392,11 +392,14 @@ void Editor::toolsPanel() {
           "erases). 3. Apply.");
       ImGui::Text("polygon: %zu point(s)%s, target: %zu face(s)", clonePolygon_.size(),
                   clonePolygonClosed_ ? " (closed)" : "", cloneFaces_.size());
+      ImGui::PushItemWidth(std::max(px(60), ImGui::GetContentRegionAvail().x - ImGui::CalcTextSize("px / unit").x -
+                                                ImGui::GetStyle().ItemInnerSpacing.x));
       ImGui::SliderFloat("brush", &cloneBrush_, 0.01f, 0.3f, "%.2f x size");
       float rot = static_cast<float>(cloneRotationDeg_), ppu = static_cast<float>(clonePixelsPerUnit_);
       if (ImGui::SliderFloat("rotation", &rot, -180, 180, "%.0f deg")) cloneRotationDeg_ = rot, cloneDirty_ = true;
       if (ImGui::InputFloat("px / unit", &ppu, 0, 0, "%.1f"))
         clonePixelsPerUnit_ = std::max(0.f, ppu), cloneDirty_ = true;
+      ImGui::PopItemWidth();
       ImGui::TextDisabled("px / unit 0 fits the polygon to the region");
       const bool ready = clonePolygonClosed_ && !cloneFaces_.empty();
       if (!ready) ImGui::BeginDisabled();
@@ -732,20 +735,21 @@ void Editor::statusBar(const Rect& r) {
   const double t = now();
   std::string message;
   ImVec4 colour = ImGui::GetStyle().Colors[ImGuiCol_Text];
+  bool isError = false;
   double newest = -1;
   if (!status_.empty() && t - statusTime_ < 8) message = status_, newest = statusTime_;
   if (!hint_.empty() && t - hintTime_ < 8 && hintTime_ >= newest)
     message = hint_, newest = hintTime_, colour = kHintColor;
   if (!errors_.empty() && t - errorTime_ < 8 && errorTime_ >= newest)
-    message = errors_.back(), newest = errorTime_, colour = kErrorColor;
-  if (message.empty() && !lastError_.empty()) message = "pipeline: " + lastError_, colour = kErrorColor;
+    message = errors_.back(), newest = errorTime_, colour = kErrorColor, isError = true;
+  if (message.empty() && !lastError_.empty()) message = "pipeline: " + lastError_, colour = kErrorColor, isError = true;
   const float room = rightX - gap - x;
   if (!message.empty() && room > ImGui::CalcTextSize("a...").x) {
     ImGui::SameLine(x);
     const std::string shown = elide(message, room);
     ImGui::TextColored(colour, "%s", shown.c_str());
     if (ImGui::IsItemHovered() && shown != message) ImGui::SetTooltip("%s", wrapped(message).c_str());
-    if (ImGui::IsItemClicked() && colour.x == kErrorColor.x && colour.y == kErrorColor.y) showErrors_ = true;
+    if (ImGui::IsItemClicked() && isError) showErrors_ = true;
     statusParts_["message"] = itemRect();
   }
 

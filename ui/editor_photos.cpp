@@ -218,8 +218,12 @@ void Editor::cutoutPanel() {
     if (m % 3) ImGui::SameLine();
     if (ImGui::RadioButton(labels[m], mode == m)) cutoutMode_ = CutoutMode(m);
   }
+  ImGui::PushItemWidth(std::max(
+      ImGui::GetFontSize() * 4,
+      ImGui::GetContentRegionAvail().x - ImGui::CalcTextSize("feather").x - ImGui::GetStyle().ItemInnerSpacing.x));
   ImGui::SliderFloat("radius", &cutoutRadius_, 1, 60, "%.0f px");
   ImGui::SliderFloat("feather", &cutoutFeather_, 0, 20, "%.1f px");
+  ImGui::PopItemWidth();
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("soft edge of the mask written: alpha ramps up over this width");
   if (cutout_.cut && std::abs(cutout_.cut->options().featherPx - cutoutFeather_) > 1e-6 && !cutout_.job.valid()) {
     cutout_.cut->setFeather(cutoutFeather_);

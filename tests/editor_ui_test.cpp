@@ -318,6 +318,12 @@ TEST(EditorLayout, ASplitterDragResizesThe3DViewAndTheLayoutIsRemembered) {
   EXPECT_NEAR(c["layout"]["view3d"]["w"].get<double>(), bw, 1);
   EXPECT_NEAR(c["layout"]["view3d"]["x"].get<double>(), b["view3d"]["x"].get<double>(), 1);
   EXPECT_TRUE(c["grid"].get<bool>());
+  // View > Reset layout: the splitters where they start.
+  ASSERT_EQ(runEditor(dir, demoProject(), "menu \"View/Reset layout\"\nwait_frames 3\nstate d.json\nquit\n", "1280x800",
+                      &out),
+            0)
+      << out;
+  EXPECT_EQ(read(dir, "d.json")["layout"]["view3d"]["w"].get<double>(), aw);
 }
 
 TEST(EditorLayout, ScaleTwoDoublesFontsAndSizesAt2560x1600) {

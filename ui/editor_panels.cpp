@@ -278,6 +278,11 @@ void Editor::menuBar() {
     }
     menuSeparator();
     menuToggle("Photos in a grid", nullptr, &gridPanes_);
+    if (menuItem("Reset layout")) {
+      // The splitters back where they start; the grid choice and the bindings stay.
+      const LayoutPrefs defaults;
+      layout_.left = defaults.left, layout_.tools = defaults.tools, layout_.view = defaults.view;
+    }
     menuToggle("Background mask", nullptr, &showMask_);
     menuToggle("Partition curves", nullptr, &showCurves_);
     menuToggle("Rejected pairs", nullptr, &showRejected_);

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -24,13 +25,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-bool haveXvfb() {
-  return montage::test::runCommand("command -v xvfb-run >/dev/null 2>&1") == 0;
-}
-
-#define TM_REQUIRE_XVFB() \
-  if (!haveXvfb()) GTEST_SKIP() << "xvfb-run is absent (package xvfb): the editor tests need a virtual display"
 
 std::string demoProject() {
   return montage::test::assetsDir() + "/demo/project.json";
@@ -49,6 +43,20 @@ int runEditor(const std::string& dir, const std::string& file, const std::string
 
 json read(const std::string& dir, const std::string& name) {
   return montage::test::readJson(dir + "/" + name);
+}
+
+// The status bar's parts (state "status_bar") lie within [0, width] and do not overlap.
+void expectDisjoint(const json& parts, double width, const std::string& what) {
+  std::vector<std::pair<double, double>> spans;
+  for (const auto& [part, r] : parts.items()) {
+    const double x0 = r["x"].get<double>(), x1 = x0 + r["w"].get<double>();
+    EXPECT_GE(x0, 0) << what << " " << part;
+    EXPECT_LE(x1, width) << what << " " << part;
+    spans.emplace_back(x0, x1);
+  }
+  std::sort(spans.begin(), spans.end());
+  for (size_t i = 1; i < spans.size(); ++i)
+    EXPECT_LE(spans[i - 1].second, spans[i].first) << what << ": status bar parts overlap: " << parts.dump();
 }
 
 }  // namespace
@@ -100,17 +108,9 @@ TEST(EditorStatusBar, PartsNeverOverlapAt800x600WithALongMessage) {
     const json s = read(dir, name);
     const json& parts = s["status_bar"];
     ASSERT_TRUE(parts.contains("run") && parts.contains("right")) << name << ": " << parts.dump();
-    std::vector<std::pair<double, double>> spans;
-    for (const auto& [part, r] : parts.items()) {
-      const double x0 = r["x"].get<double>(), x1 = x0 + r["w"].get<double>();
-      EXPECT_GE(x0, 0) << name << " " << part;
-      EXPECT_LE(x1, 800) << name << " " << part;
+    expectDisjoint(parts, 800, name);
+    for (const auto& [part, r] : parts.items())
       EXPECT_GE(r["y"].get<double>(), 560) << name << " " << part << ": not in the status bar";
-      spans.emplace_back(x0, x1);
-    }
-    std::sort(spans.begin(), spans.end());
-    for (size_t i = 1; i < spans.size(); ++i)
-      EXPECT_LE(spans[i - 1].second, spans[i].first) << name << ": status bar parts overlap: " << parts.dump();
   }
   const json s = read(dir, "s.json");
   ASSERT_TRUE(s["status_bar"].contains("message")) << s["status_bar"].dump();
@@ -156,14 +156,7 @@ TEST(EditorHints, AOnePointLineIsAnInlineHintNotAnError) {
 TEST(EditorErrors, AMissingPhotoIsListedOnce) {
   TM_REQUIRE_XVFB();
   const std::string dir = montage::test::tempDir("editor_missing");
-  json project = montage::test::readJson(demoProject());
-  const fs::path demo = fs::path(montage::test::assetsDir()) / "demo";
-  project["mesh"] = (demo / project["mesh"].get<std::string>()).string();
-  for (auto& photo : project["photos"]) {
-    photo["path"] = (demo / photo["path"].get<std::string>()).string();
-    if (photo.contains("mask") && photo["mask"].is_string() && !photo["mask"].get<std::string>().empty())
-      photo["mask"] = (demo / photo["mask"].get<std::string>()).string();
-  }
+  json project = montage::test::demoProjectAbsolute();
   project["photos"][1]["path"] = dir + "/moved_away.png";
   std::ofstream(dir + "/project.json") << project.dump(1);
   std::string out;
@@ -180,24 +173,38 @@ TEST(EditorErrors, AMissingPhotoIsListedOnce) {
 TEST(EditorProgress, CancelStopsTheRunAndRunResumesIt) {
   TM_REQUIRE_XVFB();
   const std::string dir = montage::test::tempDir("editor_cancel");
-  const std::string script =
-      "wait_worker\nset_option stretchSearches 24\nwait_busy\nstate busy.json\nclick_button \"Cancel run\"\n"
-      "wait_frames 5\nstate cancelled.json\nclick_button Run\nwait_worker\nstate done.json\nquit\n";
+  // A synthetic turtle whose final bake takes seconds (structure inpainting): long enough for the click to
+  // land while it runs, whatever the machine's load.
   std::string out;
-  ASSERT_EQ(runEditor(dir, demoProject(), script, "1280x800", &out), 0) << out;
+  ASSERT_EQ(
+      montage::test::runCommand(montage::test::montageExe() + " synth --mesh " + montage::test::testDataDir() +
+                                    "/turtle.obj --views 3 --features 60 --size 256 --out '" + dir + "/scene' 2>&1",
+                                &out),
+      0)
+      << out;
+  const std::string script =
+      "wait_result 600\nwait_busy 60\nstate busy.json\n"
+      "click_button \"Cancel run\"\nwait_idle 60\nstate cancelled.json\nclick_button Run\nwait_worker 600\n"
+      "state done.json\nquit\n";
+  ASSERT_EQ(runEditor(dir, dir + "/scene/project.json", script, "1280x800", &out), 0) << out;
   const json busy = read(dir, "busy.json"), cancelled = read(dir, "cancelled.json"), done = read(dir, "done.json");
-  // The second run's progress comes from the first run's measured stage times.
+  // The first final bake (weighted by typical shares: no final run has been measured yet).
   ASSERT_TRUE(busy.contains("progress")) << busy.dump();
-  EXPECT_TRUE(busy["progress"]["measured"].get<bool>());
-  EXPECT_GE(busy["progress"]["seconds_left"].get<double>(), 0);
+  EXPECT_EQ(busy["progress"]["tier"], "final");
+  EXPECT_FALSE(busy["progress"]["measured"].get<bool>());
   EXPECT_FALSE(cancelled["worker"]["busy"].get<bool>());
   EXPECT_TRUE(cancelled["cancelled"].get<bool>());
-  // Nothing came back from the cancelled run: the result is still the first run's.
-  EXPECT_EQ(cancelled["worker"]["result_generation"], busy["worker"]["result_generation"]);
-  EXPECT_FALSE(cancelled["result"]["matches_document"].get<bool>());
+  std::printf("cancel: the final bake stopped %.2f s after the click (%s)\n", cancelled["cancel_seconds"].get<double>(),
+              busy["progress"]["stage"].get<std::string>().c_str());
+  EXPECT_GE(cancelled["cancel_seconds"].get<double>(), 0);
+  // Nothing came back from the cancelled bake: the view keeps the document's preview.
+  EXPECT_EQ(cancelled["result"]["tier"], "preview");
+  EXPECT_TRUE(cancelled["result"]["matches_document"].get<bool>());
+  EXPECT_EQ(cancelled["worker"]["outcome_generations"], busy["worker"]["outcome_generations"]);
+  // Run computes the document again, to its final bake.
   EXPECT_FALSE(done["cancelled"].get<bool>());
+  EXPECT_EQ(done["result"]["tier"], "final");
   EXPECT_TRUE(done["result"]["matches_document"].get<bool>());
-  EXPECT_EQ(done["result"]["project"]["options"]["stretchSearches"], 24);
 }
 
 TEST(EditorFiles, DialogStartsInTheProjectFolderAndFiltersByType) {
@@ -341,13 +348,8 @@ TEST(EditorLayout, ScaleTwoDoublesFontsAndSizesAt2560x1600) {
   EXPECT_EQ(s["layout"]["view3d"]["x"].get<double>(), 614);
   EXPECT_EQ(s["layout"]["splitters"]["view"]["w"].get<double>(), 12);
   // The status bar is twice as tall and its parts still do not overlap.
-  std::vector<std::pair<double, double>> spans;
-  for (const auto& [part, r] : s["status_bar"].items()) {
-    EXPECT_GE(r["h"].get<double>(), 29) << part;
-    spans.emplace_back(r["x"].get<double>(), r["x"].get<double>() + r["w"].get<double>());
-  }
-  std::sort(spans.begin(), spans.end());
-  for (size_t i = 1; i < spans.size(); ++i) EXPECT_LE(spans[i - 1].second, spans[i].first);
+  expectDisjoint(s["status_bar"], 2560, "scale 2");
+  for (const auto& [part, r] : s["status_bar"].items()) EXPECT_GE(r["h"].get<double>(), 29) << part;
   // Without the flag, Xvfb's content scale is 1.
   ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate one.json\nquit\n", "1280x800", &out), 0) << out;
   EXPECT_EQ(read(dir, "one.json")["font_size"].get<double>(), 15);

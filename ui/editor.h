@@ -366,11 +366,12 @@ class Editor {
   double statusTime_ = 0;
   std::string hint_;  // the last slip (Tools panel and status bar)
   double hintTime_ = 0;
-  std::string lastProblem_;                  // the last error or hint (scripts name it when an action fails)
-  RunProgress progress_;                     // stage weights from the last runs (status bar)
-  bool cancelled_ = false;                   // the user cancelled the run of the current document
-  std::map<std::string, Rect> statusParts_;  // status bar parts as drawn last frame (state: never overlap)
-  double errorTime_ = 0;                     // when the newest error was listed
+  std::string lastProblem_;                    // the last error or hint (scripts name it when an action fails)
+  RunProgress progress_;                       // stage weights from the last runs (status bar)
+  bool cancelled_ = false;                     // the user cancelled the run of the current document
+  double cancelAt_ = -1, cancelSeconds_ = -1;  // when Cancel was pressed; how long the job took to stop
+  std::map<std::string, Rect> statusParts_;    // status bar parts as drawn last frame (state: never overlap)
+  double errorTime_ = 0;                       // when the newest error was listed
 
   InputMesh input_;
   std::vector<PhotoSlot> photos_;

@@ -767,6 +767,10 @@ void Editor::statusBar(const Rect& r) {
 
 void Editor::runControls() {
   const WorkerStatus ws = worker_->status();
+  if (!ws.busy && cancelAt_ >= 0) {
+    cancelSeconds_ = now() - cancelAt_;  // the job stopped at its next progress point
+    cancelAt_ = -1;
+  }
   if (ws.busy) {
     // Weighted by the stages' seconds in the last run of this tier (typical shares before the first).
     const double done = progress_.overall(ws.tier, ws.stage, ws.fraction);
@@ -829,6 +833,8 @@ void Editor::runControls() {
 void Editor::cancelRun() {
   worker_->cancel();
   cancelled_ = true;
+  cancelAt_ = now();
+  cancelSeconds_ = -1;
   setStatus("run cancelled: the view keeps the last result; Run computes the current document");
 }
 

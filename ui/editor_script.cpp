@@ -207,6 +207,12 @@ void Editor::runAction(const ScriptAction& a) {
       const WorkerStatus s = worker_->status();
       return s.busy && s.generation == submittedGeneration_;
     });
+  } else if (a.verb == "wait_idle") {
+    waitFor(where + " (the worker is still running)", a.args.empty() ? 60 : timeout, [this] {
+      if (worker_->status().busy) return false;
+      if (cancelAt_ >= 0) cancelSeconds_ = now() - cancelAt_, cancelAt_ = -1;  // how long a Cancel took
+      return true;
+    });
   } else if (a.verb == "wait_autosave") {
     waitFor(where + " (no autosave was written)", a.args.empty() ? 300 : timeout,
             [this] { return autosavedRevision_ == doc_.revision(); });
@@ -525,6 +531,7 @@ void Editor::writeState(const std::string& path) const {
       perPhoto = count;
     }
     state["result"] = {{"matches_document", resultCurrent()},
+                       {"tier", kTierNames[int(result_->tier)]},
                        {"faces_per_photo", perPhoto},
                        {"project", json::parse(projectToJson(result_->scene->document(), ""))},
                        {"faces", result_->model ? result_->model->mesh.numFaces() : 0},
@@ -538,6 +545,7 @@ void Editor::writeState(const std::string& path) const {
   state["hint"] = hint_;
   state["recent"] = recent_.files();
   state["cancelled"] = cancelled_;
+  state["cancel_seconds"] = cancelSeconds_;
   state["scale"] = scale_;
   state["active_photo"] = activePhoto_;
   state["grid"] = gridPanes_;

@@ -18,6 +18,8 @@ const std::vector<ScriptVerb>& scriptVerbs() {
       {"wait_result", 0, 1, "[SECONDS]",
        "wait until the first result (the preview) of the current document is shown (default timeout 300 s)"},
       {"wait_busy", 0, 1, "[SECONDS]", "wait until the worker is running a job (default timeout 60 s)"},
+      {"wait_idle", 0, 1, "[SECONDS]",
+       "wait until the worker runs nothing (after a Cancel: the job has stopped); default timeout 60 s"},
       {"wait_autosave", 0, 1, "[SECONDS]", "wait until the current document has been autosaved"},
       {"sleep", 1, 1, "SECONDS", "keep rendering frames for SECONDS of wall time"},
       {"tool", 1, 1, "point|line|polygon|stroke|clone|cutout", "choose a tool (same as the Tools panel)"},

@@ -19,7 +19,7 @@ struct OrbitCamera {
   double distance = 1;
   double yawDeg = 30, pitchDeg = 20;
   double fovYDeg = 35;
-  double sceneRadius = 1;           // radius of the mesh's bounding sphere: sets near/far planes and pan speed
+  double sceneRadius = 1;  // radius of the mesh's bounding sphere: sets near/far planes and pan speed
   Vec3 sceneCenter = Vec3::Zero();  // centre of that sphere (near/far planes hold it wherever the target is)
 
   // Fits a bounding box in view (key F).

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -350,6 +351,25 @@ TEST(EditorLayout, ScaleTwoDoublesFontsAndSizesAt2560x1600) {
   // The status bar is twice as tall and its parts still do not overlap.
   expectDisjoint(s["status_bar"], 2560, "scale 2");
   for (const auto& [part, r] : s["status_bar"].items()) EXPECT_GE(r["h"].get<double>(), 29) << part;
+  // The Document panel's seven tabs, whole and side by side within the column, at scale 2 and at 800x600.
+  auto tabsFit = [](const json& state, const std::string& what) {
+    const json& tabs = state["tabs"];
+    ASSERT_EQ(tabs.size(), 7u) << what << ": " << tabs.dump();
+    const double column = state["layout"]["view3d"]["x"].get<double>();
+    std::vector<std::array<double, 4>> boxes;
+    for (const auto& [name, r] : tabs.items()) {
+      const double x = r["x"].get<double>(), y = r["y"].get<double>(), w = r["w"].get<double>(),
+                   h = r["h"].get<double>();
+      EXPECT_LE(x + w, column) << what << ": tab " << name << " runs past the column";
+      EXPECT_GE(h, state["font_size"].get<double>()) << what << ": tab " << name << " clipped";
+      for (const auto& b : boxes)
+        EXPECT_TRUE(x + w <= b[0] || b[0] + b[2] <= x || y + h <= b[1] || b[1] + b[3] <= y) << what << ": tabs overlap";
+      boxes.push_back({x, y, w, h});
+    }
+  };
+  tabsFit(s, "scale 2");
+  ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate small.json\nquit\n", "800x600", &out), 0) << out;
+  tabsFit(read(dir, "small.json"), "800x600");
   // Without the flag, Xvfb's content scale is 1.
   ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate one.json\nquit\n", "1280x800", &out), 0) << out;
   EXPECT_EQ(read(dir, "one.json")["font_size"].get<double>(), 15);

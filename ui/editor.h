@@ -167,7 +167,6 @@ class Editor {
   void cancelRun();
   void toolsPanel();
   void listsPanel();
-  bool listTab(const char* name);  // ImGui::BeginTabItem that the script's `tab` verb can select
   void featuresTab();
   void chainsTab();
   void strokesClonesTab();
@@ -433,12 +432,14 @@ class Editor {
 
   // Coverage.
   std::shared_ptr<const CoverageReport> coverage_;
-  const void* coverageFor_ = nullptr;  // the result coverage_ describes
-  int coverageRegion_ = -1;            // the highlighted region
-  bool showExpectedRejected_ = false;  // list rejected pairs around no empty region too
-  std::string requestedTab_;           // lists-panel tab to select next frame (script `tab`)
-  std::string requestedMenu_;          // menu item to activate next frame (script `menu`), "File/Save"
-  std::string menuFailed_;             // a requested item that was not found or disabled
+  const void* coverageFor_ = nullptr;     // the result coverage_ describes
+  int coverageRegion_ = -1;               // the highlighted region
+  bool showExpectedRejected_ = false;     // list rejected pairs around no empty region too
+  std::string requestedTab_;              // lists-panel tab to select next frame (script `tab`)
+  int listsTab_ = 0;                      // the Document panel's tab shown (Points ... Coverage)
+  std::map<std::string, Rect> tabRects_;  // its tab buttons, last frame, unclipped
+  std::string requestedMenu_;             // menu item to activate next frame (script `menu`), "File/Save"
+  std::string menuFailed_;                // a requested item that was not found or disabled
   struct MenuLevel {
     std::string path;
     bool open = false;  // ImGui drew it (else only a script's request walks through it)

@@ -468,48 +468,57 @@ void Editor::toolsPanel() {
   }
 }
 
-// A tab of the lists panel; the script's `tab` verb selects one by name (case-insensitive).
-bool Editor::listTab(const char* name) {
-  std::string lower = name;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
-  const bool select = requestedTab_ == lower;
-  if (select) requestedTab_.clear();
-  return ImGui::BeginTabItem(name, nullptr, select ? ImGuiTabItemFlags_SetSelected : 0);
-}
-
+// The Document panel's tabs: a row of tab buttons that wraps onto a second row when the panel is narrow,
+// so every name shows whole at any width and scale (ImGui's tab bar truncates or scrolls them). The
+// script's `tab` verb selects one by name (case-insensitive).
 void Editor::listsPanel() {
-  // Tabs keep their whole names: when they do not fit, the bar scrolls (arrows) and lists them (menu).
-  if (!ImGui::BeginTabBar("##lists", ImGuiTabBarFlags_FittingPolicyScroll | ImGuiTabBarFlags_TabListPopupButton))
-    return;
-  if (listTab("Points")) {
-    featuresTab();
-    ImGui::EndTabItem();
+  static constexpr std::array<const char*, 7> kTabs = {"Points",  "Chains",   "Photos",  "Strokes",
+                                                       "History", "Pipeline", "Coverage"};
+  if (!requestedTab_.empty()) {
+    for (size_t i = 0; i < kTabs.size(); ++i) {
+      std::string lower = kTabs[i];
+      std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+      if (lower == requestedTab_) listsTab_ = static_cast<int>(i);
+    }
+    requestedTab_.clear();
   }
-  if (listTab("Chains")) {
-    chainsTab();
-    ImGui::EndTabItem();
+  const ImGuiStyle& style = ImGui::GetStyle();
+  ImGui::PushStyleVar(ImGuiStyleVar_ItemSpacing, ImVec2(px(2), px(2)));
+  for (size_t i = 0; i < kTabs.size(); ++i) {
+    if (i > 0) sameLineIfFits(ImGui::CalcTextSize(kTabs[i]).x + style.FramePadding.x * 2);
+    const bool shown = listsTab_ == static_cast<int>(i);
+    ImGui::PushStyleColor(ImGuiCol_Button, style.Colors[shown ? ImGuiCol_TabActive : ImGuiCol_TabUnfocused]);
+    ImGui::PushStyleColor(ImGuiCol_ButtonHovered, style.Colors[ImGuiCol_TabHovered]);
+    ImGui::PushStyleColor(ImGuiCol_ButtonActive, style.Colors[ImGuiCol_TabActive]);
+    if (button(kTabs[i], nullptr, std::string("tab ") + kTabs[i])) listsTab_ = static_cast<int>(i);
+    tabRects_[kTabs[i]] = itemRect();  // whole, unclipped (state: the tabs fit the column)
+    ImGui::PopStyleColor(3);
   }
-  if (listTab("Photos")) {
-    photosTab();
-    ImGui::EndTabItem();
+  ImGui::PopStyleVar();
+  ImGui::Separator();
+  switch (listsTab_) {
+    case 0:
+      featuresTab();
+      break;
+    case 1:
+      chainsTab();
+      break;
+    case 2:
+      photosTab();
+      break;
+    case 3:
+      strokesClonesTab();
+      break;
+    case 4:
+      historyTab();
+      break;
+    case 5:
+      pipelineTab();
+      break;
+    default:
+      coverageTab();
+      break;
   }
-  if (listTab("Strokes")) {
-    strokesClonesTab();
-    ImGui::EndTabItem();
-  }
-  if (listTab("History")) {
-    historyTab();
-    ImGui::EndTabItem();
-  }
-  if (listTab("Pipeline")) {
-    pipelineTab();
-    ImGui::EndTabItem();
-  }
-  if (listTab("Coverage")) {
-    coverageTab();
-    ImGui::EndTabItem();
-  }
-  ImGui::EndTabBar();
 }
 
 void Editor::featuresTab() {

@@ -548,6 +548,10 @@ void Editor::writeState(const std::string& path) const {
   state["cancel_seconds"] = cancelSeconds_;
   state["scale"] = scale_;
   state["active_photo"] = activePhoto_;
+  state["tab"] = listsTab_;
+  json tabs = json::object();  // the Document panel's tab buttons, whole (not clipped to the panel)
+  for (const auto& [name, r] : tabRects_) tabs[name] = rect(r);
+  state["tabs"] = tabs;
   state["grid"] = gridPanes_;
   if (ws.busy) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - ws.started).count();

@@ -791,6 +791,10 @@ void Editor::runControls() {
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip("%s%s %.0f%% %s", ws.tier == Tier::Final ? "final: " : "preview: ", stageName(ws.stage),
                         100 * ws.fraction, ws.what.c_str());
+    // Cancel right after the bar: it stays in place while the stage and time texts change width.
+    ImGui::SameLine();
+    if (ImGui::SmallButton("Cancel##run")) cancelRun();
+    scriptButton("Cancel run");
     ImGui::SameLine();
     ImGui::Text("%s%s", ws.tier == Tier::Final ? "final: " : "", stageName(ws.stage));
     if (left >= 0) {
@@ -802,9 +806,6 @@ void Editor::runControls() {
         std::snprintf(text, sizeof(text), "about %.0f min left", std::ceil(left / 60));
       ImGui::TextDisabled("%s", text);
     }
-    ImGui::SameLine();
-    if (ImGui::SmallButton("Cancel##run")) cancelRun();
-    scriptButton("Cancel run");
     return;
   }
   if (doc_.project().mesh.empty()) {

@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
   app.add_option("--bench-frames", options.benchFrames, "benchmark: frames to measure (default 240)")
       ->check(CLI::Range(10, 100000));
   app.add_flag("--no-vsync", noVsync, "do not wait for the display's refresh");
+  app.add_option("--scale", options.scale, "UI scale for fonts and sizes (HiDPI; default: the monitor's content scale)")
+      ->check(CLI::Range(0.5, 4.0));
   CLI11_PARSE(app, argc, argv);
   try {
     int w = 0, h = 0;

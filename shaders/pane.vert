@@ -9,13 +9,14 @@ uniform float uZoom;        // screen pixels per photo pixel
 uniform vec2 uDisplayPos;   // ImGui display rectangle (screen pixels)
 uniform vec2 uDisplaySize;
 uniform bool uPoints;
+uniform float uScale;      // UI scale (HiDPI): marker diameters
 out vec4 vColor;
 out float vDash;
 void main() {
   vec2 s = uOrigin + uZoom * aPhoto;
   vec2 ndc = 2.0 * (s - uDisplayPos) / uDisplaySize - 1.0;
   gl_Position = vec4(ndc.x, -ndc.y, 0.0, 1.0);
-  gl_PointSize = uPoints ? aExtra : 1.0;
+  gl_PointSize = uPoints ? aExtra * uScale : 1.0;
   vColor = aColor;
   vDash = uPoints || aExtra < 0.0 ? -1.0 : aExtra * uZoom;
 }

@@ -19,8 +19,7 @@ using nlohmann::json;
 namespace {}  // namespace
 
 TEST(EditorCoverage, TheTabListsTheRegionsAndFlyToCentresOne) {
-  if (montage::test::runCommand("command -v xvfb-run >/dev/null 2>&1") != 0)
-    GTEST_SKIP() << "xvfb-run is absent (package xvfb): the editor tests need a virtual display";
+  TM_REQUIRE_XVFB();
   const std::string dir = montage::test::tempDir("editor_coverage");
   std::string out;
   ASSERT_EQ(
@@ -84,17 +83,9 @@ TEST(EditorCoverage, TheTabListsTheRegionsAndFlyToCentresOne) {
 
 // A photo that does not decode is reported by the UI's own load and again by the worker's: listed once.
 TEST(EditorErrors, ALoadErrorIsListedOnce) {
-  if (montage::test::runCommand("command -v xvfb-run >/dev/null 2>&1") != 0)
-    GTEST_SKIP() << "xvfb-run is absent (package xvfb): the editor tests need a virtual display";
+  TM_REQUIRE_XVFB();
   const std::string dir = montage::test::tempDir("editor_errors");
-  json project = montage::test::readJson(montage::test::assetsDir() + "/demo/project.json");
-  const fs::path demo = fs::path(montage::test::assetsDir()) / "demo";
-  project["mesh"] = (demo / project["mesh"].get<std::string>()).string();
-  for (auto& photo : project["photos"]) {
-    photo["path"] = (demo / photo["path"].get<std::string>()).string();
-    if (photo.contains("mask") && photo["mask"].is_string() && !photo["mask"].get<std::string>().empty())
-      photo["mask"] = (demo / photo["mask"].get<std::string>()).string();
-  }
+  json project = montage::test::demoProjectAbsolute();
   project["photos"][0]["path"] = dir + "/broken.png";
   std::ofstream(dir + "/broken.png") << "not a png";
   std::ofstream(dir + "/project.json") << project.dump(1);

@@ -18,13 +18,6 @@ using nlohmann::json;
 
 namespace {
 
-bool haveXvfb() {
-  return montage::test::runCommand("command -v xvfb-run >/dev/null 2>&1") == 0;
-}
-
-#define TM_REQUIRE_XVFB() \
-  if (!haveXvfb()) GTEST_SKIP() << "xvfb-run is absent (package xvfb): the editor tests need a virtual display"
-
 std::string tempDir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("tm_nav_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);

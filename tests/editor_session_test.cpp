@@ -26,13 +26,6 @@ using nlohmann::json;
 
 namespace {
 
-bool haveXvfb() {
-  return test::runCommand("command -v xvfb-run >/dev/null 2>&1") == 0;
-}
-
-#define TM_REQUIRE_XVFB() \
-  if (!haveXvfb()) GTEST_SKIP() << "xvfb-run is absent (package xvfb): the editor tests need a virtual display"
-
 std::string demoProject() {
   return test::assetsDir() + "/demo/project.json";
 }

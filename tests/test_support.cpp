@@ -83,6 +83,22 @@ int runCommand(const std::string& command, std::string* output) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+bool haveXvfb() {
+  return runCommand("command -v xvfb-run >/dev/null 2>&1") == 0;
+}
+
+nlohmann::json demoProjectAbsolute() {
+  nlohmann::json project = readJson(assetsDir() + "/demo/project.json");
+  const std::string demo = assetsDir() + "/demo/";
+  project["mesh"] = demo + project["mesh"].get<std::string>();
+  for (auto& photo : project["photos"]) {
+    photo["path"] = demo + photo["path"].get<std::string>();
+    if (photo.contains("mask") && photo["mask"].is_string() && !photo["mask"].get<std::string>().empty())
+      photo["mask"] = demo + photo["mask"].get<std::string>();
+  }
+  return project;
+}
+
 nlohmann::json readJson(const std::string& path) {
   std::ifstream in(path);
   EXPECT_TRUE(in) << "missing " << path;

@@ -31,6 +31,15 @@ std::string montageExe();
 nlohmann::json readJson(const std::string& path);
 // Runs a shell command, returns its exit status; output goes to `output` when given.
 int runCommand(const std::string& command, std::string* output = nullptr);
+// True when xvfb-run is installed (the editor tests run the editor on a virtual display).
+bool haveXvfb();
+// The bundled demo project with absolute paths, to be written anywhere (editor tests edit copies).
+nlohmann::json demoProjectAbsolute();
+
+// Skips an editor test, with the reason, when there is no xvfb-run.
+#define TM_REQUIRE_XVFB()           \
+  if (!::montage::test::haveXvfb()) \
+  GTEST_SKIP() << "xvfb-run is absent (package xvfb): the editor tests need a virtual display"
 
 // Test failures (labelled `what`) unless a and b map the same faces to the same photos with corner UVs
 // within 1e-9 px: the incremental-equals-from-scratch invariant.

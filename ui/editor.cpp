@@ -37,6 +37,11 @@ double now() {
 
 Editor::Editor(EditorOptions options) : options_(std::move(options)) {
   autosaveClock_.setInterval(options_.autosaveSeconds);
+  layout_ = loadLayout();
+  savedLayout_ = layout_.toJson();
+  gridPanes_ = layout_.grid;
+  for (size_t i = 0; i < kMouseBindingNames.size(); ++i)
+    if (layout_.mouse == kMouseBindingNames[i]) bindings_ = MouseBindings(i);
   initWindow();
   worker_ = std::make_unique<PipelineWorker>([] { glfwPostEmptyEvent(); });  // a result wakes the event loop
   if (!options_.script.empty()) {
@@ -91,15 +96,10 @@ void Editor::initWindow() {
   ImGui::CreateContext();
   ImGuiIO& io = ImGui::GetIO();
   io.IniFilename = nullptr;  // the layout is computed; nothing to store in the working folder
-  ImGui::StyleColorsDark();
-  ImGuiStyle& style = ImGui::GetStyle();
-  style.WindowRounding = 0;
-  style.FrameRounding = 3;
-  style.WindowBorderSize = 1;
-  style.ItemSpacing = ImVec2(7, 5);
-  const char* font = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
-  std::error_code ec;
-  if (fs::exists(font, ec)) io.Fonts->AddFontFromFileTTF(font, 15.0f);
+  // HiDPI: fonts and sizes follow the monitor's content scale (or --scale), and its changes.
+  float xs = 1, ys = 1;
+  glfwGetWindowContentScale(window_, &xs, &ys);
+  applyScale(options_.scale > 0 ? static_cast<float>(options_.scale) : std::max({xs, ys, 1.0f}));
   ImGui_ImplGlfw_InitForOpenGL(window_, true);
   // Files dropped on the window: kept for the next frame's UI (the only place the document changes).
   // The ImGui backend uses neither the window's user pointer nor the drop callback.
@@ -107,6 +107,10 @@ void Editor::initWindow() {
   glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
     auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
     for (int i = 0; i < count; ++i) editor->dropped_.push_back(paths[i]);
+  });
+  glfwSetWindowContentScaleCallback(window_, [](GLFWwindow* window, float x, float y) {
+    auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
+    if (editor->options_.scale <= 0) editor->pendingScale_ = std::max(x, y);
   });
   ImGui_ImplOpenGL3_Init("#version 330 core");
   imguiReady_ = true;
@@ -121,6 +125,35 @@ void Editor::initWindow() {
   selectionVbo_ = std::make_unique<VertexBuffer>();
   cloneVbo_ = std::make_unique<VertexBuffer>();
   initOverlays();
+}
+
+void Editor::applyScale(float scale) {
+  scale_ = std::clamp(scale, 0.5f, 4.0f);
+  ImGuiIO& io = ImGui::GetIO();
+  const bool rebuild = io.Fonts->IsBuilt();
+  io.Fonts->Clear();
+  const char* font = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+  std::error_code ec;
+  if (fs::exists(font, ec)) {
+    io.Fonts->AddFontFromFileTTF(font, std::round(15.0f * scale_));
+  } else {
+    ImFontConfig config;
+    config.SizePixels = std::round(13.0f * scale_);
+    io.Fonts->AddFontDefault(&config);
+  }
+  ImGuiStyle& style = ImGui::GetStyle();
+  style = ImGuiStyle();
+  ImGui::StyleColorsDark();
+  style.WindowRounding = 0;
+  style.FrameRounding = 3;
+  style.WindowBorderSize = 1;
+  style.ItemSpacing = ImVec2(7, 5);
+  style.ScaleAllSizes(scale_);
+  if (rebuild) {
+    // A scale change after start-up: the font texture again.
+    ImGui_ImplOpenGL3_DestroyFontsTexture();
+    ImGui_ImplOpenGL3_CreateFontsTexture();
+  }
 }
 
 void Editor::shutdownWindow() {
@@ -181,6 +214,8 @@ void Editor::frame() {
     glfwSetWindowShouldClose(window_, GLFW_FALSE);
     requestClose();
   }
+  if (pendingScale_ > 0 && pendingScale_ != scale_) applyScale(pendingScale_);
+  pendingScale_ = 0;
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGuiIO& io = ImGui::GetIO();
@@ -208,6 +243,7 @@ void Editor::frame() {
     submittedGeneration_ = worker_->submit(doc_.snapshot());
     submittedAt_[submittedGeneration_] = std::chrono::steady_clock::now();
     while (submittedAt_.size() > 64) submittedAt_.erase(submittedAt_.begin());
+    cancelled_ = false;
     submittedRevision_ = doc_.revision();
     generationRevision_[submittedGeneration_] = submittedRevision_;
   }
@@ -268,11 +304,16 @@ void Editor::syncInputs() {
         }
         camera_.frame(input_.lo, input_.hi);
         frameWhenShown_ = true;  // again with the view's width and height, once it is laid out
+        if (!pendingRecent_.empty()) recent_.add(pendingRecent_);
       } catch (const Error& e) {
         input_.error = e.what();
-        reportError(e.what());
+        // A mesh the opened project names but that is missing is listed already (openFile).
+        const bool listed =
+            std::any_of(missing_.begin(), missing_.end(), [](const MissingFile& m) { return m.field == "mesh"; });
+        if (!listed) reportError(e.what());
       }
     }
+    pendingRecent_.clear();
   }
   photos_.resize(p.photos.size());
   for (size_t i = 0; i < p.photos.size(); ++i) {
@@ -302,7 +343,11 @@ void Editor::syncInputs() {
       slot.photo = photo;
     } catch (const Error& e) {
       slot.error = e.what();
-      reportError(e.what());
+      // A photo the opened project names but that is missing is listed already (openFile).
+      const std::string field = "photos[" + std::to_string(i) + "]";
+      const bool listed = std::any_of(missing_.begin(), missing_.end(),
+                                      [&](const MissingFile& m) { return m.field.rfind(field, 0) == 0; });
+      if (!listed) reportError(e.what());
     }
   }
 }
@@ -348,6 +393,7 @@ void Editor::pollWorker() {
     if (!outcome->result->scene || outcome->result->scene->project.mesh != doc_.project().mesh) return;
     result_ = outcome->result;
     resultPreview_ = outcome->preview;
+    progress_.record(outcome->tier, result_->stages);  // the next run's progress weights
     resultGeneration_ = outcome->generation;
     shownGeneration_ = outcome->generation;
     lastError_.clear();
@@ -357,7 +403,20 @@ void Editor::pollWorker() {
   } else {
     lastError_ = outcome->error;
     lastErrorGeneration_ = outcome->generation;
-    reportError("pipeline: " + outcome->error);
+    // Each error once: the pipeline's failure to read a file the UI has already reported (a missing
+    // or broken mesh or photo, worded by another loader) is not listed again.
+    const Project& p = doc_.project();
+    std::vector<std::string> files = {p.mesh};
+    for (const PhotoRef& photo : p.photos) files.push_back(photo.path), files.push_back(photo.mask);
+    bool listed = false;
+    for (const std::string& f : files)
+      if (!f.empty() && outcome->error.find(f) != std::string::npos)
+        listed = listed || std::any_of(errors_.begin(), errors_.end(),
+                                       [&](const std::string& e) { return e.find(f) != std::string::npos; });
+    if (listed)
+      lastProblem_ = "pipeline: " + outcome->error;
+    else
+      reportError("pipeline: " + outcome->error);
   }
 }
 
@@ -393,7 +452,7 @@ void Editor::selectVertex(int vertex) {
 
 void Editor::deleteSelection() {
   if (selectedPoint_ < 0) {
-    setStatus("nothing selected to delete");
+    hint("nothing selected to delete");
     return;
   }
   const auto& at = doc_.project().points[selectedPoint_].at;
@@ -417,6 +476,14 @@ void Editor::finishChain() {
   }
   if ((tool_ != Tool::Line && tool_ != Tool::Polygon) || chain_.empty()) return;
   FeatureChain chain{chainPhoto_, chain_, tool_ == Tool::Polygon};
+  const size_t needed = chain.closed ? 3 : 2;
+  if (chain_.size() < needed) {
+    // A slip, not an error: say what is missing where the tool is explained; the chain stays open.
+    hint(std::string(chain.closed ? "a polygon needs at least 3 points" : "a line needs at least 2 points") +
+         ": click " + std::to_string(needed - chain_.size()) + " more in photo " + std::to_string(chainPhoto_) +
+         ", or Escape to cancel");
+    return;
+  }
   if (edit([&] { doc_.addChain(chain); })) {
     setStatus(std::string(chain.closed ? "polygon" : "line") + " of " + std::to_string(chain.points.size()) +
               " points added");
@@ -441,18 +508,32 @@ void Editor::cancelInProgress() {
 
 bool Editor::button(const char* label, const ImVec2* size, const std::string& scriptName) {
   const bool pressed = ImGui::Button(label, size ? *size : ImVec2(0, 0));
+  std::string name = scriptName.empty() ? label : scriptName;
+  if (auto pos = name.find("##"); pos != std::string::npos) name = name.substr(0, pos);
+  scriptButton(name);
+  return pressed;
+}
+
+void Editor::sameLineIfFits(float width) {
+  const float right = ImGui::GetItemRectMax().x + ImGui::GetStyle().ItemSpacing.x + width;
+  if (right <= ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x) ImGui::SameLine();
+}
+
+float Editor::checkboxWidth(const char* label) {
+  const ImGuiStyle& style = ImGui::GetStyle();
+  return ImGui::GetFrameHeight() + style.ItemInnerSpacing.x + ImGui::CalcTextSize(label).x;
+}
+
+void Editor::scriptButton(const std::string& name) {
   // The part of the button on screen (a panel may clip it), so that a scripted click lands on it.
   const ImVec2 clipLo = ImGui::GetWindowDrawList()->GetClipRectMin(),
                clipHi = ImGui::GetWindowDrawList()->GetClipRectMax();
   const ImVec2 lo(std::max(ImGui::GetItemRectMin().x, clipLo.x), std::max(ImGui::GetItemRectMin().y, clipLo.y));
   const ImVec2 hi(std::min(ImGui::GetItemRectMax().x, clipHi.x), std::min(ImGui::GetItemRectMax().y, clipHi.y));
-  std::string name = scriptName.empty() ? label : scriptName;
-  if (auto pos = name.find("##"); pos != std::string::npos) name = name.substr(0, pos);
   if (hi.x > lo.x && hi.y > lo.y)
     buttonRects_[name] = Rect{lo.x, lo.y, hi.x - lo.x, hi.y - lo.y};
   else
     buttonRects_.erase(name);  // scrolled out of sight: a scripted click waits for it
-  return pressed;
 }
 
 }  // namespace montage

@@ -28,7 +28,9 @@
 #include "geometry/bvh.h"
 #include "image/cutout.h"
 #include "io/mesh_io.h"
+#include "layout.h"
 #include "navigation.h"
+#include "progress.h"
 #include "script.h"
 #include "view_math.h"
 #include "worker.h"
@@ -59,6 +61,7 @@ struct EditorOptions {
   bool benchOverlays = false;  // with `file`: frame times with every overlay shown against none, one run
   int benchFrames = 240;
   bool vsync = true;
+  double scale = 0;  // UI scale (fonts and sizes); 0: the monitor's content scale (glfwGetWindowContentScale)
 };
 
 enum class Tool { Point, Line, Polygon, Stroke, Clone, Cutout };
@@ -89,6 +92,12 @@ class Editor {
   Editor& operator=(const Editor&) = delete;
   // Runs until quit; returns the exit status (non-zero when a script failed).
   int run();
+
+  // A rectangle in window pixels.
+  struct Rect {
+    double x = 0, y = 0, w = 0, h = 0;
+    bool contains(double px, double py) const { return px >= x && py >= y && px < x + w && py < y + h; }
+  };
 
  private:
   // --- Loaded inputs the UI edits against (independent of the pipeline, which may fail).
@@ -136,21 +145,29 @@ class Editor {
     bool ctrl = false, shift = false, alt = false;
     std::function<void()> call;  // run instead of input when set
   };
-  struct Rect {
-    double x = 0, y = 0, w = 0, h = 0;
-    bool contains(double px, double py) const { return px >= x && py >= y && px < x + w && py < y + h; }
-  };
 
   // Lifecycle and frame (editor.cpp).
   void initWindow();
+  void applyScale(float scale);  // fonts and style sizes for a UI scale (HiDPI)
+  // A splitter bar the user drags (layout.h): resizes the panels around it.
+  void splitter(const char* name, const LayoutRect& bar, bool vertical, float top, float bottom);
+  void rememberLayout();  // writes layout.json when the layout, grid choice or bindings changed
   void shutdownWindow();
   void frame();
   void buildUi();
   void menuBar();
+  // Menus that the script's `menu` verb can drive ("File/Save"): like ImGui::BeginMenu / MenuItem, and a
+  // requested item is "clicked" even while its menu is closed (then nothing is drawn).
+  bool beginMenu(const char* label, bool enabled = true);
+  void endMenu();
+  void menuSeparator();
+  bool menuItem(const char* label, const char* shortcut = nullptr, bool selected = false, bool enabled = true);
+  bool menuToggle(const char* label, const char* shortcut, bool* value, bool enabled = true);
   void statusBar(const Rect& r);
+  void runControls();  // status bar: progress weighted by stage times, time left, Cancel / Run
+  void cancelRun();
   void toolsPanel();
   void listsPanel();
-  bool listTab(const char* name);  // ImGui::BeginTabItem that the script's `tab` verb can select
   void featuresTab();
   void chainsTab();
   void strokesClonesTab();
@@ -167,6 +184,11 @@ class Editor {
   void validateSelection();
   // ImGui::Button that scripts can click, by its label (without ##...) or by `scriptName` when given.
   bool button(const char* label, const ImVec2* size = nullptr, const std::string& scriptName = "");
+  void scriptButton(const std::string& name);  // the last item is clickable by scripts as `name`
+  // Layout helpers that keep a row from clipping: SameLine when an item `width` pixels wide still fits the
+  // window's row, else a new row; the width of a checkbox with its label.
+  static void sameLineIfFits(float width);
+  static float checkboxWidth(const char* label);
 
   // Files (editor.cpp).
   bool openFile(const std::string& path);
@@ -174,6 +196,9 @@ class Editor {
   bool saveTo(const std::string& path);
   void save();
   void requestSaveAs();
+  void requestExport();
+  void requestAddPhotos(bool folder);  // a folder of photos, or files
+  std::string projectFolder() const;   // where file dialogs start: the project's (or mesh's) folder
   bool exportTo(const std::string& path);
   void addPhotosFrom(const std::string& path);
   // Adds images (and every image of the folders) among `paths` as one undo step; returns how many.
@@ -186,7 +211,10 @@ class Editor {
   void missingFilesWindow();
   void requestClose();
   void guardUnsaved(std::function<void()> then);  // asks when there are unsaved changes
-  void reportError(const std::string& message);
+  void reportError(const std::string& message);   // listed once in the Errors window, shown in the status bar
+  // A slip (a refused edit: a one-point line, a click outside the photo...): an inline hint in the Tools
+  // panel and the status bar, not an error in the list.
+  void hint(const std::string& message);
   void setStatus(const std::string& message);
   std::string autosavePath() const;
   void checkRecovery();
@@ -199,8 +227,7 @@ class Editor {
       return true;
     } catch (const Error& e) {
       // A refused edit leaves the document as it was (Document applies edits to a copy).
-      setStatus(e.what());
-      reportError(e.what());
+      hint(e.what());
       return false;
     }
   }
@@ -305,6 +332,13 @@ class Editor {
   int exitStatus_ = 0;
   bool quit_ = false;
   long frameNumber_ = 0;
+  float scale_ = 1;          // UI scale: fonts and sizes (HiDPI); px() scales a size given for scale 1
+  float pendingScale_ = 0;   // the monitor's content scale changed (GLFW callback): applied next frame
+  LayoutPrefs layout_;       // splitter positions, grid or tabs, mouse bindings (remembered)
+  std::string savedLayout_;  // layout_ as last written
+  bool splitterActive_ = false;
+  std::map<std::string, Rect> splitterRects_;  // last frame's splitter bars (scripts, state)
+  float px(float v) const { return v * scale_; }
   double lastFrameSeconds_ = 0, frameMs_ = 0;
 
   // GL objects (destroyed in shutdownWindow, before the context).
@@ -337,6 +371,14 @@ class Editor {
   bool showErrors_ = false, showHelp_ = false;
   std::string status_;
   double statusTime_ = 0;
+  std::string hint_;  // the last slip (Tools panel and status bar)
+  double hintTime_ = 0;
+  std::string lastProblem_;                    // the last error or hint (scripts name it when an action fails)
+  RunProgress progress_;                       // stage weights from the last runs (status bar)
+  bool cancelled_ = false;                     // the user cancelled the run of the current document
+  double cancelAt_ = -1, cancelSeconds_ = -1;  // when Cancel was pressed; how long the job took to stop
+  std::map<std::string, Rect> statusParts_;    // status bar parts as drawn last frame (state: never overlap)
+  double errorTime_ = 0;                       // when the newest error was listed
 
   InputMesh input_;
   std::vector<PhotoSlot> photos_;
@@ -398,14 +440,24 @@ class Editor {
 
   // Coverage.
   std::shared_ptr<const CoverageReport> coverage_;
-  const void* coverageFor_ = nullptr;  // the result coverage_ describes
-  int coverageRegion_ = -1;            // the highlighted region
-  bool showExpectedRejected_ = false;  // list rejected pairs around no empty region too
-  std::string requestedTab_;           // lists-panel tab to select next frame (script `tab`)
+  const void* coverageFor_ = nullptr;     // the result coverage_ describes
+  int coverageRegion_ = -1;               // the highlighted region
+  bool showExpectedRejected_ = false;     // list rejected pairs around no empty region too
+  std::string requestedTab_;              // lists-panel tab to select next frame (script `tab`)
+  int listsTab_ = 0;                      // the Document panel's tab shown (Points ... Coverage)
+  std::map<std::string, Rect> tabRects_;  // its tab buttons, last frame, unclipped
+  std::string requestedMenu_;             // menu item to activate next frame (script `menu`), "File/Save"
+  std::string menuFailed_;                // a requested item that was not found or disabled
+  struct MenuLevel {
+    std::string path;
+    bool open = false;  // ImGui drew it (else only a script's request walks through it)
+  };
+  std::vector<MenuLevel> menuStack_;
 
   // Files.
   FileDialogs dialogs_;
   RecentFiles recent_;
+  std::string pendingRecent_;  // opened file that joins the recent list once its mesh has loaded
   AutosaveClock autosaveClock_;
   std::future<std::string> autosaveJob_;  // error text ("" on success)
   long autosaveJobRevision_ = -1;

@@ -71,15 +71,15 @@ void Editor::buildCameraLines() {
 }
 
 void Editor::cameraToolbar() {
-  ImGui::SameLine();
+  sameLineIfFits(checkboxWidth("camera"));
   ImGui::Checkbox("camera", &showCamera_);
   if (!showCamera_ || !resultUsable()) return;
   int pending = 0;
   for (const Proposal& pr : result_->proposals)
     pending += pr.photo == activePhoto_ && doc_.pointAt(pr.vertex, pr.photo) < 0;
   if (pending == 0) return;
-  ImGui::SameLine();
   const std::string label = "Accept " + std::to_string(pending) + " proposals";
+  sameLineIfFits(ImGui::CalcTextSize(label.c_str()).x + ImGui::GetStyle().FramePadding.x * 2);
   if (button(label.c_str())) {
     doc_.beginGroup("Accept proposals in photo " + std::to_string(activePhoto_));
     for (const Proposal& pr : result_->proposals)
@@ -110,9 +110,10 @@ void Editor::cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, co
     Vec2 d = kResidualScale * view.zoom * (fit->reprojected[i] - fit->clicks[i].pixel);
     if (d.norm() > kMaxResidualScreen) d *= kMaxResidualScreen / d.norm();
     const bool outlier = !fit->inlier[i];
-    draw->AddLine(im(s), im(s + d), outlier ? IM_COL32(255, 60, 50, 255) : IM_COL32(255, 235, 60, 230), 2.0f);
+    // Orange, so that a residual never reads as one of the partition's (yellow) curves.
+    draw->AddLine(im(s), im(s + d), outlier ? IM_COL32(255, 60, 50, 255) : IM_COL32(255, 150, 40, 240), px(2.5f));
     if (outlier) {
-      draw->AddCircle(im(s), 9.0f, IM_COL32(255, 60, 50, 255), 0, 2.0f);
+      draw->AddCircle(im(s), px(9.0f), IM_COL32(255, 60, 50, 255), 0, px(2.0f));
       draw->AddLine(im(s + Vec2(-6, -6)), im(s + Vec2(6, 6)), IM_COL32(255, 60, 50, 255), 2.0f);
       draw->AddLine(im(s + Vec2(-6, 6)), im(s + Vec2(6, -6)), IM_COL32(255, 60, 50, 255), 2.0f);
     }
@@ -131,7 +132,7 @@ void Editor::cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, co
     if (predictPixel(*fit, fields[photo], mesh.position(selectedVertex_), px)) {
       const ImVec2 s = im(view.toScreen(px));
       const ImU32 c = IM_COL32(80, 255, 200, 255);
-      draw->AddCircle(s, 7.0f, c, 0, 1.5f);
+      draw->AddCircle(s, this->px(7.0f), c, 0, this->px(1.5f));
       draw->AddLine(ImVec2(s.x - 12, s.y), ImVec2(s.x - 4, s.y), c, 1.5f);
       draw->AddLine(ImVec2(s.x + 4, s.y), ImVec2(s.x + 12, s.y), c, 1.5f);
       draw->AddLine(ImVec2(s.x, s.y - 12), ImVec2(s.x, s.y - 4), c, 1.5f);

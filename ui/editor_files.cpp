@@ -79,8 +79,17 @@ void Editor::reportError(const std::string& message) {
   if (same != errors_.end()) errors_.erase(same);
   errors_.push_back(message);
   if (errors_.size() > 200) errors_.erase(errors_.begin());
-  showErrors_ = true;
+  // No window opens over the view: the status bar shows the newest error (click: the list).
+  lastProblem_ = message;
+  errorTime_ = now();
   std::fprintf(stderr, "texturemontage: %s\n", message.c_str());
+}
+
+void Editor::hint(const std::string& message) {
+  hint_ = message;
+  hintTime_ = now();
+  lastProblem_ = message;
+  setStatus(message);
 }
 
 void Editor::setStatus(const std::string& message) {
@@ -116,7 +125,12 @@ bool Editor::openFile(const std::string& path) {
     result_.reset();
     lastError_.clear();
     autosaveClock_.reset(now(), doc_.revision());
-    recent_.add(abs);
+    // The recent list gets the file once its mesh has loaded (syncInputs): a file that fails to load
+    // never enters it.
+    if (doc_.project().mesh == input_.path && input_.mesh)
+      recent_.add(abs);  // the same mesh, already loaded: syncInputs will not load it again
+    else
+      pendingRecent_ = abs;
     setStatus("opened " + abs);
     glfwSetWindowTitle(window_, ("TextureMontage - " + fs::path(abs).filename().string()).c_str());
     return true;
@@ -129,8 +143,11 @@ bool Editor::openFile(const std::string& path) {
 void Editor::requestOpen() {
   guardUnsaved([this] {
     dialogs_.request(DialogKind::OpenFile, "Open a project or a mesh",
-                     {{"Projects and meshes", {"*.json", "*.obj", "*.ply", "*.off", "*.stl"}}, {"All files", {"*"}}},
-                     "open", doc_.project().file.empty() ? "" : fs::path(doc_.project().file).parent_path().string());
+                     {{"Projects and meshes", {"*.json", "*.obj", "*.ply", "*.off", "*.stl"}},
+                      {"Projects", {"*.json"}},
+                      {"Meshes", {"*.obj", "*.ply", "*.off", "*.stl"}},
+                      {"All files", {"*"}}},
+                     "open", projectFolder());
   });
 }
 
@@ -165,10 +182,29 @@ void Editor::save() {
   }
 }
 
+std::string Editor::projectFolder() const {
+  const Project& p = doc_.project();
+  if (!p.file.empty()) return fs::path(p.file).parent_path().string();
+  if (!p.mesh.empty()) return fs::path(p.mesh).parent_path().string();
+  return "";  // the dialog's last folder
+}
+
 void Editor::requestSaveAs() {
-  const std::string dir = doc_.project().file.empty() ? fs::path(doc_.project().mesh).parent_path().string()
-                                                      : fs::path(doc_.project().file).parent_path().string();
-  dialogs_.request(DialogKind::SaveFile, "Save the project as", {{"Projects", {"*.json"}}}, "save_as", dir);
+  dialogs_.request(DialogKind::SaveFile, "Save the project as", {{"Projects", {"*.json"}}}, "save_as", projectFolder());
+}
+
+void Editor::requestExport() {
+  if (!resultUsable()) return;
+  dialogs_.request(DialogKind::SaveFile, "Export the textured model (.glb or .obj)",
+                   {{"glTF binary", {"*.glb"}}, {"OBJ + MTL + PNG", {"*.obj"}}}, "export", projectFolder());
+}
+
+void Editor::requestAddPhotos(bool folder) {
+  const std::vector<FileFilter> images = {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}};
+  if (folder)
+    dialogs_.request(DialogKind::OpenFolder, "Add every photo of a folder", images, "add_photos", projectFolder());
+  else
+    dialogs_.request(DialogKind::OpenFiles, "Add photos (select several)", images, "add_photos", projectFolder());
 }
 
 bool Editor::exportTo(const std::string& path) {
@@ -280,11 +316,10 @@ bool Editor::relinkPhoto(int photo, const std::string& path) {
     return false;
   }
   if (!edit([&] { doc_.relinkPhoto(photo, abs); })) return false;
-  missing_.erase(std::remove_if(missing_.begin(), missing_.end(),
-                                [&](const MissingFile& m) {
-                                  return m.field == "photos[" + std::to_string(photo) + "].path";
-                                }),
-                 missing_.end());
+  missing_.erase(
+      std::remove_if(missing_.begin(), missing_.end(),
+                     [&](const MissingFile& m) { return m.field == "photos[" + std::to_string(photo) + "].path"; }),
+      missing_.end());
   setStatus("photo " + std::to_string(photo) + " relinked to " + abs);
   return true;
 }
@@ -297,8 +332,9 @@ bool Editor::relinkMesh(const std::string& path) {
     return false;
   }
   if (!edit([&] { doc_.relinkMesh(abs); })) return false;
-  missing_.erase(std::remove_if(missing_.begin(), missing_.end(), [](const MissingFile& m) { return m.field == "mesh"; }),
-                 missing_.end());
+  missing_.erase(
+      std::remove_if(missing_.begin(), missing_.end(), [](const MissingFile& m) { return m.field == "mesh"; }),
+      missing_.end());
   setStatus("mesh relinked to " + abs);
   return true;
 }

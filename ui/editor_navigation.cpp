@@ -44,22 +44,21 @@ void Editor::navigationShortcuts() {
 }
 
 void Editor::navigationMenu() {
-  ImGui::Separator();
-  if (ImGui::MenuItem("Frame all", "F, Home")) frameAll();
-  if (ImGui::MenuItem("Frame selected", ".", false, selectedVertex_ >= 0)) frameSelected();
-  if (ImGui::MenuItem("Front", "Ctrl+1, Numpad 1")) setViewPreset(ViewPreset::Front);
-  if (ImGui::MenuItem("Right side", "Ctrl+3, Numpad 3")) setViewPreset(ViewPreset::Right);
-  if (ImGui::MenuItem("Top", "Ctrl+7, Numpad 7")) setViewPreset(ViewPreset::Top);
+  menuSeparator();
+  if (menuItem("Frame all", "F, Home")) frameAll();
+  if (menuItem("Frame selected", ".", false, selectedVertex_ >= 0)) frameSelected();
+  if (menuItem("Front", "Ctrl+1, Numpad 1")) setViewPreset(ViewPreset::Front);
+  if (menuItem("Right side", "Ctrl+3, Numpad 3")) setViewPreset(ViewPreset::Right);
+  if (menuItem("Top", "Ctrl+7, Numpad 7")) setViewPreset(ViewPreset::Top);
   bool ortho = isOrthographic(camera_);
-  if (ImGui::MenuItem("Orthographic", "O, Numpad 5", &ortho)) setOrthographic(camera_, ortho);
-  ImGui::MenuItem("Orbit about the point under the cursor", nullptr, &orbitAtPick_);
-  if (ImGui::BeginMenu("Mouse")) {
-    if (ImGui::MenuItem("MeshLab: left orbits, right/middle pan", nullptr, bindings_ == MouseBindings::MeshLab))
+  if (menuToggle("Orthographic", "O, Numpad 5", &ortho)) setOrthographic(camera_, ortho);
+  menuToggle("Orbit about the point under the cursor", nullptr, &orbitAtPick_);
+  if (beginMenu("Mouse")) {
+    if (menuItem("MeshLab: left orbits, right/middle pan", nullptr, bindings_ == MouseBindings::MeshLab))
       bindings_ = MouseBindings::MeshLab;
-    if (ImGui::MenuItem("Blender: middle orbits, Shift+middle pans, left picks", nullptr,
-                        bindings_ == MouseBindings::Blender))
+    if (menuItem("Blender: middle orbits, Shift+middle pans, left picks", nullptr, bindings_ == MouseBindings::Blender))
       bindings_ = MouseBindings::Blender;
-    ImGui::EndMenu();
+    endMenu();
   }
 }
 

@@ -55,6 +55,7 @@ void paneCallback(const ImDrawList*, const ImDrawCmd* cmd) {
   glUniform2f(s.uniform("uDisplayPos"), pos.x, pos.y);
   glUniform2f(s.uniform("uDisplaySize"), size.x, size.y);
   glUniform1i(s.uniform("uPoints"), 0);
+  glUniform1f(s.uniform("uScale"), d->scale);
   pane.vbo->draw(GL_LINES, 0, pane.lines);
   glUniform1i(s.uniform("uPoints"), 1);
   pane.vbo->draw(GL_POINTS, pane.lines, pane.points);
@@ -100,7 +101,8 @@ void Editor::drawPaneOverlay(int photo, const PaneView& view, int focusPoint) {
     pane.key = wasAll == pane.allRejectedDrawn ? std::string(key) : std::string();
     ++gl.paneBuilds;
   }
-  gl.draws.push_back(OverlayGl::PaneDraw{&gl, photo, float(view.origin.x()), float(view.origin.y()), float(view.zoom)});
+  gl.draws.push_back(
+      OverlayGl::PaneDraw{&gl, photo, float(view.origin.x()), float(view.origin.y()), float(view.zoom), scale_});
   ImDrawList* draw = ImGui::GetWindowDrawList();
   draw->AddCallback(paneCallback, &gl.draws.back());
   draw->AddCallback(ImDrawCallback_ResetRenderState, nullptr);
@@ -128,7 +130,7 @@ void Editor::readViewDepth(const Mat4f& view, const Mat4f& projection) {
   for (size_t i = 0; i < p.points.size(); ++i) {
     const int v = p.points[i].vertex;
     if (v < 0 || v >= input_.mesh->numVertices()) continue;
-    const Vec4f clip = mul4(projection, markerEye(view, input_.mesh->position(v), kMarkerSize, pixelAngle));
+    const Vec4f clip = mul4(projection, markerEye(view, input_.mesh->position(v), px(kMarkerSize), pixelAngle));
     if (clip.w() <= 0) continue;
     const Vec3f ndc = clip.head<3>() / clip.w();
     const int x = int(std::floor((ndc.x() * 0.5f + 0.5f) * W)), y = int(std::floor((ndc.y() * 0.5f + 0.5f) * H));
@@ -148,7 +150,7 @@ void Editor::drawMarkers(const Mat4f& view, const Mat4f& projection) {
   glUniform1f(s.uniform("uPixelWorld"), 0.0f);
   glEnable(GL_PROGRAM_POINT_SIZE);
   if (showFeatures_) {
-    glUniform1f(s.uniform("uPointSize"), kMarkerSize);
+    glUniform1f(s.uniform("uPointSize"), px(kMarkerSize));
     pointVbo_->draw(GL_POINTS, 0, pointVertices_);
   }
   // The hovered and the selected vertex: bigger markers, depth-tested like the others (a vertex
@@ -163,7 +165,7 @@ void Editor::drawMarkers(const Mat4f& view, const Mat4f& projection) {
   add(selectedVertex_, Vec4f(1.0f, 0.45f, 0.05f, 1));
   if (data.empty()) return;
   overlayGl_->highlightVbo->upload(data, {{0, 3}, {1, 4}});
-  glUniform1f(s.uniform("uPointSize"), kHighlightSize);
+  glUniform1f(s.uniform("uPointSize"), px(kHighlightSize));
   overlayGl_->highlightVbo->draw(GL_POINTS, 0, static_cast<int>(data.size() / 7));
 }
 
@@ -184,7 +186,7 @@ void Editor::drawFeatureLabels(const Rect& r, const Camera& cam) {
     const std::string id = std::to_string(i);
     const ImVec2 size = ImGui::CalcTextSize(id.c_str());
     LabelCandidate l;
-    l.lo = Vec2(r.x + px.x() + 5, r.y + px.y() - 15);
+    l.lo = Vec2(r.x + px.x() + this->px(5), r.y + px.y() - this->px(15));
     l.size = Vec2(size.x + 1, size.y);
     l.always = always;
     labels.push_back(l);

@@ -37,6 +37,43 @@ std::string timeText(std::time_t t) {
 const char* const kToolKeys[] = {"P", "L", "G", "S", "C", "K"};
 const ImVec4 kErrorColor(1.0f, 0.45f, 0.4f, 1.0f);
 const ImVec4 kDimColor(0.6f, 0.6f, 0.6f, 1.0f);
+const ImVec4 kHintColor(1.0f, 0.75f, 0.35f, 1.0f);
+
+// The last item's rectangle (screen pixels).
+Editor::Rect itemRect() {
+  const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
+  return Editor::Rect{lo.x, lo.y, hi.x - lo.x, hi.y - lo.y};
+}
+
+// The longest prefix of `text` that fits `width` pixels with "..." after it (the text when it fits).
+std::string elide(const std::string& text, float width) {
+  if (ImGui::CalcTextSize(text.c_str()).x <= width) return text;
+  size_t lo = 0, hi = text.size();
+  while (lo < hi) {
+    const size_t mid = (lo + hi + 1) / 2;
+    if (ImGui::CalcTextSize((text.substr(0, mid) + "...").c_str()).x <= width)
+      lo = mid;
+    else
+      hi = mid - 1;
+  }
+  return text.substr(0, lo) + "...";
+}
+
+// A long message for a tooltip: lines of at most about 100 characters, broken at blanks.
+std::string wrapped(const std::string& text) {
+  std::string out;
+  size_t column = 0;
+  for (char c : text) {
+    if (c == ' ' && column >= 100) {
+      out += '\n';
+      column = 0;
+      continue;
+    }
+    out += c;
+    column = c == '\n' ? 0 : column + 1;
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -56,7 +93,7 @@ const std::vector<Shortcut>& editorShortcuts() {
       {"T", "3D view: textured / shaded"},
       {"W", "3D view: wireframe on / off"},
       {"F", "3D view: frame the whole mesh"},
-      {"1 ... 9", "show photo 1 ... 9 in the image pane"},
+      {"0 ... 9", "show photo 0 ... 9 (the number on its tab) in the image pane"},
       {"F1", "this help"},
       {"3D view: left drag",
        "orbit about the point under the cursor (View > Mouse > Blender: middle drag); stroke tool: draw a stroke; "
@@ -82,41 +119,44 @@ void Editor::buildUi() {
   const ImGuiIO& io = ImGui::GetIO();
   menuBar();
   const float top = ImGui::GetFrameHeight();
-  const float statusH = ImGui::GetFrameHeight() + 8;
+  const float statusH = ImGui::GetFrameHeight() + px(8);
   const float W = io.DisplaySize.x, H = io.DisplaySize.y;
-  const float leftW = std::clamp(std::floor(W * 0.24f), 280.0f, 400.0f);
-  const float mainH = H - top - statusH;
-  const float viewW = std::floor((W - leftW) * 0.5f);
   windowRect_ = Rect{0, 0, W, H};
+  // The panels where the splitters put them (layout.h).
+  const PanelLayout l = computeLayout(layout_, W, H, top, statusH, scale_);
+  auto place = [](const LayoutRect& r) {
+    ImGui::SetNextWindowPos(ImVec2(float(r.x), float(r.y)));
+    ImGui::SetNextWindowSize(ImVec2(float(r.w), float(r.h)));
+  };
 
   const ImGuiWindowFlags fixed = ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
                                  ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoBringToFrontOnFocus;
-  const float toolsH = std::floor(mainH * 0.42f);
-  ImGui::SetNextWindowPos(ImVec2(0, top));
-  ImGui::SetNextWindowSize(ImVec2(leftW, toolsH));
+  place(l.tools);
   if (ImGui::Begin("Tools", nullptr, fixed)) toolsPanel();
   ImGui::End();
-  ImGui::SetNextWindowPos(ImVec2(0, top + toolsH));
-  ImGui::SetNextWindowSize(ImVec2(leftW, mainH - toolsH));
+  place(l.document);
   if (ImGui::Begin("Document", nullptr, fixed)) listsPanel();
   ImGui::End();
 
-  ImGui::SetNextWindowPos(ImVec2(leftW, top));
-  ImGui::SetNextWindowSize(ImVec2(viewW, mainH));
+  place(l.view);
   ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
   if (ImGui::Begin("3D view", nullptr, fixed | ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse))
     view3d();
   ImGui::End();
   ImGui::PopStyleVar();
 
-  ImGui::SetNextWindowPos(ImVec2(leftW + viewW, top));
-  ImGui::SetNextWindowSize(ImVec2(W - leftW - viewW, mainH));
-  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(4, 4));
+  place(l.photos);
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(px(4), px(4)));
   if (ImGui::Begin("Photos", nullptr, fixed | ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse))
     photosPanel();
   ImGui::End();
   ImGui::PopStyleVar();
   hoverVertex_ = hoverVertexNext_;
+  splitterActive_ = false;
+  splitter("left", l.leftBar, true, top, statusH);
+  splitter("tools", l.toolsBar, false, top, statusH);
+  splitter("view", l.viewBar, true, top, statusH);
+  rememberLayout();
 
   statusBar(Rect{0, H - statusH, W, statusH});
   errorsWindow();
@@ -143,95 +183,185 @@ void Editor::buildUi() {
   shortcuts();
 }
 
+void Editor::splitter(const char* name, const LayoutRect& bar, bool vertical, float top, float bottom) {
+  ImGui::SetNextWindowPos(ImVec2(float(bar.x), float(bar.y)));
+  ImGui::SetNextWindowSize(ImVec2(float(bar.w), float(bar.h)));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowMinSize, ImVec2(1, 1));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowBorderSize, 0);
+  ImGui::Begin((std::string("##splitter_") + name).c_str(), nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoSavedSettings |
+                   ImGuiWindowFlags_NoBackground | ImGuiWindowFlags_NoFocusOnAppearing |
+                   ImGuiWindowFlags_NoScrollWithMouse);
+  ImGui::InvisibleButton("##bar", ImVec2(float(std::max(1.0, bar.w)), float(std::max(1.0, bar.h))));
+  const bool active = ImGui::IsItemActive(), hovered = ImGui::IsItemHovered();
+  const ImGuiIO& io = ImGui::GetIO();
+  if (active || hovered) {
+    ImGui::SetMouseCursor(vertical ? ImGuiMouseCursor_ResizeEW : ImGuiMouseCursor_ResizeNS);
+    const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
+    ImGui::GetWindowDrawList()->AddRectFilled(lo, hi,
+                                              active ? IM_COL32(255, 160, 60, 200) : IM_COL32(120, 160, 230, 150));
+  }
+  if (active && (io.MouseDelta.x != 0 || io.MouseDelta.y != 0))
+    dragSplitter(layout_, name, io.MouseDelta.x, io.MouseDelta.y, io.DisplaySize.x, io.DisplaySize.y, top, bottom,
+                 scale_);
+  splitterActive_ = splitterActive_ || active;
+  splitterRects_[name] = Rect{bar.x, bar.y, bar.w, bar.h};
+  ImGui::End();
+  ImGui::PopStyleVar(3);
+}
+
+void Editor::rememberLayout() {
+  layout_.grid = gridPanes_;
+  layout_.mouse = kMouseBindingNames[static_cast<int>(bindings_)];
+  if (splitterActive_ || benchOrbit_) return;  // written once the drag ends; benchmarks change nothing
+  const std::string now = layout_.toJson();
+  if (now == savedLayout_) return;
+  saveLayout(layout_);
+  savedLayout_ = now;
+}
+
 void Editor::menuBar() {
   if (!ImGui::BeginMainMenuBar()) return;
-  if (ImGui::BeginMenu("File")) {
-    if (ImGui::MenuItem("Open project or mesh...", "Ctrl+O")) requestOpen();
-    if (ImGui::BeginMenu("Open recent", !recent_.files().empty())) {
+  menuStack_.clear();
+  if (beginMenu("File")) {
+    if (menuItem("Open project or mesh...", "Ctrl+O")) requestOpen();
+    if (beginMenu("Open recent", !recent_.files().empty())) {
       for (const std::string& f : recent_.files())
-        if (ImGui::MenuItem(f.c_str())) {
+        if (menuItem(f.c_str())) {
           const std::string file = f;
           guardUnsaved([this, file] {
             openFile(file);
             checkRecovery();
           });
         }
-      ImGui::Separator();
-      if (ImGui::MenuItem("Clear list")) recent_.clear();
-      ImGui::EndMenu();
+      menuSeparator();
+      if (menuItem("Clear list")) recent_.clear();
+      endMenu();
     }
-    ImGui::Separator();
+    menuSeparator();
     const bool hasMesh = !doc_.project().mesh.empty();
-    if (ImGui::MenuItem("Add photos...", nullptr, false, hasMesh))
-      dialogs_.request(DialogKind::OpenFiles, "Add photos (select several)",
-                       {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}}, "add_photos",
-                       fs::path(doc_.project().mesh).parent_path().string());
-    if (ImGui::MenuItem("Add photos folder...", nullptr, false, hasMesh))
-      dialogs_.request(DialogKind::OpenFolder, "Add every photo of a folder", {}, "add_photos",
-                       fs::path(doc_.project().mesh).parent_path().string());
-    ImGui::Separator();
-    if (ImGui::MenuItem("Save", "Ctrl+S", false, hasMesh)) save();
-    if (ImGui::MenuItem("Save as...", "Ctrl+Shift+S", false, hasMesh)) requestSaveAs();
-    if (ImGui::MenuItem("Export result...", "Ctrl+E", false, resultUsable()))
-      dialogs_.request(DialogKind::SaveFile, "Export the textured model (.glb or .obj)",
-                       {{"glTF binary", {"*.glb"}}, {"OBJ + MTL + PNG", {"*.obj"}}}, "export", "");
-    ImGui::Separator();
-    if (ImGui::MenuItem("Quit", "Ctrl+Q")) requestClose();
-    ImGui::EndMenu();
+    if (menuItem("Add photos...", nullptr, false, hasMesh)) requestAddPhotos(false);
+    if (menuItem("Add photos folder...", nullptr, false, hasMesh)) requestAddPhotos(true);
+    menuSeparator();
+    if (menuItem("Save", "Ctrl+S", false, hasMesh)) save();
+    if (menuItem("Save as...", "Ctrl+Shift+S", false, hasMesh)) requestSaveAs();
+    if (menuItem("Export result...", "Ctrl+E", false, resultUsable())) requestExport();
+    menuSeparator();
+    if (menuItem("Quit", "Ctrl+Q")) requestClose();
+    endMenu();
   }
-  if (ImGui::BeginMenu("Edit")) {
+  if (beginMenu("Edit")) {
     const std::string undoLabel = doc_.canUndo() ? "Undo " + doc_.history()[doc_.position() - 1].label : "Undo";
     const std::string redoLabel = doc_.canRedo() ? "Redo " + doc_.history()[doc_.position()].label : "Redo";
-    if (ImGui::MenuItem(undoLabel.c_str(), "Ctrl+Z", false, doc_.canUndo())) undo();
-    if (ImGui::MenuItem(redoLabel.c_str(), "Ctrl+Shift+Z", false, doc_.canRedo())) redo();
-    ImGui::Separator();
-    if (ImGui::MenuItem("Delete selected point", "Delete", false, selectedPoint_ >= 0)) deleteSelection();
-    if (ImGui::MenuItem("Clear selection", "Escape")) selectVertex(-1);
-    ImGui::EndMenu();
+    if (menuItem(undoLabel.c_str(), "Ctrl+Z", false, doc_.canUndo())) undo();
+    if (menuItem(redoLabel.c_str(), "Ctrl+Shift+Z", false, doc_.canRedo())) redo();
+    menuSeparator();
+    if (menuItem("Delete selected point", "Delete", false, selectedPoint_ >= 0)) deleteSelection();
+    if (menuItem("Clear selection", "Escape")) selectVertex(-1);
+    endMenu();
   }
-  if (ImGui::BeginMenu("View")) {
-    ImGui::MenuItem("Textured", "T", &textured_);
-    ImGui::MenuItem("Wireframe", "W", &wireframe_);
-    ImGui::MenuItem("Partition paths", nullptr, &showPaths_);
-    ImGui::MenuItem("Features", nullptr, &showFeatures_);
-    ImGui::MenuItem("Feature ids", nullptr, &showIds_);
+  if (beginMenu("View")) {
+    menuToggle("Textured", "T", &textured_);
+    menuToggle("Wireframe", "W", &wireframe_);
+    menuToggle("Partition paths", nullptr, &showPaths_);
+    menuToggle("Features", nullptr, &showFeatures_);
+    menuToggle("Feature ids", nullptr, &showIds_);
     navigationMenu();
-    if (ImGui::BeginMenu("Colour faces by")) {
+    if (beginMenu("Colour faces by")) {
       for (size_t i = 0; i < kFaceColoringNames.size(); ++i)
-        if (ImGui::MenuItem(kFaceColoringNames[i], nullptr, coloring_ == FaceColoring(i))) {
+        if (menuItem(kFaceColoringNames[i], nullptr, coloring_ == FaceColoring(i))) {
           coloring_ = FaceColoring(i);
           overlayDirty_ = true;
         }
-      ImGui::EndMenu();
+      endMenu();
     }
-    if (ImGui::MenuItem("Frame all", "F")) camera_.frame(input_.lo, input_.hi);
-    ImGui::Separator();
-    ImGui::MenuItem("Photos in a grid", nullptr, &gridPanes_);
-    ImGui::MenuItem("Background mask", nullptr, &showMask_);
-    ImGui::MenuItem("Partition curves", nullptr, &showCurves_);
-    ImGui::MenuItem("Rejected pairs", nullptr, &showRejected_);
-    ImGui::Separator();
-    ImGui::MenuItem("Errors", nullptr, &showErrors_);
-    ImGui::EndMenu();
+    menuSeparator();
+    menuToggle("Photos in a grid", nullptr, &gridPanes_);
+    if (menuItem("Reset layout")) {
+      // The splitters back where they start; the grid choice and the bindings stay.
+      const LayoutPrefs defaults;
+      layout_.left = defaults.left, layout_.tools = defaults.tools, layout_.view = defaults.view;
+    }
+    menuToggle("Background mask", nullptr, &showMask_);
+    menuToggle("Partition curves", nullptr, &showCurves_);
+    menuToggle("Rejected pairs", nullptr, &showRejected_);
+    menuSeparator();
+    menuToggle("Errors", nullptr, &showErrors_);
+    endMenu();
   }
-  if (ImGui::BeginMenu("Tools")) {
+  if (beginMenu("Tools")) {
     for (size_t i = 0; i < kToolNames.size(); ++i)
-      if (ImGui::MenuItem(kToolNames[i], kToolKeys[i], tool_ == Tool(i))) {
+      if (menuItem(kToolNames[i], kToolKeys[i], tool_ == Tool(i))) {
         cancelInProgress();
         tool_ = Tool(i);
       }
-    ImGui::EndMenu();
+    endMenu();
   }
-  if (ImGui::BeginMenu("Help")) {
-    ImGui::MenuItem("Shortcuts and mouse", "F1", &showHelp_);
-    ImGui::EndMenu();
+  if (beginMenu("Help")) {
+    menuToggle("Shortcuts and mouse", "F1", &showHelp_);
+    endMenu();
   }
   ImGui::EndMainMenuBar();
+  // A script's request that no enabled item answered.
+  if (!requestedMenu_.empty()) menuFailed_ = requestedMenu_;
+  requestedMenu_.clear();
+}
+
+namespace {
+
+// "Open project or mesh..." and "Open project or mesh" name the same item.
+std::string menuKey(std::string path) {
+  while (!path.empty() && path.back() == '.') path.pop_back();
+  size_t dots;
+  while ((dots = path.find(".../")) != std::string::npos) path.erase(dots, 3);
+  return path;
+}
+
+}  // namespace
+
+bool Editor::beginMenu(const char* label, bool enabled) {
+  const std::string path = menuStack_.empty() ? label : menuStack_.back().path + "/" + label;
+  const bool open = ImGui::BeginMenu(label, enabled);
+  const bool walked = !open && enabled && !requestedMenu_.empty() && menuKey(requestedMenu_).rfind(path + "/", 0) == 0;
+  if (!open && !walked) return false;
+  menuStack_.push_back({path, open});
+  return true;
+}
+
+void Editor::menuSeparator() {
+  if (menuStack_.empty() || menuStack_.back().open) ImGui::Separator();
+}
+
+void Editor::endMenu() {
+  if (menuStack_.back().open) ImGui::EndMenu();
+  menuStack_.pop_back();
+}
+
+bool Editor::menuItem(const char* label, const char* shortcut, bool selected, bool enabled) {
+  const bool drawn = menuStack_.empty() || menuStack_.back().open;
+  bool clicked = drawn && ImGui::MenuItem(label, shortcut, selected, enabled);
+  const std::string path = (menuStack_.empty() ? "" : menuStack_.back().path + "/") + label;
+  if (enabled && !requestedMenu_.empty() && menuKey(requestedMenu_) == menuKey(path)) {
+    clicked = true;
+    requestedMenu_.clear();
+  }
+  return clicked;
+}
+
+bool Editor::menuToggle(const char* label, const char* shortcut, bool* value, bool enabled) {
+  if (!menuItem(label, shortcut, *value, enabled)) return false;
+  *value = !*value;
+  return true;
 }
 
 void Editor::toolsPanel() {
+  // The tools in as many columns as fit the panel's width (nothing clips at any width or scale).
+  float column = 0;
+  for (const char* name : kToolNames) column = std::max(column, checkboxWidth(name) + ImGui::GetStyle().ItemSpacing.x);
+  const int columns = std::max(1, int(ImGui::GetContentRegionAvail().x / column));
   for (size_t i = 0; i < kToolNames.size(); ++i) {
-    if (i % 3 != 0) ImGui::SameLine(8 + 92.0f * (i % 3));
+    if (i % columns != 0) ImGui::SameLine(ImGui::GetStyle().WindowPadding.x + column * (i % columns));
     if (ImGui::RadioButton(kToolNames[i], tool_ == Tool(i)) && tool_ != Tool(i)) {
       cancelInProgress();
       tool_ = Tool(i);
@@ -267,11 +397,14 @@ void Editor::toolsPanel() {
           "erases). 3. Apply.");
       ImGui::Text("polygon: %zu point(s)%s, target: %zu face(s)", clonePolygon_.size(),
                   clonePolygonClosed_ ? " (closed)" : "", cloneFaces_.size());
+      ImGui::PushItemWidth(std::max(px(60), ImGui::GetContentRegionAvail().x - ImGui::CalcTextSize("px / unit").x -
+                                                ImGui::GetStyle().ItemInnerSpacing.x));
       ImGui::SliderFloat("brush", &cloneBrush_, 0.01f, 0.3f, "%.2f x size");
       float rot = static_cast<float>(cloneRotationDeg_), ppu = static_cast<float>(clonePixelsPerUnit_);
       if (ImGui::SliderFloat("rotation", &rot, -180, 180, "%.0f deg")) cloneRotationDeg_ = rot, cloneDirty_ = true;
       if (ImGui::InputFloat("px / unit", &ppu, 0, 0, "%.1f"))
         clonePixelsPerUnit_ = std::max(0.f, ppu), cloneDirty_ = true;
+      ImGui::PopItemWidth();
       ImGui::TextDisabled("px / unit 0 fits the polygon to the region");
       const bool ready = clonePolygonClosed_ && !cloneFaces_.empty();
       if (!ready) ImGui::BeginDisabled();
@@ -287,6 +420,12 @@ void Editor::toolsPanel() {
       if (button("Cancel##clone")) cancelInProgress();
       break;
     }
+  }
+  // The last slip, inline where the tool is explained (no window over the view).
+  if (!hint_.empty() && now() - hintTime_ < 10) {
+    ImGui::PushStyleColor(ImGuiCol_Text, kHintColor);
+    ImGui::TextWrapped("%s", hint_.c_str());
+    ImGui::PopStyleColor();
   }
   ImGui::Separator();
   if (selectedVertex_ >= 0) {
@@ -329,46 +468,57 @@ void Editor::toolsPanel() {
   }
 }
 
-// A tab of the lists panel; the script's `tab` verb selects one by name (case-insensitive).
-bool Editor::listTab(const char* name) {
-  std::string lower = name;
-  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
-  const bool select = requestedTab_ == lower;
-  if (select) requestedTab_.clear();
-  return ImGui::BeginTabItem(name, nullptr, select ? ImGuiTabItemFlags_SetSelected : 0);
-}
-
+// The Document panel's tabs: a row of tab buttons that wraps onto a second row when the panel is narrow,
+// so every name shows whole at any width and scale (ImGui's tab bar truncates or scrolls them). The
+// script's `tab` verb selects one by name (case-insensitive).
 void Editor::listsPanel() {
-  if (!ImGui::BeginTabBar("##lists")) return;
-  if (listTab("Points")) {
-    featuresTab();
-    ImGui::EndTabItem();
+  static constexpr std::array<const char*, 7> kTabs = {"Points",  "Chains",   "Photos",  "Strokes",
+                                                       "History", "Pipeline", "Coverage"};
+  if (!requestedTab_.empty()) {
+    for (size_t i = 0; i < kTabs.size(); ++i) {
+      std::string lower = kTabs[i];
+      std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+      if (lower == requestedTab_) listsTab_ = static_cast<int>(i);
+    }
+    requestedTab_.clear();
   }
-  if (listTab("Chains")) {
-    chainsTab();
-    ImGui::EndTabItem();
+  const ImGuiStyle& style = ImGui::GetStyle();
+  ImGui::PushStyleVar(ImGuiStyleVar_ItemSpacing, ImVec2(px(2), px(2)));
+  for (size_t i = 0; i < kTabs.size(); ++i) {
+    if (i > 0) sameLineIfFits(ImGui::CalcTextSize(kTabs[i]).x + style.FramePadding.x * 2);
+    const bool shown = listsTab_ == static_cast<int>(i);
+    ImGui::PushStyleColor(ImGuiCol_Button, style.Colors[shown ? ImGuiCol_TabActive : ImGuiCol_TabUnfocused]);
+    ImGui::PushStyleColor(ImGuiCol_ButtonHovered, style.Colors[ImGuiCol_TabHovered]);
+    ImGui::PushStyleColor(ImGuiCol_ButtonActive, style.Colors[ImGuiCol_TabActive]);
+    if (button(kTabs[i], nullptr, std::string("tab ") + kTabs[i])) listsTab_ = static_cast<int>(i);
+    tabRects_[kTabs[i]] = itemRect();  // whole, unclipped (state: the tabs fit the column)
+    ImGui::PopStyleColor(3);
   }
-  if (listTab("Photos")) {
-    photosTab();
-    ImGui::EndTabItem();
+  ImGui::PopStyleVar();
+  ImGui::Separator();
+  switch (listsTab_) {
+    case 0:
+      featuresTab();
+      break;
+    case 1:
+      chainsTab();
+      break;
+    case 2:
+      photosTab();
+      break;
+    case 3:
+      strokesClonesTab();
+      break;
+    case 4:
+      historyTab();
+      break;
+    case 5:
+      pipelineTab();
+      break;
+    default:
+      coverageTab();
+      break;
   }
-  if (listTab("Strokes")) {
-    strokesClonesTab();
-    ImGui::EndTabItem();
-  }
-  if (listTab("History")) {
-    historyTab();
-    ImGui::EndTabItem();
-  }
-  if (listTab("Pipeline")) {
-    pipelineTab();
-    ImGui::EndTabItem();
-  }
-  if (listTab("Coverage")) {
-    coverageTab();
-    ImGui::EndTabItem();
-  }
-  ImGui::EndTabBar();
 }
 
 void Editor::featuresTab() {
@@ -384,8 +534,8 @@ void Editor::featuresTab() {
   const ImGuiTableFlags flags = ImGuiTableFlags_RowBg | ImGuiTableFlags_ScrollY | ImGuiTableFlags_BordersInnerV;
   if (!ImGui::BeginTable("##points", 3, flags)) return;
   ImGui::TableSetupScrollFreeze(0, 1);
-  ImGui::TableSetupColumn("#", ImGuiTableColumnFlags_WidthFixed, 36);
-  ImGui::TableSetupColumn("vertex", ImGuiTableColumnFlags_WidthFixed, 60);
+  ImGui::TableSetupColumn("#", ImGuiTableColumnFlags_WidthFixed, ImGui::CalcTextSize("00000").x);
+  ImGui::TableSetupColumn("vertex", ImGuiTableColumnFlags_WidthFixed, ImGui::CalcTextSize("0000000").x);
   ImGui::TableSetupColumn("photos");
   ImGui::TableHeadersRow();
   ImGuiListClipper clipper;
@@ -489,6 +639,9 @@ void Editor::pipelineTab() {
     static_assert(sizeof(float) == 4);
     PipelineOptions o = doc_.project().options;
     bool commit = false;
+    // The fields leave room for their labels (nothing clips in a narrow column).
+    const float labels = ImGui::CalcTextSize("seam gradient weight").x + ImGui::GetStyle().ItemInnerSpacing.x;
+    ImGui::PushItemWidth(std::max(px(60), ImGui::GetContentRegionAvail().x - labels));
     float threshold = static_cast<float>(o.backgroundThresholdPx);
     ImGui::SliderFloat("background px", &threshold, 0, 20, "%.1f");
     if (ImGui::IsItemDeactivatedAfterEdit()) o.backgroundThresholdPx = threshold, commit = true;
@@ -511,6 +664,7 @@ void Editor::pipelineTab() {
     int mode = static_cast<int>(o.inpaintMode);
     if (ImGui::Combo("inpainting", &mode, kInpaintModeNames.data(), static_cast<int>(kInpaintModeNames.size())))
       o.inpaintMode = InpaintMode(mode), commit = true;
+    ImGui::PopItemWidth();
     if (commit) edit([&] { doc_.setOptions(o); });
   }
   if (!result_) {
@@ -553,23 +707,117 @@ void Editor::pipelineTab() {
   }
 }
 
+// The status bar, left to right: the run (progress weighted by stage times, time left, Cancel; or the
+// result's state), the error count, the message (elided to its own space, the whole text on hover), and
+// on the right the document's state and the frame time in a space reserved for their widest text. The
+// parts never overlap; statusParts_ records where each was drawn (the script's `state`).
 void Editor::statusBar(const Rect& r) {
   ImGui::SetNextWindowPos(ImVec2(float(r.x), float(r.y)));
   ImGui::SetNextWindowSize(ImVec2(float(r.w), float(r.h)));
-  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(8, 4));
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(px(8), px(4)));
   ImGui::Begin("##status", nullptr,
                ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoSavedSettings |
                    ImGuiWindowFlags_NoBringToFrontOnFocus);
+  statusParts_.clear();
+  const float gap = ImGui::GetStyle().ItemSpacing.x * 2;
+  char right[160];
+  const bool autosaved = autosavedRevision_ == doc_.revision() && doc_.modified();
+  std::snprintf(right, sizeof(right), "%s%s%.1f ms", doc_.modified() ? "unsaved  " : "", autosaved ? "autosaved  " : "",
+                frameMs_);
+  // Room for the widest frame time, so that the message does not move as the time changes.
+  const std::string widest =
+      std::string(doc_.modified() ? "unsaved  " : "") + (autosaved ? "autosaved  " : "") + "9999.9 ms";
+  const float rightX = float(r.w) - ImGui::CalcTextSize(widest.c_str()).x - px(8);  // window coordinates
+
+  ImGui::BeginGroup();
+  runControls();
+  ImGui::EndGroup();
+  statusParts_["run"] = itemRect();
+  float x = ImGui::GetItemRectMax().x - float(r.x) + gap;
+
+  if (!errors_.empty() && x + ImGui::CalcTextSize("99 errors").x < rightX) {
+    ImGui::SameLine(x);
+    const std::string count = std::to_string(errors_.size()) + (errors_.size() == 1 ? " error" : " errors");
+    ImGui::TextColored(kErrorColor, "%s", count.c_str());
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s\n(click: the list)", errors_.back().c_str());
+    if (ImGui::IsItemClicked()) showErrors_ = true;
+    statusParts_["errors"] = itemRect();
+    x = ImGui::GetItemRectMax().x - float(r.x) + gap;
+  }
+
+  // The message: the newest of the hint, the status and the error, for 8 s; a failed run's error stays.
+  const double t = now();
+  std::string message;
+  ImVec4 colour = ImGui::GetStyle().Colors[ImGuiCol_Text];
+  bool isError = false;
+  double newest = -1;
+  if (!status_.empty() && t - statusTime_ < 8) message = status_, newest = statusTime_;
+  if (!hint_.empty() && t - hintTime_ < 8 && hintTime_ >= newest)
+    message = hint_, newest = hintTime_, colour = kHintColor;
+  if (!errors_.empty() && t - errorTime_ < 8 && errorTime_ >= newest)
+    message = errors_.back(), newest = errorTime_, colour = kErrorColor, isError = true;
+  if (message.empty() && !lastError_.empty()) message = "pipeline: " + lastError_, colour = kErrorColor, isError = true;
+  const float room = rightX - gap - x;
+  if (!message.empty() && room > ImGui::CalcTextSize("a...").x) {
+    ImGui::SameLine(x);
+    const std::string shown = elide(message, room);
+    ImGui::TextColored(colour, "%s", shown.c_str());
+    if (ImGui::IsItemHovered() && shown != message) ImGui::SetTooltip("%s", wrapped(message).c_str());
+    if (ImGui::IsItemClicked() && isError) showErrors_ = true;
+    statusParts_["message"] = itemRect();
+  }
+
+  ImGui::SameLine(std::max(rightX, float(r.w) - ImGui::CalcTextSize(right).x - px(8)));
+  ImGui::TextDisabled("%s", right);
+  statusParts_["right"] = itemRect();
+  ImGui::End();
+  ImGui::PopStyleVar();
+}
+
+void Editor::runControls() {
   const WorkerStatus ws = worker_->status();
+  if (!ws.busy && cancelAt_ >= 0) {
+    cancelSeconds_ = now() - cancelAt_;  // the job stopped at its next progress point
+    cancelAt_ = -1;
+  }
   if (ws.busy) {
-    const int stage = static_cast<int>(ws.stage);
-    const double overall = (stage + std::clamp(ws.fraction, 0.0, 1.0)) / double(kStageNames.size());
-    ImGui::ProgressBar(static_cast<float>(overall), ImVec2(110, 0), "");
+    // Weighted by the stages' seconds in the last run of this tier (typical shares before the first).
+    const double done = progress_.overall(ws.tier, ws.stage, ws.fraction);
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - ws.started).count();
+    const double left = progress_.secondsLeft(ws.tier, ws.stage, ws.fraction, elapsed);
+    char overlay[16];
+    std::snprintf(overlay, sizeof(overlay), "%.0f%%", 100 * done);
+    ImGui::ProgressBar(static_cast<float>(done), ImVec2(px(90), 0), overlay);
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("%s%s %.0f%% %s", ws.tier == Tier::Final ? "final: " : "preview: ", stageName(ws.stage),
+                        100 * ws.fraction, ws.what.c_str());
+    // Cancel right after the bar: it stays in place while the stage and time texts change width.
     ImGui::SameLine();
-    ImGui::Text("%s%s %3.0f%% %s", ws.tier == Tier::Final ? "final: " : "", stageName(ws.stage), 100 * ws.fraction,
-                ws.what.c_str());
-  } else if (doc_.project().mesh.empty()) {
+    if (ImGui::SmallButton("Cancel##run")) cancelRun();
+    scriptButton("Cancel run");
+    ImGui::SameLine();
+    ImGui::Text("%s%s", ws.tier == Tier::Final ? "final: " : "", stageName(ws.stage));
+    if (left >= 0) {
+      ImGui::SameLine();
+      char text[48];
+      if (left < 60)
+        std::snprintf(text, sizeof(text), "about %.0f s left", std::max(1.0, std::ceil(left)));
+      else
+        std::snprintf(text, sizeof(text), "about %.0f min left", std::ceil(left / 60));
+      ImGui::TextDisabled("%s", text);
+    }
+    return;
+  }
+  if (doc_.project().mesh.empty()) {
     ImGui::TextDisabled("open a project or a mesh (Ctrl+O)");
+  } else if (cancelled_) {
+    ImGui::TextColored(kHintColor, "cancelled");
+    ImGui::SameLine();
+    if (ImGui::SmallButton("Run##run")) {
+      cancelled_ = false;
+      submittedRevision_ = -1;  // submitted again by the frame loop
+    }
+    scriptButton("Run");
   } else if (resultCurrent()) {
     ImGui::TextColored(ImVec4(0.5f, 0.85f, 0.5f, 1), result_->model ? "up to date" : "preview up to date");
   } else if (!lastError_.empty()) {
@@ -577,50 +825,34 @@ void Editor::statusBar(const Rect& r) {
   } else {
     ImGui::TextDisabled("waiting for the worker");
   }
-  if (result_) {
-    ImGui::SameLine();
-    ImGui::TextDisabled("|");
+  if (result_ && ImGui::IsItemHovered()) {
+    // The stage times of the shown result (also in the Pipeline tab).
     std::string timings;
     double total = 0;
     for (const StageRecord& s : result_->stages) {
       char part[64];
-      std::snprintf(part, sizeof(part), s.cached ? "%s cached  " : "%s %.2fs  ", stageName(s.stage), s.seconds);
+      std::snprintf(part, sizeof(part), s.cached ? "%s cached\n" : "%s %.2f s\n", stageName(s.stage), s.seconds);
       timings += part;
       total += s.seconds;
     }
-    ImGui::SameLine();
-    ImGui::Text("%s= %.2fs", timings.c_str(), total);
+    ImGui::SetTooltip("%s%stotal %.2f s", result_->tier == Tier::Final ? "final\n" : "preview\n", timings.c_str(),
+                      total);
   }
-  if (!lastError_.empty()) {
-    ImGui::SameLine();
-    ImGui::TextDisabled("|");
-    ImGui::SameLine();
-    std::string shortError = lastError_.size() > 90 ? lastError_.substr(0, 90) + "..." : lastError_;
-    ImGui::TextColored(kErrorColor, "%s", shortError.c_str());
-    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s\n(click: Errors window)", lastError_.c_str());
-    if (ImGui::IsItemClicked()) showErrors_ = true;
-  } else if (!status_.empty() && now() - statusTime_ < 8) {
-    ImGui::SameLine();
-    ImGui::TextDisabled("|");
-    ImGui::SameLine();
-    ImGui::TextUnformatted(status_.c_str());
-  }
-  // Right side: document state, autosave, frame time.
-  char right[160];
-  std::snprintf(right, sizeof(right), "%s%s  %.1f ms", doc_.modified() ? "unsaved  " : "",
-                autosavedRevision_ == doc_.revision() && doc_.modified() ? "autosaved" : "", frameMs_);
-  const float width = ImGui::CalcTextSize(right).x;
-  ImGui::SameLine(std::max(ImGui::GetCursorPosX() + 10, float(r.w) - width - 12));
-  ImGui::TextDisabled("%s", right);
-  ImGui::End();
-  ImGui::PopStyleVar();
+}
+
+void Editor::cancelRun() {
+  worker_->cancel();
+  cancelled_ = true;
+  cancelAt_ = now();
+  cancelSeconds_ = -1;
+  setStatus("run cancelled: the view keeps the last result; Run computes the current document");
 }
 
 void Editor::errorsWindow() {
   if (!showErrors_) return;
   const ImVec2 display = ImGui::GetIO().DisplaySize;
-  ImGui::SetNextWindowSize(ImVec2(std::min(640.f, display.x * 0.6f), 240), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y - 60), ImGuiCond_FirstUseEver, ImVec2(0.5f, 1.0f));
+  ImGui::SetNextWindowSize(ImVec2(std::min(px(640), display.x * 0.6f), px(240)), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y - px(60)), ImGuiCond_FirstUseEver, ImVec2(0.5f, 1.0f));
   if (ImGui::Begin("Errors", &showErrors_, ImGuiWindowFlags_NoSavedSettings)) {
     if (button("Clear")) errors_.clear(), lastError_.clear();
     ImGui::Separator();
@@ -635,15 +867,18 @@ void Editor::errorsWindow() {
 
 void Editor::helpWindow() {
   if (!showHelp_) return;
-  ImGui::SetNextWindowSize(ImVec2(620, 560), ImGuiCond_FirstUseEver);
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  ImGui::SetNextWindowSize(ImVec2(std::min(px(620), display.x * 0.9f), std::min(px(560), display.y * 0.85f)),
+                           ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y * 0.5f), ImGuiCond_FirstUseEver, ImVec2(0.5f, 0.5f));
   if (ImGui::Begin("Help: shortcuts and mouse", &showHelp_, ImGuiWindowFlags_NoSavedSettings)) {
     if (ImGui::BeginTable("##keys", 2, ImGuiTableFlags_RowBg | ImGuiTableFlags_BordersInnerV)) {
-      ImGui::TableSetupColumn("keys", ImGuiTableColumnFlags_WidthFixed, 250);
-      ImGui::TableSetupColumn("action");
+      ImGui::TableSetupColumn("keys", ImGuiTableColumnFlags_WidthStretch, 0.4f);
+      ImGui::TableSetupColumn("action", ImGuiTableColumnFlags_WidthStretch, 0.6f);
       for (const Shortcut& s : editorShortcuts()) {
         ImGui::TableNextRow();
         ImGui::TableNextColumn();
-        ImGui::TextUnformatted(s.keys);
+        ImGui::TextWrapped("%s", s.keys);
         ImGui::TableNextColumn();
         ImGui::TextWrapped("%s", s.action);
       }
@@ -751,9 +986,7 @@ void Editor::shortcuts() {
     if (pressed(GLFW_KEY_Y)) redo();
     if (pressed(GLFW_KEY_S)) shift ? requestSaveAs() : save();
     if (pressed(GLFW_KEY_O)) requestOpen();
-    if (pressed(GLFW_KEY_E) && resultUsable())
-      dialogs_.request(DialogKind::SaveFile, "Export the textured model (.glb or .obj)",
-                       {{"glTF binary", {"*.glb"}}, {"OBJ + MTL + PNG", {"*.obj"}}}, "export", "");
+    if (pressed(GLFW_KEY_E)) requestExport();
     if (pressed(GLFW_KEY_Q)) requestClose();
     return;
   }
@@ -778,8 +1011,9 @@ void Editor::shortcuts() {
       selectVertex(-1);
     }
   }
-  for (int k = 0; k < 9; ++k)
-    if (pressed(GLFW_KEY_1 + k) && k < static_cast<int>(doc_.project().photos.size())) activePhoto_ = k;
+  // Digit N shows the photo labelled N (tabs, lists and messages number photos from 0).
+  for (int k = 0; k <= 9; ++k)
+    if (pressed(GLFW_KEY_0 + k) && k < static_cast<int>(doc_.project().photos.size())) activePhoto_ = k;
 }
 
 }  // namespace montage

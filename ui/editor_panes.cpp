@@ -75,24 +75,22 @@ void Editor::photosPanel() {
   if (p.photos.empty()) {
     ImGui::TextWrapped(p.mesh.empty() ? "Open a project or a mesh first."
                                       : "No photos yet: add the photos of the object (File > Add photos folder).");
-    if (!p.mesh.empty() && button("Add photos folder..."))
-      dialogs_.request(DialogKind::OpenFolder, "Add every photo of a folder", {}, "add_photos",
-                       fs::path(p.mesh).parent_path().string());
+    if (!p.mesh.empty() && button("Add photos folder...")) requestAddPhotos(true);
     return;
   }
+  // The toolbar wraps onto a second line when the pane is narrow (nothing clips).
   ImGui::Checkbox("grid", &gridPanes_);
-  ImGui::SameLine();
+  sameLineIfFits(ImGui::CalcTextSize("Fit").x + ImGui::GetStyle().FramePadding.x * 2);
   if (button("Fit")) {
     for (auto& slot : photos_) slot.tabView.fitted = slot.gridView.fitted = false;
   }
-  ImGui::SameLine();
-  ImGui::Checkbox("mask", &showMask_);
-  ImGui::SameLine();
-  ImGui::Checkbox("curves", &showCurves_);
-  ImGui::SameLine();
-  ImGui::Checkbox("rejected", &showRejected_);
-  ImGui::SameLine();
-  ImGui::Checkbox("ids", &showPaneIds_);
+  for (auto [label, value] : {std::pair<const char*, bool*>{"mask", &showMask_},
+                              {"curves", &showCurves_},
+                              {"rejected", &showRejected_},
+                              {"ids", &showPaneIds_}}) {
+    sameLineIfFits(checkboxWidth(label));
+    ImGui::Checkbox(label, value);
+  }
   cameraToolbar();
 
   if (gridPanes_) {
@@ -145,12 +143,16 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   draw->PushClipRect(lo, hi, true);
   draw->AddRectFilled(lo, hi, IM_COL32(28, 29, 32, 255));
   if (!slot.photo) {
-    draw->AddText(ImVec2(lo.x + 10, lo.y + 10), IM_COL32(255, 120, 110, 255),
-                  slot.error.empty() ? "loading..." : slot.error.c_str());
+    // The error wraps within the pane; the buttons follow it.
+    const char* text = slot.error.empty() ? "loading..." : slot.error.c_str();
+    const float wrap = std::max(40.0f, float(r.w) - px(20));
+    draw->AddText(ImGui::GetFont(), ImGui::GetFontSize(), ImVec2(lo.x + px(10), lo.y + px(10)),
+                  IM_COL32(255, 120, 110, 255), text, nullptr, wrap);
+    const float textH = ImGui::CalcTextSize(text, nullptr, false, wrap).y;
     draw->PopClipRect();
     if (!slot.error.empty()) {
       // A photo that cannot load: the others still texture; offer to point it at its file again.
-      ImGui::SetCursorScreenPos(ImVec2(lo.x + 10, lo.y + 34));
+      ImGui::SetCursorScreenPos(ImVec2(lo.x + px(10), lo.y + px(16) + textH));
       ImGui::PushID(i);
       if (button("Relink...", nullptr, "relink photo " + std::to_string(i) + " (pane)"))
         dialogs_.request(DialogKind::OpenFile, "Relink photo " + std::to_string(i),
@@ -184,7 +186,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
 
   // Partition curves (accepted pairs), rejected pairs and feature markers: a vertex buffer in photo
   // coordinates drawn by a GL callback (editor_overlays.cpp), rebuilt only when they change.
-  const int hover = hovered ? hitPosition(i, view, mouse.x(), mouse.y(), 8) : -1;
+  const int hover = hovered ? hitPosition(i, view, mouse.x(), mouse.y(), px(8)) : -1;
   drawPaneOverlay(i, view, hover);
   if (resultUsable() && result_->mapping && showRejected_) {
     const Partition& part = result_->mapping->partition;
@@ -263,13 +265,13 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     if (s.x < lo.x - 20 || s.y < lo.y - 20 || s.x > hi.x + 20 || s.y > hi.y + 20) continue;
     const bool selected = static_cast<int>(k) == selectedPoint_;
     const bool hot = static_cast<int>(k) == hover || (hoverVertex_ >= 0 && p.points[k].vertex == hoverVertex_);
-    if (selected) draw->AddCircle(s, 8.5f, IM_COL32(255, 140, 30, 255), 0, 2.5f);
-    if (hot) draw->AddCircle(s, 7.0f, IM_COL32(255, 255, 255, 220), 0, 2.0f);
+    if (selected) draw->AddCircle(s, px(8.5f), IM_COL32(255, 140, 30, 255), 0, px(2.5f));
+    if (hot) draw->AddCircle(s, px(7.0f), IM_COL32(255, 255, 255, 220), 0, px(2.0f));
     if (showPaneIds_ || selected || hot) {
       const std::string id = std::to_string(k);
       const ImVec2 size = ImGui::CalcTextSize(id.c_str());
       LabelCandidate l;
-      l.lo = Vec2(s.x + 5, s.y - 16);
+      l.lo = Vec2(s.x + px(5), s.y - px(16));
       l.size = Vec2(size.x + 1, size.y);
       l.always = selected || hot;
       labels.push_back(l);
@@ -333,9 +335,9 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
           pressX_ = mouse.x();
           pressY_ = mouse.y();
         } else if (selectedVertex_ < 0) {
-          setStatus("pick a vertex in the 3D view first (left click on the mesh), then click here");
+          hint("pick a vertex in the 3D view first (left click on the mesh), then click here");
         } else if (!inside) {
-          setStatus("that is outside the photo");
+          hint("that is outside the photo");
         } else {
           // Placing and the drag that may follow are one undo step.
           doc_.beginGroup("Place vertex " + std::to_string(selectedVertex_) + " in photo " + std::to_string(i));
@@ -358,8 +360,10 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
         if (index < 0 && selectedVertex_ >= 0 && inside)
           edit([&] { index = doc_.setPosition(selectedVertex_, i, mousePhoto.x(), mousePhoto.y()); });
         if (index < 0) {
-          setStatus(selectedVertex_ < 0 ? "click a point of this photo, or pick a vertex in the 3D view first"
-                                        : "that is outside the photo");
+          // (A refused placement has said why already.)
+          if (selectedVertex_ < 0 || !inside)
+            hint(selectedVertex_ < 0 ? "click a point of this photo, or pick a vertex in the 3D view first"
+                                     : "that is outside the photo");
           break;
         }
         if (chainPhoto_ != i) {
@@ -371,7 +375,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
         if (tool_ == Tool::Polygon && chain_.size() >= 3 && index == chain_.front()) {
           finishChain();
         } else if (std::find(chain_.begin(), chain_.end(), index) != chain_.end()) {
-          setStatus("point " + std::to_string(index) + " is already in the chain");
+          hint("point " + std::to_string(index) + " is already in the chain");
         } else {
           chain_.push_back(index);
         }
@@ -379,7 +383,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
       }
       case Tool::Clone:
         if (clonePolygonClosed_) {
-          setStatus("clone: paint the target region on the mesh, or Cancel to draw another polygon");
+          hint("clone: paint the target region on the mesh, or Cancel to draw another polygon");
         } else {
           if (clonePhoto_ != i) {
             clonePolygon_.clear();
@@ -395,7 +399,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
         }
         break;
       case Tool::Stroke:
-        setStatus("the stroke tool draws on the mesh: left-drag in the 3D view");
+        hint("the stroke tool draws on the mesh: left-drag in the 3D view");
         break;
       case Tool::Cutout:  // cutoutCanvas handles it
         break;

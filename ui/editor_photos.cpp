@@ -48,14 +48,9 @@ void Editor::photosTab() {
   const Project& p = doc_.project();
   const bool hasMesh = !p.mesh.empty();
   if (!hasMesh) ImGui::BeginDisabled();
-  if (button("Add photos..."))
-    dialogs_.request(DialogKind::OpenFiles, "Add photos (select several)",
-                     {{"Images", {"*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp"}}}, "add_photos",
-                     fs::path(p.mesh).parent_path().string());
+  if (button("Add photos...")) requestAddPhotos(false);
   ImGui::SameLine();
-  if (button("Add folder..."))
-    dialogs_.request(DialogKind::OpenFolder, "Add every photo of a folder", {}, "add_photos",
-                     fs::path(p.mesh).parent_path().string());
+  if (button("Add folder...")) requestAddPhotos(true);
   if (!hasMesh) ImGui::EndDisabled();
   ImGui::SameLine();
   ImGui::TextDisabled("or drop files here");
@@ -223,8 +218,12 @@ void Editor::cutoutPanel() {
     if (m % 3) ImGui::SameLine();
     if (ImGui::RadioButton(labels[m], mode == m)) cutoutMode_ = CutoutMode(m);
   }
+  ImGui::PushItemWidth(std::max(
+      ImGui::GetFontSize() * 4,
+      ImGui::GetContentRegionAvail().x - ImGui::CalcTextSize("feather").x - ImGui::GetStyle().ItemInnerSpacing.x));
   ImGui::SliderFloat("radius", &cutoutRadius_, 1, 60, "%.0f px");
   ImGui::SliderFloat("feather", &cutoutFeather_, 0, 20, "%.1f px");
+  ImGui::PopItemWidth();
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("soft edge of the mask written: alpha ramps up over this width");
   if (cutout_.cut && std::abs(cutout_.cut->options().featherPx - cutoutFeather_) > 1e-6 && !cutout_.job.valid()) {
     cutout_.cut->setFeather(cutoutFeather_);

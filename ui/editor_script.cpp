@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -215,6 +216,12 @@ void Editor::runAction(const ScriptAction& a) {
       const WorkerStatus s = worker_->status();
       return s.busy && s.generation == submittedGeneration_;
     });
+  } else if (a.verb == "wait_idle") {
+    waitFor(where + " (the worker is still running)", a.args.empty() ? 60 : timeout, [this] {
+      if (worker_->status().busy) return false;
+      if (cancelAt_ >= 0) cancelSeconds_ = now() - cancelAt_, cancelAt_ = -1;  // how long a Cancel took
+      return true;
+    });
   } else if (a.verb == "wait_autosave") {
     waitFor(where + " (no autosave was written)", a.args.empty() ? 300 : timeout,
             [this] { return autosavedRevision_ == doc_.revision(); });
@@ -412,13 +419,13 @@ void Editor::runAction(const ScriptAction& a) {
     fs::remove(tmp);
     TM_CHECK(edit([&] { doc_.setOptions(parsed.options, "Change option " + name); }), where + ": refused");
   } else if (a.verb == "open") {
-    TM_CHECK(openFile(a.text(0)), where + ": " + (errors_.empty() ? "failed" : errors_.back()));
+    TM_CHECK(openFile(a.text(0)), where + ": " + (lastProblem_.empty() ? "failed" : lastProblem_));
     checkRecovery();
   } else if (a.verb == "add_photos") {
     const size_t before = p.photos.size();
     addPhotosFrom(a.text(0));
     TM_CHECK(doc_.project().photos.size() > before,
-             where + ": " + (errors_.empty() ? "no photo added" : errors_.back()));
+             where + ": " + (lastProblem_.empty() ? "no photo added" : lastProblem_));
   } else if (a.verb == "drop") {
     dropped_.insert(dropped_.end(), a.args.begin(), a.args.end());  // as GLFW's drop callback does
   } else if (a.verb == "relink") {
@@ -429,7 +436,7 @@ void Editor::runAction(const ScriptAction& a) {
       requirePhoto(a.integer(0));
       ok = relinkPhoto(a.integer(0), a.text(1));
     }
-    TM_CHECK(ok, where + ": " + (errors_.empty() ? "refused" : errors_.back()));
+    TM_CHECK(ok, where + ": " + (lastProblem_.empty() ? "refused" : lastProblem_));
   } else if (a.verb == "photo_flag") {
     const int photo = a.integer(0);
     requirePhoto(photo);
@@ -444,7 +451,7 @@ void Editor::runAction(const ScriptAction& a) {
     } else {
       throw Error(where + ": unknown flag '" + a.text(1) + "' (mirror, lock)");
     }
-    TM_CHECK(ok, where + ": " + (errors_.empty() ? "refused" : errors_.back()));
+    TM_CHECK(ok, where + ": " + (lastProblem_.empty() ? "refused" : lastProblem_));
   } else if (a.verb == "cutout_mode") {
     const auto it = std::find(kCutoutModeNames.begin(), kCutoutModeNames.end(), a.text(0));
     TM_CHECK(it != kCutoutModeNames.end(),
@@ -458,14 +465,32 @@ void Editor::runAction(const ScriptAction& a) {
   } else if (a.verb == "save") {
     const std::string path = a.args.empty() ? p.file : a.text(0);
     TM_CHECK(!path.empty(), where + ": the project has no file yet: give a path");
-    TM_CHECK(saveTo(path), where + ": " + (errors_.empty() ? "failed" : errors_.back()));
+    TM_CHECK(saveTo(path), where + ": " + (lastProblem_.empty() ? "failed" : lastProblem_));
   } else if (a.verb == "export") {
-    TM_CHECK(exportTo(a.text(0)), where + ": " + (errors_.empty() ? "failed" : errors_.back()));
+    TM_CHECK(exportTo(a.text(0)), where + ": " + (lastProblem_.empty() ? "failed" : lastProblem_));
   } else if (a.verb == "screenshot") {
     pendingScreenshot_ = a.text(0);
     waitFor(where, 30, [this] { return pendingScreenshot_.empty(); });
   } else if (a.verb == "state") {
     writeState(a.text(0));
+  } else if (a.verb == "menu") {
+    requestedMenu_ = a.text(0);
+    menuFailed_.clear();
+    waitFor(where, 10, [this] { return requestedMenu_.empty(); });  // the next frame's menu bar answers
+    InputStep check;
+    check.call = [this, where] {
+      TM_CHECK(menuFailed_.empty(), where + ": no enabled menu item '" + menuFailed_ + "'");
+    };
+    inputQueue_.push_back(std::move(check));
+  } else if (a.verb == "dialog_filter") {
+    TM_CHECK(dialogs_.active(), where + ": no file dialog is open");
+    TM_CHECK(dialogs_.chooseFilter(a.text(0)), where + ": the dialog has no filter '" + a.text(0) + "'");
+  } else if (a.verb == "drag_splitter") {
+    // Press on the bar's centre, move by (DX, DY), release: as a user drags it.
+    const std::string bar = a.text(0);
+    TM_CHECK(splitterRects_.count(bar), where + ": no splitter '" + bar + "' (left, tools, view)");
+    const Rect r = splitterRects_.at(bar);
+    queueDrag(r.x + r.w / 2, r.y + r.h / 2, r.x + r.w / 2 + a.number(1), r.y + r.h / 2 + a.number(2), 0);
   } else if (a.verb == "close") {
     requestClose();
   } else if (a.verb == "quit") {
@@ -517,6 +542,7 @@ void Editor::writeState(const std::string& path) const {
       perPhoto = count;
     }
     state["result"] = {{"matches_document", resultCurrent()},
+                       {"tier", kTierNames[int(result_->tier)]},
                        {"faces_per_photo", perPhoto},
                        {"project", json::parse(projectToJson(result_->scene->document(), ""))},
                        {"faces", result_->model ? result_->model->mesh.numFaces() : 0},
@@ -526,6 +552,34 @@ void Editor::writeState(const std::string& path) const {
     state["result"] = nullptr;
   }
   state["errors"] = errors_;
+  state["errors_window"] = showErrors_;
+  state["hint"] = hint_;
+  state["recent"] = recent_.files();
+  state["cancelled"] = cancelled_;
+  state["cancel_seconds"] = cancelSeconds_;
+  state["scale"] = scale_;
+  state["active_photo"] = activePhoto_;
+  state["tab"] = listsTab_;
+  json tabs = json::object();  // the Document panel's tab buttons, whole (not clipped to the panel)
+  for (const auto& [name, r] : tabRects_) tabs[name] = rect(r);
+  state["tabs"] = tabs;
+  state["grid"] = gridPanes_;
+  if (ws.busy) {
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - ws.started).count();
+    state["progress"] = {{"tier", kTierNames[int(ws.tier)]},
+                         {"stage", stageName(ws.stage)},
+                         {"overall", progress_.overall(ws.tier, ws.stage, ws.fraction)},
+                         {"seconds_left", progress_.secondsLeft(ws.tier, ws.stage, ws.fraction, elapsed)},
+                         {"measured", progress_.measured(ws.tier)}};
+  }
+  state["font_size"] = ImGui::GetFontSize();
+  json parts = json::object();
+  for (const auto& [name, r] : statusParts_) parts[name] = rect(r);
+  state["status_bar"] = parts;
+  state["dialog"] =
+      dialogs_.active()
+          ? json{{"folder", dialogs_.folder()}, {"filter", dialogs_.filterName()}, {"listed", dialogs_.listed()}}
+          : json(nullptr);
   json photos = json::array();
   for (size_t i = 0; i < p.photos.size(); ++i) {
     const PhotoSlot* slot = i < photos_.size() ? &photos_[i] : nullptr;
@@ -558,6 +612,7 @@ void Editor::writeState(const std::string& path) const {
     state["balance"] = transforms;
   }
   state["layout"] = {{"window", rect(windowRect_)}, {"view3d", rect(viewRect_)}, {"photos", rect(paneRect_)}};
+  for (const auto& [name, r] : splitterRects_) state["layout"]["splitters"][name] = rect(r);
   state["coverage"] = coverageState();
   state["autosave"] = {{"path", autosavePath()}, {"written_revision", autosavedRevision_}};
   // Navigation: the camera, the hover, the surface point under the pointer and the mesh's extent

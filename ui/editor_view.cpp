@@ -73,7 +73,8 @@ void Editor::view3d() {
   ImDrawList* draw = ImGui::GetWindowDrawList();
   if (!input_.mesh) {
     const char* text = input_.error.empty() ? "Open a project or a mesh (File > Open, Ctrl+O)" : input_.error.c_str();
-    draw->AddText(ImVec2(pos.x + 16, pos.y + 16), IM_COL32(220, 220, 220, 255), text);
+    draw->AddText(ImGui::GetFont(), ImGui::GetFontSize(), ImVec2(pos.x + px(16), pos.y + px(16)),
+                  IM_COL32(220, 220, 220, 255), text, nullptr, std::max(40.0f, avail.x - px(32)));
     return;
   }
   if (frameWhenShown_) {
@@ -168,7 +169,7 @@ void Editor::view3dInput(const Rect& r) {
       const Stroke stroke{stroke_};
       if (edit([&] { doc_.addStroke(stroke); })) setStatus("stroke of " + std::to_string(stroke_.size()) + " vertices");
     } else if (!stroke_.empty()) {
-      setStatus("stroke: drag across the surface to draw one");
+      hint("stroke: drag across the surface to draw one");
     }
     stroke_.clear();
     linesDirty_ = true;
@@ -521,10 +522,13 @@ void Editor::drawViewLabels(const Rect& r) {
                                                                           : "preview - up to date")
                      : worker_->status().busy ? "result of an earlier edit - updating"
                                               : "result of an earlier edit";
-  const ImVec2 size = ImGui::CalcTextSize(what);
-  draw->AddRectFilled(ImVec2(float(r.x), float(r.y)), ImVec2(float(r.x + size.x + 16), float(r.y + size.y + 10)),
-                      IM_COL32(0, 0, 0, 140));
-  draw->AddText(ImVec2(float(r.x + 8), float(r.y + 5)), IM_COL32(210, 210, 210, 255), what);
+  // Wrapped within the view when it is narrow.
+  const float wrap = std::max(40.0f, float(r.w) - px(16));
+  const ImVec2 size = ImGui::CalcTextSize(what, nullptr, false, wrap);
+  draw->AddRectFilled(ImVec2(float(r.x), float(r.y)),
+                      ImVec2(float(r.x + size.x + px(16)), float(r.y + size.y + px(10))), IM_COL32(0, 0, 0, 140));
+  draw->AddText(ImGui::GetFont(), ImGui::GetFontSize(), ImVec2(float(r.x + px(8)), float(r.y + px(5))),
+                IM_COL32(210, 210, 210, 255), what, nullptr, wrap);
 }
 
 }  // namespace montage

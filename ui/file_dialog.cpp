@@ -36,16 +36,14 @@ bool onPath(const char* program) {
   return false;
 }
 
-bool matches(const std::string& name, const std::vector<FileFilter>& filters) {
-  if (filters.empty()) return true;
+bool matches(const std::string& name, const FileFilter& filter) {
   std::string lower = name;
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  for (const auto& f : filters)
-    for (const auto& p : f.patterns) {
-      if (p == "*") return true;
-      const std::string ext = p.substr(p.find('.') == std::string::npos ? 0 : p.find('.'));
-      if (lower.size() >= ext.size() && lower.compare(lower.size() - ext.size(), ext.size(), ext) == 0) return true;
-    }
+  for (const auto& p : filter.patterns) {
+    if (p == "*") return true;
+    const std::string ext = p.substr(p.find('.') == std::string::npos ? 0 : p.find('.'));
+    if (lower.size() >= ext.size() && lower.compare(lower.size() - ext.size(), ext.size(), ext) == 0) return true;
+  }
   return false;
 }
 
@@ -65,7 +63,13 @@ bool FileDialogs::request(DialogKind kind, const std::string& title, const std::
   filters_ = filters;
   purpose_ = purpose;
   std::error_code ec;
-  dir_ = !startDir.empty() && fs::is_directory(startDir, ec) ? startDir : fs::current_path(ec).string();
+  if (!startDir.empty() && fs::is_directory(startDir, ec))
+    dir_ = startDir;
+  else if (!lastDir_.empty() && fs::is_directory(lastDir_, ec))
+    dir_ = lastDir_;
+  else
+    dir_ = fs::current_path(ec).string();
+  filter_ = 0;
   name_.clear();
   error_.clear();
   selected_.clear();
@@ -114,11 +118,13 @@ std::optional<DialogResult> FileDialogs::frame() {
         size_t start = 0;
         while (start <= out->size()) {
           const size_t end = std::min(out->find('\n', start), out->size());
-          if (end > start) result.paths.push_back(fs::absolute(out->substr(start, end - start)).lexically_normal().string());
+          if (end > start)
+            result.paths.push_back(fs::absolute(out->substr(start, end - start)).lexically_normal().string());
           start = end + 1;
         }
         if (result.paths.empty()) return std::nullopt;
         result.path = result.paths.front();
+        lastDir_ = kind_ == DialogKind::OpenFolder ? result.path : fs::path(result.path).parent_path().string();
         return result;
       }
     }
@@ -128,6 +134,7 @@ std::optional<DialogResult> FileDialogs::frame() {
   if (done_) {
     active_ = false;
     done_ = false;
+    if (chosen_ || !chosenMany_.empty()) lastDir_ = dir_;
     if (!chosenMany_.empty()) {
       DialogResult result{purpose_, "", {}};
       for (const auto& p : chosenMany_) result.paths.push_back(fs::absolute(p).lexically_normal().string());
@@ -142,6 +149,44 @@ std::optional<DialogResult> FileDialogs::frame() {
   return std::nullopt;
 }
 
+std::string FileDialogs::filterName() const {
+  return filter_ < static_cast<int>(filters_.size()) ? filters_[filter_].name : "";
+}
+
+bool FileDialogs::chooseFilter(const std::string& name) {
+  for (size_t i = 0; i < filters_.size(); ++i)
+    if (filters_[i].name == name) {
+      filter_ = static_cast<int>(i);
+      return true;
+    }
+  return false;
+}
+
+std::vector<FileDialogs::Entry> FileDialogs::entries(std::string* error) const {
+  std::error_code ec;
+  std::vector<Entry> out;
+  for (fs::directory_iterator it(dir_, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.empty() || name[0] == '.') continue;
+    std::error_code e;
+    const bool isDir = it->is_directory(e);
+    const bool shown =
+        isDir || filters_.empty() || matches(name, filters_[std::min<size_t>(filter_, filters_.size() - 1)]);
+    if (!shown) continue;
+    out.push_back({name, isDir, isDir || kind_ != DialogKind::OpenFolder});
+  }
+  if (ec && error) *error = "cannot list " + dir_ + ": " + ec.message();
+  std::sort(out.begin(), out.end(),
+            [](const Entry& a, const Entry& b) { return a.folder != b.folder ? a.folder : a.name < b.name; });
+  return out;
+}
+
+std::vector<std::string> FileDialogs::listed() const {
+  std::vector<std::string> names;
+  for (const Entry& e : entries()) names.push_back(e.folder ? e.name + "/" : e.name);
+  return names;
+}
+
 void FileDialogs::drawBrowser() {
   const char* popupId = "##tm_file_browser";
   if (openPopup_) {
@@ -149,7 +194,8 @@ void FileDialogs::drawBrowser() {
     openPopup_ = false;
   }
   const ImVec2 display = ImGui::GetIO().DisplaySize;
-  ImGui::SetNextWindowSize(ImVec2(std::min(720.f, display.x * 0.9f), std::min(520.f, display.y * 0.85f)),
+  ImGui::SetNextWindowSize(ImVec2(std::min(ImGui::GetFontSize() * 48, display.x * 0.9f),
+                                  std::min(ImGui::GetFontSize() * 35, display.y * 0.85f)),
                            ImGuiCond_Appearing);
   ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y * 0.5f), ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
   if (!ImGui::BeginPopupModal(popupId, nullptr, ImGuiWindowFlags_NoSavedSettings)) {
@@ -161,33 +207,37 @@ void FileDialogs::drawBrowser() {
   ImGui::Separator();
   if (ImGui::Button("Up")) dir_ = fs::path(dir_).parent_path().string();
   ImGui::SameLine();
+  if (filters_.size() > 1) {
+    // The type filter: only the chosen one's files are listed.
+    ImGui::SetNextItemWidth(ImGui::GetFontSize() * 12);
+    if (ImGui::BeginCombo("##filter", filters_[filter_].name.c_str())) {
+      for (size_t i = 0; i < filters_.size(); ++i)
+        if (ImGui::Selectable(filters_[i].name.c_str(), filter_ == static_cast<int>(i))) filter_ = static_cast<int>(i);
+      ImGui::EndCombo();
+    }
+    ImGui::SameLine();
+  }
   ImGui::SetNextItemWidth(-1);
   ImGui::InputText("##dir", &dir_);
 
   const float footer = ImGui::GetFrameHeightWithSpacing() * (kind_ == DialogKind::OpenFolder ? 2.2f : 3.2f);
   ImGui::BeginChild("##entries", ImVec2(0, -footer), true);
-  std::error_code ec;
-  std::vector<fs::directory_entry> entries;
-  for (fs::directory_iterator it(dir_, ec), end; !ec && it != end; it.increment(ec)) entries.push_back(*it);
-  if (ec) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "cannot list %s: %s", dir_.c_str(), ec.message().c_str());
-  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) {
-    std::error_code e;
-    const bool da = a.is_directory(e), db = b.is_directory(e);
-    return da != db ? da : a.path().filename() < b.path().filename();
-  });
-  for (const auto& entry : entries) {
-    const std::string name = entry.path().filename().string();
-    if (!name.empty() && name[0] == '.') continue;
-    std::error_code e;
-    const bool isDir = entry.is_directory(e);
-    if (!isDir && (kind_ == DialogKind::OpenFolder || !matches(name, filters_))) continue;
+  std::string listError;
+  for (const Entry& entry : entries(&listError)) {
+    const std::string& name = entry.name;
+    const bool isDir = entry.folder;
     const std::string label = (isDir ? "[dir] " : "      ") + name;
+    if (!entry.choosable) {
+      ImGui::TextDisabled("%s", label.c_str());  // a file of the folder being chosen
+      continue;
+    }
     const bool many = kind_ == DialogKind::OpenFiles;
-    const bool isSelected = many ? std::find(selected_.begin(), selected_.end(), name) != selected_.end() : name == name_;
+    const bool isSelected =
+        many ? std::find(selected_.begin(), selected_.end(), name) != selected_.end() : name == name_;
     if (ImGui::Selectable(label.c_str(), !isDir && isSelected, ImGuiSelectableFlags_AllowDoubleClick)) {
       if (isDir) {
         if (ImGui::IsMouseDoubleClicked(0)) {
-          dir_ = entry.path().string();
+          dir_ = (fs::path(dir_) / name).string();
           selected_.clear();
         }
       } else if (many && !ImGui::IsMouseDoubleClicked(0)) {
@@ -201,12 +251,13 @@ void FileDialogs::drawBrowser() {
       } else {
         name_ = name;
         if (ImGui::IsMouseDoubleClicked(0)) {
-          chosen_ = entry.path().string();
+          chosen_ = (fs::path(dir_) / name).string();
           done_ = true;
         }
       }
     }
   }
+  if (!listError.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", listError.c_str());
   ImGui::EndChild();
 
   if (kind_ != DialogKind::OpenFolder) {
@@ -215,7 +266,8 @@ void FileDialogs::drawBrowser() {
   }
   if (!error_.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error_.c_str());
   const char* ok = kind_ == DialogKind::SaveFile ? "Save" : kind_ == DialogKind::OpenFolder ? "Choose folder" : "Open";
-  if (ImGui::Button(ok, ImVec2(120, 0)) || (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Enter)) && !done_)) {
+  if (ImGui::Button(ok, ImVec2(ImGui::GetFontSize() * 8, 0)) ||
+      (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Enter)) && !done_)) {
     if (kind_ == DialogKind::OpenFolder) {
       chosen_ = dir_;
       done_ = true;
@@ -236,7 +288,8 @@ void FileDialogs::drawBrowser() {
     }
   }
   ImGui::SameLine();
-  if (ImGui::Button("Cancel", ImVec2(120, 0)) || ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape))) {
+  if (ImGui::Button("Cancel", ImVec2(ImGui::GetFontSize() * 8, 0)) ||
+      ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape))) {
     chosen_.reset();
     done_ = true;
   }

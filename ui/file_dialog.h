@@ -25,7 +25,11 @@ struct DialogResult {
 class FileDialogs {
  public:
   FileDialogs();
-  // Opens a dialog unless one is open already (returns false then).
+  // Opens a dialog unless one is open already (returns false then). It starts in `startDir` (the
+  // project's folder), else in the folder of the last choice, else in the working folder. The first
+  // filter is active; the built-in browser lists the files of the active filter only (a combo chooses
+  // another), and folders; choosing a folder (OpenFolder), it lists the filter's files greyed, so the
+  // user sees what the folder holds.
   bool request(DialogKind kind, const std::string& title, const std::vector<FileFilter>& filters,
                const std::string& purpose, const std::string& startDir);
   bool active() const { return active_; }
@@ -36,8 +40,22 @@ class FileDialogs {
   // Forces the built-in browser (tests, TM_NO_ZENITY=1).
   void disableZenity() { zenity_ = false; }
 
+  // The built-in browser, for the script's `state` and `dialog_filter`: its folder, the active filter's
+  // name, and the entries it lists (folders end in '/').
+  const std::string& folder() const { return dir_; }
+  std::string filterName() const;
+  std::vector<std::string> listed() const;
+  bool chooseFilter(const std::string& name);  // false when no filter has that name
+  const std::string& lastFolder() const { return lastDir_; }
+
  private:
   void drawBrowser();
+  struct Entry {
+    std::string name;
+    bool folder = false;
+    bool choosable = true;  // false: a file shown (greyed) while choosing a folder
+  };
+  std::vector<Entry> entries(std::string* error = nullptr) const;
   bool zenity_ = false;
   bool active_ = false;
   bool openPopup_ = false;
@@ -47,6 +65,8 @@ class FileDialogs {
   std::future<std::optional<std::string>> pending_;  // zenity's answer
   // Built-in browser state.
   std::string dir_, name_, error_;
+  std::string lastDir_;                // folder of the last choice
+  int filter_ = 0;                     // active filter
   std::vector<std::string> selected_;  // OpenFiles: file names selected in dir_
   std::optional<std::string> chosen_;
   std::vector<std::string> chosenMany_;

@@ -29,6 +29,7 @@ struct OverlayGl {
     OverlayGl* gl = nullptr;
     int photo = -1;
     float originX = 0, originY = 0, zoom = 1;
+    float scale = 1;  // UI scale: marker diameters
   };
   std::deque<PaneDraw> draws;
   std::vector<float> depth;  // 3D view depth after the mesh (GL rows, bottom-up), for id visibility

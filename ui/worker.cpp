@@ -29,6 +29,13 @@ long PipelineWorker::submit(std::shared_ptr<const Project> snapshot) {
   return pendingGeneration_;
 }
 
+void PipelineWorker::cancel() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  pending_.reset();
+  cancel_ = true;
+  wake_.notify_all();
+}
+
 std::optional<WorkerOutcome> PipelineWorker::take() {
   std::lock_guard<std::mutex> lock(mutex_);
   std::optional<WorkerOutcome> out = std::move(finished_);
@@ -98,7 +105,7 @@ void PipelineWorker::loop() {
     const long generation = pendingGeneration_;
     cancel_ = false;
     for (Tier tier : {Tier::Preview, Tier::Final}) {
-      status_ = WorkerStatus{true, tier, StageId::Load, 0, "", generation};
+      status_ = WorkerStatus{true, tier, StageId::Load, 0, "", generation, std::chrono::steady_clock::now()};
       lock.unlock();
       WorkerOutcome outcome;
       outcome.generation = generation;

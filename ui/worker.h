@@ -7,6 +7,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <map>
@@ -24,9 +25,10 @@ struct WorkerStatus {
   bool busy = false;
   Tier tier = Tier::Preview;  // of the run in progress (or the last one)
   StageId stage = StageId::Load;
-  double fraction = 0;  // of the current stage
-  std::string what;     // what the stage is doing
-  long generation = 0;  // snapshot being worked on (or last finished)
+  double fraction = 0;                            // of the current stage
+  std::string what;                               // what the stage is doing
+  long generation = 0;                            // snapshot being worked on (or last finished)
+  std::chrono::steady_clock::time_point started;  // when the run of this tier started
 };
 
 // What one run produced: a result or an error message, for snapshot `generation`.
@@ -49,6 +51,9 @@ class PipelineWorker {
 
   // Hands the worker a snapshot; cancels any job still running. Returns its generation number.
   long submit(std::shared_ptr<const Project> snapshot);
+  // Stops the running job at its next progress point and drops a snapshot still waiting; nothing is
+  // published for them (the last outcome taken stays the newest). The next submit runs again.
+  void cancel();
   // The newest finished outcome not yet taken, if any. Never blocks on the running job.
   std::optional<WorkerOutcome> take();
   WorkerStatus status() const;

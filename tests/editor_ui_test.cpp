@@ -1,0 +1,376 @@
+// The small things users trip on (issue 14, item 6), scripted under Xvfb on the bundled demo: the status
+// bar's parts never overlap at 800x600 with a long message; a one-point line is an inline hint, not an
+// error window; a missing photo is listed once; Cancel stops a run and Run resumes it; the file dialog
+// starts in the project's folder and lists only the active filter's files (a folder's images when
+// choosing photos); a file that fails to load stays out of the recent list; key N shows the photo whose
+// tab says N; the `menu` verb. Also the progress weights (no display). The Xvfb tests skip without
+// xvfb-run.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+#include <vector>
+
+#include "layout.h"
+#include "progress.h"
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string demoProject() {
+  return montage::test::assetsDir() + "/demo/project.json";
+}
+
+// Runs the editor in `dir` on `file` (may be empty) with `script`; returns its exit status.
+int runEditor(const std::string& dir, const std::string& file, const std::string& script, const std::string& size,
+              std::string* output, const std::string& extra = "") {
+  std::ofstream(dir + "/script.txt") << script;
+  const std::string cmd = "cd '" + dir + "' && XDG_STATE_HOME='" + dir +
+                          "/state' TM_NO_ZENITY=1 xvfb-run -a -s '-screen 0 2600x1700x24' '" +
+                          std::string(TM_EDITOR_EXE) + "' " + (file.empty() ? "" : "'" + file + "' ") +
+                          "--script script.txt --size " + size + " " + extra + " 2>&1";
+  return montage::test::runCommand(cmd, output);
+}
+
+json read(const std::string& dir, const std::string& name) {
+  return montage::test::readJson(dir + "/" + name);
+}
+
+// The status bar's parts (state "status_bar") lie within [0, width] and do not overlap.
+void expectDisjoint(const json& parts, double width, const std::string& what) {
+  std::vector<std::pair<double, double>> spans;
+  for (const auto& [part, r] : parts.items()) {
+    const double x0 = r["x"].get<double>(), x1 = x0 + r["w"].get<double>();
+    EXPECT_GE(x0, 0) << what << " " << part;
+    EXPECT_LE(x1, width) << what << " " << part;
+    spans.emplace_back(x0, x1);
+  }
+  std::sort(spans.begin(), spans.end());
+  for (size_t i = 1; i < spans.size(); ++i)
+    EXPECT_LE(spans[i - 1].second, spans[i].first) << what << ": status bar parts overlap: " << parts.dump();
+}
+
+}  // namespace
+
+TEST(EditorProgress, StagesWeighByTheirMeasuredSeconds) {
+  montage::RunProgress progress;
+  using montage::StageId;
+  using montage::Tier;
+  // Before any run: typical shares, the preview without the bake and export.
+  EXPECT_FALSE(progress.measured(Tier::Preview));
+  const double typicalAtInpaint = progress.overall(Tier::Preview, StageId::Inpaint, 0);
+  const auto& shares = montage::RunProgress::typicalShares();
+  double before = 0, upTo = 0;
+  for (int s = 0; s <= int(StageId::Inpaint); ++s) (s < int(StageId::Inpaint) ? before : upTo) += shares[s];
+  EXPECT_NEAR(typicalAtInpaint, before / (before + upTo), 1e-9);
+  EXPECT_DOUBLE_EQ(progress.overall(Tier::Preview, StageId::Inpaint, 1), 1.0);
+  // Measured: load 1 s, map 7 s, inpaint 2 s (the partition cached). Inpainting begins at 80%, not at
+  // the 8/11 a count of stages would show.
+  std::vector<montage::StageRecord> stages(4);
+  stages[0].stage = StageId::Load, stages[0].seconds = 1;
+  stages[1].stage = StageId::Partition, stages[1].cached = true;
+  stages[2].stage = StageId::Map, stages[2].seconds = 7;
+  stages[3].stage = StageId::Inpaint, stages[3].seconds = 2;
+  progress.record(Tier::Preview, stages);
+  EXPECT_TRUE(progress.measured(Tier::Preview));
+  EXPECT_NEAR(progress.overall(Tier::Preview, StageId::Inpaint, 0), 0.8, 1e-9);
+  EXPECT_NEAR(progress.overall(Tier::Preview, StageId::Map, 0.5), 0.45, 1e-9);
+  EXPECT_NEAR(progress.overall(Tier::Preview, StageId::Inpaint, 0.5), 0.9, 1e-9);
+  // Time left: 2 s ahead when this run is as fast as the last; twice that when it runs twice as slowly.
+  EXPECT_NEAR(progress.secondsLeft(Tier::Preview, StageId::Inpaint, 0, 8), 2, 1e-9);
+  EXPECT_NEAR(progress.secondsLeft(Tier::Preview, StageId::Inpaint, 0, 16), 4, 1e-9);
+  // The final tier is still unmeasured: no estimate until 5% is done, then from the elapsed time.
+  EXPECT_LT(progress.secondsLeft(Tier::Final, StageId::Load, 0, 0.1), 0);
+  const double done = progress.overall(Tier::Final, StageId::Bake, 0);
+  EXPECT_NEAR(progress.secondsLeft(Tier::Final, StageId::Bake, 0, 10), 10 * (1 - done) / done, 1e-9);
+}
+
+TEST(EditorStatusBar, PartsNeverOverlapAt800x600WithALongMessage) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_status");
+  const std::string longPath =
+      "/tmp/a/long/folder/name/of/the/photographer/who/keeps/notes/next/to/the/photos/shoot_notes_2026.txt";
+  const std::string script =
+      "wait_worker\nset_option stretchSearches 24\nwait_busy\nstate busy.json\nscreenshot busy.png\ndrop \"" +
+      longPath + "\"\nwait_frames 3\nstate s.json\nscreenshot s.png\nquit\n";
+  std::string out;
+  ASSERT_EQ(runEditor(dir, demoProject(), script, "800x600", &out), 0) << out;
+  for (const char* name : {"busy.json", "s.json"}) {
+    const json s = read(dir, name);
+    const json& parts = s["status_bar"];
+    ASSERT_TRUE(parts.contains("run") && parts.contains("right")) << name << ": " << parts.dump();
+    expectDisjoint(parts, 800, name);
+    for (const auto& [part, r] : parts.items())
+      EXPECT_GE(r["y"].get<double>(), 560) << name << " " << part << ": not in the status bar";
+  }
+  const json s = read(dir, "s.json");
+  ASSERT_TRUE(s["status_bar"].contains("message")) << s["status_bar"].dump();
+  // The message is the long error, elided into the space left between the run and the right part.
+  EXPECT_LT(s["status_bar"]["message"]["w"].get<double>(), 500);
+  ASSERT_EQ(s["errors"].size(), 1u) << s["errors"].dump();
+  EXPECT_NE(s["errors"][0].get<std::string>().find(longPath), std::string::npos);
+  EXPECT_FALSE(s["errors_window"].get<bool>()) << "an error opened a window over the view";
+  EXPECT_TRUE(json(read(dir, "busy.json"))["worker"]["busy"].get<bool>());
+  // In the picture: the right part's text (frame time) is drawn where the state says, over the bar's
+  // background, and nothing else is drawn between the message's end and it.
+  const cv::Mat shot = cv::imread(dir + "/s.png");
+  ASSERT_EQ(shot.cols, 800);
+  const json& m = s["status_bar"]["message"];
+  const json& r = s["status_bar"]["right"];
+  const int y0 = int(r["y"].get<double>()), y1 = y0 + int(r["h"].get<double>());
+  const int gapFrom = int(m["x"].get<double>() + m["w"].get<double>()) + 2, gapTo = int(r["x"].get<double>()) - 2;
+  int ink = 0;
+  const cv::Vec3b background = shot.at<cv::Vec3b>(y0, gapTo);
+  for (int y = y0; y < y1; ++y)
+    for (int x = gapFrom; x < gapTo; ++x) ink += cv::norm(shot.at<cv::Vec3b>(y, x), background, cv::NORM_L1) > 60;
+  EXPECT_EQ(ink, 0) << "text drawn between the message and the frame time";
+}
+
+TEST(EditorHints, AOnePointLineIsAnInlineHintNotAnError) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_hint");
+  // Point 44 of the demo is in photo 0 at (301.91, 110.34): the line starts there; Enter with one point.
+  const std::string script =
+      "wait_result\ntool line\nstate before.json\nclick_photo 0 301.91 110.34\nkey enter\nwait_frames 3\nstate s.json\n"
+      "screenshot s.png\nquit\n";
+  std::string out;
+  ASSERT_EQ(runEditor(dir, demoProject(), script, "1280x800", &out), 0) << out;
+  const json before = read(dir, "before.json"), s = read(dir, "s.json");
+  EXPECT_NE(s["hint"].get<std::string>().find("at least 2 points"), std::string::npos) << s["hint"];
+  EXPECT_TRUE(s["errors"].empty()) << "a slip was listed as an error: " << s["errors"].dump();
+  EXPECT_FALSE(s["errors_window"].get<bool>());
+  EXPECT_EQ(s["counts"]["chains"], before["counts"]["chains"]);
+  // Shown inline: in the status bar's message.
+  ASSERT_TRUE(s["status_bar"].contains("message"));
+}
+
+TEST(EditorErrors, AMissingPhotoIsListedOnce) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_missing");
+  json project = montage::test::demoProjectAbsolute();
+  project["photos"][1]["path"] = dir + "/moved_away.png";
+  std::ofstream(dir + "/project.json") << project.dump(1);
+  std::string out;
+  ASSERT_EQ(runEditor(dir, dir + "/project.json", "wait_worker\nwait_frames 3\nstate s.json\nquit\n", "1280x800", &out),
+            0)
+      << out;
+  const json s = read(dir, "s.json");
+  int naming = 0;
+  for (const auto& e : s["errors"]) naming += e.get<std::string>().find("moved_away.png") != std::string::npos;
+  EXPECT_EQ(naming, 1) << s["errors"].dump(1);
+  EXPECT_FALSE(s["errors_window"].get<bool>());
+}
+
+TEST(EditorProgress, CancelStopsTheRunAndRunResumesIt) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_cancel");
+  // A synthetic turtle whose final bake takes seconds (structure inpainting): long enough for the click to
+  // land while it runs, whatever the machine's load.
+  std::string out;
+  ASSERT_EQ(
+      montage::test::runCommand(montage::test::montageExe() + " synth --mesh " + montage::test::testDataDir() +
+                                    "/turtle.obj --views 3 --features 60 --size 256 --out '" + dir + "/scene' 2>&1",
+                                &out),
+      0)
+      << out;
+  const std::string script =
+      "wait_result 600\nwait_busy 60\nstate busy.json\n"
+      "click_button \"Cancel run\"\nwait_idle 60\nstate cancelled.json\nclick_button Run\nwait_worker 600\n"
+      "state done.json\nquit\n";
+  ASSERT_EQ(runEditor(dir, dir + "/scene/project.json", script, "1280x800", &out), 0) << out;
+  const json busy = read(dir, "busy.json"), cancelled = read(dir, "cancelled.json"), done = read(dir, "done.json");
+  // The first final bake (weighted by typical shares: no final run has been measured yet).
+  ASSERT_TRUE(busy.contains("progress")) << busy.dump();
+  EXPECT_EQ(busy["progress"]["tier"], "final");
+  EXPECT_FALSE(busy["progress"]["measured"].get<bool>());
+  EXPECT_FALSE(cancelled["worker"]["busy"].get<bool>());
+  EXPECT_TRUE(cancelled["cancelled"].get<bool>());
+  std::printf("cancel: the final bake stopped %.2f s after the click (%s)\n", cancelled["cancel_seconds"].get<double>(),
+              busy["progress"]["stage"].get<std::string>().c_str());
+  EXPECT_GE(cancelled["cancel_seconds"].get<double>(), 0);
+  // Nothing came back from the cancelled bake: the view keeps the document's preview.
+  EXPECT_EQ(cancelled["result"]["tier"], "preview");
+  EXPECT_TRUE(cancelled["result"]["matches_document"].get<bool>());
+  EXPECT_EQ(cancelled["worker"]["outcome_generations"], busy["worker"]["outcome_generations"]);
+  // Run computes the document again, to its final bake.
+  EXPECT_FALSE(done["cancelled"].get<bool>());
+  EXPECT_EQ(done["result"]["tier"], "final");
+  EXPECT_TRUE(done["result"]["matches_document"].get<bool>());
+}
+
+TEST(EditorFiles, DialogStartsInTheProjectFolderAndFiltersByType) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_dialog");
+  const std::string script =
+      "menu \"File/Open project or mesh...\"\nwait_frames 2\nstate open.json\ndialog_filter Meshes\nwait_frames 2\n"
+      "state meshes.json\nkey escape\nwait_frames 2\nmenu \"File/Add photos folder...\"\nwait_frames 2\n"
+      "state folder.json\nkey escape\nwait_frames 2\nmenu \"View/Photos in a grid\"\nwait_frames 2\nstate grid.json\n"
+      "quit\n";
+  std::string out;
+  ASSERT_EQ(runEditor(dir, demoProject(), script, "1280x800", &out), 0) << out;
+  const std::string demo = fs::canonical(montage::test::assetsDir() + "/demo").string();
+  auto listed = [](const json& s) { return s["dialog"]["listed"].get<std::vector<std::string>>(); };
+  auto has = [](const std::vector<std::string>& v, const std::string& name) {
+    return std::find(v.begin(), v.end(), name) != v.end();
+  };
+  const json open = read(dir, "open.json");
+  ASSERT_FALSE(open["dialog"].is_null()) << "the menu did not open the dialog";
+  EXPECT_EQ(fs::canonical(open["dialog"]["folder"].get<std::string>()).string(), demo);
+  EXPECT_TRUE(has(listed(open), "project.json"));
+  EXPECT_TRUE(has(listed(open), "cat.obj"));
+  EXPECT_FALSE(has(listed(open), "tiger_left.png")) << "the projects-and-meshes filter lists images";
+  const json meshes = read(dir, "meshes.json");
+  EXPECT_EQ(meshes["dialog"]["filter"], "Meshes");
+  EXPECT_TRUE(has(listed(meshes), "cat.obj"));
+  EXPECT_FALSE(has(listed(meshes), "project.json"));
+  const json folder = read(dir, "folder.json");
+  EXPECT_TRUE(has(listed(folder), "tiger_left.png")) << "choosing a folder of photos does not show its images";
+  EXPECT_FALSE(has(listed(folder), "cat.obj"));
+  EXPECT_FALSE(open["grid"].get<bool>());
+  EXPECT_TRUE(read(dir, "grid.json")["grid"].get<bool>()) << "menu View/Photos in a grid did not toggle the grid";
+  // A menu item that does not exist fails the script, naming it.
+  ASSERT_NE(runEditor(dir, demoProject(), "menu \"File/No such item\"\nquit\n", "1280x800", &out), 0);
+  EXPECT_NE(out.find("No such item"), std::string::npos) << out;
+}
+
+TEST(EditorFiles, OnlyFilesThatLoadedEnterTheRecentList) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_recent");
+  std::ofstream(dir + "/broken.obj") << "v 0 0 0\nf 1 2 3 garbage\n";
+  const std::string script = "open '" + dir + "/broken.obj'\nwait_frames 3\nstate broken.json\nopen '" + demoProject() +
+                             "'\nwait_frames 3\nstate demo.json\nquit\n";
+  std::string quoted = script;
+  std::replace(quoted.begin(), quoted.end(), '\'', '"');
+  std::string out;
+  ASSERT_EQ(runEditor(dir, "", quoted, "1280x800", &out), 0) << out;
+  const json broken = read(dir, "broken.json"), demo = read(dir, "demo.json");
+  for (const auto& f : broken["recent"]) EXPECT_EQ(f.get<std::string>().find("broken.obj"), std::string::npos);
+  int naming = 0;
+  for (const auto& e : broken["errors"]) naming += e.get<std::string>().find("broken.obj") != std::string::npos;
+  EXPECT_EQ(naming, 1) << broken["errors"].dump(1);
+  ASSERT_FALSE(demo["recent"].empty());
+  EXPECT_NE(demo["recent"][0].get<std::string>().find("project.json"), std::string::npos) << demo["recent"].dump();
+}
+
+TEST(EditorPhotos, KeyNShowsThePhotoWhoseTabSaysN) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_keys");
+  std::string out;
+  ASSERT_EQ(runEditor(dir, demoProject(),
+                      "key 1\nwait_frames 3\nstate one.json\nkey 0\nwait_frames 3\nstate zero.json\nquit\n", "1280x800",
+                      &out),
+            0)
+      << out;
+  // Tabs read "0: tiger_left.png", "1: tiger_right.png": key 1 shows photo 1, key 0 photo 0.
+  EXPECT_EQ(read(dir, "one.json")["active_photo"], 1);
+  EXPECT_EQ(read(dir, "zero.json")["active_photo"], 0);
+}
+
+TEST(EditorLayout, DefaultsKeepTheFormerLayoutAndSplittersStopAtMinimumSizes) {
+  montage::LayoutPrefs prefs;
+  const double top = 21, bottom = 29;
+  montage::PanelLayout l = montage::computeLayout(prefs, 1280, 800, top, bottom, 1);
+  EXPECT_EQ(l.tools.w, 307);  // 24% of 1280, as before the splitters
+  EXPECT_EQ(l.view.w, 486);
+  EXPECT_EQ(l.view.x + l.view.w, l.photos.x);
+  EXPECT_EQ(l.photos.x + l.photos.w, 1280);
+  // The view bar moves the boundary between the view and the photos by the drag.
+  ASSERT_TRUE(montage::dragSplitter(prefs, "view", 100, 0, 1280, 800, top, bottom, 1));
+  l = montage::computeLayout(prefs, 1280, 800, top, bottom, 1);
+  EXPECT_NEAR(l.view.w, 586, 1);
+  // The left bar resizes the column and the view; the photos keep their width.
+  const double photos = l.photos.w;
+  ASSERT_TRUE(montage::dragSplitter(prefs, "left", -50, 0, 1280, 800, top, bottom, 1));
+  l = montage::computeLayout(prefs, 1280, 800, top, bottom, 1);
+  EXPECT_NEAR(l.tools.w, 257, 1);
+  EXPECT_NEAR(l.view.w, 636, 1);
+  EXPECT_NEAR(l.photos.w, photos, 1);
+  // Dragged far away, every panel keeps a minimum size.
+  ASSERT_TRUE(montage::dragSplitter(prefs, "view", 5000, 0, 1280, 800, top, bottom, 1));
+  ASSERT_TRUE(montage::dragSplitter(prefs, "tools", 0, -5000, 1280, 800, top, bottom, 1));
+  l = montage::computeLayout(prefs, 1280, 800, top, bottom, 1);
+  EXPECT_GE(l.photos.w, 119);
+  EXPECT_GE(l.tools.h, 79);
+  EXPECT_FALSE(montage::dragSplitter(prefs, "middle", 1, 1, 1280, 800, top, bottom, 1));
+  // At scale 2 the default column is twice as wide (within its limits).
+  montage::LayoutPrefs fresh;
+  EXPECT_EQ(montage::computeLayout(fresh, 2560, 1600, 2 * top, 2 * bottom, 2).tools.w, 614);
+}
+
+TEST(EditorLayout, ASplitterDragResizesThe3DViewAndTheLayoutIsRemembered) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_layout");
+  std::string out;
+  const std::string script =
+      "state a.json\ndrag_splitter view 150 0\ndrag_splitter left -60 0\nmenu \"View/Photos in a grid\"\n"
+      "wait_frames 3\nstate b.json\nscreenshot b.png\nquit\n";
+  ASSERT_EQ(runEditor(dir, demoProject(), script, "1280x800", &out), 0) << out;
+  const json a = read(dir, "a.json")["layout"], b = read(dir, "b.json")["layout"];
+  const double aw = a["view3d"]["w"].get<double>(), bw = b["view3d"]["w"].get<double>();
+  EXPECT_NEAR(bw, aw + 150 + 60, 2) << "the 3D view did not follow the splitters";
+  EXPECT_NEAR(b["view3d"]["x"].get<double>(), a["view3d"]["x"].get<double>() - 60, 2);
+  EXPECT_NEAR(b["photos"]["w"].get<double>(), a["photos"]["w"].get<double>() - 150, 2);
+  // The next start (same state folder) has the same layout and the photo grid.
+  ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate c.json\nquit\n", "1280x800", &out), 0) << out;
+  const json c = read(dir, "c.json");
+  EXPECT_NEAR(c["layout"]["view3d"]["w"].get<double>(), bw, 1);
+  EXPECT_NEAR(c["layout"]["view3d"]["x"].get<double>(), b["view3d"]["x"].get<double>(), 1);
+  EXPECT_TRUE(c["grid"].get<bool>());
+  // View > Reset layout: the splitters where they start.
+  ASSERT_EQ(runEditor(dir, demoProject(), "menu \"View/Reset layout\"\nwait_frames 3\nstate d.json\nquit\n", "1280x800",
+                      &out),
+            0)
+      << out;
+  EXPECT_EQ(read(dir, "d.json")["layout"]["view3d"]["w"].get<double>(), aw);
+}
+
+TEST(EditorLayout, ScaleTwoDoublesFontsAndSizesAt2560x1600) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_hidpi");
+  std::string out;
+  ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate s.json\nscreenshot s.png\nquit\n", "2560x1600", &out,
+                      "--scale 2"),
+            0)
+      << out;
+  const json s = read(dir, "s.json");
+  EXPECT_EQ(s["scale"].get<double>(), 2);
+  EXPECT_EQ(s["font_size"].get<double>(), 30);
+  // The left column at twice its width; the splitter bars twice as thick.
+  EXPECT_EQ(s["layout"]["view3d"]["x"].get<double>(), 614);
+  EXPECT_EQ(s["layout"]["splitters"]["view"]["w"].get<double>(), 12);
+  // The status bar is twice as tall and its parts still do not overlap.
+  expectDisjoint(s["status_bar"], 2560, "scale 2");
+  for (const auto& [part, r] : s["status_bar"].items()) EXPECT_GE(r["h"].get<double>(), 29) << part;
+  // The Document panel's seven tabs, whole and side by side within the column, at scale 2 and at 800x600.
+  auto tabsFit = [](const json& state, const std::string& what) {
+    const json& tabs = state["tabs"];
+    ASSERT_EQ(tabs.size(), 7u) << what << ": " << tabs.dump();
+    const double column = state["layout"]["view3d"]["x"].get<double>();
+    std::vector<std::array<double, 4>> boxes;
+    for (const auto& [name, r] : tabs.items()) {
+      const double x = r["x"].get<double>(), y = r["y"].get<double>(), w = r["w"].get<double>(),
+                   h = r["h"].get<double>();
+      EXPECT_LE(x + w, column) << what << ": tab " << name << " runs past the column";
+      EXPECT_GE(h, state["font_size"].get<double>()) << what << ": tab " << name << " clipped";
+      for (const auto& b : boxes)
+        EXPECT_TRUE(x + w <= b[0] || b[0] + b[2] <= x || y + h <= b[1] || b[1] + b[3] <= y) << what << ": tabs overlap";
+      boxes.push_back({x, y, w, h});
+    }
+  };
+  tabsFit(s, "scale 2");
+  ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate small.json\nquit\n", "800x600", &out), 0) << out;
+  tabsFit(read(dir, "small.json"), "800x600");
+  // Without the flag, Xvfb's content scale is 1.
+  ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate one.json\nquit\n", "1280x800", &out), 0) << out;
+  EXPECT_EQ(read(dir, "one.json")["font_size"].get<double>(), 15);
+}

@@ -1,0 +1,62 @@
+#include "progress.h"
+
+#include <algorithm>
+#include <numeric>
+
+namespace montage {
+
+const std::array<double, RunProgress::kStages>& RunProgress::typicalShares() {
+  // load, camera, partition, map, projection, balance, seams, level, inpaint, bake, export: the demo and
+  // the armadillo synth project spend most of a run in the mapping, the inpainting and the bake.
+  static const std::array<double, kStages> shares = {0.04, 0.06, 0.16, 0.18, 0.02, 0.03, 0.08, 0.03, 0.18, 0.16, 0.06};
+  return shares;
+}
+
+void RunProgress::record(Tier tier, const std::vector<StageRecord>& stages) {
+  auto& s = seconds_[int(tier)];
+  s.fill(0);
+  for (const StageRecord& r : stages) s[static_cast<int>(r.stage)] += r.cached ? 0 : r.seconds;
+  // A run that took no measurable time (everything cached) says nothing about the next one.
+  measured_[int(tier)] = std::accumulate(s.begin(), s.end(), 0.0) > 0.05;
+}
+
+std::array<double, RunProgress::kStages> RunProgress::weights(Tier tier) const {
+  std::array<double, kStages> w{};
+  if (measured_[int(tier)]) {
+    w = seconds_[int(tier)];
+  } else {
+    w = typicalShares();
+    // The preview tier stops after the inpainting; the bake and export belong to the final tier.
+    if (tier == Tier::Preview) w[int(StageId::Bake)] = w[int(StageId::Export)] = 0;
+  }
+  const double total = std::accumulate(w.begin(), w.end(), 0.0);
+  for (double& x : w) x = total > 0 ? x / total : 1.0 / kStages;
+  return w;
+}
+
+double RunProgress::overall(Tier tier, StageId stage, double fraction) const {
+  const auto w = weights(tier);
+  const int current = static_cast<int>(stage);
+  double done = 0;
+  for (int s = 0; s < current; ++s) done += w[s];
+  done += w[current] * std::clamp(fraction, 0.0, 1.0);
+  return std::clamp(done, 0.0, 1.0);
+}
+
+double RunProgress::secondsLeft(Tier tier, StageId stage, double fraction, double elapsedSeconds) const {
+  const double done = overall(tier, stage, fraction);
+  if (measured_[int(tier)]) {
+    const auto& s = seconds_[int(tier)];
+    const double total = std::accumulate(s.begin(), s.end(), 0.0);
+    const double left = total * (1 - done), before = total * done;
+    // This run may be faster (cached stages) or slower (a larger edit) than the last: scale the measured
+    // time still ahead by the ratio of elapsed to measured for the part done, once that part is large
+    // enough to say something.
+    const double ratio = before > 0.5 && elapsedSeconds > 0 ? std::clamp(elapsedSeconds / before, 0.25, 4.0) : 1.0;
+    return left * ratio;
+  }
+  if (done < 0.05 || elapsedSeconds <= 0) return -1;
+  return elapsedSeconds * (1 - done) / done;
+}
+
+}  // namespace montage

@@ -190,16 +190,16 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
   ProjectionOptions options;
   options.correction = o.correction;
   options.smoothness = o.viewSmoothness;
-  std::vector<int> start;  // per input face: the photo the previous run showed on it (-1: none)
+  // Per input face: the photo the previous run showed on it, or "empty" (the label after the photos).
+  std::vector<int> start;
   if (previous && previous->mapping) {
     const Partition& last = previous->mapping->partition;
-    start.assign(scene.mesh->numFaces(), -1);
-    for (size_t f = 0; f < last.faceParent.size(); ++f)
-      if (last.faceParent[f] < static_cast<int>(start.size()))
-        start[last.faceParent[f]] = std::max(previous->mapping->map.facePhoto[f], -1);
-    // kEmpty (< 0) starts as "empty", the label after the photos
-    for (int& l : start)
-      if (l < 0) l = static_cast<int>(scene.photos.size());
+    const int empty = static_cast<int>(scene.photos.size());
+    start.assign(scene.mesh->numFaces(), empty);
+    for (size_t f = 0; f < last.faceParent.size(); ++f) {
+      const int photo = previous->mapping->map.facePhoto[f];
+      if (last.faceParent[f] < static_cast<int>(start.size())) start[last.faceParent[f]] = photo >= 0 ? photo : empty;
+    }
     options.maxSweeps = 1;
   }
   ProjectionStage out;
@@ -494,17 +494,19 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> fits(np);
     std::vector<std::vector<CameraClick>> photoClickLists(np);
     std::vector<size_t> toFit;
+    std::vector<const PhotoCamera*> warmStart(np, nullptr);  // kept alive by cachedFits_ until the loop ends
     for (size_t p = 0; p < np; ++p) {
       photoClickLists[p] = photoClicks(project, static_cast<int>(p));
       nlohmann::json clicks = nlohmann::json::array();
       for (const CameraClick& c : photoClickLists[p]) clicks.push_back({c.vertex, c.pixel.x(), c.pixel.y()});
-      std::string key;
-      fits[p].first = meshKey_ + '#' + cachedPhotos_[p].key + clicks.dump() + opts["cameraMode"].dump() +
-                      opts["cameraThreshold"].dump() + opts["seed"].dump();
+      const std::string photoKey = meshKey_ + '#' + cachedPhotos_[p].key;
+      fits[p].first =
+          photoKey + clicks.dump() + opts["cameraMode"].dump() + opts["cameraThreshold"].dump() + opts["seed"].dump();
+      std::string found;
       for (const auto& [k, f] : cachedFits_)
-        if (k == fits[p].first || (tier == Tier::Preview && k == fits[p].first + kWarm)) fits[p].second = f, key = k;
+        if (k == fits[p].first || (tier == Tier::Preview && k == fits[p].first + kWarm)) fits[p].second = f, found = k;
       if (fits[p].second) {
-        fits[p].first = key;
+        fits[p].first = found;
         ++cameras->reused;
         if (fits[p].second->clicks.size() == photoClickLists[p].size()) {
           bool same = true;
@@ -518,19 +520,20 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
         }
       } else {
         toFit.push_back(p);
+        // The preview starts from the photo's last camera when it had one (same photo and mesh).
+        const CameraFit* last = p < cachedFits_.size() ? cachedFits_[p].second.get() : nullptr;
+        if (tier == Tier::Preview && last && last->fits &&
+            cachedFits_[p].first.compare(0, photoKey.size(), photoKey) == 0)
+          warmStart[p] = &last->camera;
       }
     }
     // Photos are fitted in parallel (each fit seeds its own generator: the result does not depend on it).
     job.progress(StageId::Camera, 0.0, std::to_string(toFit.size()) + " photos");
     tbb::parallel_for(size_t(0), toFit.size(), [&](size_t k) {
       const size_t p = toFit[k];
-      const CameraFit* last = p < cachedFits_.size() && cachedFits_[p].second ? cachedFits_[p].second.get() : nullptr;
-      const std::string photoKey = meshKey_ + '#' + cachedPhotos_[p].key;
-      const bool warm = tier == Tier::Preview && last && last->fits &&
-                        cachedFits_[p].first.compare(0, photoKey.size(), photoKey) == 0;
       fits[p].second = std::make_shared<const CameraFit>(
-          fitPhoto(*scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), warm ? &last->camera : nullptr));
-      if (warm) fits[p].first += kWarm;
+          fitPhoto(*scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), warmStart[p]));
+      if (warmStart[p]) fits[p].first += kWarm;
     });
     job.checkCancel();
     for (const auto& [key, fit] : fits) {

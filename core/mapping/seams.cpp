@@ -63,6 +63,14 @@ uint64_t mix(uint64_t h, double d) {
   return mix(h, bits);
 }
 
+uint64_t mix(uint64_t h, const Vec3& p) {
+  return mix(mix(mix(h, p.x()), p.y()), p.z());
+}
+
+uint64_t mix(uint64_t h, const Vec2& p) {
+  return mix(mix(h, p.x()), p.y());
+}
+
 // One side of a vertex: its corners that show one photo through one UV.
 struct Side {
   int vertex = -1, photo = -1;
@@ -445,10 +453,7 @@ std::vector<uint64_t> SeamOptimiser::sideKeys() const {
     if (map.facePhoto[f] < 0) continue;
     uint64_t h = mix(0, uint64_t(map.facePhoto[f]));
     const auto fv = mesh_.faceVertices(f);
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 p = mesh_.position(fv[k]);
-      h = mix(mix(mix(mix(mix(h, p.x()), p.y()), p.z()), map.cornerUV[f][k].x()), map.cornerUV[f][k].y());
-    }
+    for (int k = 0; k < 3; ++k) h = mix(mix(h, mesh_.position(fv[k])), map.cornerUV[f][k]);
     faceHash[f] = h;
   }
   std::vector<uint64_t> keys(sides_.size());
@@ -460,9 +465,7 @@ std::vector<uint64_t> SeamOptimiser::sideKeys() const {
     for (int e : side.edges) around.push_back(faceHash[seams_[e].f]), around.push_back(faceHash[seams_[e].g]);
     std::sort(around.begin(), around.end());
     around.erase(std::unique(around.begin(), around.end()), around.end());
-    const Vec3 p = mesh_.position(side.vertex);
-    uint64_t h =
-        mix(mix(mix(mix(mix(mix(0, uint64_t(side.photo)), p.x()), p.y()), p.z()), side.start.x()), side.start.y());
+    uint64_t h = mix(mix(mix(0, uint64_t(side.photo)), mesh_.position(side.vertex)), side.start);
     for (uint64_t a : around) h = mix(h, a);
     keys[i] = h;
   }

@@ -7,8 +7,10 @@
 //   add     that feature added back 1 px away from where it was, preview tier
 //   undo    back to the state after "delete", preview tier (an earlier document state)
 //   final   the last state's final tier (the editor's background bake when idle)
+//   drags   with --drags K: after those, the dragged point moved K more times by 1 px each, preview
+//           tier, each from the last (a user dragging a point; the median of the K previews)
 //
-//   tm_edit_bench PROJECT... [--runs N] [--json FILE]
+//   tm_edit_bench PROJECT... [--runs N] [--drags K] [--json FILE]
 //   tm_edit_bench --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]
 //
 // The second form first synthesises a scene (montage synth) from M, subdivided L times by midpoint
@@ -90,8 +92,9 @@ Timed timedRun(Pipeline& pipeline, const Project& project, Tier tier) {
     t.figures[stageName(s.stage)] = {{"seconds", s.seconds}, {"cached", s.cached}, {"cpu_seconds", stageCpu[s.stage]}};
     for (const auto& [key, value] : s.counts.items())  // the stage's own breakdown (view_seconds, ...)
       if ((key.size() > 8 && key.compare(key.size() - 8, 8, "_seconds") == 0) || key == "searches" ||
-          key == "searches_reused" || key == "frames_reused" || key == "rounds" || key == "selection_sweeps" ||
-          key == "warm_sides" || key == "moved_sides")
+          key == "searches_reused" || key == "frames_reused" || key == "views_reused" || key == "frames_near" ||
+          key == "selection_kept" || key == "rounds" || key == "selection_sweeps" || key == "warm_sides" ||
+          key == "moved_sides")
         t.figures[stageName(s.stage)][key] = value;
     if (s.stage == StageId::Map) {
       t.figures["map"]["cells_mapped"] = s.counts.value("cells_mapped", 0);
@@ -121,7 +124,7 @@ Project withoutPoint(Project p, int index) {
   return p;
 }
 
-nlohmann::json benchProject(const std::string& path, int runs) {
+nlohmann::json benchProject(const std::string& path, int runs, int drags) {
   const Project base = loadProject(path);
   const auto [drag, del] = choosePoints(base);
   Project dragged = base;
@@ -137,10 +140,16 @@ nlohmann::json benchProject(const std::string& path, int runs) {
       {"cold", {&base, Tier::Final}},   {"drag", {&dragged, Tier::Preview}}, {"delete", {&deleted, Tier::Preview}},
       {"add", {&added, Tier::Preview}}, {"undo", {&deleted, Tier::Preview}}, {"final", {&added, Tier::Final}}};
   std::vector<std::vector<Timed>> times(steps.size());
+  std::vector<Timed> series;
   for (int r = 0; r < runs; ++r) {
     Pipeline pipeline;
     for (size_t s = 0; s < steps.size(); ++s)
       times[s].push_back(timedRun(pipeline, *steps[s].second.first, steps[s].second.second));
+    Project step = added;
+    for (int k = 0; k < drags; ++k) {
+      step.points[drag].at[0].x += step.points[drag].at[0].x > 10 + drags ? -1 : 1;
+      series.push_back(timedRun(pipeline, step, Tier::Preview));
+    }
   }
   nlohmann::json out;
   out["project"] = path;
@@ -155,6 +164,17 @@ nlohmann::json benchProject(const std::string& path, int runs) {
                                     {"tier", kTierNames[size_t(steps[s].second.second)]},
                                     {"last_run", times[s].back().figures}};
   }
+  if (!series.empty()) {
+    std::vector<double> wall, cpu;
+    for (const Timed& t : series) wall.push_back(t.wallMs), cpu.push_back(t.cpuMs);
+    std::sort(wall.begin(), wall.end());
+    std::sort(cpu.begin(), cpu.end());
+    out["steps"]["drags"] = {{"wall_ms", wall[wall.size() / 2]},
+                             {"cpu_ms", cpu[cpu.size() / 2]},
+                             {"tier", kTierNames[size_t(Tier::Preview)]},
+                             {"count", series.size()},
+                             {"last_run", series.back().figures}};
+  }
   return out;
 }
 
@@ -163,7 +183,7 @@ nlohmann::json benchProject(const std::string& path, int runs) {
 int main(int argc, char** argv) {
   std::vector<std::string> projects;
   std::string mesh, work, jsonPath;
-  int runs = 3, subdivide = 0;
+  int runs = 3, subdivide = 0, drags = 0;
   SynthOptions synth;
   synth.views = 9;
   synth.features = 342;
@@ -178,6 +198,8 @@ int main(int argc, char** argv) {
     };
     if (a == "--runs")
       runs = std::max(1, std::stoi(value()));
+    else if (a == "--drags")
+      drags = std::max(0, std::stoi(value()));
     else if (a == "--json")
       jsonPath = value();
     else if (a == "--mesh")
@@ -194,7 +216,7 @@ int main(int argc, char** argv) {
       work = value();
     else if (a.rfind("--", 0) == 0) {
       std::fprintf(stderr,
-                   "usage: %s PROJECT... [--runs N] [--json FILE]\n"
+                   "usage: %s PROJECT... [--runs N] [--drags K] [--json FILE]\n"
                    "       %s --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]\n",
                    argv[0], argv[0]);
       return 2;
@@ -220,7 +242,7 @@ int main(int argc, char** argv) {
     all["runs"] = runs;
     for (const std::string& p : projects) {
       std::fprintf(stderr, "benchmarking %s\n", p.c_str());
-      all["projects"].push_back(benchProject(p, runs));
+      all["projects"].push_back(benchProject(p, runs, drags));
     }
     all["load_average_after"] = loadAverage();
     all["peak_mib"] = peakMiB();

@@ -201,11 +201,12 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
       if (last.faceParent[f] < static_cast<int>(start.size())) start[last.faceParent[f]] = photo >= 0 ? photo : empty;
     }
     options.maxSweeps = 1;
+    options.reuseFramePx = kPreviewFramePx;
   }
   ProjectionStage out;
   job.progress(StageId::Projection, 0.0);
   out.result = projectionFill(scene, paper->partition, paper->map, cameras.fits, options, job, frames,
-                              start.empty() ? nullptr : &start);
+                              start.empty() ? nullptr : &start, start.empty() ? nullptr : &previous->result);
   if (out.result.fittedPhotos == 0) {
     out.mapping = paper;
   } else {
@@ -645,6 +646,9 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                               {"view_seconds", pr.viewSeconds},
                               {"frame_seconds", pr.frameSeconds},
                               {"frames_reused", pr.framesReused},
+                              {"frames_near", pr.framesNear},
+                              {"selection_kept", pr.selectionKept},
+                              {"views_reused", pr.viewsReused},
                               {"select_seconds", pr.selectSeconds},
                               {"photos", photos}}});
   }
@@ -915,7 +919,7 @@ nlohmann::json PipelineResult::report() const {
 CoverageReport coverageOf(const PipelineResult& result, const CoverageOptions& options) {
   if (!result.mapping) return {};
   static const std::vector<CameraFit> noFits;
-  static const std::vector<PhotoView> noViews;
+  static const PhotoViews noViews;
   const Mapping& m = *result.mapping;
   const bool views = result.projection && result.projection->mapping &&
                      result.projection->mapping->partition.mesh.numFaces() == m.partition.mesh.numFaces();

@@ -139,8 +139,10 @@ Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* ca
 // Projection: faces that photos fitting a camera see are mapped by projection, the photo chosen per
 // face by view selection; the paper's mapping of the other photos is kept (projection.h), and the
 // cameras propose correspondences (proposals.h).
-// `frames` (may be null) keeps the photos' frames across runs (projection.h). `previous` (may be null):
-// the last run's projection, from whose choices the preview's view selection starts (one sweep).
+// `frames` (may be null) keeps the photos' frames and views across runs (projection.h). `previous` (may be
+// null; the preview tier): the last run's projection. View selection starts from its choices (one sweep),
+// faces whose views barely changed keep them, and a kept frame within kPreviewFramePx serves.
+inline constexpr double kPreviewFramePx = 0.5;
 ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
                                const CameraStage& cameras, const JobControl& job = {}, ViewFrameCache* frames = nullptr,
                                const ProjectionStage* previous = nullptr);

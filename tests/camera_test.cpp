@@ -480,7 +480,8 @@ TEST(CameraPipeline, ThePreviewStartsFromTheLastRunAndTheFinalMatchesAFreshRun) 
   Project doc = loadProject(d.dir + "/project.json");
   ASSERT_TRUE(doc.chains.empty());
   Pipeline pipeline;
-  ASSERT_EQ(pipeline.run(doc).cameras->fitted, 4);
+  PipelineResult last = pipeline.run(doc);
+  ASSERT_EQ(last.cameras->fitted, 4);
   std::mt19937 rng(7);
   for (int step = 0; step < 2; ++step) {
     SCOPED_TRACE("step " + std::to_string(step));
@@ -501,7 +502,15 @@ TEST(CameraPipeline, ThePreviewStartsFromTheLastRunAndTheFinalMatchesAFreshRun) 
     // A fresh pipeline has no last run: its preview mapping is the final's.
     const PipelineResult fresh = Pipeline().run(doc, {}, Tier::Preview);
     ASSERT_EQ(preview.cameras->fitted, 4);
-    EXPECT_EQ(preview.projection->result.selectionSweeps, 1);  // one sweep from the last labels
+    const ProjectionResult& pr = preview.projection->result;
+    EXPECT_EQ(pr.selectionSweeps, 1);  // one sweep from the last labels
+    if (pr.meshHash == last.projection->result.meshHash) {
+      // The same refined mesh: the views of photos whose camera did not move are the last run's, and the
+      // faces far from any change keep their photo without selection.
+      EXPECT_EQ(pr.viewsReused, 4 - static_cast<int>(changed.size()));
+      EXPECT_GT(pr.selectionKept, 0);
+      EXPECT_LT(pr.selectionKept, preview.mapping->map.numFaces());
+    }
     // The warm camera lands within a fraction of a pixel of the fit from scratch.
     for (int k = 0; k < 4; ++k) {
       const double gap = projectionGap(*d.mesh, preview.cameras->fits[k].camera, fresh.cameras->fits[k].camera);
@@ -533,6 +542,9 @@ TEST(CameraPipeline, ThePreviewStartsFromTheLastRunAndTheFinalMatchesAFreshRun) 
     // The final of the same document: exactly the fresh run's.
     const PipelineResult final = pipeline.run(doc, {}, Tier::Final);
     EXPECT_GT(final.projection->result.selectionSweeps, 1);
+    EXPECT_EQ(final.projection->result.framesNear, 0);
+    EXPECT_EQ(final.projection->result.selectionKept, 0);
     test::expectSameMapping(*final.mapping, *fresh.mapping, "final after the preview");
+    last = final;
   }
 }

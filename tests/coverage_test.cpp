@@ -47,15 +47,16 @@ Scene40 synthScene(const std::string& tag, int views, int features, CameraMode c
 }
 
 // The true cameras' views of a result's partition mesh: what a user can see in each photo.
-std::vector<PhotoView> trueViews(const PipelineResult& r, const SynthScene& synth) {
-  std::vector<PhotoView> views;
+PhotoViews trueViews(const PipelineResult& r, const SynthScene& synth) {
+  PhotoViews views;
   for (size_t k = 0; k < synth.cameras.size(); ++k) {
     CameraFit fit;
     fit.fits = true;
     fit.camera.pinhole = synth.cameras[k];
     const ViewFrame frame = viewFrame(*r.scene->mesh, *r.scene->photos[k], fit.camera.pinhole);
-    views.push_back(viewPhoto(r.mapping->partition.mesh, r.mapping->partition.faceParent, frame, *r.scene->photos[k],
-                              static_cast<int>(k), fit, CorrectionField{}, ProjectionOptions{}));
+    views.push_back(std::make_shared<const PhotoView>(
+        viewPhoto(r.mapping->partition.mesh, r.mapping->partition.faceParent, frame, *r.scene->photos[k],
+                  static_cast<int>(k), fit, CorrectionField{}, ProjectionOptions{})));
   }
   return views;
 }
@@ -64,11 +65,11 @@ std::vector<PhotoView> trueViews(const PipelineResult& r, const SynthScene& synt
 // projection, when the vertex is visible in the photo suggested. Returns false when none is feasible.
 bool followNext(Project& project, const CoverageReport& report, const PipelineResult& r, const SynthScene& synth,
                 int* infeasible) {
-  const std::vector<PhotoView> views = trueViews(r, synth);
+  const PhotoViews views = trueViews(r, synth);
   for (int index : report.next)
     for (const RegionCause& c : report.regions[index].causes) {
       if (!c.click.valid()) continue;
-      if (!views[c.click.photo].vertexVisible[c.click.vertex]) {
+      if (!views[c.click.photo]->vertexVisible[c.click.vertex]) {
         ++*infeasible;
         continue;
       }
@@ -125,7 +126,7 @@ TEST(Coverage, WithEveryCameraFittedTheRegionsAreWhatNoPhotoSees) {
   ASSERT_EQ(r.cameras->fitted, 4);
   const CoverageReport report = coverageOf(r);
   ASSERT_FALSE(report.regions.empty());
-  const std::vector<PhotoView> views = trueViews(r, s.synth);
+  const PhotoViews views = trueViews(r, s.synth);
   const Mesh& mesh = r.mapping->partition.mesh;
   double unseenInRegions = 0, regionArea = 0;
   for (const CoverageRegion& region : report.regions) {
@@ -135,7 +136,7 @@ TEST(Coverage, WithEveryCameraFittedTheRegionsAreWhatNoPhotoSees) {
     EXPECT_EQ(region.causes[0].cause, CoverageCause::NotSeen);
     for (int f : region.faces) {
       bool seen = false;
-      for (const PhotoView& v : views) seen = seen || v.faceQuality[f] > 0;
+      for (const auto& v : views) seen = seen || v->faceQuality[f] > 0;
       regionArea += mesh.faceArea(f);
       if (!seen) unseenInRegions += mesh.faceArea(f);
     }
@@ -267,7 +268,7 @@ TEST(Coverage, MismatchedInputIsAnError) {
   TextureMap shorter = r.mapping->map;
   shorter.facePhoto.pop_back();
   const std::vector<CameraFit> fits;
-  const std::vector<PhotoView> views;
+  const PhotoViews views;
   const std::string message = test::errorOf([&] {
     analyseCoverage({s.project, r.mapping->partition, shorter, r.mapping->cells, fits, views, 2});
   });
@@ -283,12 +284,12 @@ TEST(Coverage, FollowingWhereToClickNextFiveTimesMapsMore) {
   PipelineResult r = pipeline.run(project, {}, Tier::Preview);
   CoverageReport report = coverageOf(r);
   // The ceiling: the share of the surface some photo sees.
-  const std::vector<PhotoView> views = trueViews(r, s.synth);
+  const PhotoViews views = trueViews(r, s.synth);
   const Mesh& mesh = r.mapping->partition.mesh;
   double seen = 0;
   for (int f = 0; f < mesh.numFaces(); ++f) {
     bool any = false;
-    for (const PhotoView& v : views) any = any || v.faceQuality[f] > 0;
+    for (const auto& v : views) any = any || v->faceQuality[f] > 0;
     if (any) seen += mesh.faceArea(f);
   }
   const double first = report.mappedShare;

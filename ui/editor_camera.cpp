@@ -42,9 +42,9 @@ void Editor::buildCameraLines() {
   const auto& views = result_->projection->result.views;
   cameraLines_.resize(views.size());
   for (size_t p = 0; p < views.size(); ++p) {
-    const PhotoView& view = views[p];
     const CameraFit* fit = photoFit(static_cast<int>(p));
-    if (view.vertexVisible.empty() || !fit || !fit->fits) continue;
+    if (!views[p] || views[p]->vertexVisible.empty() || !fit || !fit->fits) continue;
+    const PhotoView& view = *views[p];
     const Vec3 eye = fit->camera.pinhole.center();
     const TriMesh& tri = mesh.tri;
     const int edges = static_cast<int>(tri.n_edges());

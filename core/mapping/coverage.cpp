@@ -125,7 +125,8 @@ class Analysis {
  private:
   const PhotoView* viewOf(int p) const {
     if (p < 0 || p >= static_cast<int>(in_.views.size())) return nullptr;
-    const PhotoView& v = in_.views[p];
+    if (!in_.views[p]) return nullptr;
+    const PhotoView& v = *in_.views[p];
     if (static_cast<int>(v.faceQuality.size()) != mesh_.numFaces() ||
         static_cast<int>(v.vertexVisible.size()) != mesh_.numVertices())
       return nullptr;

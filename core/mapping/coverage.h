@@ -16,6 +16,7 @@
 
 #include "base/common.h"
 #include "mapping/partition.h"
+#include "mapping/projection.h"
 
 namespace montage {
 
@@ -23,7 +24,6 @@ struct Project;
 struct TextureMap;
 struct CellPlan;
 struct CameraFit;
-struct PhotoView;
 
 // Why part of a region is empty.
 enum class CoverageCause {
@@ -111,7 +111,7 @@ struct CoverageInput {
   const TextureMap& map;
   const std::vector<CellPlan>& cells;
   const std::vector<CameraFit>& fits;
-  const std::vector<PhotoView>& views;
+  const PhotoViews& views;
   int photos = 0;         // number of photos of the project
   int inputVertices = 0;  // vertices of the input mesh (Steiner vertices follow): only these are suggested
                           // for a click; 0 = all of Partition::mesh

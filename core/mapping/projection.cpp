@@ -29,6 +29,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "base/hash.h"
 #include "base/job.h"
 #include "base/util.h"
 #include "geometry/mesh.h"
@@ -138,6 +139,7 @@ ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& cam, co
                                    " image, the photo is " + std::to_string(photo.width) + "x" +
                                    std::to_string(photo.height)));
   ViewFrame frame;
+  frame.camera = cam;
   RasterOptions depthOnly;
   depthOnly.barycentrics = false;  // the frame is kept across edits: only what views read
   frame.raster = rasterize(input, cam, depthOnly);
@@ -155,11 +157,33 @@ ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& cam, co
   return frame;
 }
 
+std::string ViewFrameCache::photoKey(int photo) const {
+  return photo < static_cast<int>(photoKeys.size()) ? photoKeys[photo] : std::to_string(photo);
+}
+
+namespace {
+
+// Largest distance (pixels) between where two cameras put the vertices of `mesh` (about 512 of them, spread
+// over the vertex order); infinite when one of them is behind either camera.
+double cameraShiftPx(const Mesh& mesh, const Camera& a, const Camera& b) {
+  const int nv = mesh.numVertices();
+  const int step = std::max(1, nv / 512);
+  double shift = 0;
+  for (int v = 0; v < nv; v += step) {
+    Vec2 pa, pb;
+    if (!a.project(mesh.position(v), pa) || !b.project(mesh.position(v), pb))
+      return std::numeric_limits<double>::infinity();
+    shift = std::max(shift, (pa - pb).norm());
+  }
+  return shift;
+}
+
+}  // namespace
+
 std::shared_ptr<const ViewFrame> ViewFrameCache::frame(int photo, const Mesh& input, const Photo& image,
-                                                       const PhotoCamera& camera) {
+                                                       const PhotoCamera& camera, double reusePx) {
   const Camera& c = camera.pinhole;
-  const std::string photoKey = (photo < static_cast<int>(photoKeys.size()) ? photoKeys[photo] : std::to_string(photo)) +
-                               '@' + std::to_string(c.width) + 'x' + std::to_string(c.height);
+  const std::string photoKey = this->photoKey(photo) + '@' + std::to_string(c.width) + 'x' + std::to_string(c.height);
   std::string key = photoKey;
   auto add = [&key](const void* data, size_t n) { key.append(static_cast<const char*>(data), n); };
   for (double v : {c.fx, c.fy, c.cx, c.cy}) add(&v, sizeof v);
@@ -174,6 +198,14 @@ std::shared_ptr<const ViewFrame> ViewFrameCache::frame(int photo, const Mesh& in
       ++reused;
       return used_[key] = it->second;
     }
+    if (reusePx > 0)  // a frame of the same photo through a camera close enough (keys start with the photo's)
+      for (const auto* kept : {&frames_, &used_})
+        for (auto it = kept->lower_bound(photoKey);
+             it != kept->end() && it->first.compare(0, photoKey.size(), photoKey) == 0; ++it)
+          if (it->first.size() == key.size() && cameraShiftPx(input, it->second->camera, c) <= reusePx) {
+            ++reused, ++nearReused;  // kept under its own camera's key: an exact request never finds it
+            return used_[it->first] = it->second;
+          }
     foreground = foreground_[photoKey];
   }
   if (image.hasBackground && foreground.empty()) foreground = foregroundDistance(image, c.width, c.height);
@@ -184,13 +216,31 @@ std::shared_ptr<const ViewFrame> ViewFrameCache::frame(int photo, const Mesh& in
   return used_[key] = out;
 }
 
+std::shared_ptr<const PhotoView> ViewFrameCache::view(int photo, uint64_t inputs,
+                                                      const std::function<PhotoView()>& make) {
+  const std::string key = photoKey(photo) + '#' + std::to_string(photo) + '#' + std::to_string(inputs);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (auto it = usedViews_.find(key); it != usedViews_.end()) return it->second;
+    if (auto it = views_.find(key); it != views_.end()) {
+      ++viewsReused;
+      return usedViews_[key] = it->second;
+    }
+  }
+  auto out = std::make_shared<const PhotoView>(make());
+  std::lock_guard<std::mutex> lock(mutex_);
+  return usedViews_[key] = out;
+}
+
 void ViewFrameCache::endRun() {
   frames_ = std::move(used_);
   used_.clear();
+  views_ = std::move(usedViews_);
+  usedViews_.clear();
   for (auto it = foreground_.begin(); it != foreground_.end();)
     it = usedForeground_.count(it->first) ? std::next(it) : foreground_.erase(it);
   usedForeground_.clear();
-  reused = computed = 0;
+  reused = computed = nearReused = viewsReused = 0;
 }
 
 PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const ViewFrame& frame, const Photo& photo,
@@ -284,12 +334,23 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
     view.faceQuality[f] = static_cast<float>(0.5 * std::abs(mapped) * factor);
     if (!(view.faceQuality[f] > 0)) view.faceQuality[f] = std::numeric_limits<float>::min();
   }
+  view.edgeLuv.assign(tri.n_edges(), Vec3f::Zero());
+  for (auto eh : tri.edges()) {
+    if (tri.is_boundary(eh)) continue;
+    const auto h = tri.halfedge_handle(eh, 0);
+    if (!(view.faceQuality[tri.face_handle(h).idx()] > 0) || !(view.faceQuality[tri.opposite_face_handle(h).idx()] > 0))
+      continue;
+    const Vec2 mid =
+        0.5 * (view.vertexUV[tri.from_vertex_handle(h).idx()] + view.vertexUV[tri.to_vertex_handle(h).idx()]);
+    view.edgeLuv[eh.idx()] = photo.luvAt(mid.x(), mid.y());
+  }
   return view;
 }
 
 ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
                                 const std::vector<CameraFit>& fits, const ProjectionOptions& o, const JobControl& job,
-                                ViewFrameCache* cache, const std::vector<int>* startLabels) {
+                                ViewFrameCache* cache, const std::vector<int>* startLabels,
+                                const ProjectionResult* previous) {
   const auto start = Clock::now();
   const Mesh& mesh = partition.mesh;
   const int nf = mesh.numFaces();
@@ -330,24 +391,92 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
     const int p = fitted[k];
     frames[p] =
-        cache ? cache->frame(p, *scene.mesh, *scene.photos[p], fits[p].camera)
+        cache ? cache->frame(p, *scene.mesh, *scene.photos[p], fits[p].camera, o.reuseFramePx)
               : std::make_shared<const ViewFrame>(viewFrame(*scene.mesh, *scene.photos[p], fits[p].camera.pinhole));
   });
-  if (cache) out.framesReused = cache->reused;
+  if (cache) out.framesReused = cache->reused, out.framesNear = cache->nearReused;
   out.frameSeconds = secondsSince(t);
   job.checkCancel();
+  // What every view reads besides its photo and camera: the refined mesh and the view options.
+  uint64_t inputs = 0;
+  if (cache) {
+    for (int v = 0; v < mesh.numVertices(); ++v) inputs = hashMix(inputs, mesh.position(v));
+    for (int f = 0; f < nf; ++f) {
+      for (int v : mesh.faceVertices(f)) inputs = hashMix(inputs, v);
+      inputs = hashMix(inputs, partition.faceParent[f]);
+    }
+    out.meshHash = inputs;
+    for (double x : {o.depthTolerance, o.minCos, o.silhouetteMarginPx, o.maxBackgroundPx}) inputs = hashMix(inputs, x);
+  }
   tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
     const int p = fitted[k];
     out.fields[p] = correctionField(mesh, fits[p], o.correction, o.localRadiusPx);
-    out.views[p] = viewPhoto(mesh, partition.faceParent, *frames[p], *scene.photos[p], p, fits[p], out.fields[p], o);
-    out.photoRefusedFlipped[p] = out.views[p].refusedFlipped;
-    out.photoRefusedBackground[p] = out.views[p].refusedBackground;
+    auto make = [&] {
+      return viewPhoto(mesh, partition.faceParent, *frames[p], *scene.photos[p], p, fits[p], out.fields[p], o);
+    };
+    if (cache) {
+      const PhotoCamera& c = fits[p].camera;
+      uint64_t h = inputs;
+      for (double x : {frames[p]->camera.fx, frames[p]->camera.fy, frames[p]->camera.cx, frames[p]->camera.cy})
+        h = hashMix(h, x);  // the frame's own camera: a frame within reuseFramePx makes another view
+      for (int i = 0; i < 9; ++i) h = hashMix(h, frames[p]->camera.R.data()[i]);
+      h = hashMix(h, frames[p]->camera.t);
+      for (double x : {c.pinhole.fx, c.pinhole.fy, c.pinhole.cx, c.pinhole.cy, c.k1, c.k2}) h = hashMix(h, x);
+      for (int i = 0; i < 9; ++i) h = hashMix(h, c.pinhole.R.data()[i]);
+      h = hashMix(hashMix(hashMix(h, c.pinhole.t), c.pinhole.width), c.pinhole.height);
+      const CorrectionField& field = out.fields[p];
+      for (size_t i = 0; i < field.centres.size(); ++i)
+        h = hashMix(hashMix(hashMix(h, field.centres[i]), field.local[i]), field.localSupport[i]);
+      out.views[p] = cache->view(p, h, make);
+    } else {
+      out.views[p] = std::make_shared<const PhotoView>(make());
+    }
+    out.photoRefusedFlipped[p] = out.views[p]->refusedFlipped;
+    out.photoRefusedBackground[p] = out.views[p]->refusedBackground;
   });
+  if (cache) out.viewsReused = cache->viewsReused;
   out.viewSeconds = secondsSince(t);
   job.progress(StageId::Projection, 0.6, "view selection");
 
-  // Labels: photo indices (0..np-1), and np for "empty".
+  // The preview: faces whose views barely changed since the last run keep its labels (see projectionFill).
   t = Clock::now();
+  std::vector<char> keep;  // per face; empty when every face is selected
+  if (previous && startLabels && out.meshHash != 0 && previous->meshHash == out.meshHash &&
+      static_cast<int>(previous->faceLabels.size()) == nf && previous->views.size() == out.views.size()) {
+    bool sameFits = true;
+    for (int p = 0; p < np; ++p) sameFits = sameFits && !previous->views[p] == !out.views[p];
+    if (sameFits) {
+      const TriMesh& tri = mesh.tri;
+      std::vector<char> changed(nf, 0);
+      for (int p : fitted) {
+        if (previous->views[p] == out.views[p]) continue;
+        const PhotoView &a = *previous->views[p], &b = *out.views[p];
+        for (int f = 0; f < nf; ++f) {
+          const float qa = a.faceQuality[f], qb = b.faceQuality[f];
+          if ((qa > 0) != (qb > 0) || std::abs(qa - qb) > kStillQuality * std::max(qa, qb)) changed[f] = 1;
+        }
+        for (auto eh : tri.edges()) {
+          if (tri.is_boundary(eh)) continue;
+          const auto h = tri.halfedge_handle(eh, 0);
+          const int f = tri.face_handle(h).idx(), g = tri.opposite_face_handle(h).idx();
+          if (b.faceQuality[f] > 0 && b.faceQuality[g] > 0 && a.faceQuality[f] > 0 && a.faceQuality[g] > 0 &&
+              (a.edgeLuv[eh.idx()] - b.edgeLuv[eh.idx()]).norm() > kStillDeltaE)
+            changed[f] = changed[g] = 1;
+        }
+      }
+      for (int ring = 0; ring < 2; ++ring) {
+        std::vector<char> grown = changed;
+        for (int f = 0; f < nf; ++f)
+          if (changed[f])
+            for (auto g : tri.ff_range(tri.face_handle(f))) grown[g.idx()] = 1;
+        changed.swap(grown);
+      }
+      keep.assign(nf, 0);
+      for (int f = 0; f < nf; ++f) keep[f] = !changed[f];
+    }
+  }
+
+  // Labels: photo indices (0..np-1), and np for "empty".
   const int kEmptyLabel = np;
   PottsProblem problem;
   problem.numNodes = nf;
@@ -368,22 +497,32 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       continue;
     }
     float best = 0;
-    for (int p : fitted) best = std::max(best, out.views[p].faceQuality[f]);
+    for (int p : fitted) best = std::max(best, out.views[p]->faceQuality[f]);
     if (!(best > 0)) {  // no fitted photo can texture it
       cost(kEmptyLabel) = 0;
       labels[f] = kEmptyLabel;
       continue;
     }
     ++out.seenFaces;
-    if (o.keepCellPhotos && paper >= 0 && out.views[paper].faceQuality[f] > 0) {
+    if (o.keepCellPhotos && paper >= 0 && out.views[paper]->faceQuality[f] > 0) {
       cost(paper) = 0;
       labels[f] = paper;
       continue;
     }
+    if (!keep.empty() && keep[f]) {  // the preview: keeps the last run's photo where it still may
+      const int last = previous->faceLabels[f];
+      const float q = last >= 0 && last < np ? out.views[last] ? out.views[last]->faceQuality[f] : 0.0f : 0.0f;
+      if (q > 0) {
+        cost(last) = 0;
+        labels[f] = last;
+        ++out.selectionKept;
+        continue;
+      }
+    }
     free[f] = 1;
     const double area = mesh.faceArea(f) / meanArea;
     for (int p : fitted) {
-      const float q = out.views[p].faceQuality[f];
+      const float q = out.views[p]->faceQuality[f];
       if (q > 0) cost(p) = (1.0 - q / best) * area;
     }
     if (startLabels) {
@@ -404,19 +543,17 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   meanLength = interior ? meanLength / interior : 1;
   if (!(meanLength > 0)) meanLength = 1;
   if (o.smoothness > 0) {
+    std::vector<Vec3f> colours;
     for (auto eh : tri.edges()) {
       if (tri.is_boundary(eh)) continue;
       const auto h0 = tri.halfedge_handle(eh, 0);
       const int f = tri.face_handle(h0).idx(), g = tri.opposite_face_handle(h0).idx();
       if (!free[f] && !free[g]) continue;
-      const int a = tri.from_vertex_handle(h0).idx(), b = tri.to_vertex_handle(h0).idx();
       // Mean colour difference between the photos that can texture both faces, at the edge's midpoint.
-      std::vector<Vec3f> colours;
+      colours.clear();
       for (int p : fitted)
-        if (out.views[p].faceQuality[f] > 0 && out.views[p].faceQuality[g] > 0) {
-          const Vec2 mid = 0.5 * (out.views[p].vertexUV[a] + out.views[p].vertexUV[b]);
-          colours.push_back(scene.photos[p]->luvAt(mid.x(), mid.y()));
-        }
+        if (out.views[p]->faceQuality[f] > 0 && out.views[p]->faceQuality[g] > 0)
+          colours.push_back(out.views[p]->edgeLuv[eh.idx()]);
       double disagreement = 0;
       int pairs = 0;
       for (size_t i = 0; i < colours.size(); ++i)
@@ -454,9 +591,12 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       ++out.relabelledFaces;
     out.map.facePhoto[f] = label;
     const auto c = mesh.faceVertices(f);
-    for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = out.views[label].vertexUV[c[k]];
+    for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = out.views[label]->vertexUV[c[k]];
     ++out.photoProjectedFaces[label];
   }
+  out.faceLabels.assign(nf, -1);
+  for (int f = 0; f < nf; ++f)
+    if (labels[f] >= 0 && labels[f] < np && fits[labels[f]].fits) out.faceLabels[f] = labels[f];
   // Patch ids of projected faces: edge-connected sets of faces on one photo.
   for (int f = 0; f < nf; ++f) {
     const int label = out.map.facePhoto[f];

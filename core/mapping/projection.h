@@ -9,6 +9,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -66,12 +67,15 @@ struct ProjectionOptions {
   double maxBackgroundPx = 1.0;   // a face whose UVs lie farther than this from the foreground is refused
   int maxSweeps = 8;              // view selection: alpha-expansion sweeps at most (it stops when one changes
                                   // nothing; the editor's preview runs one, from the last run's labels)
+  double reuseFramePx = 0;        // > 0: a kept frame of a camera within this many pixels serves (the preview
+                                  // tier; ViewFrameCache::frame)
 };
 
 // What a fitted photo's view needs from its camera alone: the input mesh rendered through the camera
 // and the distance to the silhouette. It depends on the input mesh, the photo and the camera, never on
 // the partition (whose faces lie inside the input's faces), so it is kept across edits (ViewFrameCache).
 struct ViewFrame {
+  Camera camera;         // the camera it was rendered through
   RasterBuffers raster;  // the input mesh through the pinhole camera: depth and input face id (no barycentrics)
   cv::Mat silhouette;    // CV_32F, camera pixels: distance to the silhouette (of the rendered mesh, and of the
                          // photo's own foreground), pixels
@@ -86,19 +90,32 @@ ViewFrame viewFrame(const Mesh& input, const Photo& photo, const Camera& camera,
 // for photos without a background. It depends on the photo alone.
 cv::Mat foregroundDistance(const Photo& photo, int width, int height);
 
-// Frames kept across runs, keyed by the caller's identity of each photo (file, mask, mesh) and the camera.
+struct PhotoView;
+
+// Frames and views kept across runs. A frame is keyed by the caller's identity of each photo (file, mask,
+// mesh) and the camera; a view also by a hash of everything else it reads (the refined mesh, the fit with
+// its correction field, the options). Both are exact: a kept one equals what would be computed.
 class ViewFrameCache {
  public:
   // Per photo: what identifies the photo and the input mesh (the pipeline's photo and mesh keys).
   std::vector<std::string> photoKeys;
-  // Thread-safe: frames of several photos may be asked for at once.
-  std::shared_ptr<const ViewFrame> frame(int photo, const Mesh& input, const Photo& image, const PhotoCamera& camera);
-  void endRun();                 // forgets frames this run did not use
-  int reused = 0, computed = 0;  // this run
+  // Thread-safe: frames of several photos may be asked for at once. `reusePx` > 0 (the preview tier): a kept
+  // frame of the same photo whose camera puts every sampled vertex of `input` within reusePx pixels of where
+  // `camera` puts it serves instead (visibility and silhouette distances then err by at most that much).
+  std::shared_ptr<const ViewFrame> frame(int photo, const Mesh& input, const Photo& image, const PhotoCamera& camera,
+                                         double reusePx = 0);
+  // The view of `photo` whose inputs hash to `inputs`, made by `make` when not kept. Thread-safe.
+  std::shared_ptr<const PhotoView> view(int photo, uint64_t inputs, const std::function<PhotoView()>& make);
+  void endRun();                 // forgets frames and views this run did not use
+  int reused = 0, computed = 0;  // frames, this run
+  int nearReused = 0;            // frames, this run: of the reused, those rendered through a camera within reusePx
+  int viewsReused = 0;           // views, this run
 
  private:
-  std::mutex mutex_;  // frame() is called for several photos at once
+  std::string photoKey(int photo) const;
+  std::mutex mutex_;  // frame() and view() are called for several photos at once
   std::map<std::string, std::shared_ptr<const ViewFrame>> frames_, used_;
+  std::map<std::string, std::shared_ptr<const PhotoView>> views_, usedViews_;
   std::map<std::string, cv::Mat> foreground_;  // per photo key and size: foregroundDistance
   std::set<std::string> usedForeground_;       // photo keys this run asked for
 };
@@ -111,8 +128,15 @@ struct PhotoView {
   std::vector<float> vertexSilhouettePx;  // #V: distance of the projection to the silhouette (mesh or photo), px
   std::vector<float> faceQuality;         // #F: > 0 when the photo can texture the face (projected area in px^2
                                           // times the silhouette factor); 0 when not
+  std::vector<Vec3f> edgeLuv;             // per mesh edge (OpenMesh index) whose two faces it can texture: the
+                                          // photo's L*u*v* at the midpoint of the edge's UVs (view selection's
+                                          // smoothness); unset elsewhere
   int refusedFlipped = 0, refusedBackground = 0;  // faces otherwise seen, refused for a flip / the background
 };
+
+// Per photo: its view (null for a photo that does not fit). Views are shared between results whose
+// photo, camera and mesh agree (ViewFrameCache), so results kept for undo cost little each.
+using PhotoViews = std::vector<std::shared_ptr<const PhotoView>>;
 
 // Computes the view of photo `fit` (its camera and correction field) on `mesh`, a refinement of the
 // input mesh `frame` was rendered from: `faceParent` (#F of mesh) gives each face's input face.
@@ -124,24 +148,36 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
 struct ProjectionResult {
   TextureMap map;                           // the paper's map with projection-mapped faces replaced/filled
   std::vector<CorrectionField> fields;      // per photo (empty for photos that do not fit)
-  std::vector<PhotoView> views;             // per photo (empty for photos that do not fit)
+  PhotoViews views;                         // per photo (null for photos that do not fit)
   std::vector<int> photoFaces;              // per photo: faces mapped to it in the final map
   std::vector<int> photoProjectedFaces;     // per photo: of those, mapped by projection
   std::vector<int> photoRefusedFlipped;     // per photo: faces refused for a flip
   std::vector<int> photoRefusedBackground;  // per photo: faces refused for landing on the background
   int fittedPhotos = 0;
-  int filledFaces = 0;      // faces empty after the paper's path, now mapped by projection
-  int relabelledFaces = 0;  // faces the paper's path gave to a fitted photo, now mapped to another one
-  int droppedFaces = 0;     // faces the paper's path gave to a fitted photo that no fitted photo can texture
-                            // (occluded, flipped or on the background there): left for inpainting
-  int seenFaces = 0;        // faces some fitted photo can texture
-  int emptyFaces = 0;       // faces left empty (for inpainting)
-  int selectionSweeps = 0;  // alpha-expansion sweeps of the view selection
+  int filledFaces = 0;          // faces empty after the paper's path, now mapped by projection
+  int relabelledFaces = 0;      // faces the paper's path gave to a fitted photo, now mapped to another one
+  int droppedFaces = 0;         // faces the paper's path gave to a fitted photo that no fitted photo can texture
+                                // (occluded, flipped or on the background there): left for inpainting
+  int seenFaces = 0;            // faces some fitted photo can texture
+  int emptyFaces = 0;           // faces left empty (for inpainting)
+  int selectionSweeps = 0;      // alpha-expansion sweeps of the view selection
+  int selectionKept = 0;        // faces that kept the previous run's photo without selection (`previous`)
+  std::vector<int> faceLabels;  // per face of the mesh: the photo view selection chose, or -1 (empty, or the
+                                // paper's path)
+  uint64_t meshHash = 0;        // the views' hash of the mesh (0 when no ViewFrameCache was given)
   double selectionEnergy = 0;
   int framesReused = 0;     // fitted photos whose frame (ViewFrame) came from the cache
+  int framesNear = 0;       // of those, frames of a camera within ProjectionOptions::reuseFramePx
+  int viewsReused = 0;      // fitted photos whose view (PhotoView) came from the cache
   double frameSeconds = 0;  // the frames not in the cache (part of viewSeconds)
   double viewSeconds = 0, selectSeconds = 0, seconds = 0;
 };
+
+// The preview's view selection (projectionFill's `previous`): a face is still when, in every photo whose view
+// changed, its quality moved by at most this share and the colours at its edges by at most this CIE Delta
+// E*uv (a just noticeable difference).
+inline constexpr double kStillQuality = 0.02;
+inline constexpr double kStillDeltaE = 2.3;
 
 // Maps by projection every face a fitted photo can texture (fits[p].fits), keeping the paper's
 // mapping of faces on photos that do not fit. `paperMap` is over partition.mesh. When no photo fits,
@@ -149,9 +185,13 @@ struct ProjectionResult {
 // Views of fitted photos are computed in parallel; their frames come from `frames` when given.
 // `startLabels` (per input face, the range of partition.faceParent; may be null): the photo (or -1) view
 // selection starts a face from where it is allowed, e.g. the last run's choice; else its cheapest photo.
+// `previous` (may be null; the preview tier): the last run's result. When it was over the same mesh, a face
+// whose data costs and edge colours barely changed since (kStillQuality, kStillDeltaE), and that lies more
+// than two rings away from any face that changed, keeps the photo it had: view selection runs on the rest.
 ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
                                 const std::vector<CameraFit>& fits, const ProjectionOptions& options,
                                 const JobControl& job, ViewFrameCache* frames = nullptr,
-                                const std::vector<int>* startLabels = nullptr);
+                                const std::vector<int>* startLabels = nullptr,
+                                const ProjectionResult* previous = nullptr);
 
 }  // namespace montage

@@ -9,7 +9,7 @@
 namespace montage {
 
 std::vector<Proposal> proposeCorrespondences(const Project& project, const Mesh& mesh,
-                                             const std::vector<CameraFit>& fits, const std::vector<PhotoView>& views,
+                                             const std::vector<CameraFit>& fits, const PhotoViews& views,
                                              const ProposalOptions& o) {
   std::vector<Proposal> out;
   const int np = static_cast<int>(fits.size());
@@ -32,15 +32,15 @@ std::vector<Proposal> proposeCorrespondences(const Project& project, const Mesh&
       normal += mesh.faceNormal(fh.idx()) * mesh.faceArea(fh.idx());
     if (normal.norm() > 0) normal.normalize();
     for (int q = 0; q < np; ++q) {
-      if (clicked[q] || !fits[q].fits || views[q].vertexVisible.empty()) continue;
+      if (clicked[q] || !fits[q].fits || !views[q] || views[q]->vertexVisible.empty()) continue;
       if (std::find(project.declinedProposals.begin(), project.declinedProposals.end(), DeclinedProposal{v, q}) !=
           project.declinedProposals.end())
         continue;
-      if (!views[q].vertexVisible[v] || views[q].vertexSilhouettePx[v] < o.silhouetteMarginPx) continue;
+      if (!views[q]->vertexVisible[v] || views[q]->vertexSilhouettePx[v] < o.silhouetteMarginPx) continue;
       const Vec3 p = mesh.position(v);
       const Vec3 toEye = (fits[q].camera.pinhole.center() - p).normalized();
       if (normal.dot(toEye) < o.minFacing) continue;
-      const Vec2 uv = views[q].vertexUV[v];
+      const Vec2 uv = views[q]->vertexUV[v];
       const Camera& cam = fits[q].camera.pinhole;
       if (!(uv.x() >= 0 && uv.y() >= 0 && uv.x() <= cam.width && uv.y() <= cam.height)) continue;
       out.push_back(Proposal{static_cast<int>(i), v, q, uv, from});

@@ -33,7 +33,7 @@ struct ProposalOptions {
 // photo (empty for photos that do not fit), over `mesh`, whose first vertices are the project's.
 // Ordered by point, then photo.
 std::vector<Proposal> proposeCorrespondences(const Project& project, const Mesh& mesh,
-                                             const std::vector<CameraFit>& fits, const std::vector<PhotoView>& views,
+                                             const std::vector<CameraFit>& fits, const PhotoViews& views,
                                              const ProposalOptions& options = {});
 
 }  // namespace montage

@@ -28,6 +28,7 @@
 #include <random>
 #include <unordered_map>
 
+#include "base/hash.h"
 #include "base/job.h"
 #include "base/util.h"
 #include "geometry/mesh.h"
@@ -50,26 +51,6 @@ constexpr double kMaxStretchGrowth = 2;    // a projected side's move may at mos
 constexpr double kStopGain = 1e-3;         // rounds stop when the total E falls by less than this (relative)
 constexpr double kNoticeableDeltaE = 2.3;  // a seam matching better than this (mean Delta E*uv) is left as it is
 constexpr double kSideGain = 1e-2;  // a side whose E fell by less than this (relative) does not wake its neighbours
-
-uint64_t mix(uint64_t h, uint64_t v) {
-  v *= 0x9E3779B97F4A7C15ull;
-  v ^= v >> 31;
-  return (h ^ v) * 0xBF58476D1CE4E5B9ull + 0x94D049BB133111EBull;
-}
-
-uint64_t mix(uint64_t h, double d) {
-  uint64_t bits;
-  std::memcpy(&bits, &d, sizeof bits);
-  return mix(h, bits);
-}
-
-uint64_t mix(uint64_t h, const Vec3& p) {
-  return mix(mix(mix(h, p.x()), p.y()), p.z());
-}
-
-uint64_t mix(uint64_t h, const Vec2& p) {
-  return mix(mix(h, p.x()), p.y());
-}
 
 // One side of a vertex: its corners that show one photo through one UV.
 struct Side {
@@ -451,9 +432,9 @@ std::vector<uint64_t> SeamOptimiser::sideKeys() const {
   std::vector<uint64_t> faceHash(mesh_.numFaces(), 0);
   for (int f = 0; f < mesh_.numFaces(); ++f) {
     if (map.facePhoto[f] < 0) continue;
-    uint64_t h = mix(0, uint64_t(map.facePhoto[f]));
+    uint64_t h = hashMix(0, uint64_t(map.facePhoto[f]));
     const auto fv = mesh_.faceVertices(f);
-    for (int k = 0; k < 3; ++k) h = mix(mix(h, mesh_.position(fv[k])), map.cornerUV[f][k]);
+    for (int k = 0; k < 3; ++k) h = hashMix(hashMix(h, mesh_.position(fv[k])), map.cornerUV[f][k]);
     faceHash[f] = h;
   }
   std::vector<uint64_t> keys(sides_.size());
@@ -465,8 +446,8 @@ std::vector<uint64_t> SeamOptimiser::sideKeys() const {
     for (int e : side.edges) around.push_back(faceHash[seams_[e].f]), around.push_back(faceHash[seams_[e].g]);
     std::sort(around.begin(), around.end());
     around.erase(std::unique(around.begin(), around.end()), around.end());
-    uint64_t h = mix(mix(mix(0, uint64_t(side.photo)), mesh_.position(side.vertex)), side.start);
-    for (uint64_t a : around) h = mix(h, a);
+    uint64_t h = hashMix(hashMix(hashMix(0, uint64_t(side.photo)), mesh_.position(side.vertex)), side.start);
+    for (uint64_t a : around) h = hashMix(h, a);
     keys[i] = h;
   }
   return keys;

@@ -38,13 +38,20 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
       if (allowed(n, l) && (best < 0 || cost(n, l) < cost(n, best))) best = l;
     labels[n] = best;
   }
-  // Adjacency (edge indices per node).
-  std::vector<std::vector<int>> incident(p.numNodes);
+  // Adjacency (edge indices per node, compressed rows: node n's edges are incident[first[n] .. first[n+1])).
+  std::vector<int> first(p.numNodes + 1, 0), incident(2 * p.edges.size());
   const size_t incidentEdges = p.edges.size();
   for (size_t k = 0; k < p.edges.size(); ++k) {
     TM_CHECK(p.weights[k] >= 0 && std::isfinite(p.weights[k]), "solvePotts: weights must be finite and >= 0");
-    incident[p.edges[k][0]].push_back(static_cast<int>(k));
-    incident[p.edges[k][1]].push_back(static_cast<int>(k));
+    ++first[p.edges[k][0] + 1], ++first[p.edges[k][1] + 1];
+  }
+  for (int n = 0; n < p.numNodes; ++n) first[n + 1] += first[n];
+  {
+    std::vector<int> fill(first.begin(), first.end() - 1);
+    for (size_t k = 0; k < p.edges.size(); ++k) {
+      incident[fill[p.edges[k][0]]++] = static_cast<int>(k);
+      incident[fill[p.edges[k][1]]++] = static_cast<int>(k);
+    }
   }
 
   PottsStats st;
@@ -71,7 +78,8 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
       for (int i = 0; i < m; ++i) {
         const int n = nodes[i];
         unary[i] += cost(n, alpha) - cost(n, labels[n]);
-        for (int k : incident[n]) {
+        for (int e = first[n]; e < first[n + 1]; ++e) {
+          const int k = incident[e];
           const int other = p.edges[k][0] == n ? p.edges[k][1] : p.edges[k][0];
           const double w = p.weights[k];
           if (var[other] >= 0) {

@@ -121,8 +121,9 @@ CameraFitOptions cameraFitOptions(const PipelineOptions& o) {
 constexpr const char* kWarm = "#warm";  // camera keys of the preview's warm-started fits
 
 // One photo's fit (or the reason there is none) under the project's options. `start`: the preview's
-// warm start (see fitCamera), with one silhouette round instead of the final's four.
-CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silhouette,
+// warm start (see fitCamera), with one silhouette round instead of the final's four, on kept contours
+// within kPreviewFramePx (`contours`, the photo's memo).
+CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silhouette, ContourMemo* contours,
                    const PhotoCamera* start = nullptr) {
   const Photo& p = *scene.photos[photo];
   std::vector<CameraClick> clicks = photoClicks(scene.project, photo);
@@ -136,10 +137,10 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
     return fit;
   }
   CameraFitOptions options = cameraFitOptions(scene.project.options);
-  if (start) options.silhouetteRounds = 1;
+  if (start) options.silhouetteRounds = 1, options.contourReusePx = kPreviewFramePx;
   CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options, start);
-  if (start && !fit.fits) return fitPhoto(scene, photo, silhouette);  // too far from the start
-  refineOnSilhouette(*scene.mesh, p, fit, options, silhouette);
+  if (start && !fit.fits) return fitPhoto(scene, photo, silhouette, contours);  // too far from the start
+  refineOnSilhouette(*scene.mesh, p, fit, options, silhouette, contours);
   return fit;
 }
 
@@ -376,6 +377,7 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
     cachedMesh_ = requireUsable(std::move(loaded));
     meshKey_ = meshKey;
   }
+  const bool sameMesh = cached;
   scene->mesh = cachedMesh_;
   scene->meshReport = cachedMeshReport_;
   std::vector<CachedPhoto> photos;
@@ -385,6 +387,7 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
     CachedPhoto entry;
     for (const CachedPhoto& c : cachedPhotos_)
       if (c.key == key) entry = c;
+    if (!entry.contours || !sameMesh) entry.contours = std::make_shared<ContourMemo>();  // the mesh's contours
     if (!entry.photo) {
       job.progress(StageId::Load, double(i + 1) / (project.photos.size() + 1),
                    "photo " + fs::path(ref.path).filename().string());
@@ -532,8 +535,9 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     job.progress(StageId::Camera, 0.0, std::to_string(toFit.size()) + " photos");
     tbb::parallel_for(size_t(0), toFit.size(), [&](size_t k) {
       const size_t p = toFit[k];
-      fits[p].second = std::make_shared<const CameraFit>(
-          fitPhoto(*scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), warmStart[p]));
+      fits[p].second =
+          std::make_shared<const CameraFit>(fitPhoto(*scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(),
+                                                     cachedPhotos_[p].contours.get(), warmStart[p]));
       if (warmStart[p]) fits[p].first += kWarm;
     });
     job.checkCancel();

@@ -198,6 +198,7 @@ class Pipeline {
     std::shared_ptr<const Photo> photo;
     std::shared_ptr<const SilhouetteDistance> silhouette;  // camera: silhouette refinement
     std::shared_ptr<const cv::Mat> luv;                    // seams: luvImage(photo)
+    std::shared_ptr<ContourMemo> contours;                 // camera: the mesh's (meshKey_) outer contours
   };
   std::vector<CachedPhoto> cachedPhotos_;
   ViewFrameCache frames_;  // projection: each fitted photo's frame, by camera

@@ -194,6 +194,35 @@ TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
     EXPECT_LT(after, 0.5) << "photo " << k;
     EXPECT_NE(fit.reason.find("on the silhouette"), std::string::npos);
   }
+  // The preview's refinement on kept contours (ContourMemo, contourReusePx): refined again from where it
+  // ended (the preview's warm start), a fit finds every contour it needs within half a pixel, extracts
+  // none, and stays within a fraction of a pixel.
+  {
+    const Photo photo = loadPhoto(d.dir + "/photo_0.png");
+    const CameraFit start = fitCamera(*d.mesh, photoClicks(d.scene.project, 0), 768, 768);
+    ContourMemo memo;
+    CameraFit first = start;
+    refineOnSilhouette(*d.mesh, photo, first, {}, nullptr, &memo);
+    ASSERT_GT(first.silhouettePoints, 0);
+    ASSERT_FALSE(memo.contours.empty());
+    const std::vector<std::pair<Camera, std::vector<Vec3>>> kept = memo.contours;
+    CameraFitOptions preview;
+    preview.contourReusePx = 0.5;
+    CameraFit second = first;  // nudged: its points move by about 0.3 px at the image's edge
+    second.silhouettePoints = 0;
+    second.camera.pinhole.fx *= 1.0008, second.camera.pinhole.fy *= 1.0008;
+    ASSERT_GT(projectionGap(*d.mesh, first.camera, second.camera), 0.05);
+    refineOnSilhouette(*d.mesh, photo, second, preview, nullptr, &memo);
+    ASSERT_EQ(memo.contours.size(), kept.size());  // nothing extracted
+    for (size_t i = 0; i < kept.size(); ++i) EXPECT_EQ(memo.contours[i].second.size(), kept[i].second.size());
+    EXPECT_GT(second.silhouettePoints, 0);  // refined (not left as it was)
+    EXPECT_LT(projectionGap(*d.mesh, first.camera, second.camera), 0.25);
+    // Without reuse every round extracts its contour again.
+    CameraFit third = start;
+    refineOnSilhouette(*d.mesh, photo, third, {}, nullptr, &memo);
+    EXPECT_EQ(memo.contours.size(), 4u);
+    EXPECT_EQ(projectionGap(*d.mesh, first.camera, third.camera), 0);
+  }
   // Exact clicks need no silhouette: the fit is left as it is.
   DemoScene exact = demoScene("camera_fit_silhouette_exact", 2, 100, 0, 512);
   const Photo photo = loadPhoto(exact.dir + "/photo_0.png");

@@ -149,6 +149,19 @@ bool Camera::project(const Vec3& p, Vec2& pixel, double* depth) const {
   return true;
 }
 
+double cameraShiftPx(const Mesh& mesh, const Camera& a, const Camera& b) {
+  const int nv = mesh.numVertices();
+  const int step = std::max(1, nv / 512);
+  double shift = 0;
+  for (int v = 0; v < nv; v += step) {
+    Vec2 pa, pb;
+    if (!a.project(mesh.position(v), pa) || !b.project(mesh.position(v), pb))
+      return std::numeric_limits<double>::infinity();
+    shift = std::max(shift, (pa - pb).norm());
+  }
+  return shift;
+}
+
 RasterBuffers rasterize(const Mesh& mesh, const Camera& camera, const RasterOptions& options) {
   TM_CHECK(camera.width > 0 && camera.height > 0, "rasterize: camera image size " + std::to_string(camera.width) + "x" +
                                                       std::to_string(camera.height) + " must be positive");

@@ -49,6 +49,11 @@ struct RasterOptions {
 // dropping triangles with a corner behind the camera).
 RasterBuffers rasterize(const Mesh& mesh, const Camera& camera, const RasterOptions& options = {});
 
+// Largest distance (pixels) between where two cameras put the vertices of `mesh` (about 512 of them, spread
+// over the vertex order); infinite when one of them is behind either camera. What a frame or a contour made
+// through `a` errs by when it serves `b` (the preview tier's reuse).
+double cameraShiftPx(const Mesh& mesh, const Camera& a, const Camera& b);
+
 // Scan-converts a 2D triangle (pixel coordinates) and calls visit(x, y, b) for every pixel whose
 // centre lies inside (top-left fill rule), with b the barycentrics of the centre. Pixels outside
 // [0,width) x [0,height) are skipped. Degenerate triangles visit nothing.

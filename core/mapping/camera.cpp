@@ -550,7 +550,7 @@ class SilhouetteFit : public cv::LMSolver::Callback {
 }  // namespace
 
 void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, const CameraFitOptions& o,
-                        const SilhouetteDistance* silhouette) {
+                        const SilhouetteDistance* silhouette, ContourMemo* memo) {
   if (!o.silhouette || !fit.fits || !photo.hasBackground || fit.rmsResidual < o.silhouetteMinClickRmsPx) return;
   if (photo.width != fit.camera.pinhole.width || photo.height != fit.camera.pinhole.height) return;
   const auto start = Clock::now();
@@ -581,8 +581,30 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
     p.k1 = fit.camera.k1;
     p.k2 = fit.camera.k2;
   }
+  // Contours through a camera: from the memo when one within contourReusePx is kept (the preview tier).
+  std::vector<std::pair<Camera, std::vector<Vec3>>> made;
+  auto contourThrough = [&](const Camera& cam) -> std::vector<Vec3> {
+    if (memo && o.contourReusePx > 0) {
+      std::lock_guard<std::mutex> lock(memo->mutex);
+      for (const auto& [c, contour] : memo->contours)
+        if (c.width == cam.width && c.height == cam.height && cameraShiftPx(mesh, c, cam) <= o.contourReusePx)
+          return contour;
+    }
+    made.emplace_back(cam, outerContour(mesh, cam, o.silhouetteSpacingPx));
+    return made.back().second;
+  };
+  struct KeepMade {  // the memo keeps the contours this call extracted, on every way out
+    ContourMemo* memo;
+    std::vector<std::pair<Camera, std::vector<Vec3>>>& made;
+    ~KeepMade() {
+      if (!memo || made.empty()) return;
+      std::lock_guard<std::mutex> lock(memo->mutex);
+      for (auto& m : made) memo->contours.push_back(std::move(m));
+      if (memo->contours.size() > 4) memo->contours.erase(memo->contours.begin(), memo->contours.end() - 4);
+    }
+  } keepMade{memo, made};
   auto meanDistance = [&](const Camera& cam, const PhotoCamera& full, int* count) {
-    const std::vector<Vec3> contour = outerContour(mesh, cam, o.silhouetteSpacingPx);
+    const std::vector<Vec3> contour = contourThrough(cam);
     double sum = 0;
     int n = 0;
     for (const Vec3& x : contour) {
@@ -594,7 +616,7 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
   };
   double before = 0;  // mean distance of the fit's own contour (round 0 extracts it)
   for (int round = 0; round < o.silhouetteRounds; ++round) {
-    const std::vector<Vec3> contour = outerContour(mesh, refined.camera.pinhole, o.silhouetteSpacingPx);
+    const std::vector<Vec3> contour = contourThrough(refined.camera.pinhole);
     if (contour.size() < 10) return;
     std::vector<cv::Point3d> c3;
     std::vector<double> w;

@@ -75,6 +75,15 @@ struct CameraFitOptions {
   double silhouetteSpacingPx = 2;         // sample spacing along the mesh's projected contour, pixels
   double silhouetteHuberPx = 1.5;         // silhouette residuals beyond this count linearly (Huber)
   int silhouetteRounds = 4;               // LM rounds, each on the contour re-extracted from the last camera
+  double contourReusePx = 0;              // > 0 (the preview tier): a ContourMemo's contour serves a camera within
+                                          // this many pixels of the one it was extracted through
+};
+
+// The outer contours (mesh points on the silhouette) a photo's last refinement extracted, with their cameras,
+// kept with the photo across runs (refineOnSilhouette). Thread-safe.
+struct ContourMemo {
+  std::mutex mutex;
+  std::vector<std::pair<Camera, std::vector<Vec3>>> contours;  // the last four extracted, oldest first
 };
 
 // The fit of one photo.
@@ -128,8 +137,9 @@ class SilhouetteDistance {
 };
 
 // `silhouette`: the photo's SilhouetteDistance when the caller keeps one (else it is computed here).
+// `memo` (may be null): contours kept for options.contourReusePx; it keeps the contours this call extracted.
 void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, const CameraFitOptions& options = {},
-                        const SilhouetteDistance* silhouette = nullptr);
+                        const SilhouetteDistance* silhouette = nullptr, ContourMemo* memo = nullptr);
 
 // A fit made from a known camera (the synthetic scenes' true cameras: the projection oracle), with
 // the residuals of `clicks` against it. Always `fits`.

@@ -161,25 +161,6 @@ std::string ViewFrameCache::photoKey(int photo) const {
   return photo < static_cast<int>(photoKeys.size()) ? photoKeys[photo] : std::to_string(photo);
 }
 
-namespace {
-
-// Largest distance (pixels) between where two cameras put the vertices of `mesh` (about 512 of them, spread
-// over the vertex order); infinite when one of them is behind either camera.
-double cameraShiftPx(const Mesh& mesh, const Camera& a, const Camera& b) {
-  const int nv = mesh.numVertices();
-  const int step = std::max(1, nv / 512);
-  double shift = 0;
-  for (int v = 0; v < nv; v += step) {
-    Vec2 pa, pb;
-    if (!a.project(mesh.position(v), pa) || !b.project(mesh.position(v), pb))
-      return std::numeric_limits<double>::infinity();
-    shift = std::max(shift, (pa - pb).norm());
-  }
-  return shift;
-}
-
-}  // namespace
-
 std::shared_ptr<const ViewFrame> ViewFrameCache::frame(int photo, const Mesh& input, const Photo& image,
                                                        const PhotoCamera& camera, double reusePx) {
   const Camera& c = camera.pinhole;

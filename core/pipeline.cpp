@@ -290,6 +290,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   options.lambda = o.seamLambda;
   options.rounds = o.seamRounds;
   options.gradientWeight = o.gradientWeight;
+  options.measureGradients = !warm;  // the warm preview skips the report-only gradient figures
   options.seed = o.seed;
   job.progress(StageId::Seams, 0.0);
   seams = optimiseSeams(in, options, job);

@@ -21,32 +21,9 @@ namespace {
 using VertexHandle = TriMesh::VertexHandle;
 using FaceHandle = TriMesh::FaceHandle;
 
-Vec3 toVec3(const TriMesh::Point& p) {
-  return {p[0], p[1], p[2]};
-}
-
 }  // namespace
 
 // ---- Mesh ------------------------------------------------------------------------------------------------
-
-std::array<int, 3> Mesh::faceVertices(int f) const {
-  auto h = tri.halfedge_handle(FaceHandle(f));
-  std::array<int, 3> v{};
-  for (int k = 0; k < 3; ++k) {
-    v[k] = tri.to_vertex_handle(h).idx();
-    h = tri.next_halfedge_handle(h);
-  }
-  return v;
-}
-
-Vec3 Mesh::position(int v) const {
-  return toVec3(tri.point(VertexHandle(v)));
-}
-
-std::array<Vec3, 3> Mesh::facePositions(int f) const {
-  const auto v = faceVertices(f);
-  return {position(v[0]), position(v[1]), position(v[2])};
-}
 
 double Mesh::faceArea(int f) const {
   const auto p = facePositions(f);

@@ -44,9 +44,24 @@ struct Mesh {
 
   // The three vertex indices of face f, in the face's counter-clockwise order starting at the
   // to-vertex of tri.halfedge_handle(f). This is the corner order used everywhere.
-  std::array<int, 3> faceVertices(int f) const;
-  Vec3 position(int v) const;
-  std::array<Vec3, 3> facePositions(int f) const;
+  // (Inline: the hottest accessors of the core.)
+  std::array<int, 3> faceVertices(int f) const {
+    auto h = tri.halfedge_handle(OpenMesh::FaceHandle(f));
+    std::array<int, 3> v{};
+    for (int k = 0; k < 3; ++k) {
+      v[k] = tri.to_vertex_handle(h).idx();
+      h = tri.next_halfedge_handle(h);
+    }
+    return v;
+  }
+  Vec3 position(int v) const {
+    const TriMesh::Point& p = tri.point(OpenMesh::VertexHandle(v));
+    return Vec3(p[0], p[1], p[2]);
+  }
+  std::array<Vec3, 3> facePositions(int f) const {
+    const auto v = faceVertices(f);
+    return {position(v[0]), position(v[1]), position(v[2])};
+  }
   double faceArea(int f) const;
   Vec3 faceNormal(int f) const;  // unit normal (zero for a zero-area face)
   // Axis-aligned bounding box of all vertices.

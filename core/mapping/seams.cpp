@@ -458,7 +458,7 @@ void SeamOptimiser::measure(const EdgeFigures& edges, double& deltaE, double& gr
   long n = 0;
   for (size_t e = 0; e < seams_.size(); ++e) de += edges.deltaE[e], dg += edges.gradient[e], n += seams_[e].samples;
   deltaE = n ? de / n : 0;
-  gradient = n ? dg / n : 0;
+  gradient = !options_.measureGradients && alpha_ == 1 ? std::numeric_limits<double>::quiet_NaN() : n ? dg / n : 0;
   maxStretch = 0;
   for (int f = 0; f < mesh_.numFaces(); ++f)
     if (faceSide_[f][0] >= 0 && faceSign_[f] != 0) maxStretch = std::max(maxStretch, faceStretch(f));
@@ -487,7 +487,8 @@ SeamResult SeamOptimiser::run() {
   auto t = Clock::now();
   for (Side& s : sides_)
     for (const auto& [f, k] : s.corners) s.startStretch = std::max(s.startStretch, faceStretch(f));
-  const EdgeFigures before = measureEdges(true);
+  const bool gradients = options_.measureGradients || alpha_ < 1;
+  const EdgeFigures before = measureEdges(gradients);
   measure(before, out.deltaEBefore, out.gradientBefore, out.maxStretchBefore);
   out.measureSeconds = secondsSince(t);
   std::vector<int> seamSides, neighbours;
@@ -618,7 +619,7 @@ SeamResult SeamOptimiser::run() {
   for (int f = 0; f < nf; ++f)
     if (faceSide_[f][0] >= 0)
       for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = uvOf(f, k);
-  const EdgeFigures after = measureEdges(true);
+  const EdgeFigures after = measureEdges(gradients);
   measure(after, out.deltaEAfter, out.gradientAfter, out.maxStretchAfter);
   // Per face: mean Delta E over its seam edges' samples.
   std::vector<double> sum(nf, 0);

@@ -33,12 +33,14 @@ struct Mesh;
 struct Photo;
 
 struct SeamOptions {
-  double lambda = 0.1;        // weight of E_geo against E_tex (eq. 2): higher keeps the stretch lower, 1 = no move
-  int rounds = 30;            // alternating rounds over the seam vertices (fewer when E stops falling); 0 = off
-  double gradientWeight = 0;  // 1 - alpha of eq. (4): weight of the gradient mismatch against the colour one
-  int lineSearches = 4;       // random directions per side and round
-  int searchSteps = 6;        // golden-section steps per line search (after 6 coarse samples of the chord)
-  unsigned seed = 1;          // random directions: runs are repeatable
+  double lambda = 0.1;           // weight of E_geo against E_tex (eq. 2): higher keeps the stretch lower, 1 = no move
+  int rounds = 30;               // alternating rounds over the seam vertices (fewer when E stops falling); 0 = off
+  double gradientWeight = 0;     // 1 - alpha of eq. (4): weight of the gradient mismatch against the colour one
+  int lineSearches = 4;          // random directions per side and round
+  int searchSteps = 6;           // golden-section steps per line search (after 6 coarse samples of the chord)
+  unsigned seed = 1;             // random directions: runs are repeatable
+  bool measureGradients = true;  // measure gradientBefore/After even when gradientWeight is 0 (three times the
+                                 // samples); false leaves them NaN (the editor's warm preview)
 };
 
 // A run's optimised sides, keyed by what a side's energy reads: its faces and the faces across its seam
@@ -75,6 +77,7 @@ struct SeamResult {
   std::shared_ptr<const SeamMemo> memo;              // this run's sides, for the next run's SeamInput::warm
   double deltaEBefore = 0, deltaEAfter = 0;          // mean Delta E*uv over all seam samples
   double gradientBefore = 0, gradientAfter = 0;      // mean |G'1 - G'2| (L*u*v* per pixel) over seam samples
+                                                     // (NaN when not measured: SeamOptions::measureGradients)
   double maxStretchBefore = 0, maxStretchAfter = 0;  // L-infinity stretch over mapped faces, normalised per photo
   double setupSeconds = 0, measureSeconds = 0, roundSeconds = 0;  // parts of `seconds`: sides and seam edges;
                                                                   // the figures before and after; the rounds

@@ -1,5 +1,7 @@
 #include "surface/balance.h"
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -72,15 +74,23 @@ int cornerOf(const Mesh& mesh, int f, int v) {
 
 std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
                                 const BalanceOptions& options) {
-  std::vector<Sample> out;
   const TriMesh& tri = mesh.tri;
+  std::vector<OpenMesh::HalfedgeHandle> seams;  // edges between two photos, in edge order
   for (const auto eh : tri.edges()) {
     if (tri.is_boundary(eh)) continue;
     const auto h0 = tri.halfedge_handle(eh, 0);
     const int fa = tri.face_handle(h0).idx(), fb = tri.opposite_face_handle(h0).idx();
     if (fa < 0 || fb < 0) continue;
     const int pa = map.facePhoto[fa], pb = map.facePhoto[fb];
-    if (pa < 0 || pb < 0 || pa == pb) continue;
+    if (pa >= 0 && pb >= 0 && pa != pb) seams.push_back(h0);
+  }
+  // Per edge in parallel, then in edge order: the samples do not depend on the number of threads.
+  std::vector<std::vector<Sample>> perEdge(seams.size());
+  tbb::parallel_for(size_t(0), seams.size(), [&](size_t i) {
+    std::vector<Sample>& out = perEdge[i];
+    const auto h0 = seams[i];
+    const int fa = tri.face_handle(h0).idx(), fb = tri.opposite_face_handle(h0).idx();
+    const int pa = map.facePhoto[fa], pb = map.facePhoto[fb];
     const int u = tri.from_vertex_handle(h0).idx(), w = tri.to_vertex_handle(h0).idx();
     const Vec2 ua = map.cornerUV[fa][cornerOf(mesh, fa, u)], wa = map.cornerUV[fa][cornerOf(mesh, fa, w)];
     const Vec2 ub = map.cornerUV[fb][cornerOf(mesh, fb, u)], wb = map.cornerUV[fb][cornerOf(mesh, fb, w)];
@@ -114,7 +124,9 @@ std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const s
       }
       out.push_back(sample);
     }
-  }
+  });
+  std::vector<Sample> out;
+  for (std::vector<Sample>& samples : perEdge) out.insert(out.end(), samples.begin(), samples.end());
   return out;
 }
 

@@ -18,6 +18,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "base/hash.h"
 #include "base/job.h"
 #include "geometry/predicates.h"
 #include "image/photo.h"
@@ -194,6 +195,10 @@ class Partitioner {
     out_.mesh.faceGroup.clear();
     out_.mesh.groupNames.clear();
     if (int(out_.mesh.faceOrigin.size()) != input.numFaces()) out_.mesh.faceOrigin.clear();
+    for (size_t p = 0; p < scene_.photos.size(); ++p)
+      photoKeyHash_.push_back(p < scene_.photoKeys.size() && !scene_.photoKeys[p].empty()
+                                  ? hashMix(1, uint64_t(std::hash<std::string>()(scene_.photoKeys[p])))
+                                  : 0);
     out_.faceParent.resize(input.numFaces());
     for (int f = 0; f < input.numFaces(); ++f) out_.faceParent[f] = f;
 
@@ -337,14 +342,22 @@ class Partitioner {
     // Paper 3.1: mean distance to the foreground over samples less than a pixel apart.
     const Photo& image = *scene_.photos[photo];
     if (image.distance.empty()) return true;
-    const double length = (pb - pa).norm();
-    const int segments = int(std::floor(length / options_.curveSampleSpacingPx)) + 1;
-    double sum = 0;
-    for (int k = 0; k <= segments; ++k) {
-      const Vec2 q = pa + (pb - pa) * (double(k) / segments);
-      sum += image.distanceAt(q.x(), q.y());
+    const uint64_t key = photoKeyHash_[photo]
+                             ? hashMix(hashMix(hashMix(photoKeyHash_[photo], pa), pb), options_.curveSampleSpacingPx)
+                             : 0;
+    const double* kept = memo_ && key ? memo_->findBackground(key) : nullptr;
+    double mean = kept ? *kept : 0;
+    if (!kept) {
+      const double length = (pb - pa).norm();
+      const int segments = int(std::floor(length / options_.curveSampleSpacingPx)) + 1;
+      double sum = 0;
+      for (int k = 0; k <= segments; ++k) {
+        const Vec2 q = pa + (pb - pa) * (double(k) / segments);
+        sum += image.distanceAt(q.x(), q.y());
+      }
+      mean = sum / (segments + 1);
+      if (memo_ && key) memo_->storeBackground(key, mean);
     }
-    const double mean = sum / (segments + 1);
     if (mean > options_.backgroundThresholdPx) {
       reject(a, b, photo, RejectReason::CurveOverBackground,
              "mean distance " + number(mean) + " px > " + number(options_.backgroundThresholdPx) + " px", why);
@@ -834,6 +847,7 @@ class Partitioner {
   std::vector<Vec2> pos_;                  // [point * numPhotos + photo]; NaN where the point has no position
   std::vector<int> vertexPoint_;           // per input vertex: its canonical point, -1 if none
   std::vector<double> nearRadius_;         // per point: distance to its kNearFeatures-th nearest feature
+  std::vector<uint64_t> photoKeyHash_;     // per photo: hash of Scene::photoKeys (0: none, no memo)
   std::vector<char> feature_;              // per vertex
   std::vector<char> onPath_;               // per vertex: inner vertex of an accepted path
   std::vector<char> edgeOnPath_;           // per edge
@@ -855,6 +869,15 @@ class Partitioner {
 void PartitionMemo::beginRun() {
   previous_ = std::move(current_);
   current_.clear();
+  previousBackground_ = std::move(background_);
+  background_.clear();
+}
+
+const double* PartitionMemo::findBackground(uint64_t key) {
+  if (auto it = background_.find(key); it != background_.end()) return &it->second;
+  auto old = previousBackground_.find(key);
+  if (old == previousBackground_.end()) return nullptr;
+  return &(background_[key] = old->second);
 }
 
 const std::vector<int>* PartitionMemo::find(const std::string& key) {

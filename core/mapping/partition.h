@@ -77,17 +77,22 @@ struct Partition {
 // The shortest-path searches of earlier partition runs, keyed by the state of the mesh when they ran
 // (a hash of the mesh, its feature vertices and every change the run made so far: accepted paths,
 // Steiner splits) and by the query. A rerun that passes through the same states, such as a dragged
-// point whose pairs stay valid, takes its paths from here instead of searching again. Searches not
-// used in the last run are dropped at the start of the next. Not thread-safe.
+// point whose pairs stay valid, takes its paths from here instead of searching again. It also keeps the
+// background test's mean distance of each photo segment tested (keyed by the photo's identity, the
+// segment's ends and the sample spacing). Entries not used in the last run are dropped at the start of
+// the next. Not thread-safe.
 class PartitionMemo {
  public:
   void beginRun();
   const std::vector<int>* find(const std::string& key);
   void store(const std::string& key, const std::vector<int>& path);
+  const double* findBackground(uint64_t key);
+  void storeBackground(uint64_t key, double meanDistance) { background_[key] = meanDistance; }
   size_t size() const { return current_.size() + previous_.size(); }
 
  private:
   std::unordered_map<std::string, std::vector<int>> current_, previous_;
+  std::unordered_map<uint64_t, double> background_, previousBackground_;
 };
 
 // Runs the partition on a loaded scene (its project's points and chains, its photos' distance

@@ -1,5 +1,6 @@
 #include "mapping/cells.h"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -101,19 +102,22 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
   for (int v : partition.featureVertex)
     if (v >= 0 && v < mesh.numVertices()) isFeature[v] = 1;
 
-  std::vector<int> mark(mesh.numVertices(), -1);
-  for (CellPlan& plan : plans) {
+  // Cells in parallel, each with its thread's vertex marks (a cell's id marks its own vertices).
+  tbb::enumerable_thread_specific<std::vector<int>> marks(std::vector<int>(mesh.numVertices(), -1));
+  tbb::parallel_for(size_t(0), plans.size(), [&](size_t index) {
+    CellPlan& plan = plans[index];
+    std::vector<int>& mark = marks.local();
     const int c = plan.cell;
     const Loop loop = boundaryLoop(partition, plan.faces, c, edgePath);
     if (loop.touchesBorder) {
       plan.status = CellStatus::TouchesBorder;
       plan.detail = "the region reaches the border of the mesh: only regions closed by paths map to a photo";
-      continue;
+      return;
     }
     if (loop.dangling) {
       plan.status = CellStatus::NotTriangle;
       plan.detail = "a path ends inside the region: its end feature needs paths to two more features";
-      continue;
+      return;
     }
     // Euler characteristic of a disc: V - E + F = 1.
     std::set<uint64_t> edges;
@@ -130,7 +134,7 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
       plan.detail =
           "the region is not a disc (it wraps around a handle or has several borders): add features "
           "and paths across it";
-      continue;
+      return;
     }
     // Corners: the feature vertices on the loop; sides: one path between consecutive corners.
     std::vector<int> cornerAt;
@@ -156,7 +160,7 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
       plan.detail = "the region is bounded by " + std::to_string(cornerAt.size()) +
                     " features and their paths, not by three: add paths (features clicked in a common photo) "
                     "to cut it into triangles";
-      continue;
+      return;
     }
     int inside = -1;
     for (int f : plan.faces)
@@ -166,7 +170,7 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
       plan.status = CellStatus::FeatureInside;
       plan.detail = "the feature at vertex " + std::to_string(inside) +
                     " lies inside the region without paths to its corners: click it in a photo that shows them";
-      continue;
+      return;
     }
     // Photos with a curve on all three sides; the texture triangle must keep the orientation.
     std::vector<int> photos;
@@ -178,7 +182,7 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
       plan.detail = "its three paths (points";
       for (int s : plan.sides) plan.detail += " " + pointsText(partition, partition.paths[s]);
       plan.detail += ") have no photo in common: click its three corner features in one photo";
-      continue;
+      return;
     }
     const std::array<Vec3, 3> q = {mesh.position(plan.corners[0]), mesh.position(plan.corners[1]),
                                    mesh.position(plan.corners[2])};
@@ -197,10 +201,10 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
     if (plan.photo == TextureMap::kEmpty) {
       plan.status = CellStatus::Mirrored;
       plan.detail = "its texture triangle is mirrored in every photo of its paths (the photos show its back side)";
-      continue;
+      return;
     }
     plan.status = CellStatus::Mapped;
-  }
+  });
   (void)tri;
   return plans;
 }
@@ -376,26 +380,30 @@ CellMapping mapCells(const Scene& scene, const Partition& partition, const FineM
   for (int f = 0; f < mesh.numFaces(); ++f) out.map.facePatch[f] = partition.faceCell[f];
   out.cells = planCells(scene, partition);
 
-  // Fixed UVs of every path, per photo it is used in.
+  // Fixed UVs of every path, per photo it is used in; then the cells' problems. Both in parallel.
   std::map<std::pair<int, int>, std::vector<Vec2>> pathUV;  // (path, photo) -> per path vertex
-  std::vector<CellJob> jobs;
+  std::vector<int> mapped;                                  // plans to map
   for (int i = 0; i < static_cast<int>(out.cells.size()); ++i) {
     const CellPlan& plan = out.cells[i];
     if (plan.status != CellStatus::Mapped) continue;
-    std::vector<std::vector<Vec2>> sideUV(3);
-    for (int k = 0; k < 3; ++k) {
-      const MeshPath& path = partition.paths[plan.sides[k]];
-      auto it = pathUV.find({plan.sides[k], plan.photo});
-      if (it == pathUV.end())
-        it = pathUV
-                 .emplace(std::make_pair(plan.sides[k], plan.photo),
-                          pathUVs(mesh, path, *curveIn(path, plan.photo), *scene.photos[plan.photo]))
-                 .first;
-      sideUV[k] = it->second;
-    }
-    jobs.push_back(buildJob(scene, partition, plan, options, sideUV));
-    jobs.back().plan = i;
+    mapped.push_back(i);
+    for (int k = 0; k < 3; ++k) pathUV[{plan.sides[k], plan.photo}];
   }
+  std::vector<std::pair<const std::pair<int, int>, std::vector<Vec2>>*> entries;
+  for (auto& entry : pathUV) entries.push_back(&entry);
+  tbb::parallel_for(size_t(0), entries.size(), [&](size_t e) {
+    const auto [path, photo] = entries[e]->first;
+    const MeshPath& p = partition.paths[path];
+    entries[e]->second = pathUVs(mesh, p, *curveIn(p, photo), *scene.photos[photo]);
+  });
+  std::vector<CellJob> jobs(mapped.size());
+  tbb::parallel_for(size_t(0), mapped.size(), [&](size_t j) {
+    const CellPlan& plan = out.cells[mapped[j]];
+    std::vector<std::vector<Vec2>> sideUV(3);
+    for (int k = 0; k < 3; ++k) sideUV[k] = pathUV.at({plan.sides[k], plan.photo});
+    jobs[j] = buildJob(scene, partition, plan, options, sideUV);
+    jobs[j].plan = mapped[j];
+  });
   job.checkCancel();
 
   // Cached cells first; the others are mapped in parallel, largest first.

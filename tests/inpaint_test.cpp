@@ -2,16 +2,23 @@
 #include "surface/inpaint.h"
 
 #include <Eigen/Geometry>
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <thread>
 #include <tuple>
 #include <unordered_map>
 
+#include "base/job.h"
 #include "bench/synth.h"
 #include "geometry/mesh.h"
 #include "geometry/shapes.h"
@@ -447,6 +454,85 @@ TEST(Inpaint, SynthesisFillsStripesWithStripes) {
   EXPECT_GT(score[1].energy, 0.5 * score[1].truthEnergy);
   EXPECT_LT(score[1].energy, 1.5 * score[1].truthEnergy);
   EXPECT_EQ(score[1].outside, 0);
+}
+
+// The same hole with a job that can be cancelled (synthesis then runs shift-map on a thread of its own,
+// runCancellable) gives exactly the same colours; a cancelled job stops with Cancelled.
+TEST(Inpaint, SynthesisUnderACancellableJobIsUnchangedAndStops) {
+  TM_REQUIRE_SHARED(zebraPhoto, "photos/zebra/zebra.jpg");
+  const auto mesh = unitSquare(41);
+  const Photo photo = loadPhoto(zebraPhoto);
+  TextureMap map = planarMap(*mesh, 0.6 * std::min(photo.width, photo.height), 20);
+  ASSERT_GT(cutHole(*mesh, map, Vec3(0.6, 0.6, 0), 0.14), 0);
+  const InpaintInput in = inputFor(*mesh, map, {&photo}, InpaintMode::Structure);
+  const InpaintResult plain = inpaintSurface(in, {}, nullptr);
+  std::atomic<bool> cancel{false};
+  const InpaintResult threaded = inpaintSurface(in, JobControl(&cancel, {}), nullptr);
+  ASSERT_EQ(threaded.regions.size(), 1u);
+  EXPECT_NE(threaded.regions[0].note.find("synthesis"), std::string::npos) << threaded.regions[0].note;
+  ASSERT_EQ(plain.colors.rows(), threaded.colors.rows());
+  EXPECT_EQ((plain.colors - threaded.colors).cwiseAbs().maxCoeff(), 0.0f);
+  cancel = true;
+  EXPECT_THROW(inpaintSurface(in, JobControl(&cancel, {}), nullptr), Cancelled);
+}
+
+// A cancel does not wait for a long call without cancellation points: runCancellable throws Cancelled
+// while the call still runs (a call that only returns once released has not finished when the exception
+// arrives); the call then finishes on its own state, and the next call waits for it before it runs.
+// Without a cancel, the call's effects and exceptions come through.
+TEST(Inpaint, RunCancellableStopsAtOnceAndTheCallFinishesOnItsOwn) {
+  std::atomic<bool> cancel{false};
+  const JobControl job(&cancel, {});
+  int value = 0;
+  runCancellable(job, [&value] { value = 42; });
+  EXPECT_EQ(value, 42);
+  EXPECT_THROW(runCancellable(job, [] { throw Error("inside"); }), Error);
+  EXPECT_THROW(runCancellable(JobControl(), [] { throw Error("inside"); }), Error);
+
+  struct Gate {
+    std::mutex mutex;
+    std::condition_variable signal;
+    bool started = false, released = false, finished = false;
+  };
+  auto gate = std::make_shared<Gate>();
+  std::thread canceller([&] {
+    std::unique_lock lock(gate->mutex);
+    gate->signal.wait(lock, [&] { return gate->started; });
+    cancel = true;
+  });
+  bool threw = false, finishedAtThrow = true;
+  try {
+    runCancellable(job, [gate] {
+      std::unique_lock lock(gate->mutex);
+      gate->started = true;
+      gate->signal.notify_all();
+      gate->signal.wait_for(lock, std::chrono::seconds(120), [&] { return gate->released; });
+      gate->finished = true;
+    });
+  } catch (const Cancelled&) {
+    threw = true;
+    std::lock_guard lock(gate->mutex);
+    finishedAtThrow = gate->finished;
+  }
+  canceller.join();
+  EXPECT_TRUE(threw);
+  EXPECT_FALSE(finishedAtThrow) << "the cancel waited for the call to finish";
+  // While the abandoned call runs, a cancelled caller does not wait for it either.
+  EXPECT_THROW(runCancellable(job, [] {}), Cancelled);
+  cancel = false;
+  {
+    std::lock_guard lock(gate->mutex);
+    gate->released = true;
+    gate->signal.notify_all();
+  }
+  bool ran = false, abandonedDone = false;
+  runCancellable(job, [&] {
+    ran = true;
+    std::lock_guard lock(gate->mutex);
+    abandonedDone = gate->finished;
+  });
+  EXPECT_TRUE(ran);
+  EXPECT_TRUE(abandonedDone) << "a new call ran beside the abandoned one";
 }
 
 // Stripes running along x; a hole in the middle; a stroke along x continues the stripes, where the

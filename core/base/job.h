@@ -35,10 +35,20 @@ class JobControl {
   void progress(StageId stage, double fraction, const std::string& what = "") const;
   void checkCancel() const;
   bool cancelled() const { return cancel_ && cancel_->load(std::memory_order_relaxed); }
+  bool cancellable() const { return cancel_ != nullptr; }
 
  private:
   const std::atomic<bool>* cancel_ = nullptr;
   Callback callback_;
 };
+
+// Runs `work`, a long call that has no cancellation point of its own (OpenCV's shift-map inpainting), so
+// that a cancel takes effect within a few tens of milliseconds: `work` runs on a thread of its own while
+// this thread checks `job`. Without a cancel flag (`montage run`) `work` simply runs here. Exceptions of
+// `work` are rethrown here. On cancel this throws Cancelled at once and leaves `work` to finish on its
+// thread, so `work` must own everything it touches (capture by value, results through a shared_ptr): the
+// thread is joined later, by the next call or at exit. At most one abandoned call runs at a time: a new
+// call first waits (cancellably) for it, so repeated cancels do not pile up threads.
+void runCancellable(const JobControl& job, const std::function<void()>& work);
 
 }  // namespace montage

@@ -936,6 +936,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
         for (int f = 0; f < nf; ++f)
           if (faceLabel[f] == r) sin.holeFaces.push_back(f);
         sin.texelsPerUnit = reg.texelsPerUnit;
+        sin.job = &job;
         SynthesisOptions synOptions;
         if (reg.mode == InpaintMode::Structure) synOptions.blur = opt.structureBlur;
         const SynthesisResult syn = synthesiseHole(sin, synOptions);

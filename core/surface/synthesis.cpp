@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/xphoto/inpainting.hpp>
 #include <unordered_map>
 
 #include "atlas/lscm.h"
+#include "base/job.h"
 #include "geometry/mesh.h"
 #include "geometry/raster.h"
 #include "image/photo.h"
@@ -25,6 +27,8 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   const Mesh& mesh = *in.mesh;
   const TextureMap& map = *in.map;
   const int nf = mesh.numFaces(), nv = mesh.numVertices();
+  const JobControl noJob;
+  const JobControl& job = in.job ? *in.job : noJob;
   if (in.holeFaces.empty() || !(in.texelsPerUnit > 0)) {
     out.note = "synthesis: empty hole or no texel density";
     return out;
@@ -80,7 +84,10 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
         faces.push_back(f);
       }
     try {
-      uv = lscm(positions, tris);
+      // A big band's LSCM solve takes a fraction of a second: a cancel does not wait for it either.
+      auto flat = std::make_shared<std::vector<Vec2>>();
+      runCancellable(job, [positions, tris, flat] { *flat = lscm(positions, tris); });
+      uv = std::move(*flat);
     } catch (const Error&) {
       continue;
     }
@@ -147,7 +154,13 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   cv::Mat rgb8, lab, filled;
   rgb.convertTo(rgb8, CV_8UC3, 255.0);
   cv::cvtColor(rgb8, lab, cv::COLOR_RGB2Lab);
-  cv::xphoto::inpaint(lab, out.known, filled, cv::xphoto::INPAINT_SHIFTMAP);
+  // Shift-map is one long call without a cancellation point (seconds on a big hole): a cancel does not wait
+  // for it (runCancellable), so it works on copies of its inputs (cv::Mat headers share their pixels).
+  auto shifted = std::make_shared<cv::Mat>();
+  const cv::Mat known = out.known;
+  runCancellable(job,
+                 [lab, known, shifted] { cv::xphoto::inpaint(lab, known, *shifted, cv::xphoto::INPAINT_SHIFTMAP); });
+  filled = *shifted;
   cv::cvtColor(filled, rgb8, cv::COLOR_Lab2RGB);
   rgb8.convertTo(out.image, CV_32FC3, 1.0 / 255);
   // Known texels keep their exact (float) colours.

@@ -19,6 +19,7 @@ namespace montage {
 struct Mesh;
 struct Photo;
 struct SeamLevelling;
+class JobControl;
 
 struct SynthesisOptions {
   double bandAreaRatio = 3;  // band of mapped faces around the hole: this many times the hole's area (3 = as wide
@@ -37,6 +38,7 @@ struct SynthesisInput {
   const SeamLevelling* levelling = nullptr;  // offsets added to photo colours (may be null)
   std::vector<int> holeFaces;                // the hole: faces of `mesh` without a photo, edge-connected
   double texelsPerUnit = 0;                  // canvas density (texels per model unit)
+  const JobControl* job = nullptr;           // cancellation (may be null): a cancel stops the shift-map call at once
 };
 
 struct SynthesisResult {
@@ -51,7 +53,8 @@ struct SynthesisResult {
   Vec3f colorAt(int face, const Vec3& b) const;
 };
 
-// Synthesises one hole; never throws for a hole it cannot chart (ok = false and a note instead).
+// Synthesises one hole; never throws for a hole it cannot chart (ok = false and a note instead). Throws
+// Cancelled when input.job is cancelled, also in the middle of the shift-map call (runCancellable).
 SynthesisResult synthesiseHole(const SynthesisInput& input, const SynthesisOptions& options = {});
 
 }  // namespace montage

@@ -96,6 +96,8 @@ Timed timedRun(Pipeline& pipeline, const Project& project, Tier tier) {
           key == "selection_kept" || key == "rounds" || key == "selection_sweeps" || key == "warm_sides" ||
           key == "moved_sides")
         t.figures[stageName(s.stage)][key] = value;
+    if (s.stage == StageId::Inpaint && s.counts.contains("regions"))  // per region: guidance, factor, solve
+      t.figures["inpaint"]["regions"] = s.counts["regions"];
     if (s.stage == StageId::Map) {
       t.figures["map"]["cells_mapped"] = s.counts.value("cells_mapped", 0);
       t.figures["map"]["cells_reused"] = s.counts.value("cells_reused", 0);

@@ -317,13 +317,14 @@ class Editor {
   // Overlays from vertex buffers (editor_overlays.cpp).
   void initOverlays();
   void drawPaneOverlay(int photo, const PaneView& view, int focusPoint);
+  void drawCameraWire(int photo, const PaneView& view);  // the camera feedback's wireframe and silhouette
   int paneRejectedCount(int photo, bool* allDrawn) const;
   void readViewDepth(const Mat4f& view, const Mat4f& projection);  // after the mesh: id visibility
   void drawMarkers(const Mat4f& view, const Mat4f& projection);
   void drawFeatureLabels(const Rect& r, const Camera& cam);
   void benchOverlaysStep();  // editor_bench.cpp
   void benchOverlaysReport();
-  void setOverlaysShown(bool on);  // features, ids, paths, pane markers, curves, rejected pairs
+  void setOverlaysShown(bool on);  // features, ids, paths, pane markers, curves, rejected pairs, camera feedback
   bool resultCurrent() const;
 
   EditorOptions options_;

@@ -1,6 +1,7 @@
 // The overlay benchmark (--bench-overlays): orbits a project's result with every overlay shown
-// (features, ids, partition paths, the selection, photo-pane markers, curves and rejected pairs) and
-// with none of them, alternating in short blocks within one run, so both see the same machine load.
+// (features, ids, partition paths, the selection, photo-pane markers, curves and rejected pairs, the
+// camera feedback's wireframe, residuals and proposals) and with none of them, alternating in short
+// blocks within one run, so both see the same machine load.
 // Prints both frame-time distributions, their ratio, the process CPU time per frame and the load.
 #include <imgui.h>
 #include <sys/resource.h>
@@ -46,7 +47,7 @@ double quantile(std::vector<double> v, double q) {
 
 void Editor::setOverlaysShown(bool on) {
   showFeatures_ = showIds_ = showPaths_ = on;
-  showCurves_ = showRejected_ = showPaneIds_ = on;
+  showCurves_ = showRejected_ = showPaneIds_ = showCamera_ = on;
 }
 
 void Editor::benchOverlaysStep() {

@@ -95,14 +95,9 @@ void Editor::cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, co
   if (!showCamera_) return;
   const CameraFit* fit = photoFit(photo);
   if (!fit || !fit->fits) return;
-  buildCameraLines();
-  // Wireframe and silhouette of the mesh as the camera sees it.
-  if (photo < static_cast<int>(cameraLines_.size())) {
-    for (const auto& [a, b] : cameraLines_[photo].wire)
-      draw->AddLine(im(view.toScreen(a)), im(view.toScreen(b)), IM_COL32(120, 220, 255, 45), 1.0f);
-    for (const auto& [a, b] : cameraLines_[photo].silhouette)
-      draw->AddLine(im(view.toScreen(a)), im(view.toScreen(b)), IM_COL32(60, 230, 255, 220), 1.5f);
-  }
+  // Wireframe and silhouette of the mesh as the camera sees it: a vertex buffer built once per result
+  // (editor_overlays.cpp).
+  drawCameraWire(photo, view);
   // Residuals (x10) and outliers.
   for (size_t i = 0; i < fit->clicks.size(); ++i) {
     if (!std::isfinite(fit->residual[i])) continue;

@@ -56,9 +56,20 @@ void paneCallback(const ImDrawList*, const ImDrawCmd* cmd) {
   glUniform2f(s.uniform("uDisplaySize"), size.x, size.y);
   glUniform1i(s.uniform("uPoints"), 0);
   glUniform1f(s.uniform("uScale"), d->scale);
+  if (d->camera) {
+    if (pane.cameraVbo) pane.cameraVbo->draw(GL_LINES, 0, 2 * (pane.wire + pane.silhouette));
+    return;
+  }
   pane.vbo->draw(GL_LINES, 0, pane.lines);
   glUniform1i(s.uniform("uPoints"), 1);
   pane.vbo->draw(GL_POINTS, pane.lines, pane.points);
+}
+
+// Appends `segments` as solid GL_LINES vertices (kPaneVertexFloats each) of colour `rgba`.
+void appendSegments(std::vector<float>& data, const std::vector<std::pair<Vec2, Vec2>>& segments, const Vec4f& rgba) {
+  for (const auto& [a, b] : segments)
+    for (const Vec2& q : {a, b})
+      data.insert(data.end(), {float(q.x()), float(q.y()), rgba[0], rgba[1], rgba[2], rgba[3], -1.0f});
 }
 
 }  // namespace
@@ -103,6 +114,35 @@ void Editor::drawPaneOverlay(int photo, const PaneView& view, int focusPoint) {
   }
   gl.draws.push_back(
       OverlayGl::PaneDraw{&gl, photo, float(view.origin.x()), float(view.origin.y()), float(view.zoom), scale_});
+  ImDrawList* draw = ImGui::GetWindowDrawList();
+  draw->AddCallback(paneCallback, &gl.draws.back());
+  draw->AddCallback(ImDrawCallback_ResetRenderState, nullptr);
+}
+
+void Editor::drawCameraWire(int photo, const PaneView& view) {
+  buildCameraLines();
+  if (photo < 0 || photo >= static_cast<int>(cameraLines_.size())) return;
+  OverlayGl& gl = *overlayGl_;
+  OverlayGl::Pane& pane = gl.panes[photo];
+  char key[64];
+  std::snprintf(key, sizeof(key), "%p %ld", cameraLinesFor_, resultGeneration_);
+  if (pane.cameraKey != key || !pane.cameraVbo) {
+    const CameraLines& lines = cameraLines_[photo];
+    std::vector<float> data;
+    data.reserve((lines.wire.size() + lines.silhouette.size()) * 2 * kPaneVertexFloats);
+    appendSegments(data, lines.wire, Vec4f(120.0f, 220.0f, 255.0f, 45.0f) / 255.0f);
+    appendSegments(data, lines.silhouette, Vec4f(60.0f, 230.0f, 255.0f, 220.0f) / 255.0f);
+    if (!pane.cameraVbo) pane.cameraVbo = std::make_unique<VertexBuffer>();
+    pane.cameraVbo->upload(data, {{0, 2}, {1, 4}, {2, 1}});
+    pane.wire = static_cast<int>(lines.wire.size());
+    pane.silhouette = static_cast<int>(lines.silhouette.size());
+    pane.cameraKey = key;
+    ++gl.cameraBuilds;
+  }
+  if (pane.wire + pane.silhouette == 0) return;
+  OverlayGl::PaneDraw d{&gl, photo, float(view.origin.x()), float(view.origin.y()), float(view.zoom), scale_};
+  d.camera = true;
+  gl.draws.push_back(d);
   ImDrawList* draw = ImGui::GetWindowDrawList();
   draw->AddCallback(paneCallback, &gl.draws.back());
   draw->AddCallback(ImDrawCallback_ResetRenderState, nullptr);

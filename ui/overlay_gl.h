@@ -1,6 +1,7 @@
 // GL state of the editor's overlays (editor_overlays.cpp): the 3D view's marker shader and the depth
 // it read back after drawing the mesh, and per photo pane a vertex buffer of its markers, curves and
-// rejected pairs, rebuilt only when what it shows changes. Destroyed with the other GL objects.
+// rejected pairs, rebuilt only when what it shows changes, and one of the camera feedback's wireframe. Destroyed with
+// the other GL objects.
 #pragma once
 
 #include <deque>
@@ -22,6 +23,10 @@ struct OverlayGl {
     int lines = 0, points = 0;
     int rejectedInPhoto = 0;
     bool allRejectedDrawn = true;
+    // The camera feedback's wireframe then silhouette (GL_LINES), rebuilt once per result.
+    std::unique_ptr<VertexBuffer> cameraVbo;
+    std::string cameraKey;
+    int wire = 0, silhouette = 0;
   };
   std::map<int, Pane> panes;  // by photo
   // One ImGui draw callback per pane drawn this frame (stable addresses until ImGui renders).
@@ -29,12 +34,14 @@ struct OverlayGl {
     OverlayGl* gl = nullptr;
     int photo = -1;
     float originX = 0, originY = 0, zoom = 1;
-    float scale = 1;  // UI scale: marker diameters
+    float scale = 1;      // UI scale: marker diameters
+    bool camera = false;  // the camera feedback's lines instead of the markers, curves and pairs
   };
   std::deque<PaneDraw> draws;
   std::vector<float> depth;  // 3D view depth after the mesh (GL rows, bottom-up), for id visibility
   int depthWidth = 0, depthHeight = 0;
-  long paneBuilds = 0;  // buffers rebuilt so far (tests: panning rebuilds nothing)
+  long paneBuilds = 0;    // buffers rebuilt so far (tests: panning rebuilds nothing)
+  long cameraBuilds = 0;  // camera wireframe buffers rebuilt so far
 };
 
 }  // namespace montage

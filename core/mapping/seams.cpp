@@ -23,7 +23,6 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <random>
 #include <unordered_map>
@@ -105,6 +104,7 @@ class SeamOptimiser {
   // Per seam edge: edgeError's sum, Delta E and gradient sums, all edges in parallel.
   struct EdgeFigures {
     std::vector<double> error, deltaE, gradient;
+    bool gradients = false;  // `gradient` was measured
   };
   EdgeFigures measureEdges(bool gradients) const;
   double totalEnergy(const std::vector<double>& edgeErrors) const;
@@ -115,8 +115,12 @@ class SeamOptimiser {
   double optimiseSide(int i, std::mt19937& rng);
   // The sides whose UVs side i's energy reads (its faces' corners and its seam edges' ends), itself included.
   std::vector<int> touchedSides(int i) const;
-  std::vector<uint64_t> sideKeys() const;  // per side: its SeamMemo key (before any move)
-  void measure(const EdgeFigures& edges, double& deltaE, double& gradient, double& maxStretch) const;
+  std::vector<uint64_t> sideKeys() const;     // per side: its SeamMemo key (before any move)
+  std::vector<double> faceStretches() const;  // #F: faceStretch of mapped faces, 0 elsewhere
+  // Mean Delta E and gradient (NaN when not measured) over the seam samples, the largest stretch of the
+  // mapped faces that are not degenerate.
+  void measure(const EdgeFigures& edges, const std::vector<double>& stretch, double& deltaE, double& gradient,
+               double& maxStretch) const;
 
   Vec2 uvOf(int face, int corner) const { return sides_[faceSide_[face][corner]].uv; }
 
@@ -330,7 +334,7 @@ double SeamOptimiser::sideEnergy(const Side& side) const {
 
 SeamOptimiser::EdgeFigures SeamOptimiser::measureEdges(bool gradients) const {
   const size_t m = seams_.size();
-  EdgeFigures out{std::vector<double>(m), std::vector<double>(m), std::vector<double>(m)};
+  EdgeFigures out{std::vector<double>(m), std::vector<double>(m), std::vector<double>(m), gradients};
   tbb::parallel_for(size_t(0), m, [&](size_t e) {
     out.error[e] = edgeError(seams_[e], &out.deltaE[e], gradients ? &out.gradient[e] : nullptr);
   });
@@ -453,15 +457,23 @@ std::vector<uint64_t> SeamOptimiser::sideKeys() const {
   return keys;
 }
 
-void SeamOptimiser::measure(const EdgeFigures& edges, double& deltaE, double& gradient, double& maxStretch) const {
+std::vector<double> SeamOptimiser::faceStretches() const {
+  std::vector<double> out(mesh_.numFaces(), 0.0);
+  for (int f = 0; f < mesh_.numFaces(); ++f)
+    if (faceSide_[f][0] >= 0) out[f] = faceStretch(f);
+  return out;
+}
+
+void SeamOptimiser::measure(const EdgeFigures& edges, const std::vector<double>& stretch, double& deltaE,
+                            double& gradient, double& maxStretch) const {
   double de = 0, dg = 0;
   long n = 0;
   for (size_t e = 0; e < seams_.size(); ++e) de += edges.deltaE[e], dg += edges.gradient[e], n += seams_[e].samples;
   deltaE = n ? de / n : 0;
-  gradient = !options_.measureGradients && alpha_ == 1 ? std::numeric_limits<double>::quiet_NaN() : n ? dg / n : 0;
+  gradient = !edges.gradients ? std::numeric_limits<double>::quiet_NaN() : n ? dg / n : 0;
   maxStretch = 0;
   for (int f = 0; f < mesh_.numFaces(); ++f)
-    if (faceSide_[f][0] >= 0 && faceSign_[f] != 0) maxStretch = std::max(maxStretch, faceStretch(f));
+    if (faceSide_[f][0] >= 0 && faceSign_[f] != 0) maxStretch = std::max(maxStretch, stretch[f]);
 }
 
 SeamResult SeamOptimiser::run() {
@@ -485,11 +497,12 @@ SeamResult SeamOptimiser::run() {
   buildSeams();
   out.setupSeconds = secondsSince(start);
   auto t = Clock::now();
+  const std::vector<double> stretchBefore = faceStretches();
   for (Side& s : sides_)
-    for (const auto& [f, k] : s.corners) s.startStretch = std::max(s.startStretch, faceStretch(f));
+    for (const auto& [f, k] : s.corners) s.startStretch = std::max(s.startStretch, stretchBefore[f]);
   const bool gradients = options_.measureGradients || alpha_ < 1;
   const EdgeFigures before = measureEdges(gradients);
-  measure(before, out.deltaEBefore, out.gradientBefore, out.maxStretchBefore);
+  measure(before, stretchBefore, out.deltaEBefore, out.gradientBefore, out.maxStretchBefore);
   out.measureSeconds = secondsSince(t);
   std::vector<int> seamSides, neighbours;
   std::vector<char> seamVertex(mesh_.numVertices(), 0);
@@ -580,7 +593,7 @@ SeamResult SeamOptimiser::run() {
         ++out.warmSides;
       }
   }
-  double energy = in_.warm ? totalEnergy() : totalEnergy(before.error);
+  double energy = out.warmSides > 0 ? totalEnergy() : totalEnergy(before.error);  // warm UVs: measured anew
   t = Clock::now();
   for (int round = 0; round < options_.rounds && !order.empty(); ++round) {
     job_.progress(StageId::Seams, double(round) / options_.rounds, "round " + std::to_string(round + 1));
@@ -620,7 +633,7 @@ SeamResult SeamOptimiser::run() {
     if (faceSide_[f][0] >= 0)
       for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = uvOf(f, k);
   const EdgeFigures after = measureEdges(gradients);
-  measure(after, out.deltaEAfter, out.gradientAfter, out.maxStretchAfter);
+  measure(after, faceStretches(), out.deltaEAfter, out.gradientAfter, out.maxStretchAfter);
   // Per face: mean Delta E over its seam edges' samples.
   std::vector<double> sum(nf, 0);
   std::vector<int> count(nf, 0);

@@ -52,6 +52,13 @@ double wendland(double r, double support) {
   return q2 * q2 * (4 * r / support + 1);
 }
 
+// A camera's intrinsics, pose and size mixed into a hash (base/hash.h).
+uint64_t hashCamera(uint64_t h, const Camera& c) {
+  for (double x : {c.fx, c.fy, c.cx, c.cy}) h = hashMix(h, x);
+  for (int i = 0; i < 9; ++i) h = hashMix(h, c.R.data()[i]);
+  return hashMix(hashMix(hashMix(h, c.t), c.width), c.height);
+}
+
 double cross2(const Vec2& a, const Vec2& b) {
   return a.x() * b.y() - a.y() * b.x();
 }
@@ -397,14 +404,8 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
     };
     if (cache) {
       const PhotoCamera& c = fits[p].camera;
-      uint64_t h = inputs;
-      for (double x : {frames[p]->camera.fx, frames[p]->camera.fy, frames[p]->camera.cx, frames[p]->camera.cy})
-        h = hashMix(h, x);  // the frame's own camera: a frame within reuseFramePx makes another view
-      for (int i = 0; i < 9; ++i) h = hashMix(h, frames[p]->camera.R.data()[i]);
-      h = hashMix(h, frames[p]->camera.t);
-      for (double x : {c.pinhole.fx, c.pinhole.fy, c.pinhole.cx, c.pinhole.cy, c.k1, c.k2}) h = hashMix(h, x);
-      for (int i = 0; i < 9; ++i) h = hashMix(h, c.pinhole.R.data()[i]);
-      h = hashMix(hashMix(hashMix(h, c.pinhole.t), c.pinhole.width), c.pinhole.height);
+      // The frame's own camera too: a frame within reuseFramePx makes another view.
+      uint64_t h = hashMix(hashMix(hashCamera(hashCamera(inputs, frames[p]->camera), c.pinhole), c.k1), c.k2);
       const CorrectionField& field = out.fields[p];
       for (size_t i = 0; i < field.centres.size(); ++i)
         h = hashMix(hashMix(hashMix(h, field.centres[i]), field.local[i]), field.localSupport[i]);
@@ -485,11 +486,6 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       continue;
     }
     ++out.seenFaces;
-    if (o.keepCellPhotos && paper >= 0 && out.views[paper]->faceQuality[f] > 0) {
-      cost(paper) = 0;
-      labels[f] = paper;
-      continue;
-    }
     if (!keep.empty() && keep[f]) {  // the preview: keeps the last run's photo where it still may
       const int last = previous->faceLabels[f];
       const float q = last >= 0 && last < np ? out.views[last] ? out.views[last]->faceQuality[f] : 0.0f : 0.0f;

@@ -59,8 +59,6 @@ struct ProjectionOptions {
   double localRadiusPx = 8;       // correction: a click's own bump reaches at least this far (photo pixels)
   double smoothness = 1.0;        // view selection: weight of a seam edge (Potts, per mean edge length) against
                                   // the data cost of a face (per mean face area); 0 = best view per face
-  bool keepCellPhotos = false;    // cells the paper's partition gave to a fitted photo keep it where it sees
-                                  // them (view selection only fills the rest); false = view selection everywhere
   double minCos = 0.05;           // faces seen more obliquely than this (cosine) are not textured from a photo
   double silhouetteMarginPx = 4;  // view quality falls linearly within this distance of the silhouette
   double depthTolerance = 0.005;  // occlusion test tolerance, share of the bounding-box diagonal

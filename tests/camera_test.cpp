@@ -233,6 +233,47 @@ TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
   EXPECT_EQ(fit.camera.focal(), focal);
 }
 
+// Each view option moves the view the way its doc says (true cameras, photos with a background).
+TEST(Projection, ViewOptionsChangeTheViewAsDocumented) {
+  DemoScene d = demoScene("projection_view_options", 2, 60, 1.0);
+  const Photo photo = loadPhoto(d.dir + "/photo_0.png");
+  ASSERT_TRUE(photo.hasBackground);
+  std::vector<int> parent(d.mesh->numFaces());
+  std::iota(parent.begin(), parent.end(), 0);
+  const CameraFit truth = fitFromCamera(*d.mesh, trueCamera(d.scene, 0), photoClicks(d.scene.project, 0));
+  const ViewFrame frame = viewFrame(*d.mesh, photo, truth.camera.pinhole);
+  auto view = [&](const ProjectionOptions& o) {
+    return viewPhoto(*d.mesh, parent, frame, photo, 0, truth, CorrectionField{}, o);
+  };
+  auto seen = [](const PhotoView& v) {
+    return std::count_if(v.faceQuality.begin(), v.faceQuality.end(), [](float q) { return q > 0; });
+  };
+  auto visible = [](const PhotoView& v) { return std::count(v.vertexVisible.begin(), v.vertexVisible.end(), 1); };
+  const PhotoView base = view({});
+  ASSERT_GT(seen(base), 100);
+  ProjectionOptions o;
+  o.minCos = 0.7;  // only faces seen nearly head-on
+  EXPECT_LT(seen(view(o)), seen(base));
+  o = {};
+  o.depthTolerance = 1.0;  // the whole bounding box: occluded vertices count as seen
+  EXPECT_GT(visible(view(o)), visible(base));
+  o = {};
+  o.maxBackgroundPx = -1;  // every face is "on the background"
+  const PhotoView refused = view(o);
+  EXPECT_EQ(seen(refused), 0);
+  EXPECT_GT(refused.refusedBackground, base.refusedBackground);
+  // The correction field: a wider smallest reach widens every click's bump.
+  const CameraFit fit = fitCamera(*d.mesh, photoClicks(d.scene.project, 0), 512, 512);
+  ASSERT_TRUE(fit.fits) << fit.reason;
+  const CorrectionField narrow = correctionField(*d.mesh, fit, CorrectionMode::All, 8);
+  const CorrectionField wide = correctionField(*d.mesh, fit, CorrectionMode::All, 40);
+  ASSERT_EQ(narrow.localSupport.size(), wide.localSupport.size());
+  ASSERT_FALSE(narrow.localSupport.empty());
+  for (size_t i = 0; i < narrow.localSupport.size(); ++i) EXPECT_GE(wide.localSupport[i], narrow.localSupport[i]);
+  EXPECT_GT(std::accumulate(wide.localSupport.begin(), wide.localSupport.end(), 0.0),
+            std::accumulate(narrow.localSupport.begin(), narrow.localSupport.end(), 0.0));
+}
+
 // ---- Synthetic click noise ----
 
 TEST(CameraSynth, ClickNoiseIsSeededGaussian) {

@@ -17,6 +17,7 @@
 #include "bench/synth.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
+#include "io/project_warnings.h"
 #include "surface/preview.h"
 #include "test_support.h"
 
@@ -524,6 +525,25 @@ TEST(PipelineValidation, WarningsNameThePointsAndChains) {
   int found = 0;
   for (const std::string& w : result.warnings) found += w.rfind("project: ", 0) == 0;
   EXPECT_EQ(found, static_cast<int>(warned->warnings.size()));
+  // The options: a tolerance wider than the photo takes every point off the background; one warning
+  // per kind lists the first of the three crossings and counts the other two in one line.
+  std::vector<const Photo*> photos;
+  for (const auto& photo : warned->photos) photos.push_back(photo.get());
+  auto count = [](const std::vector<std::string>& ws, const std::string& text) {
+    return std::count_if(ws.begin(), ws.end(), [&](const std::string& w) { return w.find(text) != std::string::npos; });
+  };
+  const std::vector<std::string> every = projectWarnings(project, photos);
+  ProjectWarningOptions lenient;
+  lenient.backgroundTolerancePx = 1e6;
+  EXPECT_GT(count(every, "lies on the background"), 0);
+  EXPECT_EQ(count(projectWarnings(project, photos, lenient), "lies on the background"), 0);
+  ProjectWarningOptions one;
+  one.maxPerKind = 1;
+  const std::vector<std::string> fewer = projectWarnings(project, photos, one);
+  EXPECT_EQ(count(every, "cross in photo"), 3);
+  EXPECT_EQ(count(fewer, "cross in photo"), 1);
+  EXPECT_EQ(count(fewer, "2 more crossings of feature lines"), 1);
+  EXPECT_EQ(count(fewer, "crosses itself"), 1);  // its own kind
 }
 
 TEST(PipelineValidation, WorkingResolutionRunsWithSmallerPhotos) {

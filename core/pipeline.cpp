@@ -301,7 +301,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
 }
 
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job, Tier tier,
-                           PoissonCache* solvers) {
+                           PoissonCache* solvers, SynthesisMemo* synthesis) {
   SurfaceColors out;
   const PipelineOptions& o = scene.project.options;
   std::vector<const Photo*> photos;
@@ -319,6 +319,8 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   in.holeModes = scene.project.holeModes;
   in.where = scene.project.file;
   in.solvers = solvers;
+  in.synthesis = synthesis;
+  if (tier == Tier::Preview) in.options.synthesisNearColour = kPreviewSynthesisColour;
   in.options.mode = o.inpaintMode;
   in.options.maxRefinedVertices = o.maxInpaintVertices;
   // The preview inpaints harmonic fills on a coarser refinement (smooth: the same colours at viewing
@@ -749,8 +751,9 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   const bool colorCached = seamCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
     cachedColors_ =
-        std::make_shared<const SurfaceColors>(colorSurface(colorScene, *cachedSeamed_, job, tier, &solvers_));
+        std::make_shared<const SurfaceColors>(colorSurface(colorScene, *cachedSeamed_, job, tier, &solvers_, &synthesis_));
     solvers_.endRun();
+    synthesis_.endRun();
     colorKey_ = key.str();
   }
   const SurfaceColors& colors = *cachedColors_;
@@ -763,6 +766,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"mean_mismatch_before", lev.meanMismatchBefore},
                             {"mean_mismatch_after", lev.meanMismatchAfter}}});
   const InpaintResult& inp = colors.inpaint;
+  constexpr const char* kKeptNames[] = {"no", "exact", "near"};
   nlohmann::json regions = nlohmann::json::array();
   for (const InpaintRegion& r : inp.regions)
     regions.push_back({{"kind", r.kind == InpaintRegion::Kind::Hole ? "hole" : "clone"},
@@ -775,6 +779,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                        {"guidance_seconds", r.guidanceSeconds},
                        {"factor_seconds", r.factorSeconds},
                        {"solve_seconds", r.solveSeconds},
+                       {"synthesis_kept", kKeptNames[size_t(r.synthesisKept)]},
                        {"note", r.note}});
   result.stages.push_back({StageId::Inpaint,
                            colorCached,

@@ -31,6 +31,7 @@
 #include "mapping/texture_map.h"
 #include "surface/balance.h"
 #include "surface/inpaint.h"
+#include "surface/synthesis.h"
 
 namespace montage {
 
@@ -163,9 +164,12 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
 // preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
 // density); guided fills keep the final density, since their colours depend on it.
+// `synthesis` (may be null) keeps the synthesised holes' shift-map results across runs: the final takes
+// a kept one for an identical canvas only, the preview also within kPreviewSynthesisColour.
 inline constexpr double kPreviewDetail = 0.25;
+inline constexpr float kPreviewSynthesisColour = 2.f / 255;
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {},
-                           Tier tier = Tier::Final, PoissonCache* solvers = nullptr);
+                           Tier tier = Tier::Final, PoissonCache* solvers = nullptr, SynthesisMemo* synthesis = nullptr);
 // Bake: see BakeResult.
 BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
                      const JobControl& job = {});
@@ -203,6 +207,7 @@ class Pipeline {
   std::vector<CachedPhoto> cachedPhotos_;
   ViewFrameCache frames_;  // projection: each fitted photo's frame, by camera
   PoissonCache solvers_;   // inpaint: the factorisations of the last two runs' regions
+  SynthesisMemo synthesis_;  // inpaint: the synthesised holes' shift-map results of the last two runs
   std::string mapKey_;
   std::shared_ptr<const Mapping> cachedMapping_;
   MapCaches mapCaches_;

@@ -476,6 +476,94 @@ TEST(Inpaint, SynthesisUnderACancellableJobIsUnchangedAndStops) {
   EXPECT_THROW(inpaintSurface(in, JobControl(&cancel, {}), nullptr), Cancelled);
 }
 
+// Shift-map results kept across runs (SynthesisMemo) on two structure holes in the zebra photo:
+//  - the same input again takes both from the memo (exact) and gives the same colours to the bit;
+//  - the photo 1/255 brighter (a colour balance's drift) takes them as near results within the preview's
+//    tolerance: the fill moves with the drift only, and is as close to the truth as the fill it was kept
+//    from. A fresh synthesis differs from the first by far more (shift-map picks other patches);
+//  - a change around one hole only (its band repainted) synthesises that hole again and keeps the other;
+//  - the tolerance 0 (the final), or a photo 3/255 brighter, synthesises both again.
+TEST(Inpaint, SynthesisMemoKeepsUnchangedCanvasesExactlyAndNearOnesOnlyWithinTheTolerance) {
+  TM_REQUIRE_SHARED(zebraPhoto, "photos/zebra/zebra.jpg");
+  const auto mesh = unitSquare(41);
+  const Photo photo = loadPhoto(zebraPhoto);
+  const double side = 200;  // pixels per unit: 100 x 100 texel canvases, so that shift-map takes little time
+  const TextureMap truth = planarMap(*mesh, side, 20);
+  TextureMap map = truth;
+  ASSERT_GT(cutHole(*mesh, map, Vec3(0.3, 0.3, 0), 0.1), 0);
+  ASSERT_GT(cutHole(*mesh, map, Vec3(0.7, 0.7, 0), 0.1), 0);
+  using Kept = InpaintRegion::Kept;
+  SynthesisMemo memo;
+  auto run = [&](const Photo& p, float near) {
+    InpaintInput in = inputFor(*mesh, map, {&p}, InpaintMode::Structure);
+    in.synthesis = &memo;
+    in.options.synthesisNearColour = near;
+    InpaintResult res = inpaintSurface(in, {}, nullptr);
+    memo.endRun();
+    EXPECT_EQ(res.regions.size(), 2u);
+    return res;
+  };
+  auto kept = [](const InpaintResult& res) {
+    std::vector<Kept> k;
+    for (const auto& r : res.regions) k.push_back(r.synthesisKept);
+    return k;
+  };
+  // Over the solved vertices: the largest and the mean channel difference between two fills.
+  auto compare = [&](const InpaintResult& a, const InpaintResult& b) {
+    const auto solved = solvedVertices(a.refined, map);
+    double maxDiff = 0, sum = 0;
+    int n = 0;
+    for (int v = 0; v < a.colors.rows(); ++v)
+      if (solved[v]) {
+        const double d = (a.colors.row(v) - b.colors.row(v)).cwiseAbs().maxCoeff();
+        maxDiff = std::max(maxDiff, d), sum += d, ++n;
+      }
+    EXPECT_GT(n, 100);
+    return std::pair<double, double>(maxDiff, sum / std::max(n, 1));
+  };
+  const float near = 2.f / 255;
+  const InpaintResult first = run(photo, near);
+  EXPECT_EQ(kept(first), (std::vector<Kept>{Kept::No, Kept::No}));
+  const InpaintResult again = run(photo, near);
+  EXPECT_EQ(kept(again), (std::vector<Kept>{Kept::Exact, Kept::Exact}));
+  ASSERT_EQ(first.colors.rows(), again.colors.rows());
+  EXPECT_EQ((first.colors - again.colors).cwiseAbs().maxCoeff(), 0.0f);
+
+  auto brighter = [&](double units) {
+    Photo p = photo;
+    p.rgb = photo.rgb.clone();  // assigning photo.rgb + s to p.rgb would write into the shared pixels
+    p.rgb += cv::Scalar::all(units);
+    return p;
+  };
+  const Photo drifted = brighter(1);
+  const InpaintResult nearRun = run(drifted, near);
+  EXPECT_EQ(kept(nearRun), (std::vector<Kept>{Kept::Near, Kept::Near}));
+
+  // Repaint the photo around the second hole only: the first keeps its synthesis.
+  Photo local = photo;
+  const int half = int(0.1 * side), centre = int(0.7 * side) + 20;
+  local.rgb = photo.rgb.clone();
+  local.rgb(cv::Rect(centre - half, centre - half, 2 * half, 2 * half)) += cv::Scalar::all(40);
+  const InpaintResult partly = run(local, near);
+  EXPECT_EQ(kept(partly), (std::vector<Kept>{Kept::Exact, Kept::No}));
+
+  const InpaintResult fresh = run(drifted, 0);  // the final's tolerance: synthesised again
+  EXPECT_EQ(kept(fresh), (std::vector<Kept>{Kept::No, Kept::No}));
+  const auto [nearMax, nearMean] = compare(nearRun, first);
+  const auto [freshMax, freshMean] = compare(fresh, first);
+  const double firstError = scoreHole(first, map, truth, photo).meanDeltaE;
+  const double nearError = scoreHole(nearRun, map, truth, drifted).meanDeltaE;
+  const double freshError = scoreHole(fresh, map, truth, drifted).meanDeltaE;
+  std::printf("photo 1/255 brighter, against the first fill: kept near max %.4f mean %.5f, synthesised again "
+              "max %.4f mean %.5f (sRGB); mean Delta E to the truth: first %.2f, kept %.2f, synthesised again "
+              "%.2f\n",
+              nearMax, nearMean, freshMax, freshMean, firstError, nearError, freshError);
+  EXPECT_LT(nearMean, 1.5 / 255);
+  EXPECT_LT(nearMax, 3.0 / 255);
+  EXPECT_NEAR(nearError, firstError, 0.5);
+  EXPECT_EQ(kept(run(brighter(3), near)), (std::vector<Kept>{Kept::No, Kept::No}));
+}
+
 // A cancel does not wait for a long call without cancellation points: runCancellable throws Cancelled
 // while the call still runs (a call that only returns once released has not finished when the exception
 // arrives); the call then finishes on its own state, and the next call waits for it before it runs.

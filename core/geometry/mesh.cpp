@@ -25,6 +25,13 @@ using FaceHandle = TriMesh::FaceHandle;
 
 // ---- Mesh ------------------------------------------------------------------------------------------------
 
+std::vector<std::vector<int>> facesAroundVertices(const Mesh& mesh) {
+  std::vector<std::vector<int>> out(mesh.numVertices());
+  for (int f = 0; f < mesh.numFaces(); ++f)
+    for (int v : mesh.faceVertices(f)) out[v].push_back(f);
+  return out;
+}
+
 double Mesh::faceArea(int f) const {
   const auto p = facePositions(f);
   return 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).norm();

@@ -68,6 +68,9 @@ struct Mesh {
   void bounds(Vec3& lo, Vec3& hi) const;
 };
 
+// The faces around each vertex (#V lists, faces in increasing order).
+std::vector<std::vector<int>> facesAroundVertices(const Mesh& mesh);
+
 // One finding of the validation, with the elements it concerns (vertex or face indices of the
 // *input file*, 0-based, after fan triangulation of polygons) so a user can find them.
 struct MeshFinding {

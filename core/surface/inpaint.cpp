@@ -8,6 +8,7 @@
 #include <limits>
 #include <numeric>
 #include <queue>
+#include <tbb/parallel_for.h>
 #include <unordered_map>
 
 #include "base/job.h"
@@ -755,9 +756,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
   }
   std::vector<double> ringPix(numRegions, 0), ringArea(numRegions, 0);
   std::vector<int> stamp(nf, -1);
-  std::vector<std::vector<int>> vertexFaces(nv);
-  for (int f = 0; f < nf; ++f)
-    for (int v : mesh.faceVertices(f)) vertexFaces[v].push_back(f);
+  const std::vector<std::vector<int>> vertexFaces = facesAroundVertices(mesh);
   for (int f = 0; f < nf; ++f) {
     const int r = faceLabel[f];
     if (r < 0) continue;
@@ -894,6 +893,41 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       if (!fixed[l]) res.colors.row(sub.vertex[l]) = f.row(l).cast<float>().cwiseMax(0.f).cwiseMin(1.f);
   };
 
+  // Synthesised guidance (synthesis and structure modes) depends on the mapping around each hole only,
+  // not on the refinement: the holes' syntheses run in parallel, each one's shift-map taken from the memo
+  // when its canvas is kept there.
+  std::vector<std::vector<int>> holeFaces(numHoleRegions);
+  for (int f = 0; f < nf; ++f)
+    if (faceLabel[f] >= 0 && faceLabel[f] < numHoleRegions) holeFaces[faceLabel[f]].push_back(f);
+  std::vector<SynthesisResult> synthesised(numHoleRegions);
+  std::vector<double> synthesisSeconds(numHoleRegions, 0);
+  std::vector<int> toSynthesise;
+  for (int r = 0; r < numHoleRegions; ++r)
+    if (res.regions[r].mode == InpaintMode::Synthesis || res.regions[r].mode == InpaintMode::Structure)
+      toSynthesise.push_back(r);
+  if (!toSynthesise.empty()) {
+    job.progress(StageId::Inpaint, 0.3, "synthesising " + std::to_string(toSynthesise.size()) + " hole(s)");
+    tbb::parallel_for(size_t(0), toSynthesise.size(), [&](size_t k) {
+      const int r = toSynthesise[k];
+      const auto synStart = Clock::now();
+      SynthesisInput sin;
+      sin.mesh = &mesh;
+      sin.map = &map;
+      sin.photos = in.photos;
+      sin.levelling = in.levelling;
+      sin.holeFaces = holeFaces[r];
+      sin.texelsPerUnit = res.regions[r].texelsPerUnit;
+      sin.job = &job;
+      sin.memo = in.synthesis;
+      sin.nearColour = opt.synthesisNearColour;
+      sin.vertexFaces = &vertexFaces;
+      SynthesisOptions synOptions;
+      if (res.regions[r].mode == InpaintMode::Structure) synOptions.blur = opt.structureBlur;
+      synthesised[r] = synthesiseHole(sin, synOptions);
+      synthesisSeconds[r] = secondsSince(synStart);
+    });
+  }
+
   // Solve each hole.
   std::vector<std::vector<int>> regionTris(numRegions);
   for (int t = 0; t < rt; ++t)
@@ -926,21 +960,13 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       Eigen::MatrixXd bd(n, 3);
       for (int l = 0; l < n; ++l) bd.row(l) = boundaryD.row(sub.vertex[l]);
       const Graph subGraph = buildGraph(sub.mesh);
-      bool synthesised = false;
+      bool synthesisUsed = false;
       if (reg.mode == InpaintMode::Synthesis || reg.mode == InpaintMode::Structure) {
-        SynthesisInput sin;
-        sin.mesh = &mesh;
-        sin.map = &map;
-        sin.photos = in.photos;
-        sin.levelling = in.levelling;
-        for (int f = 0; f < nf; ++f)
-          if (faceLabel[f] == r) sin.holeFaces.push_back(f);
-        sin.texelsPerUnit = reg.texelsPerUnit;
-        sin.job = &job;
-        SynthesisOptions synOptions;
-        if (reg.mode == InpaintMode::Structure) synOptions.blur = opt.structureBlur;
-        const SynthesisResult syn = synthesiseHole(sin, synOptions);
+        const SynthesisResult& syn = synthesised[r];
         reg.note = syn.note;
+        reg.synthesisKept = syn.reuse == SynthesisResult::Reuse::Exact  ? InpaintRegion::Kept::Exact
+                            : syn.reuse == SynthesisResult::Reuse::Near ? InpaintRegion::Kept::Near
+                                                                        : InpaintRegion::Kept::No;
         if (syn.ok) {
           // d = the Laplacian of the synthesised texture: the Poisson solve keeps its structure and
           // blends its border into the photos' colours.
@@ -951,12 +977,12 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
               g.row(sub.mesh.triangles[i][k]) = syn.colorAt(rs.parentFace[t], rs.parentBary[t][k]).cast<double>();
           }
           d = laplacianOf(sub.mesh, g);
-          synthesised = true;
+          synthesisUsed = true;
         } else {
           warn("hole " + std::to_string(r) + ": " + syn.note + ": filled with \"rbf\" instead");
         }
       }
-      if (synthesised) {
+      if (synthesisUsed) {
         // d is the synthesised texture's Laplacian (above)
       } else if (reg.mode == InpaintMode::Rbf || reg.mode == InpaintMode::Synthesis ||
                  reg.mode == InpaintMode::Structure) {
@@ -964,8 +990,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       } else {
         std::vector<StrokeSample> samples;
         int hole = -1;
-        for (int f = 0; f < nf && hole < 0; ++f)
-          if (faceLabel[f] == r) hole = holeOf[f];
+        if (!holeFaces[r].empty()) hole = holeOf[holeFaces[r][0]];
         std::unordered_map<int, int> local;
         for (int l = 0; l < n; ++l) local.emplace(sub.vertex[l], l);
         for (const auto& [v, dir] : holeStrokes[hole]) {
@@ -979,7 +1004,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
                    std::to_string(stats.noEnd) + " at none (d = 0)";
       }
     }
-    reg.guidanceSeconds = secondsSince(guideStart);
+    reg.guidanceSeconds = secondsSince(guideStart) + synthesisSeconds[r];
+    synthesised[r] = {};  // its canvas is no longer needed
     solveRegion(reg, sub, fixed, d, fixedValues, reg.mode != InpaintMode::Harmonic);
   }
 

@@ -26,6 +26,7 @@ namespace montage {
 struct Mesh;
 struct Photo;
 class JobControl;
+class SynthesisMemo;
 
 // The refined copy of the base mesh's faces that inpainting and cloning work on.
 struct RefinedSurface {
@@ -48,6 +49,9 @@ struct InpaintRegion {
   int refinedVertices = 0, unknowns = 0;     // refined vertices in the region; solved for
   double texelsPerUnit = 0;                  // refinement density (texels per model unit)
   double refineSeconds = 0, guidanceSeconds = 0, factorSeconds = 0, solveSeconds = 0;
+  // Synthesised holes: the shift-map result was kept from an earlier run (SynthesisMemo), for the same
+  // canvas (exact) or one within the preview's tolerance (near).
+  enum class Kept { No, Exact, Near } synthesisKept = Kept::No;
   std::string note;  // e.g. "no mapped neighbour: filled with the mean colour"
 };
 
@@ -75,6 +79,9 @@ struct InpaintOptions {
   int rbfCentres = 256;              // RBF: boundary centres per hole (boundary values averaged per centre)
   double emptyTexelsPerUnit = 0;     // density when no face is mapped at all (0: 1024 texels across the bbox)
   double detail = 1;                 // refinement density relative to the texel density (the preview uses less)
+  // Synthesised holes: a kept shift-map result serves when every known texel of the hole's canvas is
+  // within this of the kept one (sRGB [0,1], per channel; SynthesisMemo). 0 = only the same canvas.
+  float synthesisNearColour = 0;
 };
 
 // What the inpainting reads besides the mapping. Strokes, clones and hole modes use the ids of the
@@ -92,6 +99,7 @@ struct InpaintInput {
   std::string where;
   InpaintOptions options;
   PoissonCache* solvers = nullptr;  // factorisations kept across runs (may be null: each region factors its own)
+  SynthesisMemo* synthesis = nullptr;  // shift-map results kept across runs (may be null)
 };
 
 // Refines the faces with faceLabel >= -1 (>= 0: region id, -1: ring) by longest-edge bisection until

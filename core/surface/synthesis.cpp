@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/xphoto/inpainting.hpp>
 #include <unordered_map>
 
 #include "atlas/lscm.h"
+#include "base/hash.h"
 #include "base/job.h"
 #include "geometry/mesh.h"
 #include "geometry/raster.h"
@@ -17,9 +19,48 @@
 namespace montage {
 
 Vec3f SynthesisResult::colorAt(int face, const Vec3& b) const {
-  const auto& c = corner[faceSlot[face]];
+  const auto& c = corner[faceSlot.at(face)];
   const Vec2 p = b[0] * c[0] + b[1] * c[1] + b[2] * c[2];
   return sampleBilinear3(image, p.x(), p.y());
+}
+
+std::shared_ptr<const SynthesisMemo::Entry> SynthesisMemo::find(uint64_t key, const cv::Mat& rgb, const cv::Mat& known,
+                                                               float nearColour, bool& exact) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = current_.find(key);
+  if (it == current_.end()) {
+    it = previous_.find(key);
+    if (it == previous_.end()) return nullptr;
+    it = current_.emplace(key, it->second).first;
+  }
+  const Entry& e = *it->second;
+  if (e.rgb.size() != rgb.size()) return nullptr;
+  float maxDiff = 0;
+  for (int y = 0; y < rgb.rows; ++y) {
+    const auto* a = rgb.ptr<cv::Vec3f>(y);
+    const auto* b = e.rgb.ptr<cv::Vec3f>(y);
+    const uchar* k = known.ptr<uchar>(y);
+    for (int x = 0; x < rgb.cols; ++x)
+      if (k[x])
+        for (int c = 0; c < 3; ++c) maxDiff = std::max(maxDiff, std::abs(a[x][c] - b[x][c]));
+  }
+  exact = maxDiff == 0;
+  if (!exact && !(maxDiff <= nearColour)) return nullptr;
+  ++(exact ? exactHits : nearHits);
+  return it->second;
+}
+
+void SynthesisMemo::store(uint64_t key, std::shared_ptr<const Entry> entry) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  current_[key] = std::move(entry);
+  ++made;
+}
+
+void SynthesisMemo::endRun() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  previous_ = std::move(current_);
+  current_.clear();
+  exactHits = nearHits = made = 0;
 }
 
 SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions& options) {
@@ -33,9 +74,9 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     out.note = "synthesis: empty hole or no texel density";
     return out;
   }
-  std::vector<std::vector<int>> vertexFaces(nv);
-  for (int f = 0; f < nf; ++f)
-    for (int v : mesh.faceVertices(f)) vertexFaces[v].push_back(f);
+  std::vector<std::vector<int>> ownVertexFaces;
+  if (!in.vertexFaces) ownVertexFaces = facesAroundVertices(mesh);
+  const std::vector<std::vector<int>>& vertexFaces = in.vertexFaces ? *in.vertexFaces : ownVertexFaces;
 
   // Rings of mapped faces around the hole (faces sharing a vertex with the previous ring).
   std::vector<int> ring(nf, -1);
@@ -116,7 +157,7 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   if (extent * scale > options.maxCanvas - 4) scale = (options.maxCanvas - 4) / std::max(extent, 1e-300);
   const int width = std::max(8, int(std::ceil((hi.x() - lo.x()) * scale)) + 4);
   const int height = std::max(8, int(std::ceil((hi.y() - lo.y()) * scale)) + 4);
-  out.faceSlot.assign(nf, -1);
+  out.faceSlot.reserve(faces.size());
   out.corner.resize(faces.size());
   for (size_t i = 0; i < faces.size(); ++i) {
     out.faceSlot[faces[i]] = static_cast<int>(i);
@@ -150,17 +191,42 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     out.note = "synthesis: the band around the hole covers no photo texel";
     return out;
   }
-  // Shift-map works on 8-bit L*a*b* (its patch distances expect a perceptual space).
-  cv::Mat rgb8, lab, filled;
-  rgb.convertTo(rgb8, CV_8UC3, 255.0);
-  cv::cvtColor(rgb8, lab, cv::COLOR_RGB2Lab);
-  // Shift-map is one long call without a cancellation point (seconds on a big hole): a cancel does not wait
-  // for it (runCancellable), so it works on copies of its inputs (cv::Mat headers share their pixels).
-  auto shifted = std::make_shared<cv::Mat>();
-  const cv::Mat known = out.known;
-  runCancellable(job,
-                 [lab, known, shifted] { cv::xphoto::inpaint(lab, known, *shifted, cv::xphoto::INPAINT_SHIFTMAP); });
-  filled = *shifted;
+  // The memo's key: the hole's geometry and the canvas's size and known mask (its colours are compared
+  // apart, in find).
+  cv::Mat filled;
+  uint64_t key = hashMix(hashMix(uint64_t(0x5e17e5), width), height);
+  for (int f : in.holeFaces)
+    for (const Vec3& p : mesh.facePositions(f)) key = hashMix(key, p);
+  for (int y = 0; y < height; ++y) {
+    const uchar* k = out.known.ptr<uchar>(y);
+    for (int x = 0; x < width; x += 8) {
+      uint64_t word = 0;
+      std::memcpy(&word, k + x, std::min(8, width - x));
+      key = hashMix(key, word);
+    }
+  }
+  if (in.memo) {
+    bool exact = false;
+    if (const auto kept = in.memo->find(key, rgb, out.known, in.nearColour, exact)) {
+      filled = kept->filled;
+      out.reuse = exact ? SynthesisResult::Reuse::Exact : SynthesisResult::Reuse::Near;
+    }
+  }
+  cv::Mat rgb8;
+  if (filled.empty()) {
+    // Shift-map works on 8-bit L*a*b* (its patch distances expect a perceptual space).
+    cv::Mat lab;
+    rgb.convertTo(rgb8, CV_8UC3, 255.0);
+    cv::cvtColor(rgb8, lab, cv::COLOR_RGB2Lab);
+    // Shift-map is one long call without a cancellation point (seconds on a big hole): a cancel does not
+    // wait for it (runCancellable), so it works on copies of its inputs (cv::Mat headers share their pixels).
+    auto shifted = std::make_shared<cv::Mat>();
+    const cv::Mat known = out.known;
+    runCancellable(job,
+                   [lab, known, shifted] { cv::xphoto::inpaint(lab, known, *shifted, cv::xphoto::INPAINT_SHIFTMAP); });
+    filled = *shifted;
+    if (in.memo) in.memo->store(key, std::make_shared<const SynthesisMemo::Entry>(SynthesisMemo::Entry{rgb, filled}));
+  }
   cv::cvtColor(filled, rgb8, cv::COLOR_Lab2RGB);
   rgb8.convertTo(out.image, CV_32FC3, 1.0 / 255);
   // Known texels keep their exact (float) colours.
@@ -169,7 +235,10 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     cv::GaussianBlur(out.image, out.image, cv::Size(), options.blur * std::sqrt(holeArea / M_PI) * scale);
   out.ok = true;
   out.note = "synthesis: " + std::to_string(width) + " x " + std::to_string(height) + " texel chart, " +
-             std::to_string(out.rings) + " rings (" + std::to_string(out.bandFaces) + " faces) of exemplar";
+             std::to_string(out.rings) + " rings (" + std::to_string(out.bandFaces) + " faces) of exemplar" +
+             (out.reuse == SynthesisResult::Reuse::Exact  ? ", kept (same canvas)"
+              : out.reuse == SynthesisResult::Reuse::Near ? ", kept (canvas within the preview's tolerance)"
+                                                          : "");
   return out;
 }
 

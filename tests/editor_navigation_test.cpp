@@ -137,3 +137,62 @@ TEST(EditorNavigation, HoverHighlightsTheVertexUnderThePointer) {
     }
   EXPECT_GT(white, 8) << "no highlight marker at the hovered vertex";
 }
+
+TEST(EditorNavigation, ReducedResolutionWhileTheCameraMovesFullSizeOnceStill) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = tempDir("adaptive");
+  // An orbit (a left drag of 8 moves), then still; the same with the preference off. The counters say
+  // at which sizes the view was drawn: a drag's frames may be slower than the settle time under load,
+  // so the size at the moment of a state dump is only checked once the view is still.
+  const std::string script =
+      "wait_worker\nview textured\nframe\nwait_frames 3\nstate still0.json\n"
+      "drag_3d 150 300 330 340\nstate moving.json\nsleep 0.6\nstate still1.json\nscreenshot still1.png\n"
+      "menu \"View/Reduced resolution while navigating\"\nwait_frames 2\nstate off0.json\n"
+      "drag_3d 330 340 150 300\nsleep 0.6\nstate off1.json\nquit\n";
+  std::string out;
+  ASSERT_EQ(runScript(dir, script, "1280x800", "1600x1000x24", &out), 0) << out;
+  const json s0 = montage::test::readJson(dir + "/still0.json")["view3d"];
+  const json mv = montage::test::readJson(dir + "/moving.json")["view3d"];
+  const json s1 = montage::test::readJson(dir + "/still1.json")["view3d"];
+  const json o0 = montage::test::readJson(dir + "/off0.json")["view3d"];
+  const json o1 = montage::test::readJson(dir + "/off1.json")["view3d"];
+  ASSERT_EQ(s0["size"], json({486, 729})) << "the layout changed";
+  EXPECT_TRUE(s0["reduced_navigation"].get<bool>()) << "on by default";
+  EXPECT_EQ(s0["render"], s0["size"]) << "a still view is drawn at full size";
+  // During the orbit: redrawn at half size per axis (486x729 -> 243x365).
+  EXPECT_GT(mv["reduced_redraws"].get<long>(), s0["reduced_redraws"].get<long>()) << "the orbit was not reduced";
+  EXPECT_EQ(mv["reduced_size"], json({243, 365}));
+  EXPECT_EQ(mv["divisor"].get<int>() == 2, mv["render"] == json({243, 365}));
+  // Still again: one more full-size redraw, the framebuffer at the view's size.
+  EXPECT_FALSE(s1["moving"].get<bool>());
+  EXPECT_EQ(s1["render"], s1["size"]);
+  EXPECT_EQ(s1["divisor"].get<int>(), 1);
+  EXPECT_GT(s1["full_redraws"].get<long>(), mv["full_redraws"].get<long>());
+  // The photo pane comes from its cache, which the orbit did not render again.
+  const long paneRenders = montage::test::readJson(dir + "/still0.json")["pane_cache_renders"].get<long>();
+  EXPECT_GT(paneRenders, 0);
+  EXPECT_EQ(montage::test::readJson(dir + "/still1.json")["pane_cache_renders"].get<long>(), paneRenders);
+  // Preference off: the orbit is drawn at full size only.
+  EXPECT_FALSE(o0["reduced_navigation"].get<bool>());
+  EXPECT_EQ(o1["reduced_redraws"], o0["reduced_redraws"]) << "reduced with the preference off";
+  EXPECT_GT(o1["full_redraws"].get<long>(), o0["full_redraws"].get<long>() + 3) << "the orbit redrew too little";
+  EXPECT_EQ(o1["render"], o1["size"]);
+  // The preference is remembered with the layout.
+  const json layout = montage::test::readJson(dir + "/state/texturemontage/layout.json");
+  EXPECT_FALSE(layout["reduced_navigation"].get<bool>());
+  // The still screenshot's view is the mesh (not garbage): varied pixels inside the view.
+  const cv::Mat shot = cv::imread(dir + "/still1.png");
+  ASSERT_FALSE(shot.empty());
+  const json r = montage::test::readJson(dir + "/still1.json")["layout"]["view3d"];
+  const cv::Mat view = shot(cv::Rect(int(r["x"].get<double>()), int(r["y"].get<double>()), int(r["w"].get<double>()),
+                                     int(r["h"].get<double>())));
+  cv::Scalar mean, dev;
+  cv::meanStdDev(view, mean, dev);
+  EXPECT_GT(dev[0] + dev[1] + dev[2], 20);
+  // So is the photo pane's (its cache shown): the photo, not a flat colour.
+  const json pr = montage::test::readJson(dir + "/still1.json")["layout"]["photos"];
+  const cv::Mat pane = shot(cv::Rect(int(pr["x"].get<double>()), int(pr["y"].get<double>()) + 80,
+                                     int(pr["w"].get<double>()), int(pr["h"].get<double>()) - 120));
+  cv::meanStdDev(pane, mean, dev);
+  EXPECT_GT(dev[0] + dev[1] + dev[2], 20);
+}

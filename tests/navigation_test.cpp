@@ -125,6 +125,35 @@ TEST(Navigation, ClickVersusDragByDistanceAndTime) {
   EXPECT_EQ(dragAction(MouseBindings::Blender, 2, true, false), DragAction::Pan);
 }
 
+TEST(Navigation, ReducedResolutionWhileTheCameraMoves) {
+  // The divisor keeps a reduced view at 120k pixels or fewer, in whole pixels, at most 4.
+  EXPECT_EQ(navigationDivisor(300, 300), 1);    // 90k pixels: small enough already
+  EXPECT_EQ(navigationDivisor(486, 729), 2);    // the 1280x800 window's view
+  EXPECT_EQ(navigationDivisor(972, 1458), 4);   // the same at 2560x1600 (UI scale 2)
+  EXPECT_EQ(navigationDivisor(4000, 4000), 4);  // never below a quarter per axis
+  EXPECT_EQ(navigationDivisor(0, 0), 1);
+  NavigationMotion m;
+  m.update(true, 10, 1.0);  // a lone change (frame all): drawn full size at once
+  EXPECT_FALSE(m.moving());
+  m.update(false, 11, 1.5);
+  m.update(true, 12, 2.0);  // an orbit: changes in consecutive frames
+  EXPECT_FALSE(m.moving());
+  m.update(true, 13, 2.04);
+  EXPECT_TRUE(m.moving());
+  m.update(true, 14, 2.5);  // a slow frame (0.46 s) during the orbit: still moving
+  EXPECT_TRUE(m.moving());
+  m.update(false, 15, 2.6);  // stopped, within the settle time
+  EXPECT_TRUE(m.moving());
+  EXPECT_NEAR(m.secondsToSettle(2.6), 0.1, 1e-9);
+  m.update(false, 16, 2.5 + kNavigationSettleSeconds);  // settled: the next redraw is full size
+  EXPECT_FALSE(m.moving());
+  EXPECT_EQ(m.secondsToSettle(3.0), 0);
+  m.update(true, 30, 5.0);  // wheel notches 0.1 s apart, frames in between: moving from the second
+  m.update(false, 31, 5.05);
+  m.update(true, 32, 5.1);
+  EXPECT_TRUE(m.moving());
+}
+
 TEST(Overlays, LabelsDoNotOverlapExceptTheAlwaysShown) {
   std::vector<LabelCandidate> labels;
   for (int i = 0; i < 50; ++i) {

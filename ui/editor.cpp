@@ -40,6 +40,7 @@ Editor::Editor(EditorOptions options) : options_(std::move(options)) {
   layout_ = loadLayout();
   savedLayout_ = layout_.toJson();
   gridPanes_ = layout_.grid;
+  reducedNavigation_ = layout_.reducedNavigation;
   for (size_t i = 0; i < kMouseBindingNames.size(); ++i)
     if (layout_.mouse == kMouseBindingNames[i]) bindings_ = MouseBindings(i);
   initWindow();
@@ -208,7 +209,10 @@ void Editor::frame() {
     // Redraw on input and when the worker has a result (it posts an event); otherwise a few times a
     // second (worker progress, dialogs, autosave clock). A redraw costs a core under software GL, which
     // the worker needs.
-    glfwWaitEventsTimeout(busy ? 0.25 : dialogs_.active() ? 0.05 : autosaveJob_.valid() ? 0.25 : 1.0);
+    // A view drawn reduced while the camera moved is drawn at full size once it has settled.
+    double wait = busy ? 0.25 : dialogs_.active() ? 0.05 : autosaveJob_.valid() ? 0.25 : 1.0;
+    if (viewDivisor_ > 1) wait = std::min(wait, viewMotion_.secondsToSettle(glfwGetTime()) + 0.005);
+    glfwWaitEventsTimeout(wait);
   }
   if (glfwWindowShouldClose(window_)) {
     glfwSetWindowShouldClose(window_, GLFW_FALSE);

@@ -318,6 +318,14 @@ class Editor {
   void initOverlays();
   void drawPaneOverlay(int photo, const PaneView& view, int focusPoint);
   void drawCameraWire(int photo, const PaneView& view);  // the camera feedback's wireframe and silhouette
+  void updatePaneOverlay(int photo, int focusPoint);     // the pane's buffer, rebuilt when it changed
+  bool updateCameraWire(int photo);                      // same for the camera lines; false: none
+  void addPaneDraw(ImDrawList* draw, int photo, const PaneView& view, bool camera);
+  // The pane's photo, mask (0: none), buffer and camera lines from its cache, rendered again when they or
+  // `content` (what else identifies the textures' pixels) changed (editor_overlays.cpp).
+  void drawPaneCached(int photo, const Rect& r, const PaneView& view, unsigned photoTexture, unsigned maskTexture,
+                      const std::string& content, int focusPoint);
+  bool paneCached_ = false;  // the pane being drawn comes from its cache (the camera lines are in it)
   int paneRejectedCount(int photo, bool* allDrawn) const;
   void readViewDepth(const Mat4f& view, const Mat4f& projection);  // after the mesh: id visibility
   void drawMarkers(const Mat4f& view, const Mat4f& projection);
@@ -411,7 +419,13 @@ class Editor {
   ClickDrag clickDrag_;
   Vec3 orbitPivot_ = Vec3::Zero();
   bool frameWhenShown_ = false;
-  bool orbitAtPick_ = true;  // orbit about the surface point under the cursor at the press
+  bool orbitAtPick_ = true;                    // orbit about the surface point under the cursor at the press
+  bool reducedNavigation_ = true;              // the 3D view drawn at reduced resolution while the camera moves
+  NavigationMotion viewMotion_;                // camera changes frame by frame
+  std::string viewCameraKey_;                  // the camera the motion was last checked against
+  int viewDivisor_ = 1;                        // the view's framebuffer: viewRect_ divided by this per axis
+  long reducedRedraws_ = 0, fullRedraws_ = 0;  // 3D-view redraws at reduced and at full size
+  int reducedSize_[2] = {0, 0};                // the last reduced redraw's framebuffer size
   MouseBindings bindings_ = MouseBindings::MeshLab;
 
   // Display.

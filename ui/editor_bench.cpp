@@ -105,6 +105,13 @@ void Editor::benchOverlaysReport() {
       result_ && result_->mapping ? result_->mapping->partition.paths.size() : size_t(0), w, h, viewRect_.w,
       viewRect_.h, result_ && result_->model ? result_->model->mesh.numFaces() : 0, renderer ? renderer : "?",
       bench_.load.c_str(), loadAverage().c_str());
+  // The orbit moves the camera every frame: with the preference on, the view is drawn reduced as in a
+  // user's orbit (only the first frame after the wait is full size).
+  std::printf(
+      "3D view redraws: %ld reduced (%dx%d, 1/%d per axis), %ld full size; reduced resolution while "
+      "navigating %s\n",
+      reducedRedraws_, reducedSize_[0], reducedSize_[1], navigationDivisor(int(viewRect_.w), int(viewRect_.h)),
+      fullRedraws_, reducedNavigation_ ? "on" : "off");
   report("bare (overlays hidden)", bench_.bareTimes, bench_.bareCpu);
   report("full (every overlay shown)", benchTimes_, bench_.fullCpu);
   if (!benchTimes_.empty() && !bench_.bareTimes.empty())

@@ -96,8 +96,8 @@ void Editor::cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, co
   const CameraFit* fit = photoFit(photo);
   if (!fit || !fit->fits) return;
   // Wireframe and silhouette of the mesh as the camera sees it: a vertex buffer built once per result
-  // (editor_overlays.cpp).
-  drawCameraWire(photo, view);
+  // (editor_overlays.cpp), in the pane's cache unless it is drawn live.
+  if (!paneCached_) drawCameraWire(photo, view);
   // Residuals (x10) and outliers.
   for (size_t i = 0; i < fit->clicks.size(); ++i) {
     if (!std::isfinite(fit->residual[i])) continue;

@@ -53,6 +53,7 @@ void Editor::navigationMenu() {
   bool ortho = isOrthographic(camera_);
   if (menuToggle("Orthographic", "O, Numpad 5", &ortho)) setOrthographic(camera_, ortho);
   menuToggle("Orbit about the point under the cursor", nullptr, &orbitAtPick_);
+  menuToggle("Reduced resolution while navigating", nullptr, &reducedNavigation_);
   if (beginMenu("Mouse")) {
     if (menuItem("MeshLab: left orbits, right/middle pan", nullptr, bindings_ == MouseBindings::MeshLab))
       bindings_ = MouseBindings::MeshLab;

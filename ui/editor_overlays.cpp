@@ -3,6 +3,7 @@
 // the selection) with visibility from the depth buffer instead of a ray cast per feature and frame,
 // and the photo panes' markers, curves and rejected pairs from vertex buffers drawn through an ImGui
 // callback, rebuilt only when the document, the result, the selection or the hovered point changes.
+#include <backends/imgui_impl_opengl3.h>
 #include <imgui.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include "editor.h"
 #include "gl.h"
 #include "gl_util.h"
+#include "mapping/camera.h"
 #include "overlay_buffers.h"
 #include "overlay_gl.h"
 
@@ -40,7 +42,7 @@ void paneCallback(const ImDrawList*, const ImDrawCmd* cmd) {
   const auto it = d->gl->panes.find(d->photo);
   if (it == d->gl->panes.end() || !it->second.vbo) return;
   const OverlayGl::Pane& pane = it->second;
-  const ImDrawData* data = ImGui::GetDrawData();
+  const ImDrawData* data = d->gl->target ? d->gl->target : ImGui::GetDrawData();
   const ImVec2 pos = data->DisplayPos, size = data->DisplaySize, scale = data->FramebufferScale;
   const float fbHeight = size.y * scale.y;
   const ImVec4 c = cmd->ClipRect;
@@ -82,6 +84,20 @@ void Editor::initOverlays() {
 }
 
 void Editor::drawPaneOverlay(int photo, const PaneView& view, int focusPoint) {
+  updatePaneOverlay(photo, focusPoint);
+  addPaneDraw(ImGui::GetWindowDrawList(), photo, view, false);
+}
+
+void Editor::addPaneDraw(ImDrawList* draw, int photo, const PaneView& view, bool camera) {
+  OverlayGl& gl = *overlayGl_;
+  OverlayGl::PaneDraw d{&gl, photo, float(view.origin.x()), float(view.origin.y()), float(view.zoom), scale_};
+  d.camera = camera;
+  gl.draws.push_back(d);
+  draw->AddCallback(paneCallback, &gl.draws.back());
+  draw->AddCallback(ImDrawCallback_ResetRenderState, nullptr);
+}
+
+void Editor::updatePaneOverlay(int photo, int focusPoint) {
   OverlayGl& gl = *overlayGl_;
   const Partition* part = resultUsable() && result_->mapping ? &result_->mapping->partition : nullptr;
   PaneOverlayOptions o;
@@ -112,16 +128,15 @@ void Editor::drawPaneOverlay(int photo, const PaneView& view, int focusPoint) {
     pane.key = wasAll == pane.allRejectedDrawn ? std::string(key) : std::string();
     ++gl.paneBuilds;
   }
-  gl.draws.push_back(
-      OverlayGl::PaneDraw{&gl, photo, float(view.origin.x()), float(view.origin.y()), float(view.zoom), scale_});
-  ImDrawList* draw = ImGui::GetWindowDrawList();
-  draw->AddCallback(paneCallback, &gl.draws.back());
-  draw->AddCallback(ImDrawCallback_ResetRenderState, nullptr);
 }
 
 void Editor::drawCameraWire(int photo, const PaneView& view) {
+  if (updateCameraWire(photo)) addPaneDraw(ImGui::GetWindowDrawList(), photo, view, true);
+}
+
+bool Editor::updateCameraWire(int photo) {
   buildCameraLines();
-  if (photo < 0 || photo >= static_cast<int>(cameraLines_.size())) return;
+  if (photo < 0 || photo >= static_cast<int>(cameraLines_.size())) return false;
   OverlayGl& gl = *overlayGl_;
   OverlayGl::Pane& pane = gl.panes[photo];
   char key[64];
@@ -139,13 +154,71 @@ void Editor::drawCameraWire(int photo, const PaneView& view) {
     pane.cameraKey = key;
     ++gl.cameraBuilds;
   }
-  if (pane.wire + pane.silhouette == 0) return;
-  OverlayGl::PaneDraw d{&gl, photo, float(view.origin.x()), float(view.origin.y()), float(view.zoom), scale_};
-  d.camera = true;
-  gl.draws.push_back(d);
-  ImDrawList* draw = ImGui::GetWindowDrawList();
-  draw->AddCallback(paneCallback, &gl.draws.back());
-  draw->AddCallback(ImDrawCallback_ResetRenderState, nullptr);
+  return pane.wire + pane.silhouette > 0;
+}
+
+void Editor::drawPaneCached(int photo, const Rect& r, const PaneView& view, unsigned photoTexture, unsigned maskTexture,
+                            const std::string& content, int focusPoint) {
+  OverlayGl& gl = *overlayGl_;
+  updatePaneOverlay(photo, focusPoint);
+  const CameraFit* fit = showCamera_ ? photoFit(photo) : nullptr;
+  const bool wire = fit && fit->fits && updateCameraWire(photo);
+  OverlayGl::Pane& pane = gl.panes[photo];
+  const ImVec2 fbScale = ImGui::GetIO().DisplayFramebufferScale;
+  const int w = std::max(1, int(std::lround(r.w * fbScale.x))), h = std::max(1, int(std::lround(r.h * fbScale.y)));
+  const ImVec2 lo(float(r.x), float(r.y)), hi(float(r.x + r.w), float(r.y + r.h));
+  char head[256];
+  std::snprintf(head, sizeof(head), "%u %u %.9g %.9g %.17g %.17g %.17g %d %d %g %d|", photoTexture, maskTexture, r.x,
+                r.y, view.origin.x(), view.origin.y(), view.zoom, w, h, scale_, wire);
+  const std::string key = head + content + "|" + pane.key + "|" + (wire ? pane.cameraKey : std::string());
+  if (!pane.cache) pane.cache = std::make_unique<Framebuffer>();
+  if (pane.cacheKey != key || pane.cache->width() != w || pane.cache->height() != h) {
+    pane.cache->resize(w, h);
+    if (!gl.cacheList) gl.cacheList = std::make_unique<ImDrawList>(ImGui::GetDrawListSharedData());
+    ImDrawList& list = *gl.cacheList;
+    list._ResetForNewFrame();
+    list.PushTextureID(ImGui::GetIO().Fonts->TexID);
+    list.PushClipRect(lo, hi);
+    list.AddRectFilled(lo, hi, IM_COL32(28, 29, 32, 255));
+    const ImVec2 p0(float(view.toScreen(Vec2(0, 0)).x()), float(view.toScreen(Vec2(0, 0)).y()));
+    const Photo& ph = *photos_[photo].photo;
+    const Vec2 q1 = view.toScreen(Vec2(ph.width, ph.height));
+    const ImVec2 p1(float(q1.x()), float(q1.y()));
+    list.AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(photoTexture)), p0, p1);
+    if (maskTexture) list.AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(maskTexture)), p0, p1);
+    // Drawn synchronously below: the callbacks' data may live on the stack.
+    OverlayGl::PaneDraw d{&gl, photo, float(view.origin.x()), float(view.origin.y()), float(view.zoom), scale_};
+    OverlayGl::PaneDraw camera = d;
+    camera.camera = true;
+    list.AddCallback(paneCallback, &d);
+    list.AddCallback(ImDrawCallback_ResetRenderState, nullptr);
+    if (wire) {
+      list.AddCallback(paneCallback, &camera);
+      list.AddCallback(ImDrawCallback_ResetRenderState, nullptr);
+    }
+    list.PopClipRect();
+    list.PopTextureID();
+    ImDrawList* lists[] = {&list};
+    ImDrawData data;
+    data.Valid = true;
+    data.CmdLists = lists;
+    data.CmdListsCount = 1;
+    data.TotalVtxCount = list.VtxBuffer.Size;
+    data.TotalIdxCount = list.IdxBuffer.Size;
+    data.DisplayPos = lo;
+    data.DisplaySize = ImVec2(float(r.w), float(r.h));
+    data.FramebufferScale = fbScale;
+    pane.cache->bind();
+    gl.target = &data;
+    ImGui_ImplOpenGL3_RenderDrawData(&data);
+    gl.target = nullptr;
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    pane.cacheKey = key;
+    ++gl.cacheRenders;
+  }
+  // GL's rows run bottom-up: flip v.
+  ImGui::GetWindowDrawList()->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(pane.cache->colorTexture())),
+                                       lo, hi, ImVec2(0, 1), ImVec2(1, 0));
 }
 
 int Editor::paneRejectedCount(int photo, bool* all) const {
@@ -183,14 +256,18 @@ void Editor::drawMarkers(const Mat4f& view, const Mat4f& projection) {
   if (!input_.mesh) return;
   const ShaderProgram& s = *overlayGl_->markerShader;
   const Camera cam = viewCamera();
+  // Sizes in the framebuffer's pixels: smaller while it is reduced (navigating), so that the markers
+  // keep their size on screen; the offset towards the camera (size times pixel angle) is unchanged.
+  const float fbScale = float(viewFbo_->width() / std::max(1.0, viewRect_.w));
   s.use();
   glUniformMatrix4fv(s.uniform("uView"), 1, GL_FALSE, view.data());
   glUniformMatrix4fv(s.uniform("uProjection"), 1, GL_FALSE, projection.data());
-  glUniform1f(s.uniform("uPixelAngle"), float(1.0 / cam.fy));
+  glUniform1f(s.uniform("uPixelAngle"), float(1.0 / cam.fy) / fbScale);
   glUniform1f(s.uniform("uPixelWorld"), 0.0f);
+  glUniform1f(s.uniform("uPixelScale"), fbScale);
   glEnable(GL_PROGRAM_POINT_SIZE);
   if (showFeatures_) {
-    glUniform1f(s.uniform("uPointSize"), px(kMarkerSize));
+    glUniform1f(s.uniform("uPointSize"), px(kMarkerSize) * fbScale);
     pointVbo_->draw(GL_POINTS, 0, pointVertices_);
   }
   // The hovered and the selected vertex: bigger markers, depth-tested like the others (a vertex
@@ -205,7 +282,7 @@ void Editor::drawMarkers(const Mat4f& view, const Mat4f& projection) {
   add(selectedVertex_, Vec4f(1.0f, 0.45f, 0.05f, 1));
   if (data.empty()) return;
   overlayGl_->highlightVbo->upload(data, {{0, 3}, {1, 4}});
-  glUniform1f(s.uniform("uPointSize"), px(kHighlightSize));
+  glUniform1f(s.uniform("uPointSize"), px(kHighlightSize) * fbScale);
   overlayGl_->highlightVbo->draw(GL_POINTS, 0, static_cast<int>(data.size() / 7));
 }
 

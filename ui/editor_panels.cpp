@@ -213,6 +213,7 @@ void Editor::splitter(const char* name, const LayoutRect& bar, bool vertical, fl
 
 void Editor::rememberLayout() {
   layout_.grid = gridPanes_;
+  layout_.reducedNavigation = reducedNavigation_;
   layout_.mouse = kMouseBindingNames[static_cast<int>(bindings_)];
   if (splitterActive_ || benchOrbit_) return;  // written once the drag ends; benchmarks change nothing
   const std::string now = layout_.toJson();

@@ -141,8 +141,8 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   const bool hovered = ImGui::IsItemHovered();
   const ImVec2 lo(float(r.x), float(r.y)), hi(float(r.x + r.w), float(r.y + r.h));
   draw->PushClipRect(lo, hi, true);
-  draw->AddRectFilled(lo, hi, IM_COL32(28, 29, 32, 255));
   if (!slot.photo) {
+    draw->AddRectFilled(lo, hi, IM_COL32(28, 29, 32, 255));
     // The error wraps within the pane; the buttons follow it.
     const char* text = slot.error.empty() ? "loading..." : slot.error.c_str();
     const float wrap = std::max(40.0f, float(r.w) - px(20));
@@ -171,23 +171,32 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   if (showBalanced_) uploadBalanced(slot, i);
   const bool after = showBalanced_ && slot.balanced && slot.balancedFrom;
   const Texture& shown = after ? *slot.balanced : *slot.texture;
-  draw->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(shown.id())), im(view.toScreen(Vec2(0, 0))),
-                 im(view.toScreen(Vec2(photo.width, photo.height))));
   const bool cutting = tool_ == Tool::Cutout;
-  if (showMask_ && photo.hasBackground && slot.mask && !(cutting && cutout_.photo == i))
-    draw->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(slot.mask->id())), im(view.toScreen(Vec2(0, 0))),
-                   im(view.toScreen(Vec2(photo.width, photo.height))));
-  if (cutting) cutoutCanvas(i, view, hovered);
-
+  const bool mask = showMask_ && photo.hasBackground && slot.mask && !(cutting && cutout_.photo == i);
   ImGuiIO& io = ImGui::GetIO();
   const Vec2 mouse(io.MousePos.x, io.MousePos.y);
   const Vec2 mousePhoto = view.toPhoto(mouse);
   std::string tooltip;
-
-  // Partition curves (accepted pairs), rejected pairs and feature markers: a vertex buffer in photo
-  // coordinates drawn by a GL callback (editor_overlays.cpp), rebuilt only when they change.
   const int hover = hovered ? hitPosition(i, view, mouse.x(), mouse.y(), px(8)) : -1;
-  drawPaneOverlay(i, view, hover);
+  // The photo, the mask, the partition curves (accepted pairs), rejected pairs and feature markers (a
+  // vertex buffer in photo coordinates drawn by a GL callback, rebuilt only when they change) and the
+  // camera lines: from the pane's cache (editor_overlays.cpp), except with the cut-out tool, which draws
+  // between the mask and the markers.
+  paneCached_ = !cutting;
+  if (paneCached_) {
+    char content[64];
+    std::snprintf(content, sizeof(content), "%d %p", after, static_cast<const void*>(slot.balancedFrom));
+    drawPaneCached(i, r, view, shown.id(), mask ? slot.mask->id() : 0, slot.key + content, hover);
+  } else {
+    draw->AddRectFilled(lo, hi, IM_COL32(28, 29, 32, 255));
+    draw->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(shown.id())), im(view.toScreen(Vec2(0, 0))),
+                   im(view.toScreen(Vec2(photo.width, photo.height))));
+    if (mask)
+      draw->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(slot.mask->id())),
+                     im(view.toScreen(Vec2(0, 0))), im(view.toScreen(Vec2(photo.width, photo.height))));
+    cutoutCanvas(i, view, hovered);
+    drawPaneOverlay(i, view, hover);
+  }
   if (resultUsable() && result_->mapping && showRejected_) {
     const Partition& part = result_->mapping->partition;
     bool all = true;

@@ -18,6 +18,7 @@
 #include "editor.h"
 #include "gl.h"
 #include "gl_util.h"
+#include "overlay_gl.h"
 
 namespace fs = std::filesystem;
 
@@ -564,6 +565,16 @@ void Editor::writeState(const std::string& path) const {
   for (const auto& [name, r] : tabRects_) tabs[name] = rect(r);
   state["tabs"] = tabs;
   state["grid"] = gridPanes_;
+  // The 3D view's framebuffer: reduced while the camera moves (navigation.h), full size once still.
+  state["view3d"] = {{"size", {int(viewRect_.w), int(viewRect_.h)}},
+                     {"render", {viewFbo_ ? viewFbo_->width() : 0, viewFbo_ ? viewFbo_->height() : 0}},
+                     {"divisor", viewDivisor_},
+                     {"moving", viewMotion_.moving()},
+                     {"reduced_navigation", reducedNavigation_},
+                     {"reduced_redraws", reducedRedraws_},
+                     {"full_redraws", fullRedraws_},
+                     {"reduced_size", {reducedSize_[0], reducedSize_[1]}}};
+  state["pane_cache_renders"] = overlayGl_ ? overlayGl_->cacheRenders : 0;  // photo panes rendered into their cache
   if (ws.busy) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - ws.started).count();
     state["progress"] = {{"tier", kTierNames[int(ws.tier)]},

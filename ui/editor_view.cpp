@@ -61,8 +61,20 @@ void Editor::view3d() {
   const ImVec2 pos = ImGui::GetCursorScreenPos();
   const ImVec2 avail = ImGui::GetContentRegionAvail();
   viewRect_ = Rect{pos.x, pos.y, std::max(1.0f, std::floor(avail.x)), std::max(1.0f, std::floor(avail.y))};
+  // Adaptive resolution: the camera's movement up to now decides this frame's framebuffer size (here,
+  // before the image below refers to its texture; renderScene draws it at the end of the frame).
+  const Vec3 eye = camera_.eye();
+  char cameraKey[256];
+  std::snprintf(cameraKey, sizeof(cameraKey), "%.17g %.17g %.17g %.17g %.17g %.17g %.17g", eye.x(), eye.y(), eye.z(),
+                camera_.target.x(), camera_.target.y(), camera_.target.z(), camera_.fovYDeg);
+  viewMotion_.update(viewCameraKey_ != cameraKey, frameNumber_, glfwGetTime());
+  viewCameraKey_ = cameraKey;
+  const int W = int(viewRect_.w), H = int(viewRect_.h);
+  viewDivisor_ = reducedNavigation_ && viewMotion_.moving() ? navigationDivisor(W, H) : 1;
   try {
-    viewFbo_->resize(int(viewRect_.w), int(viewRect_.h));
+    // The whole view at 1/d per axis (rounded up; the image stretches it back over the view's pixels).
+    viewFbo_->resize((W + viewDivisor_ - 1) / viewDivisor_, (H + viewDivisor_ - 1) / viewDivisor_);
+    viewFbo_->setLinearFilter(viewDivisor_ > 1);
   } catch (const Error& e) {
     ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", e.what());
     return;
@@ -432,6 +444,13 @@ void Editor::renderScene() {
                 cloneVertices_, stroke_.size(), int(cloneFaces_.size()));
   if (sceneKey_ == key) return;
   sceneKey_ = key;
+  if (viewDivisor_ > 1) {
+    ++reducedRedraws_;
+    reducedSize_[0] = viewFbo_->width();
+    reducedSize_[1] = viewFbo_->height();
+  } else {
+    ++fullRedraws_;
+  }
 
   viewFbo_->bind();
   glClearColor(0.17f, 0.18f, 0.20f, 1);

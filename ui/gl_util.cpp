@@ -109,6 +109,7 @@ void Framebuffer::release() {
   if (depth_) glDeleteRenderbuffers(1, &depth_);
   fbo_ = color_ = depth_ = 0;
   width_ = height_ = 0;
+  linear_ = false;
 }
 
 void Framebuffer::resize(int width, int height) {
@@ -135,6 +136,14 @@ void Framebuffer::resize(int width, int height) {
                                                   std::to_string(status) + ")");
   width_ = width;
   height_ = height;
+}
+
+void Framebuffer::setLinearFilter(bool linear) {
+  if (!color_ || linear == linear_) return;
+  linear_ = linear;
+  glBindTexture(GL_TEXTURE_2D, color_);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, linear ? GL_LINEAR : GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, linear ? GL_LINEAR : GL_NEAREST);
 }
 
 void Framebuffer::bind() const {

@@ -68,6 +68,8 @@ class Framebuffer {
   // (Re)allocates when the size changed. Throws montage::Error when the framebuffer is incomplete.
   void resize(int width, int height);
   void bind() const;
+  // Linear filtering of the colour texture (shown stretched over a bigger view), else nearest.
+  void setLinearFilter(bool linear);
   GLuint colorTexture() const { return color_; }
   int width() const { return width_; }
   int height() const { return height_; }
@@ -76,6 +78,7 @@ class Framebuffer {
   void release();
   GLuint fbo_ = 0, color_ = 0, depth_ = 0;
   int width_ = 0, height_ = 0;
+  bool linear_ = false;
 };
 
 // A vertex array with one interleaved float buffer and a fixed attribute layout.

@@ -42,7 +42,8 @@ Sizes sizes(const LayoutPrefs& prefs, double W, double H, double top, double bot
 }  // namespace
 
 std::string LayoutPrefs::toJson() const {
-  nlohmann::json j = {{"left", left}, {"tools", tools}, {"view", view}, {"grid", grid}, {"mouse", mouse}};
+  nlohmann::json j = {{"left", left}, {"tools", tools}, {"view", view},
+                      {"grid", grid}, {"mouse", mouse}, {"reduced_navigation", reducedNavigation}};
   return j.dump(2);
 }
 
@@ -96,6 +97,8 @@ LayoutPrefs loadLayout(const std::string& path) {
   number("view", prefs.view, 0, 1);
   if (j.contains("grid") && j["grid"].is_boolean()) prefs.grid = j["grid"].get<bool>();
   if (j.contains("mouse") && j["mouse"].is_string()) prefs.mouse = j["mouse"].get<std::string>();
+  if (j.contains("reduced_navigation") && j["reduced_navigation"].is_boolean())
+    prefs.reducedNavigation = j["reduced_navigation"].get<bool>();
   return prefs;
 }
 

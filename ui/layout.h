@@ -1,7 +1,7 @@
 // The editor's panel layout (GL-free): a left column (Tools over Document), the 3D view and the photo
 // panes, split by three bars the user drags (ImGui 1.86 has no docking). The layout, the photo grid-or-tabs
-// choice and the mouse bindings are remembered in editorStateDir()/layout.json. Sizes are window pixels;
-// `scale` is the UI scale (HiDPI), and the remembered left width is in unscaled pixels.
+// choice, the mouse bindings and the navigation resolution are remembered in editorStateDir()/layout.json. Sizes are
+// window pixels; `scale` is the UI scale (HiDPI), and the remembered left width is in unscaled pixels.
 #pragma once
 
 #include <string>
@@ -23,6 +23,7 @@ struct LayoutPrefs {
   double view = 0.5;              // 3D view's share of the width right of the left column
   bool grid = false;              // photo panes in a grid (else tabs)
   std::string mouse = "meshlab";  // 3D-view mouse bindings (kMouseBindingNames)
+  bool reducedNavigation = true;  // 3D view at reduced resolution while the camera moves (navigation.h)
   std::string toJson() const;
   bool operator==(const LayoutPrefs& o) const { return toJson() == o.toJson(); }
 };

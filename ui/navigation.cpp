@@ -112,6 +112,27 @@ bool ClickDrag::releaseIsClick(double x, double y, double seconds) const {
   return seconds - pressTime < clickSeconds ? moved <= quickSlopPixels : moved <= slopPixels;
 }
 
+int navigationDivisor(int width, int height) {
+  const double pixels = double(std::max(width, 1)) * std::max(height, 1);
+  int d = 1;
+  while (d < 4 && pixels / (double(d) * d) > kNavigationPixels) ++d;
+  return d;
+}
+
+void NavigationMotion::update(bool cameraChanged, long frame, double seconds) {
+  if (cameraChanged) {
+    moving_ = frame - lastFrame_ <= 1 || seconds - lastSeconds_ < kNavigationSettleSeconds;
+    lastFrame_ = frame;
+    lastSeconds_ = seconds;
+  } else if (moving_ && seconds - lastSeconds_ >= kNavigationSettleSeconds) {
+    moving_ = false;
+  }
+}
+
+double NavigationMotion::secondsToSettle(double seconds) const {
+  return moving_ ? std::max(0.0, lastSeconds_ + kNavigationSettleSeconds - seconds) : 0.0;
+}
+
 DragAction dragAction(MouseBindings bindings, int button, bool shift, bool ctrl) {
   if (bindings == MouseBindings::MeshLab) {
     if (button == 0) return shift || ctrl ? DragAction::Pan : DragAction::Orbit;

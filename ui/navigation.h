@@ -40,6 +40,37 @@ inline constexpr double kPerspectiveFovDeg = 35, kOrthoFovDeg = 0.5;
 void setOrthographic(OrbitCamera& camera, bool on);
 bool isOrthographic(const OrbitCamera& camera);
 
+// Adaptive resolution while navigating (View > "Reduced resolution while navigating", on by default):
+// while the camera moves, the 3D view is drawn into a framebuffer `navigationDivisor` times smaller per
+// axis and shown upscaled with linear filtering; once it has not moved for kNavigationSettleSeconds it
+// is drawn once at full size. Software GL (llvmpipe) pays per fragment: half per axis is a quarter of
+// the fragments. Picking casts rays from the full-size camera and is not affected.
+inline constexpr double kNavigationPixels = 120000;      // a reduced view has at most this many pixels
+inline constexpr double kNavigationSettleSeconds = 0.2;  // still this long: drawn at full size
+// The smallest integer divisor, at most 4, that brings a width x height view to kNavigationPixels or
+// fewer: 1 (no reduction) for small views, 2 for the 1280x800 window's 486x729 view, 4 for a
+// 1000x1450 view at 2560x1600. An integer keeps each reduced pixel over d x d whole pixels.
+int navigationDivisor(int width, int height);
+
+// Whether the camera is moving, from its changes frame by frame. A change in the frame right after
+// another (or within the settle time of it) is movement: an orbit, a pan, a wheel turned several
+// notches. A lone change (frame all, a preset, one wheel notch) is not, so it is drawn at full size at
+// once instead of reduced and then again full.
+class NavigationMotion {
+ public:
+  // Once a frame, before the view is drawn: whether the camera differs from the previous frame's.
+  void update(bool cameraChanged, long frame, double seconds);
+  bool moving() const { return moving_; }
+  // Seconds from `seconds` until moving() turns false if the camera stays still (0 when not moving):
+  // how long an idle frame loop may wait for events before the full-size redraw.
+  double secondsToSettle(double seconds) const;
+
+ private:
+  bool moving_ = false;
+  long lastFrame_ = -10;
+  double lastSeconds_ = -1e9;
+};
+
 // Click versus drag: a press becomes a drag once the pointer moved more than `slopPixels`, except a
 // quick release (within `clickSeconds`) that moved less than `quickSlopPixels` stays a click, so a
 // hand's jitter during a click does not orbit.

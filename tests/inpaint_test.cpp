@@ -2,6 +2,7 @@
 #include "surface/inpaint.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -9,11 +10,13 @@
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
 #include <thread>
 #include <tuple>
 #include <unordered_map>
@@ -27,6 +30,7 @@
 #include "io/mesh_io.h"
 #include "io/project.h"
 #include "pipeline.h"
+#include "surface/preview.h"
 #include "test_support.h"
 
 using namespace montage;
@@ -185,6 +189,88 @@ TEST(Refine, RejectsBadLimits) {
   std::vector<int> label(mesh->numFaces(), 0);
   EXPECT_NE(test::errorOf([&] { refineFaces(*mesh, label, std::vector<double>(mesh->numFaces(), 0.0)); }), "");
   EXPECT_NE(test::errorOf([&] { refineFaces(*mesh, label, std::vector<double>(2, 1.0)); }), "");
+}
+
+// PreviewSurface finds the refined triangle of a point through a grid over each much-refined face: it
+// must take the triangle (and so the colour) that a scan of all the face's triangles in order takes, also
+// for points on refined vertices and edges (several triangles hold them) and just outside the face; and
+// the grid cell it scans first must be small and hold that triangle (else every lookup falls back to the
+// whole scan, which gives the same colours slowly).
+TEST(Inpaint, PreviewSurfaceGridTakesTheTriangleAScanTakes) {
+  const auto mesh = unitSquare(6);  // 50 faces of 0.02: thousands of refined triangles each
+  const Photo photo = makePhoto(600, 600, [](double x, double y) {
+    return Vec3f(float(0.5 + 0.4 * std::sin(x / 37)), float(0.5 + 0.4 * std::cos(y / 23)), float(0.001 * (x + y)));
+  });
+  TextureMap map = planarMap(*mesh, 500, 50);
+  ASSERT_GT(cutHole(*mesh, map, Vec3(0.5, 0.5, 0), 0.25), 4);
+  InpaintInput in = inputFor(*mesh, map, {&photo}, InpaintMode::Harmonic);
+  in.options.texelsPerUnit = 200;
+  const InpaintResult res = inpaintSurface(in, {}, nullptr);
+  const RefinedSurface& rs = res.refined;
+  const PreviewSurface surface(map, {&photo}, nullptr, &res);
+  std::vector<std::vector<int>> trianglesOf(mesh->numFaces());  // in index order
+  for (int t = 0; t < rs.mesh.numTriangles(); ++t) trianglesOf[rs.parentFace[t]].push_back(t);
+  // The rule, by a scan of all of f's refined triangles in index order (surface/preview.cpp's arithmetic).
+  int scannedTriangle = -1;
+  auto scanned = [&](int f, const Vec3& b) {
+    int best = -1;
+    double bestMin = -std::numeric_limits<double>::infinity();
+    Vec3 bestW = Vec3::Zero();
+    for (int t : trianglesOf[f]) {
+      const auto& pb = rs.parentBary[t];
+      const Vec3 e1 = pb[1] - pb[0], e2 = pb[2] - pb[0], d = b - pb[0];
+      const double det = e1.x() * e2.y() - e1.y() * e2.x();
+      if (std::abs(det) < 1e-300) continue;
+      const double w1 = (d.x() * e2.y() - d.y() * e2.x()) / det, w2 = (e1.x() * d.y() - e1.y() * d.x()) / det;
+      const Vec3 w(1 - w1 - w2, w1, w2);
+      const double m = w.minCoeff();
+      if (m > bestMin) bestMin = m, best = t, bestW = w;
+      if (m >= 0) break;
+    }
+    scannedTriangle = bestMin >= 0 ? best : -1;
+    Vec3f c = Vec3f::Zero();
+    for (int k = 0; k < 3; ++k) c += float(bestW[k]) * res.colors.row(rs.mesh.triangles[best][k]).transpose();
+    return c;
+  };
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  int faces = 0, points = 0, inside = 0;
+  size_t largestCell = 0;
+  for (int f = 0; f < mesh->numFaces(); ++f) {
+    if (res.faceRegion[f] < 0) continue;
+    ASSERT_GT(trianglesOf[f].size(), 1000u) << "face " << f << " is not refined enough to use a grid";
+    ++faces;
+    std::vector<Vec3> bs;
+    for (size_t i = 0; i < trianglesOf[f].size(); i += 7) {
+      const auto& pb = rs.parentBary[trianglesOf[f][i]];
+      bs.push_back(pb[0]);                  // a refined vertex
+      bs.push_back(0.5 * (pb[1] + pb[2]));  // a refined edge's midpoint
+    }
+    for (int i = 0; i < 200; ++i) {
+      const double u = std::sqrt(uniform(rng)), v = uniform(rng);
+      bs.emplace_back(1 - u, u * (1 - v), u * v);
+    }
+    for (int i = 0; i < 20; ++i) {  // just outside the face: in no triangle
+      const double u = uniform(rng);
+      bs.emplace_back(-1e-9, u, 1 + 1e-9 - u);
+    }
+    for (const Vec3& b : bs) {
+      const Vec3f expected = scanned(f, b), got = surface.color(f, b);
+      ASSERT_EQ(got, expected) << "face " << f << " at " << b.transpose();
+      ++points;
+      const std::vector<int> cell = surface.candidates(f, b);
+      largestCell = std::max(largestCell, cell.size());
+      if (scannedTriangle < 0) continue;
+      ++inside;
+      EXPECT_NE(std::find(cell.begin(), cell.end(), scannedTriangle), cell.end())
+          << "face " << f << " at " << b.transpose() << ": its triangle is not in its cell";
+    }
+  }
+  EXPECT_GT(faces, 4);
+  EXPECT_GT(inside, points / 2);
+  EXPECT_LT(largestCell, 64u);
+  std::printf("%d faces, %d points (%d in a triangle): the scan's triangle everywhere, at most %zu per cell\n", faces,
+              points, inside, largestCell);
 }
 
 // Flat square, linear colour ramp in the photo: harmonic and RBF inpainting reproduce it.

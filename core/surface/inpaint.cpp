@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <queue>
@@ -36,6 +37,72 @@ uint64_t edgeKey(int a, int b) {
   if (a > b) std::swap(a, b);
   return (uint64_t(uint32_t(a)) << 32) | uint32_t(b);
 }
+
+// The refinement's edges (edgeKey of two non-negative vertices) with their one or two triangles, in one
+// open-addressing table: std::unordered_map's node per edge and its lookups were a tenth of a lioness
+// run's samples.
+class EdgeTable {
+ public:
+  using Faces = std::array<int, 2>;  // the triangles on the edge, -1 when fewer
+  explicit EdgeTable(size_t expected) { rehash(expected); }
+
+  Faces* find(uint64_t key) {
+    for (size_t i = slot(key);; i = (i + 1) & mask_) {
+      if (keys_[i] == key) return &faces_[i];
+      if (keys_[i] == kFree) return nullptr;
+    }
+  }
+  // The edge's entry, added ({-1, -1}) when missing.
+  Faces& insert(uint64_t key) {
+    size_t tomb = SIZE_MAX, i = slot(key);
+    for (;; i = (i + 1) & mask_) {
+      if (keys_[i] == key) return faces_[i];
+      if (keys_[i] == kFree) break;
+      if (keys_[i] == kErased && tomb == SIZE_MAX) tomb = i;
+    }
+    if (tomb != SIZE_MAX) {
+      i = tomb, --erased_;
+    } else if (4 * (used_ + erased_ + 1) > 3 * keys_.size()) {  // 3/4 full: grow (keeps the live edges)
+      rehash(2 * used_ + 2);
+      return insert(key);
+    }
+    keys_[i] = key, faces_[i] = {-1, -1}, ++used_;
+    return faces_[i];
+  }
+  void erase(uint64_t key) {
+    if (Faces* f = find(key)) {
+      keys_[static_cast<size_t>(f - faces_.data())] = kErased;
+      --used_, ++erased_;
+    }
+  }
+  std::vector<uint64_t> keys() const {
+    std::vector<uint64_t> out;
+    out.reserve(used_);
+    for (uint64_t k : keys_)
+      if (k != kFree && k != kErased) out.push_back(k);
+    return out;
+  }
+
+ private:
+  static constexpr uint64_t kFree = ~uint64_t(0), kErased = ~uint64_t(0) - 1;  // no vertex is 0xffffffff
+  size_t slot(uint64_t key) const { return size_t((key * 0x9E3779B97F4A7C15ull) >> shift_) & mask_; }
+  void rehash(size_t expected) {
+    std::vector<uint64_t> oldKeys = std::move(keys_);
+    std::vector<Faces> oldFaces = std::move(faces_);
+    size_t capacity = 16;
+    int bits = 4;
+    while (3 * capacity < 4 * expected) capacity *= 2, ++bits;
+    keys_.assign(capacity, kFree);
+    faces_.assign(capacity, {-1, -1});
+    mask_ = capacity - 1, shift_ = 64 - bits, used_ = erased_ = 0;
+    for (size_t i = 0; i < oldKeys.size(); ++i)
+      if (oldKeys[i] != kFree && oldKeys[i] != kErased) insert(oldKeys[i]) = oldFaces[i];
+  }
+  std::vector<uint64_t> keys_;
+  std::vector<Faces> faces_;
+  size_t mask_ = 0, used_ = 0, erased_ = 0;
+  int shift_ = 0;
+};
 
 // Vertex adjacency of a triangle mesh in compressed rows (an edge appears once per triangle using it,
 // which Dijkstra does not mind), with edge lengths.
@@ -506,9 +573,6 @@ RefinedSurface refineFaces(const Mesh& mesh, const std::vector<int>& faceLabel, 
   }
   if (baseVertex) *baseVertex = vmap;
 
-  struct EdgeFaces {
-    int t[2] = {-1, -1};
-  };
   // Reserve for the final size (at most kVerticesPerEdgeArea / h^2 vertices per unit area, about three
   // edges and two triangles per vertex), so the edge table never rehashes.
   double expected = P.size();
@@ -522,48 +586,50 @@ RefinedSurface refineFaces(const Mesh& mesh, const std::vector<int>& faceLabel, 
   out.parentBary.reserve(size_t(2 * expected));
   out.parentFace.reserve(size_t(2 * expected));
   out.region.reserve(size_t(2 * expected));
-  std::unordered_map<uint64_t, EdgeFaces> edges;
-  edges.reserve(size_t(3 * expected));
+  EdgeTable edges(size_t(3 * expected));
   auto addEdgeFace = [&](int a, int b, int t) {
-    EdgeFaces& e = edges[edgeKey(a, b)];
-    if (e.t[0] < 0)
-      e.t[0] = t;
-    else if (e.t[1] < 0)
-      e.t[1] = t;
+    EdgeTable::Faces& e = edges.insert(edgeKey(a, b));
+    if (e[0] < 0)
+      e[0] = t;
+    else if (e[1] < 0)
+      e[1] = t;
   };
   auto replaceEdgeFace = [&](int a, int b, int from, int to) {
-    const auto it = edges.find(edgeKey(a, b));
-    if (it == edges.end()) return;
-    for (int& t : it->second.t)
+    EdgeTable::Faces* e = edges.find(edgeKey(a, b));
+    if (!e) return;
+    for (int& t : *e)
       if (t == from) t = to;
   };
   using Item = std::pair<double, uint64_t>;
   std::priority_queue<Item> queue;  // longest first: every split edge is the longest of its triangles
   auto consider = [&](int a, int b) {
-    const auto it = edges.find(edgeKey(a, b));
-    if (it == edges.end()) return;
+    const uint64_t key = edgeKey(a, b);
+    const EdgeTable::Faces* e = edges.find(key);
+    if (!e) return;
     double limit = kInf;
-    for (int t : it->second.t)
+    for (int t : *e)
       if (t >= 0) limit = std::min(limit, faceMaxEdge[out.parentFace[t]]);
     const double len = (P[a] - P[b]).norm();
-    if (len > limit) queue.emplace(len, it->first);
+    if (len > limit) queue.emplace(len, key);
   };
   for (int t = 0; t < static_cast<int>(T.size()); ++t)
     for (int k = 0; k < 3; ++k) addEdgeFace(T[t][k], T[t][(k + 1) % 3], t);
-  for (const auto& [key, e] : edges) consider(int(key >> 32), int(key & 0xffffffffu));
+  // The queue orders its items by length, then key: the order they are pushed in does not matter.
+  for (const uint64_t key : edges.keys()) consider(int(key >> 32), int(key & 0xffffffffu));
 
   while (!queue.empty()) {
     const uint64_t key = queue.top().second;
     queue.pop();
-    const auto it = edges.find(key);
-    if (it == edges.end()) continue;  // split already (queued twice)
-    const EdgeFaces e = it->second;
-    edges.erase(it);
+    EdgeTable::Faces* found = edges.find(key);
+    if (!found) continue;  // split already (queued twice)
+    const EdgeTable::Faces e = *found;
+    edges.erase(key);
     const int a = int(key >> 32), b = int(key & 0xffffffffu);
     const int m = static_cast<int>(P.size());
     P.push_back(0.5 * (P[a] + P[b]));
-    std::vector<int> opposite;
-    for (int t : e.t) {
+    std::array<int, 2> opposite{};
+    int numOpposite = 0;
+    for (int t : e) {
       if (t < 0) continue;
       int i = 0;
       while (!((T[t][i] == a && T[t][(i + 1) % 3] == b) || (T[t][i] == b && T[t][(i + 1) % 3] == a))) ++i;
@@ -582,11 +648,11 @@ RefinedSurface refineFaces(const Mesh& mesh, const std::vector<int>& faceLabel, 
       addEdgeFace(m, q, t2);
       addEdgeFace(m, r, t);
       addEdgeFace(m, r, t2);
-      opposite.push_back(r);
+      opposite[numOpposite++] = r;
     }
     consider(a, m);
     consider(m, b);
-    for (int r : opposite) consider(m, r);
+    for (int i = 0; i < numOpposite; ++i) consider(m, opposite[i]);
   }
   return out;
 }

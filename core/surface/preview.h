@@ -24,8 +24,13 @@ class PreviewSurface {
                  const InpaintResult* inpaint, const Vec3f& emptyColor = Vec3f(0.7f, 0.7f, 0.7f));
   // sRGB colour in [0,1] of face f (of the mapping's mesh) at barycentrics b.
   Vec3f color(int face, const Vec3& b) const;
+  // The refined triangles that color(face, b) scans first, in order: b's cell of the face's grid, or all
+  // the face's refined triangles when it has no grid (few of them). For tests.
+  std::vector<int> candidates(int face, const Vec3& b) const;
 
  private:
+  static int cellOf(double x, int size);  // the grid cell of barycentric coordinate x, clamped into the grid
+
   const TextureMap& map_;
   std::vector<const Photo*> photos_;
   const SeamLevelling* levelling_;
@@ -33,6 +38,17 @@ class PreviewSurface {
   Vec3f empty_;
   std::vector<int> firstTriangle_;  // per face: start of its refined triangles in triangles_ (#F + 1)
   std::vector<int> triangles_;
+  // A face refined into many triangles gets a uniform grid over its barycentrics (x, y): per cell, in
+  // triangles_'s order, the triangles whose box (padded) meets the cell. A lookup scans its cell and
+  // takes the same triangle as a scan of all of them; a point in no candidate (rounding at the face's
+  // border) scans all of them.
+  struct Grid {
+    int size = 0;       // cells a side; 0 = no grid (few triangles)
+    int firstCell = 0;  // index into cellStart_
+  };
+  std::vector<Grid> grids_;     // #F
+  std::vector<int> cellStart_;  // per cell: start in cellTriangles_; one more entry at the end
+  std::vector<int> cellTriangles_;
 };
 
 }  // namespace montage

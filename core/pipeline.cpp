@@ -274,7 +274,7 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job,
-                                                    std::vector<std::shared_ptr<const cv::Mat>> luv,
+                                                    std::vector<std::shared_ptr<const LuvTiles>> luv,
                                                     const SeamMemo* warm) {
   const PipelineOptions& o = scene.project.options;
   SeamInput in;
@@ -708,12 +708,12 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   const bool seamCached = balanceCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
   if (!seamCached) {
     auto seams = std::make_shared<SeamResult>();
-    // The photos' L*u*v* images, kept with the loaded photos (a balanced photo is a new image: its own).
-    std::vector<std::shared_ptr<const cv::Mat>> luv;
+    // The photos' L*u*v* tiles, kept with the loaded photos (a balanced photo is a new image: its own).
+    std::vector<std::shared_ptr<const LuvTiles>> luv;
     for (size_t i = 0; i < cachedPhotos_.size(); ++i) {
       CachedPhoto& c = cachedPhotos_[i];
       const bool same = i < colorScene.photos.size() && colorScene.photos[i] == c.photo;
-      if (same && !c.luv) c.luv = std::make_shared<const cv::Mat>(luvImage(*c.photo));
+      if (same && !c.luv) c.luv = std::make_shared<const LuvTiles>(*c.photo);
       luv.push_back(same ? c.luv : nullptr);
     }
     cachedSeamed_ =

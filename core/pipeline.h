@@ -154,12 +154,12 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
 // Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
 // when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
 // `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
-// `luv` (per photo, may be empty) holds luvImage() of photos the caller keeps (SeamInput::luv); `warm`
+// `luv` (per photo, may be empty) holds the L*u*v* tiles of photos the caller keeps (SeamInput::luv); `warm`
 // (may be null) the last run's sides for the preview's warm start (SeamMemo).
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job = {},
-                                                    std::vector<std::shared_ptr<const cv::Mat>> luv = {},
+                                                    std::vector<std::shared_ptr<const LuvTiles>> luv = {},
                                                     const SeamMemo* warm = nullptr);
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
 // preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
@@ -201,7 +201,7 @@ class Pipeline {
     std::string key;
     std::shared_ptr<const Photo> photo;
     std::shared_ptr<const SilhouetteDistance> silhouette;  // camera: silhouette refinement
-    std::shared_ptr<const cv::Mat> luv;                    // seams: luvImage(photo)
+    std::shared_ptr<const LuvTiles> luv;                   // seams: luvImage(photo), tile by tile
     std::shared_ptr<ContourMemo> contours;                 // camera: the mesh's (meshKey_) outer contours
   };
   std::vector<CachedPhoto> cachedPhotos_;

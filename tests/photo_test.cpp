@@ -398,6 +398,37 @@ TEST(Color, ImageConversionMatchesPerPixel) {
   EXPECT_THROW(srgbToLuv(cv::Mat(3, 3, CV_8UC3)), Error);
 }
 
+// LuvTiles gives luvImage's samples and gradients bit for bit (8-bit and 16-bit photos, points across
+// tile borders, outside the photo and NaN), converting only the tiles read.
+TEST(Color, LuvTilesSampleAsTheWholeImageAndMakeOnlyTheTilesRead) {
+  for (const int depth : {CV_8U, CV_16U}) {
+    Photo photo;
+    photo.width = 300, photo.height = 200;  // file pixels; stored at 150 x 100 (scale 0.5)
+    photo.scale = 0.5;
+    photo.rgb = cv::Mat(100, 150, CV_MAKETYPE(depth, 3));
+    cv::randu(photo.rgb, 0, depth == CV_8U ? 256 : 65536);
+    const cv::Mat whole = luvImage(photo);
+    const LuvTiles tiles(photo);
+    EXPECT_EQ(tiles.tilesMade(), 0);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> x(-3, 40), y(-3, 40);  // the top-left corner's tiles, and beyond
+    for (int i = 0; i < 2000; ++i) {
+      const double px = x(rng), py = y(rng);
+      const Vec3f want = sampleBilinear3(whole, px, py), got = tiles.sample(px, py);
+      ASSERT_EQ(got, want) << px << ", " << py;
+      Vec3f dx, dy, wx, wy;
+      tiles.gradient(px, py, dx, dy);
+      sampleGradient3(whole, px, py, wx, wy);
+      ASSERT_EQ(dx, wx) << px << ", " << py;
+      ASSERT_EQ(dy, wy) << px << ", " << py;
+    }
+    EXPECT_EQ(tiles.sample(std::nan(""), 7), sampleBilinear3(whole, std::nan(""), 7));
+    EXPECT_EQ(tiles.sample(1e6, 1e6), sampleBilinear3(whole, 1e6, 1e6));  // the last tile, clamped
+    EXPECT_EQ(tiles.tiles(), 5 * 4);
+    EXPECT_EQ(tiles.tilesMade(), 4 + 1);  // the 2 x 2 tiles the points cover, and the corner
+  }
+}
+
 // ---- Real photos (shared data) ----
 
 TEST(Photo, RealPhotosLoadWithTheirSizes) {

@@ -551,12 +551,66 @@ Vec3f Photo::luvAt(double x, double y) const {
   return srgbToLuv(rgbAt(x, y));
 }
 
+namespace {
+double unitOf(const cv::Mat& rgb) {
+  return rgb.depth() == CV_8U ? 1.0 / 255 : rgb.depth() == CV_16U ? 1.0 / 65535 : 1.0;
+}
+}  // namespace
+
 cv::Mat luvImage(const Photo& photo) {
   cv::Mat rgb;
-  const double unit = photo.rgb.depth() == CV_8U ? 1.0 / 255 : photo.rgb.depth() == CV_16U ? 1.0 / 65535 : 1.0;
-  photo.rgb.convertTo(rgb, CV_32F, unit);
+  photo.rgb.convertTo(rgb, CV_32F, unitOf(photo.rgb));
   return srgbToLuv(rgb);
 }
+
+LuvTiles::LuvTiles(const Photo& photo) : rgb_(photo.rgb), unit_(unitOf(photo.rgb)) {
+  TM_CHECK(!rgb_.empty() && rgb_.channels() == 3, "LuvTiles: the photo has no 3-channel image");
+  luv_.create(rgb_.size(), CV_32FC3);  // not cleared: pages are touched only where tiles are made
+  tilesX_ = (rgb_.cols + kTile - 1) / kTile;
+  tilesY_ = (rgb_.rows + kTile - 1) / kTile;
+  done_ = std::make_unique<std::once_flag[]>(size_t(tilesX_) * tilesY_);
+}
+
+void LuvTiles::require(int x, int y) const {
+  const int tx = x / kTile, ty = y / kTile;
+  std::call_once(done_[size_t(ty) * tilesX_ + tx], [&] {
+    const cv::Rect r(tx * kTile, ty * kTile, std::min(kTile, rgb_.cols - tx * kTile),
+                     std::min(kTile, rgb_.rows - ty * kTile));
+    cv::Mat rgb;
+    rgb_(r).convertTo(rgb, CV_32F, unit_);  // as luvImage does, so the values are the same
+    cv::Mat out = luv_(r);
+    for (int row = 0; row < r.height; ++row) {
+      const auto* in = rgb.ptr<cv::Vec3f>(row);
+      auto* o = out.ptr<cv::Vec3f>(row);
+      for (int c = 0; c < r.width; ++c) {
+        const Vec3f v = srgbToLuv(Vec3f(in[c][0], in[c][1], in[c][2]));
+        o[c] = cv::Vec3f(v.x(), v.y(), v.z());
+      }
+    }
+    ++made_;
+  });
+}
+
+Vec3f LuvTiles::sample(double x, double y) const {
+  // The pixels bilinear() reads: the same clamping.
+  const double u = std::isnan(x) ? 0.0 : std::clamp(x - 0.5, 0.0, double(luv_.cols - 1));
+  const double v = std::isnan(y) ? 0.0 : std::clamp(y - 0.5, 0.0, double(luv_.rows - 1));
+  const int x0 = int(u), y0 = int(v);
+  const int x1 = std::min(x0 + 1, luv_.cols - 1), y1 = std::min(y0 + 1, luv_.rows - 1);
+  require(x0, y0);
+  if (x1 / kTile != x0 / kTile) require(x1, y0);
+  if (y1 / kTile != y0 / kTile) {
+    require(x0, y1);
+    if (x1 / kTile != x0 / kTile) require(x1, y1);
+  }
+  return sampleBilinear3(luv_, x, y);
+}
+
+void LuvTiles::gradient(double x, double y, Vec3f& ddx, Vec3f& ddy) const {
+  ddx = sample(x + 0.5, y) - sample(x - 0.5, y);
+  ddy = sample(x, y + 0.5) - sample(x, y - 0.5);
+}
+
 
 size_t Photo::bytes() const {
   return rgb.total() * rgb.elemSize() + alpha.total() * alpha.elemSize() + distance.total() * distance.elemSize();

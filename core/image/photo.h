@@ -6,6 +6,9 @@
 // (c + 0.5, r + 0.5). A point is inside the photo when 0 <= x <= width and 0 <= y <= height.
 #pragma once
 
+#include <atomic>
+#include <memory>
+#include <mutex>
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -63,6 +66,30 @@ struct Photo {
 // differences densely (seam optimisation). Its pixel (x, y) is the photo's file pixel
 // (x, y) * rgb.cols / width.
 cv::Mat luvImage(const Photo& photo);
+
+// luvImage(photo) made tile by tile on first read, for readers that sample a small part of a photo (the
+// seams' samples lie along the seams): the same values, at the cost of the tiles read. Thread-safe.
+class LuvTiles {
+ public:
+  explicit LuvTiles(const Photo& photo);
+  // sampleBilinear3 and sampleGradient3 of luvImage(photo), at stored-pixel coordinates.
+  Vec3f sample(double x, double y) const;
+  void gradient(double x, double y, Vec3f& ddx, Vec3f& ddy) const;
+  int cols() const { return luv_.cols; }
+  int tilesMade() const { return made_; }  // tiles converted so far
+  int tiles() const { return tilesX_ * tilesY_; }
+
+ private:
+  static constexpr int kTile = 32;  // pixels a side
+  void require(int x, int y) const;  // the tile holding stored pixel (x, y) is converted
+
+  cv::Mat rgb_;  // the photo's pixels (shared)
+  double unit_ = 1;
+  cv::Mat luv_;  // CV_32FC3; only converted tiles hold values
+  int tilesX_ = 0, tilesY_ = 0;
+  std::unique_ptr<std::once_flag[]> done_;
+  mutable std::atomic<int> made_{0};
+};
 
 // Loads a photo. Foreground comes from `maskPath` when given (non-zero = foreground, any channel
 // count, must match the photo's size; alpha = the value relative to the mask's largest value), otherwise

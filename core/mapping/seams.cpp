@@ -86,8 +86,8 @@ class SeamOptimiser {
                                                                       std::to_string(in.photos.size()) + " photos");
     for (size_t k = 0; k < in.photos.size(); ++k) {
       const Photo* p = in.photos[k];
-      luv_.push_back(k < in.luv.size() && in.luv[k] ? *in.luv[k] : luvImage(*p));
-      luvScale_.push_back(p->width > 0 ? double(luv_.back().cols) / p->width : 1.0);
+      luv_.push_back(k < in.luv.size() && in.luv[k] ? in.luv[k] : std::make_shared<const LuvTiles>(*p));
+      luvScale_.push_back(p->width > 0 ? double(luv_.back()->cols()) / p->width : 1.0);
     }
   }
 
@@ -130,7 +130,7 @@ class SeamOptimiser {
   const JobControl& job_;
   double alpha_ = 1;
 
-  std::vector<cv::Mat> luv_;      // per photo: its L*u*v* image (stored resolution)
+  std::vector<std::shared_ptr<const LuvTiles>> luv_;  // per photo: its L*u*v* image (stored resolution)
   std::vector<double> luvScale_;  // per photo: stored pixels per file pixel
   std::vector<Side> sides_;
   std::vector<std::array<int, 3>> faceSide_;  // #F x 3, -1 for unmapped faces
@@ -261,7 +261,7 @@ void SeamOptimiser::buildSeams() {
 double SeamOptimiser::edgeError(const SeamEdge& e, double* deltaE, double* gradient) const {
   const TextureMap& map = *in_.map;
   const int ph1 = map.facePhoto[e.f], ph2 = map.facePhoto[e.g];
-  const cv::Mat &luv1 = luv_[ph1], &luv2 = luv_[ph2];
+  const LuvTiles &luv1 = *luv_[ph1], &luv2 = *luv_[ph2];
   const double s1 = luvScale_[ph1], s2 = luvScale_[ph2];
   const Vec2 a1 = sides_[e.s[0]].uv, b1 = sides_[e.s[1]].uv, c1 = sides_[e.s[2]].uv;
   const Vec2 a2 = sides_[e.t[0]].uv, b2 = sides_[e.t[1]].uv, d2 = sides_[e.t[2]].uv;
@@ -282,15 +282,15 @@ double SeamOptimiser::edgeError(const SeamEdge& e, double* deltaE, double* gradi
     const double t = (k + 0.5) / e.samples;
     const Vec2 q1 = (1 - t) * a1 + t * b1, q2 = (1 - t) * a2 + t * b2;
     const double de =
-        (sampleBilinear3(luv1, s1 * q1.x(), s1 * q1.y()) - sampleBilinear3(luv2, s2 * q2.x(), s2 * q2.y()))
+        (luv1.sample(s1 * q1.x(), s1 * q1.y()) - luv2.sample(s2 * q2.x(), s2 * q2.y()))
             .cast<double>()
             .norm();
     sumDeltaE += de;
     double err = alpha_ * std::min(de / kColourNorm, 1.0);
     if (gradients) {
       Vec3f dx1, dy1, dx2, dy2;
-      sampleGradient3(luv1, s1 * q1.x(), s1 * q1.y(), dx1, dy1);  // per stored pixel
-      sampleGradient3(luv2, s2 * q2.x(), s2 * q2.y(), dx2, dy2);
+      luv1.gradient(s1 * q1.x(), s1 * q1.y(), dx1, dy1);  // per stored pixel
+      luv2.gradient(s2 * q2.x(), s2 * q2.y(), dx2, dy2);
       dx1 *= float(s1), dy1 *= float(s1), dx2 *= float(s2), dy2 *= float(s2);  // per file pixel
       Eigen::Matrix<double, 3, 2> g1, g2;
       g1 << dx1.cast<double>(), dy1.cast<double>();

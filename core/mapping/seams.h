@@ -31,6 +31,7 @@ namespace montage {
 
 struct Mesh;
 struct Photo;
+class LuvTiles;
 
 struct SeamOptions {
   double lambda = 0.1;           // weight of E_geo against E_tex (eq. 2): higher keeps the stretch lower, 1 = no move
@@ -60,8 +61,8 @@ struct SeamInput {
   // projection is the geometric truth, so E_geo of a side in such a photo is its squared distance from
   // where the projection put it, in pixels, instead of the stretch (which would pull it off the truth).
   std::vector<char> projectedPhotos;
-  // Per photo (empty = computed here): its luvImage(), when the caller keeps one across runs.
-  std::vector<std::shared_ptr<const cv::Mat>> luv;
+  // Per photo (empty or null = made here): its L*u*v* tiles, when the caller keeps them across runs.
+  std::vector<std::shared_ptr<const LuvTiles>> luv;
   const SeamMemo* warm = nullptr;  // may be null: see SeamMemo
 };
 

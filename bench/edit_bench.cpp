@@ -171,8 +171,16 @@ nlohmann::json benchProject(const std::string& path, int runs, int drags) {
     for (const Timed& t : series) wall.push_back(t.wallMs), cpu.push_back(t.cpuMs);
     std::sort(wall.begin(), wall.end());
     std::sort(cpu.begin(), cpu.end());
+    nlohmann::json each = nlohmann::json::array();  // every drag in order: CPU ms, and per stage CPU s
+    for (const Timed& t : series) {
+      nlohmann::json stages;
+      for (const auto& [stage, f] : t.figures.items())
+        if (f.is_object() && f.contains("cpu_seconds")) stages[stage] = f["cpu_seconds"];
+      each.push_back({{"cpu_ms", t.cpuMs}, {"stages_cpu_seconds", stages}});
+    }
     out["steps"]["drags"] = {{"wall_ms", wall[wall.size() / 2]},
                              {"cpu_ms", cpu[cpu.size() / 2]},
+                             {"each", each},
                              {"tier", kTierNames[size_t(Tier::Preview)]},
                              {"count", series.size()},
                              {"last_run", series.back().figures}};

@@ -555,6 +555,19 @@ namespace {
 double unitOf(const cv::Mat& rgb) {
   return rgb.depth() == CV_8U ? 1.0 / 255 : rgb.depth() == CV_16U ? 1.0 / 65535 : 1.0;
 }
+
+// The pixels a bilinear sample at (x, y) reads, (x0, y0) to (x1, y1), and its weights: pixel centres at
+// +0.5, clamped to the border; NaN coordinates sample the first pixel rather than reading out of bounds.
+struct Footprint {
+  int x0, y0, x1, y1;
+  double fx, fy;
+};
+Footprint bilinearFootprint(int cols, int rows, double x, double y) {
+  const double u = std::isnan(x) ? 0.0 : std::clamp(x - 0.5, 0.0, double(cols - 1));
+  const double v = std::isnan(y) ? 0.0 : std::clamp(y - 0.5, 0.0, double(rows - 1));
+  const int x0 = int(u), y0 = int(v);
+  return {x0, y0, std::min(x0 + 1, cols - 1), std::min(y0 + 1, rows - 1), u - x0, v - y0};
+}
 }  // namespace
 
 cv::Mat luvImage(const Photo& photo) {
@@ -592,11 +605,7 @@ void LuvTiles::require(int x, int y) const {
 }
 
 Vec3f LuvTiles::sample(double x, double y) const {
-  // The pixels bilinear() reads: the same clamping.
-  const double u = std::isnan(x) ? 0.0 : std::clamp(x - 0.5, 0.0, double(luv_.cols - 1));
-  const double v = std::isnan(y) ? 0.0 : std::clamp(y - 0.5, 0.0, double(luv_.rows - 1));
-  const int x0 = int(u), y0 = int(v);
-  const int x1 = std::min(x0 + 1, luv_.cols - 1), y1 = std::min(y0 + 1, luv_.rows - 1);
+  const auto [x0, y0, x1, y1, fx, fy] = bilinearFootprint(luv_.cols, luv_.rows, x, y);  // what bilinear() reads
   require(x0, y0);
   if (x1 / kTile != x0 / kTile) require(x1, y0);
   if (y1 / kTile != y0 / kTile) {
@@ -611,7 +620,6 @@ void LuvTiles::gradient(double x, double y, Vec3f& ddx, Vec3f& ddy) const {
   ddy = sample(x, y + 0.5) - sample(x, y - 0.5);
 }
 
-
 size_t Photo::bytes() const {
   return rgb.total() * rgb.elemSize() + alpha.total() * alpha.elemSize() + distance.total() * distance.elemSize();
 }
@@ -623,12 +631,7 @@ namespace {
 template <int N, class T>
 std::array<float, N> bilinear(const cv::Mat& image, double x, double y, double unit) {
   const int cn = image.channels();
-  // Pixel centres at +0.5; NaN coordinates sample the first pixel rather than reading out of bounds.
-  const double u = std::isnan(x) ? 0.0 : std::clamp(x - 0.5, 0.0, double(image.cols - 1));
-  const double v = std::isnan(y) ? 0.0 : std::clamp(y - 0.5, 0.0, double(image.rows - 1));
-  const int x0 = int(u), y0 = int(v);
-  const int x1 = std::min(x0 + 1, image.cols - 1), y1 = std::min(y0 + 1, image.rows - 1);
-  const double fx = u - x0, fy = v - y0;
+  const auto [x0, y0, x1, y1, fx, fy] = bilinearFootprint(image.cols, image.rows, x, y);
   const T* r0 = image.ptr<T>(y0);
   const T* r1 = image.ptr<T>(y1);
   std::array<float, N> out{};

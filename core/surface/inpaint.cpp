@@ -1030,9 +1030,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       if (reg.mode == InpaintMode::Synthesis || reg.mode == InpaintMode::Structure) {
         const SynthesisResult& syn = synthesised[r];
         reg.note = syn.note;
-        reg.synthesisKept = syn.reuse == SynthesisResult::Reuse::Exact  ? InpaintRegion::Kept::Exact
-                            : syn.reuse == SynthesisResult::Reuse::Near ? InpaintRegion::Kept::Near
-                                                                        : InpaintRegion::Kept::No;
+        reg.synthesisKept = syn.kept;
         if (syn.ok) {
           // d = the Laplacian of the synthesised texture: the Poisson solve keeps its structure and
           // blends its border into the photos' colours.

@@ -20,13 +20,13 @@
 #include "io/project.h"
 #include "mapping/texture_map.h"
 #include "surface/level.h"
+#include "surface/synthesis.h"
 
 namespace montage {
 
 struct Mesh;
 struct Photo;
 class JobControl;
-class SynthesisMemo;
 
 // The refined copy of the base mesh's faces that inpainting and cloning work on.
 struct RefinedSurface {
@@ -49,9 +49,9 @@ struct InpaintRegion {
   int refinedVertices = 0, unknowns = 0;     // refined vertices in the region; solved for
   double texelsPerUnit = 0;                  // refinement density (texels per model unit)
   double refineSeconds = 0, guidanceSeconds = 0, factorSeconds = 0, solveSeconds = 0;
-  // Synthesised holes: the shift-map result was kept from an earlier run (SynthesisMemo), for the same
-  // canvas (exact) or one within the preview's tolerance (near).
-  enum class Kept { No, Exact, Near } synthesisKept = Kept::No;
+  // Synthesised holes: the shift-map result was kept from an earlier run (SynthesisMemo).
+  using Kept = SynthesisKept;
+  Kept synthesisKept = Kept::No;
   std::string note;  // e.g. "no mapped neighbour: filled with the mean colour"
 };
 

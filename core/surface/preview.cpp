@@ -58,12 +58,16 @@ int PreviewSurface::cellOf(double x, int size) {
   return std::clamp(static_cast<int>(std::floor(x * size)), 0, size - 1);
 }
 
+std::pair<const int*, const int*> PreviewSurface::gridCell(int f, const Vec3& b) const {
+  const Grid& grid = grids_[f];
+  if (grid.size == 0 || !std::isfinite(b.x()) || !std::isfinite(b.y())) return {nullptr, nullptr};
+  const int c = grid.firstCell + cellOf(b.y(), grid.size) * grid.size + cellOf(b.x(), grid.size);
+  return {cellTriangles_.data() + cellStart_[c], cellTriangles_.data() + cellStart_[c + 1]};
+}
+
 std::vector<int> PreviewSurface::candidates(int f, const Vec3& b) const {
   if (grids_.empty()) return {};
-  if (const Grid& grid = grids_[f]; grid.size > 0) {
-    const int c = grid.firstCell + cellOf(b.y(), grid.size) * grid.size + cellOf(b.x(), grid.size);
-    return {cellTriangles_.begin() + cellStart_[c], cellTriangles_.begin() + cellStart_[c + 1]};
-  }
+  if (const auto [first, last] = gridCell(f, b); first) return {first, last};
   return {triangles_.begin() + firstTriangle_[f], triangles_.begin() + firstTriangle_[f + 1]};
 }
 
@@ -94,11 +98,10 @@ Vec3f PreviewSurface::color(int f, const Vec3& b) const {
     return false;
   };
   bool found = false;
-  if (const Grid& grid = grids_[f]; grid.size > 0 && std::isfinite(b.x()) && std::isfinite(b.y())) {
+  if (const auto [first, last] = gridCell(f, b); first) {
     // Every triangle that contains b lists it in b's cell, in triangles_'s order: the first that contains
     // b there is the first of all.
-    const int c = grid.firstCell + cellOf(b.y(), grid.size) * grid.size + cellOf(b.x(), grid.size);
-    found = scan(cellTriangles_.data() + cellStart_[c], cellTriangles_.data() + cellStart_[c + 1]);
+    found = scan(first, last);
     if (!found) best = -1, bestMin = -std::numeric_limits<double>::infinity();
   }
   if (!found) scan(triangles_.data() + firstTriangle_[f], triangles_.data() + firstTriangle_[f + 1]);

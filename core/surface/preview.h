@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <utility>
 #include <vector>
 
 #include "base/common.h"
@@ -30,6 +31,8 @@ class PreviewSurface {
 
  private:
   static int cellOf(double x, int size);  // the grid cell of barycentric coordinate x, clamped into the grid
+  // The triangles of b's cell in face f's grid; {null, null} when f has no grid or b is not finite.
+  std::pair<const int*, const int*> gridCell(int f, const Vec3& b) const;
 
   const TextureMap& map_;
   std::vector<const Photo*> photos_;

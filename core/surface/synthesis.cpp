@@ -46,21 +46,18 @@ std::shared_ptr<const SynthesisMemo::Entry> SynthesisMemo::find(uint64_t key, co
   }
   exact = maxDiff == 0;
   if (!exact && !(maxDiff <= nearColour)) return nullptr;
-  ++(exact ? exactHits : nearHits);
   return it->second;
 }
 
 void SynthesisMemo::store(uint64_t key, std::shared_ptr<const Entry> entry) {
   std::lock_guard<std::mutex> lock(mutex_);
   current_[key] = std::move(entry);
-  ++made;
 }
 
 void SynthesisMemo::endRun() {
   std::lock_guard<std::mutex> lock(mutex_);
   previous_ = std::move(current_);
   current_.clear();
-  exactHits = nearHits = made = 0;
 }
 
 SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions& options) {
@@ -209,7 +206,7 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     bool exact = false;
     if (const auto kept = in.memo->find(key, rgb, out.known, in.nearColour, exact)) {
       filled = kept->filled;
-      out.reuse = exact ? SynthesisResult::Reuse::Exact : SynthesisResult::Reuse::Near;
+      out.kept = exact ? SynthesisKept::Exact : SynthesisKept::Near;
     }
   }
   cv::Mat rgb8;
@@ -236,9 +233,9 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   out.ok = true;
   out.note = "synthesis: " + std::to_string(width) + " x " + std::to_string(height) + " texel chart, " +
              std::to_string(out.rings) + " rings (" + std::to_string(out.bandFaces) + " faces) of exemplar" +
-             (out.reuse == SynthesisResult::Reuse::Exact  ? ", kept (same canvas)"
-              : out.reuse == SynthesisResult::Reuse::Near ? ", kept (canvas within the preview's tolerance)"
-                                                          : "");
+             (out.kept == SynthesisKept::Exact  ? ", kept (same canvas)"
+              : out.kept == SynthesisKept::Near ? ", kept (canvas within the preview's tolerance)"
+                                                : "");
   return out;
 }
 

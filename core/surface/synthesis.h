@@ -35,6 +35,10 @@ struct SynthesisOptions {
                              // the grain (0 = the texture as synthesised)
 };
 
+// Whether a synthesis's shift-map output came from a SynthesisMemo: no, for the same canvas (exact), or
+// for one within the preview's tolerance (near).
+enum class SynthesisKept { No, Exact, Near };
+
 // Shift-map results kept across runs. Shift-map is most of a synthesised hole's cost, and an edit leaves
 // most holes' canvases as they were. An entry is keyed by a hash of the hole's geometry and of its
 // canvas (size and known mask), and holds the canvas's known colours and the shift-map output.
@@ -53,8 +57,7 @@ class SynthesisMemo {
   std::shared_ptr<const Entry> find(uint64_t key, const cv::Mat& rgb, const cv::Mat& known, float nearColour,
                                     bool& exact);
   void store(uint64_t key, std::shared_ptr<const Entry> entry);
-  void endRun();                      // the run is over: entries it did not use are dropped
-  int exactHits = 0, nearHits = 0, made = 0;  // this run
+  void endRun();  // the run is over: entries it did not use are dropped
 
  private:
   std::mutex mutex_;
@@ -83,7 +86,7 @@ struct SynthesisResult {
   cv::Mat image;                            // CV_32FC3 sRGB [0,1]: band from the photos, hole synthesised
   cv::Mat known;                            // CV_8UC1: 255 where the canvas came from a photo
   int bandFaces = 0, rings = 0;
-  enum class Reuse { None, Exact, Near } reuse = Reuse::None;  // the shift-map output came from the memo
+  SynthesisKept kept = SynthesisKept::No;  // the shift-map output came from the memo
   // The synthesised colour at barycentrics b of face f (which must be in the chart).
   Vec3f colorAt(int face, const Vec3& b) const;
 };

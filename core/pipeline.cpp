@@ -5,11 +5,13 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
 
+#include "base/hash.h"
 #include "base/util.h"
 #include "geometry/predicates.h"
 #include "image/cutout.h"
@@ -110,6 +112,17 @@ std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl&
 }
 
 namespace {
+
+// What identifies the content of all the scene's photos (Scene::photoKeys); 0 when one is unknown.
+uint64_t photosKeyOf(const Scene& scene) {
+  if (scene.photoKeys.size() != scene.photos.size()) return 0;
+  uint64_t h = 0x9407051;
+  for (const std::string& key : scene.photoKeys) {
+    if (key.empty()) return 0;
+    h = hashMix(h, static_cast<uint64_t>(std::hash<std::string>{}(key)));
+  }
+  return h;
+}
 
 CameraFitOptions cameraFitOptions(const PipelineOptions& o) {
   CameraFitOptions options;
@@ -320,7 +333,8 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   in.where = scene.project.file;
   in.solvers = solvers;
   in.synthesis = synthesis;
-  if (tier == Tier::Preview) in.options.synthesisNearColour = kPreviewSynthesisColour;
+  in.options.synthesisReuseCharts = tier == Tier::Preview;
+  in.photosKey = photosKeyOf(scene);
   in.options.mode = o.inpaintMode;
   in.options.maxRefinedVertices = o.maxInpaintVertices;
   // The preview inpaints harmonic fills on a coarser refinement (smooth: the same colours at viewing
@@ -766,7 +780,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"mean_mismatch_before", lev.meanMismatchBefore},
                             {"mean_mismatch_after", lev.meanMismatchAfter}}});
   const InpaintResult& inp = colors.inpaint;
-  constexpr const char* kKeptNames[] = {"no", "exact", "near"};
+  constexpr const char* kKeptNames[] = {"no", "exact", "chart"};
   nlohmann::json regions = nlohmann::json::array();
   for (const InpaintRegion& r : inp.regions)
     regions.push_back({{"kind", r.kind == InpaintRegion::Kind::Hole ? "hole" : "clone"},

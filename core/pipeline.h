@@ -164,10 +164,9 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
 // preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
 // density); guided fills keep the final density, since their colours depend on it.
-// `synthesis` (may be null) keeps the synthesised holes' shift-map results across runs: the final takes
-// a kept one for an identical canvas only, the preview also within kPreviewSynthesisColour.
+// `synthesis` (may be null) keeps the synthesised holes' charts across runs: the final takes a kept one
+// for an identical canvas only, the preview also one that covers the hole (SynthesisMemo).
 inline constexpr double kPreviewDetail = 0.25;
-inline constexpr float kPreviewSynthesisColour = 2.f / 255;
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {},
                            Tier tier = Tier::Final, PoissonCache* solvers = nullptr, SynthesisMemo* synthesis = nullptr);
 // Bake: see BakeResult.

@@ -562,28 +562,34 @@ TEST(Inpaint, SynthesisUnderACancellableJobIsUnchangedAndStops) {
   EXPECT_THROW(inpaintSurface(in, JobControl(&cancel, {}), nullptr), Cancelled);
 }
 
-// Shift-map results kept across runs (SynthesisMemo) on two structure holes in the zebra photo:
-//  - the same input again takes both from the memo (exact) and gives the same colours to the bit;
-//  - the photo 1/255 brighter (a colour balance's drift) takes them as near results within the preview's
-//    tolerance: the fill moves with the drift only, and is as close to the truth as the fill it was kept
-//    from. A fresh synthesis differs from the first by far more (shift-map picks other patches);
-//  - a change around one hole only (its band repainted) synthesises that hole again and keeps the other;
-//  - the tolerance 0 (the final), or a photo 3/255 brighter, synthesises both again.
-TEST(Inpaint, SynthesisMemoKeepsUnchangedCanvasesExactlyAndNearOnesOnlyWithinTheTolerance) {
+// Syntheses kept across runs (SynthesisMemo), on two structure holes in the zebra photo:
+//  - the final takes a kept chart for the same canvas only (exact), with the same colours to the bit;
+//  - the preview takes a kept chart that covers the hole: the same hole (the same colours again), the
+//    band's colours drifted by 1/255 (as a colour balance moves them: the fill moves with the drift only
+//    and is as close to the truth as before, where a fresh synthesis picks other patches), and a hole
+//    grown into its kept band (as close to the truth as a fresh synthesis of the grown hole);
+//  - a hole grown beyond its kept band, or other photos (another photosKey), are synthesised again; an
+//    unchanged canvas is still kept exactly under other photos.
+TEST(Inpaint, SynthesisMemoKeepsTheSameCanvasAndThePreviewKeepsChartsThatCoverTheHole) {
   TM_REQUIRE_SHARED(zebraPhoto, "photos/zebra/zebra.jpg");
   const auto mesh = unitSquare(41);
   const Photo photo = loadPhoto(zebraPhoto);
   const double side = 200;  // pixels per unit: 100 x 100 texel canvases, so that shift-map takes little time
   const TextureMap truth = planarMap(*mesh, side, 20);
-  TextureMap map = truth;
-  ASSERT_GT(cutHole(*mesh, map, Vec3(0.3, 0.3, 0), 0.1), 0);
-  ASSERT_GT(cutHole(*mesh, map, Vec3(0.7, 0.7, 0), 0.1), 0);
+  auto holes = [&](double firstRadius) {
+    TextureMap map = truth;
+    EXPECT_GT(cutHole(*mesh, map, Vec3(0.3, 0.3, 0), firstRadius), 0);
+    EXPECT_GT(cutHole(*mesh, map, Vec3(0.7, 0.7, 0), 0.1), 0);
+    return map;
+  };
+  const TextureMap map = holes(0.1);
   using Kept = InpaintRegion::Kept;
   SynthesisMemo memo;
-  auto run = [&](const Photo& p, float near) {
-    InpaintInput in = inputFor(*mesh, map, {&p}, InpaintMode::Structure);
+  auto run = [&](const TextureMap& m, const Photo& p, uint64_t photosKey, bool preview) {
+    InpaintInput in = inputFor(*mesh, m, {&p}, InpaintMode::Structure);
     in.synthesis = &memo;
-    in.options.synthesisNearColour = near;
+    in.photosKey = photosKey;
+    in.options.synthesisReuseCharts = preview;
     InpaintResult res = inpaintSurface(in, {}, nullptr);
     memo.endRun();
     EXPECT_EQ(res.regions.size(), 2u);
@@ -607,47 +613,59 @@ TEST(Inpaint, SynthesisMemoKeepsUnchangedCanvasesExactlyAndNearOnesOnlyWithinThe
     EXPECT_GT(n, 100);
     return std::pair<double, double>(maxDiff, sum / std::max(n, 1));
   };
-  const float near = 2.f / 255;
-  const InpaintResult first = run(photo, near);
+  const InpaintResult first = run(map, photo, 1, true);
   EXPECT_EQ(kept(first), (std::vector<Kept>{Kept::No, Kept::No}));
-  const InpaintResult again = run(photo, near);
-  EXPECT_EQ(kept(again), (std::vector<Kept>{Kept::Exact, Kept::Exact}));
-  ASSERT_EQ(first.colors.rows(), again.colors.rows());
-  EXPECT_EQ((first.colors - again.colors).cwiseAbs().maxCoeff(), 0.0f);
+  for (const bool preview : {false, true}) {
+    const InpaintResult again = run(map, photo, 1, preview);
+    EXPECT_EQ(kept(again), (std::vector<Kept>{preview ? Kept::Chart : Kept::Exact, preview ? Kept::Chart : Kept::Exact}));
+    ASSERT_EQ(first.colors.rows(), again.colors.rows());
+    EXPECT_EQ((first.colors - again.colors).cwiseAbs().maxCoeff(), 0.0f);
+  }
 
-  auto brighter = [&](double units) {
-    Photo p = photo;
-    p.rgb = photo.rgb.clone();  // assigning photo.rgb + s to p.rgb would write into the shared pixels
-    p.rgb += cv::Scalar::all(units);
-    return p;
-  };
-  const Photo drifted = brighter(1);
-  const InpaintResult nearRun = run(drifted, near);
-  EXPECT_EQ(kept(nearRun), (std::vector<Kept>{Kept::Near, Kept::Near}));
+  Photo drifted = photo;
+  drifted.rgb = photo.rgb.clone();  // assigning photo.rgb + s to drifted.rgb would write into the shared pixels
+  drifted.rgb += cv::Scalar::all(1);
+  const InpaintResult keptRun = run(map, drifted, 1, true);
+  EXPECT_EQ(kept(keptRun), (std::vector<Kept>{Kept::Chart, Kept::Chart}));
+  const InpaintResult fresh = run(map, drifted, 1, false);  // the final: synthesised again
+  EXPECT_EQ(kept(fresh), (std::vector<Kept>{Kept::No, Kept::No}));
+  const auto [keptMax, keptMean] = compare(keptRun, first);
+  const auto [freshMax, freshMean] = compare(fresh, first);
+  const double firstError = scoreHole(first, map, truth, photo).meanDeltaE;
+  const double keptError = scoreHole(keptRun, map, truth, drifted).meanDeltaE;
+  const double freshError = scoreHole(fresh, map, truth, drifted).meanDeltaE;
+  std::printf("photo 1/255 brighter, against the first fill: kept chart max %.4f mean %.5f, synthesised again "
+              "max %.4f mean %.5f (sRGB); mean Delta E to the truth: first %.2f, kept %.2f, synthesised again "
+              "%.2f\n",
+              keptMax, keptMean, freshMax, freshMean, firstError, keptError, freshError);
+  EXPECT_LT(keptMean, 1.5 / 255);
+  EXPECT_LT(keptMax, 3.0 / 255);
+  EXPECT_GT(freshMean, 2 * keptMean);
+  EXPECT_NEAR(keptError, firstError, 0.5);
 
-  // Repaint the photo around the second hole only: the first keeps its synthesis.
+  // The first hole grown by a ring into its band: the preview keeps the chart, the final synthesises.
+  const TextureMap grown = holes(0.13);
+  const InpaintResult grownKept = run(grown, drifted, 1, true);
+  EXPECT_EQ(kept(grownKept), (std::vector<Kept>{Kept::Chart, Kept::Chart}));
+  const InpaintResult grownFresh = run(grown, drifted, 1, false);
+  EXPECT_EQ(kept(grownFresh), (std::vector<Kept>{Kept::No, Kept::Exact}));
+  const double grownKeptError = scoreHole(grownKept, grown, truth, drifted).meanDeltaE;
+  const double grownFreshError = scoreHole(grownFresh, grown, truth, drifted).meanDeltaE;
+  std::printf("hole grown by a ring: mean Delta E to the truth, kept chart %.2f, synthesised again %.2f\n",
+              grownKeptError, grownFreshError);
+  EXPECT_LT(grownKeptError, grownFreshError + 1.0);
+
+  // Grown beyond the band: synthesised again (the second hole's chart still covers it).
+  EXPECT_EQ(kept(run(holes(0.25), drifted, 1, true)), (std::vector<Kept>{Kept::No, Kept::Chart}));
+
+  // Other photos: the same canvas is still kept exactly, a repainted band is synthesised again.
+  memo.endRun();  // a run that used nothing: the memo is empty
+  run(map, photo, 1, true);
   Photo local = photo;
   const int half = int(0.1 * side), centre = int(0.7 * side) + 20;
   local.rgb = photo.rgb.clone();
   local.rgb(cv::Rect(centre - half, centre - half, 2 * half, 2 * half)) += cv::Scalar::all(40);
-  const InpaintResult partly = run(local, near);
-  EXPECT_EQ(kept(partly), (std::vector<Kept>{Kept::Exact, Kept::No}));
-
-  const InpaintResult fresh = run(drifted, 0);  // the final's tolerance: synthesised again
-  EXPECT_EQ(kept(fresh), (std::vector<Kept>{Kept::No, Kept::No}));
-  const auto [nearMax, nearMean] = compare(nearRun, first);
-  const auto [freshMax, freshMean] = compare(fresh, first);
-  const double firstError = scoreHole(first, map, truth, photo).meanDeltaE;
-  const double nearError = scoreHole(nearRun, map, truth, drifted).meanDeltaE;
-  const double freshError = scoreHole(fresh, map, truth, drifted).meanDeltaE;
-  std::printf("photo 1/255 brighter, against the first fill: kept near max %.4f mean %.5f, synthesised again "
-              "max %.4f mean %.5f (sRGB); mean Delta E to the truth: first %.2f, kept %.2f, synthesised again "
-              "%.2f\n",
-              nearMax, nearMean, freshMax, freshMean, firstError, nearError, freshError);
-  EXPECT_LT(nearMean, 1.5 / 255);
-  EXPECT_LT(nearMax, 3.0 / 255);
-  EXPECT_NEAR(nearError, firstError, 0.5);
-  EXPECT_EQ(kept(run(brighter(3), near)), (std::vector<Kept>{Kept::No, Kept::No}));
+  EXPECT_EQ(kept(run(map, local, 2, true)), (std::vector<Kept>{Kept::Exact, Kept::No}));
 }
 
 // A cancel does not wait for a long call without cancellation points: runCancellable throws Cancelled

@@ -985,7 +985,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       sin.texelsPerUnit = res.regions[r].texelsPerUnit;
       sin.job = &job;
       sin.memo = in.synthesis;
-      sin.nearColour = opt.synthesisNearColour;
+      sin.reuseCharts = opt.synthesisReuseCharts;
+      sin.photosKey = in.photosKey;
       sin.vertexFaces = &vertexFaces;
       SynthesisOptions synOptions;
       if (res.regions[r].mode == InpaintMode::Structure) synOptions.blur = opt.structureBlur;

@@ -49,7 +49,7 @@ struct InpaintRegion {
   int refinedVertices = 0, unknowns = 0;     // refined vertices in the region; solved for
   double texelsPerUnit = 0;                  // refinement density (texels per model unit)
   double refineSeconds = 0, guidanceSeconds = 0, factorSeconds = 0, solveSeconds = 0;
-  // Synthesised holes: the shift-map result was kept from an earlier run (SynthesisMemo).
+  // Synthesised holes: whether the synthesis was kept from an earlier run (SynthesisMemo).
   using Kept = SynthesisKept;
   Kept synthesisKept = Kept::No;
   std::string note;  // e.g. "no mapped neighbour: filled with the mean colour"
@@ -79,9 +79,9 @@ struct InpaintOptions {
   int rbfCentres = 256;              // RBF: boundary centres per hole (boundary values averaged per centre)
   double emptyTexelsPerUnit = 0;     // density when no face is mapped at all (0: 1024 texels across the bbox)
   double detail = 1;                 // refinement density relative to the texel density (the preview uses less)
-  // Synthesised holes: a kept shift-map result serves when every known texel of the hole's canvas is
-  // within this of the kept one (sRGB [0,1], per channel; SynthesisMemo). 0 = only the same canvas.
-  float synthesisNearColour = 0;
+  // Synthesised holes: a kept chart that covers the hole serves even when its canvas would differ
+  // (SynthesisMemo; the preview). Without it only the same canvas is kept.
+  bool synthesisReuseCharts = false;
 };
 
 // What the inpainting reads besides the mapping. Strokes, clones and hole modes use the ids of the
@@ -99,7 +99,8 @@ struct InpaintInput {
   std::string where;
   InpaintOptions options;
   PoissonCache* solvers = nullptr;  // factorisations kept across runs (may be null: each region factors its own)
-  SynthesisMemo* synthesis = nullptr;  // shift-map results kept across runs (may be null)
+  SynthesisMemo* synthesis = nullptr;  // syntheses kept across runs (may be null)
+  uint64_t photosKey = 0;              // what identifies the photos' content (0: unknown; SynthesisMemo)
 };
 
 // Refines the faces with faceLabel >= -1 (>= 0: region id, -1: ring) by longest-edge bisection until

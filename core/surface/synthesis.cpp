@@ -18,40 +18,78 @@
 
 namespace montage {
 
-Vec3f SynthesisResult::colorAt(int face, const Vec3& b) const {
+Vec3f SynthesisChart::colorAt(int face, const Vec3& b) const {
   const auto& c = corner[faceSlot.at(face)];
   const Vec2 p = b[0] * c[0] + b[1] * c[1] + b[2] * c[2];
   return sampleBilinear3(image, p.x(), p.y());
 }
 
-std::shared_ptr<const SynthesisMemo::Entry> SynthesisMemo::find(uint64_t key, const cv::Mat& rgb, const cv::Mat& known,
-                                                               float nearColour, bool& exact) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto it = current_.find(key);
-  if (it == current_.end()) {
-    it = previous_.find(key);
-    if (it == previous_.end()) return nullptr;
-    it = current_.emplace(key, it->second).first;
-  }
-  const Entry& e = *it->second;
-  if (e.rgb.size() != rgb.size()) return nullptr;
-  float maxDiff = 0;
-  for (int y = 0; y < rgb.rows; ++y) {
-    const auto* a = rgb.ptr<cv::Vec3f>(y);
-    const auto* b = e.rgb.ptr<cv::Vec3f>(y);
-    const uchar* k = known.ptr<uchar>(y);
-    for (int x = 0; x < rgb.cols; ++x)
-      if (k[x])
-        for (int c = 0; c < 3; ++c) maxDiff = std::max(maxDiff, std::abs(a[x][c] - b[x][c]));
-  }
-  exact = maxDiff == 0;
-  if (!exact && !(maxDiff <= nearColour)) return nullptr;
-  return it->second;
+namespace {
+
+uint64_t faceKeyOf(const Mesh& mesh, int f) {
+  uint64_t h = 0xfacefeed;
+  for (const Vec3& p : mesh.facePositions(f)) h = hashMix(h, p);
+  return h;
 }
 
-void SynthesisMemo::store(uint64_t key, std::shared_ptr<const Entry> entry) {
+bool sameColours(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  for (int y = 0; y < a.rows; ++y)
+    if (std::memcmp(a.ptr(y), b.ptr(y), a.cols * a.elemSize()) != 0) return false;
+  return true;
+}
+
+}  // namespace
+
+void SynthesisMemo::keep(const std::shared_ptr<const SynthesisChart>& chart) {
+  if (std::find(current_.begin(), current_.end(), chart) == current_.end()) current_.push_back(chart);
+}
+
+std::shared_ptr<const SynthesisChart> SynthesisMemo::findExact(uint64_t canvasKey, const cv::Mat& rgb,
+                                                              const cv::Mat& known) {
   std::lock_guard<std::mutex> lock(mutex_);
-  current_[key] = std::move(entry);
+  for (const auto* list : {&current_, &previous_})
+    for (const auto& chart : *list)
+      if (chart->canvasKey == canvasKey && sameColours(chart->rgb, rgb) && sameColours(chart->known, known)) {
+        keep(chart);
+        return chart;
+      }
+  return nullptr;
+}
+
+std::shared_ptr<const SynthesisChart> SynthesisMemo::findCovering(const std::vector<int>& holeFaces,
+                                                                 const std::vector<uint64_t>& faceKey,
+                                                                 uint64_t photosKey, double texelsPerUnit,
+                                                                 double blur) {
+  if (photosKey == 0 || holeFaces.empty()) return nullptr;
+  // Of the charts that cover the hole, the one that synthesised most of its faces (rather than drew them
+  // from a photo), then the smallest.
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::shared_ptr<const SynthesisChart> best;
+  size_t bestSynthesised = 0;
+  for (const auto* list : {&current_, &previous_})
+    for (const auto& chart : *list) {
+      if (chart->photosKey != photosKey || chart->blur != blur ||
+          !(std::abs(std::log(chart->texelsPerUnit / texelsPerUnit)) <= std::log(1.25)))
+        continue;
+      size_t synthesised = 0;
+      bool covers = true;
+      for (size_t i = 0; i < holeFaces.size() && covers; ++i) {
+        const auto it = chart->faceSlot.find(holeFaces[i]);
+        covers = it != chart->faceSlot.end() && chart->faceKey[it->second] == faceKey[i];
+        synthesised += covers && it->second < chart->holeFaces;
+      }
+      if (covers && (!best || synthesised > bestSynthesised ||
+                     (synthesised == bestSynthesised && chart->corner.size() < best->corner.size())))
+        best = chart, bestSynthesised = synthesised;
+    }
+  if (best) keep(best);
+  return best;
+}
+
+void SynthesisMemo::store(std::shared_ptr<const SynthesisChart> chart) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  current_.push_back(std::move(chart));
 }
 
 void SynthesisMemo::endRun() {
@@ -71,6 +109,24 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     out.note = "synthesis: empty hole or no texel density";
     return out;
   }
+  const double blur = std::max(options.blur, 0.0);
+  std::vector<uint64_t> holeKey;
+  holeKey.reserve(in.holeFaces.size());
+  for (int f : in.holeFaces) holeKey.push_back(faceKeyOf(mesh, f));
+  if (in.memo && in.reuseCharts)
+    if (auto kept = in.memo->findCovering(in.holeFaces, holeKey, in.photosKey, in.texelsPerUnit, blur)) {
+      out.ok = true;
+      out.kept = SynthesisKept::Chart;
+      out.chart = std::move(kept);
+      out.note = "synthesis: " + std::to_string(out.chart->image.cols) + " x " + std::to_string(out.chart->image.rows) +
+                 " texel chart kept from an earlier run (it covers the hole)";
+      return out;
+    }
+  auto chart = std::make_shared<SynthesisChart>();
+  chart->photosKey = in.photosKey;
+  chart->texelsPerUnit = in.texelsPerUnit;
+  chart->blur = blur;
+  chart->holeFaces = in.holeFaces.size();
   std::vector<std::vector<int>> ownVertexFaces;
   if (!in.vertexFaces) ownVertexFaces = facesAroundVertices(mesh);
   const std::vector<std::vector<int>>& vertexFaces = in.vertexFaces ? *in.vertexFaces : ownVertexFaces;
@@ -149,30 +205,34 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   // A blurred synthesis keeps structure only at the scale of the blur: 48 texels across the hole's
   // radius are plenty, and keep shift-map fast on big holes.
   constexpr double kBlurredRadiusTexels = 48;
-  if (options.blur > 0) scale = std::min(scale, kBlurredRadiusTexels / std::max(std::sqrt(holeArea / M_PI), 1e-300));
+  if (blur > 0) scale = std::min(scale, kBlurredRadiusTexels / std::max(std::sqrt(holeArea / M_PI), 1e-300));
   const double extent = (hi - lo).maxCoeff();
   if (extent * scale > options.maxCanvas - 4) scale = (options.maxCanvas - 4) / std::max(extent, 1e-300);
   const int width = std::max(8, int(std::ceil((hi.x() - lo.x()) * scale)) + 4);
   const int height = std::max(8, int(std::ceil((hi.y() - lo.y()) * scale)) + 4);
-  out.faceSlot.reserve(faces.size());
-  out.corner.resize(faces.size());
+  chart->faceSlot.reserve(faces.size());
+  chart->corner.resize(faces.size());
+  chart->faceKey.resize(faces.size());
   for (size_t i = 0; i < faces.size(); ++i) {
-    out.faceSlot[faces[i]] = static_cast<int>(i);
+    chart->faceSlot[faces[i]] = static_cast<int>(i);
+    chart->faceKey[i] = i < holeKey.size() ? holeKey[i] : faceKeyOf(mesh, faces[i]);  // the hole comes first
     for (int k = 0; k < 3; ++k) {
       const Vec2 p = (uv[tris[i][k]] - lo) * scale + Vec2(2, 2);
-      out.corner[i][k] = Vec2(p.x(), height - p.y());  // image rows go down; the chart is v up
+      chart->corner[i][k] = Vec2(p.x(), height - p.y());  // image rows go down; the chart is v up
     }
   }
   out.bandFaces = static_cast<int>(faces.size() - in.holeFaces.size());
 
-  cv::Mat rgb(height, width, CV_32FC3, cv::Scalar(0, 0, 0));
-  out.known = cv::Mat(height, width, CV_8UC1, cv::Scalar(0));
+  cv::Mat& rgb = chart->rgb;
+  cv::Mat& known = chart->known;
+  rgb = cv::Mat(height, width, CV_32FC3, cv::Scalar(0, 0, 0));
+  known = cv::Mat(height, width, CV_8UC1, cv::Scalar(0));
   int knownPixels = 0;
   for (size_t i = 0; i < faces.size(); ++i) {
     const int f = faces[i];
     if (map.facePhoto[f] < 0) continue;
     const Photo& photo = *in.photos[map.facePhoto[f]];
-    scanTriangle(out.corner[i], width, height, [&](int x, int y, const Vec3& b) {
+    scanTriangle(chart->corner[i], width, height, [&](int x, int y, const Vec3& b) {
       if (photo.hasBackground) {
         const auto& c = map.cornerUV[f];
         const Vec2 q = b[0] * c[0] + b[1] * c[1] + b[2] * c[2];
@@ -180,62 +240,55 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
       }
       const Vec3f colour = mappedColor(map, in.photos, in.levelling, f, b).cwiseMax(0.f).cwiseMin(1.f);
       rgb.at<cv::Vec3f>(y, x) = cv::Vec3f(colour[0], colour[1], colour[2]);
-      if (!out.known.at<uchar>(y, x)) ++knownPixels;
-      out.known.at<uchar>(y, x) = 255;
+      if (!known.at<uchar>(y, x)) ++knownPixels;
+      known.at<uchar>(y, x) = 255;
     });
   }
   if (knownPixels < 16) {
     out.note = "synthesis: the band around the hole covers no photo texel";
     return out;
   }
-  // The memo's key: the hole's geometry and the canvas's size and known mask (its colours are compared
-  // apart, in find).
-  cv::Mat filled;
-  uint64_t key = hashMix(hashMix(uint64_t(0x5e17e5), width), height);
-  for (int f : in.holeFaces)
-    for (const Vec3& p : mesh.facePositions(f)) key = hashMix(key, p);
+  // The canvas's key: the hole's geometry, the canvas's size, scale and known mask, and the blur (the
+  // known colours are compared apart, in findExact).
+  uint64_t key = hashMix(hashMix(hashMix(hashMix(uint64_t(0x5e17e5), width), height), scale), blur);
+  for (uint64_t h : holeKey) key = hashMix(key, h);
   for (int y = 0; y < height; ++y) {
-    const uchar* k = out.known.ptr<uchar>(y);
+    const uchar* k = known.ptr<uchar>(y);
     for (int x = 0; x < width; x += 8) {
       uint64_t word = 0;
       std::memcpy(&word, k + x, std::min(8, width - x));
       key = hashMix(key, word);
     }
   }
-  if (in.memo) {
-    bool exact = false;
-    if (const auto kept = in.memo->find(key, rgb, out.known, in.nearColour, exact)) {
-      filled = kept->filled;
-      out.kept = exact ? SynthesisKept::Exact : SynthesisKept::Near;
+  chart->canvasKey = key;
+  const std::string made = "synthesis: " + std::to_string(width) + " x " + std::to_string(height) +
+                           " texel chart, " + std::to_string(out.rings) + " rings (" + std::to_string(out.bandFaces) +
+                           " faces) of exemplar";
+  if (in.memo)
+    if (auto kept = in.memo->findExact(key, rgb, known)) {
+      out.ok = true;
+      out.kept = SynthesisKept::Exact;
+      out.chart = std::move(kept);
+      out.note = made + ", kept (same canvas)";
+      return out;
     }
-  }
-  cv::Mat rgb8;
-  if (filled.empty()) {
-    // Shift-map works on 8-bit L*a*b* (its patch distances expect a perceptual space).
-    cv::Mat lab;
-    rgb.convertTo(rgb8, CV_8UC3, 255.0);
-    cv::cvtColor(rgb8, lab, cv::COLOR_RGB2Lab);
-    // Shift-map is one long call without a cancellation point (seconds on a big hole): a cancel does not
-    // wait for it (runCancellable), so it works on copies of its inputs (cv::Mat headers share their pixels).
-    auto shifted = std::make_shared<cv::Mat>();
-    const cv::Mat known = out.known;
-    runCancellable(job,
-                   [lab, known, shifted] { cv::xphoto::inpaint(lab, known, *shifted, cv::xphoto::INPAINT_SHIFTMAP); });
-    filled = *shifted;
-    if (in.memo) in.memo->store(key, std::make_shared<const SynthesisMemo::Entry>(SynthesisMemo::Entry{rgb, filled}));
-  }
-  cv::cvtColor(filled, rgb8, cv::COLOR_Lab2RGB);
-  rgb8.convertTo(out.image, CV_32FC3, 1.0 / 255);
+  // Shift-map works on 8-bit L*a*b* (its patch distances expect a perceptual space).
+  cv::Mat rgb8, lab;
+  rgb.convertTo(rgb8, CV_8UC3, 255.0);
+  cv::cvtColor(rgb8, lab, cv::COLOR_RGB2Lab);
+  // Shift-map is one long call without a cancellation point (seconds on a big hole): a cancel does not
+  // wait for it (runCancellable), so it works on copies of its inputs (cv::Mat headers share their pixels).
+  auto shifted = std::make_shared<cv::Mat>();
+  runCancellable(job, [lab, known, shifted] { cv::xphoto::inpaint(lab, known, *shifted, cv::xphoto::INPAINT_SHIFTMAP); });
+  cv::cvtColor(*shifted, rgb8, cv::COLOR_Lab2RGB);
+  rgb8.convertTo(chart->image, CV_32FC3, 1.0 / 255);
   // Known texels keep their exact (float) colours.
-  rgb.copyTo(out.image, out.known);
-  if (options.blur > 0)
-    cv::GaussianBlur(out.image, out.image, cv::Size(), options.blur * std::sqrt(holeArea / M_PI) * scale);
+  rgb.copyTo(chart->image, known);
+  if (blur > 0) cv::GaussianBlur(chart->image, chart->image, cv::Size(), blur * std::sqrt(holeArea / M_PI) * scale);
+  if (in.memo) in.memo->store(chart);
   out.ok = true;
-  out.note = "synthesis: " + std::to_string(width) + " x " + std::to_string(height) + " texel chart, " +
-             std::to_string(out.rings) + " rings (" + std::to_string(out.bandFaces) + " faces) of exemplar" +
-             (out.kept == SynthesisKept::Exact  ? ", kept (same canvas)"
-              : out.kept == SynthesisKept::Near ? ", kept (canvas within the preview's tolerance)"
-                                                : "");
+  out.chart = std::move(chart);
+  out.note = made;
   return out;
 }
 

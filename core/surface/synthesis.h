@@ -35,33 +35,57 @@ struct SynthesisOptions {
                              // the grain (0 = the texture as synthesised)
 };
 
-// Whether a synthesis's shift-map output came from a SynthesisMemo: no, for the same canvas (exact), or
-// for one within the preview's tolerance (near).
-enum class SynthesisKept { No, Exact, Near };
+// Where a hole's synthesised texture came from: synthesised now (No); kept from an earlier run for the
+// same canvas (Exact: what a new shift-map call would return); or kept from an earlier run whose chart
+// covers every face of the hole (Chart: the preview's reuse, below).
+enum class SynthesisKept { No, Exact, Chart };
 
-// Shift-map results kept across runs. Shift-map is most of a synthesised hole's cost, and an edit leaves
-// most holes' canvases as they were. An entry is keyed by a hash of the hole's geometry and of its
-// canvas (size and known mask), and holds the canvas's known colours and the shift-map output.
-//  - An exact hit (the known colours are the same floats) is the result a new call would give.
-//  - A near hit (each known texel within `nearColour` per channel) takes the synthesised texels of
-//    the kept result; the known texels are always the current ones. Only the preview allows it.
-// Entries not used in the last run are dropped at the start of the next (endRun). Thread-safe.
+// One hole's synthesised texture: the hole and its band flattened into a chart, with the canvas.
+struct SynthesisChart {
+  std::unordered_map<int, int> faceSlot;    // the chart's faces of the mesh: index into `corner`
+  std::vector<std::array<Vec2, 3>> corner;  // per chart face: its corners on the canvas (pixels)
+  std::vector<uint64_t> faceKey;            // per chart face: hash of its corner positions
+  size_t holeFaces = 0;                     // the first this many chart faces are the hole's
+  cv::Mat image;  // CV_32FC3 sRGB [0,1]: band from the photos, hole synthesised (blurred, for structure)
+  cv::Mat known;  // CV_8UC1: 255 where the canvas came from a photo
+  // What the canvas was made from: its key (hole geometry, canvas size, known mask, blur), the known
+  // texels' colours (CV_32FC3, 0 elsewhere), the photos' identity (0: unknown), density and blur.
+  uint64_t canvasKey = 0;
+  cv::Mat rgb;
+  uint64_t photosKey = 0;
+  double texelsPerUnit = 0, blur = 0;
+  // The synthesised colour at barycentrics b of face f (which must be in the chart).
+  Vec3f colorAt(int face, const Vec3& b) const;
+};
+
+// Syntheses kept across runs. Shift-map is most of a synthesised hole's cost, and an edit leaves most
+// holes as they were.
+//  - Exact: a hole whose canvas is the same (same key, the same known colours to the bit) takes the kept
+//    chart: it is the result a new call would give. Both tiers.
+//  - Chart (the preview only): a hole whose every face is in a kept chart, unchanged in position, with
+//    the same photos, density (within 25%) and blur, takes that chart as it is, even when the canvas
+//    would differ (the hole grew into the kept band or shrank, the band's colours drifted with the
+//    balance). Of several, it takes the one that synthesised most of the hole's faces. The synthesised
+//    texture is the Poisson solve's guidance (its Laplacian), and the solve takes the hole's current
+//    border, so the fill keeps its structure and blends into today's colours; the final synthesises again.
+// Charts not used in the last run are dropped at the start of the next (endRun). Thread-safe.
 class SynthesisMemo {
  public:
-  struct Entry {
-    cv::Mat rgb;     // CV_32FC3: the canvas's known colours (0 elsewhere)
-    cv::Mat filled;  // CV_8UC3 L*a*b*: shift-map's output
-  };
-  // The kept entry under `key` whose known colours match `rgb` exactly (exact = true) or within
-  // nearColour (> 0: near, exact = false); null when there is none.
-  std::shared_ptr<const Entry> find(uint64_t key, const cv::Mat& rgb, const cv::Mat& known, float nearColour,
-                                    bool& exact);
-  void store(uint64_t key, std::shared_ptr<const Entry> entry);
-  void endRun();  // the run is over: entries it did not use are dropped
+  // The kept chart for this canvas key whose known colours equal `rgb` where `known` is set; null when none.
+  std::shared_ptr<const SynthesisChart> findExact(uint64_t canvasKey, const cv::Mat& rgb, const cv::Mat& known);
+  // A kept chart that covers every face of `holeFaces` (faceKey: the face's position hash), made from
+  // the same photos (photosKey != 0), the same blur and a density within 25%; null when none.
+  std::shared_ptr<const SynthesisChart> findCovering(const std::vector<int>& holeFaces,
+                                                     const std::vector<uint64_t>& faceKey, uint64_t photosKey,
+                                                     double texelsPerUnit, double blur);
+  void store(std::shared_ptr<const SynthesisChart> chart);
+  void endRun();  // the run is over: charts it did not use are dropped
+  size_t size();
 
  private:
+  void keep(const std::shared_ptr<const SynthesisChart>& chart);  // marks it used in this run (mutex held)
   std::mutex mutex_;
-  std::unordered_map<uint64_t, std::shared_ptr<const Entry>> current_, previous_;
+  std::vector<std::shared_ptr<const SynthesisChart>> current_, previous_;
 };
 
 struct SynthesisInput {
@@ -72,23 +96,20 @@ struct SynthesisInput {
   std::vector<int> holeFaces;                // the hole: faces of `mesh` without a photo, edge-connected
   double texelsPerUnit = 0;                  // canvas density (texels per model unit)
   const JobControl* job = nullptr;           // cancellation (may be null): a cancel stops the shift-map call at once
-  SynthesisMemo* memo = nullptr;             // shift-map results of earlier runs (may be null)
-  float nearColour = 0;                      // memo: reuse within this (sRGB [0,1], per channel); 0 = exact only
+  SynthesisMemo* memo = nullptr;             // syntheses of earlier runs (may be null)
+  bool reuseCharts = false;                  // memo: a kept chart covering the hole serves (the preview)
+  uint64_t photosKey = 0;                    // what identifies the photos' content (0: unknown, no chart reuse)
   // The faces around each vertex of `mesh` (may be null: made per call), for the band's rings.
   const std::vector<std::vector<int>>* vertexFaces = nullptr;
 };
 
 struct SynthesisResult {
   bool ok = false;
-  std::string note;                         // what was done, or why it failed (the caller then falls back)
-  std::unordered_map<int, int> faceSlot;    // the chart's faces of mesh: index into `corner`
-  std::vector<std::array<Vec2, 3>> corner;  // per chart face: its corners on the canvas (pixels)
-  cv::Mat image;                            // CV_32FC3 sRGB [0,1]: band from the photos, hole synthesised
-  cv::Mat known;                            // CV_8UC1: 255 where the canvas came from a photo
+  std::string note;  // what was done, or why it failed (the caller then falls back)
+  std::shared_ptr<const SynthesisChart> chart;  // ok: the chart and its canvas
   int bandFaces = 0, rings = 0;
-  SynthesisKept kept = SynthesisKept::No;  // the shift-map output came from the memo
-  // The synthesised colour at barycentrics b of face f (which must be in the chart).
-  Vec3f colorAt(int face, const Vec3& b) const;
+  SynthesisKept kept = SynthesisKept::No;
+  Vec3f colorAt(int face, const Vec3& b) const { return chart->colorAt(face, b); }
 };
 
 // Synthesises one hole; never throws for a hole it cannot chart (ok = false and a note instead). Throws

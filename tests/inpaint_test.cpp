@@ -4,7 +4,6 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
@@ -666,6 +665,49 @@ TEST(Inpaint, SynthesisMemoKeepsTheSameCanvasAndThePreviewKeepsChartsThatCoverTh
   local.rgb = photo.rgb.clone();
   local.rgb(cv::Rect(centre - half, centre - half, 2 * half, 2 * half)) += cv::Scalar::all(40);
   EXPECT_EQ(kept(run(map, local, 2, true)), (std::vector<Kept>{Kept::Exact, Kept::No}));
+}
+
+// A hole round a sphere's equator (an annulus, no disc): no band around it flattens without folds. The memo keeps
+// the failure, so the next run with the same rings gives the same answer without the LSCM solves; a
+// changed hole tries again.
+TEST(Inpaint, SynthesisMemoKeepsAFailedFlattening) {
+  TM_REQUIRE_SHARED(zebraPhoto, "photos/zebra/zebra.jpg");
+  const auto sphere = makeIcosphere(3);
+  const Photo photo = loadPhoto(zebraPhoto);
+  TextureMap map = planarMap(*sphere, 100, 150);
+  auto hole = [&](double capZ) {
+    std::vector<int> faces;
+    for (int f = 0; f < sphere->numFaces(); ++f) {
+      const auto p = sphere->facePositions(f);
+      const bool cap = std::abs((p[0] + p[1] + p[2]).z() / 3) > capZ;
+      map.facePhoto[f] = cap ? 0 : TextureMap::kEmpty;
+      if (!cap) faces.push_back(f);
+    }
+    return faces;
+  };
+  SynthesisMemo memo;
+  auto run = [&](const std::vector<int>& faces) {
+    SynthesisInput in;
+    in.mesh = sphere.get();
+    in.map = &map;
+    in.photos = {&photo};
+    in.holeFaces = faces;
+    in.texelsPerUnit = 40;
+    in.memo = &memo;
+    const SynthesisResult r = synthesiseHole(in);
+    memo.endRun();
+    EXPECT_FALSE(r.ok);
+    EXPECT_NE(r.note.find("do not flatten"), std::string::npos) << r.note;
+    return r.note.find("known from the last run") != std::string::npos;
+  };
+  const std::vector<int> faces = hole(0.4);
+  EXPECT_FALSE(run(faces));
+  EXPECT_TRUE(run(faces));
+  EXPECT_TRUE(run(faces));
+  // A narrower band is another set of rings: tried again (and fails again).
+  const std::vector<int> other = hole(0.3);
+  ASSERT_NE(other.size(), faces.size());
+  EXPECT_FALSE(run(other));
 }
 
 // A cancel does not wait for a long call without cancellation points: runCancellable throws Cancelled

@@ -92,10 +92,25 @@ void SynthesisMemo::store(std::shared_ptr<const SynthesisChart> chart) {
   current_.push_back(std::move(chart));
 }
 
+bool SynthesisMemo::flatteningFailed(uint64_t ringsKey) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (failed_.count(ringsKey)) return true;
+  if (!previousFailed_.count(ringsKey)) return false;
+  failed_.insert(ringsKey);
+  return true;
+}
+
+void SynthesisMemo::storeFailedFlattening(uint64_t ringsKey) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  failed_.insert(ringsKey);
+}
+
 void SynthesisMemo::endRun() {
   std::lock_guard<std::mutex> lock(mutex_);
   previous_ = std::move(current_);
   current_.clear();
+  previousFailed_ = std::move(failed_);
+  failed_.clear();
 }
 
 SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions& options) {
@@ -154,6 +169,15 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     out.note = "synthesis: no mapped face around the hole to take texture from";
     return out;
   }
+  // The flattening below depends on the rings' faces and positions only: one that failed before fails again.
+  uint64_t ringsKey = 0xf01d;
+  for (const auto& r : rings)
+    for (int f : r) ringsKey = hashMix(hashMix(ringsKey, f), faceKeyOf(mesh, f));
+  const char* foldNote = "synthesis: the hole and its band do not flatten without folds";
+  if (in.memo && in.memo->flatteningFailed(ringsKey)) {
+    out.note = std::string(foldNote) + " (known from the last run)";
+    return out;
+  }
 
   // Flatten hole + band; when the flattening folds (a band wrapping around a limb is no disc), retry with
   // fewer rings.
@@ -194,7 +218,8 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     uv.clear();
   }
   if (uv.empty()) {
-    out.note = "synthesis: the hole and its band do not flatten without folds";
+    if (in.memo) in.memo->storeFailedFlattening(ringsKey);
+    out.note = foldNote;
     return out;
   }
 

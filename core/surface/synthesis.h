@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "base/common.h"
@@ -79,13 +80,18 @@ class SynthesisMemo {
                                                      const std::vector<uint64_t>& faceKey, uint64_t photosKey,
                                                      double texelsPerUnit, double blur);
   void store(std::shared_ptr<const SynthesisChart> chart);
-  void endRun();  // the run is over: charts it did not use are dropped
+  // Holes whose band did not flatten (both tiers: the flattening depends on the rings' faces and their
+  // positions only, `ringsKey`), so that the next run does not try the same LSCM solves again.
+  bool flatteningFailed(uint64_t ringsKey);
+  void storeFailedFlattening(uint64_t ringsKey);
+  void endRun();  // the run is over: charts and failures it did not meet are dropped
   size_t size();
 
  private:
   void keep(const std::shared_ptr<const SynthesisChart>& chart);  // marks it used in this run (mutex held)
   std::mutex mutex_;
   std::vector<std::shared_ptr<const SynthesisChart>> current_, previous_;
+  std::unordered_set<uint64_t> failed_, previousFailed_;
 };
 
 struct SynthesisInput {

@@ -989,7 +989,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       sin.photosKey = in.photosKey;
       sin.vertexFaces = &vertexFaces;
       SynthesisOptions synOptions;
-      if (res.regions[r].mode == InpaintMode::Structure) synOptions.blur = opt.structureBlur;
+      if (res.regions[r].mode == InpaintMode::Structure)
+        synOptions.blur = opt.structureBlur, synOptions.bandAreaRatio = opt.structureBand;
       synthesised[r] = synthesiseHole(sin, synOptions);
       synthesisSeconds[r] = secondsSince(synStart);
     });

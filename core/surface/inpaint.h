@@ -74,6 +74,8 @@ struct InpaintOptions {
   InpaintMode mode = InpaintMode::Structure;  // holes without a HoleMode entry and without strokes
   GuidanceBound bound = GuidanceBound::Soft;  // keeps guided fills inside the border's colour range
   double structureBlur = 0.35;  // structure: blur of the synthesised texture, in hole radii (SynthesisOptions::blur)
+  double structureBand = 1.5;   // structure: the band's area in hole areas (SynthesisOptions::bandAreaRatio; plain
+                                // synthesis keeps its 3: unblurred, it needs the wider exemplar; docs/pipeline.md)
   double texelsPerUnit = 0;     // refinement density; 0 = from the mapped faces around each hole
   int maxRefinedVertices = 2000000;  // cap on the refined vertices of all regions (coarser beyond)
   int rbfCentres = 256;              // RBF: boundary centres per hole (boundary values averaged per centre)

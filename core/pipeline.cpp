@@ -297,6 +297,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   in.fixedVertices = mapping->partition.featureVertex;
   in.luv = std::move(luv);
   in.warm = warm;
+  in.warmTolerancePx = warm ? kPreviewFramePx : 0;
   if (cameras)
     for (const CameraFit& fit : cameras->fits) in.projectedPhotos.push_back(fit.fits);
   SeamOptions options;
@@ -747,6 +748,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"sleeping_sides", sr.sleepingSides},
                             {"rounds", sr.rounds},
                             {"warm_sides", sr.warmSides},
+                            {"warm_near_sides", sr.warmNearSides},
                             {"setup_seconds", sr.setupSeconds},
                             {"measure_seconds", sr.measureSeconds},
                             {"round_seconds", sr.roundSeconds},

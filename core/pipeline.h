@@ -155,7 +155,8 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
 // when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
 // `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
 // `luv` (per photo, may be empty) holds the L*u*v* tiles of photos the caller keeps (SeamInput::luv); `warm`
-// (may be null) the last run's sides for the preview's warm start (SeamMemo).
+// (may be null) the last run's sides for the preview's warm start (SeamMemo; sides whose surroundings moved
+// less than kPreviewFramePx take their kept move).
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job = {},

@@ -138,6 +138,55 @@ TEST(Seams, VenusCaseMisregistrationFallsAndFeaturesStay) {
   EXPECT_EQ(onSeam, 60);
 }
 
+// The preview's warm start (SeamMemo). A refitted camera moves its whole photo's UVs by a fraction of a
+// pixel: with the tolerance the sides take their kept moves (start + the last run's move), sleep, and
+// match about as well as a fresh optimisation; without it, or beyond it, they are optimised again.
+TEST(Seams, WarmStartKeepsMovesOfSidesThatMovedLessThanTheTolerance) {
+  VenusCase v = venusCase();
+  const SeamResult first = optimiseSeams(v.input(), SeamOptions{}, {});
+  ASSERT_TRUE(first.memo);
+  // The same map again: every optimised side is warm, by its exact key.
+  SeamInput in = v.input();
+  in.warm = first.memo.get();
+  const SeamResult same = optimiseSeams(in, SeamOptions{}, {});
+  EXPECT_GT(same.warmSides, 0);
+  EXPECT_EQ(same.warmNearSides, 0);
+  auto shifted = [&](const Vec2& by) {
+    VenusCase w = venusCase();
+    for (int f = 0; f < w.mesh->numFaces(); ++f)
+      if (w.map.facePhoto[f] == 1)
+        for (Vec2& uv : w.map.cornerUV[f]) uv += by;
+    return w;
+  };
+  struct Runs {
+    SeamResult exact, tolerant, fresh;
+  };
+  auto run = [&](const Vec2& by) {
+    const VenusCase w = shifted(by);
+    SeamInput warm = w.input();
+    warm.warm = first.memo.get();
+    Runs r;
+    r.exact = optimiseSeams(warm, SeamOptions{}, {});
+    warm.warmTolerancePx = 0.5;
+    r.tolerant = optimiseSeams(warm, SeamOptions{}, {});
+    r.fresh = optimiseSeams(w.input(), SeamOptions{}, {});
+    std::printf("photo 1 moved by %.2f px: warm sides exact %d, with the tolerance %d (%d near), rounds %d against %d "
+                "fresh; Delta E after %.3f, fresh %.3f (before %.3f)\n",
+                by.norm(), r.exact.warmSides, r.tolerant.warmSides, r.tolerant.warmNearSides, r.tolerant.rounds,
+                r.fresh.rounds, r.tolerant.deltaEAfter, r.fresh.deltaEAfter, r.fresh.deltaEBefore);
+    return r;
+  };
+  const Runs within = run(Vec2(0.2, -0.1));
+  EXPECT_EQ(within.exact.warmNearSides, 0);
+  EXPECT_LT(within.exact.warmSides, within.tolerant.warmSides);
+  EXPECT_GT(within.tolerant.warmNearSides, 0);
+  EXPECT_EQ(within.fresh.warmSides, 0);
+  EXPECT_LT(within.tolerant.deltaEAfter, 1.1 * within.fresh.deltaEAfter + 0.1);
+  EXPECT_LT(within.tolerant.deltaEAfter, 0.7 * within.tolerant.deltaEBefore);
+  const Runs beyond = run(Vec2(0.6, 0.3));
+  EXPECT_EQ(beyond.tolerant.warmNearSides, 0);
+}
+
 TEST(Seams, LambdaKeepsTheStretchLower) {
   const VenusCase v = venusCase();
   SeamOptions low, high, geometryOnly;

@@ -115,7 +115,8 @@ class SeamOptimiser {
   double optimiseSide(int i, std::mt19937& rng);
   // The sides whose UVs side i's energy reads (its faces' corners and its seam edges' ends), itself included.
   std::vector<int> touchedSides(int i) const;
-  std::vector<uint64_t> sideKeys() const;     // per side: its SeamMemo key (before any move)
+  // Per side: its SeamMemo key (before any move) and, in `shape`, the same without the UVs (SeamMemo::near).
+  std::vector<uint64_t> sideKeys(std::vector<uint64_t>& shape) const;
   std::vector<double> faceStretches() const;  // #F: faceStretch of mapped faces, 0 elsewhere
   // Mean Delta E and gradient (NaN when not measured) over the seam samples, the largest stretch of the
   // mapped faces that are not degenerate.
@@ -431,28 +432,37 @@ double SeamOptimiser::optimiseSide(int i, std::mt19937& rng) {
   return start - e;
 }
 
-std::vector<uint64_t> SeamOptimiser::sideKeys() const {
+std::vector<uint64_t> SeamOptimiser::sideKeys(std::vector<uint64_t>& shape) const {
   const TextureMap& map = *in_.map;
-  std::vector<uint64_t> faceHash(mesh_.numFaces(), 0);
+  std::vector<uint64_t> faceHash(mesh_.numFaces(), 0), faceShape(mesh_.numFaces(), 0);
   for (int f = 0; f < mesh_.numFaces(); ++f) {
     if (map.facePhoto[f] < 0) continue;
-    uint64_t h = hashMix(0, uint64_t(map.facePhoto[f]));
+    uint64_t h = hashMix(0, uint64_t(map.facePhoto[f])), g = h;
     const auto fv = mesh_.faceVertices(f);
-    for (int k = 0; k < 3; ++k) h = hashMix(hashMix(h, mesh_.position(fv[k])), map.cornerUV[f][k]);
+    for (int k = 0; k < 3; ++k) {
+      h = hashMix(hashMix(h, mesh_.position(fv[k])), map.cornerUV[f][k]);
+      g = hashMix(g, mesh_.position(fv[k]));
+    }
     faceHash[f] = h;
+    faceShape[f] = g;
   }
   std::vector<uint64_t> keys(sides_.size());
+  shape.assign(sides_.size(), 0);
   std::vector<uint64_t> around;
-  for (size_t i = 0; i < sides_.size(); ++i) {
-    const Side& side = sides_[i];
+  auto keyOf = [&](const Side& side, const std::vector<uint64_t>& hashes, bool withStart) {
     around.clear();
-    for (const auto& [f, k] : side.corners) around.push_back(faceHash[f]);
-    for (int e : side.edges) around.push_back(faceHash[seams_[e].f]), around.push_back(faceHash[seams_[e].g]);
+    for (const auto& [f, k] : side.corners) around.push_back(hashes[f]);
+    for (int e : side.edges) around.push_back(hashes[seams_[e].f]), around.push_back(hashes[seams_[e].g]);
     std::sort(around.begin(), around.end());
     around.erase(std::unique(around.begin(), around.end()), around.end());
-    uint64_t h = hashMix(hashMix(hashMix(0, uint64_t(side.photo)), mesh_.position(side.vertex)), side.start);
+    uint64_t h = hashMix(hashMix(0, uint64_t(side.photo)), mesh_.position(side.vertex));
+    if (withStart) h = hashMix(h, side.start);
     for (uint64_t a : around) h = hashMix(h, a);
-    keys[i] = h;
+    return h;
+  };
+  for (size_t i = 0; i < sides_.size(); ++i) {
+    keys[i] = keyOf(sides_[i], faceHash, true);
+    shape[i] = keyOf(sides_[i], faceShape, false);
   }
   return keys;
 }
@@ -564,15 +574,34 @@ SeamResult SeamOptimiser::run() {
   }
   // Warm start (SeamMemo): sides whose surroundings the last run saw take its UVs and start asleep; a
   // face that would come out flipped or degenerate puts its sides back where they started.
-  const std::vector<uint64_t> keys = sideKeys();
+  std::vector<uint64_t> shapeKeys;
+  const std::vector<uint64_t> keys = sideKeys(shapeKeys);
   if (in_.warm) {
-    std::vector<char> warm(sides_.size(), 0);
+    std::vector<char> warm(sides_.size(), 0), near(sides_.size(), 0);
     for (size_t i = 0; i < sides_.size(); ++i) {
       if (sides_[i].fixed) continue;
       const auto it = in_.warm->uv.find(keys[i]);
       if (it == in_.warm->uv.end()) continue;
       sides_[i].uv = it->second;
       warm[i] = 1;
+    }
+    if (in_.warmTolerancePx > 0) {
+      // The kept move of each side whose start moved less than the tolerance; a side takes its move when
+      // every side its energy reads (itself included) has one.
+      std::vector<const SeamMemo::Move*> kept(sides_.size(), nullptr);
+      for (size_t i = 0; i < sides_.size(); ++i) {
+        const auto it = in_.warm->near.find(shapeKeys[i]);
+        if (it != in_.warm->near.end() && (sides_[i].start - it->second.start).norm() < in_.warmTolerancePx)
+          kept[i] = &it->second;
+      }
+      for (int i : order) {
+        if (warm[i] || sides_[i].fixed || !kept[i]) continue;
+        bool still = true;
+        for (int j : touched[i]) still = still && kept[j];
+        if (!still) continue;
+        sides_[i].uv = sides_[i].start + (kept[i]->uv - kept[i]->start);
+        warm[i] = near[i] = 1;
+      }
     }
     for (bool again = true; again;) {
       again = false;
@@ -591,6 +620,7 @@ SeamResult SeamOptimiser::run() {
         out.sleepingSides += active[i];
         active[i] = 0;
         ++out.warmSides;
+        out.warmNearSides += near[i];
       }
   }
   double energy = out.warmSides > 0 ? totalEnergy() : totalEnergy(before.error);  // warm UVs: measured anew
@@ -623,8 +653,11 @@ SeamResult SeamOptimiser::run() {
   out.roundSeconds = secondsSince(t);
   auto memo = std::make_shared<SeamMemo>();
   memo->uv.reserve(sides_.size());
-  for (size_t i = 0; i < sides_.size(); ++i)
+  memo->near.reserve(sides_.size());
+  for (size_t i = 0; i < sides_.size(); ++i) {
     if (!sides_[i].fixed) memo->uv[keys[i]] = sides_[i].uv;
+    memo->near[shapeKeys[i]] = {sides_[i].start, sides_[i].uv};
+  }
   out.memo = memo;
   t = Clock::now();
 

@@ -48,8 +48,16 @@ struct SeamOptions {
 // edges (positions, photos, UVs before the optimisation). The editor's preview passes the last run's
 // (SeamInput::warm): a side found there takes its UV from it and starts asleep, so only the sides an
 // edit changed are optimised.
+// `near` keys the same sides without their UVs (positions and photos only), with the UV each started
+// from and ended at: with SeamInput::warmTolerancePx > 0, a side whose start and every start its
+// energy reads moved less than that (a refitted camera shifts a whole photo by a fraction of a pixel)
+// takes the kept move, start + (uv - kept start), and starts asleep too.
 struct SeamMemo {
+  struct Move {
+    Vec2 start, uv;
+  };
   std::unordered_map<uint64_t, Vec2> uv;
+  std::unordered_map<uint64_t, Move> near;
 };
 
 struct SeamInput {
@@ -64,6 +72,7 @@ struct SeamInput {
   // Per photo (empty or null = made here): its L*u*v* tiles, when the caller keeps them across runs.
   std::vector<std::shared_ptr<const LuvTiles>> luv;
   const SeamMemo* warm = nullptr;  // may be null: see SeamMemo
+  double warmTolerancePx = 0;      // see SeamMemo::near (0: only sides whose UVs are the same)
 };
 
 struct SeamResult {
@@ -75,6 +84,7 @@ struct SeamResult {
   int movedSides = 0;     // vertex sides whose UV moved
   int rounds = 0;         // rounds run
   int warmSides = 0;      // sides that took their UV from SeamInput::warm
+  int warmNearSides = 0;  // of those, sides whose surroundings moved within SeamInput::warmTolerancePx
   std::shared_ptr<const SeamMemo> memo;              // this run's sides, for the next run's SeamInput::warm
   double deltaEBefore = 0, deltaEAfter = 0;          // mean Delta E*uv over all seam samples
   double gradientBefore = 0, gradientAfter = 0;      // mean |G'1 - G'2| (L*u*v* per pixel) over seam samples

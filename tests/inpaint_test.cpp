@@ -209,19 +209,15 @@ TEST(Inpaint, PreviewSurfaceGridTakesTheTriangleAScanTakes) {
   const PreviewSurface surface(map, {&photo}, nullptr, &res);
   std::vector<std::vector<int>> trianglesOf(mesh->numFaces());  // in index order
   for (int t = 0; t < rs.mesh.numTriangles(); ++t) trianglesOf[rs.parentFace[t]].push_back(t);
-  // The rule, by a scan of all of f's refined triangles in index order (surface/preview.cpp's arithmetic).
+  // The rule, by a scan of all of f's refined triangles in index order.
   int scannedTriangle = -1;
   auto scanned = [&](int f, const Vec3& b) {
     int best = -1;
     double bestMin = -std::numeric_limits<double>::infinity();
     Vec3 bestW = Vec3::Zero();
     for (int t : trianglesOf[f]) {
-      const auto& pb = rs.parentBary[t];
-      const Vec3 e1 = pb[1] - pb[0], e2 = pb[2] - pb[0], d = b - pb[0];
-      const double det = e1.x() * e2.y() - e1.y() * e2.x();
-      if (std::abs(det) < 1e-300) continue;
-      const double w1 = (d.x() * e2.y() - d.y() * e2.x()) / det, w2 = (e1.x() * d.y() - e1.y() * d.x()) / det;
-      const Vec3 w(1 - w1 - w2, w1, w2);
+      Vec3 w;
+      if (!refinedBarycentrics(rs.parentBary[t], b, w)) continue;
       const double m = w.minCoeff();
       if (m > bestMin) bestMin = m, best = t, bestW = w;
       if (m >= 0) break;

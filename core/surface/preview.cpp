@@ -71,6 +71,16 @@ std::vector<int> PreviewSurface::candidates(int f, const Vec3& b) const {
   return {triangles_.begin() + firstTriangle_[f], triangles_.begin() + firstTriangle_[f + 1]};
 }
 
+bool refinedBarycentrics(const std::array<Vec3, 3>& pb, const Vec3& b, Vec3& w) {
+  // Solve b = w0 pb0 + w1 pb1 + w2 pb2 with w0 + w1 + w2 = 1, in two of the three coordinates.
+  const Vec3 e1 = pb[1] - pb[0], e2 = pb[2] - pb[0], d = b - pb[0];
+  const double det = e1.x() * e2.y() - e1.y() * e2.x();
+  if (std::abs(det) < 1e-300) return false;
+  const double w1 = (d.x() * e2.y() - d.y() * e2.x()) / det, w2 = (e1.x() * d.y() - e1.y() * d.x()) / det;
+  w = Vec3(1 - w1 - w2, w1, w2);
+  return true;
+}
+
 Vec3f PreviewSurface::color(int f, const Vec3& b) const {
   const bool inpainted = inpaint_ && !inpaint_->faceRegion.empty() && inpaint_->faceRegion[f] >= 0;
   if (!inpainted) return map_.facePhoto[f] >= 0 ? mappedColor(map_, photos_, levelling_, f, b) : empty_;
@@ -84,13 +94,8 @@ Vec3f PreviewSurface::color(int f, const Vec3& b) const {
   auto scan = [&](const int* first, const int* last) {
     for (const int* i = first; i != last; ++i) {
       const int t = *i;
-      const auto& pb = rs.parentBary[t];
-      // Solve b = w0 pb0 + w1 pb1 + w2 pb2 with w0 + w1 + w2 = 1, in two of the three coordinates.
-      const Vec3 e1 = pb[1] - pb[0], e2 = pb[2] - pb[0], d = b - pb[0];
-      const double det = e1.x() * e2.y() - e1.y() * e2.x();
-      if (std::abs(det) < 1e-300) continue;
-      const double w1 = (d.x() * e2.y() - d.y() * e2.x()) / det, w2 = (e1.x() * d.y() - e1.y() * d.x()) / det;
-      const Vec3 w(1 - w1 - w2, w1, w2);
+      Vec3 w;
+      if (!refinedBarycentrics(rs.parentBary[t], b, w)) continue;
       const double m = w.minCoeff();
       if (m > bestMin) bestMin = m, best = t, bestW = w;
       if (m >= 0) return true;

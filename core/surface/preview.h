@@ -18,6 +18,11 @@ struct Photo;
 struct SeamLevelling;
 struct InpaintResult;
 
+// The barycentrics w of point b of a face (b in the face's barycentrics) in a refined triangle of it
+// whose corners have the face's barycentrics pb; false when the triangle is degenerate. b lies in the
+// triangle when w's smallest coordinate is >= 0 (up to rounding).
+bool refinedBarycentrics(const std::array<Vec3, 3>& pb, const Vec3& b, Vec3& w);
+
 class PreviewSurface {
  public:
   // `levelling` and `inpaint` may be null. The referenced objects must outlive the PreviewSurface.

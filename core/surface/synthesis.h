@@ -85,7 +85,6 @@ class SynthesisMemo {
   bool flatteningFailed(uint64_t ringsKey);
   void storeFailedFlattening(uint64_t ringsKey);
   void endRun();  // the run is over: charts and failures it did not meet are dropped
-  size_t size();
 
  private:
   void keep(const std::shared_ptr<const SynthesisChart>& chart);  // marks it used in this run (mutex held)

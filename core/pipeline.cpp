@@ -257,7 +257,8 @@ Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches)
   return out;
 }
 
-BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping, const JobControl& job) {
+BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping, const JobControl& job,
+                           const BalancedScene* previous, double toleranceLevels, BalanceMemo* memo) {
   job.progress(StageId::Balance, 0.0);
   BalanceOptions options;
   options.mode = scene->project.options.colorBalance;
@@ -268,19 +269,40 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
     photos.push_back(scene->photos[i].get());
   }
   BalancedScene out;
-  out.balance = balanceColors(mapping.partition.mesh, mapping.map, photos, locked, options, job);
+  std::vector<uint64_t> keys;  // the photos' content (Scene::photoKeys), for the memo
+  for (size_t i = 0; i < scene->photos.size(); ++i)
+    keys.push_back(i < scene->photoKeys.size() && !scene->photoKeys[i].empty()
+                       ? hashMix(0x9407051, uint64_t(std::hash<std::string>{}(scene->photoKeys[i])))
+                       : 0);
+  out.balance = balanceColors(mapping.partition.mesh, mapping.map, photos, locked, options, job, memo, keys);
+  out.sources = scene->photos;
   bool changed = false;
   for (const ColorTransform& t : out.balance.transforms) changed = changed || !t.identity();
   if (!changed) {
     out.scene = scene;
     return out;
   }
+  const auto start = Clock::now();
   auto balanced = std::make_shared<Scene>(*scene);
   for (size_t i = 0; i < balanced->photos.size(); ++i) {
     job.progress(StageId::Balance, 0.5 + 0.5 * i / balanced->photos.size(), "applying");
-    balanced->photos[i] = balancedPhoto(scene->photos[i], out.balance.transforms[i]);
+    ColorTransform& t = out.balance.transforms[i];
+    const auto& source = scene->photos[i];
+    const bool sameSource =
+        previous && previous->scene && i < previous->sources.size() && source && previous->sources[i] == source;
+    const double distance =
+        sameSource ? balancedPhotoDistance(t, previous->balance.transforms[i], source->rgb.depth()) : 0;
+    if (sameSource && distance <= toleranceLevels) {
+      // The same pixels (distance 0) keep the new transform; a photo within the tolerance keeps its own.
+      if (distance > 0) t = previous->balance.transforms[i];
+      balanced->photos[i] = previous->scene->photos[i];
+      ++out.photosKept;
+    } else {
+      balanced->photos[i] = balancedPhoto(source, t);
+    }
   }
   out.scene = balanced;
+  out.applySeconds = secondsSince(start);
   return out;
 }
 
@@ -288,7 +310,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job,
                                                     std::vector<std::shared_ptr<const LuvTiles>> luv,
-                                                    const SeamMemo* warm) {
+                                                    const SeamMemo* warm, SeamEdgeMemo* edges) {
   const PipelineOptions& o = scene.project.options;
   SeamInput in;
   in.mesh = &mapping->partition.mesh;
@@ -297,6 +319,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   in.fixedVertices = mapping->partition.featureVertex;
   in.luv = std::move(luv);
   in.warm = warm;
+  in.edges = edges;
   in.warmTolerancePx = warm ? kPreviewFramePx : 0;
   if (cameras)
     for (const CameraFit& fit : cameras->fits) in.projectedPhotos.push_back(fit.fits);
@@ -684,7 +707,10 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   for (const PhotoRef& ref : project.photos) key << ref.colorLocked;
   const bool balanceCached = projectionCached && key.str() == balanceKey_ && cachedBalance_;
   if (!balanceCached) {
-    cachedBalance_ = std::make_shared<const BalancedScene>(balanceScene(scene, *projection.mapping, job));
+    balanceSamples_.beginRun();
+    cachedBalance_ = std::make_shared<const BalancedScene>(
+        balanceScene(scene, *projection.mapping, job, cachedBalance_.get(),
+                     tier == Tier::Preview ? kPreviewBalanceLevels : 0.0, &balanceSamples_));
     balanceKey_ = key.str();
   }
   const ColorBalance& bal = cachedBalance_->balance;
@@ -701,6 +727,9 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                              balanceCached,
                              balanceCached ? 0 : bal.seconds,
                              {{"mode", kBalanceModeNames[size_t(project.options.colorBalance)]},
+                              {"photos_kept", cachedBalance_->photosKept},
+                              {"apply_seconds", cachedBalance_->applySeconds},
+                              {"edges_kept", bal.edgesKept},
                               {"samples", bal.samples},
                               {"photo_pairs", bal.pairs},
                               {"references", references},
@@ -723,16 +752,22 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   const bool seamCached = balanceCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
   if (!seamCached) {
     auto seams = std::make_shared<SeamResult>();
-    // The photos' L*u*v* tiles, kept with the loaded photos (a balanced photo is a new image: its own).
+    // The photos' L*u*v* tiles, kept with the photo objects they convert (a loaded photo, or a balanced
+    // photo the balance kept): the tiles the last runs made are not made again.
     std::vector<std::shared_ptr<const LuvTiles>> luv;
-    for (size_t i = 0; i < cachedPhotos_.size(); ++i) {
-      CachedPhoto& c = cachedPhotos_[i];
-      const bool same = i < colorScene.photos.size() && colorScene.photos[i] == c.photo;
-      if (same && !c.luv) c.luv = std::make_shared<const LuvTiles>(*c.photo);
-      luv.push_back(same ? c.luv : nullptr);
+    std::vector<std::pair<std::shared_ptr<const Photo>, std::shared_ptr<const LuvTiles>>> kept;
+    for (const auto& photo : colorScene.photos) {
+      std::shared_ptr<const LuvTiles> tiles;
+      for (const auto& [p, t] : luvTiles_)
+        if (p == photo) tiles = t;
+      if (!tiles && photo && photo->rgb.channels() == 3) tiles = std::make_shared<const LuvTiles>(*photo);
+      luv.push_back(tiles);
+      kept.emplace_back(photo, tiles);
     }
-    cachedSeamed_ =
-        optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv), warmSeams);
+    luvTiles_ = std::move(kept);
+    seamEdges_.beginRun();
+    cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv),
+                                         warmSeams, &seamEdges_);
     seams->map = TextureMap();  // the seamed mapping holds it
     cachedSeams_ = seams;
     seamKey_ = key.str();
@@ -749,6 +784,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"rounds", sr.rounds},
                             {"warm_sides", sr.warmSides},
                             {"warm_near_sides", sr.warmNearSides},
+                            {"edges_measured", sr.edgesMeasured},
+                            {"edges_kept", sr.edgesKept},
                             {"setup_seconds", sr.setupSeconds},
                             {"measure_seconds", sr.measureSeconds},
                             {"round_seconds", sr.roundSeconds},

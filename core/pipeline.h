@@ -78,6 +78,9 @@ struct ProjectionStage {
 struct BalancedScene {
   ColorBalance balance;
   std::shared_ptr<const Scene> scene;
+  std::vector<std::shared_ptr<const Photo>> sources;  // per photo: the photo its balanced photo was made from
+  int photosKept = 0;                                  // balanced photos taken from the previous run
+  double applySeconds = 0;                             // making the balanced photos
 };
 
 // What the colour stages add to a mapping: seam levelling offsets and the inpainted/cloned regions.
@@ -149,19 +152,27 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
                                const ProjectionStage* previous = nullptr);
 // Balance: colour transforms per photo over the seams between photos of the final mapping
 // (options.colorBalance, photos' colorLocked); the photos the later stages read.
+// `previous` (may be null): the last run's balance. A photo made from the same source whose new transform
+// gives a balanced photo within `toleranceLevels` 8-bit steps of the kept one (balancedPhotoDistance) keeps
+// the kept balanced photo, the same object, and, unless its pixels are the same, the kept transform. With
+// tolerance 0 (the final) that is exact: the same pixels bit for bit. The preview keeps within
+// kPreviewBalanceLevels. `memo` (may be null) keeps the seam samples across runs (BalanceMemo, exact).
+inline constexpr double kPreviewBalanceLevels = 1.0;
 BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping,
-                           const JobControl& job = {});
+                           const JobControl& job = {}, const BalancedScene* previous = nullptr,
+                           double toleranceLevels = 0, BalanceMemo* memo = nullptr);
 // Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
 // when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
 // `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
 // `luv` (per photo, may be empty) holds the L*u*v* tiles of photos the caller keeps (SeamInput::luv); `warm`
 // (may be null) the last run's sides for the preview's warm start (SeamMemo; sides whose surroundings moved
-// less than kPreviewFramePx take their kept move).
+// less than kPreviewFramePx take their kept move); `edges` (may be null) the seam edges' figures across runs
+// (SeamEdgeMemo, both tiers).
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job = {},
                                                     std::vector<std::shared_ptr<const LuvTiles>> luv = {},
-                                                    const SeamMemo* warm = nullptr);
+                                                    const SeamMemo* warm = nullptr, SeamEdgeMemo* edges = nullptr);
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
 // preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
 // density); guided fills keep the final density, since their colours depend on it.
@@ -201,10 +212,13 @@ class Pipeline {
     std::string key;
     std::shared_ptr<const Photo> photo;
     std::shared_ptr<const SilhouetteDistance> silhouette;  // camera: silhouette refinement
-    std::shared_ptr<const LuvTiles> luv;                   // seams: luvImage(photo), tile by tile
     std::shared_ptr<ContourMemo> contours;                 // camera: the mesh's (meshKey_) outer contours
   };
   std::vector<CachedPhoto> cachedPhotos_;
+  // seams: luvImage(photo), tile by tile, of the photos the last run's seams read (loaded or balanced)
+  std::vector<std::pair<std::shared_ptr<const Photo>, std::shared_ptr<const LuvTiles>>> luvTiles_;
+  BalanceMemo balanceSamples_;  // balance: the seam edges' samples of the last runs
+  SeamEdgeMemo seamEdges_;      // seams: the seam edges' figures of the last runs
   ViewFrameCache frames_;  // projection: each fitted photo's frame, by camera
   PoissonCache solvers_;   // inpaint: the factorisations of the last two runs' regions
   SynthesisMemo synthesis_;  // inpaint: the synthesised holes' shift-map results of the last two runs

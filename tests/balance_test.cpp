@@ -314,3 +314,78 @@ TEST(Balance, PipelineRecoversExposuresOnBob) {
   TM_REQUIRE_SHARED(texPath, "meshes/bob/bob_diffuse.png");
   recoverOnTexturedMesh(meshPath, texPath, "balance_bob");
 }
+
+TEST(Balance, DistanceBetweenBalancedPhotosCountsEightBitSteps) {
+  ColorTransform a;
+  a.gain = Vec3f(1.2f, 0.9f, 1.0f);
+  a.offset = Vec3f(0.01f, 0.0f, -0.02f);
+  EXPECT_EQ(balancedPhotoDistance(a, a, CV_8U), 0);
+  EXPECT_EQ(balancedPhotoDistance(a, a, CV_16U), 0);
+  EXPECT_EQ(balancedPhotoDistance(a, a, CV_32F), 0);
+  // 2% more gain in red: a bright red value moves by about 2% of 255 (sRGB of linear light).
+  ColorTransform b = a;
+  b.gain[0] *= 1.02f;
+  const double eight = balancedPhotoDistance(a, b, CV_8U);
+  EXPECT_GE(eight, 2);
+  EXPECT_LE(eight, 6);
+  EXPECT_NEAR(balancedPhotoDistance(a, b, CV_16U), eight, 1.0);
+  EXPECT_NEAR(balancedPhotoDistance(a, b, CV_32F), eight, 1.0);
+  EXPECT_EQ(balancedPhotoDistance(a, b, CV_8U), balancedPhotoDistance(b, a, CV_8U));
+  // What the distance says is what balancedPhoto writes: the largest pixel difference of an 8-bit photo
+  // holding every value.
+  auto ramp = std::make_shared<Photo>();
+  ramp->rgb.create(1, 256, CV_8UC3);
+  for (int v = 0; v < 256; ++v) ramp->rgb.at<cv::Vec3b>(0, v) = cv::Vec3b(uchar(v), uchar(v), uchar(v));
+  ramp->width = 256, ramp->height = 1;
+  const std::shared_ptr<const Photo> source = ramp;
+  EXPECT_EQ(cv::norm(balancedPhoto(source, a)->rgb, balancedPhoto(source, b)->rgb, cv::NORM_INF), eight);
+}
+
+TEST(Balance, PreviewKeepsBalancedPhotosWithinOneLevelAndTheFinalOnlyTheSamePixels) {
+  const std::string dir = test::tempDir("balance_kept");
+  const std::vector<double> exposures = {1, 0.55, 1.3, 0.8};
+  Project project = exposedScene(test::testDataDir() + "/turtle.obj", dir, exposures);
+  project.options.atlasSize = 1024;
+  Pipeline pipeline;
+  const PipelineResult first = pipeline.run(project, {}, Tier::Preview);
+  project.points[3].at[0].x += 2;  // a drag: the mapping and so the seam samples change a little
+  const PipelineResult dragged = pipeline.run(project, {}, Tier::Preview);
+  ASSERT_NE(dragged.balanced.get(), first.balanced.get());
+  // What a fresh balance of the same mapping solves.
+  const BalancedScene fresh = balanceScene(dragged.scene, *dragged.projection->mapping);
+  int kept = 0;
+  for (size_t p = 0; p < exposures.size(); ++p) {
+    const auto& photo = dragged.balanced->scene->photos[p];
+    const int depth = dragged.scene->photos[p]->rgb.depth();
+    const double fromFresh =
+        balancedPhotoDistance(fresh.balance.transforms[p], dragged.balanced->balance.transforms[p], depth);
+    std::printf("photo %zu: kept %d, %.0f levels from a fresh balance\n", p,
+                int(photo == first.balanced->scene->photos[p]), fromFresh);
+    if (photo == first.balanced->scene->photos[p]) {
+      ++kept;
+      EXPECT_LE(fromFresh, kPreviewBalanceLevels);  // within the tolerance of what it would be
+      // The transform shown makes the kept photo's pixels.
+      EXPECT_EQ(balancedPhotoDistance(dragged.balanced->balance.transforms[p], first.balanced->balance.transforms[p],
+                                      depth),
+                0);
+    } else {
+      EXPECT_EQ(fromFresh, 0);
+      EXPECT_EQ(cv::norm(photo->rgb, fresh.scene->photos[p]->rgb, cv::NORM_INF), 0);
+    }
+  }
+  EXPECT_EQ(kept, dragged.balanced->photosKept);
+  EXPECT_GT(kept, 1);  // more than the locked reference
+  // The final keeps a photo only when the pixels are the same: its photos are a fresh balance's.
+  const PipelineResult final = pipeline.run(project, {}, Tier::Final);
+  const BalancedScene finalFresh = balanceScene(final.scene, *final.projection->mapping);
+  for (size_t p = 0; p < exposures.size(); ++p) {
+    EXPECT_EQ(final.balanced->balance.transforms[p].gain, finalFresh.balance.transforms[p].gain);
+    EXPECT_EQ(cv::norm(final.balanced->scene->photos[p]->rgb, finalFresh.scene->photos[p]->rgb, cv::NORM_INF), 0);
+  }
+  // A photo far from the kept transform is made again: a drift of one step beyond the tolerance.
+  BalancedScene shifted = *dragged.balanced;
+  shifted.balance.transforms[1].gain *= 1.05f;
+  const BalancedScene again = balanceScene(dragged.scene, *dragged.projection->mapping, {}, &shifted, 1.0);
+  EXPECT_NE(again.scene->photos[1], shifted.scene->photos[1]);
+  EXPECT_EQ(cv::norm(again.scene->photos[1]->rgb, fresh.scene->photos[1]->rgb, cv::NORM_INF), 0);
+}

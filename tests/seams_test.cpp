@@ -238,3 +238,48 @@ TEST(Seams, BadInputIsAnError) {
   bad.lambda = 2;
   EXPECT_NE(test::errorOf([&] { optimiseSeams(v.input(), bad, {}); }).find("seamLambda"), std::string::npos);
 }
+
+TEST(Seams, EdgeMemoGivesTheSameResultBitForBitAndMeasuresOnlyWhatChanged) {
+  const VenusCase v = venusCase();
+  std::vector<std::shared_ptr<const LuvTiles>> luv = {std::make_shared<const LuvTiles>(v.left),
+                                                      std::make_shared<const LuvTiles>(v.right)};
+  auto sameResult = [](const SeamResult& a, const SeamResult& b) {
+    EXPECT_EQ(a.map.cornerUV, b.map.cornerUV);
+    EXPECT_EQ(a.deltaEBefore, b.deltaEBefore);
+    EXPECT_EQ(a.deltaEAfter, b.deltaEAfter);
+    EXPECT_EQ(a.gradientAfter, b.gradientAfter);
+    EXPECT_EQ(a.faceError, b.faceError);
+    EXPECT_EQ(a.rounds, b.rounds);
+  };
+  SeamInput in = v.input();
+  in.luv = luv;
+  const SeamResult plain = optimiseSeams(in, SeamOptions{}, {});
+  EXPECT_EQ(plain.edgesKept, 0);
+  SeamEdgeMemo memo;
+  in.edges = &memo;
+  memo.beginRun();
+  const SeamResult first = optimiseSeams(in, SeamOptions{}, {});
+  sameResult(first, plain);
+  // Within a run: the energy after a round and the figures after re-read the edges no side moved.
+  EXPECT_GT(first.edgesKept, 0);
+  EXPECT_EQ(first.edgesKept + first.edgesMeasured, plain.edgesMeasured);
+  // Again: every figure is known, and the result is the same.
+  memo.beginRun();
+  const SeamResult second = optimiseSeams(in, SeamOptions{}, {});
+  sameResult(second, plain);
+  EXPECT_EQ(second.edgesMeasured, 0);
+  std::printf("edges measured: %ld without the memo, %ld in a first run with it, %ld in a second\n",
+              plain.edgesMeasured, first.edgesMeasured, second.edgesMeasured);
+  // Other pixels in photo 1 (another image object): its edges are measured again, as without the memo.
+  VenusCase w = venusCase();
+  w.right = makePhoto([](double x, double y) { return Vec3f(pattern(x - 1, y + 1) * 0.9f); });
+  SeamInput other = w.input();
+  other.luv = {luv[0], std::make_shared<const LuvTiles>(w.right)};
+  const SeamResult otherPlain = optimiseSeams(other, SeamOptions{}, {});
+  other.edges = &memo;
+  memo.beginRun();
+  const SeamResult otherMemo = optimiseSeams(other, SeamOptions{}, {});
+  sameResult(otherMemo, otherPlain);
+  EXPECT_GE(otherMemo.edgesMeasured, otherMemo.edgesKept);  // every seam edge joins photo 0 to photo 1
+  EXPECT_GT(otherMemo.edgesMeasured, 0);
+}

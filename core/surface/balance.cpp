@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/core.hpp>
+#include <unordered_map>
 
+#include "base/hash.h"
 #include "base/job.h"
 #include "base/util.h"
 #include "geometry/mesh.h"
@@ -72,8 +74,26 @@ int cornerOf(const Mesh& mesh, int f, int v) {
   return fv[0] == v ? 0 : (fv[1] == v ? 1 : 2);
 }
 
+}  // namespace
+
+struct BalanceMemo::Impl {
+  std::unordered_map<uint64_t, std::vector<Sample>> current, previous;
+};
+BalanceMemo::BalanceMemo() : impl_(std::make_unique<Impl>()) {}
+BalanceMemo::~BalanceMemo() = default;
+void BalanceMemo::beginRun() {
+  impl_->previous = std::move(impl_->current);
+  impl_->current.clear();
+}
+size_t BalanceMemo::size() const { return impl_->current.size() + impl_->previous.size(); }
+
+namespace {
+
+// The samples of every seam edge of `map`, in edge order. With `memo` and the photos' content keys, an edge
+// whose photos, UVs and sampling options an earlier run saw takes its samples from there.
 std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
-                                const BalanceOptions& options) {
+                                const BalanceOptions& options, BalanceMemo::Impl* memo,
+                                const std::vector<uint64_t>& photoKeys, int& edgesKept) {
   const TriMesh& tri = mesh.tri;
   std::vector<OpenMesh::HalfedgeHandle> seams;  // edges between two photos, in edge order
   for (const auto eh : tri.edges()) {
@@ -86,6 +106,10 @@ std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const s
   }
   // Per edge in parallel, then in edge order: the samples do not depend on the number of threads.
   std::vector<std::vector<Sample>> perEdge(seams.size());
+  std::vector<uint64_t> keys(seams.size(), 0);
+  std::vector<char> kept(seams.size(), 0);
+  const uint64_t optionsKey = hashMix(hashMix(hashMix(0xba1a5ce, options.flatRadiusPx), options.flatRange),
+                                      uint64_t(options.linear));
   tbb::parallel_for(size_t(0), seams.size(), [&](size_t i) {
     std::vector<Sample>& out = perEdge[i];
     const auto h0 = seams[i];
@@ -94,6 +118,18 @@ std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const s
     const int u = tri.from_vertex_handle(h0).idx(), w = tri.to_vertex_handle(h0).idx();
     const Vec2 ua = map.cornerUV[fa][cornerOf(mesh, fa, u)], wa = map.cornerUV[fa][cornerOf(mesh, fa, w)];
     const Vec2 ub = map.cornerUV[fb][cornerOf(mesh, fb, u)], wb = map.cornerUV[fb][cornerOf(mesh, fb, w)];
+    if (memo && photoKeys[pa] && photoKeys[pb]) {
+      uint64_t h = hashMix(hashMix(hashMix(hashMix(optionsKey, pa), pb), photoKeys[pa]), photoKeys[pb]);
+      keys[i] = hashMix(hashMix(hashMix(hashMix(h, ua), wa), ub), wb);
+      const std::vector<Sample>* known = nullptr;  // the memo is read only while the edges run
+      if (auto it = memo->current.find(keys[i]); it != memo->current.end()) known = &it->second;
+      if (auto it = memo->previous.find(keys[i]); !known && it != memo->previous.end()) known = &it->second;
+      if (known) {
+        out = *known;
+        kept[i] = 1;
+        return;
+      }
+    }
     // About one sample per pixel of the finer side.
     const int n = std::clamp(int(std::ceil(std::max((ua - wa).norm(), (ub - wb).norm()))), 2, 64);
     const Photo& A = *photos[pa];
@@ -125,6 +161,10 @@ std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const s
       out.push_back(sample);
     }
   });
+  if (memo)
+    for (size_t i = 0; i < seams.size(); ++i)
+      if (keys[i]) memo->current[keys[i]] = perEdge[i];
+  edgesKept = static_cast<int>(std::count(kept.begin(), kept.end(), 1));
   std::vector<Sample> out;
   for (std::vector<Sample>& samples : perEdge) out.insert(out.end(), samples.begin(), samples.end());
   return out;
@@ -288,21 +328,25 @@ bool unclipped(const Sample& s, int c, const std::vector<double>& gain, const st
   return std::max(ta, tb) < hi && std::min(ta, tb) > lo;
 }
 
+// Channel c of an sRGB value in [0, 1] after the transform (apply() for one channel).
+float transformed(const ColorTransform& t, float v, int c) {
+  const float x = t.linear ? tables().linear(v) : v;
+  const float y = std::clamp(t.gain[c] * x + t.offset[c], 0.0f, 1.0f);
+  return t.linear ? tables().srgb(y) : y;
+}
+
 }  // namespace
 
 Vec3f ColorTransform::apply(const Vec3f& srgb) const {
   if (identity()) return srgb;
   Vec3f out;
-  for (int c = 0; c < 3; ++c) {
-    const float x = linear ? tables().linear(srgb[c]) : srgb[c];
-    const float y = std::clamp(gain[c] * x + offset[c], 0.0f, 1.0f);
-    out[c] = linear ? tables().srgb(y) : y;
-  }
+  for (int c = 0; c < 3; ++c) out[c] = transformed(*this, srgb[c], c);
   return out;
 }
 
 ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
-                           const std::vector<bool>& locked, const BalanceOptions& options, const JobControl& job) {
+                           const std::vector<bool>& locked, const BalanceOptions& options, const JobControl& job,
+                           BalanceMemo* memo, const std::vector<uint64_t>& photoKeys) {
   const auto start = Clock::now();
   const int np = static_cast<int>(photos.size());
   TM_CHECK(locked.empty() || static_cast<int>(locked.size()) == np,
@@ -315,7 +359,10 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
   out.transforms.assign(np, ColorTransform{});
   for (auto& t : out.transforms) t.linear = options.linear;
   out.reference.assign(np, 1);
-  const std::vector<Sample> samples = seamSamples(mesh, map, photos, options);
+  TM_CHECK(!memo || photoKeys.size() == photos.size(),
+           "colour balance: " + std::to_string(photoKeys.size()) + " photo keys for " + std::to_string(np) + " photos");
+  const std::vector<Sample> samples =
+      seamSamples(mesh, map, photos, options, memo ? &memo->impl() : nullptr, photoKeys, out.edgesKept);
   job.checkCancel();
 
   const ClipRange clip{options.linear ? srgbToLinear(options.darkest) : options.darkest,
@@ -421,26 +468,48 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
   return out;
 }
 
+namespace {
+
+// Integer depths: the balanced value of every stored value, per channel (what balancedPhoto writes).
+std::array<std::vector<uint16_t>, 3> levelTables(const ColorTransform& t, int levels) {
+  std::array<std::vector<uint16_t>, 3> table;
+  for (int c = 0; c < 3; ++c) {
+    table[c].resize(levels);
+    for (int v = 0; v < levels; ++v)
+      table[c][v] = uint16_t(std::lround(transformed(t, float(v) / (levels - 1), c) * (levels - 1)));
+  }
+  return table;
+}
+
+}  // namespace
+
+double balancedPhotoDistance(const ColorTransform& a, const ColorTransform& b, int depth) {
+  if (a.gain == b.gain && a.offset == b.offset && a.linear == b.linear) return 0;
+  if (depth == CV_8U || depth == CV_16U) {
+    const int levels = depth == CV_8U ? 256 : 65536;
+    const auto ta = levelTables(a, levels), tb = levelTables(b, levels);
+    int most = 0;
+    for (int c = 0; c < 3; ++c)
+      for (int v = 0; v < levels; ++v) most = std::max(most, std::abs(int(ta[c][v]) - int(tb[c][v])));
+    return most * 255.0 / (levels - 1);
+  }
+  // Float photos store any value: the transforms differ, and the distance is sampled (never 0).
+  double most = 1e-9;
+  for (int c = 0; c < 3; ++c)
+    for (int v = 0; v <= 4096; ++v)
+      most = std::max(most, 255.0 * std::abs(double(transformed(a, v / 4096.0f, c)) - transformed(b, v / 4096.0f, c)));
+  return most;
+}
+
 std::shared_ptr<const Photo> balancedPhoto(const std::shared_ptr<const Photo>& photo, const ColorTransform& transform) {
   if (!photo || transform.identity()) return photo;
   auto out = std::make_shared<Photo>(*photo);  // shares alpha and distance (cv::Mat is reference counted)
   const cv::Mat& in = photo->rgb;
   TM_CHECK(in.channels() == 3, located(photo->path, "colour balance: expected 3 colour channels"));
-  auto map = [&](float v, int c) {
-    const float x = transform.linear ? tables().linear(v) : v;
-    const float y = std::clamp(transform.gain[c] * x + transform.offset[c], 0.0f, 1.0f);
-    return transform.linear ? tables().srgb(y) : y;
-  };
   cv::Mat rgb(in.size(), in.type());
   if (in.depth() == CV_8U || in.depth() == CV_16U) {
     // Integer depths keep their depth (the photo stays compact): one table per channel of every value.
-    const int levels = in.depth() == CV_8U ? 256 : 65536;
-    std::array<std::vector<uint16_t>, 3> table;
-    for (int c = 0; c < 3; ++c) {
-      table[c].resize(levels);
-      for (int v = 0; v < levels; ++v)
-        table[c][v] = uint16_t(std::lround(map(float(v) / (levels - 1), c) * (levels - 1)));
-    }
+    const auto table = levelTables(transform, in.depth() == CV_8U ? 256 : 65536);
     cv::parallel_for_(cv::Range(0, rgb.rows), [&](const cv::Range& rows) {
       for (int y = rows.start; y < rows.end; ++y)
         if (in.depth() == CV_8U) {
@@ -459,7 +528,7 @@ std::shared_ptr<const Photo> balancedPhoto(const std::shared_ptr<const Photo>& p
       for (int y = rows.start; y < rows.end; ++y) {
         const float* p = in.ptr<float>(y);
         float* o = rgb.ptr<float>(y);
-        for (int i = 0; i < 3 * rgb.cols; ++i) o[i] = map(p[i], i % 3);
+        for (int i = 0; i < 3 * rgb.cols; ++i) o[i] = transformed(transform, p[i], i % 3);
       }
     });
   }

@@ -67,6 +67,7 @@ struct ColorBalance {
   int samples = 0;              // seam samples used (both sides foreground, not clipped)
   int pairs = 0;                // photo pairs sharing enough seam samples
   int iterations = 0;           // IRLS iterations (largest over the channels)
+  int edgesKept = 0;            // seam edges whose samples came from a BalanceMemo
   double outlierShare = 0;      // share of samples the robust loss weighs down (|r| beyond its threshold)
   double mismatchBefore = 0;    // mean Delta E*uv across the seam samples before the transforms
   double mismatchAfter = 0;     // ... and after
@@ -74,12 +75,38 @@ struct ColorBalance {
   std::vector<std::string> warnings;
 };
 
+// The seam samples of earlier runs, per seam edge: an edge's samples read only its two photos and its
+// four UVs, so they are keyed by the photos' content keys, the UVs and the sampling options. A hit is the
+// same samples bit for bit: both tiers use it. Entries not used in the last run are dropped at the start
+// of the next.
+class BalanceMemo {
+ public:
+  BalanceMemo();
+  ~BalanceMemo();
+  void beginRun();
+  size_t size() const;
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
 // Solves the transforms over the seams of `map` (edges between faces mapped to two different photos).
 // `locked[i]`: photo i keeps its colours (may be empty: none locked). Photos joined by seams to no locked
 // photo are matched to the first of them. Seam samples are weighted by the smaller alpha of their two
 // sides, so a feathered cut-out edge counts less.
+// With `memo` (may be null) and `photoKeys` (per photo, what identifies its pixels; 0 = unknown, never
+// kept), the samples of seam edges an earlier run saw are taken from the memo.
 ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
-                           const std::vector<bool>& locked, const BalanceOptions& options, const JobControl& job);
+                           const std::vector<bool>& locked, const BalanceOptions& options, const JobControl& job,
+                           BalanceMemo* memo = nullptr, const std::vector<uint64_t>& photoKeys = {});
+
+// How far apart the balanced photos of two transforms are: the largest difference of a balanced channel
+// value, in 8-bit steps (1/255), over every value a photo of this OpenCV depth stores. 0 means the two
+// balanced photos are the same bit for bit (for float photos: the transforms are equal; otherwise the
+// difference is sampled at 4,097 values a channel and is never 0).
+double balancedPhotoDistance(const ColorTransform& a, const ColorTransform& b, int depth);
 
 // The photo with its colours transformed: a new Photo sharing the original's alpha and distance maps, its
 // colours at the original's depth (8-bit, 16-bit or float) and stored resolution, or `photo` itself (the

@@ -344,7 +344,7 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   std::vector<const Photo*> photos;
   for (const auto& p : scene.photos) photos.push_back(p.get());
   job.progress(StageId::Level, 0.0);
-  out.levelling = levelSeams(mapping.partition.mesh, mapping.map, photos, o.seamLevelling, job);
+  out.levelling = levelSeams(mapping.partition.mesh, mapping.map, photos, o.seamLevelling, job, solvers);
   InpaintInput in;
   in.mesh = &mapping.partition.mesh;
   in.map = &mapping.map;

@@ -962,6 +962,26 @@ TEST(SeamLevelling, LowersMismatchBetweenExposuresWithoutBlurring) {
   const SeamLevelling off = levelSeams(*mesh, map, {&a, &b}, LevelMode::Off, {});
   EXPECT_TRUE(off.cornerOffset.empty());
   EXPECT_EQ(off.meanMismatchAfter, off.meanMismatchBefore);
+
+  // With a PoissonCache: the same offsets bit for bit; a second run (other colours, the same seams)
+  // factorises nothing, and moving the seam factorises again.
+  PoissonCache solvers;
+  const SeamLevelling plain = levelSeams(*mesh, map, {&a, &b}, LevelMode::Seam, {});
+  const SeamLevelling cached = levelSeams(*mesh, map, {&a, &b}, LevelMode::Seam, {}, &solvers);
+  EXPECT_EQ(cached.cornerOffset, plain.cornerOffset);
+  EXPECT_EQ(solvers.made, 2);  // one field per photo
+  solvers.endRun();
+  solvers.made = solvers.reused = 0;
+  const Photo darker = makePhoto(500, 500, [&](double x, double y) { return Vec3f(0.6f * texture(x, y)); });
+  const SeamLevelling again = levelSeams(*mesh, map, {&a, &darker}, LevelMode::Seam, {}, &solvers);
+  EXPECT_EQ(again.cornerOffset, levelSeams(*mesh, map, {&a, &darker}, LevelMode::Seam, {}).cornerOffset);
+  EXPECT_EQ(solvers.made, 0);
+  EXPECT_EQ(solvers.reused, 2);
+  TextureMap moved = map;
+  for (int f = 0; f < mesh->numFaces(); ++f)
+    if (mesh->facePositions(f)[0].x() < 0.1) moved.facePhoto[f] = 1;
+  levelSeams(*mesh, moved, {&a, &b}, LevelMode::Seam, {}, &solvers);
+  EXPECT_EQ(solvers.made, 2);
 }
 
 // End to end: a synthetic two-photo scene with exposures 1 and 0.55; `montage eval` measures the

@@ -153,14 +153,17 @@ bool SeamOptimiser::onForeground(int photo, const Vec2& x) const {
 void SeamOptimiser::buildSides() {
   const TextureMap& map = *in_.map;
   const int nf = mesh_.numFaces(), nv = mesh_.numVertices();
-  std::vector<std::vector<int>> sidesOf(nv);
-  std::vector<int> valence(nv, 0);
+  // Each vertex's sides as a list through `nextSide` (first side per vertex in `firstSide`).
+  std::vector<int> firstSide(nv, -1), nextSide, valence(nv, 0);
   faceSide_.assign(nf, {-1, -1, -1});
   faceSign_.assign(nf, 0);
+  for (int f = 0; f < nf; ++f)
+    for (int v : mesh_.faceVertices(f)) valence[v]++;
+  sides_.reserve(nv + nv / 4);
+  nextSide.reserve(nv + nv / 4);
   std::vector<double> pixelArea(in_.photos.size(), 0), surfaceArea(in_.photos.size(), 0);
   for (int f = 0; f < nf; ++f) {
     const auto fv = mesh_.faceVertices(f);
-    for (int v : fv) valence[v]++;
     const int p = map.facePhoto[f];
     if (p < 0) continue;
     const auto& uv = map.cornerUV[f];
@@ -171,15 +174,16 @@ void SeamOptimiser::buildSides() {
     for (int k = 0; k < 3; ++k) {
       const int v = fv[k];
       int id = -1;
-      for (int s : sidesOf[v])
+      for (int s = firstSide[v]; s >= 0 && id < 0; s = nextSide[s])
         if (sides_[s].photo == p && sides_[s].uv == uv[k]) id = s;
       if (id < 0) {
         id = static_cast<int>(sides_.size());
-        Side side;
+        Side& side = sides_.emplace_back();
         side.vertex = v, side.photo = p, side.uv = side.start = uv[k];
         side.projected = p < static_cast<int>(in_.projectedPhotos.size()) && in_.projectedPhotos[p];
-        sides_.push_back(side);
-        sidesOf[v].push_back(id);
+        side.corners.reserve(valence[v]);
+        nextSide.push_back(firstSide[v]);
+        firstSide[v] = id;
       }
       sides_[id].corners.emplace_back(f, k);
       faceSide_[f][k] = id;

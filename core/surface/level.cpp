@@ -25,7 +25,7 @@ Vec3f mappedColor(const TextureMap& map, const std::vector<const Photo*>& photos
 }
 
 SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
-                         LevelMode mode, const JobControl& job) {
+                         LevelMode mode, const JobControl& job, PoissonCache* solvers) {
   const auto start = Clock::now();
   SeamLevelling out;
   const int nf = mesh.numFaces();
@@ -157,7 +157,9 @@ SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vec
       if (fixed[l]) anchored[comp.find(l)] = 1;
     for (int l = 0; l < n; ++l)
       if (!anchored[comp.find(l)]) fixed[l] = 1;  // value 0
-    const Eigen::MatrixXd offset = harmonicFill(sub.mesh, fixed, values);
+    const Eigen::MatrixXd offset =
+        solvers ? solvers->solver(sub.mesh, fixed)->solve(Eigen::MatrixXd::Zero(n, 3), values)
+                : harmonicFill(sub.mesh, fixed, values);
     for (size_t i = 0; i < faces.size(); ++i)
       for (int k = 0; k < 3; ++k) out.cornerOffset[faces[i]][k] = offset.row(sub.mesh.triangles[i][k]).cast<float>();
   }

@@ -14,6 +14,7 @@ namespace montage {
 struct Mesh;
 struct Photo;
 class JobControl;
+class PoissonCache;
 
 // Seam levelling (paper end of section 5, after Agarwala et al. 2004): an additive sRGB offset per
 // mapped face corner, linear over each face, to be added to the photo colour when baking.
@@ -26,8 +27,10 @@ struct SeamLevelling {
 };
 
 // Levels the colours across seams between photos (faces mapped to different photos sharing an edge).
+// `solvers` (may be null) keeps each photo's factorisation across runs: a photo whose faces and seam
+// vertices did not change is solved again without factorising (PoissonCache; the same result bit for bit).
 SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
-                         LevelMode mode, const JobControl& job);
+                         LevelMode mode, const JobControl& job, PoissonCache* solvers = nullptr);
 
 // The colour a mapped face shows at barycentrics b: its photo's colour there plus the levelling offset.
 Vec3f mappedColor(const TextureMap& map, const std::vector<const Photo*>& photos, const SeamLevelling* levelling,

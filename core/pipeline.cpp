@@ -630,7 +630,9 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"cells", mapping.partition.numCells},
                             {"steiner_vertices", mapping.partition.steinerVertices},
                             {"searches", mapping.partition.searches},
-                            {"searches_reused", mapCached ? 0 : mapping.partition.searchesReused}}});
+                            {"searches_reused", mapCached ? 0 : mapping.partition.searchesReused},
+                            {"image_tests", mapping.partition.imageTests},
+                            {"image_tests_reused", mapCached ? 0 : mapping.partition.imageTestsReused}}});
   nlohmann::json cellStatus = nlohmann::json::object();
   for (const CellPlan& c : mapping.cells) {
     const std::string status = kCellStatusNames[static_cast<int>(c.status)];

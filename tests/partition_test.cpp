@@ -819,5 +819,54 @@ TEST(Partition, DenseSpotWith350FeaturesScales) {
   EXPECT_GE(part.paths.size(), 700u);
 }
 
+void expectSamePartition(const Partition& a, const Partition& b) {
+  EXPECT_EQ(a.faceParent, b.faceParent);
+  EXPECT_EQ(a.faceCell, b.faceCell);
+  EXPECT_EQ(a.numCells, b.numCells);
+  EXPECT_EQ(a.steinerVertices, b.steinerVertices);
+  ASSERT_EQ(a.paths.size(), b.paths.size());
+  for (size_t k = 0; k < a.paths.size(); ++k) {
+    EXPECT_EQ(a.paths[k].vertices, b.paths[k].vertices) << "path " << k;
+    ASSERT_EQ(a.paths[k].curves.size(), b.paths[k].curves.size()) << "path " << k;
+    for (size_t c = 0; c < a.paths[k].curves.size(); ++c) {
+      EXPECT_EQ(a.paths[k].curves[c].photo, b.paths[k].curves[c].photo);
+      EXPECT_EQ(a.paths[k].curves[c].from, b.paths[k].curves[c].from);
+      EXPECT_EQ(a.paths[k].curves[c].to, b.paths[k].curves[c].to);
+    }
+  }
+  ASSERT_EQ(a.rejected.size(), b.rejected.size());
+  for (size_t k = 0; k < a.rejected.size(); ++k) {
+    EXPECT_EQ(a.rejected[k].reason, b.rejected[k].reason) << "rejection " << k;
+    EXPECT_EQ(a.rejected[k].detail, b.rejected[k].detail) << "rejection " << k;
+  }
+}
+
+TEST(Partition, MemoGivesTheSamePartitionAndKeepsTheTestsOfPhotosThatDidNotChange) {
+  TM_REQUIRE_SHARED(path, "meshes/spot/spot_triangulated.obj");
+  Scene scene = sideViewScene(std::shared_ptr<const Mesh>(requireUsable(loadMesh(path))), 60);
+  // A second photo of the same view, every point clicked in both.
+  scene.photos.push_back(scene.photos[0]);
+  for (FeaturePoint& p : scene.project.points) p.at.push_back({1, p.at[0].x, p.at[0].y});
+  scene.photoKeys = {"side view a", "side view b"};  // what identifies their pixels (the memo needs it)
+  PartitionMemo memo;
+  const Partition plain = partitionMesh(scene, {}, {});
+  EXPECT_EQ(plain.imageTestsReused, 0);
+  const Partition first = partitionMesh(scene, {}, {}, &memo);
+  expectSamePartition(first, plain);
+  const Partition again = partitionMesh(scene, {}, {}, &memo);
+  expectSamePartition(again, plain);
+  EXPECT_EQ(again.searchesReused, again.searches);
+  EXPECT_EQ(again.imageTestsReused, again.imageTests);
+  // A point dragged 3 px in photo 1: photo 0's tests are kept, photo 1's made again; the result is a
+  // fresh run's.
+  scene.project.points[7].at[1].x += 3;
+  const Partition dragged = partitionMesh(scene, {}, {}, &memo);
+  expectSamePartition(dragged, partitionMesh(scene, {}, {}));
+  std::printf("image tests: %d, after the drag %d of %d kept\n", plain.imageTests, dragged.imageTestsReused,
+              dragged.imageTests);
+  EXPECT_GT(dragged.imageTestsReused, dragged.imageTests / 3);
+  EXPECT_LT(dragged.imageTestsReused, dragged.imageTests * 2 / 3);
+}
+
 }  // namespace
 }  // namespace montage

@@ -310,7 +310,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job,
                                                     std::vector<std::shared_ptr<const LuvTiles>> luv,
-                                                    const SeamMemo* warm, SeamEdgeMemo* edges) {
+                                                    const SeamMemo* warm) {
   const PipelineOptions& o = scene.project.options;
   SeamInput in;
   in.mesh = &mapping->partition.mesh;
@@ -319,7 +319,6 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   in.fixedVertices = mapping->partition.featureVertex;
   in.luv = std::move(luv);
   in.warm = warm;
-  in.edges = edges;
   in.warmTolerancePx = warm ? kPreviewFramePx : 0;
   if (cameras)
     for (const CameraFit& fit : cameras->fits) in.projectedPhotos.push_back(fit.fits);
@@ -630,9 +629,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"cells", mapping.partition.numCells},
                             {"steiner_vertices", mapping.partition.steinerVertices},
                             {"searches", mapping.partition.searches},
-                            {"searches_reused", mapCached ? 0 : mapping.partition.searchesReused},
-                            {"image_tests", mapping.partition.imageTests},
-                            {"image_tests_reused", mapCached ? 0 : mapping.partition.imageTestsReused}}});
+                            {"searches_reused", mapCached ? 0 : mapping.partition.searchesReused}}});
   nlohmann::json cellStatus = nlohmann::json::object();
   for (const CellPlan& c : mapping.cells) {
     const std::string status = kCellStatusNames[static_cast<int>(c.status)];
@@ -767,9 +764,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
       kept.emplace_back(photo, tiles);
     }
     luvTiles_ = std::move(kept);
-    seamEdges_.beginRun();
-    cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv),
-                                         warmSeams, &seamEdges_);
+    cachedSeamed_ =
+        optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv), warmSeams);
     seams->map = TextureMap();  // the seamed mapping holds it
     cachedSeams_ = seams;
     seamKey_ = key.str();
@@ -786,8 +782,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"rounds", sr.rounds},
                             {"warm_sides", sr.warmSides},
                             {"warm_near_sides", sr.warmNearSides},
-                            {"edges_measured", sr.edgesMeasured},
-                            {"edges_kept", sr.edgesKept},
+
                             {"setup_seconds", sr.setupSeconds},
                             {"measure_seconds", sr.measureSeconds},
                             {"round_seconds", sr.roundSeconds},

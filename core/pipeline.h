@@ -166,13 +166,12 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
 // `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
 // `luv` (per photo, may be empty) holds the L*u*v* tiles of photos the caller keeps (SeamInput::luv); `warm`
 // (may be null) the last run's sides for the preview's warm start (SeamMemo; sides whose surroundings moved
-// less than kPreviewFramePx take their kept move); `edges` (may be null) the seam edges' figures across runs
-// (SeamEdgeMemo, both tiers).
+// less than kPreviewFramePx take their kept move).
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job = {},
                                                     std::vector<std::shared_ptr<const LuvTiles>> luv = {},
-                                                    const SeamMemo* warm = nullptr, SeamEdgeMemo* edges = nullptr);
+                                                    const SeamMemo* warm = nullptr);
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
 // preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
 // density); guided fills keep the final density, since their colours depend on it.
@@ -218,7 +217,6 @@ class Pipeline {
   // seams: luvImage(photo), tile by tile, of the photos the last run's seams read (loaded or balanced)
   std::vector<std::pair<std::shared_ptr<const Photo>, std::shared_ptr<const LuvTiles>>> luvTiles_;
   BalanceMemo balanceSamples_;  // balance: the seam edges' samples of the last runs
-  SeamEdgeMemo seamEdges_;      // seams: the seam edges' figures of the last runs
   ViewFrameCache frames_;  // projection: each fitted photo's frame, by camera
   PoissonCache solvers_;   // inpaint: the factorisations of the last two runs' regions
   SynthesisMemo synthesis_;  // inpaint: the synthesised holes' shift-map results of the last two runs

@@ -255,13 +255,19 @@ void expectGainsRecovered(const PipelineResult& result, const std::vector<double
     EXPECT_NE(result.balanced->scene->photos[p].get(), result.scene->photos[p].get());
 }
 
+// The bundled turtle photographed at four exposures (photo 0 locked), baked into a 1024 atlas.
+const std::vector<double> kTurtleExposures = {1, 0.55, 1.3, 0.8};
+Project exposedTurtle(const std::string& tag) {
+  Project project = exposedScene(test::testDataDir() + "/turtle.obj", test::tempDir(tag), kTurtleExposures);
+  project.options.atlasSize = 1024;
+  return project;
+}
+
 }  // namespace
 
 TEST(Balance, PipelineRecoversExposuresOfASyntheticSceneAndKeepsTheLockedPhoto) {
-  const std::string dir = test::tempDir("balance_turtle");
-  const std::vector<double> exposures = {1, 0.55, 1.3, 0.8};
-  Project project = exposedScene(test::testDataDir() + "/turtle.obj", dir, exposures);
-  project.options.atlasSize = 1024;
+  const std::vector<double>& exposures = kTurtleExposures;
+  Project project = exposedTurtle("balance_turtle");
   Pipeline pipeline;
   const PipelineResult result = pipeline.run(project);
   // The solid pattern is a hard case: fine multi-scale noise through a rainbow palette, so that nearly
@@ -342,10 +348,8 @@ TEST(Balance, DistanceBetweenBalancedPhotosCountsEightBitSteps) {
 }
 
 TEST(Balance, PreviewKeepsBalancedPhotosWithinOneLevelAndTheFinalOnlyTheSamePixels) {
-  const std::string dir = test::tempDir("balance_kept");
-  const std::vector<double> exposures = {1, 0.55, 1.3, 0.8};
-  Project project = exposedScene(test::testDataDir() + "/turtle.obj", dir, exposures);
-  project.options.atlasSize = 1024;
+  const std::vector<double>& exposures = kTurtleExposures;
+  Project project = exposedTurtle("balance_kept");
   Pipeline pipeline;
   const PipelineResult first = pipeline.run(project, {}, Tier::Preview);
   project.points[3].at[0].x += 2;  // a drag: the mapping and so the seam samples change a little

@@ -162,16 +162,6 @@ class Partitioner {
 
   Partition run() {
     setup();
-    // Each photo's test state: its content, every feature's position in it, the options the tests read;
-    // every accepted curve is mixed in as it comes (addCurve).
-    photoState_.assign(numPhotos_, 0);
-    for (int p = 0; p < numPhotos_; ++p) {
-      if (!photoKeyHash_[p]) continue;
-      uint64_t h = hashMix(hashMix(photoKeyHash_[p], options_.curveSampleSpacingPx), options_.backgroundThresholdPx);
-      for (int k : features_)
-        if (hasPos(k, p)) h = hashMix(hashMix(h, k), pos(k, p));
-      photoState_[p] = h;
-    }
     for (const FeatureChain& chain : scene_.project.chains) addChain(chain);
     allPairs();
     findCells();
@@ -319,26 +309,8 @@ class Partitioner {
 
   // ---- Image-side tests (a)-(c) -----
 
-  // True when segment a-b of `photo` may become a curve; otherwise appends the reason. With the memo, a
-  // test an earlier run made in the same state of the photo (photoState_) is not made again.
-  bool imageTest(int a, int b, int photo, std::vector<RejectedPair>& why) {
-    ++out_.imageTests;
-    if (!memo_ || !photoState_[photo]) return freshImageTest(a, b, photo, why);
-    const uint64_t key = hashMix(hashMix(hashMix(hashMix(photoState_[photo], a), b), pos(a, photo)), pos(b, photo));
-    if (const PartitionMemo::ImageTest* kept = memo_->findImageTest(key)) {
-      ++out_.imageTestsReused;
-      if (!kept->pass) why.push_back(kept->why);
-      return kept->pass;
-    }
-    const size_t before = why.size();
-    PartitionMemo::ImageTest test;
-    test.pass = freshImageTest(a, b, photo, why);
-    if (!test.pass && why.size() == before + 1) test.why = why.back();
-    if (test.pass || why.size() == before + 1) memo_->storeImageTest(key, test);
-    return test.pass;
-  }
-
-  bool freshImageTest(int a, int b, int photo, std::vector<RejectedPair>& why) const {
+  // True when segment a-b of `photo` may become a curve; otherwise appends the reason.
+  bool imageTest(int a, int b, int photo, std::vector<RejectedPair>& why) const {
     const Vec2 &pa = pos(a, photo), &pb = pos(b, photo);
     if (pa == pb) {
       reject(a, b, photo, RejectReason::CurveCrossesCurve, "both ends at the same position", why);
@@ -397,7 +369,7 @@ class Partitioner {
   // The photos of `photos` that pass the image tests. Photos where the pair's path already has a
   // curve are reported as duplicates when `reportDuplicates`, else skipped.
   std::vector<int> imageTests(int a, int b, const std::vector<int>& photos, bool reportDuplicates,
-                              std::vector<RejectedPair>& why) {
+                              std::vector<RejectedPair>& why) const {
     const int existing = pathOf(a, b);
     std::vector<int> pass;
     for (int p : photos) {
@@ -747,10 +719,6 @@ class Partitioner {
     MeshPath& path = out_.paths[id];
     path.curves.push_back({photo, pos(path.fromPoint, photo), pos(path.toPoint, photo)});
     photoCurves_[photo].push_back({path.fromPoint, path.toPoint, path.curves.back().from, path.curves.back().to});
-    if (photoState_[photo])
-      photoState_[photo] = hashMix(hashMix(hashMix(hashMix(photoState_[photo], path.fromPoint), path.toPoint),
-                                           path.curves.back().from),
-                                   path.curves.back().to);
     ++version_;
   }
 
@@ -880,7 +848,6 @@ class Partitioner {
   std::vector<int> vertexPoint_;           // per input vertex: its canonical point, -1 if none
   std::vector<double> nearRadius_;         // per point: distance to its kNearFeatures-th nearest feature
   std::vector<uint64_t> photoKeyHash_;     // per photo: hash of Scene::photoKeys (0: none, no memo)
-  std::vector<uint64_t> photoState_;       // per photo: what its image tests read (0: no memo), see run()
   std::vector<char> feature_;              // per vertex
   std::vector<char> onPath_;               // per vertex: inner vertex of an accepted path
   std::vector<char> edgeOnPath_;           // per edge
@@ -904,15 +871,6 @@ void PartitionMemo::beginRun() {
   current_.clear();
   previousBackground_ = std::move(background_);
   background_.clear();
-  previousTests_ = std::move(tests_);
-  tests_.clear();
-}
-
-const PartitionMemo::ImageTest* PartitionMemo::findImageTest(uint64_t key) {
-  if (auto it = tests_.find(key); it != tests_.end()) return &it->second;
-  auto old = previousTests_.find(key);
-  if (old == previousTests_.end()) return nullptr;
-  return &(tests_[key] = old->second);
 }
 
 const double* PartitionMemo::findBackground(uint64_t key) {

@@ -72,8 +72,6 @@ struct Partition {
   int steinerVertices = 0;  // vertices added by edge splits
   int searches = 0;         // shortest-path searches the run needed
   int searchesReused = 0;   // of them, taken from a PartitionMemo
-  int imageTests = 0;       // photo segments tested (crossings, points on them, background)
-  int imageTestsReused = 0; // of them, taken from a PartitionMemo
 };
 
 // The shortest-path searches of earlier partition runs, keyed by the state of the mesh when they ran
@@ -81,8 +79,8 @@ struct Partition {
 // Steiner splits) and by the query. A rerun that passes through the same states, such as a dragged
 // point whose pairs stay valid, takes its paths from here instead of searching again. It also keeps the
 // background test's mean distance of each photo segment tested (keyed by the photo's identity, the
-// segment's ends and the sample spacing), and each image test's outcome (ImageTest). Entries not used in
-// the last run are dropped at the start of the next. Not thread-safe.
+// segment's ends and the sample spacing). Entries not used in the last run are dropped at the start of
+// the next. Not thread-safe.
 class PartitionMemo {
  public:
   void beginRun();
@@ -90,20 +88,11 @@ class PartitionMemo {
   void store(const std::string& key, const std::vector<int>& path);
   const double* findBackground(uint64_t key);
   void storeBackground(uint64_t key, double meanDistance) { background_[key] = meanDistance; }
-  // A photo segment's image tests (crossing, points on it, background), keyed by the photo's content,
-  // the positions of every feature in it, the curves accepted in it so far and the segment's ends.
-  struct ImageTest {
-    bool pass = false;
-    RejectedPair why;  // when it failed
-  };
-  const ImageTest* findImageTest(uint64_t key);
-  void storeImageTest(uint64_t key, const ImageTest& test) { tests_[key] = test; }
   size_t size() const { return current_.size() + previous_.size(); }
 
  private:
   std::unordered_map<std::string, std::vector<int>> current_, previous_;
   std::unordered_map<uint64_t, double> background_, previousBackground_;
-  std::unordered_map<uint64_t, ImageTest> tests_, previousTests_;
 };
 
 // Runs the partition on a loaded scene (its project's points and chains, its photos' distance

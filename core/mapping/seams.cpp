@@ -88,7 +88,6 @@ class SeamOptimiser {
       const Photo* p = in.photos[k];
       luv_.push_back(k < in.luv.size() && in.luv[k] ? in.luv[k] : std::make_shared<const LuvTiles>(*p));
       luvScale_.push_back(p->width > 0 ? double(luv_.back()->cols()) / p->width : 1.0);
-      if (in.edges) in.edges->keep(luv_.back());
     }
   }
 
@@ -107,9 +106,7 @@ class SeamOptimiser {
     std::vector<double> error, deltaE, gradient;
     bool gradients = false;  // `gradient` was measured
   };
-  // With SeamInput::edges, the edges found there are not measured again.
   EdgeFigures measureEdges(bool gradients) const;
-  uint64_t edgeKey(const SeamEdge& e) const;  // SeamEdgeMemo's key: everything edgeError reads
   double totalEnergy(const std::vector<double>& edgeErrors) const;
   double totalEnergy() const { return totalEnergy(measureEdges(false).error); }
   double maxStep(const Side& side, const Vec2& x, const Vec2& d) const;
@@ -141,7 +138,6 @@ class SeamOptimiser {
   std::vector<double> faceSign_;              // #F: orientation of the texture triangle (+1 / -1, 0 = degenerate)
   std::vector<double> photoScale_;            // per photo: pixels per model unit over its faces
   std::vector<SeamEdge> seams_;
-  mutable long edgesMeasured_ = 0, edgesKept_ = 0;
 };
 
 bool SeamOptimiser::onForeground(int photo, const Vec2& x) const {
@@ -341,43 +337,12 @@ double SeamOptimiser::sideEnergy(const Side& side) const {
   return options_.lambda * geo + (1 - options_.lambda) * tex;
 }
 
-uint64_t SeamOptimiser::edgeKey(const SeamEdge& e) const {
-  const TextureMap& map = *in_.map;
-  uint64_t h = 0x5ea3ed6e;
-  for (int photo : {map.facePhoto[e.f], map.facePhoto[e.g]})
-    h = hashMix(hashMix(h, uint64_t(reinterpret_cast<uintptr_t>(luv_[photo].get()))), luvScale_[photo]);
-  for (int side : e.s) h = hashMix(h, sides_[side].uv);
-  for (int side : e.t) h = hashMix(h, sides_[side].uv);
-  h = hashMix(hashMix(hashMix(h, e.c2), e.d2), e.length);
-  return hashMix(hashMix(hashMix(h, e.pixelsPerUnit), e.samples), alpha_);
-}
-
 SeamOptimiser::EdgeFigures SeamOptimiser::measureEdges(bool gradients) const {
   const size_t m = seams_.size();
   EdgeFigures out{std::vector<double>(m), std::vector<double>(m), std::vector<double>(m), gradients};
-  SeamEdgeMemo* memo = in_.edges;
-  std::vector<uint64_t> keys(memo ? m : 0);
-  std::vector<SeamEdgeMemo::Figures> figures(memo ? m : 0);
-  std::vector<char> kept(m, 0);
   tbb::parallel_for(size_t(0), m, [&](size_t e) {
-    if (memo) {
-      keys[e] = edgeKey(seams_[e]);
-      const SeamEdgeMemo::Figures* f = memo->find(keys[e]);
-      if (f && (f->gradients || !gradients)) {
-        figures[e] = *f;
-        out.error[e] = f->error, out.deltaE[e] = f->deltaE, out.gradient[e] = f->gradients ? f->gradient : 0;
-        kept[e] = 1;
-        return;
-      }
-    }
     out.error[e] = edgeError(seams_[e], &out.deltaE[e], gradients ? &out.gradient[e] : nullptr);
-    if (memo) figures[e] = {out.error[e], out.deltaE[e], out.gradient[e], gradients};
   });
-  const long hits = std::count(kept.begin(), kept.end(), 1);
-  edgesKept_ += hits;
-  edgesMeasured_ += static_cast<long>(m) - hits;
-  if (memo)
-    for (size_t e = 0; e < m; ++e) memo->store(keys[e], figures[e]);
   return out;
 }
 
@@ -715,32 +680,12 @@ SeamResult SeamOptimiser::run() {
   for (int f = 0; f < nf; ++f)
     if (count[f] > 0) out.faceError[f] = float(sum[f] / count[f]);
   out.measureSeconds += secondsSince(t);
-  out.edgesMeasured = edgesMeasured_;
-  out.edgesKept = edgesKept_;
   out.seconds = secondsSince(start);
   job_.progress(StageId::Seams, 1.0);
   return out;
 }
 
 }  // namespace
-
-void SeamEdgeMemo::beginRun() {
-  previous_ = std::move(current_);
-  current_.clear();
-  previousTiles_ = std::move(tiles_);
-  tiles_.clear();
-}
-
-const SeamEdgeMemo::Figures* SeamEdgeMemo::find(uint64_t key) const {
-  auto it = current_.find(key);
-  if (it != current_.end()) return &it->second;
-  it = previous_.find(key);
-  return it != previous_.end() ? &it->second : nullptr;
-}
-
-void SeamEdgeMemo::keep(const std::shared_ptr<const LuvTiles>& tiles) {
-  if (std::find(tiles_.begin(), tiles_.end(), tiles) == tiles_.end()) tiles_.push_back(tiles);
-}
 
 SeamResult optimiseSeams(const SeamInput& input, const SeamOptions& options, const JobControl& job) {
   TM_CHECK(input.mesh && input.map, "seams: no mesh or no texture map");

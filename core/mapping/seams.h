@@ -60,28 +60,6 @@ struct SeamMemo {
   std::unordered_map<uint64_t, Move> near;
 };
 
-// The figures of seam edges measured by earlier runs and within a run, keyed by everything an edge's
-// figures read: the L*u*v* tiles of its two photos (by object: the memo keeps them alive, so an address
-// names one image), the six UVs of its two faces, its hinge geometry, its sample count and the gradient
-// weight. A hit is the same arithmetic's result, bit for bit, so both tiers use it. Entries not used in
-// the last run are dropped at the start of the next. Lookups may run in parallel; stores may not.
-class SeamEdgeMemo {
- public:
-  struct Figures {
-    double error = 0, deltaE = 0, gradient = 0;
-    bool gradients = false;  // `gradient` was measured
-  };
-  void beginRun();
-  const Figures* find(uint64_t key) const;
-  void store(uint64_t key, const Figures& figures) { current_[key] = figures; }
-  void keep(const std::shared_ptr<const LuvTiles>& tiles);
-  size_t size() const { return current_.size() + previous_.size(); }
-
- private:
-  std::unordered_map<uint64_t, Figures> current_, previous_;
-  std::vector<std::shared_ptr<const LuvTiles>> tiles_, previousTiles_;
-};
-
 struct SeamInput {
   const Mesh* mesh = nullptr;       // the mesh the map is over (Partition::mesh)
   const TextureMap* map = nullptr;  // per face a photo and its corner UVs in pixels
@@ -95,7 +73,6 @@ struct SeamInput {
   std::vector<std::shared_ptr<const LuvTiles>> luv;
   const SeamMemo* warm = nullptr;  // may be null: see SeamMemo
   double warmTolerancePx = 0;      // see SeamMemo::near (0: only sides whose UVs are the same)
-  SeamEdgeMemo* edges = nullptr;   // may be null: the seam edges' figures across runs (SeamEdgeMemo)
 };
 
 struct SeamResult {
@@ -108,7 +85,6 @@ struct SeamResult {
   int rounds = 0;         // rounds run
   int warmSides = 0;      // sides that took their UV from SeamInput::warm
   int warmNearSides = 0;  // of those, sides whose surroundings moved within SeamInput::warmTolerancePx
-  long edgesMeasured = 0, edgesKept = 0;  // seam edge measurements made, and taken from SeamInput::edges
   std::shared_ptr<const SeamMemo> memo;              // this run's sides, for the next run's SeamInput::warm
   double deltaEBefore = 0, deltaEAfter = 0;          // mean Delta E*uv over all seam samples
   double gradientBefore = 0, gradientAfter = 0;      // mean |G'1 - G'2| (L*u*v* per pixel) over seam samples

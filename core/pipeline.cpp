@@ -113,13 +113,21 @@ std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl&
 
 namespace {
 
-// What identifies the content of all the scene's photos (Scene::photoKeys); 0 when one is unknown.
+// What identifies the content of the scene's photo i (Scene::photoKeys); 0 when it is unknown.
+uint64_t photoKeyOf(const Scene& scene, size_t i) {
+  return i < scene.photoKeys.size() && !scene.photoKeys[i].empty()
+             ? hashMix(0x9407051, static_cast<uint64_t>(std::hash<std::string>{}(scene.photoKeys[i])))
+             : 0;
+}
+
+// ... of all the scene's photos; 0 when one is unknown.
 uint64_t photosKeyOf(const Scene& scene) {
   if (scene.photoKeys.size() != scene.photos.size()) return 0;
   uint64_t h = 0x9407051;
-  for (const std::string& key : scene.photoKeys) {
-    if (key.empty()) return 0;
-    h = hashMix(h, static_cast<uint64_t>(std::hash<std::string>{}(key)));
+  for (size_t i = 0; i < scene.photos.size(); ++i) {
+    const uint64_t key = photoKeyOf(scene, i);
+    if (!key) return 0;
+    h = hashMix(h, key);
   }
   return h;
 }
@@ -269,11 +277,8 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
     photos.push_back(scene->photos[i].get());
   }
   BalancedScene out;
-  std::vector<uint64_t> keys;  // the photos' content (Scene::photoKeys), for the memo
-  for (size_t i = 0; i < scene->photos.size(); ++i)
-    keys.push_back(i < scene->photoKeys.size() && !scene->photoKeys[i].empty()
-                       ? hashMix(0x9407051, uint64_t(std::hash<std::string>{}(scene->photoKeys[i])))
-                       : 0);
+  std::vector<uint64_t> keys;  // the photos' content, for the memo
+  for (size_t i = 0; i < scene->photos.size(); ++i) keys.push_back(photoKeyOf(*scene, i));
   out.balance = balanceColors(mapping.partition.mesh, mapping.map, photos, locked, options, job, memo, keys);
   out.sources = scene->photos;
   bool changed = false;

@@ -85,7 +85,6 @@ void BalanceMemo::beginRun() {
   impl_->previous = std::move(impl_->current);
   impl_->current.clear();
 }
-size_t BalanceMemo::size() const { return impl_->current.size() + impl_->previous.size(); }
 
 namespace {
 

@@ -84,7 +84,6 @@ class BalanceMemo {
   BalanceMemo();
   ~BalanceMemo();
   void beginRun();
-  size_t size() const;
   struct Impl;
   Impl& impl() { return *impl_; }
 

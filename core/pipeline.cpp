@@ -1,6 +1,7 @@
 #include "pipeline.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <chrono>
 #include <cmath>
@@ -534,9 +535,9 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   // key says so, so that the final tier fits from scratch and matches a fresh run exactly.
   const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
   const nlohmann::json& opts = document["options"];
-  start = Clock::now();
   auto cameras = std::make_shared<CameraStage>();
-  {
+  const auto fitCameras = [&] {
+    const auto cameraStart = Clock::now();
     // Keyed by what the fit reads: the clicks' vertices and pixels in point order, not the points'
     // indices, so that deleting or adding another point keeps the fit (its click ids are renumbered).
     const size_t np = scene->photos.size();
@@ -591,8 +592,26 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
       cameras->fitted += fit->fits;
     }
     cachedFits_ = std::move(fits);
-  }
-  cameras->seconds = secondsSince(start);
+    cameras->seconds = secondsSince(cameraStart);
+  };
+
+  // Partition, Map: rerun when what they read (mesh, photos, correspondences, options) changed; the
+  // cells whose content, boundary and photo did not change are reused from the cell cache.
+  std::ostringstream key;
+  key << meshKey_;
+  for (const CachedPhoto& c : cachedPhotos_) key << '#' << c.key;
+  key << document["points"].dump() << document["chains"].dump() << opts["backgroundThresholdPx"].dump()
+      << opts["stretchSearches"].dump() << opts["seed"].dump();
+  const bool mapCached = key.str() == mapKey_ && cachedMapping_;
+  const auto mapPhotos = [&] {
+    if (mapCached) return;
+    cachedMapping_ = std::make_shared<const Mapping>(mapTexture(*scene, job, &mapCaches_));
+    mapCaches_.cells.endRun();
+    mapKey_ = key.str();
+  };
+  // The two read different inputs and touch different caches: they run side by side, so that the camera
+  // fits use the core the partition's sequential queue leaves idle.
+  tbb::parallel_invoke(fitCameras, mapPhotos);
   {
     nlohmann::json photos = nlohmann::json::array();
     for (size_t p = 0; p < cameras->fits.size(); ++p) photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p)));
@@ -607,19 +626,6 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
       result.warnings.push_back("camera: photo " + std::to_string(p) +
                                 " takes the paper's path: " + cameras->fits[p].reason);
 
-  // Partition, Map: rerun when what they read (mesh, photos, correspondences, options) changed; the
-  // cells whose content, boundary and photo did not change are reused from the cell cache.
-  std::ostringstream key;
-  key << meshKey_;
-  for (const CachedPhoto& c : cachedPhotos_) key << '#' << c.key;
-  key << document["points"].dump() << document["chains"].dump() << opts["backgroundThresholdPx"].dump()
-      << opts["stretchSearches"].dump() << opts["seed"].dump();
-  const bool mapCached = key.str() == mapKey_ && cachedMapping_;
-  if (!mapCached) {
-    cachedMapping_ = std::make_shared<const Mapping>(mapTexture(*scene, job, &mapCaches_));
-    mapCaches_.cells.endRun();
-    mapKey_ = key.str();
-  }
   const Mapping& mapping = *cachedMapping_;
   nlohmann::json rejected = nlohmann::json::object();
   for (const RejectedPair& r : mapping.partition.rejected) {

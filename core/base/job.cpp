@@ -71,7 +71,9 @@ void JobControl::checkCancel() const {
 
 void JobControl::progress(StageId stage, double fraction, const std::string& what) const {
   checkCancel();
-  if (callback_) callback_(stage, fraction, what);
+  if (!callback_) return;
+  std::lock_guard<std::mutex> lock(*callbackMutex_);
+  callback_(stage, fraction, what);
 }
 
 void runCancellable(const JobControl& job, const std::function<void()>& work) {

@@ -6,6 +6,8 @@
 #include <array>
 #include <atomic>
 #include <functional>
+#include <memory>
+#include <mutex>
 #include <string>
 
 #include "base/common.h"
@@ -26,12 +28,14 @@ inline const char* stageName(StageId s) {
 }
 
 // Progress reporting and cancellation for one job. Stages call progress() at convenient points;
-// it throws montage::Cancelled when the cancel flag is set.
+// it throws montage::Cancelled when the cancel flag is set. Stages that run side by side may call it
+// from several threads: the callback is called under a lock, one call at a time.
 class JobControl {
  public:
   using Callback = std::function<void(StageId stage, double fraction, const std::string& what)>;
   JobControl() = default;
-  JobControl(const std::atomic<bool>* cancel, Callback callback) : cancel_(cancel), callback_(std::move(callback)) {}
+  JobControl(const std::atomic<bool>* cancel, Callback callback)
+      : cancel_(cancel), callback_(std::move(callback)), callbackMutex_(std::make_shared<std::mutex>()) {}
   void progress(StageId stage, double fraction, const std::string& what = "") const;
   void checkCancel() const;
   bool cancelled() const { return cancel_ && cancel_->load(std::memory_order_relaxed); }
@@ -40,6 +44,7 @@ class JobControl {
  private:
   const std::atomic<bool>* cancel_ = nullptr;
   Callback callback_;
+  std::shared_ptr<std::mutex> callbackMutex_;  // shared by copies of this JobControl
 };
 
 // Runs `work`, a long call that has no cancellation point of its own (OpenCV's shift-map inpainting), so

@@ -25,10 +25,16 @@ using FaceHandle = TriMesh::FaceHandle;
 
 // ---- Mesh ------------------------------------------------------------------------------------------------
 
-std::vector<std::vector<int>> facesAroundVertices(const Mesh& mesh) {
-  std::vector<std::vector<int>> out(mesh.numVertices());
+VertexFaces facesAroundVertices(const Mesh& mesh) {
+  VertexFaces out;
+  out.offset.assign(mesh.numVertices() + 1, 0);
   for (int f = 0; f < mesh.numFaces(); ++f)
-    for (int v : mesh.faceVertices(f)) out[v].push_back(f);
+    for (int v : mesh.faceVertices(f)) ++out.offset[v + 1];
+  for (int v = 0; v < mesh.numVertices(); ++v) out.offset[v + 1] += out.offset[v];
+  out.faces.resize(out.offset.back());
+  std::vector<int> next(out.offset.begin(), out.offset.end() - 1);
+  for (int f = 0; f < mesh.numFaces(); ++f)
+    for (int v : mesh.faceVertices(f)) out.faces[next[v]++] = f;
   return out;
 }
 

@@ -68,8 +68,21 @@ struct Mesh {
   void bounds(Vec3& lo, Vec3& hi) const;
 };
 
-// The faces around each vertex (#V lists, faces in increasing order).
-std::vector<std::vector<int>> facesAroundVertices(const Mesh& mesh);
+// The faces around each vertex, in increasing order, in one array: vertex v's are
+// faces[offset[v] .. offset[v + 1]).
+struct VertexFaces {
+  struct Range {
+    const int *first, *last;
+    const int* begin() const { return first; }
+    const int* end() const { return last; }
+    size_t size() const { return size_t(last - first); }
+    bool empty() const { return first == last; }
+  };
+  std::vector<int> offset;  // #V + 1
+  std::vector<int> faces;
+  Range operator[](int v) const { return {faces.data() + offset[v], faces.data() + offset[v + 1]}; }
+};
+VertexFaces facesAroundVertices(const Mesh& mesh);
 
 // One finding of the validation, with the elements it concerns (vertex or face indices of the
 // *input file*, 0-based, after fan triangulation of polygons) so a user can find them.

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstring>
 #include <map>
-#include <set>
 #include <unordered_map>
 
 #include "base/job.h"
@@ -119,17 +118,14 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
       plan.detail = "a path ends inside the region: its end feature needs paths to two more features";
       return;
     }
-    // Euler characteristic of a disc: V - E + F = 1.
-    std::set<uint64_t> edges;
+    // Euler characteristic of a disc: V - E + F = 1. With one boundary loop of B half-edges (loop.ok),
+    // each of the 3F face half-edges is either on it or paired with another inside: E = (3F + B) / 2.
     int vertices = 0;
-    for (int f : plan.faces) {
-      const auto fv = mesh.faceVertices(f);
-      for (int k = 0; k < 3; ++k) {
-        edges.insert(edgeKey(fv[k], fv[(k + 1) % 3]));
-        if (mark[fv[k]] != c) mark[fv[k]] = c, ++vertices;
-      }
-    }
-    if (!loop.ok || vertices - int(edges.size()) + int(plan.faces.size()) != 1) {
+    for (int f : plan.faces)
+      for (int v : mesh.faceVertices(f))
+        if (mark[v] != c) mark[v] = c, ++vertices;
+    const int faces = int(plan.faces.size()), edges = (3 * faces + int(loop.vertices.size())) / 2;
+    if (!loop.ok || vertices - edges + faces != 1) {
       plan.status = CellStatus::NotDisc;
       plan.detail =
           "the region is not a disc (it wraps around a handle or has several borders): add features "

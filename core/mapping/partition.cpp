@@ -16,7 +16,6 @@
 #include <set>
 #include <sstream>
 #include <unordered_map>
-#include <unordered_set>
 
 #include "base/hash.h"
 #include "base/job.h"
@@ -136,12 +135,16 @@ auto freeSteps(const TriMesh& tri, int to, const Blocked& blocked) {
 
 // c lies on the closed segment ab (exact collinearity).
 bool onSegment(const Vec2& a, const Vec2& b, const Vec2& c) {
-  return orient2(a, b, c) == 0 && std::min(a.x(), b.x()) <= c.x() && c.x() <= std::max(a.x(), b.x()) &&
-         std::min(a.y(), b.y()) <= c.y() && c.y() <= std::max(a.y(), b.y());
+  return std::min(a.x(), b.x()) <= c.x() && c.x() <= std::max(a.x(), b.x()) && std::min(a.y(), b.y()) <= c.y() &&
+         c.y() <= std::max(a.y(), b.y()) && orient2(a, b, c) == 0;
 }
 
 // Closed segments ab and cd meet (proper crossing, touching or collinear overlap).
 bool segmentsMeet(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
+  // Closed segments whose bounding boxes are apart cannot meet (the cheap test first).
+  if (std::max(a.x(), b.x()) < std::min(c.x(), d.x()) || std::max(c.x(), d.x()) < std::min(a.x(), b.x()) ||
+      std::max(a.y(), b.y()) < std::min(c.y(), d.y()) || std::max(c.y(), d.y()) < std::min(a.y(), b.y()))
+    return false;
   const double o1 = orient2(a, b, c), o2 = orient2(a, b, d), o3 = orient2(c, d, a), o4 = orient2(c, d, b);
   if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0))) return true;
   return onSegment(a, b, c) || onSegment(a, b, d) || onSegment(c, d, a) || onSegment(c, d, b);
@@ -216,6 +219,9 @@ class Partitioner {
     const int np = int(points.size());
     canonical_.resize(np);
     pos_.assign(size_t(np) * numPhotos_, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
+    maskWords_ = (numPhotos_ + 63) / 64;
+    photoMask_.assign(size_t(np) * maskWords_, 0);
+    featureIndex_.assign(np, -1);
     for (int i = 0; i < np; ++i) {
       const int v = points[i].vertex;
       const std::string where = "points[" + std::to_string(i) + "]";
@@ -224,6 +230,7 @@ class Partitioner {
       out_.featureVertex.push_back(v);
       if (vertexPoint_[v] < 0) {
         vertexPoint_[v] = i;
+        featureIndex_[i] = int(features_.size());
         features_.push_back(i);
       }
       canonical_[i] = vertexPoint_[v];
@@ -235,6 +242,14 @@ class Partitioner {
         if (std::isnan(p.x())) p = Vec2(at.x, at.y);
       }
     }
+    photoFeatures_.assign(numPhotos_, {});
+    for (int a : features_)
+      for (int p = 0; p < numPhotos_; ++p)
+        if (hasPos(a, p)) {
+          photoMask_[size_t(a) * maskWords_ + p / 64] |= uint64_t(1) << (p % 64);
+          photoFeatures_[p].push_back(a);
+        }
+    done_.assign(features_.size() * (features_.size() - (features_.empty() ? 0 : 1)) / 2, false);
     // The state hash: the mesh, the options that shape paths, the feature vertices.
     for (int v = 0; v < nv; ++v) {
       const auto& p = tri_.point(VertexHandle(v));
@@ -285,17 +300,31 @@ class Partitioner {
     return it == pairPath_.end() ? -1 : it->second;
   }
   bool blocked(int v) const { return feature_[v] || onPath_[v]; }
+  // The photos showing both points, from their photo masks (photoMask_).
   std::vector<int> commonPhotos(int a, int b) const {
     std::vector<int> photos;
-    for (int p = 0; p < numPhotos_; ++p)
-      if (hasPos(a, p) && hasPos(b, p)) photos.push_back(p);
+    for (int w = 0; w < maskWords_; ++w)
+      for (uint64_t m = photoMask_[size_t(a) * maskWords_ + w] & photoMask_[size_t(b) * maskWords_ + w]; m;
+           m &= m - 1)
+        photos.push_back(64 * w + __builtin_ctzll(m));
     return photos;
+  }
+  bool shareAPhoto(int a, int b) const {
+    for (int w = 0; w < maskWords_; ++w)
+      if (photoMask_[size_t(a) * maskWords_ + w] & photoMask_[size_t(b) * maskWords_ + w]) return true;
+    return false;
+  }
+  // Pairs settled by the all-pairs queue: one bit per pair of features (i < j in features_ order).
+  size_t doneBit(int a, int b) const {
+    size_t i = size_t(featureIndex_[a]), j = size_t(featureIndex_[b]);
+    if (i > j) std::swap(i, j);
+    return i * (2 * features_.size() - i - 1) / 2 + (j - i - 1);
   }
   // An edge between two feature vertices whose pair may still become a path: kept by the bridge splits.
   bool pendingPair(int u, int w) const {
     if (!feature_[u] || !feature_[w]) return false;
     const int a = vertexPoint_[u], b = vertexPoint_[w];
-    return pathOf(a, b) < 0 && !done_.count(pairKey(a, b)) && !commonPhotos(a, b).empty();
+    return pathOf(a, b) < 0 && !done_[doneBit(a, b)] && shareAPhoto(a, b);
   }
 
   void reject(int a, int b, int photo, RejectReason reason, const std::string& detail,
@@ -334,8 +363,8 @@ class Partitioner {
         return false;
       }
     }
-    for (int k : features_)
-      if (k != a && k != b && hasPos(k, photo) && onSegment(pa, pb, pos(k, photo))) {
+    for (int k : photoFeatures_[photo])
+      if (k != a && k != b && onSegment(pa, pb, pos(k, photo))) {
         reject(a, b, photo, RejectReason::CurveCrossesCurve, "passes through point " + std::to_string(k), why);
         return false;
       }
@@ -735,33 +764,64 @@ class Partitioner {
       record(why);
     }
   }
-  bool triedInChain(int a, int b, int photo) const { return chainTried_.count({pairKey(a, b), photo}) > 0; }
+  bool triedInChain(int a, int b, int photo) const {
+    return !chainTried_.empty() && chainTried_.count({pairKey(a, b), photo}) > 0;
+  }
+
+  // The all-pairs queue, smallest (key, a, b) first: the first keys sorted once, the deferred pairs in a
+  // heap (a pair is in the queue at most once, so the order is strict and the same as one heap's).
+  struct PairEntry {
+    double key;
+    int a, b;
+    bool exact;
+    int version;
+    bool operator>(const PairEntry& o) const { return key != o.key ? key > o.key : a != o.a ? a > o.a : b > o.b; }
+  };
+  class PairQueue {
+   public:
+    explicit PairQueue(std::vector<PairEntry> first) : first_(std::move(first)) {
+      std::sort(first_.begin(), first_.end(), [](const PairEntry& x, const PairEntry& y) { return y > x; });
+    }
+    size_t size() const { return first_.size() - next_ + deferred_.size(); }
+    bool empty() const { return size() == 0; }
+    const PairEntry& top() const {
+      if (next_ == first_.size()) return deferred_.top();
+      if (deferred_.empty() || deferred_.top() > first_[next_]) return first_[next_];
+      return deferred_.top();
+    }
+    void pop() {
+      if (next_ < first_.size() && (deferred_.empty() || deferred_.top() > first_[next_]))
+        ++next_;
+      else
+        deferred_.pop();
+    }
+    void push(const PairEntry& e) { deferred_.push(e); }
+
+   private:
+    std::vector<PairEntry> first_;
+    size_t next_ = 0;
+    std::priority_queue<PairEntry, std::vector<PairEntry>, std::greater<PairEntry>> deferred_;
+  };
 
   // All pairs in order of mesh path length (paper 3.1), evaluated lazily: the key starts as the
   // Euclidean distance (a lower bound) and becomes the path length when the pair reaches the top.
   void allPairs() {
-    struct Entry {
-      double key;
-      int a, b;
-      bool exact;
-      int version;
-      bool operator>(const Entry& o) const { return key != o.key ? key > o.key : a != o.a ? a > o.a : b > o.b; }
-    };
-    std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
     findNearRadii();
+    std::vector<PairEntry> first;
     for (size_t i = 0; i < features_.size(); ++i)
       for (size_t j = i + 1; j < features_.size(); ++j) {
         const int a = features_[i], b = features_[j];
-        if (!commonPhotos(a, b).empty())
-          queue.push({distance(a, b), a, b, false, -1});
+        if (shareAPhoto(a, b))
+          first.push_back({distance(a, b), a, b, false, -1});
         else if (near(a, b))
           record({{a, b, -1, RejectReason::NoCommonPhoto, "no photo shows both points"}});
       }
+    PairQueue queue(std::move(first));
 
     const double total = double(queue.size());
     int pops = 0, finished = 0;
     while (!queue.empty()) {
-      const Entry e = queue.top();
+      const PairEntry e = queue.top();
       queue.pop();
       if (++pops % kProgressEvery == 0) job_.progress(StageId::Partition, finished / total, "partition");
       std::vector<int> photos;
@@ -782,7 +842,7 @@ class Partitioner {
       }
       if (!pass.empty()) connect(e.a, e.b, pass, false, why);
       ++finished;
-      done_.insert(pairKey(e.a, e.b));
+      done_[doneBit(e.a, e.b)] = true;
       if (near(e.a, e.b)) record(why);
       // A rejected pair of neighbouring features no longer needs its edge: it becomes a bridge.
       const HalfedgeHandle direct = tri_.find_halfedge(VertexHandle(vertexOf(e.a)), VertexHandle(vertexOf(e.b)));
@@ -854,7 +914,11 @@ class Partitioner {
   std::vector<std::vector<int>> pathsAt_;  // per input vertex: accepted paths ending there
   std::vector<std::vector<PhotoCurve>> photoCurves_;  // per photo: accepted curves
   std::unordered_map<uint64_t, int> pairPath_;        // pair -> accepted path
-  std::unordered_set<uint64_t> done_;                 // pairs settled by the all-pairs queue
+  std::vector<bool> done_;                            // pairs settled by the all-pairs queue (doneBit)
+  std::vector<int> featureIndex_;                     // per point: its index in features_, -1 if not canonical
+  int maskWords_ = 0;                                 // 64-bit words per point in photoMask_
+  std::vector<uint64_t> photoMask_;                   // [point * maskWords_ + w]: bit p = the point has a position in photo p
+  std::vector<std::vector<int>> photoFeatures_;       // per photo: the features with a position in it, in features_ order
   std::set<std::pair<uint64_t, int>> chainTried_;     // (pair, photo) tried as a chain segment
   int version_ = 0;                                   // bumped at every change of paths or mesh
   struct {

@@ -107,16 +107,20 @@ class SeamOptimiser {
     bool gradients = false;  // `gradient` was measured
   };
   EdgeFigures measureEdges(bool gradients) const;
-  double totalEnergy(const std::vector<double>& edgeErrors) const;
-  double totalEnergy() const { return totalEnergy(measureEdges(false).error); }
+  // Measures again, in `edges` and `stretch` (#F, as faceStretches), the seam edges and faces whose
+  // figures read the UV of a side in `moved`: the values a full measure would give.
+  void remeasure(const std::vector<int>& moved, EdgeFigures& edges, std::vector<double>& stretch) const;
+  // E of eq. (2) over all seam sides, from per-edge errors and per-face stretches.
+  double totalEnergy(const std::vector<double>& edgeErrors, const std::vector<double>& stretch) const;
   double maxStep(const Side& side, const Vec2& x, const Vec2& d) const;
   bool onForeground(int photo, const Vec2& x) const;
   // Random line searches on one side (directions from `rng`); returns the energy decrease.
   double optimiseSide(int i, std::mt19937& rng);
   // The sides whose UVs side i's energy reads (its faces' corners and its seam edges' ends), itself included.
   std::vector<int> touchedSides(int i) const;
-  // Per side: its SeamMemo key (before any move) and, in `shape`, the same without the UVs (SeamMemo::near).
-  std::vector<uint64_t> sideKeys(std::vector<uint64_t>& shape) const;
+  // Per side with `needed` set: its SeamMemo key (before any move) and, in `shape`, the same without the
+  // UVs (SeamMemo::near); 0 for the others.
+  std::vector<uint64_t> sideKeys(const std::vector<char>& needed, std::vector<uint64_t>& shape) const;
   std::vector<double> faceStretches() const;  // #F: faceStretch of mapped faces, 0 elsewhere
   // Mean Delta E and gradient (NaN when not measured) over the seam samples, the largest stretch of the
   // mapped faces that are not degenerate.
@@ -346,14 +350,38 @@ SeamOptimiser::EdgeFigures SeamOptimiser::measureEdges(bool gradients) const {
   return out;
 }
 
-double SeamOptimiser::totalEnergy(const std::vector<double>& edgeErrors) const {
+void SeamOptimiser::remeasure(const std::vector<int>& moved, EdgeFigures& edges, std::vector<double>& stretch) const {
+  if (moved.empty()) return;
+  std::vector<char> isMoved(sides_.size(), 0);
+  for (int i : moved) {
+    isMoved[i] = 1;
+    for (const auto& [f, k] : sides_[i].corners) stretch[f] = faceStretch(f);
+  }
+  // An edge's figures read the UVs of its six corners' sides (the gradient's hinge map reads the third
+  // vertices' even when E_tex does not).
+  std::vector<int> edgeList;
+  for (int e = 0; e < static_cast<int>(seams_.size()); ++e) {
+    const SeamEdge& se = seams_[e];
+    for (int k = 0; k < 3; ++k)
+      if (isMoved[se.s[k]] || isMoved[se.t[k]]) {
+        edgeList.push_back(e);
+        break;
+      }
+  }
+  tbb::parallel_for(size_t(0), edgeList.size(), [&](size_t k) {
+    const int e = edgeList[k];
+    edges.error[e] = edgeError(seams_[e], &edges.deltaE[e], edges.gradients ? &edges.gradient[e] : nullptr);
+  });
+}
+
+double SeamOptimiser::totalEnergy(const std::vector<double>& edgeErrors, const std::vector<double>& stretch) const {
   double tex = 0, geo = 0;
   int n = 0, sides = 0;
   for (size_t e = 0; e < seams_.size(); ++e) tex += edgeErrors[e], n += seams_[e].samples;
   for (const Side& s : sides_) {
     if (!s.onSeam) continue;
     double g = 0;
-    for (const auto& [f, k] : s.corners) g = std::max(g, faceStretch(f));
+    for (const auto& [f, k] : s.corners) g = std::max(g, stretch[f]);
     geo += g, ++sides;
   }
   return options_.lambda * (sides ? geo / sides : 0) + (1 - options_.lambda) * (n ? tex / n : 0);
@@ -436,7 +464,7 @@ double SeamOptimiser::optimiseSide(int i, std::mt19937& rng) {
   return start - e;
 }
 
-std::vector<uint64_t> SeamOptimiser::sideKeys(std::vector<uint64_t>& shape) const {
+std::vector<uint64_t> SeamOptimiser::sideKeys(const std::vector<char>& needed, std::vector<uint64_t>& shape) const {
   const TextureMap& map = *in_.map;
   std::vector<uint64_t> faceHash(mesh_.numFaces(), 0), faceShape(mesh_.numFaces(), 0);
   for (int f = 0; f < mesh_.numFaces(); ++f) {
@@ -465,6 +493,7 @@ std::vector<uint64_t> SeamOptimiser::sideKeys(std::vector<uint64_t>& shape) cons
     return h;
   };
   for (size_t i = 0; i < sides_.size(); ++i) {
+    if (!needed[i]) continue;
     keys[i] = keyOf(sides_[i], faceHash, true);
     shape[i] = keyOf(sides_[i], faceShape, false);
   }
@@ -577,13 +606,19 @@ SeamResult SeamOptimiser::run() {
     out.sleepingSides += !active[i];
   }
   // Warm start (SeamMemo): sides whose surroundings the last run saw take its UVs and start asleep; a
-  // face that would come out flipped or degenerate puts its sides back where they started.
+  // face that would come out flipped or degenerate puts its sides back where they started. Only the
+  // sides the rounds may move and those their energies read have keys: the others keep their start.
+  std::vector<char> keyed(sides_.size(), 0);
+  for (int i : order) {
+    keyed[i] = 1;
+    for (int j : touched[i]) keyed[j] = 1;
+  }
   std::vector<uint64_t> shapeKeys;
-  const std::vector<uint64_t> keys = sideKeys(shapeKeys);
+  const std::vector<uint64_t> keys = sideKeys(keyed, shapeKeys);
   if (in_.warm) {
     std::vector<char> warm(sides_.size(), 0), near(sides_.size(), 0);
     for (size_t i = 0; i < sides_.size(); ++i) {
-      if (sides_[i].fixed) continue;
+      if (sides_[i].fixed || !keyed[i]) continue;
       const auto it = in_.warm->uv.find(keys[i]);
       if (it == in_.warm->uv.end()) continue;
       sides_[i].uv = it->second;
@@ -594,6 +629,7 @@ SeamResult SeamOptimiser::run() {
       // every side its energy reads (itself included) has one.
       std::vector<const SeamMemo::Move*> kept(sides_.size(), nullptr);
       for (size_t i = 0; i < sides_.size(); ++i) {
+        if (!keyed[i]) continue;
         const auto it = in_.warm->near.find(shapeKeys[i]);
         if (it != in_.warm->near.end() && (sides_[i].start - it->second.start).norm() < in_.warmTolerancePx)
           kept[i] = &it->second;
@@ -627,28 +663,44 @@ SeamResult SeamOptimiser::run() {
         out.warmNearSides += near[i];
       }
   }
-  double energy = out.warmSides > 0 ? totalEnergy() : totalEnergy(before.error);  // warm UVs: measured anew
+  // The figures at the current UVs: the warm sides' edges and faces measured anew, then after every
+  // round those of the sides that moved.
+  EdgeFigures current = before;
+  std::vector<double> stretch = stretchBefore;
+  {
+    std::vector<int> moved;
+    for (int i = 0; i < static_cast<int>(sides_.size()); ++i)
+      if (sides_[i].uv != sides_[i].start) moved.push_back(i);
+    remeasure(moved, current, stretch);
+  }
+  double energy = totalEnergy(current.error, stretch);
   t = Clock::now();
   for (int round = 0; round < options_.rounds && !order.empty(); ++round) {
     job_.progress(StageId::Seams, double(round) / options_.rounds, "round " + std::to_string(round + 1));
-    std::vector<char> moved(sides_.size(), 0);
+    std::vector<char> moved(sides_.size(), 0), changed(sides_.size(), 0);
     for (const std::vector<int>& batch : batches)
       tbb::parallel_for(size_t(0), batch.size(), [&](size_t b) {
         const int i = batch[b];
         if (!active[i]) return;
         std::seed_seq seq{options_.seed, unsigned(round), unsigned(i)};
         std::mt19937 rng(seq);
+        const Vec2 uv = sides_[i].uv;
         const double e = sideEnergy(sides_[i]);
         const double gain = optimiseSide(i, rng);
         moved[i] = gain > kSideGain * e;
+        changed[i] = sides_[i].uv != uv;
       });
     std::fill(next.begin(), next.end(), 0);
-    for (int i : order)
+    std::vector<int> changedSides;
+    for (int i : order) {
       if (moved[i])
         for (int j : touched[i]) next[j] = 1;
+      if (changed[i]) changedSides.push_back(i);
+    }
     active.swap(next);
     out.rounds = round + 1;
-    const double after = totalEnergy();
+    remeasure(changedSides, current, stretch);
+    const double after = totalEnergy(current.error, stretch);
     const bool falls = after < energy * (1 - kStopGain);
     energy = after;
     if (!falls || std::find(active.begin(), active.end(), 1) == active.end()) break;
@@ -656,9 +708,11 @@ SeamResult SeamOptimiser::run() {
   for (const Side& side : sides_) out.movedSides += side.uv != side.start;
   out.roundSeconds = secondsSince(t);
   auto memo = std::make_shared<SeamMemo>();
-  memo->uv.reserve(sides_.size());
-  memo->near.reserve(sides_.size());
+  const size_t numKeyed = size_t(std::count(keyed.begin(), keyed.end(), 1));
+  memo->uv.reserve(numKeyed);
+  memo->near.reserve(numKeyed);
   for (size_t i = 0; i < sides_.size(); ++i) {
+    if (!keyed[i]) continue;
     if (!sides_[i].fixed) memo->uv[keys[i]] = sides_[i].uv;
     memo->near[shapeKeys[i]] = {sides_[i].start, sides_[i].uv};
   }
@@ -669,8 +723,8 @@ SeamResult SeamOptimiser::run() {
   for (int f = 0; f < nf; ++f)
     if (faceSide_[f][0] >= 0)
       for (int k = 0; k < 3; ++k) out.map.cornerUV[f][k] = uvOf(f, k);
-  const EdgeFigures after = measureEdges(gradients);
-  measure(after, faceStretches(), out.deltaEAfter, out.gradientAfter, out.maxStretchAfter);
+  const EdgeFigures& after = current;
+  measure(after, stretch, out.deltaEAfter, out.gradientAfter, out.maxStretchAfter);
   // Per face: mean Delta E over its seam edges' samples.
   std::vector<double> sum(nf, 0);
   std::vector<int> count(nf, 0);

@@ -418,20 +418,25 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
     for (auto& f : fits) f = shared;
     // Then per channel, the samples chosen by the current transforms; twice, as the choice depends on them.
     long outliers = 0, counted = 0;
+    // The channels' fits read nothing of each other: they run side by side.
     for (int round = 0; round < 2; ++round) {
-      outliers = counted = 0;
-      for (int c = 0; c < 3; ++c) {
-        job.checkCancel();
-        obs.clear();
+      job.checkCancel();
+      std::array<long, 3> used3{};
+      tbb::parallel_for(0, 3, [&](int c) {
+        std::vector<Observation> channel;
         for (const Sample& s : used)
           if (unclipped(s, c, fits[c].gain, fits[c].offset, clip))
-            obs.push_back({s.a, s.b, s.xa[c], s.xb[c], s.weight * s.flat[c]});
+            channel.push_back({s.a, s.b, s.xa[c], s.xb[c], s.weight * s.flat[c]});
         const Fit previous = fits[c];
-        fits[c] = fitObservations(obs, unknownOf, free, options.mode == BalanceMode::GainOffset, options.loss, options,
-                                  options.loss == BalanceLoss::L2 ? nullptr : &previous,
+        fits[c] = fitObservations(channel, unknownOf, free, options.mode == BalanceMode::GainOffset, options.loss,
+                                  options, options.loss == BalanceLoss::L2 ? nullptr : &previous,
                                   options.channelPrior > 0 ? &shared.gain : nullptr);
+        used3[c] = static_cast<long>(channel.size());
+      });
+      outliers = counted = 0;
+      for (int c = 0; c < 3; ++c) {
         out.iterations = std::max(out.iterations, fits[c].iterations);
-        outliers += fits[c].outliers, counted += static_cast<long>(obs.size());
+        outliers += fits[c].outliers, counted += used3[c];
       }
     }
     out.samples = static_cast<int>(counted / 3);

@@ -822,7 +822,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
   }
   std::vector<double> ringPix(numRegions, 0), ringArea(numRegions, 0);
   std::vector<int> stamp(nf, -1);
-  const std::vector<std::vector<int>> vertexFaces = facesAroundVertices(mesh);
+  const VertexFaces vertexFaces = facesAroundVertices(mesh);
   for (int f = 0; f < nf; ++f) {
     const int r = faceLabel[f];
     if (r < 0) continue;

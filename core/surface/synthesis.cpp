@@ -142,9 +142,9 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   chart->texelsPerUnit = in.texelsPerUnit;
   chart->blur = blur;
   chart->holeFaces = in.holeFaces.size();
-  std::vector<std::vector<int>> ownVertexFaces;
+  VertexFaces ownVertexFaces;
   if (!in.vertexFaces) ownVertexFaces = facesAroundVertices(mesh);
-  const std::vector<std::vector<int>>& vertexFaces = in.vertexFaces ? *in.vertexFaces : ownVertexFaces;
+  const VertexFaces& vertexFaces = in.vertexFaces ? *in.vertexFaces : ownVertexFaces;
 
   // Rings of mapped faces around the hole (faces sharing a vertex with the previous ring).
   std::vector<int> ring(nf, -1);

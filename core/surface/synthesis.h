@@ -22,6 +22,7 @@
 namespace montage {
 
 struct Mesh;
+struct VertexFaces;
 struct Photo;
 struct SeamLevelling;
 class JobControl;
@@ -105,7 +106,7 @@ struct SynthesisInput {
   bool reuseCharts = false;                  // memo: a kept chart covering the hole serves (the preview)
   uint64_t photosKey = 0;                    // what identifies the photos' content (0: unknown, no chart reuse)
   // The faces around each vertex of `mesh` (may be null: made per call), for the band's rings.
-  const std::vector<std::vector<int>>* vertexFaces = nullptr;
+  const VertexFaces* vertexFaces = nullptr;
 };
 
 struct SynthesisResult {

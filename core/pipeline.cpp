@@ -144,7 +144,7 @@ constexpr const char* kWarm = "#warm";  // camera keys of the preview's warm-sta
 
 // One photo's fit (or the reason there is none) under the project's options. `start`: the preview's
 // warm start (see fitCamera), with one silhouette round instead of the final's four, on kept contours
-// within kPreviewFramePx (`contours`, the photo's memo).
+// within kPreviewContourPx (`contours`, the photo's memo), stopping at a coarser step.
 CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silhouette, ContourMemo* contours,
                    const PhotoCamera* start = nullptr) {
   const Photo& p = *scene.photos[photo];
@@ -159,7 +159,8 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
     return fit;
   }
   CameraFitOptions options = cameraFitOptions(scene.project.options);
-  if (start) options.silhouetteRounds = 1, options.contourReusePx = kPreviewFramePx;
+  // A step of 1e-6 moves a point by well under 0.01 px: half the LM iterations of the final's 1e-10.
+  if (start) options.silhouetteRounds = 1, options.contourReusePx = kPreviewContourPx, options.silhouetteStep = 1e-6;
   CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options, start);
   if (start && !fit.fits) return fitPhoto(scene, photo, silhouette, contours);  // too far from the start
   refineOnSilhouette(*scene.mesh, p, fit, options, silhouette, contours);
@@ -280,7 +281,11 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
   BalancedScene out;
   std::vector<uint64_t> keys;  // the photos' content, for the memo
   for (size_t i = 0; i < scene->photos.size(); ++i) keys.push_back(photoKeyOf(*scene, i));
-  out.balance = balanceColors(mapping.partition.mesh, mapping.map, photos, locked, options, job, memo, keys);
+  // The preview starts from the last balance and stops at a gain step of 1e-5, a thousandth of the
+  // 1/255 steps (kPreviewBalanceLevels) within which it keeps the last balanced photos anyway.
+  const ColorBalance* warm = toleranceLevels > 0 && previous ? &previous->balance : nullptr;
+  if (warm) options.tolerance = 1e-5;
+  out.balance = balanceColors(mapping.partition.mesh, mapping.map, photos, locked, options, job, memo, keys, warm);
   out.sources = scene->photos;
   bool changed = false;
   for (const ColorTransform& t : out.balance.transforms) changed = changed || !t.identity();
@@ -811,8 +816,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
       << kTierNames[size_t(tier)];
   const bool colorCached = seamCached && key.str() == colorKey_ && cachedColors_;
   if (!colorCached) {
-    cachedColors_ =
-        std::make_shared<const SurfaceColors>(colorSurface(colorScene, *cachedSeamed_, job, tier, &solvers_, &synthesis_));
+    cachedColors_ = std::make_shared<const SurfaceColors>(
+        colorSurface(colorScene, *cachedSeamed_, job, tier, &solvers_, &synthesis_));
     solvers_.endRun();
     synthesis_.endRun();
     colorKey_ = key.str();

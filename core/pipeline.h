@@ -147,6 +147,11 @@ Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* ca
 // null; the preview tier): the last run's projection. View selection starts from its choices (one sweep),
 // faces whose views barely changed keep them, and a kept frame within kPreviewFramePx serves.
 inline constexpr double kPreviewFramePx = 0.5;
+// The preview's silhouette refinement takes a kept contour made through a camera within this many pixels
+// (CameraFitOptions::contourReusePx): the projection of a contour generator moves with the camera only
+// to second order, so a contour through a nearby camera traces the same silhouette (camera_test measures
+// the camera it gives against contours made anew).
+inline constexpr double kPreviewContourPx = 3.0;
 ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const Mapping>& paper,
                                const CameraStage& cameras, const JobControl& job = {}, ViewFrameCache* frames = nullptr,
                                const ProjectionStage* previous = nullptr);
@@ -156,7 +161,8 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
 // gives a balanced photo within `toleranceLevels` 8-bit steps of the kept one (balancedPhotoDistance) keeps
 // the kept balanced photo, the same object, and, unless its pixels are the same, the kept transform. With
 // tolerance 0 (the final) that is exact: the same pixels bit for bit. The preview keeps within
-// kPreviewBalanceLevels. `memo` (may be null) keeps the seam samples across runs (BalanceMemo, exact).
+// kPreviewBalanceLevels, and its fits start from the previous transforms (balanceColors' `warm`). `memo`
+// (may be null) keeps the seam samples across runs (BalanceMemo, exact).
 inline constexpr double kPreviewBalanceLevels = 1.0;
 BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping,
                            const JobControl& job = {}, const BalancedScene* previous = nullptr,

@@ -1,6 +1,7 @@
 // Tests of core/surface/balance: known gains recovered on a flat two-photo scene and on synthetic scenes
 // of a real mesh taken at different exposures, the locked photo unchanged bit for bit, the robust loss
-// against a local outlier, and the pipeline stage feeding the balanced photos to the later stages.
+// against a local outlier, the preview's warm start, and the pipeline stage feeding the balanced photos to
+// the later stages.
 #include "surface/balance.h"
 
 #include <filesystem>
@@ -103,6 +104,44 @@ TEST(Balance, RecoversKnownGainsOnAFlatScene) {
   const ColorBalance none = balanceColors(*scene.mesh, scene.map, {a.get(), b.get()}, {true, false}, off, {});
   EXPECT_TRUE(none.transforms[1].identity());
   EXPECT_EQ(none.mismatchAfter, none.mismatchBefore);
+}
+
+TEST(Balance, AWarmStartLandsWhereTheColdFitDoesInFewerIterations) {
+  // The preview's warm start: from an earlier balance 5% off (gains and common gain), with the preview's
+  // tolerance, the fit ends where a cold fit does, in fewer iterations; a warm start of other references
+  // is not taken (the result is the cold fit's, bit for bit).
+  const FlatScene scene = flatScene();
+  const Vec3f gain(0.62f, 0.7f, 0.8f);
+  const auto a = makePhoto(500, 500, texture);
+  const auto b = makePhoto(500, 500, [&](double x, double y) { return exposed(texture(x, y), gain); });
+  const std::vector<const Photo*> photos = {a.get(), b.get()};
+  const BalanceOptions options;
+  const ColorBalance cold = balanceColors(*scene.mesh, scene.map, photos, {true, false}, options, {});
+  ASSERT_EQ(cold.commonGain.size(), 2u);
+  ColorBalance off = cold;
+  off.commonGain[1] *= 1.05;
+  off.transforms[1].gain *= 1.05f;
+  off.transforms[1].offset += Vec3f::Constant(0.01f);
+  BalanceOptions preview = options;
+  preview.tolerance = 1e-5;
+  const ColorBalance warm =
+      balanceColors(*scene.mesh, scene.map, photos, {true, false}, preview, {}, nullptr, {}, &off);
+  std::printf("cold: %d iterations, gain %.5f %.5f %.5f; warm: %d iterations, gain %.5f %.5f %.5f\n", cold.iterations,
+              cold.transforms[1].gain[0], cold.transforms[1].gain[1], cold.transforms[1].gain[2], warm.iterations,
+              warm.transforms[1].gain[0], warm.transforms[1].gain[1], warm.transforms[1].gain[2]);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(warm.transforms[1].gain[c], cold.transforms[1].gain[c], 1e-3) << "channel " << c;
+    EXPECT_NEAR(warm.transforms[1].offset[c], cold.transforms[1].offset[c], 1e-3) << "channel " << c;
+  }
+  EXPECT_LT(warm.iterations, cold.iterations);
+  EXPECT_TRUE(warm.transforms[0].identity());
+  // Another reference (photo 1 locked): the warm start does not serve.
+  const ColorBalance other = balanceColors(*scene.mesh, scene.map, photos, {false, true}, options, {});
+  const ColorBalance unwarmed =
+      balanceColors(*scene.mesh, scene.map, photos, {false, true}, options, {}, nullptr, {}, &off);
+  EXPECT_EQ(unwarmed.transforms[0].gain, other.transforms[0].gain);
+  EXPECT_EQ(unwarmed.transforms[0].offset, other.transforms[0].offset);
+  EXPECT_EQ(unwarmed.iterations, other.iterations);
 }
 
 TEST(Balance, ChannelPriorPullsEachChannelTowardsThePhotosCommonGain) {
@@ -369,12 +408,13 @@ TEST(Balance, PreviewKeepsBalancedPhotosWithinOneLevelAndTheFinalOnlyTheSamePixe
       ++kept;
       EXPECT_LE(fromFresh, kPreviewBalanceLevels);  // within the tolerance of what it would be
       // The transform shown makes the kept photo's pixels.
-      EXPECT_EQ(balancedPhotoDistance(dragged.balanced->balance.transforms[p], first.balanced->balance.transforms[p],
-                                      depth),
-                0);
-    } else {
-      EXPECT_EQ(fromFresh, 0);
-      EXPECT_EQ(cv::norm(photo->rgb, fresh.scene->photos[p]->rgb, cv::NORM_INF), 0);
+      EXPECT_EQ(
+          balancedPhotoDistance(dragged.balanced->balance.transforms[p], first.balanced->balance.transforms[p], depth),
+          0);
+    } else {  // made again by the warm fit (started from the last transforms): within the tolerance too
+      EXPECT_LE(fromFresh, kPreviewBalanceLevels);
+      const auto made = balancedPhoto(dragged.scene->photos[p], dragged.balanced->balance.transforms[p]);
+      EXPECT_EQ(cv::norm(photo->rgb, made->rgb, cv::NORM_INF), 0);
     }
   }
   EXPECT_EQ(kept, dragged.balanced->photosKept);
@@ -386,10 +426,15 @@ TEST(Balance, PreviewKeepsBalancedPhotosWithinOneLevelAndTheFinalOnlyTheSamePixe
     EXPECT_EQ(final.balanced->balance.transforms[p].gain, finalFresh.balance.transforms[p].gain);
     EXPECT_EQ(cv::norm(final.balanced->scene->photos[p]->rgb, finalFresh.scene->photos[p]->rgb, cv::NORM_INF), 0);
   }
-  // A photo far from the kept transform is made again: a drift of one step beyond the tolerance.
+  // A photo far from the kept transform is made again: a drift of one step beyond the tolerance. The
+  // preview's fit starts from the kept transforms (5% off for photo 1) and ends within the tolerance of a
+  // fresh fit.
   BalancedScene shifted = *dragged.balanced;
   shifted.balance.transforms[1].gain *= 1.05f;
   const BalancedScene again = balanceScene(dragged.scene, *dragged.projection->mapping, {}, &shifted, 1.0);
+  const ColorTransform& t = again.balance.transforms[1];
   EXPECT_NE(again.scene->photos[1], shifted.scene->photos[1]);
-  EXPECT_EQ(cv::norm(again.scene->photos[1]->rgb, fresh.scene->photos[1]->rgb, cv::NORM_INF), 0);
+  EXPECT_LE(balancedPhotoDistance(t, fresh.balance.transforms[1], dragged.scene->photos[1]->rgb.depth()),
+            kPreviewBalanceLevels);
+  EXPECT_EQ(cv::norm(again.scene->photos[1]->rgb, balancedPhoto(dragged.scene->photos[1], t)->rgb, cv::NORM_INF), 0);
 }

@@ -222,6 +222,46 @@ TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
     refineOnSilhouette(*d.mesh, photo, third, {}, nullptr, &memo);
     EXPECT_EQ(memo.contours.size(), 4u);
     EXPECT_EQ(projectionGap(*d.mesh, first.camera, third.camera), 0);
+    // The preview's coarser LM step (1e-6 instead of 1e-10) ends within a hundredth of a pixel.
+    CameraFitOptions fine, coarse;
+    fine.silhouetteRounds = coarse.silhouetteRounds = 1;
+    coarse.silhouetteStep = 1e-6;
+    CameraFit a = start, b = start;
+    refineOnSilhouette(*d.mesh, photo, a, fine);
+    refineOnSilhouette(*d.mesh, photo, b, coarse);
+    ASSERT_GT(a.silhouettePoints, 0);
+    ASSERT_GT(b.silhouettePoints, 0);
+    EXPECT_GT(projectionGap(*d.mesh, start.camera, b.camera), 0.05);  // it did refine
+    EXPECT_LT(projectionGap(*d.mesh, a.camera, b.camera), 0.01);
+    // The preview's contours serve cameras up to kPreviewContourPx away: a contour generator's projection
+    // moves with the camera only to second order. A fit nudged about 2 px refines on the kept contour,
+    // extracting none, and ends as near the four-round fit as a refinement on contours made anew (both
+    // within a twentieth of a pixel of it here, and within a tenth of each other).
+    CameraFitOptions reuse = coarse, anew = coarse;
+    reuse.contourReusePx = kPreviewContourPx;
+    CameraFit nudged = first;
+    nudged.silhouettePoints = 0;
+    nudged.camera.pinhole.fx *= 1.01, nudged.camera.pinhole.fy *= 1.01;
+    const double shift = cameraShiftPx(*d.mesh, first.camera.pinhole, nudged.camera.pinhole);
+    ASSERT_GT(shift, 1.0);
+    ASSERT_LT(shift, kPreviewContourPx);
+    ContourMemo kept2;  // the contour through `first`'s camera, the last one the refinements above extracted
+    kept2.contours = {memo.contours.back()};
+    ASSERT_EQ(cameraShiftPx(*d.mesh, kept2.contours.front().first, first.camera.pinhole), 0);
+    CameraFit viaKept = nudged, viaNew = nudged;
+    refineOnSilhouette(*d.mesh, photo, viaKept, reuse, nullptr, &kept2);
+    refineOnSilhouette(*d.mesh, photo, viaNew, anew);
+    EXPECT_EQ(kept2.contours.size(), 1u);  // nothing extracted
+    ASSERT_GT(viaKept.silhouettePoints, 0);
+    ASSERT_GT(viaNew.silhouettePoints, 0);
+    const double gap = projectionGap(*d.mesh, viaKept.camera, viaNew.camera);
+    const double keptFromFinal = projectionGap(*d.mesh, viaKept.camera, first.camera);
+    const double newFromFinal = projectionGap(*d.mesh, viaNew.camera, first.camera);
+    std::printf(
+        "nudged %.2f px: kept contours end %.4f px from new ones; from the four-round fit: kept %.4f, new %.4f px\n",
+        shift, gap, keptFromFinal, newFromFinal);
+    EXPECT_LT(gap, 0.1);
+    EXPECT_LT(keptFromFinal, newFromFinal + 0.01);
   }
   // Exact clicks need no silhouette: the fit is left as it is.
   DemoScene exact = demoScene("camera_fit_silhouette_exact", 2, 100, 0, 512);

@@ -634,7 +634,7 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
                                                fit.camera.pinhole.cy, radial);
     cv::Mat x = callback->pack(p);
     try {
-      cv::LMSolver::create(callback, 50, 1e-10)->run(x);
+      cv::LMSolver::create(callback, 50, o.silhouetteStep)->run(x);
     } catch (const cv::Exception&) {
       return;
     }

@@ -75,6 +75,8 @@ struct CameraFitOptions {
   double silhouetteSpacingPx = 2;         // sample spacing along the mesh's projected contour, pixels
   double silhouetteHuberPx = 1.5;         // silhouette residuals beyond this count linearly (Huber)
   int silhouetteRounds = 4;               // LM rounds, each on the contour re-extracted from the last camera
+  double silhouetteStep = 1e-10;          // a round's LM stops when its step is below this (the parameters:
+                                          // rotation in radians, translation in mesh units, focal in pixels)
   double contourReusePx = 0;              // > 0 (the preview tier): a ContourMemo's contour serves a camera within
                                           // this many pixels of the one it was extracted through
 };

@@ -184,6 +184,9 @@ class Partitioner {
   struct PhotoCurve {
     int a, b;  // points
     Vec2 pa, pb;
+    Vec2 lo, hi;  // bounding box
+    PhotoCurve(int a_, int b_, const Vec2& pa_, const Vec2& pb_)
+        : a(a_), b(b_), pa(pa_), pb(pb_), lo(pa_.cwiseMin(pb_)), hi(pa_.cwiseMax(pb_)) {}
   };
 
   // ---- Setup ----
@@ -243,11 +246,13 @@ class Partitioner {
       }
     }
     photoFeatures_.assign(numPhotos_, {});
+    photoFeaturePos_.assign(numPhotos_, {});
     for (int a : features_)
       for (int p = 0; p < numPhotos_; ++p)
         if (hasPos(a, p)) {
           photoMask_[size_t(a) * maskWords_ + p / 64] |= uint64_t(1) << (p % 64);
           photoFeatures_[p].push_back(a);
+          photoFeaturePos_[p].push_back(pos(a, p));
         }
     done_.assign(features_.size() * (features_.size() - (features_.empty() ? 0 : 1)) / 2, false);
     // The state hash: the mesh, the options that shape paths, the feature vertices.
@@ -304,8 +309,7 @@ class Partitioner {
   std::vector<int> commonPhotos(int a, int b) const {
     std::vector<int> photos;
     for (int w = 0; w < maskWords_; ++w)
-      for (uint64_t m = photoMask_[size_t(a) * maskWords_ + w] & photoMask_[size_t(b) * maskWords_ + w]; m;
-           m &= m - 1)
+      for (uint64_t m = photoMask_[size_t(a) * maskWords_ + w] & photoMask_[size_t(b) * maskWords_ + w]; m; m &= m - 1)
         photos.push_back(64 * w + __builtin_ctzll(m));
     return photos;
   }
@@ -345,7 +349,10 @@ class Partitioner {
       reject(a, b, photo, RejectReason::CurveCrossesCurve, "both ends at the same position", why);
       return false;
     }
+    const Vec2 lo = pa.cwiseMin(pb), hi = pa.cwiseMax(pb);
     for (const PhotoCurve& c : photoCurves_[photo]) {
+      // Closed segments whose boxes are apart cannot meet (nor share an end: it lies in both boxes).
+      if (hi.x() < c.lo.x() || c.hi.x() < lo.x() || hi.y() < c.lo.y() || c.hi.y() < lo.y()) continue;
       bool meets;
       if (c.a == a || c.a == b || c.b == a || c.b == b) {
         // Sharing one end point s: only a collinear overlap counts.
@@ -363,11 +370,17 @@ class Partitioner {
         return false;
       }
     }
-    for (int k : photoFeatures_[photo])
-      if (k != a && k != b && onSegment(pa, pb, pos(k, photo))) {
+    const std::vector<int>& features = photoFeatures_[photo];
+    const std::vector<Vec2>& at = photoFeaturePos_[photo];
+    for (size_t i = 0; i < features.size(); ++i) {
+      const Vec2& q = at[i];
+      if (q.x() < lo.x() || q.x() > hi.x() || q.y() < lo.y() || q.y() > hi.y()) continue;  // onSegment's box
+      const int k = features[i];
+      if (k != a && k != b && orient2(pa, pb, q) == 0) {
         reject(a, b, photo, RejectReason::CurveCrossesCurve, "passes through point " + std::to_string(k), why);
         return false;
       }
+    }
     // Paper 3.1: mean distance to the foreground over samples less than a pixel apart.
     const Photo& image = *scene_.photos[photo];
     if (image.distance.empty()) return true;
@@ -747,7 +760,7 @@ class Partitioner {
   void addCurve(int id, int photo) {
     MeshPath& path = out_.paths[id];
     path.curves.push_back({photo, pos(path.fromPoint, photo), pos(path.toPoint, photo)});
-    photoCurves_[photo].push_back({path.fromPoint, path.toPoint, path.curves.back().from, path.curves.back().to});
+    photoCurves_[photo].emplace_back(path.fromPoint, path.toPoint, path.curves.back().from, path.curves.back().to);
     ++version_;
   }
 
@@ -917,10 +930,11 @@ class Partitioner {
   std::vector<bool> done_;                            // pairs settled by the all-pairs queue (doneBit)
   std::vector<int> featureIndex_;                     // per point: its index in features_, -1 if not canonical
   int maskWords_ = 0;                                 // 64-bit words per point in photoMask_
-  std::vector<uint64_t> photoMask_;                   // [point * maskWords_ + w]: bit p = the point has a position in photo p
-  std::vector<std::vector<int>> photoFeatures_;       // per photo: the features with a position in it, in features_ order
-  std::set<std::pair<uint64_t, int>> chainTried_;     // (pair, photo) tried as a chain segment
-  int version_ = 0;                                   // bumped at every change of paths or mesh
+  std::vector<uint64_t> photoMask_;  // [point * maskWords_ + w]: bit p = the point has a position in photo p
+  std::vector<std::vector<int>> photoFeatures_;     // per photo: the features with a position in it, in features_ order
+  std::vector<std::vector<Vec2>> photoFeaturePos_;  // ... and their positions there
+  std::set<std::pair<uint64_t, int>> chainTried_;   // (pair, photo) tried as a chain segment
+  int version_ = 0;                                 // bumped at every change of paths or mesh
   struct {
     int from = -1, to = -1, version = -1;
     std::vector<int> path;

@@ -21,6 +21,7 @@
 //   face area, so the balance does not depend on the mesh's resolution.
 #include "mapping/projection.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <Eigen/LU>
@@ -265,73 +266,86 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
   view.vertexUV.assign(nv, Vec2::Constant(kNaN));
   view.vertexVisible.assign(nv, 0);
   view.vertexSilhouettePx.assign(nv, 0.0f);
-  for (int v = 0; v < nv; ++v) {
-    const Vec3 p = mesh.position(v);
-    double z = 0;
-    Vec2 px;
-    if (!cam.project(p, px, &z)) continue;
-    pinhole[v] = px;
-    Vec2 uv;
-    if (predictPixel(fit, field, p, uv)) view.vertexUV[v] = uv;
-    view.vertexVisible[v] = seenAt(px, z, -1, v) ? 1 : 0;
-    if (view.vertexVisible[v]) view.vertexSilhouettePx[v] = at(silhouette, px);
-  }
+  // Vertices, faces and edges each write only their own entries: they run in parallel (the same result).
+  tbb::parallel_for(tbb::blocked_range<int>(0, nv, 1024), [&](const tbb::blocked_range<int>& range) {
+    for (int v = range.begin(); v < range.end(); ++v) {
+      const Vec3 p = mesh.position(v);
+      double z = 0;
+      Vec2 px;
+      if (!cam.project(p, px, &z)) continue;
+      pinhole[v] = px;
+      Vec2 uv;
+      if (predictPixel(fit, field, p, uv)) view.vertexUV[v] = uv;
+      view.vertexVisible[v] = seenAt(px, z, -1, v) ? 1 : 0;
+      if (view.vertexVisible[v]) view.vertexSilhouettePx[v] = at(silhouette, px);
+    }
+  });
 
   view.faceQuality.assign(nf, 0.0f);
   const std::array<Vec3, 4> samples = {Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3), Vec3(0.8, 0.1, 0.1), Vec3(0.1, 0.8, 0.1),
                                        Vec3(0.1, 0.1, 0.8)};
-  for (int f = 0; f < nf; ++f) {
-    const auto c = mesh.faceVertices(f);
-    if (!view.vertexVisible[c[0]] || !view.vertexVisible[c[1]] || !view.vertexVisible[c[2]]) continue;
-    const auto q = mesh.facePositions(f);
-    const Vec3 centroid = (q[0] + q[1] + q[2]) / 3;
-    const Vec3 normal = mesh.faceNormal(f);
-    if (normal.dot((eye - centroid).normalized()) < o.minCos) continue;
-    bool seen = true;
-    double silhouetteDistance = std::numeric_limits<double>::infinity();
-    for (const Vec3& b : samples) {
-      const Vec3 point = b[0] * q[0] + b[1] * q[1] + b[2] * q[2];
-      Vec2 px;
-      double z = 0;
-      if (!cam.project(point, px, &z) || !seenAt(px, z, f, -1)) {
-        seen = false;
-        break;
+  enum : char { kKept, kFlipped, kBackground };
+  std::vector<char> refused(nf, kKept);
+  tbb::parallel_for(tbb::blocked_range<int>(0, nf, 1024), [&](const tbb::blocked_range<int>& range) {
+    for (int f = range.begin(); f < range.end(); ++f) {
+      const auto c = mesh.faceVertices(f);
+      if (!view.vertexVisible[c[0]] || !view.vertexVisible[c[1]] || !view.vertexVisible[c[2]]) continue;
+      const auto q = mesh.facePositions(f);
+      const Vec3 centroid = (q[0] + q[1] + q[2]) / 3;
+      const Vec3 normal = mesh.faceNormal(f);
+      if (normal.dot((eye - centroid).normalized()) < o.minCos) continue;
+      bool seen = true;
+      double silhouetteDistance = std::numeric_limits<double>::infinity();
+      for (const Vec3& b : samples) {
+        const Vec3 point = b[0] * q[0] + b[1] * q[1] + b[2] * q[2];
+        Vec2 px;
+        double z = 0;
+        if (!cam.project(point, px, &z) || !seenAt(px, z, f, -1)) {
+          seen = false;
+          break;
+        }
+        silhouetteDistance = std::min<double>(silhouetteDistance, at(silhouette, px));
       }
-      silhouetteDistance = std::min<double>(silhouetteDistance, at(silhouette, px));
+      if (!seen) continue;
+      const std::array<Vec2, 3> uv = {view.vertexUV[c[0]], view.vertexUV[c[1]], view.vertexUV[c[2]]};
+      const double projected = cross2(pinhole[c[1]] - pinhole[c[0]], pinhole[c[2]] - pinhole[c[0]]);
+      const double mapped = cross2(uv[1] - uv[0], uv[2] - uv[0]);
+      if (!std::isfinite(mapped) || projected * mapped <= 0 || std::abs(mapped) < 1e-6) {
+        refused[f] = kFlipped;
+        continue;
+      }
+      bool background = false;
+      for (const Vec2& x : {uv[0], uv[1], uv[2], Vec2((uv[0] + uv[1] + uv[2]) / 3)}) {
+        if (!photo.inside(x.x(), x.y()))
+          background = true;
+        else if (photo.hasBackground && photo.distanceAt(x.x(), x.y()) > o.maxBackgroundPx)
+          background = true;
+      }
+      if (background) {
+        refused[f] = kBackground;
+        continue;
+      }
+      const double factor = std::clamp(silhouetteDistance / std::max(1e-9, o.silhouetteMarginPx), 0.1, 1.0);
+      view.faceQuality[f] = static_cast<float>(0.5 * std::abs(mapped) * factor);
+      if (!(view.faceQuality[f] > 0)) view.faceQuality[f] = std::numeric_limits<float>::min();
     }
-    if (!seen) continue;
-    const std::array<Vec2, 3> uv = {view.vertexUV[c[0]], view.vertexUV[c[1]], view.vertexUV[c[2]]};
-    const double projected = cross2(pinhole[c[1]] - pinhole[c[0]], pinhole[c[2]] - pinhole[c[0]]);
-    const double mapped = cross2(uv[1] - uv[0], uv[2] - uv[0]);
-    if (!std::isfinite(mapped) || projected * mapped <= 0 || std::abs(mapped) < 1e-6) {
-      ++view.refusedFlipped;
-      continue;
-    }
-    bool background = false;
-    for (const Vec2& x : {uv[0], uv[1], uv[2], Vec2((uv[0] + uv[1] + uv[2]) / 3)}) {
-      if (!photo.inside(x.x(), x.y()))
-        background = true;
-      else if (photo.hasBackground && photo.distanceAt(x.x(), x.y()) > o.maxBackgroundPx)
-        background = true;
-    }
-    if (background) {
-      ++view.refusedBackground;
-      continue;
-    }
-    const double factor = std::clamp(silhouetteDistance / std::max(1e-9, o.silhouetteMarginPx), 0.1, 1.0);
-    view.faceQuality[f] = static_cast<float>(0.5 * std::abs(mapped) * factor);
-    if (!(view.faceQuality[f] > 0)) view.faceQuality[f] = std::numeric_limits<float>::min();
-  }
+  });
+  view.refusedFlipped = static_cast<int>(std::count(refused.begin(), refused.end(), kFlipped));
+  view.refusedBackground = static_cast<int>(std::count(refused.begin(), refused.end(), kBackground));
   view.edgeLuv.assign(tri.n_edges(), Vec3f::Zero());
-  for (auto eh : tri.edges()) {
-    if (tri.is_boundary(eh)) continue;
-    const auto h = tri.halfedge_handle(eh, 0);
-    if (!(view.faceQuality[tri.face_handle(h).idx()] > 0) || !(view.faceQuality[tri.opposite_face_handle(h).idx()] > 0))
-      continue;
-    const Vec2 mid =
-        0.5 * (view.vertexUV[tri.from_vertex_handle(h).idx()] + view.vertexUV[tri.to_vertex_handle(h).idx()]);
-    view.edgeLuv[eh.idx()] = photo.luvAt(mid.x(), mid.y());
-  }
+  tbb::parallel_for(tbb::blocked_range<int>(0, int(tri.n_edges()), 1024), [&](const tbb::blocked_range<int>& range) {
+    for (int e = range.begin(); e < range.end(); ++e) {
+      const OpenMesh::EdgeHandle eh(e);
+      if (tri.is_boundary(eh)) continue;
+      const auto h = tri.halfedge_handle(eh, 0);
+      if (!(view.faceQuality[tri.face_handle(h).idx()] > 0) ||
+          !(view.faceQuality[tri.opposite_face_handle(h).idx()] > 0))
+        continue;
+      const Vec2 mid =
+          0.5 * (view.vertexUV[tri.from_vertex_handle(h).idx()] + view.vertexUV[tri.to_vertex_handle(h).idx()]);
+      view.edgeLuv[e] = photo.luvAt(mid.x(), mid.y());
+    }
+  });
   return view;
 }
 

@@ -107,8 +107,8 @@ std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const s
   std::vector<std::vector<Sample>> perEdge(seams.size());
   std::vector<uint64_t> keys(seams.size(), 0);
   std::vector<char> kept(seams.size(), 0);
-  const uint64_t optionsKey = hashMix(hashMix(hashMix(0xba1a5ce, options.flatRadiusPx), options.flatRange),
-                                      uint64_t(options.linear));
+  const uint64_t optionsKey =
+      hashMix(hashMix(hashMix(0xba1a5ce, options.flatRadiusPx), options.flatRange), uint64_t(options.linear));
   tbb::parallel_for(size_t(0), seams.size(), [&](size_t i) {
     std::vector<Sample>& out = perEdge[i];
     const auto h0 = seams[i];
@@ -302,7 +302,7 @@ Fit fitObservations(const std::vector<Observation>& obs, const std::vector<int>&
       change = std::max({change, std::abs(g - fit.gain[p]), std::abs(off - fit.offset[p])});
       fit.gain[p] = g, fit.offset[p] = off;
     }
-    if ((loss == BalanceLoss::L2 && it >= first) || (it > 0 && change < 1e-7)) break;
+    if ((loss == BalanceLoss::L2 && it >= first) || (it > 0 && change < options.tolerance)) break;
   }
   if (loss != BalanceLoss::L2 && scale > 0)
     for (const Observation& o : obs) fit.outliers += std::abs(residual(o)) / scale > lossThreshold(loss);
@@ -345,12 +345,13 @@ Vec3f ColorTransform::apply(const Vec3f& srgb) const {
 
 ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
                            const std::vector<bool>& locked, const BalanceOptions& options, const JobControl& job,
-                           BalanceMemo* memo, const std::vector<uint64_t>& photoKeys) {
+                           BalanceMemo* memo, const std::vector<uint64_t>& photoKeys, const ColorBalance* warm) {
   const auto start = Clock::now();
   const int np = static_cast<int>(photos.size());
   TM_CHECK(locked.empty() || static_cast<int>(locked.size()) == np,
            "colour balance: " + std::to_string(locked.size()) + " lock flags for " + std::to_string(np) + " photos");
   TM_CHECK(options.maxIterations >= 1, "colour balance: maxIterations must be >= 1");
+  TM_CHECK(options.tolerance > 0, "colour balance: tolerance must be > 0");
   TM_CHECK(options.offsetSigma > 0, "colour balance: offsetSigma must be > 0");
   TM_CHECK(options.saturated > 0.5 && options.saturated <= 1, "colour balance: saturated must be in (0.5, 1]");
   TM_CHECK(options.darkest >= 0 && options.darkest < 0.5, "colour balance: darkest must be in [0, 0.5)");
@@ -413,13 +414,29 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
         if (unclipped(s, c, ones, zeros, clip)) obs.push_back({s.a, s.b, s.xa[c], s.xb[c], s.weight * s.flat[c]});
     // Huber is convex: its answer does not depend on the start, and it is a good start for Cauchy.
     const BalanceLoss firstLoss = options.loss == BalanceLoss::L2 ? BalanceLoss::L2 : BalanceLoss::Huber;
-    const Fit shared = fitObservations(obs, unknownOf, free, false, firstLoss, options);
+    // A warm start serves when it balanced the same photos with the same references.
+    const bool warmed = warm && warm->reference == out.reference && static_cast<int>(warm->commonGain.size()) == np &&
+                        static_cast<int>(warm->transforms.size()) == np;
+    Fit warmShared;
     std::array<Fit, 3> fits;
-    for (auto& f : fits) f = shared;
-    // Then per channel, the samples chosen by the current transforms; twice, as the choice depends on them.
+    if (warmed) {
+      warmShared.gain = warm->commonGain;
+      warmShared.offset.assign(np, 0.0);
+      for (int c = 0; c < 3; ++c) {
+        fits[c].gain.resize(np), fits[c].offset.resize(np);
+        for (int p = 0; p < np; ++p)
+          fits[c].gain[p] = warm->transforms[p].gain[c], fits[c].offset[p] = warm->transforms[p].offset[c];
+      }
+    }
+    const Fit shared = fitObservations(obs, unknownOf, free, false, firstLoss, options, warmed ? &warmShared : nullptr);
+    out.commonGain = shared.gain;
+    if (!warmed)
+      for (auto& f : fits) f = shared;
+    // Then per channel, the samples chosen by the current transforms; twice, as the choice depends on them
+    // (once from a warm start, whose transforms already chose them).
     long outliers = 0, counted = 0;
     // The channels' fits read nothing of each other: they run side by side.
-    for (int round = 0; round < 2; ++round) {
+    for (int round = 0; round < (warmed ? 1 : 2); ++round) {
       job.checkCancel();
       std::array<long, 3> used3{};
       tbb::parallel_for(0, 3, [&](int c) {

@@ -33,6 +33,7 @@ struct BalanceOptions {
   BalanceLoss loss = BalanceLoss::Cauchy;      // robust loss (docs/photos.md compares them)
   bool linear = true;                          // the transform acts on linear RGB (false: on sRGB values)
   int maxIterations = 30;                      // IRLS iterations at most
+  double tolerance = 1e-7;                     // IRLS stops when no gain or offset moves more than this
   double offsetSigma = 0.02;                   // offsets expected a priori (fit units): a photo's offset is pulled
                                                // towards 0 as by a sample of this size, so that seams showing
                                                // one colour (which cannot tell a gain from an offset) give a gain
@@ -71,6 +72,7 @@ struct ColorBalance {
   double outlierShare = 0;      // share of samples the robust loss weighs down (|r| beyond its threshold)
   double mismatchBefore = 0;    // mean Delta E*uv across the seam samples before the transforms
   double mismatchAfter = 0;     // ... and after
+  std::vector<double> commonGain;  // per photo: the gain shared by the channels (exposure), the channels' start
   double seconds = 0;
   std::vector<std::string> warnings;
 };
@@ -97,9 +99,13 @@ class BalanceMemo {
 // sides, so a feathered cut-out edge counts less.
 // With `memo` (may be null) and `photoKeys` (per photo, what identifies its pixels; 0 = unknown, never
 // kept), the samples of seam edges an earlier run saw are taken from the memo.
+// With `warm` (the preview tier: an earlier balance of the same photos), the fits start from its transforms
+// and the channels take one round of sample choice instead of two: a few iterations instead of ten or more,
+// to within options.tolerance of where they start, so the result is close to, not equal to, a cold fit's.
 ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
                            const std::vector<bool>& locked, const BalanceOptions& options, const JobControl& job,
-                           BalanceMemo* memo = nullptr, const std::vector<uint64_t>& photoKeys = {});
+                           BalanceMemo* memo = nullptr, const std::vector<uint64_t>& photoKeys = {},
+                           const ColorBalance* warm = nullptr);
 
 // How far apart the balanced photos of two transforms are: the largest difference of a balanced channel
 // value, in 8-bit steps (1/255), over every value a photo of this OpenCV depth stores. 0 means the two

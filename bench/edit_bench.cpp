@@ -2,7 +2,7 @@
 // editor's worker sees it. Per project, `--runs` times with a fresh Pipeline each time:
 //
 //   cold    the first final run (`montage run`: every stage, the atlas bake)
-//   drag    one photo point moved by 3 px, preview tier (what the editor shows after the edit)
+//   drag    one photo point moved by 3 px (--drag-px), preview tier (what the editor shows after the edit)
 //   delete  another feature deleted, preview tier
 //   add     that feature added back 1 px away from where it was, preview tier
 //   undo    back to the state after "delete", preview tier (an earlier document state)
@@ -10,7 +10,7 @@
 //   drags   with --drags K: after those, the dragged point moved K more times by 1 px each, preview
 //           tier, each from the last (a user dragging a point; the median of the K previews)
 //
-//   tm_edit_bench PROJECT... [--runs N] [--drags K] [--json FILE]
+//   tm_edit_bench PROJECT... [--runs N] [--drags K] [--drag-px D] [--json FILE]
 //   tm_edit_bench --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]
 //
 // The second form first synthesises a scene (montage synth) from M, subdivided L times by midpoint
@@ -94,8 +94,7 @@ Timed timedRun(Pipeline& pipeline, const Project& project, Tier tier) {
       if ((key.size() > 8 && key.compare(key.size() - 8, 8, "_seconds") == 0) || key == "searches" ||
           key == "searches_reused" || key == "frames_reused" || key == "views_reused" || key == "frames_near" ||
           key == "selection_kept" || key == "rounds" || key == "selection_sweeps" || key == "warm_sides" ||
-          key == "warm_near_sides" || key == "moved_sides" || key == "photos_kept" ||
-          key == "edges_kept")
+          key == "warm_near_sides" || key == "moved_sides" || key == "photos_kept" || key == "edges_kept")
         t.figures[stageName(s.stage)][key] = value;
     if (s.stage == StageId::Inpaint && s.counts.contains("regions"))  // per region: guidance, factor, solve
       t.figures["inpaint"]["regions"] = s.counts["regions"];
@@ -127,12 +126,12 @@ Project withoutPoint(Project p, int index) {
   return p;
 }
 
-nlohmann::json benchProject(const std::string& path, int runs, int drags) {
+nlohmann::json benchProject(const std::string& path, int runs, int drags, double dragPx) {
   const Project base = loadProject(path);
   const auto [drag, del] = choosePoints(base);
   Project dragged = base;
   PhotoPoint& moved = dragged.points[drag].at[0];
-  moved.x += moved.x > 10 ? -3 : 3;
+  moved.x += moved.x > dragPx + 1 ? -dragPx : dragPx;
   const Project deleted = withoutPoint(dragged, del);
   Project added = deleted;
   FeaturePoint back = base.points[del];
@@ -157,6 +156,7 @@ nlohmann::json benchProject(const std::string& path, int runs, int drags) {
   nlohmann::json out;
   out["project"] = path;
   out["points"] = base.points.size();
+  out["drag_px"] = dragPx;
   for (size_t s = 0; s < steps.size(); ++s) {
     std::vector<double> wall, cpu;
     for (const Timed& t : times[s]) wall.push_back(t.wallMs), cpu.push_back(t.cpuMs);
@@ -195,6 +195,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> projects;
   std::string mesh, work, jsonPath;
   int runs = 3, subdivide = 0, drags = 0;
+  double dragPx = 3;
   SynthOptions synth;
   synth.views = 9;
   synth.features = 342;
@@ -211,6 +212,8 @@ int main(int argc, char** argv) {
       runs = std::max(1, std::stoi(value()));
     else if (a == "--drags")
       drags = std::max(0, std::stoi(value()));
+    else if (a == "--drag-px")
+      dragPx = std::stod(value());
     else if (a == "--json")
       jsonPath = value();
     else if (a == "--mesh")
@@ -227,7 +230,7 @@ int main(int argc, char** argv) {
       work = value();
     else if (a.rfind("--", 0) == 0) {
       std::fprintf(stderr,
-                   "usage: %s PROJECT... [--runs N] [--drags K] [--json FILE]\n"
+                   "usage: %s PROJECT... [--runs N] [--drags K] [--drag-px D] [--json FILE]\n"
                    "       %s --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]\n",
                    argv[0], argv[0]);
       return 2;
@@ -235,6 +238,7 @@ int main(int argc, char** argv) {
       projects.push_back(a);
   }
   try {
+    TM_CHECK(dragPx > 0 && dragPx < 1000, "tm_edit_bench: --drag-px must be in (0, 1000) pixels");
     if (!mesh.empty()) {
       TM_CHECK(!work.empty(), "tm_edit_bench: --mesh needs --work DIR");
       std::unique_ptr<Mesh> m = requireUsable(loadMesh(mesh));
@@ -253,7 +257,7 @@ int main(int argc, char** argv) {
     all["runs"] = runs;
     for (const std::string& p : projects) {
       std::fprintf(stderr, "benchmarking %s\n", p.c_str());
-      all["projects"].push_back(benchProject(p, runs, drags));
+      all["projects"].push_back(benchProject(p, runs, drags, dragPx));
     }
     all["load_average_after"] = loadAverage();
     all["peak_mib"] = peakMiB();

@@ -612,7 +612,8 @@ TEST(Inpaint, SynthesisMemoKeepsTheSameCanvasAndThePreviewKeepsChartsThatCoverTh
   EXPECT_EQ(kept(first), (std::vector<Kept>{Kept::No, Kept::No}));
   for (const bool preview : {false, true}) {
     const InpaintResult again = run(map, photo, 1, preview);
-    EXPECT_EQ(kept(again), (std::vector<Kept>{preview ? Kept::Chart : Kept::Exact, preview ? Kept::Chart : Kept::Exact}));
+    EXPECT_EQ(kept(again),
+              (std::vector<Kept>{preview ? Kept::Chart : Kept::Exact, preview ? Kept::Chart : Kept::Exact}));
     ASSERT_EQ(first.colors.rows(), again.colors.rows());
     EXPECT_EQ((first.colors - again.colors).cwiseAbs().maxCoeff(), 0.0f);
   }
@@ -629,10 +630,11 @@ TEST(Inpaint, SynthesisMemoKeepsTheSameCanvasAndThePreviewKeepsChartsThatCoverTh
   const double firstError = scoreHole(first, map, truth, photo).meanDeltaE;
   const double keptError = scoreHole(keptRun, map, truth, drifted).meanDeltaE;
   const double freshError = scoreHole(fresh, map, truth, drifted).meanDeltaE;
-  std::printf("photo 1/255 brighter, against the first fill: kept chart max %.4f mean %.5f, synthesised again "
-              "max %.4f mean %.5f (sRGB); mean Delta E to the truth: first %.2f, kept %.2f, synthesised again "
-              "%.2f\n",
-              keptMax, keptMean, freshMax, freshMean, firstError, keptError, freshError);
+  std::printf(
+      "photo 1/255 brighter, against the first fill: kept chart max %.4f mean %.5f, synthesised again "
+      "max %.4f mean %.5f (sRGB); mean Delta E to the truth: first %.2f, kept %.2f, synthesised again "
+      "%.2f\n",
+      keptMax, keptMean, freshMax, freshMean, firstError, keptError, freshError);
   EXPECT_LT(keptMean, 1.5 / 255);
   EXPECT_LT(keptMax, 3.0 / 255);
   EXPECT_GT(freshMean, 2 * keptMean);
@@ -661,6 +663,53 @@ TEST(Inpaint, SynthesisMemoKeepsTheSameCanvasAndThePreviewKeepsChartsThatCoverTh
   local.rgb = photo.rgb.clone();
   local.rgb(cv::Rect(centre - half, centre - half, 2 * half, 2 * half)) += cv::Scalar::all(40);
   EXPECT_EQ(kept(run(map, local, 2, true)), (std::vector<Kept>{Kept::Exact, Kept::No}));
+}
+
+// An edit elsewhere renumbers the faces (a split far from the hole shifts every later face's index) while
+// the hole and its band keep their geometry: the final takes the same canvas's synthesis (exact) and lays
+// the renumbered faces over it, filling the hole as before. A kept chart's faces by their old indices would
+// name other faces or none (an out-of-range lookup, seen on a 12 px drag of the armadillo).
+TEST(Inpaint, SynthesisMemoKeepsTheSameCanvasUnderRenumberedFaces) {
+  TM_REQUIRE_SHARED(zebraPhoto, "photos/zebra/zebra.jpg");
+  const Photo photo = loadPhoto(zebraPhoto);
+  const auto grid = unitSquare(41);
+  std::vector<Vec3> positions;
+  for (int v = 0; v < grid->numVertices(); ++v) positions.push_back(grid->position(v));
+  std::vector<std::array<int, 3>> faces;
+  for (int f = 0; f < grid->numFaces(); ++f) faces.push_back(grid->faceVertices(f));
+  // Face 0 (at the origin, far from the holes) split at its centroid, its three parts first.
+  const std::array<int, 3> first = faces[0];
+  const int centre = static_cast<int>(positions.size());
+  positions.push_back((positions[first[0]] + positions[first[1]] + positions[first[2]]) / 3);
+  std::vector<std::array<int, 3>> split = {
+      {first[0], first[1], centre}, {first[1], first[2], centre}, {first[2], first[0], centre}};
+  split.insert(split.end(), faces.begin() + 1, faces.end());
+  const auto renumbered = requireUsable(buildMesh(positions, split, {}, {}, "renumbered grid"));
+  ASSERT_EQ(renumbered->numFaces(), grid->numFaces() + 2);
+  SynthesisMemo memo;
+  auto run = [&](const Mesh& mesh) {
+    const double side = 200;
+    const TextureMap truth = planarMap(mesh, side, 20);
+    TextureMap map = truth;
+    EXPECT_GT(cutHole(mesh, map, Vec3(0.3, 0.3, 0), 0.1), 0);
+    EXPECT_GT(cutHole(mesh, map, Vec3(0.7, 0.7, 0), 0.1), 0);
+    InpaintInput in = inputFor(mesh, map, {&photo}, InpaintMode::Structure);
+    in.synthesis = &memo;
+    in.photosKey = 1;
+    const InpaintResult res = inpaintSurface(in, {}, nullptr);  // the final: no chart reuse
+    memo.endRun();
+    EXPECT_EQ(res.regions.size(), 2u);
+    std::vector<InpaintRegion::Kept> kept;
+    for (const auto& r : res.regions) kept.push_back(r.synthesisKept);
+    return std::make_pair(kept, scoreHole(res, map, truth, photo).meanDeltaE);
+  };
+  using Kept = InpaintRegion::Kept;
+  const auto [keptBefore, errorBefore] = run(*grid);
+  const auto [keptAfter, errorAfter] = run(*renumbered);
+  EXPECT_EQ(keptBefore, (std::vector<Kept>{Kept::No, Kept::No}));
+  EXPECT_EQ(keptAfter, (std::vector<Kept>{Kept::Exact, Kept::Exact}));
+  std::printf("mean Delta E to the truth: %.4f, renumbered %.4f\n", errorBefore, errorAfter);
+  EXPECT_NEAR(errorAfter, errorBefore, 1e-3);
 }
 
 // A hole round a sphere's equator (an annulus, no disc): no band around it flattens without folds. The memo keeps

@@ -45,22 +45,19 @@ void SynthesisMemo::keep(const std::shared_ptr<const SynthesisChart>& chart) {
   if (std::find(current_.begin(), current_.end(), chart) == current_.end()) current_.push_back(chart);
 }
 
-std::shared_ptr<const SynthesisChart> SynthesisMemo::findExact(uint64_t canvasKey, const cv::Mat& rgb,
-                                                              const cv::Mat& known) {
+cv::Mat SynthesisMemo::findExact(uint64_t canvasKey, const cv::Mat& rgb, const cv::Mat& known) {
   std::lock_guard<std::mutex> lock(mutex_);
   for (const auto* list : {&current_, &previous_})
     for (const auto& chart : *list)
-      if (chart->canvasKey == canvasKey && sameColours(chart->rgb, rgb) && sameColours(chart->known, known)) {
-        keep(chart);
-        return chart;
-      }
-  return nullptr;
+      if (chart->canvasKey == canvasKey && sameColours(chart->rgb, rgb) && sameColours(chart->known, known))
+        return chart->image;
+  return cv::Mat();
 }
 
 std::shared_ptr<const SynthesisChart> SynthesisMemo::findCovering(const std::vector<int>& holeFaces,
-                                                                 const std::vector<uint64_t>& faceKey,
-                                                                 uint64_t photosKey, double texelsPerUnit,
-                                                                 double blur) {
+                                                                  const std::vector<uint64_t>& faceKey,
+                                                                  uint64_t photosKey, double texelsPerUnit,
+                                                                  double blur) {
   if (photosKey == 0 || holeFaces.empty()) return nullptr;
   // Of the charts that cover the hole, the one that synthesised most of its faces (rather than drew them
   // from a photo), then the smallest.
@@ -286,17 +283,22 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     }
   }
   chart->canvasKey = key;
-  const std::string made = "synthesis: " + std::to_string(width) + " x " + std::to_string(height) +
-                           " texel chart, " + std::to_string(out.rings) + " rings (" + std::to_string(out.bandFaces) +
+  const std::string made = "synthesis: " + std::to_string(width) + " x " + std::to_string(height) + " texel chart, " +
+                           std::to_string(out.rings) + " rings (" + std::to_string(out.bandFaces) +
                            " faces) of exemplar";
-  if (in.memo)
-    if (auto kept = in.memo->findExact(key, rgb, known)) {
+  if (in.memo) {
+    // The same canvas: the kept image is what shift-map would return; this run's faces lie over it.
+    const cv::Mat kept = in.memo->findExact(key, rgb, known);
+    if (!kept.empty()) {
+      chart->image = kept;
+      in.memo->store(chart);
       out.ok = true;
       out.kept = SynthesisKept::Exact;
-      out.chart = std::move(kept);
+      out.chart = std::move(chart);
       out.note = made + ", kept (same canvas)";
       return out;
     }
+  }
   // Shift-map works on 8-bit L*a*b* (its patch distances expect a perceptual space).
   cv::Mat rgb8, lab;
   rgb.convertTo(rgb8, CV_8UC3, 255.0);
@@ -304,7 +306,8 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   // Shift-map is one long call without a cancellation point (seconds on a big hole): a cancel does not
   // wait for it (runCancellable), so it works on copies of its inputs (cv::Mat headers share their pixels).
   auto shifted = std::make_shared<cv::Mat>();
-  runCancellable(job, [lab, known, shifted] { cv::xphoto::inpaint(lab, known, *shifted, cv::xphoto::INPAINT_SHIFTMAP); });
+  runCancellable(job,
+                 [lab, known, shifted] { cv::xphoto::inpaint(lab, known, *shifted, cv::xphoto::INPAINT_SHIFTMAP); });
   cv::cvtColor(*shifted, rgb8, cv::COLOR_Lab2RGB);
   rgb8.convertTo(chart->image, CV_32FC3, 1.0 / 255);
   // Known texels keep their exact (float) colours.

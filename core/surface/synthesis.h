@@ -63,7 +63,7 @@ struct SynthesisChart {
 // Syntheses kept across runs. Shift-map is most of a synthesised hole's cost, and an edit leaves most
 // holes as they were.
 //  - Exact: a hole whose canvas is the same (same key, the same known colours to the bit) takes the kept
-//    chart: it is the result a new call would give. Both tiers.
+//    chart's image: it is the result a new call would give. Both tiers.
 //  - Chart (the preview only): a hole whose every face is in a kept chart, unchanged in position, with
 //    the same photos, density (within 25%) and blur, takes that chart as it is, even when the canvas
 //    would differ (the hole grew into the kept band or shrank, the band's colours drifted with the
@@ -73,8 +73,11 @@ struct SynthesisChart {
 // Charts not used in the last run are dropped at the start of the next (endRun). Thread-safe.
 class SynthesisMemo {
  public:
-  // The kept chart for this canvas key whose known colours equal `rgb` where `known` is set; null when none.
-  std::shared_ptr<const SynthesisChart> findExact(uint64_t canvasKey, const cv::Mat& rgb, const cv::Mat& known);
+  // The synthesised image of a kept chart for this canvas key whose known colours equal `rgb` where `known`
+  // is set (empty when none): what shift-map would return for the canvas. Only the image: the chart's
+  // faces may have other indices now (an edit elsewhere renumbers the refined mesh's faces), so the caller
+  // lays its own faces over it.
+  cv::Mat findExact(uint64_t canvasKey, const cv::Mat& rgb, const cv::Mat& known);
   // A kept chart that covers every face of `holeFaces` (faceKey: the face's position hash), made from
   // the same photos (photosKey != 0), the same blur and a density within 25%; null when none.
   std::shared_ptr<const SynthesisChart> findCovering(const std::vector<int>& holeFaces,
@@ -111,7 +114,7 @@ struct SynthesisInput {
 
 struct SynthesisResult {
   bool ok = false;
-  std::string note;  // what was done, or why it failed (the caller then falls back)
+  std::string note;                             // what was done, or why it failed (the caller then falls back)
   std::shared_ptr<const SynthesisChart> chart;  // ok: the chart and its canvas
   int bandFaces = 0, rings = 0;
   SynthesisKept kept = SynthesisKept::No;

@@ -330,7 +330,7 @@ int cmdRun(const std::string& projectPath, const std::string& out, int pngCompre
   }
   if (pngCompression >= 0) project.options.pngCompression = pngCompression;
   OutputFolder folder(out);
-  Pipeline pipeline;
+  Pipeline pipeline(Pipeline::Keep::ThisRunOnly);  // one run: nothing is kept for a next one
   ProgressLine line;
   JobControl job(nullptr, [&](StageId s, double f, const std::string& what) { line(stageName(s), f, what); });
   PipelineResult result = pipeline.run(project, job);

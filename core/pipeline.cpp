@@ -680,6 +680,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     cachedProjection_ = std::make_shared<const ProjectionStage>(projectMapping(
         *scene, cachedMapping_, *cameras, job, &frames_, warmSelection ? cachedProjection_.get() : nullptr));
     frames_.endRun();
+    if (keep_ == Keep::ThisRunOnly) frames_.clear();
     projectionKey_ = key.str();
   }
   const ProjectionStage& projection = *cachedProjection_;
@@ -780,6 +781,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
       kept.emplace_back(photo, tiles);
     }
     luvTiles_ = std::move(kept);
+    if (keep_ == Keep::ThisRunOnly) luvTiles_.clear();  // `luv` holds them for this run's seams
     cachedSeamed_ =
         optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv), warmSeams);
     seams->map = TextureMap();  // the seamed mapping holds it

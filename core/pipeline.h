@@ -79,8 +79,8 @@ struct BalancedScene {
   ColorBalance balance;
   std::shared_ptr<const Scene> scene;
   std::vector<std::shared_ptr<const Photo>> sources;  // per photo: the photo its balanced photo was made from
-  int photosKept = 0;                                  // balanced photos taken from the previous run
-  double applySeconds = 0;                             // making the balanced photos
+  int photosKept = 0;                                 // balanced photos taken from the previous run
+  double applySeconds = 0;                            // making the balanced photos
 };
 
 // What the colour stages add to a mapping: seam levelling offsets and the inpainted/cloned regions.
@@ -185,13 +185,19 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
 // for an identical canvas only, the preview also one that covers the hole (SynthesisMemo).
 inline constexpr double kPreviewDetail = 0.25;
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {},
-                           Tier tier = Tier::Final, PoissonCache* solvers = nullptr, SynthesisMemo* synthesis = nullptr);
+                           Tier tier = Tier::Final, PoissonCache* solvers = nullptr,
+                           SynthesisMemo* synthesis = nullptr);
 // Bake: see BakeResult.
 BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
                      const JobControl& job = {});
 
 class Pipeline {
  public:
+  // What a pipeline keeps after each stage: all it may reuse in later runs (the editor, the benches), or
+  // only what this run still reads (`montage run`: one run, so the seams' L*u*v* tiles and the projection's
+  // frames go once their stage is over, lowering the peak; the result is the same).
+  enum class Keep { ForLaterRuns, ThisRunOnly };
+  explicit Pipeline(Keep keep = Keep::ForLaterRuns) : keep_(keep) {}
   // Runs the stages of `tier` on `project` (already loaded by loadProject), reusing cached outputs
   // whose inputs did not change: the result of an identical document state at once (undo, redo),
   // else the loaded files, the mapping, each cell's map, the colours and the bake as far as their
@@ -209,6 +215,7 @@ class Pipeline {
  private:
   std::string documentKey(const Project& project) const;
 
+  Keep keep_;
   std::shared_ptr<const Mesh> cachedMesh_;
   MeshReport cachedMeshReport_;
   std::string meshKey_;
@@ -223,9 +230,9 @@ class Pipeline {
   // seams: luvImage(photo), tile by tile, of the photos the last run's seams read (loaded or balanced)
   std::vector<std::pair<std::shared_ptr<const Photo>, std::shared_ptr<const LuvTiles>>> luvTiles_;
   BalanceMemo balanceSamples_;  // balance: the seam edges' samples of the last runs
-  ViewFrameCache frames_;  // projection: each fitted photo's frame, by camera
-  PoissonCache solvers_;   // inpaint: the factorisations of the last two runs' regions
-  SynthesisMemo synthesis_;  // inpaint: the synthesised holes' shift-map results of the last two runs
+  ViewFrameCache frames_;       // projection: each fitted photo's frame, by camera
+  PoissonCache solvers_;        // inpaint: the factorisations of the last two runs' regions
+  SynthesisMemo synthesis_;     // inpaint: the synthesised holes' shift-map results of the last two runs
   std::string mapKey_;
   std::shared_ptr<const Mapping> cachedMapping_;
   MapCaches mapCaches_;

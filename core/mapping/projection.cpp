@@ -232,6 +232,11 @@ void ViewFrameCache::endRun() {
   reused = computed = nearReused = viewsReused = 0;
 }
 
+void ViewFrameCache::clear() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  frames_.clear(), used_.clear(), views_.clear(), usedViews_.clear(), foreground_.clear(), usedForeground_.clear();
+}
+
 PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const ViewFrame& frame, const Photo& photo,
                     int photoIndex, const CameraFit& fit, const CorrectionField& field, const ProjectionOptions& o) {
   PhotoView view;

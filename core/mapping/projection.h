@@ -105,6 +105,7 @@ class ViewFrameCache {
   // The view of `photo` whose inputs hash to `inputs`, made by `make` when not kept. Thread-safe.
   std::shared_ptr<const PhotoView> view(int photo, uint64_t inputs, const std::function<PhotoView()>& make);
   void endRun();                 // forgets frames and views this run did not use
+  void clear();                  // forgets everything (a run that keeps nothing for the next)
   int reused = 0, computed = 0;  // frames, this run
   int nearReused = 0;            // frames, this run: of the reused, those rendered through a camera within reusePx
   int viewsReused = 0;           // views, this run

@@ -133,18 +133,26 @@ auto freeSteps(const TriMesh& tri, int to, const Blocked& blocked) {
 
 // ---- Image geometry -------------------------------------------------------------------------------------
 
+// The bounding box of a closed segment.
+struct Box {
+  Vec2 lo, hi;
+  Box(const Vec2& a, const Vec2& b) : lo(a.cwiseMin(b)), hi(a.cwiseMax(b)) {}
+  bool apart(const Box& o) const {
+    return hi.x() < o.lo.x() || o.hi.x() < lo.x() || hi.y() < o.lo.y() || o.hi.y() < lo.y();
+  }
+  bool contains(const Vec2& q) const {
+    return lo.x() <= q.x() && q.x() <= hi.x() && lo.y() <= q.y() && q.y() <= hi.y();
+  }
+};
+
 // c lies on the closed segment ab (exact collinearity).
 bool onSegment(const Vec2& a, const Vec2& b, const Vec2& c) {
-  return std::min(a.x(), b.x()) <= c.x() && c.x() <= std::max(a.x(), b.x()) && std::min(a.y(), b.y()) <= c.y() &&
-         c.y() <= std::max(a.y(), b.y()) && orient2(a, b, c) == 0;
+  return Box(a, b).contains(c) && orient2(a, b, c) == 0;
 }
 
-// Closed segments ab and cd meet (proper crossing, touching or collinear overlap).
+// Closed segments ab and cd meet (proper crossing, touching or collinear overlap). The caller has
+// compared their boxes first (closed segments whose boxes are apart cannot meet).
 bool segmentsMeet(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
-  // Closed segments whose bounding boxes are apart cannot meet (the cheap test first).
-  if (std::max(a.x(), b.x()) < std::min(c.x(), d.x()) || std::max(c.x(), d.x()) < std::min(a.x(), b.x()) ||
-      std::max(a.y(), b.y()) < std::min(c.y(), d.y()) || std::max(c.y(), d.y()) < std::min(a.y(), b.y()))
-    return false;
   const double o1 = orient2(a, b, c), o2 = orient2(a, b, d), o3 = orient2(c, d, a), o4 = orient2(c, d, b);
   if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0))) return true;
   return onSegment(a, b, c) || onSegment(a, b, d) || onSegment(c, d, a) || onSegment(c, d, b);
@@ -184,9 +192,8 @@ class Partitioner {
   struct PhotoCurve {
     int a, b;  // points
     Vec2 pa, pb;
-    Vec2 lo, hi;  // bounding box
-    PhotoCurve(int a_, int b_, const Vec2& pa_, const Vec2& pb_)
-        : a(a_), b(b_), pa(pa_), pb(pb_), lo(pa_.cwiseMin(pb_)), hi(pa_.cwiseMax(pb_)) {}
+    Box box;
+    PhotoCurve(int a_, int b_, const Vec2& pa_, const Vec2& pb_) : a(a_), b(b_), pa(pa_), pb(pb_), box(pa_, pb_) {}
   };
 
   // ---- Setup ----
@@ -349,10 +356,10 @@ class Partitioner {
       reject(a, b, photo, RejectReason::CurveCrossesCurve, "both ends at the same position", why);
       return false;
     }
-    const Vec2 lo = pa.cwiseMin(pb), hi = pa.cwiseMax(pb);
+    const Box box(pa, pb);
     for (const PhotoCurve& c : photoCurves_[photo]) {
       // Closed segments whose boxes are apart cannot meet (nor share an end: it lies in both boxes).
-      if (hi.x() < c.lo.x() || c.hi.x() < lo.x() || hi.y() < c.lo.y() || c.hi.y() < lo.y()) continue;
+      if (box.apart(c.box)) continue;
       bool meets;
       if (c.a == a || c.a == b || c.b == a || c.b == b) {
         // Sharing one end point s: only a collinear overlap counts.
@@ -374,7 +381,7 @@ class Partitioner {
     const std::vector<Vec2>& at = photoFeaturePos_[photo];
     for (size_t i = 0; i < features.size(); ++i) {
       const Vec2& q = at[i];
-      if (q.x() < lo.x() || q.x() > hi.x() || q.y() < lo.y() || q.y() > hi.y()) continue;  // onSegment's box
+      if (!box.contains(q)) continue;  // onSegment, with the segment's box made once
       const int k = features[i];
       if (k != a && k != b && orient2(pa, pb, q) == 0) {
         reject(a, b, photo, RejectReason::CurveCrossesCurve, "passes through point " + std::to_string(k), why);

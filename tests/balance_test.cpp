@@ -135,6 +135,11 @@ TEST(Balance, AWarmStartLandsWhereTheColdFitDoesInFewerIterations) {
   }
   EXPECT_LT(warm.iterations, cold.iterations);
   EXPECT_TRUE(warm.transforms[0].identity());
+  // The tolerance alone: a coarser one stops a cold fit sooner.
+  BalanceOptions loose = options;
+  loose.tolerance = 1e-3;
+  const ColorBalance early = balanceColors(*scene.mesh, scene.map, photos, {true, false}, loose, {});
+  EXPECT_LT(early.iterations, cold.iterations);
   // Another reference (photo 1 locked): the warm start does not serve.
   const ColorBalance other = balanceColors(*scene.mesh, scene.map, photos, {false, true}, options, {});
   const ColorBalance unwarmed =

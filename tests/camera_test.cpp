@@ -233,6 +233,15 @@ TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
     ASSERT_GT(b.silhouettePoints, 0);
     EXPECT_GT(projectionGap(*d.mesh, start.camera, b.camera), 0.05);  // it did refine
     EXPECT_LT(projectionGap(*d.mesh, a.camera, b.camera), 0.01);
+    // ... and a much coarser step stops farther from the fine one: the step decides where LM stops.
+    CameraFitOptions coarsest = coarse;
+    coarsest.silhouetteStep = 1e-2;
+    CameraFit z = start;
+    refineOnSilhouette(*d.mesh, photo, z, coarsest);
+    ASSERT_GT(z.silhouettePoints, 0);
+    std::printf("silhouette LM step 1e-6: %.5f px from 1e-10; step 1e-2: %.5f px\n",
+                projectionGap(*d.mesh, a.camera, b.camera), projectionGap(*d.mesh, a.camera, z.camera));
+    EXPECT_GT(projectionGap(*d.mesh, a.camera, z.camera), projectionGap(*d.mesh, a.camera, b.camera));
     // The preview's contours serve cameras up to kPreviewContourPx away: a contour generator's projection
     // moves with the camera only to second order. A fit nudged about 2 px refines on the kept contour,
     // extracting none, and ends as near the four-round fit as a refinement on contours made anew (both
@@ -445,6 +454,38 @@ TEST(CameraPipeline, PhotosOfTheObjectAreMappedByProjectionWithClicksExact) {
   // Most of what the photos see is mapped; no flip.
   EXPECT_GT(r.projection->result.seenFaces, mesh.numFaces() / 2);
   EXPECT_EQ(r.projection->result.emptyFaces, mesh.numFaces() - m.map.numMapped());
+}
+
+TEST(CameraPipeline, ARunThatKeepsNothingForTheNextGivesTheSameResult) {
+  // `montage run`'s pipeline (Keep::ThisRunOnly) lets go of the projection's frames and the seams' tiles
+  // after their stages: the same model, and after an edit that reruns the projection it renders every
+  // frame again where a keeping pipeline reuses them, to the same result.
+  DemoScene d = demoScene("camera_pipeline_keep", 4, 150, 1.0);
+  Project project = loadProject(d.dir + "/project.json");
+  Pipeline keeping, oneRun(Pipeline::Keep::ThisRunOnly);
+  const PipelineResult a = keeping.run(project);
+  const PipelineResult b = oneRun.run(project);
+  ASSERT_EQ(a.cameras->fitted, 4);
+  ASSERT_TRUE(a.exported && b.exported);
+  EXPECT_EQ(b.mapping->map.facePhoto, a.mapping->map.facePhoto);
+  EXPECT_EQ(b.mapping->map.cornerUV, a.mapping->map.cornerUV);
+  EXPECT_TRUE(b.exported->uv == a.exported->uv);
+  ASSERT_EQ(b.exported->materials.size(), a.exported->materials.size());
+  for (size_t m = 0; m < a.exported->materials.size(); ++m)
+    EXPECT_EQ(cv::norm(b.exported->materials[m].texture, a.exported->materials[m].texture, cv::NORM_INF), 0);
+  project.options.viewSmoothness = 2.0;  // the projection runs again, on the same cameras
+  const PipelineResult c = oneRun.run(project);
+  const PipelineResult e = keeping.run(project);
+  const auto framesReused = [](const PipelineResult& r) {
+    const StageRecord& s = r.stages[static_cast<int>(StageId::Projection)];
+    EXPECT_EQ(s.stage, StageId::Projection);
+    EXPECT_FALSE(s.cached);
+    return s.counts["frames_reused"].get<int>();
+  };
+  EXPECT_EQ(framesReused(e), 4);
+  EXPECT_EQ(framesReused(c), 0);
+  EXPECT_EQ(c.mapping->map.facePhoto, e.mapping->map.facePhoto);
+  EXPECT_EQ(c.mapping->map.cornerUV, e.mapping->map.cornerUV);
 }
 
 TEST(CameraPipeline, PhotosOfAnotherSubjectTakeThePapersPath) {

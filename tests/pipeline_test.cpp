@@ -79,31 +79,6 @@ TEST(Pipeline, SecondRunReusesOutputsAndAFeatureEditRerunsOnlyTheMap) {
   for (int i = 1; i < 4; ++i) EXPECT_FALSE(third.stages[i].cached) << stageName(third.stages[i].stage);
 }
 
-TEST(Pipeline, ARunThatKeepsNothingForTheNextGivesTheSameResult) {
-  // `montage run`'s pipeline (Keep::ThisRunOnly) lets go of the seams' tiles and the projection's frames
-  // after their stages: the same model, and a second run on it recomputes them to the same result.
-  Project project = loadProject(demoProject());
-  Pipeline keeping, oneRun(Pipeline::Keep::ThisRunOnly);
-  const PipelineResult a = keeping.run(project);
-  const PipelineResult b = oneRun.run(project);
-  ASSERT_TRUE(a.exported && b.exported);
-  auto expectSame = [&](const PipelineResult& x) {
-    EXPECT_EQ(x.mapping->map.facePhoto, a.mapping->map.facePhoto);
-    EXPECT_EQ(x.mapping->map.cornerUV, a.mapping->map.cornerUV);
-    ASSERT_EQ(x.exported->uv.size(), a.exported->uv.size());
-    EXPECT_TRUE(x.exported->uv == a.exported->uv);
-    ASSERT_EQ(x.exported->materials.size(), a.exported->materials.size());
-    for (size_t m = 0; m < a.exported->materials.size(); ++m)
-      EXPECT_EQ(cv::norm(x.exported->materials[m].texture, a.exported->materials[m].texture, cv::NORM_INF), 0);
-  };
-  expectSame(b);
-  project.options.seamLambda = 0.5;  // the seams run again, without kept tiles
-  const PipelineResult c = oneRun.run(project);
-  const PipelineResult d = keeping.run(project);
-  EXPECT_FALSE(c.stages[static_cast<int>(StageId::Seams)].cached);
-  EXPECT_EQ(c.mapping->map.cornerUV, d.mapping->map.cornerUV);
-}
-
 TEST(Pipeline, SeamOptionEditRerunsTheSeamsNotTheMap) {
   Project project = loadProject(demoProject());
   Pipeline pipeline;

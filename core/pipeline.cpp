@@ -541,49 +541,50 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
   const nlohmann::json& opts = document["options"];
   auto cameras = std::make_shared<CameraStage>();
-  const auto fitCameras = [&] {
-    const auto cameraStart = Clock::now();
-    // Keyed by what the fit reads: the clicks' vertices and pixels in point order, not the points'
-    // indices, so that deleting or adding another point keeps the fit (its click ids are renumbered).
-    const size_t np = scene->photos.size();
-    std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> fits(np);
-    std::vector<std::vector<CameraClick>> photoClickLists(np);
-    std::vector<size_t> toFit;
-    std::vector<const PhotoCamera*> warmStart(np, nullptr);  // kept alive by cachedFits_ until the loop ends
-    for (size_t p = 0; p < np; ++p) {
-      photoClickLists[p] = photoClicks(project, static_cast<int>(p));
-      nlohmann::json clicks = nlohmann::json::array();
-      for (const CameraClick& c : photoClickLists[p]) clicks.push_back({c.vertex, c.pixel.x(), c.pixel.y()});
-      const std::string photoKey = meshKey_ + '#' + cachedPhotos_[p].key;
-      fits[p].first =
-          photoKey + clicks.dump() + opts["cameraMode"].dump() + opts["cameraThreshold"].dump() + opts["seed"].dump();
-      std::string found;
-      for (const auto& [k, f] : cachedFits_)
-        if (k == fits[p].first || (tier == Tier::Preview && k == fits[p].first + kWarm)) fits[p].second = f, found = k;
-      if (fits[p].second) {
-        fits[p].first = found;
-        ++cameras->reused;
-        if (fits[p].second->clicks.size() == photoClickLists[p].size()) {
-          bool same = true;
-          for (size_t i = 0; i < photoClickLists[p].size(); ++i)
-            same = same && fits[p].second->clicks[i].point == photoClickLists[p][i].point;
-          if (!same) {  // the same clicks under new point indices
-            auto renumbered = std::make_shared<CameraFit>(*fits[p].second);
-            renumbered->clicks = photoClickLists[p];
-            fits[p].second = renumbered;
-          }
+  const auto cameraStart = Clock::now();
+  // Keyed by what the fit reads: the clicks' vertices and pixels in point order, not the points'
+  // indices, so that deleting or adding another point keeps the fit (its click ids are renumbered).
+  const size_t np = scene->photos.size();
+  std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> fits(np);
+  std::vector<std::vector<CameraClick>> photoClickLists(np);
+  std::vector<size_t> toFit;
+  std::vector<const PhotoCamera*> warmStart(np, nullptr);  // kept alive by cachedFits_ until the fits end
+  for (size_t p = 0; p < np; ++p) {
+    photoClickLists[p] = photoClicks(project, static_cast<int>(p));
+    nlohmann::json clicks = nlohmann::json::array();
+    for (const CameraClick& c : photoClickLists[p]) clicks.push_back({c.vertex, c.pixel.x(), c.pixel.y()});
+    const std::string photoKey = meshKey_ + '#' + cachedPhotos_[p].key;
+    fits[p].first =
+        photoKey + clicks.dump() + opts["cameraMode"].dump() + opts["cameraThreshold"].dump() + opts["seed"].dump();
+    std::string found;
+    for (const auto& [k, f] : cachedFits_)
+      if (k == fits[p].first || (tier == Tier::Preview && k == fits[p].first + kWarm)) fits[p].second = f, found = k;
+    if (fits[p].second) {
+      fits[p].first = found;
+      ++cameras->reused;
+      if (fits[p].second->clicks.size() == photoClickLists[p].size()) {
+        bool same = true;
+        for (size_t i = 0; i < photoClickLists[p].size(); ++i)
+          same = same && fits[p].second->clicks[i].point == photoClickLists[p][i].point;
+        if (!same) {  // the same clicks under new point indices
+          auto renumbered = std::make_shared<CameraFit>(*fits[p].second);
+          renumbered->clicks = photoClickLists[p];
+          fits[p].second = renumbered;
         }
-      } else {
-        toFit.push_back(p);
-        // The preview starts from the photo's last camera when it had one (same photo and mesh).
-        const CameraFit* last = p < cachedFits_.size() ? cachedFits_[p].second.get() : nullptr;
-        if (tier == Tier::Preview && last && last->fits &&
-            cachedFits_[p].first.compare(0, photoKey.size(), photoKey) == 0)
-          warmStart[p] = &last->camera;
       }
+    } else {
+      toFit.push_back(p);
+      // The preview starts from the photo's last camera when it had one (same photo and mesh).
+      const CameraFit* last = p < cachedFits_.size() ? cachedFits_[p].second.get() : nullptr;
+      if (tier == Tier::Preview && last && last->fits &&
+          cachedFits_[p].first.compare(0, photoKey.size(), photoKey) == 0)
+        warmStart[p] = &last->camera;
     }
+  }
+  // Reported before the fits and the partition start side by side, so that the stages are reported in order.
+  job.progress(StageId::Camera, 0.0, std::to_string(toFit.size()) + " photos");
+  const auto fitCameras = [&] {
     // Photos are fitted in parallel (each fit seeds its own generator: the result does not depend on it).
-    job.progress(StageId::Camera, 0.0, std::to_string(toFit.size()) + " photos");
     tbb::parallel_for(size_t(0), toFit.size(), [&](size_t k) {
       const size_t p = toFit[k];
       fits[p].second =

@@ -373,6 +373,7 @@ class Editor {
   std::shared_ptr<const TexturedModel> resultPreview_;  // the worker's preview model of result_ (preview tier)
   long resultGeneration_ = 0;
   std::vector<long> outcomeGenerations_;  // every outcome taken, in order (tests: the newest wins)
+  std::vector<Tier> outcomeTiers_;        // and its tier
   std::map<long, long> generationRevision_;
   std::string lastError_;
   long lastErrorGeneration_ = 0;

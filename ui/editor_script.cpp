@@ -213,9 +213,15 @@ void Editor::runAction(const ScriptAction& a) {
         },
         true);
   } else if (a.verb == "wait_busy") {
-    waitFor(where + " (the worker never started)", a.args.empty() ? 60 : timeout, [this] {
+    int tier = -1;  // any
+    if (a.args.size() > 1) {
+      const auto it = std::find(kTierNames.begin(), kTierNames.end(), a.text(1));
+      TM_CHECK(it != kTierNames.end(), where + ": unknown tier '" + a.text(1) + "' (preview, final)");
+      tier = static_cast<int>(it - kTierNames.begin());
+    }
+    waitFor(where + " (the worker never started)", a.args.empty() ? 60 : timeout, [this, tier] {
       const WorkerStatus s = worker_->status();
-      return s.busy && s.generation == submittedGeneration_;
+      return s.busy && s.generation == submittedGeneration_ && (tier < 0 || static_cast<int>(s.tier) == tier);
     });
   } else if (a.verb == "wait_idle") {
     waitFor(where + " (the worker is still running)", a.args.empty() ? 60 : timeout, [this] {
@@ -524,10 +530,13 @@ void Editor::writeState(const std::string& path) const {
   state["selected_point"] = selectedPoint_;
   state["tool"] = kToolNames[static_cast<int>(tool_)];
   const WorkerStatus ws = worker_->status();
+  std::vector<std::string> outcomeTiers;
+  for (Tier t : outcomeTiers_) outcomeTiers.push_back(kTierNames[static_cast<int>(t)]);
   state["worker"] = {{"busy", ws.busy},
                      {"submitted_generation", submittedGeneration_},
                      {"result_generation", resultGeneration_},
                      {"outcome_generations", outcomeGenerations_},
+                     {"outcome_tiers", outcomeTiers},
                      {"preview_latency_seconds", shownLatency_[0]},  // last edit -> preview drawn
                      {"final_latency_seconds", shownLatency_[1]},    // last edit -> final drawn
                      {"last_error", lastError_}};

@@ -207,6 +207,36 @@ TEST(Rasterize, NearerTriangleWins) {
   }
 }
 
+// The rasterizer draws bands of rows in parallel: a triangle over many bands must cover exactly the
+// pixels one scan of it covers (no row lost or drawn twice at a band's border), and of two triangles at
+// the same depth the first one listed must win in every band.
+TEST(Rasterize, BandsCoverWhatOneScanCoversAndTheFirstFaceWinsTies) {
+  const Camera cam = identityCamera(96, 333, 200);
+  const std::vector<Vec3> corners = {{-0.9, -1.6, 2}, {0.7, -1.5, 2}, {0.1, 1.65, 2}};
+  std::vector<Vec3> v = corners;
+  v.insert(v.end(), corners.begin(), corners.end());  // the same triangle again, on vertices of its own
+  const auto mesh = makeMesh(v, {{0, 1, 2}, {3, 4, 5}});
+  const RasterBuffers rb = rasterize(*mesh, cam);
+  std::array<Vec2, 3> pixels;
+  for (int k = 0; k < 3; ++k) ASSERT_TRUE(cam.project(corners[k], pixels[k]));
+  std::vector<char> scanned(size_t(cam.width) * cam.height, 0);
+  scanTriangle(pixels, cam.width, cam.height, [&](int x, int y, const Vec3&) { ++scanned[rb.index(x, y)]; });
+  int covered = 0, rows = 0;
+  for (int y = 0; y < cam.height; ++y) {
+    bool any = false;
+    for (int x = 0; x < cam.width; ++x) {
+      const int i = rb.index(x, y);
+      ASSERT_LE(scanned[i], 1);
+      EXPECT_EQ(rb.face[i], scanned[i] ? 0 : -1) << "pixel " << x << ", " << y;
+      covered += scanned[i];
+      any = any || scanned[i];
+    }
+    rows += any;
+  }
+  EXPECT_GT(rows, 300) << "the triangle must span many bands of rows";
+  EXPECT_GT(covered, 10000);
+}
+
 TEST(Rasterize, BackFaceCulling) {
   const Camera cam = Camera::lookAt(Vec3(0, 0, -2), Vec3::Zero(), Vec3(0, 1, 0), 60, 64, 64);
   RasterOptions cull;

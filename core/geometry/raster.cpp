@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <utility>
 
 #include "geometry/mesh.h"
@@ -45,9 +47,11 @@ struct EdgeFunction {
 
 // Scan-converts a triangle and calls visit(x, y, e) with e[k] the (unnormalised) edge function
 // opposite corner k, so that e / e.sum() are the barycentrics of the pixel centre. Visits nothing
-// for degenerate triangles.
+// for degenerate triangles. Only rows in [rowLo, rowHi) are visited: a row's pixels do not depend on
+// which rows are visited.
 template <class Visit>
-void scan(const std::array<Vec2, 3>& p, int width, int height, Visit&& visit) {
+void scan(const std::array<Vec2, 3>& p, int width, int height, Visit&& visit, int rowLo = 0,
+          int rowHi = std::numeric_limits<int>::max()) {
   for (const Vec2& q : p)
     if (!std::isfinite(q.x()) || !std::isfinite(q.y())) return;
   // Orient the triangle so that its area is positive; `perm` maps oriented corners to input corners.
@@ -63,8 +67,8 @@ void scan(const std::array<Vec2, 3>& p, int width, int height, Visit&& visit) {
   // Pixels whose centre (x + 0.5, y + 0.5) lies in the bounding box.
   const int x0 = static_cast<int>(std::max(0.0, std::ceil(minX - 0.5)));
   const int x1 = static_cast<int>(std::min(width - 1.0, std::floor(maxX - 0.5)));
-  const int y0 = static_cast<int>(std::max(0.0, std::ceil(minY - 0.5)));
-  const int y1 = static_cast<int>(std::min(height - 1.0, std::floor(maxY - 0.5)));
+  const int y0 = static_cast<int>(std::max({0.0, std::ceil(minY - 0.5), double(rowLo)}));
+  const int y1 = static_cast<int>(std::min({height - 1.0, std::floor(maxY - 0.5), rowHi - 1.0}));
   if (x0 > x1 || y0 > y1) return;
   // Edge k is opposite oriented corner k.
   const EdgeFunction ea(b, c), eb(c, a), ec(a, b);
@@ -177,14 +181,22 @@ RasterBuffers rasterize(const Mesh& mesh, const Camera& camera, const RasterOpti
   const int nv = mesh.numVertices();
   std::vector<Vec3> cam(nv);
   std::vector<Vec2> pix(nv);
-  for (int v = 0; v < nv; ++v) {
-    cam[v] = camera.toCamera(mesh.position(v));
-    const double z = cam[v].z();
-    pix[v] = z > kNearPlane ? Vec2(camera.fx * cam[v].x() / z + camera.cx, camera.fy * cam[v].y() / z + camera.cy)
-                            : Vec2::Zero();
-  }
+  tbb::parallel_for(tbb::blocked_range<int>(0, nv, 4096), [&](const tbb::blocked_range<int>& range) {
+    for (int v = range.begin(); v < range.end(); ++v) {
+      cam[v] = camera.toCamera(mesh.position(v));
+      const double z = cam[v].z();
+      pix[v] = z > kNearPlane ? Vec2(camera.fx * cam[v].x() / z + camera.cx, camera.fy * cam[v].y() / z + camera.cy)
+                              : Vec2::Zero();
+    }
+  });
 
+  // The faces drawn, listed by bands of rows in face order; the bands are drawn in parallel. Every
+  // pixel still meets its faces in face order (the first face wins ties): the same buffers as one
+  // sequential pass over the faces.
+  constexpr int kBandRows = 16;
+  const int bands = (out.height + kBandRows - 1) / kBandRows;
   const int nf = mesh.numFaces();
+  std::vector<std::array<int, 2>> faceBands(nf, {0, -1});  // first and last band; empty when last < first
   for (int f = 0; f < nf; ++f) {
     const std::array<int, 3> fv = mesh.faceVertices(f);
     const Vec3& c0 = cam[fv[0]];
@@ -196,19 +208,44 @@ RasterBuffers rasterize(const Mesh& mesh, const Camera& camera, const RasterOpti
       const Vec3 normal = (c1 - c0).cross(c2 - c0);
       if (normal.dot(c0) >= 0) continue;
     }
-    const Vec3 invZ(1.0 / c0.z(), 1.0 / c1.z(), 1.0 / c2.z());
-    scan({pix[fv[0]], pix[fv[1]], pix[fv[2]]}, out.width, out.height, [&](int x, int y, const Vec3& e) {
-      // 1/z is affine in screen space: interpolate b_k / z_k and normalise.
-      const Vec3 w = e.cwiseProduct(invZ);
-      const double sum = w.sum(), esum = e.sum();
-      const int i = out.index(x, y);
-      if (!(esum < out.depth[i] * sum)) return;  // depth = esum / sum; the first face wins ties
-      const double invSum = 1.0 / sum;
-      out.depth[i] = static_cast<float>(esum * invSum);
-      out.face[i] = f;
-      if (options.barycentrics) out.bary[i] = (w * invSum).cast<float>();
-    });
+    const double minY = std::min({pix[fv[0]].y(), pix[fv[1]].y(), pix[fv[2]].y()});
+    const double maxY = std::max({pix[fv[0]].y(), pix[fv[1]].y(), pix[fv[2]].y()});
+    // The rows whose pixel centres lie within [minY, maxY], as scan finds them.
+    const double r0 = std::max(0.0, std::ceil(minY - 0.5)), r1 = std::min(out.height - 1.0, std::floor(maxY - 0.5));
+    if (r0 <= r1) faceBands[f] = {static_cast<int>(r0) / kBandRows, static_cast<int>(r1) / kBandRows};
   }
+  std::vector<int> bandStart(bands + 1, 0);
+  for (const auto& [b0, b1] : faceBands)
+    for (int b = b0; b <= b1; ++b) ++bandStart[b + 1];
+  for (int b = 0; b < bands; ++b) bandStart[b + 1] += bandStart[b];
+  std::vector<int> bandFaces(bandStart[bands]);
+  {
+    std::vector<int> fill(bandStart.begin(), bandStart.end() - 1);
+    for (int f = 0; f < nf; ++f)
+      for (int b = faceBands[f][0]; b <= faceBands[f][1]; ++b) bandFaces[fill[b]++] = f;
+  }
+  tbb::parallel_for(tbb::blocked_range<int>(0, bands, 1), [&](const tbb::blocked_range<int>& range) {
+    for (int band = range.begin(); band < range.end(); ++band)
+      for (int k = bandStart[band]; k < bandStart[band + 1]; ++k) {
+        const int f = bandFaces[k];
+        const std::array<int, 3> fv = mesh.faceVertices(f);
+        const Vec3 invZ(1.0 / cam[fv[0]].z(), 1.0 / cam[fv[1]].z(), 1.0 / cam[fv[2]].z());
+        scan(
+            {pix[fv[0]], pix[fv[1]], pix[fv[2]]}, out.width, out.height,
+            [&](int x, int y, const Vec3& e) {
+              // 1/z is affine in screen space: interpolate b_k / z_k and normalise.
+              const Vec3 w = e.cwiseProduct(invZ);
+              const double sum = w.sum(), esum = e.sum();
+              const int i = out.index(x, y);
+              if (!(esum < out.depth[i] * sum)) return;  // depth = esum / sum; the first face wins ties
+              const double invSum = 1.0 / sum;
+              out.depth[i] = static_cast<float>(esum * invSum);
+              out.face[i] = f;
+              if (options.barycentrics) out.bary[i] = (w * invSum).cast<float>();
+            },
+            band * kBandRows, (band + 1) * kBandRows);
+      }
+  });
   return out;
 }
 

@@ -22,6 +22,7 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
+#include <tbb/parallel_for.h>
 
 #include "base/util.h"
 #include "geometry/mesh.h"
@@ -456,27 +457,37 @@ std::vector<Vec3> outerContour(const Mesh& mesh, const Camera& camera, double sp
     const auto q = mesh.facePositions(f.idx());
     return mesh.faceNormal(f.idx()).dot(eye - (q[0] + q[1] + q[2]) / 3) > 0;
   };
-  std::vector<Vec3> out;
-  for (auto eh : tri.edges()) {
-    const auto h = tri.halfedge_handle(eh, 0);
-    const auto f0 = tri.face_handle(h), f1 = tri.opposite_face_handle(h);
-    if (f0.is_valid() && f1.is_valid() && facing(f0) == facing(f1)) continue;
-    const Vec3 a = mesh.position(tri.from_vertex_handle(h).idx()), b = mesh.position(tri.to_vertex_handle(h).idx());
-    Vec2 pa, pb;
-    if (!camera.project(a, pa) || !camera.project(b, pb)) continue;
-    const int n = std::max(1, static_cast<int>(std::ceil((pa - pb).norm() / spacingPx)));
-    for (int k = 0; k < n; ++k) {
-      const Vec3 x = a + (b - a) * ((k + 0.5) / n);
-      Vec2 px;
-      double z = 0;
-      if (!camera.project(x, px, &z)) continue;
-      const int c = static_cast<int>(std::floor(px.x())), r = static_cast<int>(std::floor(px.y()));
-      if (c < 1 || r < 1 || c >= camera.width - 1 || r >= camera.height - 1) continue;
-      const int i = raster.index(c, r);
-      if (raster.face[i] >= 0 && (raster.depth[i] < z - tol || !nearOutline(c, r))) continue;
-      out.push_back(x);
+  // The edges in chunks, in parallel; the chunks' samples are joined in edge order (the same list as
+  // one pass over the edges).
+  constexpr int kChunk = 4096;
+  const int ne = static_cast<int>(tri.n_edges());
+  std::vector<std::vector<Vec3>> chunks((ne + kChunk - 1) / kChunk);
+  tbb::parallel_for(size_t(0), chunks.size(), [&](size_t chunk) {
+    std::vector<Vec3>& found = chunks[chunk];
+    const int end = std::min(ne, static_cast<int>(chunk + 1) * kChunk);
+    for (int e = static_cast<int>(chunk) * kChunk; e < end; ++e) {
+      const OpenMesh::HalfedgeHandle h = tri.halfedge_handle(tri.edge_handle(e), 0);
+      const OpenMesh::FaceHandle f0 = tri.face_handle(h), f1 = tri.opposite_face_handle(h);
+      if (f0.is_valid() && f1.is_valid() && facing(f0) == facing(f1)) continue;
+      const Vec3 a = mesh.position(tri.from_vertex_handle(h).idx()), b = mesh.position(tri.to_vertex_handle(h).idx());
+      Vec2 pa, pb;
+      if (!camera.project(a, pa) || !camera.project(b, pb)) continue;
+      const int n = std::max(1, static_cast<int>(std::ceil((pa - pb).norm() / spacingPx)));
+      for (int k = 0; k < n; ++k) {
+        const Vec3 x = a + (b - a) * ((k + 0.5) / n);
+        Vec2 px;
+        double z = 0;
+        if (!camera.project(x, px, &z)) continue;
+        const int c = static_cast<int>(std::floor(px.x())), r = static_cast<int>(std::floor(px.y()));
+        if (c < 1 || r < 1 || c >= camera.width - 1 || r >= camera.height - 1) continue;
+        const int i = raster.index(c, r);
+        if (raster.face[i] >= 0 && (raster.depth[i] < z - tol || !nearOutline(c, r))) continue;
+        found.push_back(x);
+      }
     }
-  }
+  });
+  std::vector<Vec3> out;
+  for (const auto& found : chunks) out.insert(out.end(), found.begin(), found.end());
   return out;
 }
 

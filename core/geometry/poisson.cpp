@@ -225,27 +225,33 @@ SubMesh extractTriangles(const TriangleMesh& m, const std::vector<int>& triangle
   return s;
 }
 
-std::shared_ptr<const PoissonSolver> PoissonCache::solver(const TriangleMesh& mesh, const std::vector<char>& isFixed) {
+std::shared_ptr<const PoissonSolver> PoissonCache::solver(const TriangleMesh& mesh, const std::vector<char>& isFixed,
+                                                          bool* made) {
   std::string key;
   key.reserve(mesh.positions.size() * sizeof(Vec3) + mesh.triangles.size() * sizeof(std::array<int, 3>) +
               isFixed.size());
   key.append(reinterpret_cast<const char*>(mesh.positions.data()), mesh.positions.size() * sizeof(Vec3));
   key.append(reinterpret_cast<const char*>(mesh.triangles.data()), mesh.triangles.size() * sizeof(std::array<int, 3>));
   key.append(isFixed.data(), isFixed.size());
-  if (auto it = current_.find(key); it != current_.end()) {
-    ++reused;
-    return it->second;
+  if (made) *made = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = current_.find(key);
+    if (it == current_.end()) {
+      const auto kept = previous_.find(key);
+      if (kept != previous_.end()) it = current_.emplace(std::move(key), kept->second).first;
+    }
+    if (it != current_.end()) {
+      ++reused;
+      return it->second;
+    }
   }
-  std::shared_ptr<const PoissonSolver> out;
-  if (auto it = previous_.find(key); it != previous_.end()) {
-    out = it->second;
-    ++reused;
-  } else {
-    out = std::make_shared<const PoissonSolver>(mesh, isFixed);
-    ++made;
-  }
-  current_.emplace(std::move(key), out);
-  return out;
+  // Factorised outside the lock: other threads' lookups and factorisations go on meanwhile.
+  auto out = std::make_shared<const PoissonSolver>(mesh, isFixed);
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++this->made;
+  if (made) *made = true;
+  return current_.emplace(std::move(key), out).first->second;  // the first made wins (they are the same)
 }
 
 void PoissonCache::endRun() {

@@ -18,6 +18,7 @@
 #include <array>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -100,15 +101,18 @@ class PoissonSolver {
 
 // Factorisations kept across runs, keyed by the exact mesh and fixed set they were made for: a hole
 // whose refined surface and border did not change between two edits (only the colours around it
-// did) is solved again without a new factorisation. Keeps what the last two runs used (a preview and a
-// final run in turn keep both).
+// did) is solved again without a new factorisation. Keeps what this run and the one before used (a
+// preview and a final run in turn keep both). `solver` may be called from several threads at once.
 class PoissonCache {
  public:
-  std::shared_ptr<const PoissonSolver> solver(const TriangleMesh& mesh, const std::vector<char>& isFixed);
+  // `made` (may be null): set to whether this call factorised (false: the solver was kept).
+  std::shared_ptr<const PoissonSolver> solver(const TriangleMesh& mesh, const std::vector<char>& isFixed,
+                                              bool* made = nullptr);
   void endRun();             // the run is over: solvers unused in this run and the one before are dropped
-  int reused = 0, made = 0;  // this run
+  int reused = 0, made = 0;  // this run (read them when no call is running)
 
  private:
+  std::mutex mutex_;
   std::map<std::string, std::shared_ptr<const PoissonSolver>> current_, previous_;
 };
 

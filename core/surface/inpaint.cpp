@@ -3,12 +3,14 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <numeric>
 #include <queue>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <unordered_map>
 
@@ -945,11 +947,12 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
   // Guided hole fills (`bounded`) stay inside their border's colour range (GuidanceBound).
   auto solveRegion = [&](InpaintRegion& reg, const SubMesh& sub, const std::vector<char>& fixed,
                          const Eigen::MatrixXd& d, const Eigen::MatrixXd& fixedValues, bool bounded = false) {
-    const int made = in.solvers ? in.solvers->made : 0;
-    const std::shared_ptr<const PoissonSolver> kept =
-        in.solvers ? in.solvers->solver(sub.mesh, fixed) : std::make_shared<const PoissonSolver>(sub.mesh, fixed);
+    bool made = true;
+    const std::shared_ptr<const PoissonSolver> kept = in.solvers
+                                                          ? in.solvers->solver(sub.mesh, fixed, &made)
+                                                          : std::make_shared<const PoissonSolver>(sub.mesh, fixed);
     const PoissonSolver& solver = *kept;
-    reg.factorSeconds = !in.solvers || in.solvers->made > made ? solver.factorSeconds() : 0;  // 0: reused
+    reg.factorSeconds = made ? solver.factorSeconds() : 0;  // 0: reused
     const auto solveStart = Clock::now();
     Eigen::MatrixXd f = solver.solve(d, fixedValues);
     if (bounded && opt.bound != GuidanceBound::None)
@@ -996,14 +999,19 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     });
   }
 
-  // Solve each hole.
+  // Solve each hole. Holes are vertex-connected components: no two share an unknown vertex, so they are
+  // solved in parallel (each writes only its own unknowns); their warnings are reported in hole order.
   std::vector<std::vector<int>> regionTris(numRegions);
   for (int t = 0; t < rt; ++t)
     if (rs.region[t] >= 0) regionTris[rs.region[t]].push_back(t);
-  std::vector<int> localOf(rv, -1);
-  for (int r = 0; r < numHoleRegions; ++r) {
+  std::vector<std::vector<std::string>> holeWarnings(numHoleRegions);
+  tbb::enumerable_thread_specific<std::vector<int>> scratch([rv] { return std::vector<int>(rv, -1); });
+  std::atomic<int> started{0};
+  tbb::parallel_for(0, numHoleRegions, [&](int r) {
+    const auto warn = [&](const std::string& w) { holeWarnings[r].push_back(w); };
+    std::vector<int>& localOf = scratch.local();
     job.checkCancel();
-    job.progress(StageId::Inpaint, 0.35 + 0.5 * r / std::max(numRegions, 1), "hole " + std::to_string(r));
+    job.progress(StageId::Inpaint, 0.35 + 0.5 * started++ / std::max(numRegions, 1), "hole " + std::to_string(r));
     InpaintRegion& reg = res.regions[r];
     reg.refineSeconds = refineSeconds * regionTris[r].size() / std::max(rt, 1);
     const SubMesh sub = extractTriangles(rm, regionTris[r], localOf);
@@ -1018,7 +1026,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       reg.note = "no mapped neighbour: filled with the mean colour of the mapped surface";
       warn("hole " + std::to_string(r) + " (" + std::to_string(reg.baseFaces) +
            " faces) touches no mapped face: " + "filled with one flat colour");
-      continue;
+      return;
     }
     Eigen::MatrixXd fixedValues(n, 3);
     for (int l = 0; l < n; ++l) fixedValues.row(l) = res.colors.row(sub.vertex[l]).cast<double>();
@@ -1073,7 +1081,10 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     reg.guidanceSeconds = secondsSince(guideStart) + synthesisSeconds[r];
     synthesised[r] = {};  // its canvas is no longer needed
     solveRegion(reg, sub, fixed, d, fixedValues, reg.mode != InpaintMode::Harmonic);
-  }
+  });
+  for (const auto& ws : holeWarnings)
+    for (const std::string& w : ws) warn(w);
+  std::vector<int> localOf(rv, -1);
 
   // Clones, in project order, on top of everything else: d = Laplacian of the photo projected onto the
   // target, colours outside the polygon (or on the target's border) fixed.

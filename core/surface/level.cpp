@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 #include <unordered_map>
 
 #include "base/job.h"
@@ -132,14 +134,17 @@ SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vec
   // touch no seam keep a zero offset.
   out.cornerOffset.assign(nf, {Vec3f::Zero(), Vec3f::Zero(), Vec3f::Zero()});
   const int numPhotos = static_cast<int>(photos.size());
+  // The photos in parallel: each writes the offsets of its own faces only.
   const TriangleMesh whole = toTriangleMesh(mesh);
-  std::vector<int> localOf(mesh.numVertices(), -1);
-  for (int p = 0; p < numPhotos; ++p) {
+  std::vector<std::vector<int>> photoFaces(std::max(numPhotos, 0));
+  for (int f = 0; f < nf; ++f)
+    if (map.facePhoto[f] >= 0 && map.facePhoto[f] < numPhotos) photoFaces[map.facePhoto[f]].push_back(f);
+  tbb::enumerable_thread_specific<std::vector<int>> scratch([&] { return std::vector<int>(mesh.numVertices(), -1); });
+  tbb::parallel_for(0, numPhotos, [&](int p) {
     job.checkCancel();
-    std::vector<int> faces;
-    for (int f = 0; f < nf; ++f)
-      if (map.facePhoto[f] == p) faces.push_back(f);
-    if (faces.empty()) continue;
+    const std::vector<int>& faces = photoFaces[p];
+    if (faces.empty()) return;
+    std::vector<int>& localOf = scratch.local();
     const SubMesh sub = extractTriangles(whole, faces, localOf);
     const int n = sub.mesh.numVertices();
     std::vector<char> fixed(n, 0);
@@ -157,12 +162,12 @@ SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vec
       if (fixed[l]) anchored[comp.find(l)] = 1;
     for (int l = 0; l < n; ++l)
       if (!anchored[comp.find(l)]) fixed[l] = 1;  // value 0
-    const Eigen::MatrixXd offset =
-        solvers ? solvers->solver(sub.mesh, fixed)->solve(Eigen::MatrixXd::Zero(n, 3), values)
-                : harmonicFill(sub.mesh, fixed, values);
+    const Eigen::MatrixXd offset = solvers
+                                       ? solvers->solver(sub.mesh, fixed)->solve(Eigen::MatrixXd::Zero(n, 3), values)
+                                       : harmonicFill(sub.mesh, fixed, values);
     for (size_t i = 0; i < faces.size(); ++i)
       for (int k = 0; k < 3; ++k) out.cornerOffset[faces[i]][k] = offset.row(sub.mesh.triangles[i][k]).cast<float>();
-  }
+  });
   out.meanMismatchAfter = mismatch(&out);
   out.seconds = secondsSince(start);
   return out;

@@ -1,6 +1,5 @@
-# Finds the OpenCV modules from Debian's split packages (libopencv-<module>-dev; xphoto and the other
-# contrib modules come in libopencv-contrib-dev), which ship
-# headers and libraries but no OpenCVConfig.cmake or opencv4.pc.
+# Finds the OpenCV modules from Debian's split packages (libopencv-<module>-dev; the contrib modules come
+# in libopencv-contrib-dev), which ship headers and libraries but no OpenCVConfig.cmake or opencv4.pc.
 # Defines an imported target TM::OpenCV carrying every requested component.
 find_path(TMOpenCV_INCLUDE_DIR opencv2/core.hpp PATH_SUFFIXES opencv4)
 set(_tm_cv_libs)

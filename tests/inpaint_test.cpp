@@ -561,7 +561,7 @@ TEST(Inpaint, SynthesisUnderACancellableJobIsUnchangedAndStops) {
 //  - the final takes a kept chart for the same canvas only (exact), with the same colours to the bit;
 //  - the preview takes a kept chart that covers the hole: the same hole (the same colours again), the
 //    band's colours drifted by 1/255 (as a colour balance moves them: the fill moves with the drift only
-//    and is as close to the truth as before, where a fresh synthesis picks other patches), and a hole
+//    and is as close to the truth as before, where a fresh synthesis may pick other patches), and a hole
 //    grown into its kept band (as close to the truth as a fresh synthesis of the grown hole);
 //  - a hole grown beyond its kept band, or other photos (another photosKey), are synthesised again; an
 //    unchanged canvas is still kept exactly under other photos.
@@ -637,7 +637,10 @@ TEST(Inpaint, SynthesisMemoKeepsTheSameCanvasAndThePreviewKeepsChartsThatCoverTh
       keptMax, keptMean, freshMax, freshMean, firstError, keptError, freshError);
   EXPECT_LT(keptMean, 1.5 / 255);
   EXPECT_LT(keptMax, 3.0 / 255);
-  EXPECT_GT(freshMean, 2 * keptMean);
+  // The kept chart is no farther from the first fill than a fresh synthesis (which may pick other
+  // patches in places; with xphoto's shift-map it moved by 8 drifts at most, with ours by 2).
+  EXPECT_GE(freshMean, keptMean);
+  EXPECT_GE(freshMax, keptMax);
   EXPECT_NEAR(keptError, firstError, 0.5);
 
   // The first hole grown by a ring into its band: the preview keeps the chart, the final synthesises.

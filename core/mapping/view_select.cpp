@@ -10,8 +10,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <opencv2/core.hpp>  // gcgraph.hpp needs it first
-#include <opencv2/imgproc/detail/gcgraph.hpp>
+
+#include "geometry/graph_cut.h"
 
 namespace montage {
 
@@ -97,14 +97,10 @@ std::vector<int> solvePotts(const PottsProblem& p, std::vector<int> labels, int 
           }
         }
       }
-      // x = 1 (alpha) on the sink side: the source edge carries the cost of switching, the sink edge
-      // the cost of keeping.
-      for (int i = 0; i < m; ++i) g.addTermWeights(i, std::max(unary[i], 0.0), std::max(-unary[i], 0.0));
-      // Without pairwise edges every variable decides alone (GCGraph's max-flow needs an edge).
-      if (pairs > 0) g.maxFlow();
+      const std::vector<char> switches = expansionMove(g, unary, pairs);
       std::vector<int> next = labels;
       for (int i = 0; i < m; ++i)
-        if (pairs > 0 ? !g.inSourceSegment(i) : unary[i] < 0) next[nodes[i]] = alpha;
+        if (switches[i]) next[nodes[i]] = alpha;
       for (int n : nodes) var[n] = -1;
       const double e = p.energy(next);
       if (e < energy - 1e-9 * std::max(1.0, std::abs(energy))) {

@@ -5,7 +5,6 @@
 #include <cstring>
 #include <memory>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/xphoto/inpainting.hpp>
 #include <unordered_map>
 
 #include "atlas/lscm.h"
@@ -14,6 +13,7 @@
 #include "geometry/mesh.h"
 #include "geometry/raster.h"
 #include "image/photo.h"
+#include "image/shiftmap.h"
 #include "surface/level.h"
 
 namespace montage {
@@ -303,11 +303,10 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
   cv::Mat rgb8, lab;
   rgb.convertTo(rgb8, CV_8UC3, 255.0);
   cv::cvtColor(rgb8, lab, cv::COLOR_RGB2Lab);
-  // Shift-map is one long call without a cancellation point (seconds on a big hole): a cancel does not
+  // Shift-map is one long call without a cancellation point (up to a second on a big hole): a cancel does not
   // wait for it (runCancellable), so it works on copies of its inputs (cv::Mat headers share their pixels).
   auto shifted = std::make_shared<cv::Mat>();
-  runCancellable(job,
-                 [lab, known, shifted] { cv::xphoto::inpaint(lab, known, *shifted, cv::xphoto::INPAINT_SHIFTMAP); });
+  runCancellable(job, [lab, known, shifted] { *shifted = shiftMapFill(lab, known); });
   cv::cvtColor(*shifted, rgb8, cv::COLOR_Lab2RGB);
   rgb8.convertTo(chart->image, CV_32FC3, 1.0 / 255);
   // Known texels keep their exact (float) colours.

@@ -1,7 +1,7 @@
 // Texture synthesis in a hole (inpaintMode "synthesis", the paper's future work): the hole and a band
 // of mapped faces around it are flattened into one chart (LSCM), the band is drawn into it from the
 // photos (levelled colours), and the hole's texels are synthesised from the band by exemplar-based
-// inpainting (OpenCV xphoto shift-map, He and Sun 2012: it copies whole patches, so fur, stripes and
+// inpainting (shift-map, He and Sun 2012, image/shiftmap: it copies whole patches, so fur, stripes and
 // skin keep their structure). inpaint.cpp then takes the synthesised colours as the guidance of its
 // Poisson solve (d = their Laplacian), so the border blends into the photos without a seam.
 #pragma once

@@ -190,8 +190,10 @@ TEST(EditorSession, AnEditDuringARunRestartsTheWorkerAndTheLastSnapshotWins) {
   TM_REQUIRE_XVFB();
   const std::string dir = test::tempDir("editor_cancel");
   // A first edit starts a run; once its final bake is busy, a second edit (the user's click) must cancel
-  // it. (Its preview may have come back before: the preview of the demo takes a fraction of a second.)
-  writeText(dir + "/s.txt", "wait_frames 2\nset_option stretchSearches 16\nwait_busy 120 final\nstate busy.json\n" +
+  // it. (Its preview may have come back before: the preview of the demo takes a fraction of a second. A
+  // fixed 4096² atlas keeps the final busy for seconds, far longer than the click takes.)
+  writeText(dir + "/s.txt", "wait_frames 2\nset_option stretchSearches 16\nset_option atlasSize 4096\n"
+                            "wait_busy 120 final\nstate busy.json\n" +
                                 pickAndClick() + "wait_worker 900\nstate done.json\nsave final.json\nquit\n");
   std::string out;
   ASSERT_EQ(runEditor(dir, "'" + demoProject() + "' --script s.txt", &out), 0) << out;
@@ -220,6 +222,7 @@ TEST(EditorSession, AnEditDuringARunRestartsTheWorkerAndTheLastSnapshotWins) {
   const Project final = loadProject(dir + "/final.json");
   EXPECT_TRUE(fromResult.sameDocument(final));
   EXPECT_EQ(final.options.stretchSearches, 16);
+  EXPECT_EQ(final.options.atlasSize, 4096);
   expectDemoPlusOne(final, loadProject(demoProject()));
 }
 

@@ -192,9 +192,10 @@ TEST(EditorSession, AnEditDuringARunRestartsTheWorkerAndTheLastSnapshotWins) {
   // A first edit starts a run; once its final bake is busy, a second edit (the user's click) must cancel
   // it. (Its preview may have come back before: the preview of the demo takes a fraction of a second. A
   // fixed 4096² atlas keeps the final busy for seconds, far longer than the click takes.)
-  writeText(dir + "/s.txt", "wait_frames 2\nset_option stretchSearches 16\nset_option atlasSize 4096\n"
-                            "wait_busy 120 final\nstate busy.json\n" +
-                                pickAndClick() + "wait_worker 900\nstate done.json\nsave final.json\nquit\n");
+  writeText(dir + "/s.txt",
+            "wait_frames 2\nset_option stretchSearches 16\nset_option atlasSize 4096\n"
+            "wait_busy 120 final\nstate busy.json\n" +
+                pickAndClick() + "wait_worker 900\nstate done.json\nsave final.json\nquit\n");
   std::string out;
   ASSERT_EQ(runEditor(dir, "'" + demoProject() + "' --script s.txt", &out), 0) << out;
   const json busy = test::readJson(dir + "/busy.json");
@@ -211,7 +212,8 @@ TEST(EditorSession, AnEditDuringARunRestartsTheWorkerAndTheLastSnapshotWins) {
   EXPECT_EQ(outcomes.back(), lastGeneration);
   EXPECT_EQ(tiers.back(), "final");
   for (size_t i = 0; i < outcomes.size(); ++i)
-    EXPECT_FALSE(outcomes[i] == busyGeneration && tiers[i] == "final") << "the bake that was busy must have been cancelled";
+    EXPECT_FALSE(outcomes[i] == busyGeneration && tiers[i] == "final")
+        << "the bake that was busy must have been cancelled";
   EXPECT_EQ(done["worker"]["result_generation"], lastGeneration);
   ASSERT_FALSE(done["result"].is_null()) << done["worker"].dump();
   EXPECT_TRUE(done["result"]["matches_document"].get<bool>());

@@ -18,7 +18,7 @@ const std::vector<ScriptVerb>& scriptVerbs() {
       {"wait_result", 0, 1, "[SECONDS]",
        "wait until the first result (the preview) of the current document is shown (default timeout 300 s)"},
       {"wait_busy", 0, 2, "[SECONDS] [preview|final]",
-       "wait until the worker is running the newest snapshot, in the given tier if one is named (default timeout 60 s)"},
+       "wait until the worker runs the newest snapshot, in the named tier if one is given (default timeout 60 s)"},
       {"wait_idle", 0, 1, "[SECONDS]",
        "wait until the worker runs nothing (after a Cancel: the job has stopped); default timeout 60 s"},
       {"wait_autosave", 0, 1, "[SECONDS]", "wait until the current document has been autosaved"},

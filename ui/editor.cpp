@@ -391,8 +391,7 @@ bool Editor::resultCurrent() const {
 void Editor::pollWorker() {
   std::optional<WorkerOutcome> outcome = worker_->take();
   if (!outcome) return;
-  outcomeGenerations_.push_back(outcome->generation);
-  outcomeTiers_.push_back(outcome->tier);
+  outcomes_.emplace_back(outcome->generation, outcome->tier);
   if (outcome->result) {
     // A result for a mesh the document no longer names (a file opened meanwhile) is dropped.
     if (!outcome->result->scene || outcome->result->scene->project.mesh != doc_.project().mesh) return;

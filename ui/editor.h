@@ -20,6 +20,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "autosave.h"
@@ -372,8 +373,7 @@ class Editor {
   std::shared_ptr<const PipelineResult> result_;
   std::shared_ptr<const TexturedModel> resultPreview_;  // the worker's preview model of result_ (preview tier)
   long resultGeneration_ = 0;
-  std::vector<long> outcomeGenerations_;  // every outcome taken, in order (tests: the newest wins)
-  std::vector<Tier> outcomeTiers_;        // and its tier
+  std::vector<std::pair<long, Tier>> outcomes_;  // every outcome taken, in order, and its tier (tests: newest wins)
   std::map<long, long> generationRevision_;
   std::string lastError_;
   long lastErrorGeneration_ = 0;

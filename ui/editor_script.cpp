@@ -530,12 +530,14 @@ void Editor::writeState(const std::string& path) const {
   state["selected_point"] = selectedPoint_;
   state["tool"] = kToolNames[static_cast<int>(tool_)];
   const WorkerStatus ws = worker_->status();
+  std::vector<long> outcomeGenerations;
   std::vector<std::string> outcomeTiers;
-  for (Tier t : outcomeTiers_) outcomeTiers.push_back(kTierNames[static_cast<int>(t)]);
+  for (const auto& [generation, tier] : outcomes_)
+    outcomeGenerations.push_back(generation), outcomeTiers.push_back(kTierNames[static_cast<int>(tier)]);
   state["worker"] = {{"busy", ws.busy},
                      {"submitted_generation", submittedGeneration_},
                      {"result_generation", resultGeneration_},
-                     {"outcome_generations", outcomeGenerations_},
+                     {"outcome_generations", outcomeGenerations},
                      {"outcome_tiers", outcomeTiers},
                      {"preview_latency_seconds", shownLatency_[0]},  // last edit -> preview drawn
                      {"final_latency_seconds", shownLatency_[1]},    // last edit -> final drawn

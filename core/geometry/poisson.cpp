@@ -226,14 +226,14 @@ SubMesh extractTriangles(const TriangleMesh& m, const std::vector<int>& triangle
 }
 
 std::shared_ptr<const PoissonSolver> PoissonCache::solver(const TriangleMesh& mesh, const std::vector<char>& isFixed,
-                                                          bool* made) {
+                                                          bool* factorised) {
   std::string key;
   key.reserve(mesh.positions.size() * sizeof(Vec3) + mesh.triangles.size() * sizeof(std::array<int, 3>) +
               isFixed.size());
   key.append(reinterpret_cast<const char*>(mesh.positions.data()), mesh.positions.size() * sizeof(Vec3));
   key.append(reinterpret_cast<const char*>(mesh.triangles.data()), mesh.triangles.size() * sizeof(std::array<int, 3>));
   key.append(isFixed.data(), isFixed.size());
-  if (made) *made = false;
+  if (factorised) *factorised = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = current_.find(key);
@@ -249,8 +249,8 @@ std::shared_ptr<const PoissonSolver> PoissonCache::solver(const TriangleMesh& me
   // Factorised outside the lock: other threads' lookups and factorisations go on meanwhile.
   auto out = std::make_shared<const PoissonSolver>(mesh, isFixed);
   std::lock_guard<std::mutex> lock(mutex_);
-  ++this->made;
-  if (made) *made = true;
+  ++made;
+  if (factorised) *factorised = true;
   return current_.emplace(std::move(key), out).first->second;  // the first made wins (they are the same)
 }
 

@@ -105,9 +105,9 @@ class PoissonSolver {
 // preview and a final run in turn keep both). `solver` may be called from several threads at once.
 class PoissonCache {
  public:
-  // `made` (may be null): set to whether this call factorised (false: the solver was kept).
+  // `factorised` (may be null): set to whether this call factorised (false: the solver was kept).
   std::shared_ptr<const PoissonSolver> solver(const TriangleMesh& mesh, const std::vector<char>& isFixed,
-                                              bool* made = nullptr);
+                                              bool* factorised = nullptr);
   void endRun();             // the run is over: solvers unused in this run and the one before are dropped
   int reused = 0, made = 0;  // this run (read them when no call is running)
 

@@ -45,6 +45,12 @@ struct EdgeFunction {
   bool inside(double e) const { return e > 0 || (e == 0 && ownsTies); }
 };
 
+// The first and last pixel whose centre (i + 0.5) lies within [lo, hi], clamped to [first, last]; as
+// doubles, so that a far coordinate is clamped before any cast. Empty when the first exceeds the last.
+std::pair<double, double> centresWithin(double lo, double hi, double first, double last) {
+  return {std::max(first, std::ceil(lo - 0.5)), std::min(last, std::floor(hi - 0.5))};
+}
+
 // Scan-converts a triangle and calls visit(x, y, e) with e[k] the (unnormalised) edge function
 // opposite corner k, so that e / e.sum() are the barycentrics of the pixel centre. Visits nothing
 // for degenerate triangles. Only rows in [rowLo, rowHi) are visited: a row's pixels do not depend on
@@ -65,11 +71,11 @@ void scan(const std::array<Vec2, 3>& p, int width, int height, Visit&& visit, in
   const double minX = std::min({a.x(), b.x(), c.x()}), maxX = std::max({a.x(), b.x(), c.x()});
   const double minY = std::min({a.y(), b.y(), c.y()}), maxY = std::max({a.y(), b.y(), c.y()});
   // Pixels whose centre (x + 0.5, y + 0.5) lies in the bounding box.
-  const int x0 = static_cast<int>(std::max(0.0, std::ceil(minX - 0.5)));
-  const int x1 = static_cast<int>(std::min(width - 1.0, std::floor(maxX - 0.5)));
-  const int y0 = static_cast<int>(std::max({0.0, std::ceil(minY - 0.5), double(rowLo)}));
-  const int y1 = static_cast<int>(std::min({height - 1.0, std::floor(maxY - 0.5), rowHi - 1.0}));
-  if (x0 > x1 || y0 > y1) return;
+  const auto [fx0, fx1] = centresWithin(minX, maxX, 0, width - 1.0);
+  const auto [fy0, fy1] = centresWithin(minY, maxY, std::max(0, rowLo), std::min(height, rowHi) - 1.0);
+  if (fx0 > fx1 || fy0 > fy1) return;
+  const int x0 = static_cast<int>(fx0), x1 = static_cast<int>(fx1);
+  const int y0 = static_cast<int>(fy0), y1 = static_cast<int>(fy1);
   // Edge k is opposite oriented corner k.
   const EdgeFunction ea(b, c), eb(c, a), ec(a, b);
   Vec3 e;
@@ -210,8 +216,7 @@ RasterBuffers rasterize(const Mesh& mesh, const Camera& camera, const RasterOpti
     }
     const double minY = std::min({pix[fv[0]].y(), pix[fv[1]].y(), pix[fv[2]].y()});
     const double maxY = std::max({pix[fv[0]].y(), pix[fv[1]].y(), pix[fv[2]].y()});
-    // The rows whose pixel centres lie within [minY, maxY], as scan finds them.
-    const double r0 = std::max(0.0, std::ceil(minY - 0.5)), r1 = std::min(out.height - 1.0, std::floor(maxY - 0.5));
+    const auto [r0, r1] = centresWithin(minY, maxY, 0, out.height - 1.0);  // the rows scan visits
     if (r0 <= r1) faceBands[f] = {static_cast<int>(r0) / kBandRows, static_cast<int>(r1) / kBandRows};
   }
   std::vector<int> bandStart(bands + 1, 0);

@@ -98,6 +98,44 @@ TEST(ShiftMap, ASmallCanvasWithFewOffsetsIsFilledWholeAndTheSameEveryTime) {
       }
 }
 
+// Each option changes the fill in the direction its comment says.
+TEST(ShiftMap, OptionsChangeTheFill) {
+  const cv::Mat truth = periodic(96, 64, 2);
+  cv::Mat known(truth.size(), CV_8UC1, cv::Scalar(255));
+  known(cv::Rect(38, 22, 21, 17)).setTo(0);
+  ShiftMapStats base, s;
+  const cv::Mat baseFill = shiftMapFill(truth, known, {}, &base);
+  ShiftMapOptions o;
+  o.offsets = 5;
+  shiftMapFill(truth, known, o, &s);
+  EXPECT_EQ(s.labels, 5) << "offsets caps the labels";
+  o = {};
+  o.band = 0;
+  shiftMapFill(truth, known, o, &s);
+  EXPECT_EQ(s.domain, 21 * 17) << "without a band only the unknown pixels are labelled";
+  o.band = 4;
+  shiftMapFill(truth, known, o, &s);
+  EXPECT_GT(s.domain, base.domain) << "a wider band labels more known pixels";
+  o = {};
+  o.rounds = 0;
+  const cv::Mat noRounds = shiftMapFill(truth, known, o, &s);
+  EXPECT_EQ(s.moves, 0);
+  EXPECT_GT(base.moves, 0);
+  EXPECT_GT(cv::norm(noRounds, baseFill, cv::NORM_INF), 0.0) << "the expansion moves relabel pixels";
+  o = {};
+  o.minOffset = 97;  // wider than the image: no patch has a match that far
+  shiftMapFill(truth, known, o, &s);
+  EXPECT_EQ(s.labels, 0);
+  EXPECT_EQ(s.unreached, 21 * 17) << "without offsets every unknown pixel is filled from its neighbours";
+  o = {};
+  o.seed = 99;
+  o.searchIterations = 1;
+  const cv::Mat otherSearch = shiftMapFill(truth, known, o, &s);
+  std::printf("another seed and one search pass: %.0f max channel difference to the default fill\n",
+              cv::norm(otherSearch, baseFill, cv::NORM_INF));
+  EXPECT_GT(cv::norm(otherSearch, baseFill, cv::NORM_INF), 0.0) << "the search decides the offsets";
+}
+
 TEST(ShiftMap, RejectsMismatchedInput) {
   const cv::Mat image(10, 10, CV_8UC3, cv::Scalar::all(0));
   EXPECT_THROW(shiftMapFill(image, cv::Mat(9, 10, CV_8UC1, cv::Scalar(255))), Error);

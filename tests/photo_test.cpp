@@ -398,6 +398,48 @@ TEST(Color, ImageConversionMatchesPerPixel) {
   EXPECT_THROW(srgbToLuv(cv::Mat(3, 3, CV_8UC3)), Error);
 }
 
+// Our L*a*b* (shift-map's working space) round-trips, and its 8-bit encoding agrees with OpenCV's
+// RGB2Lab (the conversion it replaces) to within OpenCV's own table approximation (two levels).
+TEST(Color, LabRoundTripsAndItsEightBitEncodingMatchesOpenCV) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0, 1);
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3f rgb(u(rng), u(rng), u(rng));
+    const Vec3f back = labToSrgb(srgbToLab(rgb));
+    ASSERT_LT((back - rgb).cwiseAbs().maxCoeff(), 1e-4) << rgb.transpose() << " -> " << back.transpose();
+  }
+  EXPECT_NEAR(srgbToLab(Vec3f(1, 1, 1)).x(), 100, 1e-3);
+  EXPECT_NEAR(srgbToLab(Vec3f(1, 1, 1)).tail<2>().norm(), 0, 1e-3);
+  const Vec3f red = srgbToLab(Vec3f(1, 0, 0));  // the standard sRGB red: L 53.24, a 80.09, b 67.20
+  EXPECT_NEAR(red.x(), 53.24, 0.02);
+  EXPECT_NEAR(red.y(), 80.09, 0.05);
+  EXPECT_NEAR(red.z(), 67.20, 0.05);
+
+  cv::Mat rgb8(32, 32, CV_8UC3), rgb;
+  cv::RNG(11).fill(rgb8, cv::RNG::UNIFORM, 0, 256);
+  rgb8.convertTo(rgb, CV_32FC3, 1.0 / 255);
+  const cv::Mat lab = srgbToLab8(rgb);
+  cv::Mat reference;
+  cv::cvtColor(rgb8, reference, cv::COLOR_RGB2Lab);
+  ASSERT_EQ(lab.type(), CV_8UC3);
+  cv::Mat diff;
+  cv::absdiff(lab, reference, diff);
+  double worst = 0;
+  cv::minMaxLoc(diff.reshape(1), nullptr, &worst);
+  EXPECT_LE(worst, 2.0);
+  EXPECT_LT(cv::mean(diff.reshape(1))[0], 0.25);
+  // Back to sRGB: within the 8-bit quantisation of L*a*b* (half a level of b* moves a saturated blue by
+  // up to 0.05).
+  const cv::Mat back = lab8ToSrgb(lab);
+  ASSERT_EQ(back.type(), CV_32FC3);
+  cv::absdiff(back, rgb, diff);
+  cv::minMaxLoc(diff.reshape(1), nullptr, &worst);
+  EXPECT_LT(worst, 0.06);
+  EXPECT_LT(cv::mean(diff.reshape(1))[0], 0.01);
+  EXPECT_THROW(srgbToLab8(rgb8), Error);
+  EXPECT_THROW(lab8ToSrgb(rgb), Error);
+}
+
 // LuvTiles gives luvImage's samples and gradients bit for bit (8-bit and 16-bit photos, points across
 // tile borders, outside the photo and NaN), converting only the tiles read.
 TEST(Color, LuvTilesSampleAsTheWholeImageAndMakeOnlyTheTilesRead) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <tbb/parallel_for.h>
 
 #include "base/util.h"
 #include "geometry/predicates.h"
@@ -142,31 +143,48 @@ TransferLoss measureTransfer(const TexturedModel& original, const TexturedModel&
   if (!(total > 0) || options.samples <= 0) return out;
   out.borderShare = borderArea / total;
   out.smallShare = thinArea / total;
-  std::mt19937 rng(options.seed);
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  double sse[4] = {0, 0, 0, 0}, count[4] = {0, 0, 0, 0};  // all, interior, border, thin
-  double sseOriginal = 0, sseRefined = 0;                  // against the montage's own colours
-  for (int i = 0; i < options.samples; ++i) {
-    const int f = std::min<int>(
-        F - 1, static_cast<int>(std::upper_bound(cumulative.begin(), cumulative.end(), uniform(rng) * total) -
-                                cumulative.begin()));
-    const double s = std::sqrt(uniform(rng)), t = uniform(rng);
-    const Vec3 b(1 - s, s * (1 - t), s * t);
-    Vec3 cb;
-    const int r = locator.locate(f, b, cb);
-    if (r < 0) continue;
-    const Vec3f co = original.colorAt(f, b), cr = refined.colorAt(r, cb);
-    const Vec3f d = 255.0f * (co - cr);
-    const double e = d.cast<double>().squaredNorm() / 3;
-    if (montage) {
-      const Vec3f cm = montage(r, cb);
-      sseOriginal += (255.0f * (co - cm)).cast<double>().squaredNorm() / 3;
-      sseRefined += (255.0f * (cr - cm)).cast<double>().squaredNorm() / 3;
+  // Fixed chunks of samples, each with its own seeded generator, summed in chunk order: the figures do not
+  // depend on the thread count or the schedule.
+  struct Sums {
+    double sse[4] = {0, 0, 0, 0}, count[4] = {0, 0, 0, 0};  // all, interior, border, thin
+    double sseOriginal = 0, sseRefined = 0;                 // against the montage's own colours
+  };
+  constexpr int kChunk = 4096;
+  const int chunks = (options.samples + kChunk - 1) / kChunk;
+  std::vector<Sums> sums(chunks);
+  tbb::parallel_for(0, chunks, [&](int chunk) {
+    std::mt19937 rng(options.seed + 7919u * static_cast<unsigned>(chunk));
+    std::uniform_real_distribution<double> uniform(0.0, 1.0);
+    Sums& out = sums[chunk];
+    const int end = std::min(options.samples, (chunk + 1) * kChunk);
+    for (int i = chunk * kChunk; i < end; ++i) {
+      const int f = std::min<int>(
+          F - 1, static_cast<int>(std::upper_bound(cumulative.begin(), cumulative.end(), uniform(rng) * total) -
+                                  cumulative.begin()));
+      const double s = std::sqrt(uniform(rng)), t = uniform(rng);
+      const Vec3 b(1 - s, s * (1 - t), s * t);
+      Vec3 cb;
+      const int r = locator.locate(f, b, cb);
+      if (r < 0) continue;
+      const Vec3f co = original.colorAt(f, b), cr = refined.colorAt(r, cb);
+      const Vec3f d = 255.0f * (co - cr);
+      const double e = d.cast<double>().squaredNorm() / 3;
+      if (montage) {
+        const Vec3f cm = montage(r, cb);
+        out.sseOriginal += (255.0f * (co - cm)).cast<double>().squaredNorm() / 3;
+        out.sseRefined += (255.0f * (cr - cm)).cast<double>().squaredNorm() / 3;
+      }
+      out.sse[0] += e, out.count[0] += 1;
+      const int cls = border[f] ? 2 : 1;
+      out.sse[cls] += e, out.count[cls] += 1;
+      if (thin[f]) out.sse[3] += e, out.count[3] += 1;
     }
-    sse[0] += e, count[0] += 1;
-    const int cls = border[f] ? 2 : 1;
-    sse[cls] += e, count[cls] += 1;
-    if (thin[f]) sse[3] += e, count[3] += 1;
+  });
+  double sse[4] = {0, 0, 0, 0}, count[4] = {0, 0, 0, 0};
+  double sseOriginal = 0, sseRefined = 0;
+  for (const Sums& part : sums) {
+    for (int k = 0; k < 4; ++k) sse[k] += part.sse[k], count[k] += part.count[k];
+    sseOriginal += part.sseOriginal, sseRefined += part.sseRefined;
   }
   out.samples = static_cast<int>(count[0]);
   out.psnr = psnrOf(sse[0], count[0]);

@@ -1,6 +1,7 @@
 #include "image/color.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 
 namespace montage {
@@ -95,6 +96,68 @@ cv::Mat srgbToLuv(const cv::Mat& rgb) {
     }
   });
   return luv;
+}
+
+namespace {
+
+// CIE L*a*b*'s f(t) and its inverse.
+double labF(double t) {
+  return t > kEpsilon ? std::cbrt(t) : (kKappa * t + 16) / 116;
+}
+double labFInverse(double f) {
+  return f * f * f > kEpsilon ? f * f * f : (116 * f - 16) / kKappa;
+}
+
+const Eigen::Vector3d& labWhite() {  // XYZ of sRGB white
+  static const Eigen::Vector3d n = rgbToXyz() * Eigen::Vector3d::Ones();
+  return n;
+}
+
+}  // namespace
+
+Vec3f srgbToLab(const Vec3f& rgb) {
+  const Eigen::Vector3d lin(srgbToLinear(rgb.x()), srgbToLinear(rgb.y()), srgbToLinear(rgb.z()));
+  const Eigen::Vector3d xyz = rgbToXyz() * lin;
+  const Eigen::Vector3d& n = labWhite();
+  const double fx = labF(xyz.x() / n.x()), fy = labF(xyz.y() / n.y()), fz = labF(xyz.z() / n.z());
+  return Vec3f(float(116 * fy - 16), float(500 * (fx - fy)), float(200 * (fy - fz)));
+}
+
+Vec3f labToSrgb(const Vec3f& lab) {
+  const double fy = (lab.x() + 16) / 116.0, fx = fy + lab.y() / 500.0, fz = fy - lab.z() / 200.0;
+  const Eigen::Vector3d& n = labWhite();
+  const Eigen::Vector3d xyz(n.x() * labFInverse(fx), n.y() * labFInverse(fy), n.z() * labFInverse(fz));
+  const Eigen::Vector3d lin = xyzToRgb() * xyz;
+  return Vec3f(float(linearToSrgb(lin.x())), float(linearToSrgb(lin.y())), float(linearToSrgb(lin.z())));
+}
+
+cv::Mat srgbToLab8(const cv::Mat& rgb) {
+  TM_CHECK(rgb.type() == CV_32FC3, "srgbToLab8: expected a CV_32FC3 image");
+  cv::Mat lab(rgb.size(), CV_8UC3);
+  for (int r = 0; r < rgb.rows; ++r) {
+    const auto* in = rgb.ptr<cv::Vec3f>(r);
+    auto* out = lab.ptr<cv::Vec3b>(r);
+    for (int c = 0; c < rgb.cols; ++c) {
+      const Vec3f v = srgbToLab(Vec3f(in[c][0], in[c][1], in[c][2]));
+      out[c] = cv::Vec3b(cv::saturate_cast<uchar>(v.x() * 255 / 100), cv::saturate_cast<uchar>(v.y() + 128),
+                         cv::saturate_cast<uchar>(v.z() + 128));
+    }
+  }
+  return lab;
+}
+
+cv::Mat lab8ToSrgb(const cv::Mat& lab) {
+  TM_CHECK(lab.type() == CV_8UC3, "lab8ToSrgb: expected a CV_8UC3 image");
+  cv::Mat rgb(lab.size(), CV_32FC3);
+  for (int r = 0; r < lab.rows; ++r) {
+    const auto* in = lab.ptr<cv::Vec3b>(r);
+    auto* out = rgb.ptr<cv::Vec3f>(r);
+    for (int c = 0; c < lab.cols; ++c) {
+      const Vec3f v = labToSrgb(Vec3f(in[c][0] * 100.0f / 255, in[c][1] - 128.0f, in[c][2] - 128.0f));
+      out[c] = cv::Vec3f(std::clamp(v.x(), 0.0f, 1.0f), std::clamp(v.y(), 0.0f, 1.0f), std::clamp(v.z(), 0.0f, 1.0f));
+    }
+  }
+  return rgb;
 }
 
 float deltaEuv(const Vec3f& rgbA, const Vec3f& rgbB) {

@@ -18,6 +18,14 @@ Vec3f srgbToLuv(const Vec3f& rgb);
 Vec3f luvToSrgb(const Vec3f& luv);
 // Whole-image conversion, CV_32FC3 RGB in [0,1] to CV_32FC3 L*u*v*.
 cv::Mat srgbToLuv(const cv::Mat& rgb);
+// sRGB in [0,1] to CIE L*a*b* (D65 white; L in [0,100]) and back (no clamping).
+Vec3f srgbToLab(const Vec3f& rgb);
+Vec3f labToSrgb(const Vec3f& lab);
+// Whole-image conversions to and from 8-bit L*a*b* in OpenCV's encoding (L * 255 / 100, a + 128, b + 128):
+// CV_32FC3 RGB in [0,1] to CV_8UC3, and back (clamped into [0,1]). OpenCV's own 8-bit conversion builds
+// its tables on first use, a tenth of a second of a cold run.
+cv::Mat srgbToLab8(const cv::Mat& rgb);
+cv::Mat lab8ToSrgb(const cv::Mat& lab);
 // Euclidean distance in L*u*v* (the CIE 1976 Delta E*uv) between two sRGB colours.
 float deltaEuv(const Vec3f& rgbA, const Vec3f& rgbB);
 

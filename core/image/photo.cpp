@@ -562,7 +562,7 @@ struct Footprint {
   int x0, y0, x1, y1;
   double fx, fy;
 };
-Footprint bilinearFootprint(int cols, int rows, double x, double y) {
+inline Footprint bilinearFootprint(int cols, int rows, double x, double y) {
   const double u = std::isnan(x) ? 0.0 : std::clamp(x - 0.5, 0.0, double(cols - 1));
   const double v = std::isnan(y) ? 0.0 : std::clamp(y - 0.5, 0.0, double(rows - 1));
   const int x0 = int(u), y0 = int(v);
@@ -582,11 +582,15 @@ LuvTiles::LuvTiles(const Photo& photo) : rgb_(photo.rgb), unit_(unitOf(photo.rgb
   tilesX_ = (rgb_.cols + kTile - 1) / kTile;
   tilesY_ = (rgb_.rows + kTile - 1) / kTile;
   done_ = std::make_unique<std::once_flag[]>(size_t(tilesX_) * tilesY_);
+  ready_ = std::make_unique<std::atomic<bool>[]>(size_t(tilesX_) * tilesY_);
+  for (int i = 0; i < tilesX_ * tilesY_; ++i) ready_[i].store(false, std::memory_order_relaxed);
 }
 
 void LuvTiles::require(int x, int y) const {
   const int tx = x / kTile, ty = y / kTile;
-  std::call_once(done_[size_t(ty) * tilesX_ + tx], [&] {
+  const size_t tile = size_t(ty) * tilesX_ + tx;
+  if (ready_[tile].load(std::memory_order_acquire)) return;  // the common case, without a call
+  std::call_once(done_[tile], [&] {
     const cv::Rect r(tx * kTile, ty * kTile, std::min(kTile, rgb_.cols - tx * kTile),
                      std::min(kTile, rgb_.rows - ty * kTile));
     cv::Mat rgb;
@@ -601,6 +605,7 @@ void LuvTiles::require(int x, int y) const {
       }
     }
     ++made_;
+    ready_[tile].store(true, std::memory_order_release);
   });
 }
 
@@ -612,7 +617,17 @@ Vec3f LuvTiles::sample(double x, double y) const {
     require(x0, y1);
     if (x1 / kTile != x0 / kTile) require(x1, y1);
   }
-  return sampleBilinear3(luv_, x, y);
+  // sampleBilinear3's arithmetic (the same values), without its checks and depth dispatch: the seams
+  // read ten samples per seam point at every step of their line searches.
+  const float* r0 = luv_.ptr<float>(y0);
+  const float* r1 = luv_.ptr<float>(y1);
+  Vec3f out;
+  for (int c = 0; c < 3; ++c) {
+    const double a = r0[x0 * 3 + c], b = r0[x1 * 3 + c], d = r1[x0 * 3 + c], e = r1[x1 * 3 + c];
+    const double top = a + fx * (b - a), bottom = d + fx * (e - d);
+    out[c] = float(top + fy * (bottom - top));
+  }
+  return out;
 }
 
 void LuvTiles::gradient(double x, double y, Vec3f& ddx, Vec3f& ddy) const {

@@ -88,6 +88,7 @@ class LuvTiles {
   cv::Mat luv_;  // CV_32FC3; only converted tiles hold values
   int tilesX_ = 0, tilesY_ = 0;
   std::unique_ptr<std::once_flag[]> done_;
+  std::unique_ptr<std::atomic<bool>[]> ready_;  // set once a tile's conversion is visible
   mutable std::atomic<int> made_{0};
 };
 

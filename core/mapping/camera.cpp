@@ -297,7 +297,9 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
     img[i] = cv::Point2d(clicks[i].pixel.x(), clicks[i].pixel.y());
   }
 
-  // Start: the given camera, or a focal sweep x RANSAC PnP with the best MSAC score.
+  // Start: the given camera, or a focal sweep x RANSAC PnP with the best MSAC score. RANSAC's pose on its
+  // inliers is EPnP's, not Levenberg-Marquardt's: the refinement below polishes the chosen start, and the
+  // scores pick the same focal (same fits on the test scenes, a quarter less time).
   Params best;
   double bestScore = kInf;
   if (startCamera && startCamera->pinhole.width == width && startCamera->pinhole.height == height) {
@@ -317,6 +319,13 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   const double fLo = halfSize / std::tan(0.5 * o.maxFovDeg * M_PI / 180);
   const double fHi = halfSize / std::tan(0.5 * o.minFovDeg * M_PI / 180);
   const int samples = std::isfinite(bestScore) ? 0 : std::max(2, o.focalSamples);
+  constexpr int kSampleSize = 5;  // solvePnPRansac's EPnP samples
+  constexpr double kConfidence = 0.999;
+  const int iterations =
+      o.ransacIterations > 0
+          ? o.ransacIterations
+          : static_cast<int>(std::ceil(std::log(1 - kConfidence) /
+                                       std::log(1 - std::pow(std::clamp(o.minInlierRatio, 0.05, 0.99), kSampleSize))));
   cv::theRNG().state = 0x9E3779B97F4A7C15ull ^ o.seed;
   for (int s = 0; s < samples; ++s) {
     Params p;
@@ -324,8 +333,8 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
     cv::Mat rvec, tvec;
     std::vector<int> inl;
     try {
-      if (!cv::solvePnPRansac(obj, img, intrinsics(p.focal, cx, cy), cv::noArray(), rvec, tvec, false,
-                              o.ransacIterations, static_cast<float>(tau), 0.999, inl, cv::SOLVEPNP_ITERATIVE))
+      if (!cv::solvePnPRansac(obj, img, intrinsics(p.focal, cx, cy), cv::noArray(), rvec, tvec, false, iterations,
+                              static_cast<float>(tau), kConfidence, inl, cv::SOLVEPNP_EPNP))
         continue;
     } catch (const cv::Exception&) {
       continue;  // degenerate sample set for this focal

@@ -66,7 +66,10 @@ struct CameraFitOptions {
                                      // over the residual variance) exceeds this: p < 0.005, not a fit to noise
   double minFovDeg = 2, maxFovDeg = 150;  // focal lengths outside this field of view are implausible
   int focalSamples = 16;                  // focal lengths tried for the RANSAC start (log-spaced over the fov range)
-  int ransacIterations = 300;             // RANSAC iterations per focal length
+  // RANSAC iterations per focal length; 0: enough to draw, with 99.9% confidence, one sample of five
+  // agreeing clicks when minInlierRatio of them agree (86 at 0.6): a photo with fewer agreeing clicks
+  // does not fit anyway, and a focal far from the photo's spends them all.
+  int ransacIterations = 0;
   unsigned seed = 1;                      // RANSAC seed, so fits are repeatable
   // Silhouette refinement (refineOnSilhouette), for photos with a background:
   bool silhouette = true;                 // refine the camera on the photo's silhouette as well as the clicks

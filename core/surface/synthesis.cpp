@@ -12,6 +12,7 @@
 #include "base/job.h"
 #include "geometry/mesh.h"
 #include "geometry/raster.h"
+#include "image/color.h"
 #include "image/photo.h"
 #include "image/shiftmap.h"
 #include "surface/level.h"
@@ -300,15 +301,12 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     }
   }
   // Shift-map works on 8-bit L*a*b* (its patch distances expect a perceptual space).
-  cv::Mat rgb8, lab;
-  rgb.convertTo(rgb8, CV_8UC3, 255.0);
-  cv::cvtColor(rgb8, lab, cv::COLOR_RGB2Lab);
+  const cv::Mat lab = srgbToLab8(rgb);
   // Shift-map is one long call without a cancellation point (up to a second on a big hole): a cancel does not
   // wait for it (runCancellable), so it works on copies of its inputs (cv::Mat headers share their pixels).
   auto shifted = std::make_shared<cv::Mat>();
   runCancellable(job, [lab, known, shifted] { *shifted = shiftMapFill(lab, known); });
-  cv::cvtColor(*shifted, rgb8, cv::COLOR_Lab2RGB);
-  rgb8.convertTo(chart->image, CV_32FC3, 1.0 / 255);
+  chart->image = lab8ToSrgb(*shifted);
   // Known texels keep their exact (float) colours.
   rgb.copyTo(chart->image, known);
   if (blur > 0) cv::GaussianBlur(chart->image, chart->image, cv::Size(), blur * std::sqrt(holeArea / M_PI) * scale);

@@ -9,6 +9,7 @@
 #include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -242,28 +243,40 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
   return out;
 }
 
-Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches) {
-  Mapping out;
-  auto start = Clock::now();
+Partition partitionScene(const Scene& scene, const JobControl& job, MapCaches* caches) {
   PartitionOptions partitionOptions;
   partitionOptions.backgroundThresholdPx = scene.project.options.backgroundThresholdPx;
-  out.partition = partitionMesh(scene, partitionOptions, job, caches ? &caches->partition : nullptr);
-  out.partitionSeconds = secondsSince(start);
+  return partitionMesh(scene, partitionOptions, job, caches ? &caches->partition : nullptr);
+}
 
-  start = Clock::now();
+Mapping mapPartition(const Scene& scene, Partition partition, const JobControl& job, MapCaches* caches,
+                     const std::vector<char>* projected) {
+  Mapping out;
+  out.partition = std::move(partition);
+  const auto start = Clock::now();
   FineMapOptions fineOptions;
   fineOptions.seed = scene.project.options.seed;
   fineOptions.lineSearches = scene.project.options.stretchSearches;
   if (fineOptions.lineSearches == 0) fineOptions.finalSweeps = 0;
-  CellMapping cells = mapCells(scene, out.partition, fineOptions, job, caches ? &caches->cells : nullptr);
+  CellMapping cells = mapCells(scene, out.partition, fineOptions, job, caches ? &caches->cells : nullptr, projected);
   out.map = std::move(cells.map);
   out.cells = std::move(cells.cells);
   out.stats = cells.stats;
   out.cellsMapped = cells.cellsMapped;
   out.cellsReused = cells.cellsReused;
+  out.cellsProjected = cells.cellsProjected;
   out.mapSeconds = secondsSince(start);
   if (scene.project.points.empty())
     out.map.notes.insert(out.map.notes.begin(), "no features: the whole mesh is one empty patch (paper section 3)");
+  return out;
+}
+
+Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches, const std::vector<char>* projected) {
+  const auto start = Clock::now();
+  Partition partition = partitionScene(scene, job, caches);
+  const double partitionSeconds = secondsSince(start);
+  Mapping out = mapPartition(scene, std::move(partition), job, caches, projected);
+  out.partitionSeconds = partitionSeconds;
   return out;
 }
 
@@ -608,16 +621,31 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   for (const CachedPhoto& c : cachedPhotos_) key << '#' << c.key;
   key << document["points"].dump() << document["chains"].dump() << opts["backgroundThresholdPx"].dump()
       << opts["stretchSearches"].dump() << opts["seed"].dump();
-  const bool mapCached = key.str() == mapKey_ && cachedMapping_;
-  const auto mapPhotos = [&] {
-    if (mapCached) return;
-    cachedMapping_ = std::make_shared<const Mapping>(mapTexture(*scene, job, &mapCaches_));
-    mapCaches_.cells.endRun();
-    mapKey_ = key.str();
+  const bool partitionCached = key.str() == mapKey_ && cachedMapping_;
+  std::optional<Partition> partition;
+  double partitionSeconds = 0;
+  const auto partitionPhotos = [&] {
+    if (partitionCached) return;
+    const auto start = Clock::now();
+    partition = partitionScene(*scene, job, &mapCaches_);
+    partitionSeconds = secondsSince(start);
   };
   // The two read different inputs and touch different caches: they run side by side, so that the camera
   // fits use the core the partition's sequential queue leaves idle.
-  tbb::parallel_invoke(fitCameras, mapPhotos);
+  tbb::parallel_invoke(fitCameras, partitionPhotos);
+  // Map: the cells of photos that fit no camera (the projection maps the others: mapCells).
+  std::vector<char> projected;
+  for (const CameraFit& fit : cameras->fits) projected.push_back(fit.fits);
+  const bool mapCached = partitionCached && projected == mappedProjected_;
+  if (!mapCached) {
+    auto mapping = std::make_shared<Mapping>(mapPartition(
+        *scene, partition ? std::move(*partition) : cachedMapping_->partition, job, &mapCaches_, &projected));
+    mapping->partitionSeconds = partitionSeconds;
+    cachedMapping_ = std::move(mapping);
+    mapCaches_.cells.endRun();
+    mapKey_ = key.str();
+    mappedProjected_ = projected;
+  }
   {
     nlohmann::json photos = nlohmann::json::array();
     for (size_t p = 0; p < cameras->fits.size(); ++p) photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p)));
@@ -639,14 +667,14 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     rejected[reason] = rejected.value(reason, 0) + 1;
   }
   result.stages.push_back({StageId::Partition,
-                           mapCached,
-                           mapCached ? 0 : mapping.partitionSeconds,
+                           partitionCached,
+                           partitionCached ? 0 : mapping.partitionSeconds,
                            {{"paths", mapping.partition.paths.size()},
                             {"rejected", rejected},
                             {"cells", mapping.partition.numCells},
                             {"steiner_vertices", mapping.partition.steinerVertices},
                             {"searches", mapping.partition.searches},
-                            {"searches_reused", mapCached ? 0 : mapping.partition.searchesReused}}});
+                            {"searches_reused", partitionCached ? 0 : mapping.partition.searchesReused}}});
   nlohmann::json cellStatus = nlohmann::json::object();
   for (const CellPlan& c : mapping.cells) {
     const std::string status = kCellStatusNames[static_cast<int>(c.status)];
@@ -660,6 +688,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"cells", cellStatus},
                             {"cells_mapped", mapCached ? 0 : mapping.cellsMapped},
                             {"cells_reused", mapCached ? 0 : mapping.cellsReused},
+                            {"cells_projected", mapping.cellsProjected},
                             {"splits", mapping.stats.splits},
                             {"base_inner_vertices", mapping.stats.baseInnerVertices},
                             {"centroid_fallbacks", mapping.stats.centroidFallbacks},
@@ -1043,7 +1072,9 @@ PipelineResult projectionOracle(const Project& project, const std::vector<PhotoC
   result.cameras = fits;
   result.stages.push_back({StageId::Camera, false, secondsSince(start), {{"fitted", fits->fitted}}});
   start = Clock::now();
-  auto paper = std::make_shared<const Mapping>(mapTexture(scene, job));
+  std::vector<char> projected;
+  for (const CameraFit& fit : fits->fits) projected.push_back(fit.fits);
+  auto paper = std::make_shared<const Mapping>(mapTexture(scene, job, nullptr, &projected));
   result.stages.push_back({StageId::Map, false, secondsSince(start), {}});
   start = Clock::now();
   result.projection = std::make_shared<const ProjectionStage>(projectMapping(scene, paper, *fits, job));

@@ -51,6 +51,7 @@ struct Mapping {
   std::vector<CellPlan> cells;
   FineMapStats stats;
   int cellsMapped = 0, cellsReused = 0;  // cells mapped in this run; taken from the cell cache
+  int cellsProjected = 0;                // cells into photos mapped by projection (mapCells: not mapped)
   double partitionSeconds = 0, mapSeconds = 0;
 };
 
@@ -138,8 +139,14 @@ struct MapCaches {
   CellCache cells;
 };
 // Partition, Map: correspondences -> partition -> per cell: progressive mesh and coarse-to-fine
-// (cells.h). What `caches` hold from earlier runs is reused.
-Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr);
+// (cells.h). What `caches` hold from earlier runs is reused. `projected` (per photo; may be null): the
+// photos that fit a camera, whose cells the projection stage maps (mapCells leaves them unmapped).
+Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr,
+                   const std::vector<char>* projected = nullptr);
+// The two halves of mapTexture: the partition, then the cells' maps over it.
+Partition partitionScene(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr);
+Mapping mapPartition(const Scene& scene, Partition partition, const JobControl& job = {}, MapCaches* caches = nullptr,
+                     const std::vector<char>* projected = nullptr);
 // Projection: faces that photos fitting a camera see are mapped by projection, the photo chosen per
 // face by view selection; the paper's mapping of the other photos is kept (projection.h), and the
 // cameras propose correspondences (proposals.h).
@@ -233,7 +240,8 @@ class Pipeline {
   ViewFrameCache frames_;       // projection: each fitted photo's frame, by camera
   PoissonCache solvers_;        // inpaint: the factorisations of the last two runs' regions
   SynthesisMemo synthesis_;     // inpaint: the synthesised holes' shift-map results of the last two runs
-  std::string mapKey_;
+  std::string mapKey_;          // the partition's inputs
+  std::vector<char> mappedProjected_;  // the photos that fitted a camera when the cells were mapped
   std::shared_ptr<const Mapping> cachedMapping_;
   MapCaches mapCaches_;
   std::string seamKey_;

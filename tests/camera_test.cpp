@@ -135,6 +135,32 @@ TEST(CameraFit, OneWrongClickAmongThirtyIsAnOutlierAndTheFitIsUnchanged) {
   EXPECT_GT(projectionGap(*d.mesh, clean.camera, pulled.camera), 0.5);
 }
 
+// RANSAC draws only as many samples as the least share of agreeing clicks that fits needs (86 at 60%):
+// with 11 of 30 clicks wrong (63% agree), every seed still finds the camera and marks the 11.
+TEST(CameraFit, ElevenWrongClicksAmongThirtyAreOutliersForEverySeed) {
+  DemoScene d = demoScene("camera_fit_outliers", 4, 200);
+  std::vector<CameraClick> clicks = photoClicks(d.scene.project, 0);
+  ASSERT_GE(clicks.size(), 30u);
+  clicks.resize(30);
+  const CameraFit clean = fitCamera(*d.mesh, std::vector<CameraClick>(clicks.begin() + 11, clicks.end()), 512, 512);
+  ASSERT_TRUE(clean.fits);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> angle(0, 2 * M_PI), distance(30, 120);
+  for (int i = 0; i < 11; ++i) {
+    const double a = angle(rng), r = distance(rng);
+    clicks[i].pixel += Vec2(r * std::cos(a), r * std::sin(a));
+  }
+  for (unsigned seed = 1; seed <= 8; ++seed) {
+    CameraFitOptions o;
+    o.seed = seed;
+    const CameraFit fit = fitCamera(*d.mesh, clicks, 512, 512, o);
+    ASSERT_TRUE(fit.fits) << "seed " << seed << ": " << fit.reason;
+    EXPECT_EQ(fit.inliers, 19) << "seed " << seed;
+    for (int i = 0; i < 30; ++i) EXPECT_EQ(bool(fit.inlier[i]), i >= 11) << "seed " << seed << ", click " << i;
+    EXPECT_LT(projectionGap(*d.mesh, clean.camera, fit.camera), 1e-3) << "seed " << seed;
+  }
+}
+
 TEST(CameraFit, TooFewOrInconsistentClicksDoNotFit) {
   DemoScene d = demoScene("camera_fit_few", 4, 200);
   std::vector<CameraClick> clicks = photoClicks(d.scene.project, 0);

@@ -628,9 +628,14 @@ TEST(MontageCli, OutIsCheckedBeforeThePipelineAndLocked) {
   std::ofstream(dir + "/file") << "x";
   EXPECT_NE(test::runCommand(test::montageExe() + " run " + demoProject() + " --out " + dir + "/file 2>&1", &log), 0);
   EXPECT_NE(log.find(dir + "/file: output folder: is a file, not a folder"), std::string::npos) << log;
-  // Two runs on one folder: the second is refused while the first holds the lock.
+  // Two runs on one folder: the second is refused while the first holds the lock. The demo's own run
+  // takes about a second now; the first run fills a fixed 4096^2 atlas, so that it holds the lock for
+  // several seconds.
+  Project slow = loadProject(demoProject());
+  slow.options.atlasSize = 4096;
+  saveProject(slow, dir + "/slow.json");
   const std::string out = dir + "/result";
-  ASSERT_EQ(test::runCommand("(" + test::montageExe() + " run " + demoProject() + " --out " + out +
+  ASSERT_EQ(test::runCommand("(" + test::montageExe() + " run " + dir + "/slow.json --out " + out +
                                  " >/dev/null 2>&1 &) ; sleep 1; " + test::montageExe() + " run " + demoProject() +
                                  " --out " + out + " 2>&1; status=$?; sleep 12; exit $status",
                              &log) != 0,

@@ -321,11 +321,11 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   const int samples = std::isfinite(bestScore) ? 0 : std::max(2, o.focalSamples);
   constexpr int kSampleSize = 5;  // solvePnPRansac's EPnP samples
   constexpr double kConfidence = 0.999;
-  const int iterations =
+  const double allAgree = std::pow(std::clamp(o.minInlierRatio, 0.01, 0.99), kSampleSize);
+  const int iterations =  // at most 1000: a low minInlierRatio would ask for millions
       o.ransacIterations > 0
           ? o.ransacIterations
-          : static_cast<int>(std::ceil(std::log(1 - kConfidence) /
-                                       std::log(1 - std::pow(std::clamp(o.minInlierRatio, 0.05, 0.99), kSampleSize))));
+          : static_cast<int>(std::min(1000.0, std::ceil(std::log(1 - kConfidence) / std::log1p(-allAgree))));
   cv::theRNG().state = 0x9E3779B97F4A7C15ull ^ o.seed;
   for (int s = 0; s < samples; ++s) {
     Params p;

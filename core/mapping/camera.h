@@ -67,7 +67,7 @@ struct CameraFitOptions {
   double minFovDeg = 2, maxFovDeg = 150;  // focal lengths outside this field of view are implausible
   int focalSamples = 16;                  // focal lengths tried for the RANSAC start (log-spaced over the fov range)
   // RANSAC iterations per focal length; 0: enough to draw, with 99.9% confidence, one sample of five
-  // agreeing clicks when minInlierRatio of them agree (86 at 0.6): a photo with fewer agreeing clicks
+  // agreeing clicks when minInlierRatio of them agree (86 at 0.6; at most 1000): a photo with fewer agreeing clicks
   // does not fit anyway, and a focal far from the photo's spends them all.
   int ransacIterations = 0;
   unsigned seed = 1;                      // RANSAC seed, so fits are repeatable

@@ -369,7 +369,7 @@ CellJob buildJob(const Scene& scene, const Partition& partition, const CellPlan&
 }  // namespace
 
 CellMapping mapCells(const Scene& scene, const Partition& partition, const FineMapOptions& options,
-                     const JobControl& job, CellCache* cache) {
+                     const JobControl& job, CellCache* cache, const std::vector<char>* projected) {
   const Mesh& mesh = partition.mesh;
   CellMapping out;
   out.map = TextureMap::allEmpty(mesh.numFaces());
@@ -382,6 +382,11 @@ CellMapping mapCells(const Scene& scene, const Partition& partition, const FineM
   for (int i = 0; i < static_cast<int>(out.cells.size()); ++i) {
     const CellPlan& plan = out.cells[i];
     if (plan.status != CellStatus::Mapped) continue;
+    if (projected && plan.photo >= 0 && plan.photo < static_cast<int>(projected->size()) && (*projected)[plan.photo]) {
+      for (int f : plan.faces) out.map.facePhoto[f] = plan.photo;  // UVs: the empty map's
+      ++out.cellsProjected;
+      continue;
+    }
     mapped.push_back(i);
     for (int k = 0; k < 3; ++k) pathUV[{plan.sides[k], plan.photo}];
   }

@@ -94,12 +94,16 @@ struct CellMapping {
   FineMapStats stats;           // summed over mapped cells
   int cellsMapped = 0;          // cells whose map was computed in this run
   int cellsReused = 0;          // cells taken from the cache
+  int cellsProjected = 0;       // cells into a photo mapped by projection: planned, not mapped (below)
 };
 
 // Plans the cells, builds each mapped cell's problem and maps it (in parallel), reusing `cache`
 // entries when given. Scene::photoKeys identify the photos' contents; a photo without a key is never
-// cached. Throws montage::Cancelled when the job is cancelled.
+// cached. `projected` (per photo; may be null): photos that fit a camera. The projection stage
+// (projection.h) gives each face such a photo sees its projection and leaves the others empty, so it never
+// reads the paper's UVs in those photos: their cells keep their plan and their faces the photo (with the
+// empty map's UVs), and are not mapped. Throws montage::Cancelled when the job is cancelled.
 CellMapping mapCells(const Scene& scene, const Partition& partition, const FineMapOptions& options,
-                     const JobControl& job, CellCache* cache = nullptr);
+                     const JobControl& job, CellCache* cache = nullptr, const std::vector<char>* projected = nullptr);
 
 }  // namespace montage

@@ -344,8 +344,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   in.luv = std::move(luv);
   in.warm = warm;
   in.warmTolerancePx = warm ? kPreviewFramePx : 0;
-  if (cameras)
-    for (const CameraFit& fit : cameras->fits) in.projectedPhotos.push_back(fit.fits);
+  if (cameras) in.projectedPhotos = fittingPhotos(cameras->fits);
   SeamOptions options;
   options.lambda = o.seamLambda;
   options.rounds = o.seamRounds;
@@ -634,8 +633,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   // fits use the core the partition's sequential queue leaves idle.
   tbb::parallel_invoke(fitCameras, partitionPhotos);
   // Map: the cells of photos that fit no camera (the projection maps the others: mapCells).
-  std::vector<char> projected;
-  for (const CameraFit& fit : cameras->fits) projected.push_back(fit.fits);
+  const std::vector<char> projected = fittingPhotos(cameras->fits);
   const bool mapCached = partitionCached && projected == mappedProjected_;
   if (!mapCached) {
     auto mapping = std::make_shared<Mapping>(mapPartition(
@@ -1072,8 +1070,7 @@ PipelineResult projectionOracle(const Project& project, const std::vector<PhotoC
   result.cameras = fits;
   result.stages.push_back({StageId::Camera, false, secondsSince(start), {{"fitted", fits->fitted}}});
   start = Clock::now();
-  std::vector<char> projected;
-  for (const CameraFit& fit : fits->fits) projected.push_back(fit.fits);
+  const std::vector<char> projected = fittingPhotos(fits->fits);
   auto paper = std::make_shared<const Mapping>(mapTexture(scene, job, nullptr, &projected));
   result.stages.push_back({StageId::Map, false, secondsSince(start), {}});
   start = Clock::now();

@@ -39,9 +39,18 @@ const WhitePoint& white() {
 constexpr double kEpsilon = 216.0 / 24389.0;  // (6/29)^3: below it L* is linear in Y
 constexpr double kKappa = 24389.0 / 27.0;     // (29/3)^3
 
+// sRGB (gamma encoded) to CIE XYZ, and back.
+Eigen::Vector3d srgbToXyz(const Vec3f& rgb) {
+  return rgbToXyz() * Eigen::Vector3d(srgbToLinear(rgb.x()), srgbToLinear(rgb.y()), srgbToLinear(rgb.z()));
+}
+
+Vec3f xyzToSrgb(const Eigen::Vector3d& xyz) {
+  const Eigen::Vector3d lin = xyzToRgb() * xyz;
+  return Vec3f(float(linearToSrgb(lin.x())), float(linearToSrgb(lin.y())), float(linearToSrgb(lin.z())));
+}
+
 Eigen::Vector3d toLuv(const Vec3f& rgb) {
-  const Eigen::Vector3d lin(srgbToLinear(rgb.x()), srgbToLinear(rgb.y()), srgbToLinear(rgb.z()));
-  const Eigen::Vector3d xyz = rgbToXyz() * lin;
+  const Eigen::Vector3d xyz = srgbToXyz(rgb);
   const WhitePoint& w = white();
   const double y = xyz.y() / w.Y;
   const double L = y > kEpsilon ? 116 * std::cbrt(y) - 16 : kKappa * y;
@@ -77,9 +86,7 @@ Vec3f luvToSrgb(const Vec3f& luv) {
   const double up = luv.y() / (13 * L) + w.u, vp = luv.z() / (13 * L) + w.v;
   const double Y = w.Y * (L > kKappa * kEpsilon ? std::pow((L + 16) / 116, 3) : L / kKappa);
   if (vp <= 0) return Vec3f::Zero();  // not a real colour; map to black rather than divide by zero
-  const Eigen::Vector3d xyz(Y * 9 * up / (4 * vp), Y, Y * (12 - 3 * up - 20 * vp) / (4 * vp));
-  const Eigen::Vector3d lin = xyzToRgb() * xyz;
-  return Vec3f(float(linearToSrgb(lin.x())), float(linearToSrgb(lin.y())), float(linearToSrgb(lin.z())));
+  return xyzToSrgb(Eigen::Vector3d(Y * 9 * up / (4 * vp), Y, Y * (12 - 3 * up - 20 * vp) / (4 * vp)));
 }
 
 cv::Mat srgbToLuv(const cv::Mat& rgb) {
@@ -116,8 +123,7 @@ const Eigen::Vector3d& labWhite() {  // XYZ of sRGB white
 }  // namespace
 
 Vec3f srgbToLab(const Vec3f& rgb) {
-  const Eigen::Vector3d lin(srgbToLinear(rgb.x()), srgbToLinear(rgb.y()), srgbToLinear(rgb.z()));
-  const Eigen::Vector3d xyz = rgbToXyz() * lin;
+  const Eigen::Vector3d xyz = srgbToXyz(rgb);
   const Eigen::Vector3d& n = labWhite();
   const double fx = labF(xyz.x() / n.x()), fy = labF(xyz.y() / n.y()), fz = labF(xyz.z() / n.z());
   return Vec3f(float(116 * fy - 16), float(500 * (fx - fy)), float(200 * (fy - fz)));
@@ -126,9 +132,7 @@ Vec3f srgbToLab(const Vec3f& rgb) {
 Vec3f labToSrgb(const Vec3f& lab) {
   const double fy = (lab.x() + 16) / 116.0, fx = fy + lab.y() / 500.0, fz = fy - lab.z() / 200.0;
   const Eigen::Vector3d& n = labWhite();
-  const Eigen::Vector3d xyz(n.x() * labFInverse(fx), n.y() * labFInverse(fy), n.z() * labFInverse(fz));
-  const Eigen::Vector3d lin = xyzToRgb() * xyz;
-  return Vec3f(float(linearToSrgb(lin.x())), float(linearToSrgb(lin.y())), float(linearToSrgb(lin.z())));
+  return xyzToSrgb(Eigen::Vector3d(n.x() * labFInverse(fx), n.y() * labFInverse(fy), n.z() * labFInverse(fz)));
 }
 
 cv::Mat srgbToLab8(const cv::Mat& rgb) {

@@ -568,6 +568,22 @@ inline Footprint bilinearFootprint(int cols, int rows, double x, double y) {
   const int x0 = int(u), y0 = int(v);
   return {x0, y0, std::min(x0 + 1, cols - 1), std::min(y0 + 1, rows - 1), u - x0, v - y0};
 }
+
+// Bilinear interpolation over footprint `p` of the first min(channels, N) channels; the others are 0.
+// Pixels of type T, multiplied by `unit` (1/255 for 8-bit, 1/65535 for 16-bit, 1 for float).
+template <int N, class T>
+std::array<float, N> interpolate(const cv::Mat& image, const Footprint& p, double unit) {
+  const int cn = image.channels();
+  const T* r0 = image.ptr<T>(p.y0);
+  const T* r1 = image.ptr<T>(p.y1);
+  std::array<float, N> out{};
+  for (int c = 0; c < std::min(cn, N); ++c) {
+    const double a = r0[p.x0 * cn + c], b = r0[p.x1 * cn + c], d = r1[p.x0 * cn + c], e = r1[p.x1 * cn + c];
+    const double top = a + p.fx * (b - a), bottom = d + p.fx * (e - d);
+    out[c] = float((top + p.fy * (bottom - top)) * unit);
+  }
+  return out;
+}
 }  // namespace
 
 cv::Mat luvImage(const Photo& photo) {
@@ -610,24 +626,17 @@ void LuvTiles::require(int x, int y) const {
 }
 
 Vec3f LuvTiles::sample(double x, double y) const {
-  const auto [x0, y0, x1, y1, fx, fy] = bilinearFootprint(luv_.cols, luv_.rows, x, y);  // what bilinear() reads
-  require(x0, y0);
-  if (x1 / kTile != x0 / kTile) require(x1, y0);
-  if (y1 / kTile != y0 / kTile) {
-    require(x0, y1);
-    if (x1 / kTile != x0 / kTile) require(x1, y1);
+  const Footprint p = bilinearFootprint(luv_.cols, luv_.rows, x, y);  // what bilinear() reads
+  require(p.x0, p.y0);
+  if (p.x1 / kTile != p.x0 / kTile) require(p.x1, p.y0);
+  if (p.y1 / kTile != p.y0 / kTile) {
+    require(p.x0, p.y1);
+    if (p.x1 / kTile != p.x0 / kTile) require(p.x1, p.y1);
   }
-  // sampleBilinear3's arithmetic (the same values), without its checks and depth dispatch: the seams
-  // read ten samples per seam point at every step of their line searches.
-  const float* r0 = luv_.ptr<float>(y0);
-  const float* r1 = luv_.ptr<float>(y1);
-  Vec3f out;
-  for (int c = 0; c < 3; ++c) {
-    const double a = r0[x0 * 3 + c], b = r0[x1 * 3 + c], d = r1[x0 * 3 + c], e = r1[x1 * 3 + c];
-    const double top = a + fx * (b - a), bottom = d + fx * (e - d);
-    out[c] = float(top + fy * (bottom - top));
-  }
-  return out;
+  // sampleBilinear3's values, without its checks and depth dispatch: the seams read ten samples per
+  // seam point at every step of their line searches.
+  const std::array<float, 3> v = interpolate<3, float>(luv_, p, 1.0);
+  return Vec3f(v[0], v[1], v[2]);
 }
 
 void LuvTiles::gradient(double x, double y, Vec3f& ddx, Vec3f& ddy) const {
@@ -641,21 +650,9 @@ size_t Photo::bytes() const {
 
 namespace {
 
-// Bilinear interpolation of the first min(channels, N) channels; the others are 0. Pixels of type T,
-// multiplied by `unit` (1/255 for 8-bit, 1/65535 for 16-bit, 1 for float).
 template <int N, class T>
 std::array<float, N> bilinear(const cv::Mat& image, double x, double y, double unit) {
-  const int cn = image.channels();
-  const auto [x0, y0, x1, y1, fx, fy] = bilinearFootprint(image.cols, image.rows, x, y);
-  const T* r0 = image.ptr<T>(y0);
-  const T* r1 = image.ptr<T>(y1);
-  std::array<float, N> out{};
-  for (int c = 0; c < std::min(cn, N); ++c) {
-    const double a = r0[x0 * cn + c], b = r0[x1 * cn + c], d = r1[x0 * cn + c], e = r1[x1 * cn + c];
-    const double top = a + fx * (b - a), bottom = d + fx * (e - d);
-    out[c] = float((top + fy * (bottom - top)) * unit);
-  }
-  return out;
+  return interpolate<N, T>(image, bilinearFootprint(image.cols, image.rows, x, y), unit);
 }
 
 template <int N>

@@ -252,6 +252,12 @@ void checkInputs(const Mesh& mesh, const std::vector<CameraClick>& clicks, int w
 
 }  // namespace
 
+std::vector<char> fittingPhotos(const std::vector<CameraFit>& fits) {
+  std::vector<char> out;
+  for (const CameraFit& fit : fits) out.push_back(fit.fits);
+  return out;
+}
+
 CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height,
                     const CameraFitOptions& o, const PhotoCamera* startCamera) {
   const auto start = Clock::now();

@@ -109,6 +109,9 @@ struct CameraFit {
   double seconds = 0;                          // time of the fit
 };
 
+// Per fit: whether its photo fits a camera (the photos the projection maps).
+std::vector<char> fittingPhotos(const std::vector<CameraFit>& fits);
+
 // Fits a camera to one photo's clicks on `mesh` (vertex ids index mesh). `width` x `height` is the
 // photo size in pixels. Never throws for clicks that do not fit: `fits` is false with a reason.
 // Throws montage::Error for a vertex id out of range or a non-positive size.

@@ -570,10 +570,11 @@ inline Footprint bilinearFootprint(int cols, int rows, double x, double y) {
 }
 
 // Bilinear interpolation over footprint `p` of the first min(channels, N) channels; the others are 0.
-// Pixels of type T, multiplied by `unit` (1/255 for 8-bit, 1/65535 for 16-bit, 1 for float).
-template <int N, class T>
+// Pixels of type T, multiplied by `unit` (1/255 for 8-bit, 1/65535 for 16-bit, 1 for float). Channels > 0:
+// the image has that many channels, known at compile time (the loop unrolls).
+template <int N, class T, int Channels = 0>
 std::array<float, N> interpolate(const cv::Mat& image, const Footprint& p, double unit) {
-  const int cn = image.channels();
+  const int cn = Channels > 0 ? Channels : image.channels();
   const T* r0 = image.ptr<T>(p.y0);
   const T* r1 = image.ptr<T>(p.y1);
   std::array<float, N> out{};
@@ -635,7 +636,7 @@ Vec3f LuvTiles::sample(double x, double y) const {
   }
   // sampleBilinear3's values, without its checks and depth dispatch: the seams read ten samples per
   // seam point at every step of their line searches.
-  const std::array<float, 3> v = interpolate<3, float>(luv_, p, 1.0);
+  const std::array<float, 3> v = interpolate<3, float, 3>(luv_, p, 1.0);
   return Vec3f(v[0], v[1], v[2]);
 }
 

@@ -15,6 +15,8 @@
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Geometry>
 #include <cstdio>
 #include <cstdlib>
@@ -362,12 +364,7 @@ Charting makeCharts(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& 
 // Charts are placed on a grid of cells (cell x cell texels). Per chart and scale: which cells its
 // footprint touches (F) and which are within `gutter` texels of the footprint (D). Two charts keep
 // their gutter when the F cells of one never meet the D cells of the other.
-struct CellMask {
-  int w = 0, h = 0;              // cells
-  std::vector<unsigned char> m;  // bit 1: F, bit 2: D
-  double margin = 0;             // texels between the cell frame and the chart's bounding box
-};
-
+//
 // Column profile of one orientation: per column the first and last F row and the first and last D
 // row (-1 when the column has none). The packer treats each column's F and D cells as these spans,
 // which is conservative for shapes that are not convex along columns.
@@ -377,76 +374,108 @@ struct Profile {
   int fLeft = 0, fRight = -1, fBottomMax = -1;
 };
 
-Profile profileOf(const CellMask& mask, bool rotated) {
-  Profile p;
-  p.w = rotated ? mask.h : mask.w;
-  p.h = rotated ? mask.w : mask.h;
-  p.fTop.assign(p.w, -1);
-  p.fBottom.assign(p.w, -1);
-  p.dTop.assign(p.w, -1);
-  p.dBottom.assign(p.w, -1);
-  p.fLeft = p.w;
-  for (int j = 0; j < mask.h; ++j)
-    for (int i = 0; i < mask.w; ++i) {
-      const unsigned char v = mask.m[j * mask.w + i];
-      if (!v) continue;
-      // Turned by 90 degrees: cell (i, j) goes to column h-1-j, row i (see placeChart).
-      const int col = rotated ? mask.h - 1 - j : i, row = rotated ? i : j;
-      if (v & 2) {
-        if (p.dTop[col] < 0 || row < p.dTop[col]) p.dTop[col] = row;
-        p.dBottom[col] = std::max(p.dBottom[col], row);
-      }
-      if (v & 1) {
-        if (p.fTop[col] < 0 || row < p.fTop[col]) p.fTop[col] = row;
-        p.fBottom[col] = std::max(p.fBottom[col], row);
-        p.fLeft = std::min(p.fLeft, col);
-        p.fRight = std::max(p.fRight, col);
-        p.fBottomMax = std::max(p.fBottomMax, row);
-      }
-    }
-  return p;
-}
+// A chart's frame at one scale: its size in cells and its profiles upright and turned by 90 degrees
+// (turned, cell (i, j) of the upright frame goes to column h-1-j, row i; see placeChart).
+struct ChartCells {
+  int w = 0, h = 0;   // cells of the upright frame
+  double margin = 0;  // texels between the cell frame and the chart's bounding box
+  Profile upright, turned;
+};
 
 struct PackSetup {
   int size = 0, gutter = 0, cell = 1, grid = 0;
   int lo = 0, hi = 0;  // cells [lo, hi) may hold footprint cells in either direction
 };
 
-// The cell masks of chart c at scale s. Local texel coordinates: s * (uv - min) + margin.
-CellMask cellMask(const ChartSeed& chart, const Vec2& lo, const Vec2& hi, double s, const PackSetup& setup) {
-  CellMask mask;
-  const int c = setup.cell;
-  mask.margin = setup.gutter + 2.0;
-  mask.w = std::max(1, static_cast<int>(std::ceil((s * (hi.x() - lo.x()) + 2 * mask.margin) / c)));
-  mask.h = std::max(1, static_cast<int>(std::ceil((s * (hi.y() - lo.y()) + 2 * mask.margin) / c)));
-  mask.m.assign(static_cast<size_t>(mask.w) * mask.h, 0);
-  const double eps = 1e-6;  // rounding slack: the footprint test of the bake is exact
-  const double fPad = 0.5 + eps, dPad = fPad + setup.gutter;
-  for (const auto& uv : chart.uv) {
-    std::array<Vec2, 3> p;
-    for (int k = 0; k < 3; ++k) p[k] = s * (uv[k] - lo) + Vec2(mask.margin, mask.margin);
-    const double minX = std::min({p[0].x(), p[1].x(), p[2].x()}), maxX = std::max({p[0].x(), p[1].x(), p[2].x()});
-    const double minY = std::min({p[0].y(), p[1].y(), p[2].y()}), maxY = std::max({p[0].y(), p[1].y(), p[2].y()});
-    const int i0 = std::max(0, static_cast<int>(std::floor((minX - dPad) / c)));
-    const int i1 = std::min(mask.w - 1, static_cast<int>(std::floor((maxX + dPad) / c)));
-    const int j0 = std::max(0, static_cast<int>(std::floor((minY - dPad) / c)));
-    const int j1 = std::min(mask.h - 1, static_cast<int>(std::floor((maxY + dPad) / c)));
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i) {
-        unsigned char& v = mask.m[j * mask.w + i];
-        if (v == 3) continue;
-        const double x0 = i * c, y0 = j * c;
-        if (!(v & 2) && overlapsBox(p, x0 - dPad, y0 - dPad, x0 + c + dPad, y0 + c + dPad)) v |= 2;
-        if ((v & 2) && !(v & 1) && overlapsBox(p, x0 - fPad, y0 - fPad, x0 + c + fPad, y0 + c + fPad)) v |= 1;
+// The extent along the other axis of the closed triangle p within the closed band b0 <= x[a] <= b1;
+// false when the triangle misses the band. The triangle (or a degenerate one: a segment, a point)
+// meets the closed box band x [lo', hi'] exactly when [lo, hi] meets [lo', hi'].
+bool bandExtent(const std::array<Vec2, 3>& p, int a, double b0, double b1, double& lo, double& hi) {
+  const int o = 1 - a;
+  lo = kInf, hi = -kInf;
+  for (int k = 0; k < 3; ++k) {
+    const Vec2 &u = p[k], &v = p[(k + 1) % 3];
+    if (u[a] >= b0 && u[a] <= b1) lo = std::min(lo, u[o]), hi = std::max(hi, u[o]);
+    for (const double b : {b0, b1})
+      if ((u[a] < b && v[a] > b) || (u[a] > b && v[a] < b)) {
+        const double y = u[o] + (b - u[a]) / (v[a] - u[a]) * (v[o] - u[o]);
+        lo = std::min(lo, y), hi = std::max(hi, y);
       }
   }
-  return mask;
+  return lo <= hi;
+}
+
+// The cells of chart c at scale s. Local texel coordinates: s * (uv - min) + margin. Cell (i, j) is F
+// when the closed triangle meets its box grown by half a texel, D when it meets it grown by the gutter
+// too. Per triangle, one band per column and one per row of cells: each gives the range of cells the
+// triangle meets in that column (row), so only the ends matter.
+ChartCells chartCells(const ChartSeed& chart, const Vec2& lo, const Vec2& hi, double s, const PackSetup& setup) {
+  ChartCells out;
+  const int c = setup.cell;
+  out.margin = setup.gutter + 2.0;
+  const int w = out.w = std::max(1, static_cast<int>(std::ceil((s * (hi.x() - lo.x()) + 2 * out.margin) / c)));
+  const int h = out.h = std::max(1, static_cast<int>(std::ceil((s * (hi.y() - lo.y()) + 2 * out.margin) / c)));
+  // [F, D][first, last] cell per column (over rows j) and per row (over columns i).
+  std::vector<int> column[2][2], row[2][2];
+  for (int t = 0; t < 2; ++t) {
+    column[t][0].assign(w, std::numeric_limits<int>::max()), column[t][1].assign(w, -1);
+    row[t][0].assign(h, std::numeric_limits<int>::max()), row[t][1].assign(h, -1);
+  }
+  const double eps = 1e-6;  // rounding slack: the footprint test of the bake is exact
+  const double fPad = 0.5 + eps, pads[2] = {fPad, fPad + setup.gutter};
+  const int extent[2] = {w, h};
+  for (const auto& uv : chart.uv) {
+    std::array<Vec2, 3> p;
+    for (int k = 0; k < 3; ++k) p[k] = s * (uv[k] - lo) + Vec2(out.margin, out.margin);
+    Vec2 pmin = p[0].cwiseMin(p[1]).cwiseMin(p[2]), pmax = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
+    for (int t = 0; t < 2; ++t) {
+      const double pad = pads[t];
+      int first[2], last[2];  // the cells of the grown bounding box, per axis
+      for (int a = 0; a < 2; ++a) {
+        first[a] = std::max(0, static_cast<int>(std::floor((pmin[a] - pad) / c)));
+        last[a] = std::min(extent[a] - 1, static_cast<int>(std::floor((pmax[a] + pad) / c)));
+      }
+      // Axis a = 0: bands of columns, ranges of rows; a = 1: bands of rows, ranges of columns.
+      for (int a = 0; a < 2; ++a) {
+        std::vector<int>(&ends)[2] = a == 0 ? column[t] : row[t];
+        const int o = 1 - a;
+        for (int i = first[a]; i <= last[a]; ++i) {
+          double e0, e1;
+          if (!bandExtent(p, a, i * c - pad, i * c + c + pad, e0, e1)) continue;
+          // Cells k whose grown box [k c - pad, k c + c + pad] meets [e0, e1].
+          const int k0 = std::max(first[o], static_cast<int>(std::ceil((e0 - pad - c) / c)));
+          const int k1 = std::min(last[o], static_cast<int>(std::floor((e1 + pad) / c)));
+          if (k0 > k1) continue;
+          ends[0][i] = std::min(ends[0][i], k0);
+          ends[1][i] = std::max(ends[1][i], k1);
+        }
+      }
+    }
+  }
+  // Profiles; turned, upright row j becomes column h-1-j and its columns i become rows.
+  const auto profile = [](Profile& pr, int pw, int ph, const std::vector<int>(&f)[2], const std::vector<int>(&d)[2],
+                          bool reversed) {
+    pr.w = pw, pr.h = ph;
+    pr.fTop.assign(pw, -1), pr.fBottom.assign(pw, -1), pr.dTop.assign(pw, -1), pr.dBottom.assign(pw, -1);
+    pr.fLeft = pw;
+    for (int i = 0; i < pw; ++i) {
+      const int src = reversed ? pw - 1 - i : i;
+      if (d[1][src] >= 0) pr.dTop[i] = d[0][src], pr.dBottom[i] = d[1][src];
+      if (f[1][src] < 0) continue;
+      pr.fTop[i] = f[0][src], pr.fBottom[i] = f[1][src];
+      pr.fLeft = std::min(pr.fLeft, i), pr.fRight = std::max(pr.fRight, i);
+      pr.fBottomMax = std::max(pr.fBottomMax, f[1][src]);
+    }
+  };
+  profile(out.upright, w, h, column[0], column[1], false);
+  profile(out.turned, h, w, row[0], row[1], true);
+  return out;
 }
 
 struct Placement {
   int x = 0, y = 0;  // cell of the frame's top-left corner (x may be negative: only D cells go there)
   bool rotated = false;
-  CellMask mask;
+  ChartCells cells;
 };
 
 // Occupied cells of the atlas grid: per column, sorted disjoint spans of rows [first, last].
@@ -496,28 +525,28 @@ double packAtScale(const std::vector<ChartSeed>& charts, const std::vector<std::
                    std::size_t& signature) {
   const int n = static_cast<int>(charts.size());
   placements.assign(n, {});
-  std::vector<Profile> profiles[2];
+  tbb::parallel_for(
+      0, n, [&](int i) { placements[i].cells = chartCells(charts[i], bounds[i].first, bounds[i].second, s, setup); });
   std::vector<int> order(n);
   signature = 0;
-  for (int i = 0; i < n; ++i) {
-    placements[i].mask = cellMask(charts[i], bounds[i].first, bounds[i].second, s, setup);
-    for (unsigned char v : placements[i].mask.m) signature = signature * 31 + v;
-    signature = signature * 1000003u + static_cast<std::size_t>(placements[i].mask.w) * 8191u + placements[i].mask.h;
-    profiles[0].push_back(profileOf(placements[i].mask, false));
-    profiles[1].push_back(options.rotateCharts ? profileOf(placements[i].mask, true) : Profile{});
+  for (const Placement& pl : placements) {
+    const Profile& p = pl.cells.upright;
+    for (const std::vector<int>* v : {&p.fTop, &p.fBottom, &p.dTop, &p.dBottom})
+      for (int x : *v) signature = signature * 31 + std::size_t(x + 1);
+    signature = signature * 1000003u + static_cast<std::size_t>(pl.cells.w) * 8191u + pl.cells.h;
   }
   // Tallest (longer side of the frame, in cells, as charts may turn) first; within a size class
   // (about 12%) charts of one photo go one after the other so that they land near each other.
   std::iota(order.begin(), order.end(), 0);
   const auto sizeClass = [&](int i) {
-    const int side = std::max(placements[i].mask.w, placements[i].mask.h);
+    const int side = std::max(placements[i].cells.w, placements[i].cells.h);
     return static_cast<int>(std::floor(std::log(double(side)) / std::log(1.12)));
   };
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
     const int ca = sizeClass(a), cb = sizeClass(b);
     if (ca != cb) return ca > cb;
     if (charts[a].source != charts[b].source) return charts[a].source > charts[b].source;
-    return placements[a].mask.w * placements[a].mask.h > placements[b].mask.w * placements[b].mask.h;
+    return placements[a].cells.w * placements[a].cells.h > placements[b].cells.w * placements[b].cells.h;
   });
 
   const int G = setup.grid;
@@ -536,7 +565,7 @@ double packAtScale(const std::vector<ChartSeed>& charts, const std::vector<std::
     } best;
     const auto centre = photoCentre.find(chart.source);
     for (int o = 0; o < (options.rotateCharts ? 2 : 1); ++o) {
-      const Profile& p = profiles[o][idx];
+      const Profile& p = o == 0 ? placements[idx].cells.upright : placements[idx].cells.turned;
       if (p.fRight < 0) continue;  // no footprint at all (cannot happen for a chart with faces)
       // Footprint columns, the highest-reaching first: they usually decide where the chart rests.
       cols.clear();
@@ -546,17 +575,15 @@ double packAtScale(const std::vector<ChartSeed>& charts, const std::vector<std::
       const int fTopMin = p.fTop[cols.front()];
       for (int x = setup.lo - p.fLeft; x + p.fRight < setup.hi; ++x) {
         const int limit = best.bottom + affinity - p.fBottomMax;  // a larger y cannot win
+        // The lowest y >= the top at which every column is free: go round the columns until all of
+        // them, since the last one that moved y, accept it.
         int y = setup.lo - fTopMin;
-        for (bool moved = true; moved && y <= limit;) {
-          moved = false;
-          for (int i : cols) {
-            const int y2 = grid.firstFree(x + i, y, p.fTop[i], p.fBottom[i]);
-            if (y2 != y) {
-              y = y2;
-              moved = true;
-              if (y > limit) break;
-            }
-          }
+        const int m = static_cast<int>(cols.size());
+        for (int k = 0, accepted = 0; accepted < m && y <= limit; k = k + 1 == m ? 0 : k + 1) {
+          const int i = cols[k];
+          const int y2 = grid.firstFree(x + i, y, p.fTop[i], p.fBottom[i]);
+          accepted = y2 == y ? accepted + 1 : 1;
+          y = y2;
         }
         if (y > limit) continue;
         const int bottom = y + p.fBottomMax;
@@ -578,7 +605,7 @@ double packAtScale(const std::vector<ChartSeed>& charts, const std::vector<std::
     pl.x = best.x;
     pl.y = best.y;
     pl.rotated = best.rotated;
-    const Profile& p = profiles[best.rotated ? 1 : 0][idx];
+    const Profile& p = best.rotated ? pl.cells.turned : pl.cells.upright;
     for (int i = 0; i < p.w; ++i)
       if (p.dBottom[i] >= 0 && best.x + i >= 0 && best.x + i < G)
         grid.occupy(best.x + i, best.y + p.dTop[i], best.y + p.dBottom[i]);
@@ -802,9 +829,9 @@ Atlas buildAtlas(const Mesh& mesh, const AtlasInput& in, const AtlasOptions& opt
   for (int i = 0; i < n; ++i) {
     const ChartSeed& seed = charts[i];
     const Placement& pl = bestPlacements[i];
-    const double s = bestScale, m = pl.mask.margin;
+    const double s = bestScale, m = pl.cells.margin;
     const Vec2 offset(pl.x * setup.cell, pl.y * setup.cell);
-    const double frameH = pl.mask.h * setup.cell;
+    const double frameH = pl.cells.h * setup.cell;
     const Vec2 lo = bounds[i].first;
     // local = s (p - lo) + m; turned: (frameH - local.y, local.x); atlas = turned + offset.
     const auto toAtlas = [&](const Vec2& p) -> Vec2 {

@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
     const Project project = loadProject(argv[1]);
     const auto scene = loadScene(project);
     const Mapping mapping = mapTexture(*scene);
-    const Mesh& mesh = mapping.partition.mesh;
+    const Mesh& mesh = mapping.partition->mesh;
     AtlasInput input = atlasInput(mesh, mapping.map, scene->photos, nullptr);
     int mapped = 0, hole = 0;
     for (int& s : input.faceSource) {

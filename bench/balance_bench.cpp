@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
           options.mode = mode;
           options.linear = linear;
           options.loss = loss;
-          const ColorBalance b = balanceColors(mapping.partition.mesh, mapping.map, photos, locked, options, {});
+          const ColorBalance b = balanceColors(mapping.partition->mesh, mapping.map, photos, locked, options, {});
           double worst = 0;
           std::string gains;
           for (size_t p = 0; p < photos.size(); ++p) {

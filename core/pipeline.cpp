@@ -218,7 +218,7 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
   // Per input face: the photo the previous run showed on it, or "empty" (the label after the photos).
   std::vector<int> start;
   if (previous && previous->mapping) {
-    const Partition& last = previous->mapping->partition;
+    const Partition& last = *previous->mapping->partition;
     const int empty = static_cast<int>(scene.photos.size());
     start.assign(scene.mesh->numFaces(), empty);
     for (size_t f = 0; f < last.faceParent.size(); ++f) {
@@ -230,7 +230,7 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
   }
   ProjectionStage out;
   job.progress(StageId::Projection, 0.0);
-  out.result = projectionFill(scene, paper->partition, paper->map, cameras.fits, options, job, frames,
+  out.result = projectionFill(scene, *paper->partition, paper->map, cameras.fits, options, job, frames,
                               start.empty() ? nullptr : &start, start.empty() ? nullptr : &previous->result);
   if (out.result.fittedPhotos == 0) {
     out.mapping = paper;
@@ -249,8 +249,8 @@ Partition partitionScene(const Scene& scene, const JobControl& job, MapCaches* c
   return partitionMesh(scene, partitionOptions, job, caches ? &caches->partition : nullptr);
 }
 
-Mapping mapPartition(const Scene& scene, Partition partition, const JobControl& job, MapCaches* caches,
-                     const std::vector<char>* projected) {
+Mapping mapPartition(const Scene& scene, std::shared_ptr<const Partition> partition, const JobControl& job,
+                     MapCaches* caches, const std::vector<char>* projected) {
   Mapping out;
   out.partition = std::move(partition);
   const auto start = Clock::now();
@@ -258,7 +258,7 @@ Mapping mapPartition(const Scene& scene, Partition partition, const JobControl& 
   fineOptions.seed = scene.project.options.seed;
   fineOptions.lineSearches = scene.project.options.stretchSearches;
   if (fineOptions.lineSearches == 0) fineOptions.finalSweeps = 0;
-  CellMapping cells = mapCells(scene, out.partition, fineOptions, job, caches ? &caches->cells : nullptr, projected);
+  CellMapping cells = mapCells(scene, *out.partition, fineOptions, job, caches ? &caches->cells : nullptr, projected);
   out.map = std::move(cells.map);
   out.cells = std::move(cells.cells);
   out.stats = cells.stats;
@@ -275,7 +275,7 @@ Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches,
   const auto start = Clock::now();
   Partition partition = partitionScene(scene, job, caches);
   const double partitionSeconds = secondsSince(start);
-  Mapping out = mapPartition(scene, std::move(partition), job, caches, projected);
+  Mapping out = mapPartition(scene, std::make_shared<const Partition>(std::move(partition)), job, caches, projected);
   out.partitionSeconds = partitionSeconds;
   return out;
 }
@@ -298,7 +298,7 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
   // 1/255 steps (kPreviewBalanceLevels) within which it keeps the last balanced photos anyway.
   const ColorBalance* warm = toleranceLevels > 0 && previous ? &previous->balance : nullptr;
   if (warm) options.tolerance = 1e-5;
-  out.balance = balanceColors(mapping.partition.mesh, mapping.map, photos, locked, options, job, memo, keys, warm);
+  out.balance = balanceColors(mapping.partition->mesh, mapping.map, photos, locked, options, job, memo, keys, warm);
   out.sources = scene->photos;
   bool changed = false;
   for (const ColorTransform& t : out.balance.transforms) changed = changed || !t.identity();
@@ -337,10 +337,10 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
                                                     const SeamMemo* warm) {
   const PipelineOptions& o = scene.project.options;
   SeamInput in;
-  in.mesh = &mapping->partition.mesh;
+  in.mesh = &mapping->partition->mesh;
   in.map = &mapping->map;
   for (const auto& p : scene.photos) in.photos.push_back(p.get());
-  in.fixedVertices = mapping->partition.featureVertex;
+  in.fixedVertices = mapping->partition->featureVertex;
   in.luv = std::move(luv);
   in.warm = warm;
   in.warmTolerancePx = warm ? kPreviewFramePx : 0;
@@ -366,13 +366,13 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   std::vector<const Photo*> photos;
   for (const auto& p : scene.photos) photos.push_back(p.get());
   job.progress(StageId::Level, 0.0);
-  out.levelling = levelSeams(mapping.partition.mesh, mapping.map, photos, o.seamLevelling, job, solvers);
+  out.levelling = levelSeams(mapping.partition->mesh, mapping.map, photos, o.seamLevelling, job, solvers);
   InpaintInput in;
-  in.mesh = &mapping.partition.mesh;
+  in.mesh = &mapping.partition->mesh;
   in.map = &mapping.map;
   in.photos = photos;
   in.levelling = &out.levelling;
-  in.faceParent = mapping.partition.faceParent;
+  in.faceParent = mapping.partition->faceParent;
   in.strokes = scene.project.strokes;
   in.clones = scene.project.clones;
   in.holeModes = scene.project.holeModes;
@@ -396,7 +396,7 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
 
 BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors, const JobControl& job) {
   job.progress(StageId::Bake, 0.0, "charts");
-  const Mesh& mesh = mapping.partition.mesh;
+  const Mesh& mesh = mapping.partition->mesh;
   const InpaintResult* inpaint = colors.inpaint.faceRegion.empty() ? nullptr : &colors.inpaint;
   AtlasOptions options;
   options.size = scene.project.options.atlasSize;
@@ -418,7 +418,7 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
     std::vector<const Photo*> photos;
     for (const auto& p : scene.photos) photos.push_back(p.get());
     const PreviewSurface surface(mapping.map, photos, &colors.levelling, inpaint, options.emptyColor);
-    out.originalModel = bakeOriginalTopology(*scene.mesh, mesh, mapping.partition.faceParent, out.atlas, out.image,
+    out.originalModel = bakeOriginalTopology(*scene.mesh, mesh, mapping.partition->faceParent, out.atlas, out.image,
                                              options, {}, [&](int f, const Vec3& b) { return surface.color(f, b); });
     out.originalModel.model.name = out.model.name;
     out.transferSeconds = secondsSince(start);
@@ -637,7 +637,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   const bool mapCached = partitionCached && projected == mappedProjected_;
   if (!mapCached) {
     auto mapping = std::make_shared<Mapping>(mapPartition(
-        *scene, partition ? std::move(*partition) : cachedMapping_->partition, job, &mapCaches_, &projected));
+        *scene, partition ? std::make_shared<const Partition>(std::move(*partition)) : cachedMapping_->partition, job,
+        &mapCaches_, &projected));
     mapping->partitionSeconds = partitionSeconds;
     cachedMapping_ = std::move(mapping);
     mapCaches_.cells.endRun();
@@ -660,19 +661,19 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
 
   const Mapping& mapping = *cachedMapping_;
   nlohmann::json rejected = nlohmann::json::object();
-  for (const RejectedPair& r : mapping.partition.rejected) {
+  for (const RejectedPair& r : mapping.partition->rejected) {
     const std::string reason = kRejectReasonNames[static_cast<int>(r.reason)];
     rejected[reason] = rejected.value(reason, 0) + 1;
   }
   result.stages.push_back({StageId::Partition,
                            partitionCached,
                            partitionCached ? 0 : mapping.partitionSeconds,
-                           {{"paths", mapping.partition.paths.size()},
+                           {{"paths", mapping.partition->paths.size()},
                             {"rejected", rejected},
-                            {"cells", mapping.partition.numCells},
-                            {"steiner_vertices", mapping.partition.steinerVertices},
-                            {"searches", mapping.partition.searches},
-                            {"searches_reused", partitionCached ? 0 : mapping.partition.searchesReused}}});
+                            {"cells", mapping.partition->numCells},
+                            {"steiner_vertices", mapping.partition->steinerVertices},
+                            {"searches", mapping.partition->searches},
+                            {"searches_reused", partitionCached ? 0 : mapping.partition->searchesReused}}});
   nlohmann::json cellStatus = nlohmann::json::object();
   for (const CellPlan& c : mapping.cells) {
     const std::string status = kCellStatusNames[static_cast<int>(c.status)];
@@ -699,7 +700,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   key << opts["correction"].dump() << opts["viewSmoothness"].dump();
   // The preview's view selection starts from the last run's choices (one sweep): its result is its own.
   const bool warmSelection =
-      tier == Tier::Preview && cachedProjection_ && cachedProjection_->mapping->partition.faceParent.size() > 0;
+      tier == Tier::Preview && cachedProjection_ && cachedProjection_->mapping->partition->faceParent.size() > 0;
   if (warmSelection) key << "#warm-selection";
   const bool projectionCached = mapCached && key.str() == projectionKey_ && cachedProjection_;
   if (!projectionCached) {
@@ -742,7 +743,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                               {"photos", photos}}});
   }
   result.proposals =
-      proposeCorrespondences(project, projection.mapping->partition.mesh, cameras->fits, projection.result.views);
+      proposeCorrespondences(project, projection.mapping->partition->mesh, cameras->fits, projection.result.views);
 
   // Balance: rerun when the final mapping, the mode or the locks changed. It reads the seams between
   // photos of the final mapping (which photo each face shows: seam optimisation moves UVs, never a face
@@ -960,9 +961,9 @@ nlohmann::json PipelineResult::report() const {
                  {"boundary_loops", scene->meshReport.boundaryLoops},
                  {"components", scene->meshReport.components}};
   }
-  if (mapping && baked && baked->atlas.faceSource.size() == size_t(mapping->partition.mesh.numFaces())) {
+  if (mapping && baked && baked->atlas.faceSource.size() == size_t(mapping->partition->mesh.numFaces())) {
     // Where the surface's colours come from, as area shares: photos (and each photo), inpainting, nothing.
-    const Mesh& mesh = mapping->partition.mesh;
+    const Mesh& mesh = mapping->partition->mesh;
     double total = 0, photo = 0, inpainted = 0, empty = 0;
     std::vector<double> perPhoto(scene ? scene->photos.size() : 0, 0.0);
     for (int f = 0; f < mesh.numFaces(); ++f) {
@@ -994,7 +995,7 @@ nlohmann::json PipelineResult::report() const {
   if (mapping) {
     // Rejected pairs with their reasons, so a user can see why a region stayed empty (first 1000).
     nlohmann::json rejected = nlohmann::json::array();
-    for (const RejectedPair& r : mapping->partition.rejected) {
+    for (const RejectedPair& r : mapping->partition->rejected) {
       if (rejected.size() == 1000) break;
       rejected.push_back({{"points", {r.fromPoint, r.toPoint}},
                           {"photo", r.photo},
@@ -1005,7 +1006,7 @@ nlohmann::json PipelineResult::report() const {
                 {"mapped_faces", mapping->map.numMapped()},
                 {"notes", mapping->map.notes},
                 {"rejected_pairs", rejected},
-                {"rejected_total", mapping->partition.rejected.size()}};
+                {"rejected_total", mapping->partition->rejected.size()}};
   }
   // Every unmapped region: its area, why it is empty and the fix; where to click next (coverage.h).
   if (mapping) j["coverage"] = coverageJson(coverageOf(*this));
@@ -1028,9 +1029,9 @@ CoverageReport coverageOf(const PipelineResult& result, const CoverageOptions& o
   static const PhotoViews noViews;
   const Mapping& m = *result.mapping;
   const bool views = result.projection && result.projection->mapping &&
-                     result.projection->mapping->partition.mesh.numFaces() == m.partition.mesh.numFaces();
+                     result.projection->mapping->partition->mesh.numFaces() == m.partition->mesh.numFaces();
   return analyseCoverage(
-      {result.scene ? result.scene->project : Project{}, m.partition, m.map, m.cells,
+      {result.scene ? result.scene->project : Project{}, *m.partition, m.map, m.cells,
        result.cameras ? result.cameras->fits : noFits, views ? result.projection->result.views : noViews,
        result.scene ? static_cast<int>(result.scene->photos.size()) : 0,
        result.scene && result.scene->mesh ? result.scene->mesh->numVertices() : 0},

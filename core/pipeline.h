@@ -46,7 +46,7 @@ struct StageRecord {
 // is the mesh every later stage works on), the texture map over that mesh, the cells' plans (which
 // photo each cell maps into, or why it stays empty) and their figures.
 struct Mapping {
-  Partition partition;
+  std::shared_ptr<const Partition> partition;  // never null; shared by the mappings derived from it
   TextureMap map;
   std::vector<CellPlan> cells;
   FineMapStats stats;
@@ -145,8 +145,8 @@ Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* ca
                    const std::vector<char>* projected = nullptr);
 // The two halves of mapTexture: the partition, then the cells' maps over it.
 Partition partitionScene(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr);
-Mapping mapPartition(const Scene& scene, Partition partition, const JobControl& job = {}, MapCaches* caches = nullptr,
-                     const std::vector<char>* projected = nullptr);
+Mapping mapPartition(const Scene& scene, std::shared_ptr<const Partition> partition, const JobControl& job = {},
+                     MapCaches* caches = nullptr, const std::vector<char>* projected = nullptr);
 // Projection: faces that photos fitting a camera see are mapped by projection, the photo chosen per
 // face by view selection; the paper's mapping of the other photos is kept (projection.h), and the
 // cameras propose correspondences (proposals.h).

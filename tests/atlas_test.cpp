@@ -525,7 +525,7 @@ TEST(Atlas, DemoTextureMapWithHoles) {
   Project project = loadProject(test::assetsDir() + "/demo/project.json");
   const auto scene = loadScene(project);
   const Mapping mapping = mapTexture(*scene);
-  const Mesh& mesh = mapping.partition.mesh;
+  const Mesh& mesh = mapping.partition->mesh;
   const AtlasInput in = atlasInput(mesh, mapping.map, scene->photos, nullptr);
   int empty = 0;
   for (int s : in.faceSource) empty += s == kSourceEmpty;

@@ -449,7 +449,7 @@ TEST(CameraPipeline, PhotosOfTheObjectAreMappedByProjectionWithClicksExact) {
   }
   // Every click of a photo lands exactly where it was clicked, in every face mapped to that photo.
   const Mapping& m = *r.mapping;
-  const Mesh& mesh = m.partition.mesh;
+  const Mesh& mesh = m.partition->mesh;
   int checked = 0;
   for (int f = 0; f < mesh.numFaces(); ++f) {
     const int p = m.map.facePhoto[f];
@@ -542,7 +542,7 @@ TEST(CameraPipeline, PhotosOfAnotherSubjectTakeThePapersPath) {
   // The paper's path ran and its mapping is the final one.
   EXPECT_EQ(r.projection->result.fittedPhotos, 0);
   EXPECT_EQ(r.mapping.get(), r.projection->mapping.get());
-  EXPECT_GT(r.mapping->partition.paths.size(), 0u);
+  EXPECT_GT(r.mapping->partition->paths.size(), 0u);
   EXPECT_TRUE(r.proposals.empty());
   for (const auto& c : r.report()["cameras"]) EXPECT_EQ(c["path"], "paper");
 }

@@ -55,7 +55,7 @@ PhotoViews trueViews(const PipelineResult& r, const SynthScene& synth) {
     fit.camera.pinhole = synth.cameras[k];
     const ViewFrame frame = viewFrame(*r.scene->mesh, *r.scene->photos[k], fit.camera.pinhole);
     views.push_back(std::make_shared<const PhotoView>(
-        viewPhoto(r.mapping->partition.mesh, r.mapping->partition.faceParent, frame, *r.scene->photos[k],
+        viewPhoto(r.mapping->partition->mesh, r.mapping->partition->faceParent, frame, *r.scene->photos[k],
                   static_cast<int>(k), fit, CorrectionField{}, ProjectionOptions{})));
   }
   return views;
@@ -76,7 +76,7 @@ bool followNext(Project& project, const CoverageReport& report, const PipelineRe
       PhotoCamera camera;
       camera.pinhole = synth.cameras[c.click.photo];
       Vec2 px;
-      if (!camera.project(r.mapping->partition.mesh.position(c.click.vertex), px)) continue;
+      if (!camera.project(r.mapping->partition->mesh.position(c.click.vertex), px)) continue;
       const PhotoPoint at{c.click.photo, px.x(), px.y()};
       if (c.click.point >= 0) {
         for (const PhotoPoint& q : project.points[c.click.point].at)
@@ -108,7 +108,7 @@ TEST(Coverage, NoFeaturesLeaveOneRegionWithFewFeaturesAndAClick) {
   EXPECT_DOUBLE_EQ(report.mappedShare, 0.0);
   const CoverageRegion& region = report.regions[0];
   EXPECT_NEAR(region.share, 1.0, 1e-9);
-  EXPECT_EQ(static_cast<int>(region.faces.size()), r.mapping->partition.mesh.numFaces());
+  EXPECT_EQ(static_cast<int>(region.faces.size()), r.mapping->partition->mesh.numFaces());
   ASSERT_EQ(region.causes.size(), 1u);
   EXPECT_EQ(region.causes[0].cause, CoverageCause::FewFeatures);
   EXPECT_NE(region.causes[0].why.find("no feature"), std::string::npos) << region.causes[0].why;
@@ -127,7 +127,7 @@ TEST(Coverage, WithEveryCameraFittedTheRegionsAreWhatNoPhotoSees) {
   const CoverageReport report = coverageOf(r);
   ASSERT_FALSE(report.regions.empty());
   const PhotoViews views = trueViews(r, s.synth);
-  const Mesh& mesh = r.mapping->partition.mesh;
+  const Mesh& mesh = r.mapping->partition->mesh;
   double unseenInRegions = 0, regionArea = 0;
   for (const CoverageRegion& region : report.regions) {
     for (const RegionCause& c : region.causes)
@@ -160,10 +160,10 @@ TEST(Coverage, ARemovedClickIsDiagnosedAndItsSuggestedClickMapsTheRegion) {
   for (const CellPlan& plan : m.cells) {
     if (plan.status != CellStatus::Mapped) continue;
     double area = 0;
-    for (int f : plan.faces) area += m.partition.mesh.faceArea(f);
+    for (int f : plan.faces) area += m.partition->mesh.faceArea(f);
     for (int v : plan.corners)
       for (size_t p = 0; p < s.project.points.size(); ++p)
-        if (m.partition.featureVertex[p] == v && s.project.points[p].at.size() >= 2 && area > best)
+        if (m.partition->featureVertex[p] == v && s.project.points[p].at.size() >= 2 && area > best)
           best = area, face = plan.faces[plan.faces.size() / 2], corner = static_cast<int>(p), photo = plan.photo;
   }
   ASSERT_GE(corner, 0) << "no mapped cell with a corner in two photos";
@@ -195,7 +195,7 @@ TEST(Coverage, RejectedPairsAreGroupedAndFarOnesMarkedExpected) {
   Pipeline pipeline;
   const PipelineResult r = pipeline.run(s.project, {}, Tier::Preview);
   const CoverageReport report = coverageOf(r);
-  const auto& rejected = r.mapping->partition.rejected;
+  const auto& rejected = r.mapping->partition->rejected;
   ASSERT_FALSE(rejected.empty());
   ASSERT_EQ(report.rejectedExpected.size(), rejected.size());
   size_t total = 0;
@@ -270,7 +270,7 @@ TEST(Coverage, MismatchedInputIsAnError) {
   const std::vector<CameraFit> fits;
   const PhotoViews views;
   const std::string message = test::errorOf([&] {
-    analyseCoverage({s.project, r.mapping->partition, shorter, r.mapping->cells, fits, views, 2});
+    analyseCoverage({s.project, *r.mapping->partition, shorter, r.mapping->cells, fits, views, 2});
   });
   EXPECT_NE(message.find("texture map"), std::string::npos) << message;
 }
@@ -285,7 +285,7 @@ TEST(Coverage, FollowingWhereToClickNextFiveTimesMapsMore) {
   CoverageReport report = coverageOf(r);
   // The ceiling: the share of the surface some photo sees.
   const PhotoViews views = trueViews(r, s.synth);
-  const Mesh& mesh = r.mapping->partition.mesh;
+  const Mesh& mesh = r.mapping->partition->mesh;
   double seen = 0;
   for (int f = 0; f < mesh.numFaces(); ++f) {
     bool any = false;

@@ -49,7 +49,7 @@ TEST(Pipeline, RunsDemoAndReportsEveryStage) {
   ASSERT_TRUE(result.model);
   ASSERT_TRUE(result.mapping);
   // Later stages work on the partition's mesh: the input plus its Steiner vertices.
-  const Mesh& mesh = result.mapping->partition.mesh;
+  const Mesh& mesh = result.mapping->partition->mesh;
   EXPECT_GE(mesh.numVertices(), result.scene->mesh->numVertices());
   EXPECT_EQ(result.model->mesh.numFaces(), mesh.numFaces());
   // The exported model is the input mesh as loaded (exportTopology "original", the default).
@@ -155,7 +155,7 @@ TEST(Pipeline, WritesModelAndReport) {
   EXPECT_GT(report["surface"]["inpainted_share"].get<double>(), 0.0);
   EXPECT_EQ(report["mesh"]["faces"].get<int>(), result.scene->mesh->numFaces());
   // The rejected pairs and their reasons reach the user.
-  EXPECT_EQ(report["map"]["rejected_total"].get<size_t>(), result.mapping->partition.rejected.size());
+  EXPECT_EQ(report["map"]["rejected_total"].get<size_t>(), result.mapping->partition->rejected.size());
   ASSERT_FALSE(report["map"]["rejected_pairs"].empty());
   EXPECT_FALSE(report["map"]["rejected_pairs"][0]["reason"].get<std::string>().empty());
   // One atlas: a single textured material, every face's UVs inside [0,1]^2.
@@ -393,7 +393,7 @@ int expectPreviewLooksLikeFinal(const PipelineResult& preview, const PipelineRes
   std::vector<const Photo*> photos;
   for (const auto& p : preview.balanced->scene->photos) photos.push_back(p.get());
   const PreviewSurface surface(preview.mapping->map, photos, &preview.colors->levelling, &preview.colors->inpaint);
-  const Mesh& mesh = preview.mapping->partition.mesh;
+  const Mesh& mesh = preview.mapping->partition->mesh;
   // The preview model the editor draws (photos sampled through their UVs plus the corner colours,
   // as shaders/mesh.frag does), checked against the final bake as well.
   std::vector<cv::Mat> textures;

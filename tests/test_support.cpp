@@ -106,7 +106,7 @@ nlohmann::json readJson(const std::string& path) {
 }
 
 void expectSameMapping(const Mapping& a, const Mapping& b, const std::string& what) {
-  ASSERT_EQ(a.partition.mesh.numFaces(), b.partition.mesh.numFaces()) << what;
+  ASSERT_EQ(a.partition->mesh.numFaces(), b.partition->mesh.numFaces()) << what;
   ASSERT_EQ(a.map.numFaces(), b.map.numFaces()) << what;
   EXPECT_EQ(a.map.facePhoto, b.map.facePhoto) << what;
   double worst = 0;

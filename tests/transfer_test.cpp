@@ -121,7 +121,7 @@ TEST(OriginalTopology, ExportIsTheInputMeshVertexForVertex) {
   ASSERT_TRUE(input.mesh && obj.mesh);
   // The refined mesh has more vertices; the export has exactly the input's, in order, at the same
   // positions (bit for bit: numbers are written in shortest round-trip form), and the same faces.
-  EXPECT_GT(run.result.mapping->partition.mesh.numVertices(), input.mesh->numVertices());
+  EXPECT_GT(run.result.mapping->partition->mesh.numVertices(), input.mesh->numVertices());
   ASSERT_EQ(obj.mesh->numVertices(), input.mesh->numVertices());
   for (int v = 0; v < input.mesh->numVertices(); ++v)
     ASSERT_EQ(obj.mesh->position(v), input.mesh->position(v)) << "vertex " << v;
@@ -179,8 +179,8 @@ TEST(OriginalTopology, TransferLossIsAtLeast40dB) {
   // The measurement can fail: a flat grey texture on the original mesh is far from the montage.
   TexturedModel grey = run.result.baked->originalModel.model;
   for (Material& m : grey.materials) m.texture = cv::Mat(64, 64, CV_8UC4, cv::Scalar(128, 128, 128, 255));
-  const RefinedLocator locator(*run.result.scene->mesh, run.result.mapping->partition.mesh,
-                               run.result.mapping->partition.faceParent);
+  const RefinedLocator locator(*run.result.scene->mesh, run.result.mapping->partition->mesh,
+                               run.result.mapping->partition->faceParent);
   TransferOptions fewer;
   fewer.samples = 20000;
   fewer.seed = 3;
@@ -196,7 +196,7 @@ TEST(OriginalTopology, RefinedTopologyStaysAnOption) {
   const PipelineResult result = Pipeline().run(project);
   ASSERT_FALSE(result.baked->original);
   EXPECT_EQ(result.exported.get(), result.model.get());
-  EXPECT_EQ(result.model->mesh.numVertices(), result.mapping->partition.mesh.numVertices());
+  EXPECT_EQ(result.model->mesh.numVertices(), result.mapping->partition->mesh.numVertices());
   // One material per source, named so, all showing the one atlas.
   ASSERT_GE(result.model->materials.size(), 2u);
   for (const Material& m : result.model->materials) {
@@ -206,7 +206,7 @@ TEST(OriginalTopology, RefinedTopologyStaysAnOption) {
   const std::string dir = test::tempDir("transfer_refined");
   writeRunOutputs(result, dir);
   const TexturedModel back = loadModel(dir + "/model.glb");
-  EXPECT_EQ(back.mesh.numFaces(), result.mapping->partition.mesh.numFaces());
+  EXPECT_EQ(back.mesh.numFaces(), result.mapping->partition->mesh.numFaces());
   EXPECT_EQ(back.materials.size(), result.model->materials.size());
   EXPECT_EQ(stageReport(test::readJson(dir + "/report.json"), "export")["counts"]["png_encodes"], 1);
 }
@@ -297,7 +297,7 @@ TEST(OriginalTopologySpot, RoundTripMatchesTheGroundTruth) {
                       *mesh, meshPath, [&](int f, const Vec3& b) { return truth.colorAt(f, b); }, options),
                   dir);
   const PipelineResult result = Pipeline().run(loadProject(dir + "/project.json"));
-  const Partition& partition = result.mapping->partition;
+  const Partition& partition = *result.mapping->partition;
   ASSERT_GT(partition.steinerVertices, 0);
 
   // The truth on the refined mesh: every refined face shows spot's texture (photo 0) at the UVs its

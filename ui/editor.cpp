@@ -403,7 +403,7 @@ void Editor::pollWorker() {
     lastError_.clear();
     meshDirty_ = overlayDirty_ = linesDirty_ = true;
     stretch_.clear();
-    if (result_->mapping) stretch_ = normalizedStretch(result_->mapping->partition.mesh, result_->mapping->map);
+    if (result_->mapping) stretch_ = normalizedStretch(result_->mapping->partition->mesh, result_->mapping->map);
   } else {
     lastError_ = outcome->error;
     lastErrorGeneration_ = outcome->generation;

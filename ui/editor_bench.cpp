@@ -102,7 +102,7 @@ void Editor::benchOverlaysReport() {
       "bench overlays: %s, %zu features, %zu photos, %zu paths, window %dx%d, 3D view %.0fx%.0f, %d faces, "
       "renderer %s, load average at start %s, at end %s\n",
       p.file.c_str(), p.points.size(), p.photos.size(),
-      result_ && result_->mapping ? result_->mapping->partition.paths.size() : size_t(0), w, h, viewRect_.w,
+      result_ && result_->mapping ? result_->mapping->partition->paths.size() : size_t(0), w, h, viewRect_.w,
       viewRect_.h, result_ && result_->model ? result_->model->mesh.numFaces() : 0, renderer ? renderer : "?",
       bench_.load.c_str(), loadAverage().c_str());
   // The orbit moves the camera every frame: with the preference on, the view is drawn reduced as in a

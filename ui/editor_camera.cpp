@@ -38,7 +38,7 @@ void Editor::buildCameraLines() {
   cameraLinesFor_ = key;
   cameraLines_.clear();
   if (!resultUsable() || !result_->projection || !result_->mapping) return;
-  const Mesh& mesh = result_->mapping->partition.mesh;
+  const Mesh& mesh = result_->mapping->partition->mesh;
   const auto& views = result_->projection->result.views;
   cameraLines_.resize(views.size());
   for (size_t p = 0; p < views.size(); ++p) {
@@ -121,7 +121,7 @@ void Editor::cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, co
   }
   // The selected vertex where the camera predicts it.
   const auto& fields = result_->projection ? result_->projection->result.fields : std::vector<CorrectionField>{};
-  const Mesh& mesh = result_->mapping->partition.mesh;
+  const Mesh& mesh = result_->mapping->partition->mesh;
   if (selectedVertex_ >= 0 && selectedVertex_ < mesh.numVertices() && photo < static_cast<int>(fields.size())) {
     Vec2 px;
     if (predictPixel(*fit, fields[photo], mesh.position(selectedVertex_), px)) {

@@ -43,7 +43,7 @@ void Editor::flyToRegion(int index) {
   const CoverageReport* report = coverage();
   if (!report || index < 0 || index >= static_cast<int>(report->regions.size())) return;
   const CoverageRegion& region = report->regions[index];
-  const Mesh& mesh = result_->mapping->partition.mesh;
+  const Mesh& mesh = result_->mapping->partition->mesh;
   // Look at the region along its mean normal (from outside), then fit its extent.
   Vec3 normal = Vec3::Zero();
   for (int f : region.faces) normal += mesh.faceArea(f) * mesh.faceNormal(f);
@@ -61,7 +61,7 @@ void Editor::appendCoverageLines(std::vector<float>& lines) {
   const CoverageReport* report = coverage();
   if (!report || coverageRegion_ < 0 || coverageRegion_ >= static_cast<int>(report->regions.size())) return;
   const CoverageRegion& region = report->regions[coverageRegion_];
-  const Mesh& mesh = result_->mapping->partition.mesh;
+  const Mesh& mesh = result_->mapping->partition->mesh;
   // The region's edges (its inside faint, its border bright): one line per edge.
   std::set<std::pair<int, int>> inside, border;
   std::map<std::pair<int, int>, int> uses;
@@ -137,7 +137,7 @@ void Editor::coverageTab() {
     ImGui::PopID();
   }
   // Rejected pairs by reason; pairs around no empty region are the expected far crossings.
-  const auto& rejected = result_->mapping->partition.rejected;
+  const auto& rejected = result_->mapping->partition->rejected;
   if (!rejected.empty() && ImGui::CollapsingHeader("Rejected pairs by reason")) {
     ImGui::Checkbox("show expected pairs (around no empty region)", &showExpectedRejected_);
     for (const RejectedGroup& g : report->rejected) {
@@ -169,7 +169,7 @@ nlohmann::json Editor::coverageState() const {
     bool centred = false;
     if (front) {
       const VertexPick pick = pickAt(viewRect_.x + viewRect_.w / 2, viewRect_.y + viewRect_.h / 2);
-      const auto& parent = result_->mapping->partition.faceParent;
+      const auto& parent = result_->mapping->partition->faceParent;
       for (int f : r.faces) centred = centred || (f < int(parent.size()) && parent[f] == pick.face);
     }
     regions.push_back({{"share", r.share},

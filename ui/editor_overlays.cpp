@@ -99,7 +99,7 @@ void Editor::addPaneDraw(ImDrawList* draw, int photo, const PaneView& view, bool
 
 void Editor::updatePaneOverlay(int photo, int focusPoint) {
   OverlayGl& gl = *overlayGl_;
-  const Partition* part = resultUsable() && result_->mapping ? &result_->mapping->partition : nullptr;
+  const Partition* part = resultUsable() && result_->mapping ? result_->mapping->partition.get() : nullptr;
   PaneOverlayOptions o;
   o.curves = showCurves_;
   o.rejected = showRejected_;

@@ -691,7 +691,7 @@ void Editor::pipelineTab() {
                               ImGuiTreeNodeFlags_DefaultOpen))
     for (const std::string& w : result_->warnings) ImGui::BulletText("%s", w.c_str());
   if (result_->mapping) {
-    const auto& rejected = result_->mapping->partition.rejected;
+    const auto& rejected = result_->mapping->partition->rejected;
     if (ImGui::CollapsingHeader(("Rejected pairs (" + std::to_string(rejected.size()) + ")").c_str())) {
       ImGuiListClipper clipper;
       clipper.Begin(static_cast<int>(rejected.size()));

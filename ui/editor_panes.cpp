@@ -198,7 +198,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     drawPaneOverlay(i, view, hover);
   }
   if (resultUsable() && result_->mapping && showRejected_) {
-    const Partition& part = result_->mapping->partition;
+    const Partition& part = *result_->mapping->partition;
     bool all = true;
     const int inPhoto = paneRejectedCount(i, &all);
     if (!all)

@@ -319,7 +319,7 @@ void Editor::uploadOverlay() {
   }
   if (!cloneFaces_.empty()) {
     // Clone targets are input faces; the displayed result's faces map to them by faceParent.
-    const std::vector<int>* parent = model && result_->mapping ? &result_->mapping->partition.faceParent : nullptr;
+    const std::vector<int>* parent = model && result_->mapping ? &result_->mapping->partition->faceParent : nullptr;
     for (int f = 0; f < F; ++f) {
       const int input = parent && f < static_cast<int>(parent->size()) ? (*parent)[f] : f;
       if (cloneFaces_.count(input)) face[f] = Vec4f(0.2f, 0.9f, 0.9f, 0.45f);
@@ -343,7 +343,7 @@ void Editor::uploadLines() {
   // Partition paths (on the partition's mesh, whose first vertices are the input's).
   pathLineVertices_ = 0;
   if (resultUsable() && result_->mapping) {
-    const Partition& part = result_->mapping->partition;
+    const Partition& part = *result_->mapping->partition;
     for (const MeshPath& path : part.paths) {
       const Vec4f color = path.fromChain ? Vec4f(1.0f, 0.55f, 0.1f, 1) : Vec4f(1.0f, 0.92f, 0.25f, 1);
       for (size_t i = 0; i + 1 < path.vertices.size(); ++i) {

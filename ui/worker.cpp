@@ -78,7 +78,7 @@ bool PipelineWorker::runTier(const Project& project, Tier tier, WorkerOutcome& o
         kept[p.get()] = {p, textures.back()};
       }
       photoTextures_ = std::move(kept);
-      outcome.preview = std::make_shared<const TexturedModel>(previewModel(r.mapping->partition.mesh, r.mapping->map,
+      outcome.preview = std::make_shared<const TexturedModel>(previewModel(r.mapping->partition->mesh, r.mapping->map,
                                                                            colorScene.photos, textures,
                                                                            &r.colors->levelling, &r.colors->inpaint));
     }

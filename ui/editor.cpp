@@ -166,6 +166,7 @@ void Editor::shutdownWindow() {
     slot.mask.reset();
   }
   textureCache_.clear();
+  spareTextures_.clear();
   meshShader_.reset();
   lineShader_.reset();
   textureShader_.reset();

@@ -355,7 +355,9 @@ class Editor {
   std::unique_ptr<ShaderProgram> meshShader_, lineShader_, textureShader_;
   std::unique_ptr<Framebuffer> viewFbo_;
   std::unique_ptr<VertexBuffer> meshVbo_, lineVbo_, pointVbo_, selectionVbo_, cloneVbo_;
-  std::map<std::uint64_t, std::unique_ptr<Texture>> textureCache_;   // material textures by content hash
+  // Material textures by content hash: the shown model's, and the unused ones of the model shown before
+  // it (a drag's preview after a final finds its photos still on the GPU).
+  std::map<std::uint64_t, std::unique_ptr<Texture>> textureCache_, spareTextures_;
   std::vector<unsigned> materialTextureIds_;                         // per material: GL texture or 0
   std::vector<std::pair<int, std::pair<int, int>>> materialRanges_;  // material, [first vertex, count)
   std::vector<int> gpuFaceOrder_;                                    // faces in upload order (sorted by material)

@@ -269,7 +269,7 @@ void Editor::uploadMesh() {
   }
   meshVbo_->upload(data, {{0, 3}, {1, 3}, {2, 2}, {3, 3}, {5, 3}});
 
-  // Textures by content: the photos of the previous result stay on the GPU.
+  // Textures by content: the photos of the previous results stay on the GPU.
   std::map<std::uint64_t, std::unique_ptr<Texture>> cache;
   materialTextureIds_.assign(model ? model->materials.size() : 0, 0);
   for (size_t m = 0; model && m < model->materials.size(); ++m) {
@@ -278,9 +278,13 @@ void Editor::uploadMesh() {
     const std::uint64_t key = contentHash(tex);
     auto it = cache.find(key);
     if (it == cache.end()) {
-      auto old = textureCache_.find(key);
-      if (old != textureCache_.end()) {
-        it = cache.emplace(key, std::move(old->second)).first;
+      std::unique_ptr<Texture>* kept = nullptr;
+      for (auto* pool : {&textureCache_, &spareTextures_}) {
+        const auto old = pool->find(key);
+        if (!kept && old != pool->end() && old->second) kept = &old->second;
+      }
+      if (kept) {
+        it = cache.emplace(key, std::move(*kept)).first;
       } else {
         auto texture = std::make_unique<Texture>();
         texture->upload(tex);
@@ -289,7 +293,11 @@ void Editor::uploadMesh() {
     }
     materialTextureIds_[m] = it->second->id();
   }
-  textureCache_ = std::move(cache);  // textures no material uses any more are freed here
+  // The last model's textures this one does not use are kept for one more upload; older ones are freed.
+  spareTextures_.clear();
+  for (auto& [key, texture] : textureCache_)
+    if (texture) spareTextures_.emplace(key, std::move(texture));
+  textureCache_ = std::move(cache);
 }
 
 void Editor::uploadOverlay() {

@@ -243,10 +243,10 @@ ProjectionStage projectMapping(const Scene& scene, const std::shared_ptr<const M
   return out;
 }
 
-Partition partitionScene(const Scene& scene, const JobControl& job, MapCaches* caches) {
+std::shared_ptr<const Partition> partitionScene(const Scene& scene, const JobControl& job, MapCaches* caches) {
   PartitionOptions partitionOptions;
   partitionOptions.backgroundThresholdPx = scene.project.options.backgroundThresholdPx;
-  return partitionMesh(scene, partitionOptions, job, caches ? &caches->partition : nullptr);
+  return partitionShared(scene, partitionOptions, job, caches ? &caches->partition : nullptr);
 }
 
 Mapping mapPartition(const Scene& scene, std::shared_ptr<const Partition> partition, const JobControl& job,
@@ -273,9 +273,9 @@ Mapping mapPartition(const Scene& scene, std::shared_ptr<const Partition> partit
 
 Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches, const std::vector<char>* projected) {
   const auto start = Clock::now();
-  Partition partition = partitionScene(scene, job, caches);
+  std::shared_ptr<const Partition> partition = partitionScene(scene, job, caches);
   const double partitionSeconds = secondsSince(start);
-  Mapping out = mapPartition(scene, std::make_shared<const Partition>(std::move(partition)), job, caches, projected);
+  Mapping out = mapPartition(scene, std::move(partition), job, caches, projected);
   out.partitionSeconds = partitionSeconds;
   return out;
 }
@@ -621,7 +621,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   key << document["points"].dump() << document["chains"].dump() << opts["backgroundThresholdPx"].dump()
       << opts["stretchSearches"].dump() << opts["seed"].dump();
   const bool partitionCached = key.str() == mapKey_ && cachedMapping_;
-  std::optional<Partition> partition;
+  std::shared_ptr<const Partition> partition;
   double partitionSeconds = 0;
   const auto partitionPhotos = [&] {
     if (partitionCached) return;
@@ -637,8 +637,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   const bool mapCached = partitionCached && projected == mappedProjected_;
   if (!mapCached) {
     auto mapping = std::make_shared<Mapping>(mapPartition(
-        *scene, partition ? std::make_shared<const Partition>(std::move(*partition)) : cachedMapping_->partition, job,
-        &mapCaches_, &projected));
+        *scene, partition ? std::move(partition) : cachedMapping_->partition, job, &mapCaches_, &projected));
     mapping->partitionSeconds = partitionSeconds;
     cachedMapping_ = std::move(mapping);
     mapCaches_.cells.endRun();
@@ -673,7 +672,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"cells", mapping.partition->numCells},
                             {"steiner_vertices", mapping.partition->steinerVertices},
                             {"searches", mapping.partition->searches},
-                            {"searches_reused", partitionCached ? 0 : mapping.partition->searchesReused}}});
+                            {"searches_reused", partitionCached ? 0 : mapping.partition->searchesReused},
+                            {"replayed", !partitionCached && mapping.partition->replayed}}});
   nlohmann::json cellStatus = nlohmann::json::object();
   for (const CellPlan& c : mapping.cells) {
     const std::string status = kCellStatusNames[static_cast<int>(c.status)];

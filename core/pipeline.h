@@ -144,7 +144,8 @@ struct MapCaches {
 Mapping mapTexture(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr,
                    const std::vector<char>* projected = nullptr);
 // The two halves of mapTexture: the partition, then the cells' maps over it.
-Partition partitionScene(const Scene& scene, const JobControl& job = {}, MapCaches* caches = nullptr);
+std::shared_ptr<const Partition> partitionScene(const Scene& scene, const JobControl& job = {},
+                                                MapCaches* caches = nullptr);
 Mapping mapPartition(const Scene& scene, std::shared_ptr<const Partition> partition, const JobControl& job = {},
                      MapCaches* caches = nullptr, const std::vector<char>* projected = nullptr);
 // Projection: faces that photos fitting a camera see are mapped by projection, the photo chosen per

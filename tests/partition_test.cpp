@@ -863,5 +863,36 @@ TEST(Partition, MemoGivesTheSamePartitionAsAFreshRun) {
   EXPECT_GT(dragged.searchesReused, dragged.searches / 2);
 }
 
+// Drags of 1 to 60 px, seeded, in either photo: each result equals a fresh run's (curves, rejection
+// details and all), whether the memo replayed the last run's decisions or had to run again; both
+// happen.
+TEST(Partition, ReplayedDragsGiveAFreshRunsPartition) {
+  TM_REQUIRE_SHARED(path, "meshes/spot/spot_triangulated.obj");
+  Scene scene = sideViewScene(std::shared_ptr<const Mesh>(requireUsable(loadMesh(path))), 60);
+  scene.photos.push_back(scene.photos[0]);
+  for (FeaturePoint& p : scene.project.points) p.at.push_back({1, p.at[0].x, p.at[0].y});
+  scene.photoKeys = {"side view a", "side view b"};
+  PartitionMemo memo;
+  partitionMesh(scene, {}, {}, &memo);
+  std::mt19937 rng(7);
+  int replayed = 0, rerun = 0;
+  for (int step = 0; step < 24; ++step) {
+    FeaturePoint& p = scene.project.points[rng() % scene.project.points.size()];
+    PhotoPoint& at = p.at[rng() % p.at.size()];
+    const double size = step % 3 == 2 ? 60 : 1 + rng() % 4;
+    at.x += std::uniform_real_distribution<double>(-size, size)(rng);
+    at.y += std::uniform_real_distribution<double>(-size, size)(rng);
+    const int before = memo.replays;
+    const Partition incremental = partitionMesh(scene, {}, {}, &memo);
+    SCOPED_TRACE("step " + std::to_string(step));
+    expectSamePartition(incremental, partitionMesh(scene, {}, {}));
+    EXPECT_EQ(incremental.replayed, memo.replays > before);
+    (incremental.replayed ? replayed : rerun) += 1;
+  }
+  std::printf("24 drags: %d replayed, %d run again\n", replayed, rerun);
+  EXPECT_GT(replayed, 0);
+  EXPECT_GT(rerun, 0);
+}
+
 }  // namespace
 }  // namespace montage

@@ -37,6 +37,99 @@ constexpr int kNearFeatures = 8;         // all-pairs rejections are kept among 
 constexpr int kProgressEvery = 256;      // queue pops between progress reports
 constexpr double kMaxSectorDetour = 2;   // longest sector-respecting path, relative to the shortest free one
 
+// A rejection on its way to Partition::rejected, with the trace event of the image test that made it.
+struct Why {
+  RejectedPair pair;
+  int event = -1;  // index into PartitionMemo::Trace::events; -1: not an image test's
+};
+using Whys = std::vector<Why>;
+
+// An accepted pair around an end vertex, as the cyclic-order tests read it: the ring slot of its exit
+// and its curve (its image angle at the vertex comes from the two points' positions).
+struct AroundPair {
+  int k = 0;
+  int from = 0, to = 0;  // the path's points
+  bool atFrom = false;   // the vertex is the path's from end
+};
+
+// A decision that read photo positions (PartitionMemo::Trace).
+struct TraceEvent {
+  enum class Kind : unsigned char { Test, Sector, Order };
+  Kind kind = Kind::Test;
+  int photo = 0, a = 0, b = 0;     // Test: the segment a-b; Sector, Order: the pair self (a) -> other (b)
+  int count = 0;                   // Test: the photo's curves then; Sector: ring size; Order: exit slot
+  bool result = false;             // Test, Order
+  std::vector<AroundPair> around;  // Sector, Order
+  std::vector<char> mask;          // Sector
+};
+
+// Slots of a ring of d halfedges in which a new pair at image angle `angle` must leave: strictly between
+// the pairs just clockwise and counter-clockwise of it (all slots with fewer than 2 pairs around).
+std::vector<char> sectorSlots(int d, std::vector<std::pair<int, double>> around, double angle) {
+  std::vector<char> mask(2 * d, 1);
+  if (around.size() < 2) return mask;
+  std::sort(around.begin(), around.end(), [](const auto& x, const auto& y) { return x.second < y.second; });
+  const auto next = std::upper_bound(around.begin(), around.end(), angle,
+                                     [](double a, const std::pair<int, double>& x) { return a < x.second; });
+  const int to = (next == around.end() ? around.front() : *next).first;
+  const int from = (next == around.begin() ? around.back() : *(next - 1)).first;
+  std::fill(mask.begin(), mask.end(), 0);
+  for (int s = (2 * from + 1) % (2 * d); s != 2 * to; s = (s + 1) % (2 * d)) mask[s] = 1;
+  return mask;
+}
+
+// The mesh cyclic order of the pairs around a vertex, the new one leaving through ring slot k, equals
+// their image cyclic order (the new one at `angle`).
+bool sameCyclicOrder(std::vector<std::pair<int, double>> around, int k, double angle) {
+  around.emplace_back(k, angle);
+  const int n = int(around.size());
+  std::vector<int> byMesh(n), byImage(n);
+  for (int i = 0; i < n; ++i) byMesh[i] = byImage[i] = i;
+  std::sort(byMesh.begin(), byMesh.end(), [&](int x, int y) { return around[x].first < around[y].first; });
+  std::sort(byImage.begin(), byImage.end(), [&](int x, int y) { return around[x].second < around[y].second; });
+  // Rotate both so that the new pair (last) comes first, then compare.
+  std::rotate(byMesh.begin(), std::find(byMesh.begin(), byMesh.end(), n - 1), byMesh.end());
+  std::rotate(byImage.begin(), std::find(byImage.begin(), byImage.end(), n - 1), byImage.end());
+  return byMesh == byImage;
+}
+
+}  // namespace
+
+// The last run: what it read besides positions (a replay needs all of it unchanged), the positions,
+// every decision that read them, and its result.
+struct PartitionMemo::Trace {
+  std::shared_ptr<const Mesh> mesh;
+  PartitionOptions options;
+  std::vector<std::string> photoKeys;
+  std::vector<FeatureChain> chains;
+  std::vector<std::pair<int, std::vector<int>>> points;  // per point: its vertex and its photos, in order
+  std::vector<Vec2> pos;                                 // [canonical point * photos + photo]; NaN: none
+  std::vector<TraceEvent> events;                        // in the order the run made them
+  std::vector<std::vector<std::pair<int, int>>> curves;  // per photo: its curves' points, in acceptance order
+  std::vector<int> rejectedEvent;                        // per Partition::rejected entry: its image test event or -1
+  std::shared_ptr<const Partition> result;
+
+  // The scene and options differ from the traced run's at most in positions of points.
+  bool replayable(const Scene& scene, const PartitionOptions& o) const {
+    if (!result || scene.mesh != mesh || o.backgroundThresholdPx != options.backgroundThresholdPx ||
+        o.curveSampleSpacingPx != options.curveSampleSpacingPx || o.maxSteinerPerPath != options.maxSteinerPerPath ||
+        scene.photoKeys != photoKeys || scene.photoKeys.size() != scene.photos.size() ||
+        scene.project.chains != chains || scene.project.points.size() != points.size())
+      return false;
+    for (const std::string& key : photoKeys)
+      if (key.empty()) return false;  // a photo of unknown content
+    for (size_t i = 0; i < points.size(); ++i) {
+      const FeaturePoint& p = scene.project.points[i];
+      if (p.vertex != points[i].first || p.at.size() != points[i].second.size()) return false;
+      for (size_t k = 0; k < p.at.size(); ++k)
+        if (p.at[k].photo != points[i].second[k]) return false;
+    }
+    return true;
+  }
+};
+
+namespace {
+
 Vec3 pointOf(const TriMesh& tri, int v) {
   const auto& p = tri.point(VertexHandle(v));
   return {p[0], p[1], p[2]};
@@ -179,6 +272,84 @@ class Partitioner {
     return std::move(out_);
   }
 
+  // The run, traced into `trace` (its result included) for later replays.
+  std::shared_ptr<const Partition> runTraced(PartitionMemo::Trace& trace) {
+    trace = PartitionMemo::Trace();
+    trace_ = &trace;
+    Partition result = run();
+    trace.mesh = scene_.mesh;
+    trace.options = options_;
+    trace.photoKeys = scene_.photoKeys;
+    trace.chains = scene_.project.chains;
+    for (const FeaturePoint& p : scene_.project.points) trace.points.push_back(photosOf(p));
+    trace.pos = pos_;
+    for (const auto& curves : photoCurves_) {
+      trace.curves.emplace_back();
+      for (const PhotoCurve& c : curves) trace.curves.back().emplace_back(c.a, c.b);
+    }
+    trace.result = std::make_shared<const Partition>(std::move(result));
+    trace_ = nullptr;
+    return trace.result;
+  }
+
+  // The run by replaying the trace of the last one, whose input differed from this one's at most in the
+  // positions of points (replayable): null when a decision comes out otherwise (then only a run will
+  // do). Updates the trace.
+  std::shared_ptr<const Partition> replay(PartitionMemo::Trace& trace) {
+    setupPoints();
+    std::vector<char> moved(numPhotos_, 0);
+    for (size_t i = 0; i < pos_.size(); ++i) {
+      const Vec2 &now = pos_[i], &then = trace.pos[i];
+      if (std::isnan(now.x()) != std::isnan(then.x())) return nullptr;
+      if (!std::isnan(now.x()) && now != then) moved[i % numPhotos_] = 1;
+    }
+    for (int p = 0; p < numPhotos_; ++p)
+      if (moved[p])
+        for (const auto& [a, b] : trace.curves[p]) photoCurves_[p].emplace_back(a, b, pos(a, p), pos(b, p));
+    // Every decision of the moved photos, in order, against the curves accepted before it.
+    std::vector<std::pair<RejectReason, std::string>> tested(trace.events.size());
+    for (size_t i = 0; i < trace.events.size(); ++i) {
+      const TraceEvent& e = trace.events[i];
+      if (!moved[e.photo]) continue;
+      const double angle = imageAngle(pos(e.b, e.photo) - pos(e.a, e.photo));
+      switch (e.kind) {
+        case TraceEvent::Kind::Test:
+          if (testSegment(e.a, e.b, e.photo, size_t(e.count), tested[i].first, tested[i].second) != e.result)
+            return nullptr;
+          break;
+        case TraceEvent::Kind::Sector:
+          if (sectorSlots(e.count, anglesOf(e.around, e.photo), angle) != e.mask) return nullptr;
+          break;
+        case TraceEvent::Kind::Order:
+          if (sameCyclicOrder(anglesOf(e.around, e.photo), e.count, angle) != e.result) return nullptr;
+          break;
+      }
+    }
+    // The same course: the last result with the moved photos' curves and image-test rejections renewed.
+    auto out = std::make_shared<Partition>(*trace.result);
+    for (MeshPath& path : out->paths)
+      for (Curve& c : path.curves)
+        if (moved[c.photo]) c.from = pos(path.fromPoint, c.photo), c.to = pos(path.toPoint, c.photo);
+    for (size_t i = 0; i < out->rejected.size(); ++i) {
+      const int e = trace.rejectedEvent[i];
+      if (e < 0 || !moved[trace.events[e].photo]) continue;
+      out->rejected[i].reason = tested[e].first;
+      out->rejected[i].detail = tested[e].second;
+    }
+    out->searchesReused = out->searches;
+    out->replayed = true;
+    trace.pos = pos_;
+    trace.result = out;
+    return out;
+  }
+
+  // A point's vertex and photos, in order: what the trace keeps of the points besides their positions.
+  static std::pair<int, std::vector<int>> photosOf(const FeaturePoint& p) {
+    std::pair<int, std::vector<int>> out{p.vertex, {}};
+    for (const PhotoPoint& at : p.at) out.second.push_back(at.photo);
+    return out;
+  }
+
  private:
   // Allowed directions out of an end vertex: its outgoing halfedges counter-clockwise (ring[k]) and
   // slots 2k (halfedge ring[k]) and 2k+1 (the face between ring[k] and ring[k+1]).
@@ -208,19 +379,37 @@ class Partitioner {
     out_.mesh.faceGroup.clear();
     out_.mesh.groupNames.clear();
     if (int(out_.mesh.faceOrigin.size()) != input.numFaces()) out_.mesh.faceOrigin.clear();
+    out_.faceParent.resize(input.numFaces());
+    for (int f = 0; f < input.numFaces(); ++f) out_.faceParent[f] = f;
+    const int nv = input.numVertices();
+    onPath_.assign(nv, 0);
+    edgeOnPath_.assign(tri_.n_edges(), 0);
+    pathsAt_.assign(nv, {});
+    setupPoints();
+    // The state hash: the mesh, the options that shape paths, the feature vertices.
+    for (int v = 0; v < nv; ++v) {
+      const auto& p = tri_.point(VertexHandle(v));
+      for (int k = 0; k < 3; ++k) {
+        uint64_t bits;
+        std::memcpy(&bits, &p[k], sizeof bits);
+        mixState(bits);
+      }
+    }
+    for (int f = 0; f < int(tri_.n_faces()); ++f)
+      for (int v : out_.mesh.faceVertices(f)) mixState(uint64_t(v));
+    mixState(uint64_t(options_.maxSteinerPerPath));
+    for (int a : features_) mixState(uint64_t(vertexOf(a)));
+  }
+
+  // The points and their positions in each photo (what a replay needs; setup adds the mesh).
+  void setupPoints() {
+    const int nv = scene_.mesh->numVertices();
     for (size_t p = 0; p < scene_.photos.size(); ++p)
       photoKeyHash_.push_back(p < scene_.photoKeys.size() && !scene_.photoKeys[p].empty()
                                   ? hashMix(1, uint64_t(std::hash<std::string>()(scene_.photoKeys[p])))
                                   : 0);
-    out_.faceParent.resize(input.numFaces());
-    for (int f = 0; f < input.numFaces(); ++f) out_.faceParent[f] = f;
-
-    const int nv = input.numVertices();
     numPhotos_ = int(scene_.photos.size());
     feature_.assign(nv, 0);
-    onPath_.assign(nv, 0);
-    edgeOnPath_.assign(tri_.n_edges(), 0);
-    pathsAt_.assign(nv, {});
     vertexPoint_.assign(nv, -1);
     photoCurves_.assign(numPhotos_, {});
 
@@ -262,19 +451,6 @@ class Partitioner {
           photoFeaturePos_[p].push_back(pos(a, p));
         }
     done_.assign(features_.size() * (features_.size() - (features_.empty() ? 0 : 1)) / 2, false);
-    // The state hash: the mesh, the options that shape paths, the feature vertices.
-    for (int v = 0; v < nv; ++v) {
-      const auto& p = tri_.point(VertexHandle(v));
-      for (int k = 0; k < 3; ++k) {
-        uint64_t bits;
-        std::memcpy(&bits, &p[k], sizeof bits);
-        mixState(bits);
-      }
-    }
-    for (int f = 0; f < int(tri_.n_faces()); ++f)
-      for (int v : out_.mesh.faceVertices(f)) mixState(uint64_t(v));
-    mixState(uint64_t(options_.maxSteinerPerPath));
-    for (int a : features_) mixState(uint64_t(vertexOf(a)));
   }
 
   // Every change of the mesh or of its blocked vertices enters the state hash (splitmix64 steps).
@@ -338,26 +514,47 @@ class Partitioner {
     return pathOf(a, b) < 0 && !done_[doneBit(a, b)] && shareAPhoto(a, b);
   }
 
-  void reject(int a, int b, int photo, RejectReason reason, const std::string& detail,
-              std::vector<RejectedPair>& into) const {
-    into.push_back({a, b, photo, reason, detail});
+  void reject(int a, int b, int photo, RejectReason reason, const std::string& detail, Whys& into,
+              int event = -1) const {
+    into.push_back({{a, b, photo, reason, detail}, event});
   }
-  void record(const std::vector<RejectedPair>& rejections) {
-    for (const RejectedPair& r : rejections)
-      if (out_.rejected.size() < kMaxRejected) out_.rejected.push_back(r);
+  void record(const Whys& rejections) {
+    for (const Why& r : rejections)
+      if (out_.rejected.size() < kMaxRejected) {
+        out_.rejected.push_back(r.pair);
+        if (trace_) trace_->rejectedEvent.push_back(r.event);
+      }
   }
 
   // ---- Image-side tests (a)-(c) -----
 
-  // True when segment a-b of `photo` may become a curve; otherwise appends the reason.
-  bool imageTest(int a, int b, int photo, std::vector<RejectedPair>& why) const {
+  // True when segment a-b of `photo` may become a curve; otherwise appends the reason. Traced.
+  bool imageTest(int a, int b, int photo, Whys& why) const {
+    const int event = trace_ ? int(trace_->events.size()) : -1;
+    RejectReason reason = RejectReason::CurveCrossesCurve;
+    std::string detail;
+    const bool ok = testSegment(a, b, photo, photoCurves_[photo].size(), reason, detail);
+    if (trace_) {
+      TraceEvent e;
+      e.photo = photo, e.a = a, e.b = b, e.count = int(photoCurves_[photo].size()), e.result = ok;
+      trace_->events.push_back(std::move(e));
+    }
+    if (!ok) reject(a, b, photo, reason, detail, why, event);
+    return ok;
+  }
+
+  // The image tests of segment a-b of `photo` against the first `curves` accepted curves there; when it
+  // fails, the reason and its detail.
+  bool testSegment(int a, int b, int photo, size_t curves, RejectReason& reason, std::string& detail) const {
     const Vec2 &pa = pos(a, photo), &pb = pos(b, photo);
+    reason = RejectReason::CurveCrossesCurve;
     if (pa == pb) {
-      reject(a, b, photo, RejectReason::CurveCrossesCurve, "both ends at the same position", why);
+      detail = "both ends at the same position";
       return false;
     }
     const Box box(pa, pb);
-    for (const PhotoCurve& c : photoCurves_[photo]) {
+    for (size_t i = 0; i < curves; ++i) {
+      const PhotoCurve& c = photoCurves_[photo][i];
       // Closed segments whose boxes are apart cannot meet (nor share an end: it lies in both boxes).
       if (box.apart(c.box)) continue;
       bool meets;
@@ -372,8 +569,7 @@ class Partitioner {
         meets = segmentsMeet(pa, pb, c.pa, c.pb);
       }
       if (meets) {
-        reject(a, b, photo, RejectReason::CurveCrossesCurve,
-               "crosses the curve of points " + std::to_string(c.a) + "-" + std::to_string(c.b), why);
+        detail = "crosses the curve of points " + std::to_string(c.a) + "-" + std::to_string(c.b);
         return false;
       }
     }
@@ -384,7 +580,7 @@ class Partitioner {
       if (!box.contains(q)) continue;  // onSegment, with the segment's box made once
       const int k = features[i];
       if (k != a && k != b && orient2(pa, pb, q) == 0) {
-        reject(a, b, photo, RejectReason::CurveCrossesCurve, "passes through point " + std::to_string(k), why);
+        detail = "passes through point " + std::to_string(k);
         return false;
       }
     }
@@ -408,8 +604,8 @@ class Partitioner {
       if (memo_ && key) memo_->storeBackground(key, mean);
     }
     if (mean > options_.backgroundThresholdPx) {
-      reject(a, b, photo, RejectReason::CurveOverBackground,
-             "mean distance " + number(mean) + " px > " + number(options_.backgroundThresholdPx) + " px", why);
+      reason = RejectReason::CurveOverBackground;
+      detail = "mean distance " + number(mean) + " px > " + number(options_.backgroundThresholdPx) + " px";
       return false;
     }
     return true;
@@ -417,8 +613,7 @@ class Partitioner {
 
   // The photos of `photos` that pass the image tests. Photos where the pair's path already has a
   // curve are reported as duplicates when `reportDuplicates`, else skipped.
-  std::vector<int> imageTests(int a, int b, const std::vector<int>& photos, bool reportDuplicates,
-                              std::vector<RejectedPair>& why) const {
+  std::vector<int> imageTests(int a, int b, const std::vector<int>& photos, bool reportDuplicates, Whys& why) const {
     const int existing = pathOf(a, b);
     std::vector<int> pass;
     for (int p : photos) {
@@ -456,70 +651,75 @@ class Partitioner {
     return path.vertices.front() == v ? path.vertices[1] : path.vertices[path.vertices.size() - 2];
   }
 
-  // Accepted pairs at v with a curve in `photo` (except `skip`): ring index of their exit and the
-  // image angle of their curve at v.
-  std::vector<std::pair<int, double>> pairsAround(int v, int photo, const std::vector<HalfedgeHandle>& ring,
-                                                  int skip) const {
-    std::vector<std::pair<int, double>> out;
+  // Accepted pairs at v with a curve in `photo` (except `skip`): ring index of their exit and their
+  // points.
+  std::vector<AroundPair> pairsAround(int v, int photo, const std::vector<HalfedgeHandle>& ring, int skip) const {
+    std::vector<AroundPair> out;
     for (int id : pathsAt_[v]) {
       const MeshPath& path = out_.paths[id];
-      const Curve* c = curveIn(path, photo);
-      if (id == skip || !c) continue;
+      if (id == skip || !curveIn(path, photo)) continue;
       const int w = exitNeighbour(path, v);
       const int k = int(std::find_if(ring.begin(), ring.end(),
                                      [&](HalfedgeHandle h) { return tri_.to_vertex_handle(h).idx() == w; }) -
                         ring.begin());
       TM_ASSERT(k < int(ring.size()));
-      out.emplace_back(k, imageAngle(vertexOf(path.fromPoint) == v ? Vec2(c->to - c->from) : Vec2(c->from - c->to)));
+      out.push_back({k, path.fromPoint, path.toPoint, vertexOf(path.fromPoint) == v});
+    }
+    return out;
+  }
+  // Their exits and the image angles of their curves at the vertex.
+  std::vector<std::pair<int, double>> anglesOf(const std::vector<AroundPair>& around, int photo) const {
+    std::vector<std::pair<int, double>> out;
+    for (const AroundPair& p : around) {
+      const Vec2 &from = pos(p.from, photo), &to = pos(p.to, photo);
+      out.emplace_back(p.k, imageAngle(p.atFrom ? Vec2(to - from) : Vec2(from - to)));
     }
     return out;
   }
 
-  // Slots of the sector of v in which the curve self->other of `photo` must leave: strictly between
-  // the pairs just clockwise and counter-clockwise of it in the photo (all, with < 2 pairs).
+  // Slots of the sector of v in which the curve self->other of `photo` must leave (sectorSlots). Traced.
   std::vector<char> sectorMask(const std::vector<HalfedgeHandle>& ring, int v, int self, int other, int photo) const {
-    const int d = int(ring.size());
-    std::vector<char> mask(2 * d, 1);
-    auto around = pairsAround(v, photo, ring, -1);
-    if (around.size() < 2) return mask;
-    const double angle = imageAngle(pos(other, photo) - pos(self, photo));
-    std::sort(around.begin(), around.end(), [](const auto& x, const auto& y) { return x.second < y.second; });
-    const auto next = std::upper_bound(around.begin(), around.end(), angle,
-                                       [](double a, const std::pair<int, double>& x) { return a < x.second; });
-    const int to = (next == around.end() ? around.front() : *next).first;
-    const int from = (next == around.begin() ? around.back() : *(next - 1)).first;
-    std::fill(mask.begin(), mask.end(), 0);
-    for (int s = (2 * from + 1) % (2 * d); s != 2 * to; s = (s + 1) % (2 * d)) mask[s] = 1;
+    std::vector<AroundPair> around = pairsAround(v, photo, ring, -1);
+    if (around.size() < 2) return std::vector<char>(2 * ring.size(), 1);  // positions not read
+    std::vector<char> mask =
+        sectorSlots(int(ring.size()), anglesOf(around, photo), imageAngle(pos(other, photo) - pos(self, photo)));
+    if (trace_) {
+      TraceEvent e;
+      e.kind = TraceEvent::Kind::Sector;
+      e.photo = photo, e.a = self, e.b = other, e.count = int(ring.size());
+      e.around = std::move(around);
+      e.mask = mask;
+      trace_->events.push_back(std::move(e));
+    }
     return mask;
   }
 
   // Mesh cyclic order of the pairs around v (with the new one leaving through ring[exit]) equals
-  // their image cyclic order in `photo`.
+  // their image cyclic order in `photo`. Traced.
   bool cyclicOrderHolds(int v, int self, int other, int photo, int exitNeighbourVertex, int skip) const {
     const auto r = ring(v);
-    auto around = pairsAround(v, photo, r, skip);
-    if (around.size() < 2) return true;
+    std::vector<AroundPair> around = pairsAround(v, photo, r, skip);
+    if (around.size() < 2) return true;  // positions not read
     const int k =
         int(std::find_if(r.begin(), r.end(),
                          [&](HalfedgeHandle h) { return tri_.to_vertex_handle(h).idx() == exitNeighbourVertex; }) -
             r.begin());
     TM_ASSERT(k < int(r.size()));
-    around.emplace_back(k, imageAngle(pos(other, photo) - pos(self, photo)));
-    const int n = int(around.size());
-    std::vector<int> byMesh(n), byImage(n);
-    for (int i = 0; i < n; ++i) byMesh[i] = byImage[i] = i;
-    std::sort(byMesh.begin(), byMesh.end(), [&](int x, int y) { return around[x].first < around[y].first; });
-    std::sort(byImage.begin(), byImage.end(), [&](int x, int y) { return around[x].second < around[y].second; });
-    // Rotate both so that the new pair (last) comes first, then compare.
-    std::rotate(byMesh.begin(), std::find(byMesh.begin(), byMesh.end(), n - 1), byMesh.end());
-    std::rotate(byImage.begin(), std::find(byImage.begin(), byImage.end(), n - 1), byImage.end());
-    return byMesh == byImage;
+    const bool ok = sameCyclicOrder(anglesOf(around, photo), k, imageAngle(pos(other, photo) - pos(self, photo)));
+    if (trace_) {
+      TraceEvent e;
+      e.kind = TraceEvent::Kind::Order;
+      e.photo = photo, e.a = self, e.b = other, e.count = k, e.result = ok;
+      e.around = std::move(around);
+      trace_->events.push_back(std::move(e));
+    }
+    return ok;
   }
 
   // The photos of `photos` in which a path a -> b along `vertices` keeps the cyclic order at both
   // ends (test e); the others are rejected into `why` when given. `skip`: the pair's own path, if any.
   std::vector<int> orderedPhotos(int a, int b, const std::vector<int>& vertices, const std::vector<int>& photos,
-                                 int skip, std::vector<RejectedPair>* why) const {
+                                 int skip, Whys* why) const {
     std::vector<int> kept;
     const int va = vertices.front(), vb = vertices.back();
     for (int p : photos) {
@@ -537,7 +737,7 @@ class Partitioner {
 
   // Joint sectors of both ends over `photos`; a photo whose sector leaves nothing in common with the
   // others' is dropped (CyclicOrder into `why` when given).
-  void sectors(int a, int b, std::vector<int>& photos, Sector& sa, Sector& sb, std::vector<RejectedPair>* why) const {
+  void sectors(int a, int b, std::vector<int>& photos, Sector& sa, Sector& sb, Whys* why) const {
     for (auto [s, v] : {std::pair<Sector*, int>{&sa, vertexOf(a)}, {&sb, vertexOf(b)}}) {
       s->v = v;
       s->ring = ring(v);
@@ -683,7 +883,7 @@ class Partitioner {
   // ---- Candidates ----
 
   // Tries pair a-b in `photos` (image tests passed); accepts it or appends the reasons to `why`.
-  void connect(int a, int b, std::vector<int> photos, bool chain, std::vector<RejectedPair>& why) {
+  void connect(int a, int b, std::vector<int> photos, bool chain, Whys& why) {
     const int existing = pathOf(a, b);
     if (existing >= 0) {
       // The pair already has a path (another chain's photo): add the curves whose cyclic order holds.
@@ -777,7 +977,7 @@ class Partitioner {
     for (int k = 0; k + (chain.closed ? 0 : 1) < n; ++k) {
       const int a = canonical_[chain.points[k]], b = canonical_[chain.points[(k + 1) % n]];
       if (a == b || (k == 1 && n == 2 && chain.closed)) continue;  // a 2-point polygon is one segment
-      std::vector<RejectedPair> why;
+      Whys why;
       const std::vector<int> pass = imageTests(a, b, {chain.photo}, true, why);
       if (!pass.empty()) connect(a, b, pass, true, why);
       chainTried_.emplace(pairKey(a, b), chain.photo);
@@ -847,7 +1047,7 @@ class Partitioner {
       std::vector<int> photos;
       for (int p : commonPhotos(e.a, e.b))
         if (!triedInChain(e.a, e.b, p)) photos.push_back(p);
-      std::vector<RejectedPair> why;
+      Whys why;
       std::vector<int> pass = imageTests(e.a, e.b, photos, false, why);
       if (!pass.empty() && pathOf(e.a, e.b) < 0 && (!e.exact || e.version != version_)) {
         // Defer the pair while its shortest free path is longer than the next key.
@@ -947,6 +1147,7 @@ class Partitioner {
     std::vector<int> path;
   } lastFree_;  // see searchFree
   SearchScratch scratch_;
+  PartitionMemo::Trace* trace_ = nullptr;  // the trace being recorded (runTraced)
 };
 
 }  // namespace
@@ -979,13 +1180,38 @@ void PartitionMemo::store(const std::string& key, const std::vector<int>& path) 
   current_[key] = path;
 }
 
-Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job,
-                        PartitionMemo* memo) {
+PartitionMemo::PartitionMemo() = default;
+PartitionMemo::~PartitionMemo() = default;
+
+namespace {
+
+void checkInput(const Scene& scene, const PartitionOptions& options) {
   TM_CHECK(scene.mesh, "partition: the scene has no mesh");
   TM_CHECK(options.curveSampleSpacingPx > 0 && options.curveSampleSpacingPx < 1,
            "partition: curveSampleSpacingPx " + number(options.curveSampleSpacingPx) + " must be in (0, 1)");
-  if (memo) memo->beginRun();
-  return Partitioner(scene, options, job, memo).run();
+}
+
+}  // namespace
+
+std::shared_ptr<const Partition> partitionShared(const Scene& scene, const PartitionOptions& options,
+                                                 const JobControl& job, PartitionMemo* memo) {
+  checkInput(scene, options);
+  if (!memo) return std::make_shared<const Partition>(Partitioner(scene, options, job, nullptr).run());
+  if (memo->trace && memo->trace->replayable(scene, options))
+    if (auto replayed = Partitioner(scene, options, job, memo).replay(*memo->trace)) {
+      ++memo->replays;
+      return replayed;
+    }
+  memo->beginRun();
+  if (!memo->trace) memo->trace = std::make_unique<PartitionMemo::Trace>();
+  return Partitioner(scene, options, job, memo).runTraced(*memo->trace);
+}
+
+Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job,
+                        PartitionMemo* memo) {
+  checkInput(scene, options);
+  if (!memo) return Partitioner(scene, options, job, nullptr).run();
+  return *partitionShared(scene, options, job, memo);
 }
 
 std::vector<int> shortestPath(const Mesh& mesh, int from, int to, const std::vector<char>& blocked) {

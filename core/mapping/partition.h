@@ -5,6 +5,7 @@
 // give paths room where the mesh is too coarse or two paths would share a vertex or an edge.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -72,6 +73,7 @@ struct Partition {
   int steinerVertices = 0;  // vertices added by edge splits
   int searches = 0;         // shortest-path searches the run needed
   int searchesReused = 0;   // of them, taken from a PartitionMemo
+  bool replayed = false;    // the memo's trace answered the run (PartitionMemo)
 };
 
 // The shortest-path searches of earlier partition runs, keyed by the state of the mesh when they ran
@@ -80,15 +82,26 @@ struct Partition {
 // point whose pairs stay valid, takes its paths from here instead of searching again. It also keeps the
 // background test's mean distance of each photo segment tested (keyed by the photo's identity, the
 // segment's ends and the sample spacing). Entries not used in the last run are dropped at the start of
-// the next. Not thread-safe.
+// the next.
+//
+// It also keeps the last run's trace: its result and every decision that read a photo position (image
+// tests, sectors and cyclic orders, with what each read). A rerun whose input differs from the last
+// one's only in positions of points replays those decisions in the photos whose positions moved; when
+// each comes out as before, the run would take the same course, and its result is the last one with
+// those photos' curves and rejection details renewed. Not thread-safe.
 class PartitionMemo {
  public:
+  PartitionMemo();
+  ~PartitionMemo();
   void beginRun();
   const std::vector<int>* find(const std::string& key);
   void store(const std::string& key, const std::vector<int>& path);
   const double* findBackground(uint64_t key);
   void storeBackground(uint64_t key, double meanDistance) { background_[key] = meanDistance; }
   size_t size() const { return current_.size() + previous_.size(); }
+  struct Trace;
+  std::unique_ptr<Trace> trace;  // the last run's (partition.cpp)
+  int replays = 0;               // runs answered by replaying the trace (counted for tests and reports)
 
  private:
   std::unordered_map<std::string, std::vector<int>> current_, previous_;
@@ -99,6 +112,9 @@ class PartitionMemo {
 // maps), reusing the searches in `memo` when given. Throws montage::Cancelled when the job is cancelled.
 Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job,
                         PartitionMemo* memo = nullptr);
+// The same, shared: with a memo, the result its trace keeps (no copy when a replay changes nothing).
+std::shared_ptr<const Partition> partitionShared(const Scene& scene, const PartitionOptions& options,
+                                                 const JobControl& job, PartitionMemo* memo = nullptr);
 
 // Shortest path along mesh edges between two vertices (Dijkstra with edge lengths), avoiding the
 // vertices for which `blocked[v]` is true (the end points are always allowed). Returns the vertex

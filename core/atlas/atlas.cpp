@@ -530,9 +530,9 @@ double packAtScale(const std::vector<ChartSeed>& charts, const std::vector<std::
   std::vector<int> order(n);
   signature = 0;
   for (const Placement& pl : placements) {
-    const Profile& p = pl.cells.upright;
-    for (const std::vector<int>* v : {&p.fTop, &p.fBottom, &p.dTop, &p.dBottom})
-      for (int x : *v) signature = signature * 31 + std::size_t(x + 1);
+    for (const Profile* p : {&pl.cells.upright, &pl.cells.turned})
+      for (const std::vector<int>* v : {&p->fTop, &p->fBottom, &p->dTop, &p->dBottom})
+        for (int x : *v) signature = signature * 31 + std::size_t(x + 1);
     signature = signature * 1000003u + static_cast<std::size_t>(pl.cells.w) * 8191u + pl.cells.h;
   }
   // Tallest (longer side of the frame, in cells, as charts may turn) first; within a size class

@@ -9,7 +9,6 @@
 #include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
-#include <optional>
 #include <set>
 #include <sstream>
 

@@ -680,10 +680,9 @@ class Partitioner {
   // Slots of the sector of v in which the curve self->other of `photo` must leave (sectorSlots). Traced.
   std::vector<char> sectorMask(const std::vector<HalfedgeHandle>& ring, int v, int self, int other, int photo) const {
     std::vector<AroundPair> around = pairsAround(v, photo, ring, -1);
-    if (around.size() < 2) return std::vector<char>(2 * ring.size(), 1);  // positions not read
     std::vector<char> mask =
         sectorSlots(int(ring.size()), anglesOf(around, photo), imageAngle(pos(other, photo) - pos(self, photo)));
-    if (trace_) {
+    if (trace_ && around.size() >= 2) {  // with fewer pairs every slot is open: positions not read
       TraceEvent e;
       e.kind = TraceEvent::Kind::Sector;
       e.photo = photo, e.a = self, e.b = other, e.count = int(ring.size());
@@ -1209,9 +1208,9 @@ std::shared_ptr<const Partition> partitionShared(const Scene& scene, const Parti
 
 Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job,
                         PartitionMemo* memo) {
+  if (memo) return *partitionShared(scene, options, job, memo);
   checkInput(scene, options);
-  if (!memo) return Partitioner(scene, options, job, nullptr).run();
-  return *partitionShared(scene, options, job, memo);
+  return Partitioner(scene, options, job, nullptr).run();
 }
 
 std::vector<int> shortestPath(const Mesh& mesh, int from, int to, const std::vector<char>& blocked) {

@@ -92,9 +92,10 @@ Timed timedRun(Pipeline& pipeline, const Project& project, Tier tier) {
     t.figures[stageName(s.stage)] = {{"seconds", s.seconds}, {"cached", s.cached}, {"cpu_seconds", stageCpu[s.stage]}};
     for (const auto& [key, value] : s.counts.items())  // the stage's own breakdown (view_seconds, ...)
       if ((key.size() > 8 && key.compare(key.size() - 8, 8, "_seconds") == 0) || key == "searches" ||
-          key == "searches_reused" || key == "frames_reused" || key == "views_reused" || key == "frames_near" ||
-          key == "selection_kept" || key == "rounds" || key == "selection_sweeps" || key == "warm_sides" ||
-          key == "warm_near_sides" || key == "moved_sides" || key == "photos_kept" || key == "edges_kept")
+          key == "searches_reused" || key == "frames_reused" || key == "views_reused" || key == "views_carried" ||
+          key == "carried_share" || key == "frames_near" || key == "selection_kept" || key == "rounds" ||
+          key == "selection_sweeps" || key == "warm_sides" || key == "warm_near_sides" || key == "moved_sides" ||
+          key == "photos_kept" || key == "edges_kept")
         t.figures[stageName(s.stage)][key] = value;
     if (s.stage == StageId::Inpaint && s.counts.contains("regions"))  // per region: guidance, factor, solve
       t.figures["inpaint"]["regions"] = s.counts["regions"];

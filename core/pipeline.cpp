@@ -738,6 +738,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                               {"frames_near", pr.framesNear},
                               {"selection_kept", pr.selectionKept},
                               {"views_reused", pr.viewsReused},
+                              {"views_carried", pr.viewsCarried},
+                              {"carried_share", pr.carriedShare},
                               {"select_seconds", pr.selectSeconds},
                               {"photos", photos}}});
   }

@@ -725,3 +725,51 @@ TEST(CameraPipeline, ThePreviewStartsFromTheLastRunAndTheFinalMatchesAFreshRun) 
     last = final;
   }
 }
+
+// A delete changes the refined mesh: the views of the photos whose camera stays are made again on the new
+// mesh, carrying over what the two meshes share (ViewFrameCache::view, carryOver). They equal the views a
+// fresh pipeline computes in full, entry for entry, and so does the mapping.
+TEST(CameraPipeline, AViewCarriedOverToANewRefinementEqualsAFreshOne) {
+  DemoScene d = demoScene("camera_pipeline_carry", 4, 150, 1.0);
+  Project doc = loadProject(d.dir + "/project.json");
+  Pipeline pipeline;
+  const PipelineResult first = pipeline.run(doc);
+  ASSERT_EQ(first.cameras->fitted, 4);
+  int carriedViews = 0;
+  std::mt19937 rng(11);
+  for (int step = 0; step < 3; ++step) {
+    SCOPED_TRACE("step " + std::to_string(step));
+    // Delete a point clicked in one photo only: the other photos keep their cameras.
+    std::vector<size_t> single;
+    for (size_t i = 0; i < doc.points.size(); ++i)
+      if (doc.points[i].at.size() == 1) single.push_back(i);
+    ASSERT_FALSE(single.empty());
+    doc.points.erase(doc.points.begin() + single[rng() % single.size()]);
+    const PipelineResult kept = pipeline.run(doc);
+    const PipelineResult fresh = Pipeline().run(doc);
+    const ProjectionResult &a = kept.projection->result, &b = fresh.projection->result;
+    ASSERT_NE(a.meshHash, first.projection->result.meshHash);
+    EXPECT_EQ(b.viewsCarried, 0);
+    carriedViews += a.viewsCarried;
+    if (a.viewsCarried > 0) EXPECT_GT(a.carriedShare, 0.5);
+    ASSERT_EQ(a.views.size(), b.views.size());
+    for (size_t p = 0; p < a.views.size(); ++p) {
+      SCOPED_TRACE("photo " + std::to_string(p));
+      ASSERT_EQ(!a.views[p], !b.views[p]);
+      if (!a.views[p]) continue;
+      const PhotoView &x = *a.views[p], &y = *b.views[p];
+      ASSERT_EQ(x.vertexUV.size(), y.vertexUV.size());
+      for (size_t v = 0; v < x.vertexUV.size(); ++v)  // NaN (behind the camera) in both, or the same pixel
+        ASSERT_TRUE(x.vertexUV[v] == y.vertexUV[v] || (x.vertexUV[v].hasNaN() && y.vertexUV[v].hasNaN())) << v;
+      EXPECT_EQ(x.vertexVisible, y.vertexVisible);
+      EXPECT_EQ(x.vertexSilhouettePx, y.vertexSilhouettePx);
+      EXPECT_EQ(x.faceQuality, y.faceQuality);
+      EXPECT_EQ(x.faceRefused, y.faceRefused);
+      EXPECT_EQ(x.refusedFlipped, y.refusedFlipped);
+      EXPECT_EQ(x.refusedBackground, y.refusedBackground);
+      EXPECT_TRUE(x.edgeLuv == y.edgeLuv);
+    }
+    test::expectSameMapping(*kept.mapping, *fresh.mapping, "after the delete");
+  }
+  EXPECT_GE(carriedViews, 3);  // each delete leaves at least one photo's camera as it was
+}

@@ -28,7 +28,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <opencv2/imgproc.hpp>
+#include <unordered_map>
 
 #include "base/hash.h"
 #include "base/job.h"
@@ -205,20 +207,23 @@ std::shared_ptr<const ViewFrame> ViewFrameCache::frame(int photo, const Mesh& in
   return used_[key] = out;
 }
 
-std::shared_ptr<const PhotoView> ViewFrameCache::view(int photo, uint64_t inputs,
-                                                      const std::function<PhotoView()>& make) {
-  const std::string key = photoKey(photo) + '#' + std::to_string(photo) + '#' + std::to_string(inputs);
+std::shared_ptr<const PhotoView> ViewFrameCache::view(int photo, uint64_t meshHash, uint64_t settings,
+                                                      const std::function<PhotoView(const PhotoView* base)>& make) {
+  const std::string byPhoto = photoKey(photo) + '#' + std::to_string(photo) + '#' + std::to_string(settings);
+  const std::string key = byPhoto + '#' + std::to_string(meshHash);
+  std::shared_ptr<const PhotoView> base;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (auto it = usedViews_.find(key); it != usedViews_.end()) return it->second;
     if (auto it = views_.find(key); it != views_.end()) {
       ++viewsReused;
-      return usedViews_[key] = it->second;
+      return usedLatest_[byPhoto] = usedViews_[key] = it->second;
     }
+    if (auto it = latest_.find(byPhoto); it != latest_.end()) base = it->second;
   }
-  auto out = std::make_shared<const PhotoView>(make());
+  auto out = std::make_shared<const PhotoView>(make(base.get()));
   std::lock_guard<std::mutex> lock(mutex_);
-  return usedViews_[key] = out;
+  return usedLatest_[byPhoto] = usedViews_[key] = out;
 }
 
 void ViewFrameCache::endRun() {
@@ -226,6 +231,8 @@ void ViewFrameCache::endRun() {
   used_.clear();
   views_ = std::move(usedViews_);
   usedViews_.clear();
+  latest_ = std::move(usedLatest_);
+  usedLatest_.clear();
   for (auto it = foreground_.begin(); it != foreground_.end();)
     it = usedForeground_.count(it->first) ? std::next(it) : foreground_.erase(it);
   usedForeground_.clear();
@@ -235,10 +242,82 @@ void ViewFrameCache::endRun() {
 void ViewFrameCache::clear() {
   std::lock_guard<std::mutex> lock(mutex_);
   frames_.clear(), used_.clear(), views_.clear(), usedViews_.clear(), foreground_.clear(), usedForeground_.clear();
+  latest_.clear(), usedLatest_.clear();
+}
+
+ViewMesh viewMesh(const Mesh& mesh, const std::vector<int>& faceParent, uint64_t hash) {
+  const int nv = mesh.numVertices(), nf = mesh.numFaces();
+  TM_CHECK(static_cast<int>(faceParent.size()) == nf, "viewMesh: faceParent: " + std::to_string(faceParent.size()) +
+                                                          " entries for " + std::to_string(nf) + " faces");
+  ViewMesh out;
+  out.hash = hash;
+  out.diagonal = diagonalOf(mesh);
+  out.positions.resize(nv);
+  out.around.resize(nv);
+  out.faces.resize(nf);
+  out.faceParent = faceParent;
+  for (int f = 0; f < nf; ++f) out.faces[f] = mesh.faceVertices(f);
+  const TriMesh& tri = mesh.tri;
+  tbb::parallel_for(tbb::blocked_range<int>(0, nv, 2048), [&](const tbb::blocked_range<int>& range) {
+    std::vector<int> parents;
+    for (int v = range.begin(); v < range.end(); ++v) {
+      out.positions[v] = mesh.position(v);
+      parents.clear();
+      for (auto fh : tri.vf_range(tri.vertex_handle(v))) parents.push_back(faceParent[fh.idx()]);
+      std::sort(parents.begin(), parents.end());
+      parents.erase(std::unique(parents.begin(), parents.end()), parents.end());
+      uint64_t h = hashMix(0, uint64_t(parents.size()));
+      for (int p : parents) h = hashMix(h, p);
+      out.around[v] = h;
+    }
+  });
+  return out;
+}
+
+ViewCarry carryOver(const ViewMesh& from, const ViewMesh& to) {
+  ViewCarry c;
+  if (from.diagonal != to.diagonal) return c;
+  const int nv = static_cast<int>(to.positions.size()), nf = static_cast<int>(to.faces.size());
+  c.vertex.assign(nv, -1);
+  c.face.assign(nf, -1);
+  // from's vertices by position; a position held by two vertices carries neither.
+  std::unordered_map<uint64_t, int> at;
+  at.reserve(from.positions.size());
+  constexpr int kShared = -2;
+  for (int v = 0; v < static_cast<int>(from.positions.size()); ++v) {
+    const auto [it, fresh] = at.emplace(hashMix(0, from.positions[v]), v);
+    if (!fresh) it->second = kShared;
+  }
+  for (int v = 0; v < nv; ++v) {
+    const auto it = at.find(hashMix(0, to.positions[v]));
+    if (it == at.end() || it->second < 0) continue;
+    const int u = it->second;
+    if (from.positions[u] == to.positions[v] && from.around[u] == to.around[v]) c.vertex[v] = u, ++c.vertices;
+  }
+  // from's faces around each vertex (CSR), to find a face by its first corner.
+  std::vector<int> first(from.positions.size() + 1, 0), faces(from.faces.size());
+  for (const auto& f : from.faces) ++first[f[0] + 1];
+  for (size_t v = 0; v + 1 < first.size(); ++v) first[v + 1] += first[v];
+  std::vector<int> fill(first.begin(), first.end() - 1);
+  for (int g = 0; g < static_cast<int>(from.faces.size()); ++g) faces[fill[from.faces[g][0]]++] = g;
+  for (int f = 0; f < nf; ++f) {
+    const auto& t = to.faces[f];
+    const std::array<int, 3> corners = {c.vertex[t[0]], c.vertex[t[1]], c.vertex[t[2]]};
+    if (corners[0] < 0 || corners[1] < 0 || corners[2] < 0) continue;
+    for (int i = first[corners[0]]; i < first[corners[0] + 1]; ++i) {
+      const int g = faces[i];
+      if (from.faces[g] == corners && from.faceParent[g] == to.faceParent[f]) {
+        c.face[f] = g, ++c.faces;
+        break;
+      }
+    }
+  }
+  return c;
 }
 
 PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const ViewFrame& frame, const Photo& photo,
-                    int photoIndex, const CameraFit& fit, const CorrectionField& field, const ProjectionOptions& o) {
+                    int photoIndex, const CameraFit& fit, const CorrectionField& field, const ProjectionOptions& o,
+                    const PhotoView* base, const ViewCarry* carry) {
   PhotoView view;
   view.photo = photoIndex;
   const Camera& cam = fit.camera.pinhole;
@@ -250,6 +329,7 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
   const int nv = mesh.numVertices(), nf = mesh.numFaces();
   TM_CHECK(static_cast<int>(faceParent.size()) == nf, "viewPhoto: faceParent: " + std::to_string(faceParent.size()) +
                                                           " entries for " + std::to_string(nf) + " faces");
+  if (!base || !carry || carry->vertex.size() != size_t(nv) || carry->face.size() != size_t(nf)) base = nullptr;
   const double tol = o.depthTolerance * diagonalOf(mesh);
   const Vec3 eye = cam.center();
   const TriMesh& tri = mesh.tri;
@@ -279,6 +359,13 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
       Vec2 px;
       if (!cam.project(p, px, &z)) continue;
       pinhole[v] = px;
+      if (base && carry->vertex[v] >= 0) {
+        const int u = carry->vertex[v];
+        view.vertexUV[v] = base->vertexUV[u];
+        view.vertexVisible[v] = base->vertexVisible[u];
+        view.vertexSilhouettePx[v] = base->vertexSilhouettePx[u];
+        continue;
+      }
       Vec2 uv;
       if (predictPixel(fit, field, p, uv)) view.vertexUV[v] = uv;
       view.vertexVisible[v] = seenAt(px, z, -1, v) ? 1 : 0;
@@ -290,9 +377,15 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
   const std::array<Vec3, 4> samples = {Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3), Vec3(0.8, 0.1, 0.1), Vec3(0.1, 0.8, 0.1),
                                        Vec3(0.1, 0.1, 0.8)};
   enum : char { kKept, kFlipped, kBackground };
-  std::vector<char> refused(nf, kKept);
+  std::vector<char>& refused = view.faceRefused;
+  refused.assign(nf, kKept);
   tbb::parallel_for(tbb::blocked_range<int>(0, nf, 1024), [&](const tbb::blocked_range<int>& range) {
     for (int f = range.begin(); f < range.end(); ++f) {
+      if (base && carry->face[f] >= 0) {
+        view.faceQuality[f] = base->faceQuality[carry->face[f]];
+        refused[f] = base->faceRefused[carry->face[f]];
+        continue;
+      }
       const auto c = mesh.faceVertices(f);
       if (!view.vertexVisible[c[0]] || !view.vertexVisible[c[1]] || !view.vertexVisible[c[2]]) continue;
       const auto q = mesh.facePositions(f);
@@ -337,6 +430,7 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
   });
   view.refusedFlipped = static_cast<int>(std::count(refused.begin(), refused.end(), kFlipped));
   view.refusedBackground = static_cast<int>(std::count(refused.begin(), refused.end(), kBackground));
+  if (base) view.carriedVertices = carry->vertices, view.carriedFaces = carry->faces;
   view.edgeLuv.assign(tri.n_edges(), Vec3f::Zero());
   tbb::parallel_for(tbb::blocked_range<int>(0, int(tri.n_edges()), 1024), [&](const tbb::blocked_range<int>& range) {
     for (int e = range.begin(); e < range.end(); ++e) {
@@ -405,37 +499,66 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   out.frameSeconds = secondsSince(t);
   job.checkCancel();
   // What every view reads besides its photo and camera: the refined mesh and the view options.
-  uint64_t inputs = 0;
+  uint64_t options = 0;
   if (cache) {
-    for (int v = 0; v < mesh.numVertices(); ++v) inputs = hashMix(inputs, mesh.position(v));
+    uint64_t h = 0;
+    for (int v = 0; v < mesh.numVertices(); ++v) h = hashMix(h, mesh.position(v));
     for (int f = 0; f < nf; ++f) {
-      for (int v : mesh.faceVertices(f)) inputs = hashMix(inputs, v);
-      inputs = hashMix(inputs, partition.faceParent[f]);
+      for (int v : mesh.faceVertices(f)) h = hashMix(h, v);
+      h = hashMix(h, partition.faceParent[f]);
     }
-    out.meshHash = inputs;
-    for (double x : {o.depthTolerance, o.minCos, o.silhouetteMarginPx, o.maxBackgroundPx}) inputs = hashMix(inputs, x);
+    out.meshHash = h;
+    for (double x : {o.depthTolerance, o.minCos, o.silhouetteMarginPx, o.maxBackgroundPx})
+      options = hashMix(options, x);
   }
+  // A view made anew takes what it can from the last view of its photo and settings on another mesh
+  // (ViewFrameCache::view): this mesh's ViewMesh and the carry from each such mesh are made once.
+  std::mutex carryMutex;
+  std::shared_ptr<const ViewMesh> current;
+  std::map<const ViewMesh*, std::shared_ptr<const ViewCarry>> carries;
+  auto carryFrom = [&](const PhotoView* base) -> std::shared_ptr<const ViewCarry> {
+    std::lock_guard<std::mutex> lock(carryMutex);
+    if (!current) current = std::make_shared<const ViewMesh>(viewMesh(mesh, partition.faceParent, out.meshHash));
+    if (!base || !base->mesh || base->mesh->hash == out.meshHash) return nullptr;
+    auto& c = carries[base->mesh.get()];
+    if (!c) c = std::make_shared<const ViewCarry>(carryOver(*base->mesh, *current));
+    return c;
+  };
+  std::vector<char> made(np, 0);  // views made this run (not kept ones)
   tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
     const int p = fitted[k];
     out.fields[p] = correctionField(mesh, fits[p], o.correction, o.localRadiusPx);
-    auto make = [&] {
-      return viewPhoto(mesh, partition.faceParent, *frames[p], *scene.photos[p], p, fits[p], out.fields[p], o);
-    };
     if (cache) {
       const PhotoCamera& c = fits[p].camera;
       // The frame's own camera too: a frame within reuseFramePx makes another view.
-      uint64_t h = hashMix(hashMix(hashCamera(hashCamera(inputs, frames[p]->camera), c.pinhole), c.k1), c.k2);
+      uint64_t h = hashMix(hashMix(hashCamera(hashCamera(options, frames[p]->camera), c.pinhole), c.k1), c.k2);
       const CorrectionField& field = out.fields[p];
       for (size_t i = 0; i < field.centres.size(); ++i)
         h = hashMix(hashMix(hashMix(h, field.centres[i]), field.local[i]), field.localSupport[i]);
-      out.views[p] = cache->view(p, h, make);
+      out.views[p] = cache->view(p, out.meshHash, h, [&](const PhotoView* base) {
+        made[p] = 1;
+        const std::shared_ptr<const ViewCarry> carry = carryFrom(base);
+        PhotoView view = viewPhoto(mesh, partition.faceParent, *frames[p], *scene.photos[p], p, fits[p], out.fields[p],
+                                   o, carry ? base : nullptr, carry.get());
+        view.mesh = current;
+        return view;
+      });
     } else {
-      out.views[p] = std::make_shared<const PhotoView>(make());
+      out.views[p] = std::make_shared<const PhotoView>(
+          viewPhoto(mesh, partition.faceParent, *frames[p], *scene.photos[p], p, fits[p], out.fields[p], o));
     }
     out.photoRefusedFlipped[p] = out.views[p]->refusedFlipped;
     out.photoRefusedBackground[p] = out.views[p]->refusedBackground;
   });
   if (cache) out.viewsReused = cache->viewsReused;
+  long carried = 0, entries = 0;
+  for (int p : fitted)
+    if (made[p] && out.views[p]->carriedVertices + out.views[p]->carriedFaces > 0) {
+      ++out.viewsCarried;
+      carried += out.views[p]->carriedVertices + out.views[p]->carriedFaces;
+      entries += mesh.numVertices() + nf;
+    }
+  out.carriedShare = entries ? double(carried) / entries : 0;
   out.viewSeconds = secondsSince(t);
   job.progress(StageId::Projection, 0.6, "view selection");
 

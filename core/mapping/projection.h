@@ -90,6 +90,28 @@ cv::Mat foregroundDistance(const Photo& photo, int width, int height);
 
 struct PhotoView;
 
+// What a view reads of the refined mesh, kept with the view so that a view made on one refinement of the
+// input can carry its entries over to the next one (an added or deleted feature moves only some paths).
+struct ViewMesh {
+  uint64_t hash = 0;                      // ProjectionResult::meshHash
+  double diagonal = 0;                    // of the bounding box (the depth tolerance's scale)
+  std::vector<Vec3> positions;            // #V
+  std::vector<uint64_t> around;           // #V: hash of the sorted input faces around the vertex
+  std::vector<std::array<int, 3>> faces;  // #F
+  std::vector<int> faceParent;            // #F
+};
+ViewMesh viewMesh(const Mesh& mesh, const std::vector<int>& faceParent, uint64_t hash);
+
+// Which entries of a view on `from` a view on `to` may take: per vertex of `to`, the vertex of `from` at the
+// same position (bit for bit, and the only one there) with the same input faces around it, else -1; per
+// face of `to`, the face of `from` with such corners in the same order and the same parent, else -1. Empty
+// when the two bounding boxes differ (the depth tolerance would).
+struct ViewCarry {
+  std::vector<int> vertex, face;
+  int vertices = 0, faces = 0;  // how many are carried
+};
+ViewCarry carryOver(const ViewMesh& from, const ViewMesh& to);
+
 // Frames and views kept across runs. A frame is keyed by the caller's identity of each photo (file, mask,
 // mesh) and the camera; a view also by a hash of everything else it reads (the refined mesh, the fit with
 // its correction field, the options). Both are exact: a kept one equals what would be computed.
@@ -102,8 +124,11 @@ class ViewFrameCache {
   // `camera` puts it serves instead (visibility and silhouette distances then err by at most that much).
   std::shared_ptr<const ViewFrame> frame(int photo, const Mesh& input, const Photo& image, const PhotoCamera& camera,
                                          double reusePx = 0);
-  // The view of `photo` whose inputs hash to `inputs`, made by `make` when not kept. Thread-safe.
-  std::shared_ptr<const PhotoView> view(int photo, uint64_t inputs, const std::function<PhotoView()>& make);
+  // The view of `photo` on the mesh hashed `meshHash` whose other inputs hash to `settings`, made by `make`
+  // when not kept. `make` gets the kept view of the same photo and settings on another mesh, if any (null
+  // otherwise), to carry over what the two meshes share. Thread-safe.
+  std::shared_ptr<const PhotoView> view(int photo, uint64_t meshHash, uint64_t settings,
+                                        const std::function<PhotoView(const PhotoView* base)>& make);
   void endRun();                 // forgets frames and views this run did not use
   void clear();                  // forgets everything (a run that keeps nothing for the next)
   int reused = 0, computed = 0;  // frames, this run
@@ -115,6 +140,8 @@ class ViewFrameCache {
   std::mutex mutex_;  // frame() and view() are called for several photos at once
   std::map<std::string, std::shared_ptr<const ViewFrame>> frames_, used_;
   std::map<std::string, std::shared_ptr<const PhotoView>> views_, usedViews_;
+  // Per photo and settings: the last view made, whatever its mesh (the base of the next one).
+  std::map<std::string, std::shared_ptr<const PhotoView>> latest_, usedLatest_;
   std::map<std::string, cv::Mat> foreground_;  // per photo key and size: foregroundDistance
   std::set<std::string> usedForeground_;       // photo keys this run asked for
 };
@@ -130,7 +157,10 @@ struct PhotoView {
   std::vector<Vec3f> edgeLuv;             // per mesh edge (OpenMesh index) whose two faces it can texture: the
                                           // photo's L*u*v* at the midpoint of the edge's UVs (view selection's
                                           // smoothness); unset elsewhere
+  std::vector<char> faceRefused;          // #F: 1 refused for a flip, 2 for the background, 0 otherwise
   int refusedFlipped = 0, refusedBackground = 0;  // faces otherwise seen, refused for a flip / the background
+  std::shared_ptr<const ViewMesh> mesh;           // what it was made on (with a ViewFrameCache), else null
+  int carriedVertices = 0, carriedFaces = 0;      // entries carried over from a view on another mesh
 };
 
 // Per photo: its view (null for a photo that does not fit). Views are shared between results whose
@@ -139,9 +169,13 @@ using PhotoViews = std::vector<std::shared_ptr<const PhotoView>>;
 
 // Computes the view of photo `fit` (its camera and correction field) on `mesh`, a refinement of the
 // input mesh `frame` was rendered from: `faceParent` (#F of mesh) gives each face's input face.
+// `base` (optional): a view of the same photo, camera, field and options on another refinement of the
+// same input, and `carry` = carryOver(base's mesh, this mesh): the vertices and faces it carries take base's
+// entries (what a fresh computation gives them: they read nothing else); the rest are computed.
 PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const ViewFrame& frame, const Photo& photo,
                     int photoIndex, const CameraFit& fit, const CorrectionField& field,
-                    const ProjectionOptions& options);
+                    const ProjectionOptions& options, const PhotoView* base = nullptr,
+                    const ViewCarry* carry = nullptr);
 
 // The projection stage's output: the final texture map and its figures.
 struct ProjectionResult {
@@ -168,6 +202,8 @@ struct ProjectionResult {
   int framesReused = 0;     // fitted photos whose frame (ViewFrame) came from the cache
   int framesNear = 0;       // of those, frames of a camera within ProjectionOptions::reuseFramePx
   int viewsReused = 0;      // fitted photos whose view (PhotoView) came from the cache
+  int viewsCarried = 0;     // of the others, views made from a kept view on another mesh
+  double carriedShare = 0;  // their vertices and faces carried over, share of all
   double frameSeconds = 0;  // the frames not in the cache (part of viewSeconds)
   double viewSeconds = 0, selectSeconds = 0, seconds = 0;
 };

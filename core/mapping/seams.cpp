@@ -57,8 +57,8 @@ struct Side {
   Vec2 uv;
   Vec2 start;                                // its UV before the optimisation
   bool projected = false;                    // in a photo mapped by projection (SeamInput::projectedPhotos)
-  std::vector<std::pair<int, int>> corners;  // (face, corner)
-  std::vector<int> edges;                    // seam edges whose samples depend on this side's UV
+  int corner0 = 0, corners = 0;              // its corners: SeamOptimiser::corners_[corner0, corner0 + corners)
+  int edge0 = 0, edges = 0;                  // seam edges whose samples depend on its UV: SeamOptimiser::edges_[...]
   bool fixed = false;                        // a feature vertex, or a degenerate face around it
   bool onSeam = false;                       // an end of a seam edge
   bool closed = false;                       // its faces are all the faces around the vertex
@@ -75,6 +75,14 @@ struct SeamEdge {
   double length = 0;
   double pixelsPerUnit = 1;  // reference scale for the gradients (geometric mean of the two photos')
   int samples = 0;
+};
+
+// A run of a flat array (the sides' corners and edges are kept in one array each).
+template <typename T>
+struct Run {
+  const T *first, *last;
+  const T* begin() const { return first; }
+  const T* end() const { return last; }
 };
 
 class SeamOptimiser {
@@ -117,7 +125,7 @@ class SeamOptimiser {
   // Random line searches on one side (directions from `rng`); returns the energy decrease.
   double optimiseSide(int i, std::mt19937& rng);
   // The sides whose UVs side i's energy reads (its faces' corners and its seam edges' ends), itself included.
-  std::vector<int> touchedSides(int i) const;
+  void touchedSides(int i, std::vector<int>& out) const;
   // Per side with `needed` set: its SeamMemo key (before any move) and, in `shape`, the same without the
   // UVs (SeamMemo::near); 0 for the others.
   std::vector<uint64_t> sideKeys(const std::vector<char>& needed, std::vector<uint64_t>& shape) const;
@@ -128,6 +136,13 @@ class SeamOptimiser {
                double& maxStretch) const;
 
   Vec2 uvOf(int face, int corner) const { return sides_[faceSide_[face][corner]].uv; }
+  Run<std::pair<int, int>> cornersOf(const Side& s) const {  // (face, corner)
+    return {corners_.data() + s.corner0, corners_.data() + s.corner0 + s.corners};
+  }
+  Run<int> edgesOf(const Side& s) const { return {edges_.data() + s.edge0, edges_.data() + s.edge0 + s.edges}; }
+  Run<int> touchedOf(int i) const {  // touchedSides(i), for the sides a round may move
+    return {touched_.data() + touchedStart_[i], touched_.data() + touchedStart_[i + 1]};
+  }
 
   const SeamInput& in_;
   const Mesh& mesh_;
@@ -138,6 +153,9 @@ class SeamOptimiser {
   std::vector<std::shared_ptr<const LuvTiles>> luv_;  // per photo: its L*u*v* image (stored resolution)
   std::vector<double> luvScale_;  // per photo: stored pixels per file pixel
   std::vector<Side> sides_;
+  std::vector<std::pair<int, int>> corners_;  // the sides' corners, side by side (Side::corner0)
+  std::vector<int> edges_;                    // the sides' seam edges, side by side (Side::edge0)
+  std::vector<int> touchedStart_, touched_;   // touchedSides per side (empty for sides no round moves)
   std::vector<std::array<int, 3>> faceSide_;  // #F x 3, -1 for unmapped faces
   std::vector<double> faceSign_;              // #F: orientation of the texture triangle (+1 / -1, 0 = degenerate)
   std::vector<double> photoScale_;            // per photo: pixels per model unit over its faces
@@ -155,12 +173,14 @@ void SeamOptimiser::buildSides() {
   const int nf = mesh_.numFaces(), nv = mesh_.numVertices();
   // Each vertex's sides as a list through `nextSide` (first side per vertex in `firstSide`).
   std::vector<int> firstSide(nv, -1), nextSide, valence(nv, 0);
+  sides_.clear();
   faceSide_.assign(nf, {-1, -1, -1});
   faceSign_.assign(nf, 0);
   for (int f = 0; f < nf; ++f)
     for (int v : mesh_.faceVertices(f)) valence[v]++;
   sides_.reserve(nv + nv / 4);
   nextSide.reserve(nv + nv / 4);
+  std::vector<int> sideCorners;  // per side: its number of corners
   std::vector<double> pixelArea(in_.photos.size(), 0), surfaceArea(in_.photos.size(), 0);
   for (int f = 0; f < nf; ++f) {
     const auto fv = mesh_.faceVertices(f);
@@ -181,14 +201,23 @@ void SeamOptimiser::buildSides() {
         Side& side = sides_.emplace_back();
         side.vertex = v, side.photo = p, side.uv = side.start = uv[k];
         side.projected = p < static_cast<int>(in_.projectedPhotos.size()) && in_.projectedPhotos[p];
-        side.corners.reserve(valence[v]);
         nextSide.push_back(firstSide[v]);
         firstSide[v] = id;
       }
-      sides_[id].corners.emplace_back(f, k);
+      ++sides_[id].corners;
       faceSide_[f][k] = id;
     }
   }
+  // The corners, side by side, each side's in face order.
+  int next = 0;
+  for (Side& s : sides_) s.corner0 = next, next += s.corners, s.corners = 0;
+  corners_.resize(next);
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k)
+      if (const int id = faceSide_[f][k]; id >= 0) {
+        Side& s = sides_[id];
+        corners_[s.corner0 + s.corners++] = {f, k};
+      }
   photoScale_.assign(in_.photos.size(), 1);
   for (size_t p = 0; p < in_.photos.size(); ++p)
     if (surfaceArea[p] > 0 && pixelArea[p] > 0) photoScale_[p] = std::sqrt(pixelArea[p] / surfaceArea[p]);
@@ -197,8 +226,8 @@ void SeamOptimiser::buildSides() {
     if (v >= 0 && v < nv) isFixed[v] = 1;
   for (Side& s : sides_) {
     s.fixed = isFixed[s.vertex];
-    s.closed = static_cast<int>(s.corners.size()) == valence[s.vertex];
-    for (const auto& [f, k] : s.corners) {
+    s.closed = s.corners == valence[s.vertex];
+    for (const auto& [f, k] : cornersOf(s)) {
       if (faceSign_[f] == 0) s.fixed = true;
       for (int j = 1; j < 3; ++j) s.scale = std::max(s.scale, (uvOf(f, (k + j) % 3) - s.uv).norm());
     }
@@ -213,6 +242,7 @@ void SeamOptimiser::buildSeams() {
     const auto fv = mesh_.faceVertices(face);
     return fv[0] == vertex ? 0 : fv[1] == vertex ? 1 : 2;
   };
+  std::vector<std::pair<int, int>> sideEdge;  // (side, seam edge), in edge order
   for (auto eh : tri.edges()) {
     if (tri.is_boundary(eh)) continue;
     const auto h0 = tri.halfedge_handle(eh, 0), h1 = tri.halfedge_handle(eh, 1);
@@ -253,18 +283,19 @@ void SeamOptimiser::buildSeams() {
     seams_.push_back(e);
     for (int j = 0; j < 2; ++j) {
       sides_[e.s[j]].onSeam = sides_[e.t[j]].onSeam = true;
-      sides_[e.s[j]].edges.push_back(id);
-      sides_[e.t[j]].edges.push_back(id);
+      sideEdge.emplace_back(e.s[j], id), sideEdge.emplace_back(e.t[j], id);
     }
-    if (alpha_ < 1) {
-      sides_[e.s[2]].edges.push_back(id);
-      sides_[e.t[2]].edges.push_back(id);
-    }
+    if (alpha_ < 1) sideEdge.emplace_back(e.s[2], id), sideEdge.emplace_back(e.t[2], id);
   }
-  for (Side& s : sides_) {
-    std::sort(s.edges.begin(), s.edges.end());
-    s.edges.erase(std::unique(s.edges.begin(), s.edges.end()), s.edges.end());
-  }
+  // Side by side, each side's edges in increasing order without repeats (a stable counting sort).
+  std::vector<int> start(sides_.size() + 1, 0);
+  for (const auto& [side, e] : sideEdge) ++start[side + 1];
+  for (size_t i = 0; i < sides_.size(); ++i) start[i + 1] += start[i];
+  edges_.assign(sideEdge.size(), -1);
+  std::vector<int> fill(start.begin(), start.end() - 1);
+  for (const auto& [side, e] : sideEdge)
+    if (fill[side] == start[side] || edges_[fill[side] - 1] != e) edges_[fill[side]++] = e;
+  for (size_t i = 0; i < sides_.size(); ++i) sides_[i].edge0 = start[i], sides_[i].edges = fill[i] - start[i];
 }
 
 double SeamOptimiser::edgeError(const SeamEdge& e, double* deltaE, double* gradient) const {
@@ -328,7 +359,7 @@ double SeamOptimiser::faceStretch(int face) const {
 
 double SeamOptimiser::sideEnergy(const Side& side) const {
   double geo = 0;
-  for (const auto& [f, k] : side.corners) geo = std::max(geo, faceStretch(f));
+  for (const auto& [f, k] : cornersOf(side)) geo = std::max(geo, faceStretch(f));
   if (!std::isfinite(geo)) return kInf;
   // Projected sides: no flip (above), no face stretched past kMaxStretchGrowth x its projection's (a move
   // towards a degenerate texture triangle smears a texel across the face), and near the projection.
@@ -336,7 +367,7 @@ double SeamOptimiser::sideEnergy(const Side& side) const {
   if (side.projected) geo = (side.uv - side.start).squaredNorm();
   double tex = 0;
   int n = 0;
-  for (int e : side.edges) tex += edgeError(seams_[e]), n += seams_[e].samples;
+  for (int e : edgesOf(side)) tex += edgeError(seams_[e]), n += seams_[e].samples;
   if (n > 0) tex /= n;
   return options_.lambda * geo + (1 - options_.lambda) * tex;
 }
@@ -355,7 +386,7 @@ void SeamOptimiser::remeasure(const std::vector<int>& moved, EdgeFigures& edges,
   std::vector<char> isMoved(sides_.size(), 0);
   for (int i : moved) {
     isMoved[i] = 1;
-    for (const auto& [f, k] : sides_[i].corners) stretch[f] = faceStretch(f);
+    for (const auto& [f, k] : cornersOf(sides_[i])) stretch[f] = faceStretch(f);
   }
   // An edge's figures read the UVs of its six corners' sides (the gradient's hinge map reads the third
   // vertices' even when E_tex does not).
@@ -381,7 +412,7 @@ double SeamOptimiser::totalEnergy(const std::vector<double>& edgeErrors, const s
   for (const Side& s : sides_) {
     if (!s.onSeam) continue;
     double g = 0;
-    for (const auto& [f, k] : s.corners) g = std::max(g, stretch[f]);
+    for (const auto& [f, k] : cornersOf(s)) g = std::max(g, stretch[f]);
     geo += g, ++sides;
   }
   return options_.lambda * (sides ? geo / sides : 0) + (1 - options_.lambda) * (n ? tex / n : 0);
@@ -391,7 +422,7 @@ double SeamOptimiser::totalEnergy(const std::vector<double>& edgeErrors, const s
 // (open fans) is capped at twice the fan's size.
 double SeamOptimiser::maxStep(const Side& side, const Vec2& x, const Vec2& d) const {
   double t = kInf;
-  for (const auto& [f, k] : side.corners) {
+  for (const auto& [f, k] : cornersOf(side)) {
     const Vec2 a = uvOf(f, (k + 1) % 3), b = uvOf(f, (k + 2) % 3);
     const double g0 = faceSign_[f] * orient2(x, a, b);
     const double dg = faceSign_[f] * cross2(b - a, d);
@@ -401,15 +432,14 @@ double SeamOptimiser::maxStep(const Side& side, const Vec2& x, const Vec2& d) co
   return std::max(0.0, t * (1 - kMargin));
 }
 
-std::vector<int> SeamOptimiser::touchedSides(int i) const {
-  std::vector<int> out;
-  for (const auto& [f, k] : sides_[i].corners)
+void SeamOptimiser::touchedSides(int i, std::vector<int>& out) const {
+  out.clear();
+  for (const auto& [f, k] : cornersOf(sides_[i]))
     for (int j = 0; j < 3; ++j) out.push_back(faceSide_[f][j]);
-  for (int e : sides_[i].edges)
+  for (int e : edgesOf(sides_[i]))
     for (int j = 0; j < 3; ++j) out.push_back(seams_[e].s[j]), out.push_back(seams_[e].t[j]);
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
 }
 
 double SeamOptimiser::optimiseSide(int i, std::mt19937& rng) {
@@ -466,9 +496,16 @@ double SeamOptimiser::optimiseSide(int i, std::mt19937& rng) {
 
 std::vector<uint64_t> SeamOptimiser::sideKeys(const std::vector<char>& needed, std::vector<uint64_t>& shape) const {
   const TextureMap& map = *in_.map;
+  // Only the faces the needed sides' keys read are hashed.
+  std::vector<char> read(mesh_.numFaces(), 0);
+  for (size_t i = 0; i < sides_.size(); ++i) {
+    if (!needed[i]) continue;
+    for (const auto& [f, k] : cornersOf(sides_[i])) read[f] = 1;
+    for (int e : edgesOf(sides_[i])) read[seams_[e].f] = read[seams_[e].g] = 1;
+  }
   std::vector<uint64_t> faceHash(mesh_.numFaces(), 0), faceShape(mesh_.numFaces(), 0);
   for (int f = 0; f < mesh_.numFaces(); ++f) {
-    if (map.facePhoto[f] < 0) continue;
+    if (!read[f] || map.facePhoto[f] < 0) continue;
     uint64_t h = hashMix(0, uint64_t(map.facePhoto[f])), g = h;
     const auto fv = mesh_.faceVertices(f);
     for (int k = 0; k < 3; ++k) {
@@ -483,8 +520,8 @@ std::vector<uint64_t> SeamOptimiser::sideKeys(const std::vector<char>& needed, s
   std::vector<uint64_t> around;
   auto keyOf = [&](const Side& side, const std::vector<uint64_t>& hashes, bool withStart) {
     around.clear();
-    for (const auto& [f, k] : side.corners) around.push_back(hashes[f]);
-    for (int e : side.edges) around.push_back(hashes[seams_[e].f]), around.push_back(hashes[seams_[e].g]);
+    for (const auto& [f, k] : cornersOf(side)) around.push_back(hashes[f]);
+    for (int e : edgesOf(side)) around.push_back(hashes[seams_[e].f]), around.push_back(hashes[seams_[e].g]);
     std::sort(around.begin(), around.end());
     around.erase(std::unique(around.begin(), around.end()), around.end());
     uint64_t h = hashMix(hashMix(0, uint64_t(side.photo)), mesh_.position(side.vertex));
@@ -542,7 +579,7 @@ SeamResult SeamOptimiser::run() {
   auto t = Clock::now();
   const std::vector<double> stretchBefore = faceStretches();
   for (Side& s : sides_)
-    for (const auto& [f, k] : s.corners) s.startStretch = std::max(s.startStretch, stretchBefore[f]);
+    for (const auto& [f, k] : cornersOf(s)) s.startStretch = std::max(s.startStretch, stretchBefore[f]);
   const bool gradients = options_.measureGradients || alpha_ < 1;
   const EdgeFigures before = measureEdges(gradients);
   measure(before, stretchBefore, out.deltaEBefore, out.gradientBefore, out.maxStretchBefore);
@@ -551,7 +588,7 @@ SeamResult SeamOptimiser::run() {
   std::vector<char> seamVertex(mesh_.numVertices(), 0);
   for (int i = 0; i < static_cast<int>(sides_.size()); ++i) {
     const Side& s = sides_[i];
-    if (s.fixed || s.edges.empty()) continue;
+    if (s.fixed || s.edges == 0) continue;
     if (s.onSeam) {
       seamSides.push_back(i);
       seamVertex[s.vertex] = 1;
@@ -571,20 +608,38 @@ SeamResult SeamOptimiser::run() {
   // parallel, batch after batch, so the result does not depend on the number of threads.
   std::vector<int> order = seamSides;
   order.insert(order.end(), neighbours.begin(), neighbours.end());
-  std::vector<std::vector<int>> touched(sides_.size());
-  for (int i : order) touched[i] = touchedSides(i);
+  {
+    touchedStart_.assign(sides_.size() + 1, 0);
+    touched_.clear();
+    std::vector<char> inOrder(sides_.size(), 0);
+    for (int i : order) inOrder[i] = 1;
+    std::vector<int> list;
+    for (size_t i = 0; i < sides_.size(); ++i) {
+      if (inOrder[i]) {
+        touchedSides(static_cast<int>(i), list);
+        touched_.insert(touched_.end(), list.begin(), list.end());
+      }
+      touchedStart_[i + 1] = static_cast<int>(touched_.size());
+    }
+  }
   std::vector<int> colour(sides_.size(), -1);
   int colours = 0;
   {
-    std::vector<std::vector<int>> readers(sides_.size());  // side -> optimised sides whose energy reads it
+    // side -> optimised sides whose energy reads it, side by side (in `order`'s order)
+    std::vector<int> readerStart(sides_.size() + 1, 0), readers;
     for (int i : order)
-      for (int j : touched[i]) readers[j].push_back(i);
+      for (int j : touchedOf(i)) ++readerStart[j + 1];
+    for (size_t j = 0; j < sides_.size(); ++j) readerStart[j + 1] += readerStart[j];
+    readers.resize(readerStart.back());
+    std::vector<int> fill(readerStart.begin(), readerStart.end() - 1);
+    for (int i : order)
+      for (int j : touchedOf(i)) readers[fill[j]++] = i;
     std::vector<int> seen(order.size() + 1, -1);
     for (int i : order) {
-      for (int j : touched[i])
+      for (int j : touchedOf(i))
         if (colour[j] >= 0) seen[colour[j]] = i;  // i reads j
-      for (int r : readers[i])
-        if (colour[r] >= 0) seen[colour[r]] = i;  // r reads i
+      for (int k = readerStart[i]; k < readerStart[i + 1]; ++k)
+        if (colour[readers[k]] >= 0) seen[colour[readers[k]]] = i;  // r reads i
       int c = 0;
       while (seen[c] == i) ++c;
       colour[i] = c;
@@ -601,7 +656,7 @@ SeamResult SeamOptimiser::run() {
   for (int i : order) {
     double de = 0;
     int n = 0;
-    for (int e : sides_[i].edges) de += before.deltaE[e], n += seams_[e].samples;
+    for (int e : edgesOf(sides_[i])) de += before.deltaE[e], n += seams_[e].samples;
     active[i] = n > 0 && de / n > kNoticeableDeltaE;
     out.sleepingSides += !active[i];
   }
@@ -611,7 +666,7 @@ SeamResult SeamOptimiser::run() {
   std::vector<char> keyed(sides_.size(), 0);
   for (int i : order) {
     keyed[i] = 1;
-    for (int j : touched[i]) keyed[j] = 1;
+    for (int j : touchedOf(i)) keyed[j] = 1;
   }
   std::vector<uint64_t> shapeKeys;
   const std::vector<uint64_t> keys = sideKeys(keyed, shapeKeys);
@@ -637,7 +692,7 @@ SeamResult SeamOptimiser::run() {
       for (int i : order) {
         if (warm[i] || sides_[i].fixed || !kept[i]) continue;
         bool still = true;
-        for (int j : touched[i]) still = still && kept[j];
+        for (int j : touchedOf(i)) still = still && kept[j];
         if (!still) continue;
         sides_[i].uv = sides_[i].start + (kept[i]->uv - kept[i]->start);
         warm[i] = near[i] = 1;
@@ -694,7 +749,7 @@ SeamResult SeamOptimiser::run() {
     std::vector<int> changedSides;
     for (int i : order) {
       if (moved[i])
-        for (int j : touched[i]) next[j] = 1;
+        for (int j : touchedOf(i)) next[j] = 1;
       if (changed[i]) changedSides.push_back(i);
     }
     active.swap(next);

@@ -95,7 +95,7 @@ Timed timedRun(Pipeline& pipeline, const Project& project, Tier tier) {
           key == "searches_reused" || key == "frames_reused" || key == "views_reused" || key == "views_carried" ||
           key == "carried_share" || key == "frames_near" || key == "selection_kept" || key == "rounds" ||
           key == "selection_sweeps" || key == "warm_sides" || key == "warm_near_sides" || key == "moved_sides" ||
-          key == "photos_kept" || key == "edges_kept")
+          key == "structure_kept" || key == "photos_kept" || key == "edges_kept")
         t.figures[stageName(s.stage)][key] = value;
     if (s.stage == StageId::Inpaint && s.counts.contains("regions"))  // per region: guidance, factor, solve
       t.figures["inpaint"]["regions"] = s.counts["regions"];

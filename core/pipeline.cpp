@@ -333,7 +333,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job,
                                                     std::vector<std::shared_ptr<const LuvTiles>> luv,
-                                                    const SeamMemo* warm) {
+                                                    const SeamMemo* warm, uint64_t meshHash) {
   const PipelineOptions& o = scene.project.options;
   SeamInput in;
   in.mesh = &mapping->partition->mesh;
@@ -342,6 +342,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   in.fixedVertices = mapping->partition->featureVertex;
   in.luv = std::move(luv);
   in.warm = warm;
+  in.meshHash = meshHash;
   in.warmTolerancePx = warm ? kPreviewFramePx : 0;
   if (cameras) in.projectedPhotos = fittingPhotos(cameras->fits);
   SeamOptions options;
@@ -812,8 +813,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     }
     luvTiles_ = std::move(kept);
     if (keep_ == Keep::ThisRunOnly) luvTiles_.clear();  // `luv` holds them for this run's seams
-    cachedSeamed_ =
-        optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv), warmSeams);
+    cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv),
+                                         warmSeams, projection.result.meshHash);
     seams->map = TextureMap();  // the seamed mapping holds it
     cachedSeams_ = seams;
     seamKey_ = key.str();
@@ -826,6 +827,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                             {"seam_vertices", sr.seamVertices},
                             {"neighbour_vertices", sr.neighbourVertices},
                             {"moved_sides", sr.movedSides},
+                            {"structure_kept", sr.structureKept},
                             {"sleeping_sides", sr.sleepingSides},
                             {"rounds", sr.rounds},
                             {"warm_sides", sr.warmSides},

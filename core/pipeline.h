@@ -180,12 +180,13 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
 // `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
 // `luv` (per photo, may be empty) holds the L*u*v* tiles of photos the caller keeps (SeamInput::luv); `warm`
 // (may be null) the last run's sides for the preview's warm start (SeamMemo; sides whose surroundings moved
-// less than kPreviewFramePx take their kept move).
+// less than kPreviewFramePx take their kept move), and `meshHash` (0: unknown) the partition mesh's hash
+// (ProjectionResult::meshHash), with which a warm run may keep the last run's sides (SeamMemo::structure).
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
                                                     const CameraStage* cameras, SeamResult& seams,
                                                     const JobControl& job = {},
                                                     std::vector<std::shared_ptr<const LuvTiles>> luv = {},
-                                                    const SeamMemo* warm = nullptr);
+                                                    const SeamMemo* warm = nullptr, uint64_t meshHash = 0);
 // Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
 // preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
 // density); guided fills keep the final density, since their colours depend on it.

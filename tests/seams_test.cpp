@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 
@@ -185,6 +186,69 @@ TEST(Seams, WarmStartKeepsMovesOfSidesThatMovedLessThanTheTolerance) {
   EXPECT_LT(within.tolerant.deltaEAfter, 0.7 * within.tolerant.deltaEBefore);
   const Runs beyond = run(Vec2(0.6, 0.3));
   EXPECT_EQ(beyond.tolerant.warmNearSides, 0);
+}
+
+// SeamMemo::structure: a warm run on the same mesh whose corners share UVs as in the last run takes the
+// last run's sides and seam edges, and comes out exactly as when it builds them; a map whose corners group
+// differently, or another mesh, builds them.
+TEST(Seams, AKeptStructureGivesTheRunABuiltOneGives) {
+  VenusCase v = venusCase();
+  SeamInput in = v.input();
+  in.meshHash = 7;
+  const SeamResult first = optimiseSeams(in, SeamOptions{}, {});
+  ASSERT_TRUE(first.memo && first.memo->structure);
+  SeamMemo withoutStructure = *first.memo;
+  withoutStructure.structure.reset();
+  auto compare = [](const SeamResult& a, const SeamResult& b) {
+    EXPECT_EQ(a.map.cornerUV, b.map.cornerUV);
+    EXPECT_EQ(a.faceError, b.faceError);
+    EXPECT_EQ(a.deltaEBefore, b.deltaEBefore);
+    EXPECT_EQ(a.deltaEAfter, b.deltaEAfter);
+    EXPECT_EQ(a.maxStretchAfter, b.maxStretchAfter);
+    EXPECT_EQ(a.movedSides, b.movedSides);
+    EXPECT_EQ(a.rounds, b.rounds);
+    EXPECT_EQ(a.warmSides, b.warmSides);
+    EXPECT_EQ(a.seamEdges, b.seamEdges);
+  };
+  // Photo 1 moved by a fraction of a pixel, and one interior vertex of photo 0 moved on all its faces:
+  // the corners group as before.
+  VenusCase w = venusCase();
+  for (int f = 0; f < w.mesh->numFaces(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      Vec2& uv = w.map.cornerUV[f][k];
+      if (w.map.facePhoto[f] == 1) uv += Vec2(0.2, -0.1);
+      if (w.mesh->faceVertices(f)[k] == 5 * 31 + 5) uv += Vec2(0.7, 0.4);
+    }
+  SeamInput warm = w.input();
+  warm.meshHash = 7;
+  warm.warmTolerancePx = 0.5;
+  warm.warm = first.memo.get();
+  const SeamResult kept = optimiseSeams(warm, SeamOptions{}, {});
+  warm.warm = &withoutStructure;
+  const SeamResult built = optimiseSeams(warm, SeamOptions{}, {});
+  EXPECT_TRUE(kept.structureKept);
+  EXPECT_FALSE(built.structureKept);
+  EXPECT_GT(kept.warmSides, 0);
+  compare(kept, built);
+  // Another mesh hash, or one corner of a vertex moved alone (a new side): built again.
+  warm.warm = first.memo.get();
+  warm.meshHash = 8;
+  EXPECT_FALSE(optimiseSeams(warm, SeamOptions{}, {}).structureKept);
+  warm.meshHash = 7;
+  VenusCase split = venusCase();
+  for (int f = 0; f < split.mesh->numFaces(); ++f) {
+    const auto fv = split.mesh->faceVertices(f);
+    const int k = int(std::find(fv.begin(), fv.end(), 7 * 31 + 9) - fv.begin());
+    if (k < 3) {
+      split.map.cornerUV[f][k] += Vec2(0.5, 0);
+      break;
+    }
+  }
+  warm.map = &split.map;
+  const SeamResult regrouped = optimiseSeams(warm, SeamOptions{}, {});
+  EXPECT_FALSE(regrouped.structureKept);
+  warm.warm = &withoutStructure;
+  compare(regrouped, optimiseSeams(warm, SeamOptions{}, {}));
 }
 
 TEST(Seams, LambdaKeepsTheStretchLower) {

@@ -226,6 +226,12 @@ std::shared_ptr<const PhotoView> ViewFrameCache::view(int photo, uint64_t meshHa
   return usedLatest_[byPhoto] = usedViews_[key] = out;
 }
 
+std::shared_ptr<const ViewMesh> ViewFrameCache::mesh(uint64_t hash, const std::function<ViewMesh()>& make) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!mesh_ || mesh_->hash != hash) mesh_ = std::make_shared<const ViewMesh>(make());
+  return mesh_;
+}
+
 void ViewFrameCache::endRun() {
   frames_ = std::move(used_);
   used_.clear();
@@ -243,6 +249,7 @@ void ViewFrameCache::clear() {
   std::lock_guard<std::mutex> lock(mutex_);
   frames_.clear(), used_.clear(), views_.clear(), usedViews_.clear(), foreground_.clear(), usedForeground_.clear();
   latest_.clear(), usedLatest_.clear();
+  mesh_.reset();
 }
 
 ViewMesh viewMesh(const Mesh& mesh, const std::vector<int>& faceParent, uint64_t hash) {
@@ -518,7 +525,8 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   std::map<const ViewMesh*, std::shared_ptr<const ViewCarry>> carries;
   auto carryFrom = [&](const PhotoView* base) -> std::shared_ptr<const ViewCarry> {
     std::lock_guard<std::mutex> lock(carryMutex);
-    if (!current) current = std::make_shared<const ViewMesh>(viewMesh(mesh, partition.faceParent, out.meshHash));
+    if (!current)
+      current = cache->mesh(out.meshHash, [&] { return viewMesh(mesh, partition.faceParent, out.meshHash); });
     if (!base || !base->mesh || base->mesh->hash == out.meshHash) return nullptr;
     auto& c = carries[base->mesh.get()];
     if (!c) c = std::make_shared<const ViewCarry>(carryOver(*base->mesh, *current));

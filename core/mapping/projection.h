@@ -129,6 +129,8 @@ class ViewFrameCache {
   // otherwise), to carry over what the two meshes share. Thread-safe.
   std::shared_ptr<const PhotoView> view(int photo, uint64_t meshHash, uint64_t settings,
                                         const std::function<PhotoView(const PhotoView* base)>& make);
+  // The ViewMesh of the mesh hashed `hash`: the last run's when it was the same mesh, else made by `make`.
+  std::shared_ptr<const ViewMesh> mesh(uint64_t hash, const std::function<ViewMesh()>& make);
   void endRun();                 // forgets frames and views this run did not use
   void clear();                  // forgets everything (a run that keeps nothing for the next)
   int reused = 0, computed = 0;  // frames, this run
@@ -142,6 +144,7 @@ class ViewFrameCache {
   std::map<std::string, std::shared_ptr<const PhotoView>> views_, usedViews_;
   // Per photo and settings: the last view made, whatever its mesh (the base of the next one).
   std::map<std::string, std::shared_ptr<const PhotoView>> latest_, usedLatest_;
+  std::shared_ptr<const ViewMesh> mesh_;       // the last one asked for
   std::map<std::string, cv::Mat> foreground_;  // per photo key and size: foregroundDistance
   std::set<std::string> usedForeground_;       // photo keys this run asked for
 };

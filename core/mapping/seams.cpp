@@ -85,6 +85,30 @@ struct Run {
   const T* end() const { return last; }
 };
 
+}  // namespace
+
+// What buildSides and buildSeams make that does not read a UV (given which corners share one), and the
+// rounds' plan (SeamMemo::structure).
+struct SeamStructure {
+  uint64_t meshHash = 0;
+  double alpha = 1;
+  std::vector<int> facePhoto, fixedVertices;
+  std::vector<char> projectedPhotos;
+  std::vector<Side> sides;  // their UV-dependent members are set again (setUvDependent)
+  std::vector<std::pair<int, int>> corners;
+  std::vector<int> edges;
+  std::vector<std::array<int, 3>> faceSide;
+  std::vector<double> faceArea;
+  std::vector<SeamEdge> seams;
+  std::vector<int> vertexSide0, vertexSides;  // per vertex: its sides (the grouping check)
+  // The plan, valid while every side's `fixed` is as in planFixed.
+  std::vector<char> planFixed;
+  std::vector<int> touchedStart, touched;
+  std::vector<std::vector<int>> batches;
+};
+
+namespace {
+
 class SeamOptimiser {
  public:
   SeamOptimiser(const SeamInput& in, const SeamOptions& options, const JobControl& job)
@@ -104,6 +128,11 @@ class SeamOptimiser {
  private:
   void buildSides();
   void buildSeams();
+  // Takes SeamInput::warm's structure when it fits this run's mesh, photos and UVs; false otherwise.
+  bool adoptStructure();
+  // What reads the UVs: faces' orientation, photos' scales, sides' `fixed` and `scale`, edges' samples.
+  void setUvDependent();
+  std::shared_ptr<const SeamStructure> structure(const std::vector<std::vector<int>>& batches) const;
   // Sum over the edge's samples of the per-sample E_tex (normalised); optionally the sums of the raw
   // colour (Delta E) and gradient differences.
   double edgeError(const SeamEdge& e, double* deltaE = nullptr, double* gradient = nullptr) const;
@@ -157,6 +186,7 @@ class SeamOptimiser {
   std::vector<int> edges_;                    // the sides' seam edges, side by side (Side::edge0)
   std::vector<int> touchedStart_, touched_;   // touchedSides per side (empty for sides no round moves)
   std::vector<std::array<int, 3>> faceSide_;  // #F x 3, -1 for unmapped faces
+  std::vector<double> faceArea_;              // #F: area of the mapped faces (model units)
   std::vector<double> faceSign_;              // #F: orientation of the texture triangle (+1 / -1, 0 = degenerate)
   std::vector<double> photoScale_;            // per photo: pixels per model unit over its faces
   std::vector<SeamEdge> seams_;
@@ -175,22 +205,17 @@ void SeamOptimiser::buildSides() {
   std::vector<int> firstSide(nv, -1), nextSide, valence(nv, 0);
   sides_.clear();
   faceSide_.assign(nf, {-1, -1, -1});
-  faceSign_.assign(nf, 0);
   for (int f = 0; f < nf; ++f)
     for (int v : mesh_.faceVertices(f)) valence[v]++;
   sides_.reserve(nv + nv / 4);
   nextSide.reserve(nv + nv / 4);
-  std::vector<int> sideCorners;  // per side: its number of corners
-  std::vector<double> pixelArea(in_.photos.size(), 0), surfaceArea(in_.photos.size(), 0);
+  faceArea_.assign(nf, 0);
   for (int f = 0; f < nf; ++f) {
     const auto fv = mesh_.faceVertices(f);
     const int p = map.facePhoto[f];
     if (p < 0) continue;
     const auto& uv = map.cornerUV[f];
-    const double area = orient2(uv[0], uv[1], uv[2]);
-    faceSign_[f] = area > 0 ? 1 : (area < 0 ? -1 : 0);
-    pixelArea[p] += 0.5 * std::abs(area);
-    surfaceArea[p] += mesh_.faceArea(f);
+    faceArea_[f] = mesh_.faceArea(f);
     for (int k = 0; k < 3; ++k) {
       const int v = fv[k];
       int id = -1;
@@ -218,6 +243,23 @@ void SeamOptimiser::buildSides() {
         Side& s = sides_[id];
         corners_[s.corner0 + s.corners++] = {f, k};
       }
+  for (Side& s : sides_) s.closed = s.corners == valence[s.vertex];
+}
+
+void SeamOptimiser::setUvDependent() {
+  const TextureMap& map = *in_.map;
+  const int nf = mesh_.numFaces(), nv = mesh_.numVertices();
+  faceSign_.assign(nf, 0);
+  std::vector<double> pixelArea(in_.photos.size(), 0), surfaceArea(in_.photos.size(), 0);
+  for (int f = 0; f < nf; ++f) {
+    const int p = map.facePhoto[f];
+    if (p < 0) continue;
+    const auto& uv = map.cornerUV[f];
+    const double area = orient2(uv[0], uv[1], uv[2]);
+    faceSign_[f] = area > 0 ? 1 : (area < 0 ? -1 : 0);
+    pixelArea[p] += 0.5 * std::abs(area);
+    surfaceArea[p] += faceArea_[f];
+  }
   photoScale_.assign(in_.photos.size(), 1);
   for (size_t p = 0; p < in_.photos.size(); ++p)
     if (surfaceArea[p] > 0 && pixelArea[p] > 0) photoScale_[p] = std::sqrt(pixelArea[p] / surfaceArea[p]);
@@ -226,12 +268,88 @@ void SeamOptimiser::buildSides() {
     if (v >= 0 && v < nv) isFixed[v] = 1;
   for (Side& s : sides_) {
     s.fixed = isFixed[s.vertex];
-    s.closed = s.corners == valence[s.vertex];
+    s.scale = 0;
     for (const auto& [f, k] : cornersOf(s)) {
       if (faceSign_[f] == 0) s.fixed = true;
       for (int j = 1; j < 3; ++j) s.scale = std::max(s.scale, (uvOf(f, (k + j) % 3) - s.uv).norm());
     }
   }
+  for (SeamEdge& e : seams_) {
+    e.pixelsPerUnit = std::sqrt(photoScale_[map.facePhoto[e.f]] * photoScale_[map.facePhoto[e.g]]);
+    const double len1 = (sides_[e.s[1]].uv - sides_[e.s[0]].uv).norm();
+    const double len2 = (sides_[e.t[1]].uv - sides_[e.t[0]].uv).norm();
+    e.samples = std::clamp(int(std::ceil(std::max(len1, len2) / kSampleSpacing)), 2, kMaxSamplesPerEdge);
+  }
+}
+
+bool SeamOptimiser::adoptStructure() {
+  if (!in_.warm || !in_.warm->structure || in_.meshHash == 0) return false;
+  const SeamStructure& st = *in_.warm->structure;
+  const TextureMap& map = *in_.map;
+  if (st.meshHash != in_.meshHash || st.alpha != alpha_ || st.facePhoto != map.facePhoto ||
+      st.fixedVertices != in_.fixedVertices || st.projectedPhotos != in_.projectedPhotos ||
+      st.faceSide.size() != size_t(mesh_.numFaces()) || st.vertexSide0.size() != size_t(mesh_.numVertices()) + 1)
+    return false;
+  // The same grouping: every corner of a side has the side's UV, and the sides of one photo at a vertex
+  // have different UVs (buildSides would make the same sides, in the same order).
+  std::vector<Vec2> uv(st.sides.size());
+  std::vector<char> set(st.sides.size(), 0);
+  for (int f = 0; f < mesh_.numFaces(); ++f) {
+    if (map.facePhoto[f] < 0) continue;
+    for (int k = 0; k < 3; ++k) {
+      const int id = st.faceSide[f][k];
+      if (!set[id])
+        uv[id] = map.cornerUV[f][k], set[id] = 1;
+      else if (uv[id] != map.cornerUV[f][k])
+        return false;
+    }
+  }
+  for (size_t v = 0; v + 1 < st.vertexSide0.size(); ++v)
+    for (int a = st.vertexSide0[v]; a < st.vertexSide0[v + 1]; ++a)
+      for (int b = a + 1; b < st.vertexSide0[v + 1]; ++b) {
+        const int i = st.vertexSides[a], j = st.vertexSides[b];
+        if (st.sides[i].photo == st.sides[j].photo && uv[i] == uv[j]) return false;
+      }
+  sides_ = st.sides;
+  for (size_t i = 0; i < sides_.size(); ++i) {
+    Side& side = sides_[i];
+    side.uv = side.start = uv[i];
+    side.startStretch = 0;
+  }
+  corners_ = st.corners;
+  edges_ = st.edges;
+  faceSide_ = st.faceSide;
+  faceArea_ = st.faceArea;
+  seams_ = st.seams;
+  return true;
+}
+
+std::shared_ptr<const SeamStructure> SeamOptimiser::structure(const std::vector<std::vector<int>>& batches) const {
+  auto st = std::make_shared<SeamStructure>();
+  st->meshHash = in_.meshHash;
+  st->alpha = alpha_;
+  st->facePhoto = in_.map->facePhoto;
+  st->fixedVertices = in_.fixedVertices;
+  st->projectedPhotos = in_.projectedPhotos;
+  st->sides = sides_;
+  st->corners = corners_;
+  st->edges = edges_;
+  st->faceSide = faceSide_;
+  st->faceArea = faceArea_;
+  st->seams = seams_;
+  const int nv = mesh_.numVertices();
+  st->vertexSide0.assign(nv + 1, 0);
+  for (const Side& side : sides_) ++st->vertexSide0[side.vertex + 1];
+  for (int v = 0; v < nv; ++v) st->vertexSide0[v + 1] += st->vertexSide0[v];
+  st->vertexSides.resize(sides_.size());
+  std::vector<int> fill(st->vertexSide0.begin(), st->vertexSide0.end() - 1);
+  for (size_t i = 0; i < sides_.size(); ++i) st->vertexSides[fill[sides_[i].vertex]++] = static_cast<int>(i);
+  st->planFixed.resize(sides_.size());
+  for (size_t i = 0; i < sides_.size(); ++i) st->planFixed[i] = sides_[i].fixed;
+  st->touchedStart = touchedStart_;
+  st->touched = touched_;
+  st->batches = batches;
+  return st;
 }
 
 void SeamOptimiser::buildSeams() {
@@ -275,10 +393,6 @@ void SeamOptimiser::buildSeams() {
     };
     e.c2 = hinge(pc, +1);
     e.d2 = hinge(pd, -1);
-    e.pixelsPerUnit = std::sqrt(photoScale_[map.facePhoto[f]] * photoScale_[map.facePhoto[g]]);
-    const double len1 = (sides_[e.s[1]].uv - sides_[e.s[0]].uv).norm();
-    const double len2 = (sides_[e.t[1]].uv - sides_[e.t[0]].uv).norm();
-    e.samples = std::clamp(int(std::ceil(std::max(len1, len2) / kSampleSpacing)), 2, kMaxSamplesPerEdge);
     const int id = static_cast<int>(seams_.size());
     seams_.push_back(e);
     for (int j = 0; j < 2; ++j) {
@@ -573,8 +687,13 @@ SeamResult SeamOptimiser::run() {
   alpha_ = 1 - options_.gradientWeight;
 
   SeamResult out;
-  buildSides();
-  buildSeams();
+  const std::shared_ptr<const SeamStructure> kept = adoptStructure() ? in_.warm->structure : nullptr;
+  if (!kept) {
+    buildSides();
+    buildSeams();
+  }
+  setUvDependent();
+  out.structureKept = kept != nullptr;
   out.setupSeconds = secondsSince(start);
   auto t = Clock::now();
   const std::vector<double> stretchBefore = faceStretches();
@@ -608,7 +727,15 @@ SeamResult SeamOptimiser::run() {
   // parallel, batch after batch, so the result does not depend on the number of threads.
   std::vector<int> order = seamSides;
   order.insert(order.end(), neighbours.begin(), neighbours.end());
-  {
+  // The plan (touched sides, batches) of the kept structure serves while every side is fixed as there.
+  bool planKept = kept != nullptr;
+  for (size_t i = 0; planKept && i < sides_.size(); ++i) planKept = sides_[i].fixed == bool(kept->planFixed[i]);
+  std::vector<std::vector<int>> batches;
+  if (planKept) {
+    touchedStart_ = kept->touchedStart;
+    touched_ = kept->touched;
+    batches = kept->batches;
+  } else {
     touchedStart_.assign(sides_.size() + 1, 0);
     touched_.clear();
     std::vector<char> inOrder(sides_.size(), 0);
@@ -621,33 +748,33 @@ SeamResult SeamOptimiser::run() {
       }
       touchedStart_[i + 1] = static_cast<int>(touched_.size());
     }
-  }
-  std::vector<int> colour(sides_.size(), -1);
-  int colours = 0;
-  {
-    // side -> optimised sides whose energy reads it, side by side (in `order`'s order)
-    std::vector<int> readerStart(sides_.size() + 1, 0), readers;
-    for (int i : order)
-      for (int j : touchedOf(i)) ++readerStart[j + 1];
-    for (size_t j = 0; j < sides_.size(); ++j) readerStart[j + 1] += readerStart[j];
-    readers.resize(readerStart.back());
-    std::vector<int> fill(readerStart.begin(), readerStart.end() - 1);
-    for (int i : order)
-      for (int j : touchedOf(i)) readers[fill[j]++] = i;
-    std::vector<int> seen(order.size() + 1, -1);
-    for (int i : order) {
-      for (int j : touchedOf(i))
-        if (colour[j] >= 0) seen[colour[j]] = i;  // i reads j
-      for (int k = readerStart[i]; k < readerStart[i + 1]; ++k)
-        if (colour[readers[k]] >= 0) seen[colour[readers[k]]] = i;  // r reads i
-      int c = 0;
-      while (seen[c] == i) ++c;
-      colour[i] = c;
-      colours = std::max(colours, c + 1);
+    std::vector<int> colour(sides_.size(), -1);
+    int colours = 0;
+    {
+      // side -> optimised sides whose energy reads it, side by side (in `order`'s order)
+      std::vector<int> readerStart(sides_.size() + 1, 0), readers;
+      for (int i : order)
+        for (int j : touchedOf(i)) ++readerStart[j + 1];
+      for (size_t j = 0; j < sides_.size(); ++j) readerStart[j + 1] += readerStart[j];
+      readers.resize(readerStart.back());
+      std::vector<int> fill(readerStart.begin(), readerStart.end() - 1);
+      for (int i : order)
+        for (int j : touchedOf(i)) readers[fill[j]++] = i;
+      std::vector<int> seen(order.size() + 1, -1);
+      for (int i : order) {
+        for (int j : touchedOf(i))
+          if (colour[j] >= 0) seen[colour[j]] = i;  // i reads j
+        for (int k = readerStart[i]; k < readerStart[i + 1]; ++k)
+          if (colour[readers[k]] >= 0) seen[colour[readers[k]]] = i;  // r reads i
+        int c = 0;
+        while (seen[c] == i) ++c;
+        colour[i] = c;
+        colours = std::max(colours, c + 1);
+      }
     }
+    batches.resize(colours);
+    for (int i : order) batches[colour[i]].push_back(i);
   }
-  std::vector<std::vector<int>> batches(colours);
-  for (int i : order) batches[colour[i]].push_back(i);
 
   // Rounds over the active sides: all at first, then those a move in the last round may have changed
   // (the moved side and every side whose UVs its energy reads).
@@ -771,6 +898,7 @@ SeamResult SeamOptimiser::run() {
     if (!sides_[i].fixed) memo->uv[keys[i]] = sides_[i].uv;
     memo->near[shapeKeys[i]] = {sides_[i].start, sides_[i].uv};
   }
+  memo->structure = planKept ? kept : structure(batches);
   out.memo = memo;
   t = Clock::now();
 

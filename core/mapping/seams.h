@@ -52,12 +52,17 @@ struct SeamOptions {
 // from and ended at: with SeamInput::warmTolerancePx > 0, a side whose start and every start its
 // energy reads moved less than that (a refitted camera shifts a whole photo by a fraction of a pixel)
 // takes the kept move, start + (uv - kept start), and starts asleep too.
+// `structure` is the last run's sides and seam edges (which corners share a UV, and the seam edges between
+// them) and its plan of the rounds: a warm run on the same mesh (SeamInput::meshHash), the same photo per
+// face and corners grouped the same way takes them instead of building them again.
+struct SeamStructure;
 struct SeamMemo {
   struct Move {
     Vec2 start, uv;
   };
   std::unordered_map<uint64_t, Vec2> uv;
   std::unordered_map<uint64_t, Move> near;
+  std::shared_ptr<const SeamStructure> structure;
 };
 
 struct SeamInput {
@@ -72,6 +77,7 @@ struct SeamInput {
   // Per photo (empty or null = made here): its L*u*v* tiles, when the caller keeps them across runs.
   std::vector<std::shared_ptr<const LuvTiles>> luv;
   const SeamMemo* warm = nullptr;  // may be null: see SeamMemo
+  uint64_t meshHash = 0;           // the mesh's positions and faces hashed (0: unknown; see SeamMemo::structure)
   double warmTolerancePx = 0;      // see SeamMemo::near (0: only sides whose UVs are the same)
 };
 
@@ -85,6 +91,7 @@ struct SeamResult {
   int rounds = 0;         // rounds run
   int warmSides = 0;      // sides that took their UV from SeamInput::warm
   int warmNearSides = 0;  // of those, sides whose surroundings moved within SeamInput::warmTolerancePx
+  bool structureKept = false;  // the sides and seam edges came from SeamInput::warm (SeamMemo::structure)
   std::shared_ptr<const SeamMemo> memo;              // this run's sides, for the next run's SeamInput::warm
   double deltaEBefore = 0, deltaEAfter = 0;          // mean Delta E*uv over all seam samples
   double gradientBefore = 0, gradientAfter = 0;      // mean |G'1 - G'2| (L*u*v* per pixel) over seam samples

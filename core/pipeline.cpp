@@ -794,7 +794,7 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   // seamed mapping.
   key << opts["seamLambda"].dump() << opts["seamRounds"].dump() << opts["gradientWeight"].dump();
   // The preview starts from the last run's sides (SeamMemo): its result is its own.
-  const SeamMemo* warmSeams = tier == Tier::Preview && cachedSeams_ ? cachedSeams_->memo.get() : nullptr;
+  const SeamMemo* warmSeams = tier == Tier::Preview && cachedSeams_ ? seamMemo_.get() : nullptr;
   if (warmSeams) key << "#warm-seams";
   const bool seamCached = balanceCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
   if (!seamCached) {
@@ -816,6 +816,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv),
                                          warmSeams, projection.result.meshHash);
     seams->map = TextureMap();  // the seamed mapping holds it
+    seamMemo_ = std::move(seams->memo);
+    if (keep_ == Keep::ThisRunOnly) seamMemo_.reset();
     cachedSeams_ = seams;
     seamKey_ = key.str();
   }

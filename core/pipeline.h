@@ -206,7 +206,7 @@ class Pipeline {
   // only what this run still reads (`montage run`: one run, so the seams' L*u*v* tiles and the projection's
   // frames go once their stage is over, lowering the peak; the result is the same).
   enum class Keep { ForLaterRuns, ThisRunOnly };
-  explicit Pipeline(Keep keep = Keep::ForLaterRuns) : keep_(keep) {}
+  explicit Pipeline(Keep keep = Keep::ForLaterRuns) : keep_(keep) { frames_.carryViews = keep == Keep::ForLaterRuns; }
   // Runs the stages of `tier` on `project` (already loaded by loadProject), reusing cached outputs
   // whose inputs did not change: the result of an identical document state at once (undo, redo),
   // else the loaded files, the mapping, each cell's map, the colours and the bake as far as their
@@ -248,7 +248,8 @@ class Pipeline {
   MapCaches mapCaches_;
   std::string seamKey_;
   std::shared_ptr<const Mapping> cachedSeamed_;
-  std::shared_ptr<const SeamResult> cachedSeams_;
+  std::shared_ptr<const SeamResult> cachedSeams_;  // without its memo (results kept for undo share it)
+  std::shared_ptr<const SeamMemo> seamMemo_;       // its memo: the next preview's warm start
   std::string balanceKey_;
   std::shared_ptr<const BalancedScene> cachedBalance_;
   std::string colorKey_;

@@ -524,6 +524,7 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   std::shared_ptr<const ViewMesh> current;
   std::map<const ViewMesh*, std::shared_ptr<const ViewCarry>> carries;
   auto carryFrom = [&](const PhotoView* base) -> std::shared_ptr<const ViewCarry> {
+    if (!cache->carryViews) return nullptr;
     std::lock_guard<std::mutex> lock(carryMutex);
     if (!current)
       current = cache->mesh(out.meshHash, [&] { return viewMesh(mesh, partition.faceParent, out.meshHash); });

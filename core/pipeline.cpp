@@ -355,7 +355,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   seams = optimiseSeams(in, options, job);
   if (seams.movedSides == 0) return mapping;
   auto out = std::make_shared<Mapping>(*mapping);
-  out->map = seams.map;
+  out->map = std::move(seams.map);
   return out;
 }
 

@@ -176,7 +176,8 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
                            const JobControl& job = {}, const BalancedScene* previous = nullptr,
                            double toleranceLevels = 0, BalanceMemo* memo = nullptr);
 // Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
-// when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map; figures in `seams`.
+// when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map (moved out of
+// `seams.map`); figures in `seams`.
 // `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
 // `luv` (per photo, may be empty) holds the L*u*v* tiles of photos the caller keeps (SeamInput::luv); `warm`
 // (may be null) the last run's sides for the preview's warm start (SeamMemo; sides whose surroundings moved

@@ -226,8 +226,10 @@ std::shared_ptr<const PhotoView> ViewFrameCache::view(int photo, uint64_t meshHa
   return usedLatest_[byPhoto] = usedViews_[key] = out;
 }
 
-std::shared_ptr<const ViewMesh> ViewFrameCache::mesh(uint64_t hash, const std::function<ViewMesh()>& make) {
+std::shared_ptr<const ViewMesh> ViewFrameCache::mesh(uint64_t hash, const std::function<ViewMesh()>& make,
+                                                     std::shared_ptr<const ViewMesh>& previous) {
   std::lock_guard<std::mutex> lock(mutex_);
+  previous = mesh_;
   if (!mesh_ || mesh_->hash != hash) mesh_ = std::make_shared<const ViewMesh>(make());
   return mesh_;
 }
@@ -519,19 +521,20 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       options = hashMix(options, x);
   }
   // A view made anew takes what it can from the last view of its photo and settings on another mesh
-  // (ViewFrameCache::view): this mesh's ViewMesh and the carry from each such mesh are made once.
+  // (ViewFrameCache::view), when that mesh is the one the cache kept a ViewMesh of (the last mesh views were
+  // made on): this mesh's ViewMesh and the carry from that one are made once.
   std::mutex carryMutex;
-  std::shared_ptr<const ViewMesh> current;
-  std::map<const ViewMesh*, std::shared_ptr<const ViewCarry>> carries;
+  std::shared_ptr<const ViewMesh> current, lastMesh;
+  std::shared_ptr<const ViewCarry> fromLast;
   auto carryFrom = [&](const PhotoView* base) -> std::shared_ptr<const ViewCarry> {
     if (!cache->carryViews) return nullptr;
     std::lock_guard<std::mutex> lock(carryMutex);
     if (!current)
-      current = cache->mesh(out.meshHash, [&] { return viewMesh(mesh, partition.faceParent, out.meshHash); });
-    if (!base || !base->mesh || base->mesh->hash == out.meshHash) return nullptr;
-    auto& c = carries[base->mesh.get()];
-    if (!c) c = std::make_shared<const ViewCarry>(carryOver(*base->mesh, *current));
-    return c;
+      current = cache->mesh(
+          out.meshHash, [&] { return viewMesh(mesh, partition.faceParent, out.meshHash); }, lastMesh);
+    if (!base || !lastMesh || base->meshHash != lastMesh->hash || base->meshHash == out.meshHash) return nullptr;
+    if (!fromLast) fromLast = std::make_shared<const ViewCarry>(carryOver(*lastMesh, *current));
+    return fromLast;
   };
   std::vector<char> made(np, 0);  // views made this run (not kept ones)
   tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
@@ -549,7 +552,7 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
         const std::shared_ptr<const ViewCarry> carry = carryFrom(base);
         PhotoView view = viewPhoto(mesh, partition.faceParent, *frames[p], *scene.photos[p], p, fits[p], out.fields[p],
                                    o, carry ? base : nullptr, carry.get());
-        view.mesh = current;
+        view.meshHash = out.meshHash;
         return view;
       });
     } else {

@@ -90,8 +90,9 @@ cv::Mat foregroundDistance(const Photo& photo, int width, int height);
 
 struct PhotoView;
 
-// What a view reads of the refined mesh, kept with the view so that a view made on one refinement of the
-// input can carry its entries over to the next one (an added or deleted feature moves only some paths).
+// What a view reads of the refined mesh, kept (for the last mesh views were made on) so that a view made on
+// one refinement of the input can carry its entries over to the next one (an added or deleted feature
+// moves only some paths).
 struct ViewMesh {
   uint64_t hash = 0;                      // ProjectionResult::meshHash
   double diagonal = 0;                    // of the bounding box (the depth tolerance's scale)
@@ -132,8 +133,10 @@ class ViewFrameCache {
   // otherwise), to carry over what the two meshes share. Thread-safe.
   std::shared_ptr<const PhotoView> view(int photo, uint64_t meshHash, uint64_t settings,
                                         const std::function<PhotoView(const PhotoView* base)>& make);
-  // The ViewMesh of the mesh hashed `hash`: the last run's when it was the same mesh, else made by `make`.
-  std::shared_ptr<const ViewMesh> mesh(uint64_t hash, const std::function<ViewMesh()>& make);
+  // The ViewMesh of the mesh hashed `hash`: the kept one when it is of that mesh, else made by `make` and
+  // kept instead. `previous` receives the one kept before (of the mesh the last views were made on).
+  std::shared_ptr<const ViewMesh> mesh(uint64_t hash, const std::function<ViewMesh()>& make,
+                                       std::shared_ptr<const ViewMesh>& previous);
   void endRun();                 // forgets frames and views this run did not use
   void clear();                  // forgets everything (a run that keeps nothing for the next)
   int reused = 0, computed = 0;  // frames, this run
@@ -147,7 +150,7 @@ class ViewFrameCache {
   std::map<std::string, std::shared_ptr<const PhotoView>> views_, usedViews_;
   // Per photo and settings: the last view made, whatever its mesh (the base of the next one).
   std::map<std::string, std::shared_ptr<const PhotoView>> latest_, usedLatest_;
-  std::shared_ptr<const ViewMesh> mesh_;       // the last one asked for
+  std::shared_ptr<const ViewMesh> mesh_;       // the last one asked for (one per cache: views keep only its hash)
   std::map<std::string, cv::Mat> foreground_;  // per photo key and size: foregroundDistance
   std::set<std::string> usedForeground_;       // photo keys this run asked for
 };
@@ -165,7 +168,7 @@ struct PhotoView {
                                           // smoothness); unset elsewhere
   std::vector<char> faceRefused;          // #F: 1 refused for a flip, 2 for the background, 0 otherwise
   int refusedFlipped = 0, refusedBackground = 0;  // faces otherwise seen, refused for a flip / the background
-  std::shared_ptr<const ViewMesh> mesh;           // what it was made on (with a ViewFrameCache), else null
+  uint64_t meshHash = 0;                          // the mesh it was made on (with a ViewFrameCache)
   int carriedVertices = 0, carriedFaces = 0;      // entries carried over from a view on another mesh
 };
 

@@ -112,7 +112,8 @@ class PartitionMemo {
 // maps), reusing the searches in `memo` when given. Throws montage::Cancelled when the job is cancelled.
 Partition partitionMesh(const Scene& scene, const PartitionOptions& options, const JobControl& job,
                         PartitionMemo* memo = nullptr);
-// The same, shared: with a memo, the result its trace keeps (no copy when a replay changes nothing).
+// The same, shared: with a memo, the result its trace keeps (a replay copies the last one, mesh included,
+// and renews the moved photos' curves and rejection details).
 std::shared_ptr<const Partition> partitionShared(const Scene& scene, const PartitionOptions& options,
                                                  const JobControl& job, PartitionMemo* memo = nullptr);
 

@@ -439,7 +439,6 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
   });
   view.refusedFlipped = static_cast<int>(std::count(refused.begin(), refused.end(), kFlipped));
   view.refusedBackground = static_cast<int>(std::count(refused.begin(), refused.end(), kBackground));
-  if (base) view.carriedVertices = carry->vertices, view.carriedFaces = carry->faces;
   view.edgeLuv.assign(tri.n_edges(), Vec3f::Zero());
   tbb::parallel_for(tbb::blocked_range<int>(0, int(tri.n_edges()), 1024), [&](const tbb::blocked_range<int>& range) {
     for (int e = range.begin(); e < range.end(); ++e) {
@@ -536,7 +535,7 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
     if (!fromLast) fromLast = std::make_shared<const ViewCarry>(carryOver(*lastMesh, *current));
     return fromLast;
   };
-  std::vector<char> made(np, 0);  // views made this run (not kept ones)
+  std::vector<char> carried(np, 0);  // views made this run from a carry that took some entries
   tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
     const int p = fitted[k];
     out.fields[p] = correctionField(mesh, fits[p], o.correction, o.localRadiusPx);
@@ -548,8 +547,8 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       for (size_t i = 0; i < field.centres.size(); ++i)
         h = hashMix(hashMix(hashMix(h, field.centres[i]), field.local[i]), field.localSupport[i]);
       out.views[p] = cache->view(p, out.meshHash, h, [&](const PhotoView* base) {
-        made[p] = 1;
         const std::shared_ptr<const ViewCarry> carry = carryFrom(base);
+        carried[p] = carry && carry->vertices + carry->faces > 0;
         PhotoView view = viewPhoto(mesh, partition.faceParent, *frames[p], *scene.photos[p], p, fits[p], out.fields[p],
                                    o, carry ? base : nullptr, carry.get());
         view.meshHash = out.meshHash;
@@ -563,14 +562,9 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
     out.photoRefusedBackground[p] = out.views[p]->refusedBackground;
   });
   if (cache) out.viewsReused = cache->viewsReused;
-  long carried = 0, entries = 0;
-  for (int p : fitted)
-    if (made[p] && out.views[p]->carriedVertices + out.views[p]->carriedFaces > 0) {
-      ++out.viewsCarried;
-      carried += out.views[p]->carriedVertices + out.views[p]->carriedFaces;
-      entries += mesh.numVertices() + nf;
-    }
-  out.carriedShare = entries ? double(carried) / entries : 0;
+  // Every carried view took the one carry from the last mesh.
+  out.viewsCarried = static_cast<int>(std::count(carried.begin(), carried.end(), 1));
+  if (out.viewsCarried > 0) out.carriedShare = double(fromLast->vertices + fromLast->faces) / (mesh.numVertices() + nf);
   out.viewSeconds = secondsSince(t);
   job.progress(StageId::Projection, 0.6, "view selection");
 

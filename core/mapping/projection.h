@@ -169,7 +169,6 @@ struct PhotoView {
   std::vector<char> faceRefused;          // #F: 1 refused for a flip, 2 for the background, 0 otherwise
   int refusedFlipped = 0, refusedBackground = 0;  // faces otherwise seen, refused for a flip / the background
   uint64_t meshHash = 0;                          // the mesh it was made on (with a ViewFrameCache)
-  int carriedVertices = 0, carriedFaces = 0;      // entries carried over from a view on another mesh
 };
 
 // Per photo: its view (null for a photo that does not fit). Views are shared between results whose
@@ -212,7 +211,7 @@ struct ProjectionResult {
   int framesNear = 0;       // of those, frames of a camera within ProjectionOptions::reuseFramePx
   int viewsReused = 0;      // fitted photos whose view (PhotoView) came from the cache
   int viewsCarried = 0;     // of the others, views made from a kept view on another mesh
-  double carriedShare = 0;  // their vertices and faces carried over, share of all
+  double carriedShare = 0;  // the vertices and faces they carried over, share of all
   double frameSeconds = 0;  // the frames not in the cache (part of viewSeconds)
   double viewSeconds = 0, selectSeconds = 0, seconds = 0;
 };

@@ -16,14 +16,15 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "base/fileio.h"
 #include "base/util.h"
 #include "bench/eval.h"
 #include "bench/render.h"
 #include "bench/synth.h"
 #include "geometry/mesh.h"
+#include "image/codec.h"
 #include "image/cutout.h"
 #include "image/photo.h"
 #include "io/mesh_io.h"
@@ -213,15 +214,6 @@ int cmdEval(const std::string& resultPath, const std::string& truthMesh, const s
   return 0;
 }
 
-// Writes an RGBA image as PNG, atomically (a kill leaves the old file or the new one).
-void writePng(const cv::Mat& rgba, const std::string& out) {
-  cv::Mat bgra;
-  cv::cvtColor(rgba, bgra, cv::COLOR_RGBA2BGRA);
-  std::vector<unsigned char> png;
-  TM_CHECK(cv::imencode(".png", bgra, png), located(out, "cannot encode the image as PNG"));
-  writeFileAtomic(out, std::string(png.begin(), png.end()));
-}
-
 struct RenderArgs {
   std::string model, out, size;
   int turntable = 0;   // views of a turntable; 0 = one render
@@ -249,8 +241,9 @@ std::vector<std::pair<cv::Vec4b, std::string>> useSourceLayer(TexturedModel& mod
   const fs::path path = fs::path(modelPath).parent_path() / (fs::path(modelPath).stem().string() + "_atlas_source.png");
   TM_CHECK(fs::is_regular_file(path),
            located(modelPath, "--layer needs the source layer " + path.string() + " (written by montage run)"));
-  cv::Mat source = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
-  TM_CHECK(!source.empty(), located(path.string(), "cannot read the source layer"));
+  const std::string bytes = readFileBytes(path.string(), "source layer");
+  const cv::Mat source = decodeImage(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), path.string());
+  TM_CHECK(source.type() == CV_8UC1, located(path.string(), "the source layer is not an 8-bit grey image"));
   const cv::Mat colours = colorizeSourceLayer(source);
   for (Material& m : model.materials)
     if (!m.texture.empty()) {
@@ -287,7 +280,7 @@ int cmdRender(const RenderArgs& args) {
   if (args.turntable <= 0) {
     cv::Mat rgba = renderModel(model, options);
     if (!legend.empty()) drawLegend(rgba, legend);
-    writePng(rgba, args.out);
+    writePng(args.out, rgba, kPngFast, false);
     std::printf("wrote %s (%dx%d)\n", args.out.c_str(), rgba.cols, rgba.rows);
     return 0;
   }
@@ -297,11 +290,11 @@ int cmdRender(const RenderArgs& args) {
   for (size_t k = 0; k < views.size(); ++k) {
     char suffix[32];
     std::snprintf(suffix, sizeof suffix, "_%02zu.png", k);
-    writePng(views[k], stem + suffix);
+    writePng(stem + suffix, views[k], kPngFast, false);
   }
   cv::Mat sheet = contactSheet(views);
   if (!legend.empty()) drawLegend(sheet, legend);
-  writePng(sheet, args.out);
+  writePng(args.out, sheet, kPngFast, false);
   std::printf("wrote %zu views %s_00.png .. and the contact sheet %s (%dx%d)\n", views.size(), stem.c_str(),
               args.out.c_str(), sheet.cols, sheet.rows);
   return 0;

@@ -9,14 +9,13 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 
 #include "atlas/atlas.h"
 #include "io/model.h"
-#include "pipeline.h"
 #include "io/project.h"
+#include "pipeline.h"
 
 using namespace montage;
 

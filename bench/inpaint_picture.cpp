@@ -5,12 +5,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "base/job.h"
 #include "geometry/raster.h"
 #include "geometry/shapes.h"
+#include "image/codec.h"
 #include "image/color.h"
 #include "image/photo.h"
 #include "surface/inpaint.h"
@@ -113,6 +113,6 @@ int main(int argc, char** argv) {
                 sumDe / std::max(n, 1L), energy / std::max(pixels, 1L), truthEnergy / std::max(pixels, 1L),
                 energy / std::max(truthEnergy, 1e-9), res.regions.empty() ? "" : res.regions[0].note.c_str());
   }
-  cv::imwrite(argv[2], out);
+  montage::writePng(argv[2], out);
   return 0;
 }

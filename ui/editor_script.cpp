@@ -11,13 +11,13 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numeric>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
 
 #include "editor.h"
 #include "gl.h"
 #include "gl_util.h"
+#include "image/codec.h"
 #include "overlay_gl.h"
 
 namespace fs = std::filesystem;
@@ -673,11 +673,11 @@ void Editor::writeState(const std::string& path) const {
 void Editor::takeScreenshot(const std::string& path) {
   int w = 0, h = 0;
   glfwGetFramebufferSize(window_, &w, &h);
-  cv::Mat rgba = readWindowPixels(w, h), bgra;
-  cv::cvtColor(rgba, bgra, cv::COLOR_RGBA2BGR);
+  cv::Mat rgba = readWindowPixels(w, h), rgb;
+  cv::cvtColor(rgba, rgb, cv::COLOR_RGBA2RGB);
   std::error_code ec;
   if (fs::path(path).has_parent_path()) fs::create_directories(fs::path(path).parent_path(), ec);
-  TM_CHECK(cv::imwrite(path, bgra), located(path, "cannot write the screenshot"));
+  writePng(path, rgb, kPngFast, false);
   std::printf("wrote %s (%dx%d)\n", path.c_str(), w, h);
 }
 

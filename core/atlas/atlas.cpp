@@ -20,13 +20,13 @@
 #include <Eigen/Geometry>
 #include <cstdio>
 #include <cstdlib>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "base/fileio.h"
 #include "base/util.h"
 #include "geometry/mesh.h"
 #include "geometry/predicates.h"
+#include "image/codec.h"
 #include "image/photo.h"
 #include "surface/inpaint.h"
 
@@ -1216,9 +1216,7 @@ void writeAtlasLayers(const cv::Mat& source, const std::string& dir, const std::
   for (const auto& [suffix, layer] :
        {std::pair<std::string, cv::Mat>{"_atlas_source.png", source}, {"_atlas_holes.png", holes}}) {
     const std::string path = (fs::path(dir) / (base + suffix)).string();
-    std::vector<unsigned char> bytes;
-    TM_CHECK(cv::imencode(".png", layer, bytes), located(path, "cannot encode PNG"));
-    writeFileAtomic(path, std::string(bytes.begin(), bytes.end()));
+    writePng(path, layer);
   }
 }
 

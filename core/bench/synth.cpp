@@ -16,13 +16,13 @@
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <queue>
 #include <random>
 #include <utility>
 
 #include "geometry/mesh.h"
+#include "image/codec.h"
 #include "image/color.h"
 #include "mapping/camera.h"
 
@@ -491,15 +491,7 @@ void writeSynthScene(const SynthScene& scene, const std::string& dir) {
     const std::string path = (folder / name).string();
     TM_CHECK(photo.type() == CV_8UC4 && !photo.empty(),
              located(path, "photo " + std::to_string(k) + " is not an 8-bit RGBA image"));
-    cv::Mat bgra;
-    cv::cvtColor(photo, bgra, cv::COLOR_RGBA2BGRA);
-    bool written = false;
-    try {
-      written = cv::imwrite(path, bgra);
-    } catch (const cv::Exception& e) {
-      throw Error(located(path, std::string("cannot write the PNG: ") + e.what()));
-    }
-    if (!written) throw Error(located(path, "cannot write the PNG"));
+    writePng(path, photo, kPngFast, false);
     project.photos[k] = PhotoRef{path, ""};
 
     const Camera& c = scene.cameras[k];

@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "base/fileio.h"
 #include "base/util.h"
+#include "image/codec.h"
 #include "image/photo.h"
 
 namespace fs = std::filesystem;
@@ -274,12 +274,7 @@ std::vector<std::string> foregroundWarnings(bool hasBackground, double borderSha
 
 void writeMaskPng(const cv::Mat& mask, const std::string& path) {
   TM_CHECK(!mask.empty() && mask.type() == CV_8UC1, located(path, "a mask must be a non-empty 8-bit grey image"));
-  std::vector<uchar> bytes;
-  try {
-    TM_CHECK(cv::imencode(".png", mask, bytes), located(path, "cannot encode the mask as PNG"));
-  } catch (const cv::Exception& e) {
-    throw Error(located(path, "cannot encode the mask as PNG: " + e.msg));
-  }
+  const std::vector<unsigned char> bytes = encodePng(mask, path);
   const fs::path parent = fs::path(path).parent_path();
   std::error_code ec;
   if (!parent.empty()) fs::create_directories(parent, ec);

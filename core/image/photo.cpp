@@ -7,12 +7,12 @@
 #include <filesystem>
 #include <fstream>
 #include <istream>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <streambuf>
 
 #include "base/fileio.h"
+#include "image/codec.h"
 #include "image/color.h"
 #include "image/cutout.h"
 
@@ -22,189 +22,15 @@ namespace montage {
 
 namespace {
 
-constexpr int kMaxSide = 16384;
 constexpr int kStatsSide = 4096;  // photoStats: exact distance maps up to this side
 
 void requireFile(const std::string& path) {
   requireRegularFile(path, "image file");
 }
 
-// ---- Header parsers: the size of PNG, JPEG, BMP and TIFF files without decoding them. ----
-
-// A read-only stream buffer over bytes in memory, seekable (header parsers jump around).
-class MemoryBuffer : public std::streambuf {
- public:
-  MemoryBuffer(const unsigned char* data, size_t size) {
-    char* p = const_cast<char*>(reinterpret_cast<const char*>(data));
-    setg(p, p, p + size);
-  }
-
- protected:
-  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override {
-    const off_type base = dir == std::ios_base::beg   ? 0
-                          : dir == std::ios_base::cur ? gptr() - eback()
-                                                      : egptr() - eback();
-    return seekpos(pos_type(base + off), std::ios_base::in);
-  }
-  pos_type seekpos(pos_type pos, std::ios_base::openmode) override {
-    if (pos < 0 || pos > egptr() - eback()) return pos_type(off_type(-1));
-    setg(eback(), eback() + off_type(pos), egptr());
-    return pos;
-  }
-};
-
-class ByteReader {
- public:
-  explicit ByteReader(std::istream& in) : in_(in) {}
-  bool ok() const { return bool(in_); }
-  bool read(uint8_t* out, size_t n) { return bool(in_.read(reinterpret_cast<char*>(out), std::streamsize(n))); }
-  bool seek(uint64_t pos) { return bool(in_.seekg(std::streamoff(pos))); }
-  bool skip(uint64_t n) { return bool(in_.seekg(std::streamoff(n), std::ios::cur)); }
-  std::optional<uint32_t> u8() {
-    uint8_t b;
-    return read(&b, 1) ? std::optional<uint32_t>(b) : std::nullopt;
-  }
-  std::optional<uint32_t> u16(bool bigEndian) {
-    uint8_t b[2];
-    if (!read(b, 2)) return std::nullopt;
-    return bigEndian ? uint32_t(b[0]) << 8 | b[1] : uint32_t(b[1]) << 8 | b[0];
-  }
-  std::optional<uint32_t> u32(bool bigEndian) {
-    uint8_t b[4];
-    if (!read(b, 4)) return std::nullopt;
-    return bigEndian ? uint32_t(b[0]) << 24 | uint32_t(b[1]) << 16 | uint32_t(b[2]) << 8 | b[3]
-                     : uint32_t(b[3]) << 24 | uint32_t(b[2]) << 16 | uint32_t(b[1]) << 8 | b[0];
-  }
-
- private:
-  std::istream& in_;
-};
-
-// PNG: signature, then the IHDR chunk with width and height (big endian).
-std::optional<cv::Size> pngSize(ByteReader& in) {
-  uint8_t tag[4];
-  in.seek(12);
-  if (!in.read(tag, 4) || std::string(reinterpret_cast<char*>(tag), 4) != "IHDR") return std::nullopt;
-  auto w = in.u32(true), h = in.u32(true);
-  if (!w || !h) return std::nullopt;
-  return cv::Size(int(std::min<uint32_t>(*w, INT32_MAX)), int(std::min<uint32_t>(*h, INT32_MAX)));
-}
-
-// JPEG: walk the marker segments to the first start-of-frame (SOFn) segment.
-std::optional<cv::Size> jpegSize(ByteReader& in) {
-  in.seek(2);
-  for (;;) {
-    auto marker = in.u8();
-    while (marker && *marker == 0xFF) marker = in.u8();  // fill bytes
-    if (!marker) return std::nullopt;
-    if (*marker == 0xD8 || *marker == 0x01 || (*marker >= 0xD0 && *marker <= 0xD7)) continue;  // no payload
-    if (*marker == 0xD9 || *marker == 0xDA) return std::nullopt;  // end of image / scan before any frame
-    auto length = in.u16(true);
-    if (!length || *length < 2) return std::nullopt;
-    const bool sof = *marker >= 0xC0 && *marker <= 0xCF && *marker != 0xC4 && *marker != 0xC8 && *marker != 0xCC;
-    if (sof) {
-      auto precision = in.u8(), h = in.u16(true), w = in.u16(true);
-      if (!precision || !h || !w) return std::nullopt;
-      return cv::Size(int(*w), int(*h));
-    }
-    if (!in.skip(*length - 2)) return std::nullopt;
-    auto next = in.u8();  // every segment is followed by a marker
-    if (!next || *next != 0xFF) return std::nullopt;
-  }
-}
-
-// BMP: BITMAPCOREHEADER (16-bit sizes) or BITMAPINFOHEADER and later (signed 32-bit, negative height
-// for top-down rows).
-std::optional<cv::Size> bmpSize(ByteReader& in) {
-  in.seek(14);
-  auto headerSize = in.u32(false);
-  if (!headerSize) return std::nullopt;
-  if (*headerSize == 12) {
-    auto w = in.u16(false), h = in.u16(false);
-    if (!w || !h) return std::nullopt;
-    return cv::Size(int(*w), int(*h));
-  }
-  auto w = in.u32(false), h = in.u32(false);
-  if (!w || !h) return std::nullopt;
-  const auto absolute = [](uint32_t v) { return int(std::min<int64_t>(std::abs(int64_t(int32_t(v))), INT32_MAX)); };
-  return cv::Size(absolute(*w), absolute(*h));
-}
-
-// TIFF (classic, not BigTIFF): tags ImageWidth (256) and ImageLength (257) of the first IFD.
-std::optional<cv::Size> tiffSize(ByteReader& in, bool bigEndian) {
-  in.seek(4);
-  auto ifd = in.u32(bigEndian);
-  if (!ifd || !in.seek(*ifd)) return std::nullopt;
-  auto count = in.u16(bigEndian);
-  if (!count) return std::nullopt;
-  int width = -1, height = -1;
-  for (uint32_t i = 0; i < *count; ++i) {
-    auto tag = in.u16(bigEndian), type = in.u16(bigEndian), n = in.u32(bigEndian);
-    if (!tag || !type || !n) return std::nullopt;
-    std::optional<uint32_t> value;
-    if (*type == 3) {  // SHORT, left-justified in the 4-byte value field
-      value = in.u16(bigEndian);
-      in.skip(2);
-    } else {
-      value = in.u32(bigEndian);  // LONG (or something we do not read)
-    }
-    if (!value) return std::nullopt;
-    if (*tag == 256 && (*type == 3 || *type == 4)) width = int(std::min<uint32_t>(*value, INT32_MAX));
-    if (*tag == 257 && (*type == 3 || *type == 4)) height = int(std::min<uint32_t>(*value, INT32_MAX));
-  }
-  if (width < 0 || height < 0) return std::nullopt;
-  return cv::Size(width, height);
-}
-
-enum class ImageFormat { Unknown, Png, Jpeg, Bmp, TiffLittle, TiffBig };
-
-ImageFormat formatOf(const uint8_t (&magic)[8]) {
-  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  if (std::equal(magic, magic + 8, kPng)) return ImageFormat::Png;
-  if (magic[0] == 0xFF && magic[1] == 0xD8 && magic[2] == 0xFF) return ImageFormat::Jpeg;
-  if (magic[0] == 'B' && magic[1] == 'M') return ImageFormat::Bmp;
-  if (magic[0] == 'I' && magic[1] == 'I' && magic[2] == 42 && magic[3] == 0) return ImageFormat::TiffLittle;
-  if (magic[0] == 'M' && magic[1] == 'M' && magic[2] == 0 && magic[3] == 42) return ImageFormat::TiffBig;
-  return ImageFormat::Unknown;
-}
-
-// The format and, when its header can be read, the size of an image. Only PNG, JPEG, BMP and TIFF are
-// decoded at all: OpenCV would otherwise pick a decoder by content (PNM, WebP, JPEG 2000...) for a
-// file whatever its name.
-struct ImageHeader {
-  ImageFormat format = ImageFormat::Unknown;
-  std::optional<cv::Size> size;
-};
-
-ImageHeader readHeader(std::istream& stream) {
-  ByteReader in(stream);
-  uint8_t magic[8] = {};
-  ImageHeader header;
-  if (!in.ok() || !in.read(magic, 8)) return header;
-  header.format = formatOf(magic);
-  switch (header.format) {
-    case ImageFormat::Png:
-      header.size = pngSize(in);
-      break;
-    case ImageFormat::Jpeg:
-      header.size = jpegSize(in);
-      break;
-    case ImageFormat::Bmp:
-      header.size = bmpSize(in);
-      break;
-    case ImageFormat::TiffLittle:
-    case ImageFormat::TiffBig:
-      header.size = tiffSize(in, header.format == ImageFormat::TiffBig);
-      break;
-    case ImageFormat::Unknown:
-      break;
-  }
-  return header;
-}
-
 ImageHeader fileHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  return readHeader(in);
+  return readImageHeader(in);
 }
 
 // The size from the file header, or nothing when the format is not one of the above (or the header
@@ -213,39 +39,13 @@ std::optional<cv::Size> headerSize(const std::string& path) {
   return fileHeader(path).size;
 }
 
-void requireKnownFormat(const std::string& where, ImageFormat format) {
-  TM_CHECK(format != ImageFormat::Unknown,
-           located(where, "not a PNG, JPEG, TIFF or BMP image (unknown file signature)"));
-}
-
-void checkSize(const std::string& path, cv::Size size) {
-  TM_CHECK(size.width > 0 && size.height > 0, located(path, "image is empty (0 pixels)"));
-  TM_CHECK(size.width <= kMaxSide && size.height <= kMaxSide,
-           located(path, "image is " + std::to_string(size.width) + "x" + std::to_string(size.height) +
-                             " pixels; at most " + std::to_string(kMaxSide) + " pixels a side are supported"));
-}
-
-// cv::imread with IMREAD_UNCHANGED of an existing file; failures become montage::Error.
-cv::Mat readUnchanged(const std::string& path) {
-  cv::Mat image;
-  try {
-    image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw Error(located(path, "cannot decode image: " + e.msg));
-  }
-  TM_CHECK(!image.empty(), located(path, "not a readable image (unsupported format or damaged file)"));
-  return image;
-}
-
 cv::Mat decode(const std::string& path) {
   requireFile(path);
-  // Refuse oversized images before allocating them, when the header tells the size.
+  // The signature and the size are checked from the header before the file is read whole.
   const ImageHeader header = fileHeader(path);
-  requireKnownFormat(path, header.format);
-  if (header.size) checkSize(path, *header.size);
-  cv::Mat image = readUnchanged(path);
-  checkSize(path, image.size());
-  return image;
+  checkImageHeader(header, path);
+  const std::string bytes = readFileBytes(path, "image file");
+  return decodeImage(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), path);
 }
 
 // The depths a photo may have: 8-bit, 16-bit or float (in [0,1]).
@@ -466,21 +266,7 @@ cv::Mat readImageRgba8(const std::string& path) {
 }
 
 cv::Mat decodeImageRgba8(const unsigned char* bytes, size_t size, const std::string& where) {
-  MemoryBuffer buffer(bytes, size);
-  std::istream in(&buffer);
-  const ImageHeader header = readHeader(in);
-  requireKnownFormat(where, header.format);
-  if (header.size) checkSize(where, *header.size);
-  TM_CHECK(size <= size_t(INT32_MAX), located(where, "image data is larger than 2 GB"));
-  cv::Mat image;
-  try {
-    image = cv::imdecode(cv::Mat(1, int(size), CV_8U, const_cast<unsigned char*>(bytes)), cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw Error(located(where, "cannot decode image: " + e.msg));
-  }
-  TM_CHECK(!image.empty(), located(where, "not a readable image (damaged data)"));
-  checkSize(where, image.size());
-  return toRgba8(image, true, where);
+  return toRgba8(decodeImage(bytes, size, where), true, where);
 }
 
 cv::Mat toRgba8(const cv::Mat& image, bool bgr, const std::string& where) {

@@ -128,7 +128,7 @@ cv::Mat readImageRgba8(const std::string& path);
 cv::Mat decodeImageRgba8(const unsigned char* bytes, size_t size, const std::string& where);
 
 // Converts an 8-bit, 16-bit or float (in [0,1]) image with 1 to 4 channels to CV_8UC4 RGBA. `bgr`: the
-// colour channels are in OpenCV's order B,G,R(,A), as cv::imread gives them. Throws montage::Error
+// colour channels are in OpenCV's order B,G,R(,A), as decodeImage (image/codec.h) gives them. Throws montage::Error
 // located at `where` for other depths or channel counts.
 cv::Mat toRgba8(const cv::Mat& image, bool bgr, const std::string& where);
 

@@ -16,7 +16,6 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numeric>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
@@ -25,6 +24,7 @@
 
 #include "base/fileio.h"
 #include "base/util.h"
+#include "image/codec.h"
 #include "image/color.h"
 #include "image/photo.h"
 #include "io/mesh_io.h"
@@ -936,13 +936,9 @@ const std::vector<unsigned char>& PngCache::encode(const cv::Mat& rgba, const st
   cv::extractChannel(rgba, alpha, 3);
   double minAlpha = 0;
   cv::minMaxLoc(alpha, &minAlpha);
-  cv::Mat bgr;
-  cv::cvtColor(rgba, bgr, minAlpha >= 255 ? cv::COLOR_RGBA2BGR : cv::COLOR_RGBA2BGRA);
-  const int level = std::clamp(compression_, 0, 9);
-  const std::vector<int> params = {cv::IMWRITE_PNG_COMPRESSION, level, cv::IMWRITE_PNG_STRATEGY,
-                                   level <= 3 ? cv::IMWRITE_PNG_STRATEGY_RLE : cv::IMWRITE_PNG_STRATEGY_DEFAULT};
-  std::vector<unsigned char> bytes;
-  TM_CHECK(cv::imencode(".png", bgr, bytes, params), located(where, "cannot encode PNG"));
+  cv::Mat rgb;
+  if (minAlpha >= 255) cv::cvtColor(rgba, rgb, cv::COLOR_RGBA2RGB);  // opaque: no alpha channel
+  std::vector<unsigned char> bytes = encodePng(minAlpha >= 255 ? rgb : rgba, where, compression_, false);
   ++encodes_;
   seconds_ += secondsSince(start);
   cache_.emplace_back(rgba, std::move(bytes));

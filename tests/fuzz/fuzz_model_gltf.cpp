@@ -1,10 +1,10 @@
 // libFuzzer target: the glTF model reader (.glb when the input starts with "glTF", .gltf otherwise),
 // with tinygltf behind our own checks (GLB layout, JSON depth, URIs confined to the folder, images
 // through our decoder). The scratch folder holds a.bin (64 bytes) and t.png (4x4) for external URIs.
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 
 #include "fuzz_support.h"
+#include "image/codec.h"
 #include "io/model.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -13,7 +13,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::string bin;
     for (int i = 0; i < 16; ++i) bin += std::string("\0\0\0\0", 4).replace(0, 1, 1, char(i * 8));
     montage::fuzz::writeFile(d + "/a.bin", bin);
-    cv::imwrite(d + "/t.png", cv::Mat(4, 4, CV_8UC4, cv::Scalar(1, 2, 3, 255)));
+    montage::writePng(d + "/t.png", cv::Mat(4, 4, CV_8UC4, cv::Scalar(1, 2, 3, 255)));
     return d;
   }();
   const std::string bytes(reinterpret_cast<const char*>(data), size);

@@ -1,16 +1,16 @@
 // libFuzzer target: the OBJ + MTL model reader (montage eval and render read results this way). The
 // input is the OBJ text, then a line "%%", then the MTL text; they are written as model.obj and
 // model.mtl beside a 4x4 texture tex.png, and read with loadModel. Only montage::Error may come out.
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 
 #include "fuzz_support.h"
+#include "image/codec.h"
 #include "io/model.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const std::string dir = [] {
     const std::string d = montage::fuzz::scratch("model_obj");
-    cv::imwrite(d + "/tex.png", cv::Mat(4, 4, CV_8UC3, cv::Scalar(10, 200, 30)));
+    montage::writePng(d + "/tex.png", cv::Mat(4, 4, CV_8UC3, cv::Scalar(10, 200, 30)));
     return d;
   }();
   const std::string text(reinterpret_cast<const char*>(data), size);

@@ -3,10 +3,10 @@
 // round trip: what loads must save and load back to the same document. The files a project names
 // exist in a scratch folder: mesh.obj (a 6x6 grid, 36 vertices, 50 faces), a.png (64x48 with a
 // background) and b.png (32x32, no background); the seeds name them.
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 
 #include "fuzz_support.h"
+#include "image/codec.h"
 #include "pipeline.h"
 
 namespace {
@@ -25,8 +25,8 @@ std::string setUp() {
   montage::fuzz::writeFile(dir + "/mesh.obj", obj);
   cv::Mat a(48, 64, CV_8UC4, cv::Scalar(0, 0, 0, 0));
   a(cv::Rect(8, 8, 40, 30)).setTo(cv::Scalar(20, 120, 220, 255));
-  cv::imwrite(dir + "/a.png", a);
-  cv::imwrite(dir + "/b.png", cv::Mat(32, 32, CV_8UC3, cv::Scalar(90, 80, 70)));
+  montage::writePng(dir + "/a.png", a);
+  montage::writePng(dir + "/b.png", cv::Mat(32, 32, CV_8UC3, cv::Scalar(90, 80, 70)));
   return dir;
 }
 

@@ -1,0 +1,430 @@
+#include "image/codec.h"
+
+#include <png.h>
+#include <stb_image.h>
+#include <tiffio.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <opencv2/imgproc.hpp>
+#include <streambuf>
+
+#include "base/common.h"
+#include "base/fileio.h"
+
+namespace montage {
+
+namespace {
+
+// ---- Header parsers: the size of PNG, JPEG, BMP and TIFF files without decoding them. ----
+
+// A read-only stream buffer over bytes in memory, seekable (header parsers jump around).
+class MemoryBuffer : public std::streambuf {
+ public:
+  MemoryBuffer(const unsigned char* data, size_t size) {
+    char* p = const_cast<char*>(reinterpret_cast<const char*>(data));
+    setg(p, p, p + size);
+  }
+
+ protected:
+  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override {
+    const off_type base = dir == std::ios_base::beg   ? 0
+                          : dir == std::ios_base::cur ? gptr() - eback()
+                                                      : egptr() - eback();
+    return seekpos(pos_type(base + off), std::ios_base::in);
+  }
+  pos_type seekpos(pos_type pos, std::ios_base::openmode) override {
+    if (pos < 0 || pos > egptr() - eback()) return pos_type(off_type(-1));
+    setg(eback(), eback() + off_type(pos), egptr());
+    return pos;
+  }
+};
+
+class ByteReader {
+ public:
+  explicit ByteReader(std::istream& in) : in_(in) {}
+  bool ok() const { return bool(in_); }
+  bool read(uint8_t* out, size_t n) { return bool(in_.read(reinterpret_cast<char*>(out), std::streamsize(n))); }
+  bool seek(uint64_t pos) { return bool(in_.seekg(std::streamoff(pos))); }
+  bool skip(uint64_t n) { return bool(in_.seekg(std::streamoff(n), std::ios::cur)); }
+  std::optional<uint32_t> u8() {
+    uint8_t b;
+    return read(&b, 1) ? std::optional<uint32_t>(b) : std::nullopt;
+  }
+  std::optional<uint32_t> u16(bool bigEndian) {
+    uint8_t b[2];
+    if (!read(b, 2)) return std::nullopt;
+    return bigEndian ? uint32_t(b[0]) << 8 | b[1] : uint32_t(b[1]) << 8 | b[0];
+  }
+  std::optional<uint32_t> u32(bool bigEndian) {
+    uint8_t b[4];
+    if (!read(b, 4)) return std::nullopt;
+    return bigEndian ? uint32_t(b[0]) << 24 | uint32_t(b[1]) << 16 | uint32_t(b[2]) << 8 | b[3]
+                     : uint32_t(b[3]) << 24 | uint32_t(b[2]) << 16 | uint32_t(b[1]) << 8 | b[0];
+  }
+
+ private:
+  std::istream& in_;
+};
+
+// PNG: signature, then the IHDR chunk with width and height (big endian).
+std::optional<cv::Size> pngSize(ByteReader& in) {
+  uint8_t tag[4];
+  in.seek(12);
+  if (!in.read(tag, 4) || std::string(reinterpret_cast<char*>(tag), 4) != "IHDR") return std::nullopt;
+  auto w = in.u32(true), h = in.u32(true);
+  if (!w || !h) return std::nullopt;
+  return cv::Size(int(std::min<uint32_t>(*w, INT32_MAX)), int(std::min<uint32_t>(*h, INT32_MAX)));
+}
+
+// JPEG: walk the marker segments to the first start-of-frame (SOFn) segment.
+std::optional<cv::Size> jpegSize(ByteReader& in) {
+  in.seek(2);
+  for (;;) {
+    auto marker = in.u8();
+    while (marker && *marker == 0xFF) marker = in.u8();  // fill bytes
+    if (!marker) return std::nullopt;
+    if (*marker == 0xD8 || *marker == 0x01 || (*marker >= 0xD0 && *marker <= 0xD7)) continue;  // no payload
+    if (*marker == 0xD9 || *marker == 0xDA) return std::nullopt;  // end of image / scan before any frame
+    auto length = in.u16(true);
+    if (!length || *length < 2) return std::nullopt;
+    const bool sof = *marker >= 0xC0 && *marker <= 0xCF && *marker != 0xC4 && *marker != 0xC8 && *marker != 0xCC;
+    if (sof) {
+      auto precision = in.u8(), h = in.u16(true), w = in.u16(true);
+      if (!precision || !h || !w) return std::nullopt;
+      return cv::Size(int(*w), int(*h));
+    }
+    if (!in.skip(*length - 2)) return std::nullopt;
+    auto next = in.u8();  // every segment is followed by a marker
+    if (!next || *next != 0xFF) return std::nullopt;
+  }
+}
+
+// BMP: BITMAPCOREHEADER (16-bit sizes) or BITMAPINFOHEADER and later (signed 32-bit, negative height
+// for top-down rows).
+std::optional<cv::Size> bmpSize(ByteReader& in) {
+  in.seek(14);
+  auto headerSize = in.u32(false);
+  if (!headerSize) return std::nullopt;
+  if (*headerSize == 12) {
+    auto w = in.u16(false), h = in.u16(false);
+    if (!w || !h) return std::nullopt;
+    return cv::Size(int(*w), int(*h));
+  }
+  auto w = in.u32(false), h = in.u32(false);
+  if (!w || !h) return std::nullopt;
+  const auto absolute = [](uint32_t v) { return int(std::min<int64_t>(std::abs(int64_t(int32_t(v))), INT32_MAX)); };
+  return cv::Size(absolute(*w), absolute(*h));
+}
+
+// TIFF (classic, not BigTIFF): tags ImageWidth (256) and ImageLength (257) of the first IFD.
+std::optional<cv::Size> tiffSize(ByteReader& in, bool bigEndian) {
+  in.seek(4);
+  auto ifd = in.u32(bigEndian);
+  if (!ifd || !in.seek(*ifd)) return std::nullopt;
+  auto count = in.u16(bigEndian);
+  if (!count) return std::nullopt;
+  int width = -1, height = -1;
+  for (uint32_t i = 0; i < *count; ++i) {
+    auto tag = in.u16(bigEndian), type = in.u16(bigEndian), n = in.u32(bigEndian);
+    if (!tag || !type || !n) return std::nullopt;
+    std::optional<uint32_t> value;
+    if (*type == 3) {  // SHORT, left-justified in the 4-byte value field
+      value = in.u16(bigEndian);
+      in.skip(2);
+    } else {
+      value = in.u32(bigEndian);  // LONG (or something we do not read)
+    }
+    if (!value) return std::nullopt;
+    if (*tag == 256 && (*type == 3 || *type == 4)) width = int(std::min<uint32_t>(*value, INT32_MAX));
+    if (*tag == 257 && (*type == 3 || *type == 4)) height = int(std::min<uint32_t>(*value, INT32_MAX));
+  }
+  if (width < 0 || height < 0) return std::nullopt;
+  return cv::Size(width, height);
+}
+
+ImageFormat formatOf(const uint8_t (&magic)[8]) {
+  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (std::equal(magic, magic + 8, kPng)) return ImageFormat::Png;
+  if (magic[0] == 0xFF && magic[1] == 0xD8 && magic[2] == 0xFF) return ImageFormat::Jpeg;
+  if (magic[0] == 'B' && magic[1] == 'M') return ImageFormat::Bmp;
+  if (magic[0] == 'I' && magic[1] == 'I' && magic[2] == 42 && magic[3] == 0) return ImageFormat::TiffLittle;
+  if (magic[0] == 'M' && magic[1] == 'M' && magic[2] == 0 && magic[3] == 42) return ImageFormat::TiffBig;
+  return ImageFormat::Unknown;
+}
+
+}  // namespace
+
+ImageHeader readImageHeader(std::istream& stream) {
+  ByteReader in(stream);
+  uint8_t magic[8] = {};
+  ImageHeader header;
+  if (!in.ok() || !in.read(magic, 8)) return header;
+  header.format = formatOf(magic);
+  switch (header.format) {
+    case ImageFormat::Png:
+      header.size = pngSize(in);
+      break;
+    case ImageFormat::Jpeg:
+      header.size = jpegSize(in);
+      break;
+    case ImageFormat::Bmp:
+      header.size = bmpSize(in);
+      break;
+    case ImageFormat::TiffLittle:
+    case ImageFormat::TiffBig:
+      header.size = tiffSize(in, header.format == ImageFormat::TiffBig);
+      break;
+    case ImageFormat::Unknown:
+      break;
+  }
+  return header;
+}
+
+ImageHeader readImageHeader(const unsigned char* bytes, size_t size) {
+  MemoryBuffer buffer(bytes, size);
+  std::istream in(&buffer);
+  return readImageHeader(in);
+}
+
+namespace {
+
+// ---- Decoding ----
+
+void checkSize(cv::Size size, const std::string& where) {
+  TM_CHECK(size.width > 0 && size.height > 0, located(where, "image is empty (0 pixels)"));
+  TM_CHECK(size.width <= kMaxImageSide && size.height <= kMaxImageSide,
+           located(where, "image is " + std::to_string(size.width) + "x" + std::to_string(size.height) +
+                              " pixels; at most " + std::to_string(kMaxImageSide) + " pixels a side are supported"));
+}
+
+// stb_image's pixels (R,G,B(,A) or grey(, alpha), 8 or 16 bits) as an OpenCV image in B,G,R(,A) order.
+cv::Mat decodeStb(const unsigned char* bytes, int size, const std::string& where) {
+  int w = 0, h = 0, n = 0;
+  const bool deep = stbi_is_16_bit_from_memory(bytes, size);
+  void* pixels = deep ? static_cast<void*>(stbi_load_16_from_memory(bytes, size, &w, &h, &n, 0))
+                      : static_cast<void*>(stbi_load_from_memory(bytes, size, &w, &h, &n, 0));
+  if (!pixels) {
+    const char* reason = stbi_failure_reason();
+    throw Error(located(where, std::string("cannot decode image: ") + (reason ? reason : "damaged data")));
+  }
+  cv::Mat out;
+  {
+    const cv::Mat view(h, w, CV_MAKETYPE(deep ? CV_16U : CV_8U, n), pixels);
+    if (n == 3)
+      cv::cvtColor(view, out, cv::COLOR_RGB2BGR);
+    else if (n == 4)
+      cv::cvtColor(view, out, cv::COLOR_RGBA2BGRA);
+    else
+      out = view.clone();
+  }
+  stbi_image_free(pixels);
+  return out;
+}
+
+// A TIFF file held in memory, for TIFFClientOpen.
+struct TiffSource {
+  const unsigned char* data;
+  toff_t size, at = 0;
+  std::string error;  // the first error libtiff reported
+};
+
+tmsize_t tiffRead(thandle_t handle, void* out, tmsize_t n) {
+  auto* s = static_cast<TiffSource*>(handle);
+  const toff_t count = std::min<toff_t>(toff_t(std::max<tmsize_t>(n, 0)), s->size - std::min(s->at, s->size));
+  std::memcpy(out, s->data + s->at, count);
+  s->at += count;
+  return tmsize_t(count);
+}
+tmsize_t tiffWrite(thandle_t, void*, tmsize_t) {
+  return -1;
+}
+toff_t tiffSeek(thandle_t handle, toff_t offset, int whence) {
+  auto* s = static_cast<TiffSource*>(handle);
+  const toff_t base = whence == SEEK_CUR ? s->at : whence == SEEK_END ? s->size : 0;
+  s->at = base + offset;
+  return s->at;
+}
+int tiffClose(thandle_t) {
+  return 0;
+}
+toff_t tiffSize(thandle_t handle) {
+  return static_cast<TiffSource*>(handle)->size;
+}
+int tiffError(TIFF*, void* user, const char* module, const char* format, va_list args) {
+  auto* s = static_cast<TiffSource*>(user);
+  if (s->error.empty()) {
+    char text[512];
+    std::vsnprintf(text, sizeof text, format, args);
+    s->error = text;
+  }
+  return 1;
+}
+int tiffWarning(TIFF*, void*, const char*, const char*, va_list) {
+  return 1;  // silent: warnings (unknown tags...) do not stop decoding
+}
+
+struct TiffCloser {
+  void operator()(TIFF* t) const { TIFFClose(t); }
+};
+
+cv::Mat decodeTiff(const unsigned char* bytes, size_t size, const std::string& where) {
+  TiffSource source{bytes, toff_t(size), 0, ""};
+  TIFFOpenOptions* options = TIFFOpenOptionsAlloc();
+  TIFFOpenOptionsSetErrorHandlerExtR(options, tiffError, &source);
+  TIFFOpenOptionsSetWarningHandlerExtR(options, tiffWarning, &source);
+  std::unique_ptr<TIFF, TiffCloser> tif(TIFFClientOpenExt(where.c_str(), "rm", &source, tiffRead, tiffWrite, tiffSeek,
+                                                          tiffClose, tiffSize, nullptr, nullptr, options));
+  TIFFOpenOptionsFree(options);
+  const auto fail = [&](const std::string& why) {
+    return Error(located(where, "cannot decode TIFF image: " + (source.error.empty() ? why : source.error)));
+  };
+  if (!tif) throw fail("damaged header");
+  uint32_t w = 0, h = 0;
+  uint16_t samples = 1, bits = 1, format = SAMPLEFORMAT_UINT, planar = PLANARCONFIG_CONTIG, photometric = 0;
+  TIFFGetField(tif.get(), TIFFTAG_IMAGEWIDTH, &w);
+  TIFFGetField(tif.get(), TIFFTAG_IMAGELENGTH, &h);
+  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_SAMPLESPERPIXEL, &samples);
+  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_BITSPERSAMPLE, &bits);
+  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_SAMPLEFORMAT, &format);
+  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_PLANARCONFIG, &planar);
+  if (!TIFFGetField(tif.get(), TIFFTAG_PHOTOMETRIC, &photometric)) photometric = samples >= 3 ? 2 : 1;
+  if (w == 0 || h == 0) throw fail("no pixels");
+  if (photometric == PHOTOMETRIC_LOGLUV) {  // high dynamic range (OpenCV writes float RGB so): XYZ floats
+    TIFFSetField(tif.get(), TIFFTAG_SGILOGDATAFMT, SGILOGDATAFMT_FLOAT);
+    bits = 32, format = SAMPLEFORMAT_IEEEFP;
+  }
+  const bool logLuv = photometric == PHOTOMETRIC_LOGLUV && samples == 3;
+  const bool grey = photometric == PHOTOMETRIC_MINISBLACK && samples <= 2;
+  const bool rgb = photometric == PHOTOMETRIC_RGB && (samples == 3 || samples == 4);
+  const int depth = bits == 8 && format == SAMPLEFORMAT_UINT      ? CV_8U
+                    : bits == 16 && format == SAMPLEFORMAT_UINT   ? CV_16U
+                    : bits == 32 && format == SAMPLEFORMAT_IEEEFP ? CV_32F
+                                                                  : -1;
+  cv::Mat raw;
+  if ((grey || rgb || logLuv) && depth >= 0 && planar == PLANARCONFIG_CONTIG) {
+    // The samples as stored, read strip by strip or tile by tile (any compression libtiff decodes).
+    raw.create(int(h), int(w), CV_MAKETYPE(depth, samples));
+    if (TIFFIsTiled(tif.get())) {
+      uint32_t tw = 0, th = 0;
+      TIFFGetField(tif.get(), TIFFTAG_TILEWIDTH, &tw);
+      TIFFGetField(tif.get(), TIFFTAG_TILELENGTH, &th);
+      if (tw == 0 || th == 0) throw fail("tiles of no size");
+      cv::Mat tile(int(th), int(tw), raw.type());
+      for (uint32_t y = 0; y < h; y += th)
+        for (uint32_t x = 0; x < w; x += tw) {
+          if (TIFFReadTile(tif.get(), tile.data, x, y, 0, 0) < 0) throw fail("damaged tile");
+          const cv::Rect r(int(x), int(y), int(std::min(tw, w - x)), int(std::min(th, h - y)));
+          tile(cv::Rect(0, 0, r.width, r.height)).copyTo(raw(r));
+        }
+    } else {
+      for (uint32_t y = 0; y < h; ++y)
+        if (TIFFReadScanline(tif.get(), raw.ptr(int(y)), y, 0) < 0) throw fail("damaged row " + std::to_string(y));
+    }
+    if (logLuv)
+      cv::cvtColor(raw, raw, cv::COLOR_XYZ2BGR);
+    else if (samples == 3)
+      cv::cvtColor(raw, raw, cv::COLOR_RGB2BGR);
+    if (samples == 4) cv::cvtColor(raw, raw, cv::COLOR_RGBA2BGRA);
+    return raw;
+  }
+  if (bits > 8 || format == SAMPLEFORMAT_IEEEFP)
+    throw fail(std::to_string(bits) + "-bit samples in a layout that is not read (photometric " +
+               std::to_string(photometric) + ", " + std::to_string(samples) + " samples, planar " +
+               std::to_string(planar) + "); save it as 8-bit, or as contiguous grey or RGB");
+  // Anything else of up to 8 bits (palette, bilevel, CMYK, YCbCr, separate planes): libtiff's RGBA.
+  raw.create(int(h), int(w), CV_8UC4);
+  if (!TIFFReadRGBAImageOriented(tif.get(), w, h, reinterpret_cast<uint32_t*>(raw.data), ORIENTATION_TOPLEFT, 0))
+    throw fail("unsupported layout");
+  uint16_t extra = 0, *kinds = nullptr;
+  TIFFGetFieldDefaulted(tif.get(), TIFFTAG_EXTRASAMPLES, &extra, &kinds);
+  cv::cvtColor(raw, raw, extra > 0 ? cv::COLOR_RGBA2BGRA : cv::COLOR_RGBA2BGR);
+  return raw;
+}
+
+// ---- Encoding ----
+
+struct PngSink {
+  std::vector<unsigned char>* bytes;
+  char error[256] = "";
+};
+
+void pngWrite(png_structp png, png_bytep data, size_t n) {
+  auto* sink = static_cast<PngSink*>(png_get_io_ptr(png));
+  sink->bytes->insert(sink->bytes->end(), data, data + n);
+}
+void pngFlush(png_structp) {}
+[[noreturn]] void pngFail(png_structp png, png_const_charp message) {
+  auto* sink = static_cast<PngSink*>(png_get_error_ptr(png));
+  std::snprintf(sink->error, sizeof sink->error, "%s", message);
+  png_longjmp(png, 1);
+}
+void pngWarn(png_structp, png_const_charp) {}
+
+// libpng reports errors by longjmp: no C++ object is made between setjmp and the end of the function.
+bool writePngRows(PngSink& sink, png_bytepp rows, int width, int height, int channels, int bits, int level, bool bgr) {
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &sink, pngFail, pngWarn);
+  if (!png) return false;
+  png_infop info = png_create_info_struct(png);
+  if (!info || setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    return false;
+  }
+  png_set_write_fn(png, &sink, pngWrite, pngFlush);
+  png_set_compression_level(png, level);
+  if (level <= 1) png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
+  if (level <= 3) png_set_compression_strategy(png, 3 /* Z_RLE */);
+  const int type = channels == 1   ? PNG_COLOR_TYPE_GRAY
+                   : channels == 2 ? PNG_COLOR_TYPE_GRAY_ALPHA
+                   : channels == 3 ? PNG_COLOR_TYPE_RGB
+                                   : PNG_COLOR_TYPE_RGBA;
+  png_set_IHDR(png, info, png_uint_32(width), png_uint_32(height), bits, type, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  if (bgr && channels >= 3) png_set_bgr(png);
+  if (bits == 16) png_set_swap(png);  // native little-endian samples; PNG stores them big-endian
+  png_write_image(png, rows);
+  png_write_end(png, info);
+  png_destroy_write_struct(&png, &info);
+  return true;
+}
+
+}  // namespace
+
+void checkImageHeader(const ImageHeader& header, const std::string& where) {
+  TM_CHECK(header.format != ImageFormat::Unknown,
+           located(where, "not a PNG, JPEG, TIFF or BMP image (unknown file signature)"));
+  if (header.size) checkSize(*header.size, where);
+}
+
+cv::Mat decodeImage(const unsigned char* bytes, size_t size, const std::string& where) {
+  const ImageHeader header = readImageHeader(bytes, size);
+  checkImageHeader(header, where);
+  TM_CHECK(size <= size_t(INT32_MAX), located(where, "image data is larger than 2 GB"));
+  const bool tiff = header.format == ImageFormat::TiffLittle || header.format == ImageFormat::TiffBig;
+  cv::Mat image = tiff ? decodeTiff(bytes, size, where) : decodeStb(bytes, int(size), where);
+  checkSize(image.size(), where);
+  return image;
+}
+
+std::vector<unsigned char> encodePng(const cv::Mat& image, const std::string& where, int level, bool bgr) {
+  const int channels = image.channels(), bits = image.depth() == CV_8U ? 8 : image.depth() == CV_16U ? 16 : 0;
+  TM_CHECK(bits > 0 && channels >= 1 && channels <= 4 && !image.empty(),
+           located(where, "cannot encode PNG: expected an 8- or 16-bit image with 1 to 4 channels"));
+  std::vector<png_bytep> rows(image.rows);
+  for (int y = 0; y < image.rows; ++y) rows[y] = const_cast<png_bytep>(image.ptr(y));
+  std::vector<unsigned char> bytes;
+  bytes.reserve(size_t(image.total() * image.elemSize() / 4));
+  PngSink sink{&bytes};
+  TM_CHECK(writePngRows(sink, rows.data(), image.cols, image.rows, channels, bits, std::clamp(level, 0, 9), bgr),
+           located(where, std::string("cannot encode PNG: ") + (*sink.error ? sink.error : "out of memory")));
+  return bytes;
+}
+
+void writePng(const std::string& path, const cv::Mat& image, int level, bool bgr) {
+  const std::vector<unsigned char> bytes = encodePng(image, path, level, bgr);
+  writeFileAtomic(path, std::string(bytes.begin(), bytes.end()));
+}
+
+}  // namespace montage

@@ -1,0 +1,52 @@
+// Image files: PNG, JPEG, BMP and TIFF read, PNG written. Decoding is stb_image's (PNG, JPEG, BMP) and
+// libtiff's (TIFF); encoding is libpng's. OpenCV's imgcodecs is not used: it loads some 140 shared
+// libraries (GDAL and its dependencies) into every process, 0.1 s of CPU before main.
+#pragma once
+
+#include <istream>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace montage {
+
+enum class ImageFormat { Unknown, Png, Jpeg, Bmp, TiffLittle, TiffBig };
+
+// The format (from the file signature) and, when the header can be read, the size of an image, without
+// decoding it. Only PNG, JPEG, BMP and TIFF are recognised.
+struct ImageHeader {
+  ImageFormat format = ImageFormat::Unknown;
+  std::optional<cv::Size> size;
+};
+ImageHeader readImageHeader(std::istream& in);
+ImageHeader readImageHeader(const unsigned char* bytes, size_t size);
+
+// Images larger than this a side are refused (before decoding when the header gives the size).
+constexpr int kMaxImageSide = 16384;
+// Throws montage::Error located at `where` when the signature is unknown or the header's size is empty
+// or above kMaxImageSide.
+void checkImageHeader(const ImageHeader& header, const std::string& where);
+
+// Decodes a PNG, JPEG, BMP or TIFF image held in memory, as stored: depth CV_8U, CV_16U (16-bit PNG and
+// TIFF) or CV_32F (float TIFF); 1 channel (grey), 2 (grey, alpha), 3 (B,G,R) or 4 (B,G,R,A), row 0 at the
+// top. Throws montage::Error located at `where` (a file name, or "x.glb: image 2") naming the reason:
+// unknown signature, empty or above kMaxImageSide, damaged data, or a layout the decoders do not read
+// (e.g. 12-bit JPEG).
+cv::Mat decodeImage(const unsigned char* bytes, size_t size, const std::string& where);
+
+// The compression of encodePng: zlib level 0..9. Levels 0 and 1 use the SUB row filter and run-length
+// matching (fastest; for layers, masks and screenshots), 2 and 3 libpng's adaptive row filters and
+// run-length matching, higher levels adaptive filters and full matching (smaller, slower).
+constexpr int kPngFast = 1;
+constexpr int kPngDefault = 6;
+
+// PNG of an 8- or 16-bit image with 1 (grey), 2 (grey, alpha), 3 or 4 channels (B,G,R(,A) when `bgr`,
+// else R,G,B(,A)).
+// Throws montage::Error located at `where` for other depths or channel counts.
+std::vector<unsigned char> encodePng(const cv::Mat& image, const std::string& where, int level = kPngFast,
+                                     bool bgr = true);
+// encodePng written atomically to `path` (writeFileAtomic).
+void writePng(const std::string& path, const cv::Mat& image, int level = kPngFast, bool bgr = true);
+
+}  // namespace montage

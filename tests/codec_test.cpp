@@ -1,0 +1,215 @@
+// Tests of core/image/codec: our decoders (stb_image, libtiff) and PNG encoder (libpng) checked against
+// OpenCV's imgcodecs, an independent implementation, on every layout photos come in; and the errors.
+#include "image/codec.h"
+
+#include <tiffio.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "base/fileio.h"
+#include "test_support.h"
+
+using namespace montage;
+using montage::test::errorOf;
+
+namespace {
+
+// A smooth image with noise (photos are neither flat nor pure noise), `channels` channels at `depth`.
+cv::Mat testImage(int rows, int cols, int depth, int channels, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> noise(-0.05, 0.05);
+  cv::Mat f(rows, cols, CV_32FC(channels));
+  for (int y = 0; y < rows; ++y)
+    for (int x = 0; x < cols; ++x)
+      for (int c = 0; c < channels; ++c)
+        f.ptr<float>(y)[x * channels + c] =
+            float(std::clamp(0.5 + 0.4 * std::sin(0.07 * x * (c + 1) + 0.05 * y) + noise(rng), 0.0, 1.0));
+  cv::Mat out;
+  f.convertTo(out, CV_MAKETYPE(depth, channels), depth == CV_8U ? 255.0 : depth == CV_16U ? 65535.0 : 1.0);
+  return out;
+}
+
+cv::Mat ours(const std::vector<unsigned char>& bytes, const std::string& where = "test image") {
+  return decodeImage(bytes.data(), bytes.size(), where);
+}
+
+std::vector<unsigned char> cvEncode(const std::string& ext, const cv::Mat& image, const std::vector<int>& params = {}) {
+  std::vector<unsigned char> bytes;
+  if (!cv::imencode(ext, image, bytes, params)) throw std::runtime_error("cv::imencode failed for " + ext);
+  return bytes;
+}
+
+double maxDifference(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return 1e30;
+  return cv::norm(a, b, cv::NORM_INF);
+}
+
+// A TIFF written with libtiff directly: the layouts OpenCV does not write (tiles, palette).
+std::vector<unsigned char> libtiffFile(const std::string& path, const cv::Mat& rgb8, bool tiled, bool palette) {
+  TIFF* t = TIFFOpen(path.c_str(), "w");
+  if (!t) throw std::runtime_error("cannot write " + path);
+  const uint32_t w = uint32_t(rgb8.cols), h = uint32_t(rgb8.rows);
+  TIFFSetField(t, TIFFTAG_IMAGEWIDTH, w);
+  TIFFSetField(t, TIFFTAG_IMAGELENGTH, h);
+  TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, 8);
+  TIFFSetField(t, TIFFTAG_SAMPLESPERPIXEL, palette ? 1 : 3);
+  TIFFSetField(t, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+  TIFFSetField(t, TIFFTAG_COMPRESSION, COMPRESSION_LZW);
+  TIFFSetField(t, TIFFTAG_PHOTOMETRIC, palette ? PHOTOMETRIC_PALETTE : PHOTOMETRIC_RGB);
+  cv::Mat samples = rgb8;
+  if (palette) {  // 256 entries: index i is grey i; the samples are the red channel
+    std::vector<uint16_t> map(256);
+    for (int i = 0; i < 256; ++i) map[i] = uint16_t(i * 257);
+    TIFFSetField(t, TIFFTAG_COLORMAP, map.data(), map.data(), map.data());
+    cv::extractChannel(rgb8, samples, 0);
+  }
+  if (tiled) {
+    TIFFSetField(t, TIFFTAG_TILEWIDTH, 16);
+    TIFFSetField(t, TIFFTAG_TILELENGTH, 16);
+    cv::Mat tile(16, 16, samples.type());
+    for (uint32_t y = 0; y < h; y += 16)
+      for (uint32_t x = 0; x < w; x += 16) {
+        tile.setTo(0);
+        const cv::Rect r(int(x), int(y), int(std::min<uint32_t>(16, w - x)), int(std::min<uint32_t>(16, h - y)));
+        samples(r).copyTo(tile(cv::Rect(0, 0, r.width, r.height)));
+        TIFFWriteTile(t, tile.data, x, y, 0, 0);
+      }
+  } else {
+    TIFFSetField(t, TIFFTAG_ROWSPERSTRIP, 8);
+    for (uint32_t y = 0; y < h; ++y) TIFFWriteScanline(t, samples.ptr(int(y)), y, 0);
+  }
+  TIFFClose(t);
+  const std::string bytes = readFileBytes(path, "test TIFF");
+  return std::vector<unsigned char>(bytes.begin(), bytes.end());
+}
+
+}  // namespace
+
+// Our PNGs decode to the pixels encoded, with OpenCV's decoder (libpng) and with ours, for every depth,
+// channel count, order and level.
+TEST(Codec, PngRoundTripsEveryLayoutThroughBothDecoders) {
+  for (int depth : {CV_8U, CV_16U})
+    for (int channels : {1, 2, 3, 4})
+      for (int level : {0, kPngFast, kPngDefault, 9}) {
+        const cv::Mat image = testImage(37, 53, depth, channels, unsigned(depth * 10 + channels));
+        const std::string what = "depth " + std::to_string(depth) + ", " + std::to_string(channels) +
+                                 " channels, level " + std::to_string(level);
+        const std::vector<unsigned char> bytes = encodePng(image, "x.png", level);
+        if (channels != 2)  // OpenCV reads grey + alpha as B,G,R,A (see below)
+          EXPECT_EQ(maxDifference(cv::imdecode(bytes, cv::IMREAD_UNCHANGED), image), 0) << what;
+        EXPECT_EQ(maxDifference(ours(bytes), image), 0) << what;
+        if (channels >= 3) {  // R,G,B order: the file holds the channels swapped
+          cv::Mat swapped;
+          cv::cvtColor(image, swapped, channels == 3 ? cv::COLOR_BGR2RGB : cv::COLOR_BGRA2RGBA);
+          EXPECT_EQ(maxDifference(ours(encodePng(image, "x.png", level, false)), swapped), 0) << what;
+        }
+      }
+  // Higher levels compress more (a smooth image).
+  const cv::Mat image = testImage(256, 256, CV_8U, 3, 7);
+  EXPECT_LT(encodePng(image, "x.png", kPngDefault).size(), encodePng(image, "x.png", 0).size());
+}
+
+// PNG, BMP and TIFF are lossless: our decoders give OpenCV's pixels exactly, for the layouts OpenCV
+// writes (PNG grey, grey + alpha, 16-bit; TIFF 8-bit, 16-bit, float, alpha, LogLuv; BMP grey and colour).
+// Grey BMPs (a grey palette) come as B,G,R with the grey thrice.
+TEST(Codec, LosslessFormatsDecodeAsOpenCvDecodesThem) {
+  struct Case {
+    std::string ext;
+    int depth, channels;
+  };
+  const std::vector<Case> cases = {
+      {".png", CV_8U, 1},   {".png", CV_8U, 3},   {".png", CV_8U, 4},   {".png", CV_16U, 3},  {".png", CV_16U, 4},
+      {".bmp", CV_8U, 1},   {".bmp", CV_8U, 3},   {".tiff", CV_8U, 1},  {".tiff", CV_8U, 3},  {".tiff", CV_8U, 4},
+      {".tiff", CV_16U, 1}, {".tiff", CV_16U, 3}, {".tiff", CV_16U, 4}, {".tiff", CV_32F, 1}, {".tiff", CV_32F, 3}};
+  for (const Case& c : cases) {
+    const std::string what = c.ext + " depth " + std::to_string(c.depth) + ", " + std::to_string(c.channels) + " ch";
+    const cv::Mat image = testImage(41, 67, c.depth, c.channels, unsigned(c.channels + 3 * c.depth));
+    const std::vector<unsigned char> bytes = cvEncode(c.ext, image);
+    const cv::Mat reference = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(reference.empty()) << what;
+    cv::Mat decoded = ours(bytes);
+    if (c.ext == ".bmp" && c.channels == 1) {
+      ASSERT_EQ(decoded.channels(), 3) << what;
+      cv::Mat grey;
+      cv::extractChannel(decoded, grey, 0);
+      cv::Mat bgr;
+      cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
+      EXPECT_EQ(maxDifference(decoded, bgr), 0) << what;
+      decoded = grey;
+    }
+    EXPECT_EQ(decoded.type(), reference.type()) << what;
+    EXPECT_EQ(maxDifference(decoded, reference), 0) << what;
+  }
+  // Grey + alpha PNG: ours keeps two channels; OpenCV reads it as B,G,R,A with the grey thrice.
+  const cv::Mat ga = testImage(20, 30, CV_8U, 2, 5);
+  const std::vector<unsigned char> bytes = encodePng(ga, "ga.png");
+  EXPECT_EQ(maxDifference(ours(bytes), ga), 0);
+  std::vector<cv::Mat> ch;
+  cv::split(ga, ch);
+  cv::Mat bgra;
+  cv::merge(std::vector<cv::Mat>{ch[0], ch[0], ch[0], ch[1]}, bgra);
+  EXPECT_EQ(maxDifference(cv::imdecode(bytes, cv::IMREAD_UNCHANGED), bgra), 0);
+}
+
+// JPEG is lossy and decoders differ in rounding (IDCT, chroma upsampling): ours stays within a few levels
+// of libjpeg's, baseline and progressive, grey and colour.
+TEST(Codec, JpegDecodesWithinAFewLevelsOfLibjpeg) {
+  for (int channels : {1, 3})
+    for (bool progressive : {false, true}) {
+      const cv::Mat image = testImage(120, 160, CV_8U, channels, 11u + unsigned(channels));
+      const std::vector<unsigned char> bytes =
+          cvEncode(".jpg", image, {cv::IMWRITE_JPEG_QUALITY, 90, cv::IMWRITE_JPEG_PROGRESSIVE, progressive ? 1 : 0});
+      const cv::Mat reference = cv::imdecode(bytes, cv::IMREAD_UNCHANGED), decoded = ours(bytes);
+      ASSERT_EQ(decoded.type(), reference.type());
+      cv::Mat diff;
+      cv::absdiff(decoded, reference, diff);
+      const double meanDiff = cv::mean(diff)[0];
+      EXPECT_LE(cv::norm(diff, cv::NORM_INF), 8) << channels << " channels, progressive " << progressive;
+      EXPECT_LT(meanDiff, 1.0) << channels << " channels, progressive " << progressive;
+    }
+}
+
+// Tiled and palette TIFFs (written with libtiff: OpenCV writes neither) decode to their pixels.
+TEST(Codec, TiledAndPaletteTiffsDecode) {
+  const std::string dir = test::tempDir("codec_tiff");
+  const cv::Mat rgb = testImage(45, 70, CV_8U, 3, 21);  // not a multiple of the 16-pixel tiles
+  cv::Mat bgr;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  EXPECT_EQ(maxDifference(ours(libtiffFile(dir + "/tiled.tif", rgb, true, false)), bgr), 0);
+  EXPECT_EQ(maxDifference(ours(libtiffFile(dir + "/strips.tif", rgb, false, false)), bgr), 0);
+  cv::Mat red, grey3;
+  cv::extractChannel(rgb, red, 0);
+  cv::cvtColor(red, grey3, cv::COLOR_GRAY2BGR);
+  for (bool tiled : {false, true})
+    EXPECT_EQ(maxDifference(ours(libtiffFile(dir + "/palette.tif", rgb, tiled, true)), grey3), 0) << tiled;
+}
+
+// Bad data: an error that names the image and the reason, never a crash.
+TEST(Codec, DamagedOrUnknownDataGivesAnErrorNamingTheImage) {
+  const cv::Mat image = testImage(64, 64, CV_8U, 3, 3);
+  const std::vector<unsigned char> png = encodePng(image, "x.png");
+  const std::vector<unsigned char> tiff = cvEncode(".tiff", image), jpeg = cvEncode(".jpg", image);
+  const auto truncated = [](std::vector<unsigned char> v) {
+    v.resize(v.size() / 3);
+    return v;
+  };
+  for (const auto& [name, bytes] : std::vector<std::pair<std::string, std::vector<unsigned char>>>{
+           {"cut.png", truncated(png)}, {"cut.tif", truncated(tiff)}, {"cut.jpg", truncated(jpeg)}}) {
+    const std::string message = errorOf([&] { ours(bytes, name); });
+    EXPECT_NE(message.find(name), std::string::npos) << message;
+    EXPECT_NE(message.find("cannot decode"), std::string::npos) << message;
+  }
+  const std::vector<unsigned char> text = {'h', 'e', 'l', 'l', 'o', ' ', 'w', 'o', 'r', 'l', 'd'};
+  EXPECT_NE(errorOf([&] { ours(text, "notes.png"); }).find("notes.png: not a PNG, JPEG, TIFF or BMP image"),
+            std::string::npos);
+  // A header claiming 20000 pixels a side is refused before decoding.
+  std::vector<unsigned char> big = png;
+  big[16] = 0, big[17] = 0, big[18] = 0x4E, big[19] = 0x20;  // IHDR width = 20000
+  const std::string message = errorOf([&] { ours(big, "big.png"); });
+  EXPECT_NE(message.find("at most 16384 pixels a side"), std::string::npos) << message;
+  // The encoder refuses what PNG cannot hold.
+  EXPECT_NE(errorOf([&] { encodePng(cv::Mat(4, 4, CV_32FC3), "f.png"); }).find("f.png: cannot encode PNG"),
+            std::string::npos);
+}

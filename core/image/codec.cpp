@@ -1,11 +1,15 @@
 #include "image/codec.h"
 
+#include <jerror.h>
+#include <jpeglib.h>  // after <cstdio>: it needs FILE
 #include <png.h>
 #include <stb_image.h>
 #include <tiffio.h>
 
 #include <algorithm>
+#include <csetjmp>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <opencv2/imgproc.hpp>
 #include <streambuf>
@@ -199,19 +203,184 @@ void checkSize(cv::Size size, const std::string& where) {
                               " pixels; at most " + std::to_string(kMaxImageSide) + " pixels a side are supported"));
 }
 
-// stb_image's pixels (R,G,B(,A) or grey(, alpha), 8 or 16 bits) as an OpenCV image in B,G,R(,A) order.
-cv::Mat decodeStb(const unsigned char* bytes, int size, const std::string& where) {
+// libpng and libjpeg report errors by longjmp: the functions that call them set the jump target and make
+// no C++ object, so that a jump skips no destructor. Each decoder reads the header in one such function,
+// the caller allocates the image, and a second one decodes into it.
+
+// ---- PNG (libpng) ----
+
+constexpr int kPngErrorSize = 256;
+
+[[noreturn]] void pngFail(png_structp png, png_const_charp message) {
+  std::snprintf(static_cast<char*>(png_get_error_ptr(png)), kPngErrorSize, "%s", message);
+  png_longjmp(png, 1);
+}
+void pngWarn(png_structp, png_const_charp) {}
+
+struct PngSource {
+  const unsigned char* data;
+  size_t size, at;
+  char error[kPngErrorSize];
+};
+
+void pngRead(png_structp png, png_bytep out, size_t n) {
+  auto* s = static_cast<PngSource*>(png_get_io_ptr(png));
+  if (n > s->size - s->at) png_error(png, "the data ends early (truncated file)");
+  std::memcpy(out, s->data + s->at, n);
+  s->at += n;
+}
+
+struct PngReader {
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  int width = 0, height = 0, channels = 0, bits = 0;
+  ~PngReader() {
+    if (png) png_destroy_read_struct(&png, &info, nullptr);
+  }
+};
+
+// The header, with the transforms that give the samples as stored: palettes and depths below 8 bits
+// expanded, transparency (tRNS) as an alpha channel, colour in B,G,R order, 16-bit samples in native order.
+bool pngHeader(PngReader& r, PngSource& source) {
+  r.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, source.error, pngFail, pngWarn);
+  if (!r.png) return false;
+  r.info = png_create_info_struct(r.png);
+  if (!r.info || setjmp(png_jmpbuf(r.png))) return false;
+  png_set_read_fn(r.png, &source, pngRead);
+  png_set_user_limits(r.png, kMaxImageSide, kMaxImageSide);
+  png_read_info(r.png, r.info);
+  png_set_expand(r.png);
+  if (png_get_bit_depth(r.png, r.info) == 16) png_set_swap(r.png);
+  png_set_bgr(r.png);
+  png_set_interlace_handling(r.png);
+  png_read_update_info(r.png, r.info);
+  r.width = int(png_get_image_width(r.png, r.info));
+  r.height = int(png_get_image_height(r.png, r.info));
+  r.channels = png_get_channels(r.png, r.info);
+  r.bits = png_get_bit_depth(r.png, r.info);
+  return true;
+}
+
+bool pngPixels(PngReader& r, png_bytepp rows) {
+  if (setjmp(png_jmpbuf(r.png))) return false;
+  png_read_image(r.png, rows);
+  return true;
+}
+
+cv::Mat decodePng(const unsigned char* bytes, size_t size, const std::string& where) {
+  PngSource source{bytes, size, 0, ""};
+  PngReader reader;
+  const auto fail = [&] {
+    return Error(
+        located(where, std::string("cannot decode PNG image: ") + (*source.error ? source.error : "out of memory")));
+  };
+  if (!pngHeader(reader, source)) throw fail();
+  if ((reader.bits != 8 && reader.bits != 16) || reader.channels < 1 || reader.channels > 4)
+    throw Error(located(where, "cannot decode PNG image: unexpected layout"));
+  checkSize(cv::Size(reader.width, reader.height), where);
+  cv::Mat out(reader.height, reader.width, CV_MAKETYPE(reader.bits == 16 ? CV_16U : CV_8U, reader.channels));
+  std::vector<png_bytep> rows(reader.height);
+  for (int y = 0; y < reader.height; ++y) rows[y] = out.ptr(y);
+  if (!pngPixels(reader, rows.data())) throw fail();
+  return out;
+}
+
+// ---- JPEG (libjpeg) ----
+
+struct JpegError {
+  jpeg_error_mgr manager;
+  std::jmp_buf jump;
+  char message[JMSG_LENGTH_MAX];
+};
+
+[[noreturn]] void jpegFail(j_common_ptr info) {
+  auto* e = reinterpret_cast<JpegError*>(info->err);
+  info->err->format_message(info, e->message);
+  std::longjmp(e->jump, 1);
+}
+// Warnings (damage libjpeg recovers from) do not stop decoding, except a truncated file: libjpeg would
+// fill the missing rows with grey.
+void jpegMessage(j_common_ptr info, int level) {
+  if (level < 0 && info->err->msg_code == JWRN_JPEG_EOF) jpegFail(info);
+}
+
+struct JpegReader {
+  jpeg_decompress_struct info;
+  JpegError error;
+  bool created = false;
+  ~JpegReader() {
+    if (created) jpeg_destroy_decompress(&info);
+  }
+};
+
+// The header, decoding started: grey stays grey, colour comes as B,G,R, CMYK as stored (4 channels).
+bool jpegHeader(JpegReader& r, const unsigned char* bytes, size_t size) {
+  r.info.err = jpeg_std_error(&r.error.manager);
+  r.error.manager.error_exit = jpegFail;
+  r.error.manager.emit_message = jpegMessage;
+  r.error.message[0] = 0;
+  if (setjmp(r.error.jump)) return false;
+  jpeg_create_decompress(&r.info);
+  r.created = true;
+  jpeg_mem_src(&r.info, bytes, static_cast<unsigned long>(size));
+  jpeg_read_header(&r.info, TRUE);
+  const J_COLOR_SPACE in = r.info.jpeg_color_space;
+  r.info.out_color_space = in == JCS_GRAYSCALE                ? JCS_GRAYSCALE
+                           : in == JCS_CMYK || in == JCS_YCCK ? JCS_CMYK
+                                                              : JCS_EXT_BGR;
+  jpeg_start_decompress(&r.info);
+  return true;
+}
+
+bool jpegPixels(JpegReader& r, cv::Mat& out) {
+  if (setjmp(r.error.jump)) return false;
+  while (r.info.output_scanline < r.info.output_height) {
+    JSAMPROW row = out.ptr(int(r.info.output_scanline));
+    jpeg_read_scanlines(&r.info, &row, 1);
+  }
+  jpeg_finish_decompress(&r.info);
+  return true;
+}
+
+cv::Mat decodeJpeg(const unsigned char* bytes, size_t size, const std::string& where) {
+  JpegReader reader;
+  const auto fail = [&] {
+    return Error(located(where, std::string("cannot decode JPEG image: ") +
+                                    (*reader.error.message ? reader.error.message : "damaged data")));
+  };
+  if (!jpegHeader(reader, bytes, size)) throw fail();
+  const int w = int(reader.info.output_width), h = int(reader.info.output_height);
+  const int channels = reader.info.output_components;
+  checkSize(cv::Size(w, h), where);
+  if (channels != 1 && channels != 3 && channels != 4)
+    throw Error(located(where, "cannot decode JPEG image: " + std::to_string(channels) + " components"));
+  cv::Mat out(h, w, CV_8UC(channels));
+  if (!jpegPixels(reader, out)) throw fail();
+  if (channels < 4) return out;
+  // CMYK as Adobe stores it (inverted: 255 = no ink) to B,G,R.
+  cv::Mat bgr(h, w, CV_8UC3);
+  for (int y = 0; y < h; ++y) {
+    const uint8_t* s = out.ptr<uint8_t>(y);
+    uint8_t* d = bgr.ptr<uint8_t>(y);
+    for (int x = 0; x < w; ++x, s += 4, d += 3)
+      for (int c = 0; c < 3; ++c) d[c] = uint8_t((s[2 - c] * s[3] + 127) / 255);
+  }
+  return bgr;
+}
+
+// ---- BMP (stb_image) ----
+
+// stb_image's pixels (R,G,B(,A), or grey) as an OpenCV image in B,G,R(,A) order.
+cv::Mat decodeBmp(const unsigned char* bytes, int size, const std::string& where) {
   int w = 0, h = 0, n = 0;
-  const bool deep = stbi_is_16_bit_from_memory(bytes, size);
-  void* pixels = deep ? static_cast<void*>(stbi_load_16_from_memory(bytes, size, &w, &h, &n, 0))
-                      : static_cast<void*>(stbi_load_from_memory(bytes, size, &w, &h, &n, 0));
+  unsigned char* pixels = stbi_load_from_memory(bytes, size, &w, &h, &n, 0);
   if (!pixels) {
     const char* reason = stbi_failure_reason();
-    throw Error(located(where, std::string("cannot decode image: ") + (reason ? reason : "damaged data")));
+    throw Error(located(where, std::string("cannot decode BMP image: ") + (reason ? reason : "damaged data")));
   }
   cv::Mat out;
   {
-    const cv::Mat view(h, w, CV_MAKETYPE(deep ? CV_16U : CV_8U, n), pixels);
+    const cv::Mat view(h, w, CV_8UC(n), pixels);
     if (n == 3)
       cv::cvtColor(view, out, cv::COLOR_RGB2BGR);
     else if (n == 4)
@@ -347,7 +516,7 @@ cv::Mat decodeTiff(const unsigned char* bytes, size_t size, const std::string& w
 
 struct PngSink {
   std::vector<unsigned char>* bytes;
-  char error[256] = "";
+  char error[kPngErrorSize] = "";
 };
 
 void pngWrite(png_structp png, png_bytep data, size_t n) {
@@ -355,16 +524,9 @@ void pngWrite(png_structp png, png_bytep data, size_t n) {
   sink->bytes->insert(sink->bytes->end(), data, data + n);
 }
 void pngFlush(png_structp) {}
-[[noreturn]] void pngFail(png_structp png, png_const_charp message) {
-  auto* sink = static_cast<PngSink*>(png_get_error_ptr(png));
-  std::snprintf(sink->error, sizeof sink->error, "%s", message);
-  png_longjmp(png, 1);
-}
-void pngWarn(png_structp, png_const_charp) {}
 
-// libpng reports errors by longjmp: no C++ object is made between setjmp and the end of the function.
 bool writePngRows(PngSink& sink, png_bytepp rows, int width, int height, int channels, int bits, int level, bool bgr) {
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &sink, pngFail, pngWarn);
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, sink.error, pngFail, pngWarn);
   if (!png) return false;
   png_infop info = png_create_info_struct(png);
   if (!info || setjmp(png_jmpbuf(png))) {
@@ -402,8 +564,21 @@ cv::Mat decodeImage(const unsigned char* bytes, size_t size, const std::string& 
   const ImageHeader header = readImageHeader(bytes, size);
   checkImageHeader(header, where);
   TM_CHECK(size <= size_t(INT32_MAX), located(where, "image data is larger than 2 GB"));
-  const bool tiff = header.format == ImageFormat::TiffLittle || header.format == ImageFormat::TiffBig;
-  cv::Mat image = tiff ? decodeTiff(bytes, size, where) : decodeStb(bytes, int(size), where);
+  cv::Mat image;
+  switch (header.format) {
+    case ImageFormat::Png:
+      image = decodePng(bytes, size, where);
+      break;
+    case ImageFormat::Jpeg:
+      image = decodeJpeg(bytes, size, where);
+      break;
+    case ImageFormat::Bmp:
+      image = decodeBmp(bytes, int(size), where);
+      break;
+    default:
+      image = decodeTiff(bytes, size, where);
+      break;
+  }
   checkSize(image.size(), where);
   return image;
 }

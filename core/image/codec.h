@@ -1,6 +1,7 @@
-// Image files: PNG, JPEG, BMP and TIFF read, PNG written. Decoding is stb_image's (PNG, JPEG, BMP) and
-// libtiff's (TIFF); encoding is libpng's. OpenCV's imgcodecs is not used: it loads some 140 shared
-// libraries (GDAL and its dependencies) into every process, 0.1 s of CPU before main.
+// Image files: PNG, JPEG, BMP and TIFF read, PNG written, with libpng, libjpeg (libjpeg-turbo, the same
+// decoder and settings as OpenCV's, so the same pixels), libtiff and stb_image (BMP only). OpenCV's
+// imgcodecs is not used: it loads some 140 shared libraries (GDAL and its dependencies) into every
+// process, 0.1 s of CPU before main.
 #pragma once
 
 #include <istream>
@@ -31,8 +32,8 @@ void checkImageHeader(const ImageHeader& header, const std::string& where);
 // Decodes a PNG, JPEG, BMP or TIFF image held in memory, as stored: depth CV_8U, CV_16U (16-bit PNG and
 // TIFF) or CV_32F (float TIFF); 1 channel (grey), 2 (grey, alpha), 3 (B,G,R) or 4 (B,G,R,A), row 0 at the
 // top. Throws montage::Error located at `where` (a file name, or "x.glb: image 2") naming the reason:
-// unknown signature, empty or above kMaxImageSide, damaged data, or a layout the decoders do not read
-// (e.g. 12-bit JPEG).
+// unknown signature, empty or above kMaxImageSide, damaged or truncated data, or a layout the decoders
+// do not read (e.g. 12-bit JPEG). CMYK JPEGs come as B,G,R; grey BMPs as three equal channels.
 cv::Mat decodeImage(const unsigned char* bytes, size_t size, const std::string& where);
 
 // The compression of encodePng: zlib level 0..9. Levels 0 and 1 use the SUB row filter and run-length

@@ -241,8 +241,7 @@ std::vector<std::pair<cv::Vec4b, std::string>> useSourceLayer(TexturedModel& mod
   const fs::path path = fs::path(modelPath).parent_path() / (fs::path(modelPath).stem().string() + "_atlas_source.png");
   TM_CHECK(fs::is_regular_file(path),
            located(modelPath, "--layer needs the source layer " + path.string() + " (written by montage run)"));
-  const std::string bytes = readFileBytes(path.string(), "source layer");
-  const cv::Mat source = decodeImage(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), path.string());
+  const cv::Mat source = readImageFile(path.string());
   TM_CHECK(source.type() == CV_8UC1, located(path.string(), "the source layer is not an 8-bit grey image"));
   const cv::Mat colours = colorizeSourceLayer(source);
   for (Material& m : model.materials)

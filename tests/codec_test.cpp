@@ -279,3 +279,21 @@ TEST(Codec, MutatedFilesDecodeOrGiveAnError) {
   EXPECT_GT(refused, 0);
   std::printf("mutated files: %d decoded, %d refused with an error\n", decoded, refused);
 }
+
+// A file is decoded as it is read (never held whole): the same pixels as from memory, for every format,
+// and a cut file gives an error naming it.
+TEST(Codec, FilesDecodeAsTheirBytesDo) {
+  const std::string dir = test::tempDir("codec_files");
+  const cv::Mat image = testImage(33, 47, CV_8U, 3, 13);
+  for (const std::string ext : {".png", ".jpg", ".bmp", ".tiff"}) {
+    const std::vector<unsigned char> bytes = cvEncode(ext, image);
+    const std::string path = dir + "/a" + ext, cut = dir + "/cut" + ext;
+    writeFileAtomic(path, std::string(bytes.begin(), bytes.end()));
+    EXPECT_EQ(maxDifference(readImageFile(path), ours(bytes)), 0) << ext;
+    writeFileAtomic(cut, std::string(bytes.begin(), bytes.begin() + long(bytes.size() / 2)));
+    const std::string message = errorOf([&] { readImageFile(cut); });
+    EXPECT_NE(message.find(cut), std::string::npos) << ext << ": " << message;
+  }
+  const std::string message = errorOf([&] { readImageFile(dir + "/missing.png"); });
+  EXPECT_NE(message.find("missing.png"), std::string::npos) << message;
+}

@@ -7,10 +7,13 @@
 #include <tiffio.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <csetjmp>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <memory>
 #include <opencv2/imgproc.hpp>
 #include <streambuf>
 
@@ -207,6 +210,22 @@ void checkSize(cv::Size size, const std::string& where) {
 // no C++ object, so that a jump skips no destructor. Each decoder reads the header in one such function,
 // the caller allocates the image, and a second one decodes into it.
 
+// Encoded data: bytes in memory, or a file read as it is decoded (a photo's file is never held whole
+// beside its pixels).
+struct Encoded {
+  const unsigned char* data = nullptr;
+  size_t size = 0;
+  std::FILE* file = nullptr;  // at the start of the image; `size` is then the file's size
+
+  // Up to n bytes at `at` into out; how many were read.
+  size_t read(size_t at, void* out, size_t n) const {
+    if (at >= size) return 0;
+    n = std::min(n, size - at);
+    if (!file) return std::memcpy(out, data + at, n), n;
+    return fseeko(file, off_t(at), SEEK_SET) == 0 ? std::fread(out, 1, n, file) : 0;
+  }
+};
+
 // ---- PNG (libpng) ----
 
 constexpr int kPngErrorSize = 256;
@@ -218,15 +237,14 @@ constexpr int kPngErrorSize = 256;
 void pngWarn(png_structp, png_const_charp) {}
 
 struct PngSource {
-  const unsigned char* data;
-  size_t size, at;
+  const Encoded& in;
+  size_t at;
   char error[kPngErrorSize];
 };
 
 void pngRead(png_structp png, png_bytep out, size_t n) {
   auto* s = static_cast<PngSource*>(png_get_io_ptr(png));
-  if (n > s->size - s->at) png_error(png, "the data ends early (truncated file)");
-  std::memcpy(out, s->data + s->at, n);
+  if (s->in.read(s->at, out, n) != n) png_error(png, "the data ends early (truncated file)");
   s->at += n;
 }
 
@@ -267,8 +285,8 @@ bool pngPixels(PngReader& r, png_bytepp rows) {
   return true;
 }
 
-cv::Mat decodePng(const unsigned char* bytes, size_t size, const std::string& where) {
-  PngSource source{bytes, size, 0, ""};
+cv::Mat decodePng(const Encoded& in, const std::string& where) {
+  PngSource source{in, 0, ""};
   PngReader reader;
   const auto fail = [&] {
     return Error(
@@ -314,7 +332,7 @@ struct JpegReader {
 };
 
 // The header, decoding started: grey stays grey, colour comes as B,G,R, CMYK as stored (4 channels).
-bool jpegHeader(JpegReader& r, const unsigned char* bytes, size_t size) {
+bool jpegHeader(JpegReader& r, const Encoded& in) {
   r.info.err = jpeg_std_error(&r.error.manager);
   r.error.manager.error_exit = jpegFail;
   r.error.manager.emit_message = jpegMessage;
@@ -322,12 +340,15 @@ bool jpegHeader(JpegReader& r, const unsigned char* bytes, size_t size) {
   if (setjmp(r.error.jump)) return false;
   jpeg_create_decompress(&r.info);
   r.created = true;
-  jpeg_mem_src(&r.info, bytes, static_cast<unsigned long>(size));
+  if (in.file)
+    jpeg_stdio_src(&r.info, in.file);
+  else
+    jpeg_mem_src(&r.info, in.data, static_cast<unsigned long>(in.size));
   jpeg_read_header(&r.info, TRUE);
-  const J_COLOR_SPACE in = r.info.jpeg_color_space;
-  r.info.out_color_space = in == JCS_GRAYSCALE                ? JCS_GRAYSCALE
-                           : in == JCS_CMYK || in == JCS_YCCK ? JCS_CMYK
-                                                              : JCS_EXT_BGR;
+  const J_COLOR_SPACE space = r.info.jpeg_color_space;
+  r.info.out_color_space = space == JCS_GRAYSCALE                   ? JCS_GRAYSCALE
+                           : space == JCS_CMYK || space == JCS_YCCK ? JCS_CMYK
+                                                                    : JCS_EXT_BGR;
   jpeg_start_decompress(&r.info);
   return true;
 }
@@ -342,13 +363,13 @@ bool jpegPixels(JpegReader& r, cv::Mat& out) {
   return true;
 }
 
-cv::Mat decodeJpeg(const unsigned char* bytes, size_t size, const std::string& where) {
+cv::Mat decodeJpeg(const Encoded& in, const std::string& where) {
   JpegReader reader;
   const auto fail = [&] {
     return Error(located(where, std::string("cannot decode JPEG image: ") +
                                     (*reader.error.message ? reader.error.message : "damaged data")));
   };
-  if (!jpegHeader(reader, bytes, size)) throw fail();
+  if (!jpegHeader(reader, in)) throw fail();
   const int w = int(reader.info.output_width), h = int(reader.info.output_height);
   const int channels = reader.info.output_components;
   checkSize(cv::Size(w, h), where);
@@ -371,9 +392,23 @@ cv::Mat decodeJpeg(const unsigned char* bytes, size_t size, const std::string& w
 // ---- BMP (stb_image) ----
 
 // stb_image's pixels (R,G,B(,A), or grey) as an OpenCV image in B,G,R(,A) order.
-cv::Mat decodeBmp(const unsigned char* bytes, int size, const std::string& where) {
+cv::Mat decodeBmp(const Encoded& in, const std::string& where) {
+  // stb_image reads zeros past the end: an uncompressed BMP shorter than its rows is refused here.
+  uint8_t head[34] = {};
+  if (in.read(0, head, sizeof head) == sizeof head) {
+    const auto u16 = [&](int at) { return uint32_t(head[at]) | uint32_t(head[at + 1]) << 8; };
+    const auto u32 = [&](int at) { return u16(at) | u16(at + 2) << 16; };
+    const bool core = u32(14) == 12;  // BITMAPCOREHEADER: 16-bit sizes, no compression field
+    const int64_t w = core ? u16(18) : int32_t(u32(18)), h = core ? u16(20) : int32_t(u32(22));
+    const uint32_t bits = core ? u16(24) : u16(28), compression = core ? 0 : u32(30);
+    const uint64_t row = (uint64_t(std::abs(w)) * bits + 31) / 32 * 4;
+    if ((compression == 0 || compression == 3) && in.size < uint64_t(u32(10)) + row * uint64_t(std::abs(h)))
+      throw Error(located(where, "cannot decode BMP image: the data ends early (truncated file)"));
+  }
   int w = 0, h = 0, n = 0;
-  unsigned char* pixels = stbi_load_from_memory(bytes, size, &w, &h, &n, 0);
+  if (in.file) std::rewind(in.file);  // stb_image reads a file from where it stands
+  unsigned char* pixels = in.file ? stbi_load_from_file(in.file, &w, &h, &n, 0)
+                                  : stbi_load_from_memory(in.data, int(in.size), &w, &h, &n, 0);
   if (!pixels) {
     const char* reason = stbi_failure_reason();
     throw Error(located(where, std::string("cannot decode BMP image: ") + (reason ? reason : "damaged data")));
@@ -392,17 +427,16 @@ cv::Mat decodeBmp(const unsigned char* bytes, int size, const std::string& where
   return out;
 }
 
-// A TIFF file held in memory, for TIFFClientOpen.
+// Encoded data as libtiff's client input.
 struct TiffSource {
-  const unsigned char* data;
-  toff_t size, at = 0;
+  const Encoded& in;
+  toff_t at;
   std::string error;  // the first error libtiff reported
 };
 
 tmsize_t tiffRead(thandle_t handle, void* out, tmsize_t n) {
   auto* s = static_cast<TiffSource*>(handle);
-  const toff_t count = std::min<toff_t>(toff_t(std::max<tmsize_t>(n, 0)), s->size - std::min(s->at, s->size));
-  std::memcpy(out, s->data + s->at, count);
+  const size_t count = s->in.read(size_t(s->at), out, size_t(std::max<tmsize_t>(n, 0)));
   s->at += count;
   return tmsize_t(count);
 }
@@ -411,7 +445,7 @@ tmsize_t tiffWrite(thandle_t, void*, tmsize_t) {
 }
 toff_t tiffSeek(thandle_t handle, toff_t offset, int whence) {
   auto* s = static_cast<TiffSource*>(handle);
-  const toff_t base = whence == SEEK_CUR ? s->at : whence == SEEK_END ? s->size : 0;
+  const toff_t base = whence == SEEK_CUR ? s->at : whence == SEEK_END ? toff_t(s->in.size) : 0;
   s->at = base + offset;
   return s->at;
 }
@@ -419,7 +453,7 @@ int tiffClose(thandle_t) {
   return 0;
 }
 toff_t tiffSize(thandle_t handle) {
-  return static_cast<TiffSource*>(handle)->size;
+  return toff_t(static_cast<TiffSource*>(handle)->in.size);
 }
 int tiffError(TIFF*, void* user, const char* module, const char* format, va_list args) {
   auto* s = static_cast<TiffSource*>(user);
@@ -438,8 +472,8 @@ struct TiffCloser {
   void operator()(TIFF* t) const { TIFFClose(t); }
 };
 
-cv::Mat decodeTiff(const unsigned char* bytes, size_t size, const std::string& where) {
-  TiffSource source{bytes, toff_t(size), 0, ""};
+cv::Mat decodeTiff(const Encoded& in, const std::string& where) {
+  TiffSource source{in, 0, ""};
   TIFFOpenOptions* options = TIFFOpenOptionsAlloc();
   TIFFOpenOptionsSetErrorHandlerExtR(options, tiffError, &source);
   TIFFOpenOptionsSetWarningHandlerExtR(options, tiffWarning, &source);
@@ -560,27 +594,59 @@ void checkImageHeader(const ImageHeader& header, const std::string& where) {
   if (header.size) checkSize(*header.size, where);
 }
 
-cv::Mat decodeImage(const unsigned char* bytes, size_t size, const std::string& where) {
-  const ImageHeader header = readImageHeader(bytes, size);
-  checkImageHeader(header, where);
-  TM_CHECK(size <= size_t(INT32_MAX), located(where, "image data is larger than 2 GB"));
+namespace {
+
+cv::Mat decode(const Encoded& in, ImageFormat format, const std::string& where) {
   cv::Mat image;
-  switch (header.format) {
+  switch (format) {
     case ImageFormat::Png:
-      image = decodePng(bytes, size, where);
+      image = decodePng(in, where);
       break;
     case ImageFormat::Jpeg:
-      image = decodeJpeg(bytes, size, where);
+      image = decodeJpeg(in, where);
       break;
     case ImageFormat::Bmp:
-      image = decodeBmp(bytes, int(size), where);
+      image = decodeBmp(in, where);
       break;
     default:
-      image = decodeTiff(bytes, size, where);
+      image = decodeTiff(in, where);
       break;
   }
   checkSize(image.size(), where);
   return image;
+}
+
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+
+}  // namespace
+
+cv::Mat decodeImage(const unsigned char* bytes, size_t size, const std::string& where) {
+  const ImageHeader header = readImageHeader(bytes, size);
+  checkImageHeader(header, where);
+  TM_CHECK(size <= size_t(INT32_MAX), located(where, "image data is larger than 2 GB"));
+  Encoded in;
+  in.data = bytes, in.size = size;
+  return decode(in, header.format, where);
+}
+
+cv::Mat readImageFile(const std::string& path) {
+  requireRegularFile(path, "image file");
+  ImageHeader header;
+  {
+    std::ifstream stream(path, std::ios::binary);
+    header = readImageHeader(stream);
+  }
+  checkImageHeader(header, path);
+  const std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
+  TM_CHECK(file != nullptr, located(path, "cannot open the image file: " + std::string(std::strerror(errno))));
+  Encoded in;
+  in.file = file.get();
+  TM_CHECK(fseeko(in.file, 0, SEEK_END) == 0, located(path, "cannot read the image file"));
+  in.size = size_t(ftello(in.file));
+  std::rewind(in.file);
+  return decode(in, header.format, path);
 }
 
 std::vector<unsigned char> encodePng(const cv::Mat& image, const std::string& where, int level, bool bgr) {

@@ -35,6 +35,8 @@ void checkImageHeader(const ImageHeader& header, const std::string& where);
 // unknown signature, empty or above kMaxImageSide, damaged or truncated data, or a layout the decoders
 // do not read (e.g. 12-bit JPEG). CMYK JPEGs come as B,G,R; grey BMPs as three equal channels.
 cv::Mat decodeImage(const unsigned char* bytes, size_t size, const std::string& where);
+// decodeImage of a file, read as it is decoded (never held whole in memory); messages name the path.
+cv::Mat readImageFile(const std::string& path);
 
 // The compression of encodePng: zlib level 0..9. Levels 0 and 1 use the SUB row filter and run-length
 // matching (fastest; for layers, masks and screenshots), 2 and 3 libpng's adaptive row filters and

@@ -39,15 +39,6 @@ std::optional<cv::Size> headerSize(const std::string& path) {
   return fileHeader(path).size;
 }
 
-cv::Mat decode(const std::string& path) {
-  requireFile(path);
-  // The signature and the size are checked from the header before the file is read whole.
-  const ImageHeader header = fileHeader(path);
-  checkImageHeader(header, path);
-  const std::string bytes = readFileBytes(path, "image file");
-  return decodeImage(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), path);
-}
-
 // The depths a photo may have: 8-bit, 16-bit or float (in [0,1]).
 void requirePhotoDepth(const std::string& path, const cv::Mat& image) {
   TM_CHECK(image.depth() == CV_8U || image.depth() == CV_16U || image.depth() == CV_32F,
@@ -133,7 +124,7 @@ cv::Mat toRgb(const cv::Mat& image) {
 cv::Mat fileAlpha(const std::string& path, const std::string& maskPath, const cv::Mat& image, bool mirror = false) {
   cv::Mat alpha;
   if (!maskPath.empty()) {
-    cv::Mat mask = decode(maskPath);
+    cv::Mat mask = readImageFile(maskPath);
     if (mirror) cv::flip(mask, mask, 1);  // a mask is in its photo file's pixels
     TM_CHECK(mask.size() == image.size(),
              located(maskPath, "mask is " + sizeText(mask.size()) + " but photo " + path + " is " +
@@ -179,7 +170,7 @@ Photo loadPhoto(const std::string& path, const std::string& maskPath, const Phot
     // Memory: the decoded image is the largest buffer; colour and foreground are taken out of it at the
     // stored resolution (scaled first under a working resolution) and it is released before the
     // distance map is made.
-    cv::Mat image = decode(path);
+    cv::Mat image = readImageFile(path);
     requirePhotoDepth(path, image);
     // Mirrored before anything is derived, so every map is of the mirrored photo.
     if (options.mirror) cv::flip(image, image, 1);
@@ -216,7 +207,7 @@ PhotoStats photoStats(const std::string& path) {
   {
     cv::Mat alpha;
     {
-      cv::Mat image = decode(path);
+      cv::Mat image = readImageFile(path);
       requirePhotoDepth(path, image);
       stats.width = image.cols;
       stats.height = image.rows;
@@ -258,11 +249,11 @@ cv::Size readImageSize(const std::string& path) {
     TM_CHECK(size->width > 0 && size->height > 0, located(path, "image is empty (0 pixels)"));
     return *size;
   }
-  return decode(path).size();
+  return readImageFile(path).size();
 }
 
 cv::Mat readImageRgba8(const std::string& path) {
-  return toRgba8(decode(path), true, path);
+  return toRgba8(readImageFile(path), true, path);
 }
 
 cv::Mat decodeImageRgba8(const unsigned char* bytes, size_t size, const std::string& where) {

@@ -160,7 +160,9 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
   }
   CameraFitOptions options = cameraFitOptions(scene.project.options);
   // A step of 1e-6 moves a point by well under 0.01 px: half the LM iterations of the final's 1e-10.
-  if (start) options.silhouetteRounds = 1, options.contourReusePx = kPreviewContourPx, options.silhouetteStep = 1e-6;
+  if (start)
+    options.silhouetteRounds = 1, options.contourReusePx = kPreviewContourPx, options.silhouetteStep = 1e-6,
+    options.silhouetteSampleStride = 2;
   CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options, start);
   if (start && !fit.fits) return fitPhoto(scene, photo, silhouette, contours);  // too far from the start
   refineOnSilhouette(*scene.mesh, p, fit, options, silhouette, contours);

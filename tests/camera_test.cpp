@@ -692,6 +692,7 @@ TEST(CameraPipeline, ThePreviewStartsFromTheLastRunAndTheFinalMatchesAFreshRun) 
     for (int k = 0; k < 4; ++k) {
       const double gap = projectionGap(*d.mesh, preview.cameras->fits[k].camera, fresh.cameras->fits[k].camera);
       EXPECT_LT(gap, 0.5) << "photo " << k;
+      if (changed.count(k)) std::printf("photo %d: the warm camera is %.3f px from the fit from scratch\n", k, gap);
       if (changed.count(k))
         EXPECT_GT(gap, 0) << "photo " << k << " was refitted from scratch";
       else

@@ -647,15 +647,20 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
     std::vector<cv::Point3d> c3;
     std::vector<double> w;
     double sum = 0;
-    for (const Vec3& x : contour) {
+    int n = 0;
+    const int stride = std::max(1, o.silhouetteSampleStride);
+    for (size_t i = 0; i < contour.size(); ++i) {
+      const Vec3& x = contour[i];
       Vec2 px;
       if (!refined.camera.project(x, px)) continue;
       const double d = std::abs(distance.at(px));
-      sum += d;
+      sum += d, ++n;
+      if (i % stride) continue;
       c3.emplace_back(x.x(), x.y(), x.z());
-      w.push_back(weight * (d <= o.silhouetteHuberPx ? 1.0 : o.silhouetteHuberPx / d));
+      // Each sample stands for `stride` of the contour's: the silhouette weighs as much against the clicks.
+      w.push_back(stride * weight * (d <= o.silhouetteHuberPx ? 1.0 : o.silhouetteHuberPx / d));
     }
-    if (round == 0) before = c3.empty() ? kInf : sum / c3.size();
+    if (round == 0) before = n == 0 ? kInf : sum / n;
     auto callback = cv::makePtr<SilhouetteFit>(clicks3, clicks2, c3, w, distance, fit.camera.pinhole.cx,
                                                fit.camera.pinhole.cy, radial);
     cv::Mat x = callback->pack(p);

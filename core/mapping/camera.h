@@ -80,6 +80,7 @@ struct CameraFitOptions {
   int silhouetteRounds = 4;               // LM rounds, each on the contour re-extracted from the last camera
   double silhouetteStep = 1e-10;          // a round's LM stops when its step is below this (the parameters:
                                           // rotation in radians, translation in mesh units, focal in pixels)
+  int silhouetteSampleStride = 1;         // the LM takes every n-th contour sample (the preview tier: 2)
   double contourReusePx = 0;              // > 0 (the preview tier): a ContourMemo's contour serves a camera within
                                           // this many pixels of the one it was extracted through
 };

@@ -216,13 +216,17 @@ struct Encoded {
   const unsigned char* data = nullptr;
   size_t size = 0;
   std::FILE* file = nullptr;  // at the start of the image; `size` is then the file's size
+  mutable size_t filePos = 0;
 
-  // Up to n bytes at `at` into out; how many were read.
+  // Up to n bytes at `at` into out; how many were read. Reads in sequence do not seek.
   size_t read(size_t at, void* out, size_t n) const {
     if (at >= size) return 0;
     n = std::min(n, size - at);
     if (!file) return std::memcpy(out, data + at, n), n;
-    return fseeko(file, off_t(at), SEEK_SET) == 0 ? std::fread(out, 1, n, file) : 0;
+    if (at != filePos && fseeko(file, off_t(at), SEEK_SET) != 0) return 0;
+    const size_t got = std::fread(out, 1, n, file);
+    filePos = at + got;
+    return got;
   }
 };
 
@@ -406,7 +410,7 @@ cv::Mat decodeBmp(const Encoded& in, const std::string& where) {
       throw Error(located(where, "cannot decode BMP image: the data ends early (truncated file)"));
   }
   int w = 0, h = 0, n = 0;
-  if (in.file) std::rewind(in.file);  // stb_image reads a file from where it stands
+  if (in.file) std::rewind(in.file), in.filePos = 0;  // stb_image reads a file from where it stands
   unsigned char* pixels = in.file ? stbi_load_from_file(in.file, &w, &h, &n, 0)
                                   : stbi_load_from_memory(in.data, int(in.size), &w, &h, &n, 0);
   if (!pixels) {

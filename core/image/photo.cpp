@@ -6,10 +6,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
-#include <istream>
 #include <opencv2/imgproc.hpp>
 #include <optional>
-#include <streambuf>
 
 #include "base/fileio.h"
 #include "image/codec.h"

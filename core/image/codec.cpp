@@ -498,12 +498,13 @@ cv::Mat decodeTiff(const Encoded& in, const std::string& where) {
   TIFFGetFieldDefaulted(tif.get(), TIFFTAG_PLANARCONFIG, &planar);
   if (!TIFFGetField(tif.get(), TIFFTAG_PHOTOMETRIC, &photometric)) photometric = samples >= 3 ? 2 : 1;
   if (w == 0 || h == 0) throw fail("no pixels");
+  checkSize(cv::Size(int(std::min<uint32_t>(w, INT32_MAX)), int(std::min<uint32_t>(h, INT32_MAX))), where);
   if (photometric == PHOTOMETRIC_LOGLUV) {  // high dynamic range (OpenCV writes float RGB so): XYZ floats
     TIFFSetField(tif.get(), TIFFTAG_SGILOGDATAFMT, SGILOGDATAFMT_FLOAT);
     bits = 32, format = SAMPLEFORMAT_IEEEFP;
   }
   const bool logLuv = photometric == PHOTOMETRIC_LOGLUV && samples == 3;
-  const bool grey = photometric == PHOTOMETRIC_MINISBLACK && samples <= 2;
+  const bool grey = photometric == PHOTOMETRIC_MINISBLACK && samples >= 1 && samples <= 2;
   const bool rgb = photometric == PHOTOMETRIC_RGB && (samples == 3 || samples == 4);
   const int depth = bits == 8 && format == SAMPLEFORMAT_UINT      ? CV_8U
                     : bits == 16 && format == SAMPLEFORMAT_UINT   ? CV_16U
@@ -517,7 +518,8 @@ cv::Mat decodeTiff(const Encoded& in, const std::string& where) {
       uint32_t tw = 0, th = 0;
       TIFFGetField(tif.get(), TIFFTAG_TILEWIDTH, &tw);
       TIFFGetField(tif.get(), TIFFTAG_TILELENGTH, &th);
-      if (tw == 0 || th == 0) throw fail("tiles of no size");
+      if (tw == 0 || th == 0 || tw > uint32_t(kMaxImageSide) || th > uint32_t(kMaxImageSide))
+        throw fail("tiles of " + std::to_string(tw) + "x" + std::to_string(th) + " pixels");
       cv::Mat tile(int(th), int(tw), raw.type());
       for (uint32_t y = 0; y < h; y += th)
         for (uint32_t x = 0; x < w; x += tw) {

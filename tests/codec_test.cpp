@@ -3,10 +3,13 @@
 // and the layouts OpenCV does not write (written here with libtiff and libjpeg); and the errors.
 #include "image/codec.h"
 
-#include <jpeglib.h>  // after <cstdio>: it needs FILE
+// jpeglib.h needs FILE from <cstdio> first.
+// clang-format off
+#include <cstdio>
+#include <jpeglib.h>
+// clang-format on
 #include <tiffio.h>
 
-#include <cstdio>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -95,7 +98,7 @@ std::vector<unsigned char> libtiffFile(const std::string& path, const cv::Mat& r
 TEST(Codec, PngRoundTripsEveryLayoutThroughBothDecoders) {
   for (int depth : {CV_8U, CV_16U})
     for (int channels : {1, 2, 3, 4})
-      for (int level : {0, kPngFast, kPngDefault, 9}) {
+      for (int level : {0, kPngFast, 6, 9}) {
         const cv::Mat image = testImage(37, 53, depth, channels, unsigned(depth * 10 + channels));
         const std::string what = "depth " + std::to_string(depth) + ", " + std::to_string(channels) +
                                  " channels, level " + std::to_string(level);
@@ -111,7 +114,7 @@ TEST(Codec, PngRoundTripsEveryLayoutThroughBothDecoders) {
       }
   // Higher levels compress more (a smooth image).
   const cv::Mat image = testImage(256, 256, CV_8U, 3, 7);
-  EXPECT_LT(encodePng(image, "x.png", kPngDefault).size(), encodePng(image, "x.png", 0).size());
+  EXPECT_LT(encodePng(image, "x.png", 6).size(), encodePng(image, "x.png", 0).size());
 }
 
 // PNG, BMP and TIFF are lossless: our decoders give OpenCV's pixels exactly, for the layouts OpenCV

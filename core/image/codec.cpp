@@ -1,7 +1,11 @@
 #include "image/codec.h"
 
+// jpeglib.h needs FILE from <cstdio> first.
+// clang-format off
+#include <cstdio>
+#include <jpeglib.h>
 #include <jerror.h>
-#include <jpeglib.h>  // after <cstdio>: it needs FILE
+// clang-format on
 #include <png.h>
 #include <stb_image.h>
 #include <tiffio.h>
@@ -10,7 +14,6 @@
 #include <cerrno>
 #include <csetjmp>
 #include <cstdint>
-#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <memory>

@@ -42,7 +42,6 @@ cv::Mat readImageFile(const std::string& path);
 // matching (fastest; for layers, masks and screenshots), 2 and 3 libpng's adaptive row filters and
 // run-length matching, higher levels adaptive filters and full matching (smaller, slower).
 constexpr int kPngFast = 1;
-constexpr int kPngDefault = 6;
 
 // PNG of an 8- or 16-bit image with 1 (grey), 2 (grey, alpha), 3 or 4 channels (B,G,R(,A) when `bgr`,
 // else R,G,B(,A)).

@@ -112,20 +112,22 @@ std::optional<cv::Size> jpegSize(ByteReader& in) {
 }
 
 // BMP: BITMAPCOREHEADER (16-bit sizes) or BITMAPINFOHEADER and later (signed 32-bit, negative height
-// for top-down rows).
-std::optional<cv::Size> bmpSize(ByteReader& in) {
-  in.seek(14);
-  auto headerSize = in.u32(false);
-  if (!headerSize) return std::nullopt;
-  if (*headerSize == 12) {
-    auto w = in.u16(false), h = in.u16(false);
-    if (!w || !h) return std::nullopt;
-    return cv::Size(int(*w), int(*h));
-  }
-  auto w = in.u32(false), h = in.u32(false);
-  if (!w || !h) return std::nullopt;
-  const auto absolute = [](uint32_t v) { return int(std::min<int64_t>(std::abs(int64_t(int32_t(v))), INT32_MAX)); };
-  return cv::Size(absolute(*w), absolute(*h));
+// for top-down rows). An uncompressed one (or with bit fields) holds its rows from the pixel data offset on:
+// `minBytes`.
+void bmpHeader(ByteReader& in, ImageHeader& header) {
+  in.seek(10);
+  const auto offset = in.u32(false), headerSize = in.u32(false);
+  if (!offset || !headerSize) return;
+  const bool core = *headerSize == 12;  // no compression field
+  const auto w = core ? in.u16(false) : in.u32(false), h = core ? in.u16(false) : in.u32(false);
+  if (!w || !h) return;
+  const auto absolute = [&](uint32_t v) { return core ? int64_t(v) : std::abs(int64_t(int32_t(v))); };
+  const int64_t width = absolute(*w), height = absolute(*h);
+  header.size = cv::Size(int(std::min<int64_t>(width, INT32_MAX)), int(std::min<int64_t>(height, INT32_MAX)));
+  const auto planes = in.u16(false), bits = in.u16(false);
+  const auto compression = core ? std::optional<uint32_t>(0) : in.u32(false);
+  if (!planes || !bits || !compression || (*compression != 0 && *compression != 3)) return;
+  header.minBytes = *offset + (uint64_t(width) * *bits + 31) / 32 * 4 * uint64_t(height);
 }
 
 // TIFF (classic, not BigTIFF): tags ImageWidth (256) and ImageLength (257) of the first IFD.
@@ -180,7 +182,7 @@ ImageHeader readImageHeader(std::istream& stream) {
       header.size = jpegSize(in);
       break;
     case ImageFormat::Bmp:
-      header.size = bmpSize(in);
+      bmpHeader(in, header);
       break;
     case ImageFormat::TiffLittle:
     case ImageFormat::TiffBig:
@@ -195,6 +197,11 @@ ImageHeader readImageHeader(std::istream& stream) {
 ImageHeader readImageHeader(const unsigned char* bytes, size_t size) {
   MemoryBuffer buffer(bytes, size);
   std::istream in(&buffer);
+  return readImageHeader(in);
+}
+
+ImageHeader readImageFileHeader(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
   return readImageHeader(in);
 }
 
@@ -400,20 +407,7 @@ cv::Mat decodeJpeg(const Encoded& in, const std::string& where) {
 
 // stb_image's pixels (R,G,B(,A), or grey) as an OpenCV image in B,G,R(,A) order.
 cv::Mat decodeBmp(const Encoded& in, const std::string& where) {
-  // stb_image reads zeros past the end: an uncompressed BMP shorter than its rows is refused here.
-  uint8_t head[34] = {};
-  if (in.read(0, head, sizeof head) == sizeof head) {
-    const auto u16 = [&](int at) { return uint32_t(head[at]) | uint32_t(head[at + 1]) << 8; };
-    const auto u32 = [&](int at) { return u16(at) | u16(at + 2) << 16; };
-    const bool core = u32(14) == 12;  // BITMAPCOREHEADER: 16-bit sizes, no compression field
-    const int64_t w = core ? u16(18) : int32_t(u32(18)), h = core ? u16(20) : int32_t(u32(22));
-    const uint32_t bits = core ? u16(24) : u16(28), compression = core ? 0 : u32(30);
-    const uint64_t row = (uint64_t(std::abs(w)) * bits + 31) / 32 * 4;
-    if ((compression == 0 || compression == 3) && in.size < uint64_t(u32(10)) + row * uint64_t(std::abs(h)))
-      throw Error(located(where, "cannot decode BMP image: the data ends early (truncated file)"));
-  }
   int w = 0, h = 0, n = 0;
-  if (in.file) std::rewind(in.file), in.filePos = 0;  // stb_image reads a file from where it stands
   unsigned char* pixels = in.file ? stbi_load_from_file(in.file, &w, &h, &n, 0)
                                   : stbi_load_from_memory(in.data, int(in.size), &w, &h, &n, 0);
   if (!pixels) {
@@ -605,9 +599,13 @@ void checkImageHeader(const ImageHeader& header, const std::string& where) {
 
 namespace {
 
-cv::Mat decode(const Encoded& in, ImageFormat format, const std::string& where) {
+// stb_image reads zeros past the end of a BMP: a file shorter than its header's rows is refused first.
+cv::Mat decode(const Encoded& in, const ImageHeader& header, const std::string& where) {
+  TM_CHECK(in.size >= header.minBytes,
+           located(where, "cannot decode the image: the data ends early (truncated file: " + std::to_string(in.size) +
+                              " bytes, its header needs " + std::to_string(header.minBytes) + ")"));
   cv::Mat image;
-  switch (format) {
+  switch (header.format) {
     case ImageFormat::Png:
       image = decodePng(in, where);
       break;
@@ -637,16 +635,12 @@ cv::Mat decodeImage(const unsigned char* bytes, size_t size, const std::string& 
   TM_CHECK(size <= size_t(INT32_MAX), located(where, "image data is larger than 2 GB"));
   Encoded in;
   in.data = bytes, in.size = size;
-  return decode(in, header.format, where);
+  return decode(in, header, where);
 }
 
 cv::Mat readImageFile(const std::string& path) {
   requireRegularFile(path, "image file");
-  ImageHeader header;
-  {
-    std::ifstream stream(path, std::ios::binary);
-    header = readImageHeader(stream);
-  }
+  const ImageHeader header = readImageFileHeader(path);
   checkImageHeader(header, path);
   const std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
   TM_CHECK(file != nullptr, located(path, "cannot open the image file: " + std::string(std::strerror(errno))));
@@ -655,7 +649,7 @@ cv::Mat readImageFile(const std::string& path) {
   TM_CHECK(fseeko(in.file, 0, SEEK_END) == 0, located(path, "cannot read the image file"));
   in.size = size_t(ftello(in.file));
   std::rewind(in.file);
-  return decode(in, header.format, path);
+  return decode(in, header, path);
 }
 
 std::vector<unsigned char> encodePng(const cv::Mat& image, const std::string& where, int level, bool bgr) {

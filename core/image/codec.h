@@ -4,6 +4,7 @@
 // process, 0.1 s of CPU before main.
 #pragma once
 
+#include <cstdint>
 #include <istream>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -19,9 +20,11 @@ enum class ImageFormat { Unknown, Png, Jpeg, Bmp, TiffLittle, TiffBig };
 struct ImageHeader {
   ImageFormat format = ImageFormat::Unknown;
   std::optional<cv::Size> size;
+  uint64_t minBytes = 0;  // the data a complete file holds at least, when its header says (uncompressed BMP)
 };
 ImageHeader readImageHeader(std::istream& in);
 ImageHeader readImageHeader(const unsigned char* bytes, size_t size);
+ImageHeader readImageFileHeader(const std::string& path);  // only the header is read
 
 // Images larger than this a side are refused (before decoding when the header gives the size).
 constexpr int kMaxImageSide = 16384;

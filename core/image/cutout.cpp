@@ -274,11 +274,10 @@ std::vector<std::string> foregroundWarnings(bool hasBackground, double borderSha
 
 void writeMaskPng(const cv::Mat& mask, const std::string& path) {
   TM_CHECK(!mask.empty() && mask.type() == CV_8UC1, located(path, "a mask must be a non-empty 8-bit grey image"));
-  const std::vector<unsigned char> bytes = encodePng(mask, path);
   const fs::path parent = fs::path(path).parent_path();
   std::error_code ec;
   if (!parent.empty()) fs::create_directories(parent, ec);
-  writeFileAtomic(path, std::string(bytes.begin(), bytes.end()));
+  writePng(path, mask);
 }
 
 }  // namespace montage

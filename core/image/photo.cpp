@@ -5,9 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <opencv2/imgproc.hpp>
-#include <optional>
 
 #include "base/fileio.h"
 #include "image/codec.h"
@@ -24,17 +22,6 @@ constexpr int kStatsSide = 4096;  // photoStats: exact distance maps up to this 
 
 void requireFile(const std::string& path) {
   requireRegularFile(path, "image file");
-}
-
-ImageHeader fileHeader(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return readImageHeader(in);
-}
-
-// The size from the file header, or nothing when the format is not one of the above (or the header
-// is damaged); the caller then decodes the file.
-std::optional<cv::Size> headerSize(const std::string& path) {
-  return fileHeader(path).size;
 }
 
 // The depths a photo may have: 8-bit, 16-bit or float (in [0,1]).
@@ -243,7 +230,8 @@ PhotoStats photoStats(const std::string& path) {
 
 cv::Size readImageSize(const std::string& path) {
   requireFile(path);
-  if (auto size = headerSize(path)) {
+  // The size from the file header; when the header cannot tell it, the file is decoded.
+  if (auto size = readImageFileHeader(path).size) {
     TM_CHECK(size->width > 0 && size->height > 0, located(path, "image is empty (0 pixels)"));
     return *size;
   }

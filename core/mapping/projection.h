@@ -120,8 +120,8 @@ class ViewFrameCache {
  public:
   // Per photo: what identifies the photo and the input mesh (the pipeline's photo and mesh keys).
   std::vector<std::string> photoKeys;
-  // Views keep the ViewMesh they were made on, so that the next run's views of another refinement can carry
-  // their entries over (view()); false for a cache that keeps nothing for a next run.
+  // The cache keeps the ViewMesh of the last mesh views were made on (mesh()), so that the next run's views of
+  // another refinement can carry their entries over (view()); false for a cache that keeps nothing for a next run.
   bool carryViews = true;
   // Thread-safe: frames of several photos may be asked for at once. `reusePx` > 0 (the preview tier): a kept
   // frame of the same photo whose camera puts every sampled vertex of `input` within reusePx pixels of where

@@ -19,6 +19,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "base/fileio.h"
+#include "base/process_tuning.h"
 #include "base/util.h"
 #include "bench/eval.h"
 #include "bench/render.h"
@@ -407,6 +408,7 @@ int cmdMask(const MaskArgs& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  montage::tuneProcess(argv);
   CLI::App app{"TextureMontage: texture a mesh from a few photos (Zhou et al. 2005)", "montage"};
   app.require_subcommand(1);
 

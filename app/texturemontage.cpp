@@ -6,11 +6,13 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
+#include "base/process_tuning.h"
 #include "editor.h"
 
 using namespace montage;
 
 int main(int argc, char** argv) {
+  montage::tuneProcess(argv);
   CLI::App app{"TextureMontage editor: texture a mesh from a few photos (Zhou et al. 2005)", "texturemontage"};
   EditorOptions options;
   std::string size = "1280x800";

@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "base/fileio.h"
+#include "base/process_tuning.h"
 #include "bench/synth.h"
 #include "geometry/shapes.h"
 #include "io/mesh_io.h"
@@ -193,6 +194,7 @@ nlohmann::json benchProject(const std::string& path, int runs, int drags, double
 }  // namespace
 
 int main(int argc, char** argv) {
+  montage::tuneProcess(argv);
   std::vector<std::string> projects;
   std::string mesh, work, jsonPath;
   int runs = 3, subdivide = 0, drags = 0;

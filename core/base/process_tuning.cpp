@@ -1,0 +1,68 @@
+#include "base/process_tuning.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace montage {
+
+namespace {
+
+// "off" (set by the user) or the names this function added, comma-separated (set for the new start).
+constexpr const char* kSwitch = "TEXTUREMONTAGE_TUNING";
+
+// hugetlb=1: madvise(MADV_HUGEPAGE) on the heap and on mapped blocks (glibc 2.35+; older versions ignore
+// it); mmap_threshold: blocks up to 1 GB come from the heap; trim_threshold: freed memory stays for the
+// next buffers unless a gigabyte of it lies free at the top of the heap.
+constexpr const char* kGlibc =
+    "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=1000000000:glibc.malloc.trim_threshold=1000000000";
+// 2^4 cycles of spinning before a BLAS thread sleeps (OpenBLAS clamps the value to 4..30; default 28).
+constexpr const char* kBlasTimeout = "4";
+
+bool isSet(const char* name) {
+  return std::getenv(name) != nullptr;
+}
+
+}  // namespace
+
+void tuneProcess(char** argv) {
+#if defined(__GLIBC__) && defined(__linux__)
+  if (const char* value = std::getenv(kSwitch)) {
+    if (std::strcmp(value, "off") != 0) {  // the new start: the settings are in effect; do not pass them on
+      std::string names = value;
+      for (size_t start = 0; start < names.size();) {
+        const size_t end = std::min(names.find(',', start), names.size());
+        unsetenv(names.substr(start, end - start).c_str());
+        start = end + 1;
+      }
+      unsetenv(kSwitch);
+    }
+    return;
+  }
+  if (argv == nullptr || argv[0] == nullptr) return;
+  if (const char* preload = std::getenv("LD_PRELOAD"); preload && std::strstr(preload, "vgpreload")) return;
+  std::vector<std::pair<const char*, const char*>> add;
+  if (!isSet("GLIBC_TUNABLES")) add.emplace_back("GLIBC_TUNABLES", kGlibc);
+  if (!isSet("OPENBLAS_THREAD_TIMEOUT") && !isSet("GOTO_THREAD_TIMEOUT"))
+    add.emplace_back("OPENBLAS_THREAD_TIMEOUT", kBlasTimeout);
+  if (add.empty()) return;
+  std::string names;
+  for (const auto& [name, value] : add) {
+    if (setenv(name, value, 1) != 0) return;
+    names += (names.empty() ? "" : ",") + std::string(name);
+  }
+  if (setenv(kSwitch, names.c_str(), 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  for (const auto& [name, value] : add) unsetenv(name);  // could not start again: run as it is
+  unsetenv(kSwitch);
+#else
+  (void)argv;
+#endif
+}
+
+}  // namespace montage

@@ -75,7 +75,7 @@ std::shared_ptr<const SynthesisChart> SynthesisMemo::findCovering(const std::vec
       for (size_t i = 0; i < holeFaces.size() && covers; ++i) {
         const auto it = chart->faceSlot.find(holeFaces[i]);
         covers = it != chart->faceSlot.end() && chart->faceKey[it->second] == faceKey[i];
-        synthesised += covers && it->second < chart->holeFaces;
+        synthesised += covers && static_cast<size_t>(it->second) < chart->holeFaces;
       }
       if (covers && (!best || synthesised > bestSynthesised ||
                      (synthesised == bestSynthesised && chart->corner.size() < best->corner.size())))

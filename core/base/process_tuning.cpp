@@ -52,12 +52,12 @@ void tuneProcess(char** argv) {
     add.emplace_back("OPENBLAS_THREAD_TIMEOUT", kBlasTimeout);
   if (add.empty()) return;
   std::string names;
+  bool set = true;
   for (const auto& [name, value] : add) {
-    if (setenv(name, value, 1) != 0) return;
+    set = set && setenv(name, value, 1) == 0;
     names += (names.empty() ? "" : ",") + std::string(name);
   }
-  if (setenv(kSwitch, names.c_str(), 1) != 0) return;
-  execv("/proc/self/exe", argv);
+  if (set && setenv(kSwitch, names.c_str(), 1) == 0) execv("/proc/self/exe", argv);
   for (const auto& [name, value] : add) unsetenv(name);  // could not start again: run as it is
   unsetenv(kSwitch);
 #else

@@ -17,10 +17,21 @@ work=$(mktemp -d /tmp/tm_kill.XXXXXX)
 trap 'rm -rf "$work"' EXIT
 fail=0
 
-# Two variants of the demo project (atlas 1024 and 2048), so that files of two runs cannot pass for one.
+# Two variants of the demo project (atlas 1024 and 2048), so that files of two runs cannot pass for one;
+# its relative paths (mesh, photos, masks) made absolute.
 for size in 1024 2048; do
-  sed "s#\"demo_mesh.obj\"#\"$PWD/assets/demo/demo_mesh.obj\"#; s#\"photo_\\([0-9]\\).png\"#\"$PWD/assets/demo/photo_\\1.png\"#g; \
-s#\"atlasSize\": [0-9]*#\"atlasSize\": $size#" assets/demo/project.json >"$work/p$size.json"
+  python3 - "$PWD/assets/demo" "$size" "$work/p$size.json" <<'PY'
+import json, os, sys
+demo, size, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+p = json.load(open(os.path.join(demo, "project.json")))
+p["mesh"] = os.path.join(demo, p["mesh"])
+for photo in p["photos"]:
+    for key in ("path", "mask"):
+        if photo.get(key):
+            photo[key] = os.path.join(demo, photo[key])
+p.setdefault("options", {})["atlasSize"] = size
+json.dump(p, open(out, "w"), indent=1)
+PY
 done
 
 # Prints the atlas size of a complete result in $1, or fails.

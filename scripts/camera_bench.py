@@ -80,7 +80,7 @@ def main():
                     print(f"| {mesh} | {views} | {features} | {noise} | {fitted}/{views} "
                           f"| {r['psnr_all']:.2f} ({o['psnr_all']:.2f}) "
                           f"| {r['delta_e_all']:.3f} ({o['delta_e_all']:.3f}) "
-                          f"| {100 * report['surface']['inpainted_share']:.1f} ({100 * e['unseen_share']:.1f}) "
+                          f"| {100 * row['inpainted']:.1f} ({100 * row['unseen']:.1f}) "
                           f"| {r['flipped_triangles']} | {wall:.1f} / {cpu:.1f} |", flush=True)
     with open(os.path.join(a.out, "results.json"), "w") as f:
         json.dump(rows, f, indent=1)

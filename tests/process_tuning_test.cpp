@@ -73,19 +73,10 @@ TEST(ProcessTuning, DISABLED_Report) {
   std::string child;
   runCommand("sh -c 'echo \"${GLIBC_TUNABLES-(unset)},${OPENBLAS_THREAD_TIMEOUT-(unset)}\"'", &child);
   std::printf("report child=%s\n", child.substr(0, child.find('\n')).c_str());
-  // glibc's default maps a block this large by itself (its threshold stops at 32 MiB); tuned, it comes
-  // from the heap.
-  constexpr size_t kBytes = 64u << 20;
-  const size_t before = mallinfo2().hblks;
-  auto* block = static_cast<volatile char*>(std::malloc(kBytes));
-  ASSERT_NE(block, nullptr);
-  for (size_t i = 0; i < kBytes; i += 4096) block[i] = 1;
-  const size_t after = mallinfo2().hblks;
-  std::free(const_cast<char*>(block));
-  std::printf("report mapped_blocks=%zu\n", after - before);
-
-  // Huge pages: a heap madvised for them gets 2 MiB pages where the kernel has them, or counts a
-  // fallback where it has none at hand (fragmented memory). Both show the advice was given.
+  // One 64 MB block. glibc's default maps a block this large by itself (its threshold stops at 32 MiB);
+  // tuned, it comes from the heap. Huge pages: a heap madvised for them gets 2 MiB pages where the
+  // kernel has them, or counts a fallback where it has none at hand (fragmented memory). Both show the
+  // advice was given.
   auto hugeKiB = [] {
     std::ifstream in("/proc/self/smaps_rollup");
     for (std::string key; in >> key;) {
@@ -109,12 +100,16 @@ TEST(ProcessTuning, DISABLED_Report) {
   };
   std::ifstream mode("/sys/kernel/mm/transparent_hugepage/enabled");
   std::string modes((std::istreambuf_iterator<char>(mode)), std::istreambuf_iterator<char>());
+  constexpr size_t kBytes = 64u << 20;
+  const size_t before = mallinfo2().hblks;
   const long fallbacksBefore = fallbacks();
-  auto* heap = static_cast<volatile char*>(std::malloc(kBytes));
-  ASSERT_NE(heap, nullptr);
-  for (size_t i = 0; i < kBytes; i += 4096) heap[i] = 1;
+  auto* block = static_cast<volatile char*>(std::malloc(kBytes));
+  ASSERT_NE(block, nullptr);
+  for (size_t i = 0; i < kBytes; i += 4096) block[i] = 1;
+  const size_t after = mallinfo2().hblks;
   const bool huge = hugeKiB() > 0 || fallbacks() > fallbacksBefore;
-  std::free(const_cast<char*>(heap));
+  std::free(const_cast<char*>(block));
+  std::printf("report mapped_blocks=%zu\n", after - before);
   std::printf("report huge_pages=%s\n", modes.empty() || modes.find("[never]") != std::string::npos ? "not offered"
                                         : huge                                                      ? "yes"
                                                                                                     : "no");

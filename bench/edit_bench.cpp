@@ -2,7 +2,8 @@
 // editor's worker sees it. Per project, `--runs` times with a fresh Pipeline each time:
 //
 //   cold    the first final run (`montage run`: every stage, the atlas bake)
-//   drag    one photo point moved by 3 px (--drag-px), preview tier (what the editor shows after the edit)
+//   drag    one photo point (--drag-point, else a middle one outside chains) moved by 3 px (--drag-px),
+//           preview tier (what the editor shows after the edit)
 //   delete  another feature deleted, preview tier
 //   add     that feature added back 1 px away from where it was, preview tier
 //   undo    back to the state after "delete", preview tier (an earlier document state)
@@ -10,7 +11,7 @@
 //   drags   with --drags K: after those, the dragged point moved K more times by 1 px each, preview
 //           tier, each from the last (a user dragging a point; the median of the K previews)
 //
-//   tm_edit_bench PROJECT... [--runs N] [--drags K] [--drag-px D] [--json FILE]
+//   tm_edit_bench PROJECT... [--runs N] [--drags K] [--drag-px D] [--drag-point I] [--json FILE]
 //   tm_edit_bench --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]
 //
 // The second form first synthesises a scene (montage synth) from M, subdivided L times by midpoint
@@ -128,9 +129,15 @@ Project withoutPoint(Project p, int index) {
   return p;
 }
 
-nlohmann::json benchProject(const std::string& path, int runs, int drags, double dragPx) {
+nlohmann::json benchProject(const std::string& path, int runs, int drags, double dragPx, int dragPoint) {
   const Project base = loadProject(path);
-  const auto [drag, del] = choosePoints(base);
+  auto [drag, del] = choosePoints(base);
+  if (dragPoint >= 0) {
+    TM_CHECK(dragPoint < int(base.points.size()) && !base.points[dragPoint].at.empty(),
+             path + ": --drag-point " + std::to_string(dragPoint) + " is not a point with a photo position");
+    drag = dragPoint;
+    if (del == drag) del = choosePoints(base).first;
+  }
   Project dragged = base;
   PhotoPoint& moved = dragged.points[drag].at[0];
   moved.x += moved.x > dragPx + 1 ? -dragPx : dragPx;
@@ -197,7 +204,7 @@ int main(int argc, char** argv) {
   montage::tuneProcess(argv);
   std::vector<std::string> projects;
   std::string mesh, work, jsonPath;
-  int runs = 3, subdivide = 0, drags = 0;
+  int runs = 3, subdivide = 0, drags = 0, dragPoint = -1;
   double dragPx = 3;
   SynthOptions synth;
   synth.views = 9;
@@ -217,6 +224,8 @@ int main(int argc, char** argv) {
       drags = std::max(0, std::stoi(value()));
     else if (a == "--drag-px")
       dragPx = std::stod(value());
+    else if (a == "--drag-point")
+      dragPoint = std::stoi(value());
     else if (a == "--json")
       jsonPath = value();
     else if (a == "--mesh")
@@ -233,7 +242,7 @@ int main(int argc, char** argv) {
       work = value();
     else if (a.rfind("--", 0) == 0) {
       std::fprintf(stderr,
-                   "usage: %s PROJECT... [--runs N] [--drags K] [--drag-px D] [--json FILE]\n"
+                   "usage: %s PROJECT... [--runs N] [--drags K] [--drag-px D] [--drag-point I] [--json FILE]\n"
                    "       %s --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]\n",
                    argv[0], argv[0]);
       return 2;
@@ -260,7 +269,7 @@ int main(int argc, char** argv) {
     all["runs"] = runs;
     for (const std::string& p : projects) {
       std::fprintf(stderr, "benchmarking %s\n", p.c_str());
-      all["projects"].push_back(benchProject(p, runs, drags, dragPx));
+      all["projects"].push_back(benchProject(p, runs, drags, dragPx, dragPoint));
     }
     all["load_average_after"] = loadAverage();
     all["peak_mib"] = peakMiB();

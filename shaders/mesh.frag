@@ -16,11 +16,30 @@ uniform vec3 uBaseColor;    // sRGB, untextured faces
 uniform bool uWireframe;
 uniform float uOverlayWeight;  // 0 hides the overlay
 uniform float uCornerColorWeight;  // 1 adds vColor (the preview's offsets and inpainted colours), 0 not
+// The material's gain and offset on its texture (the preview's colour balance of a photo: Material::gain),
+// in linear light when uLinearGain.
+uniform vec3 uGain;
+uniform vec3 uOffset;
+uniform bool uLinearGain;
 
 out vec4 fragColor;
 
+vec3 srgbToLinear(vec3 c) {
+  return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), c));
+}
+vec3 linearToSrgb(vec3 l) {
+  return mix(l * 12.92, 1.055 * pow(l, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), l));
+}
+
+vec3 textureColor() {
+  vec3 c = texture(uTexture, vUv).rgb;
+  if (uGain == vec3(1.0) && uOffset == vec3(0.0)) return c;
+  if (!uLinearGain) return clamp(uGain * c + uOffset, 0.0, 1.0);
+  return linearToSrgb(clamp(uGain * srgbToLinear(c) + uOffset, 0.0, 1.0));
+}
+
 void main() {
-  vec3 base = clamp((uTextured ? texture(uTexture, vUv).rgb : uBaseColor) + uCornerColorWeight * vColor, 0.0, 1.0);
+  vec3 base = clamp((uTextured ? textureColor() : uBaseColor) + uCornerColorWeight * vColor, 0.0, 1.0);
   vec3 n = normalize(vNormalEye);
   float lambert = abs(dot(n, normalize(-vPositionEye)));
   // Textures are photos that already hold their lighting: shade them gently so they read true.

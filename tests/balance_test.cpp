@@ -6,7 +6,9 @@
 
 #include <filesystem>
 #include <functional>
+#include <random>
 
+#include "atlas/preview_model.h"
 #include "bench/synth.h"
 #include "geometry/shapes.h"
 #include "image/color.h"
@@ -442,4 +444,52 @@ TEST(Balance, PreviewKeepsBalancedPhotosWithinOneLevelAndTheFinalOnlyTheSamePixe
   EXPECT_LE(balancedPhotoDistance(t, fresh.balance.transforms[1], dragged.scene->photos[1]->rgb.depth()),
             kPreviewBalanceLevels);
   EXPECT_EQ(cv::norm(again.scene->photos[1]->rgb, balancedPhoto(dragged.scene->photos[1], t)->rgb, cv::NORM_INF), 0);
+}
+
+// The editor's preview model reads the photos as they were loaded and applies each one's balance as it
+// samples them (Material::gain, as shaders/mesh.frag does), so that a balance that moves after an edit
+// leaves the photo textures as they are. It shows what the balanced photos show.
+TEST(Balance, ThePreviewModelAppliesTheBalanceWhereTheBalancedPhotosWouldBe) {
+  const Project project = exposedTurtle("balance_preview_model");
+  Pipeline pipeline;
+  const PipelineResult preview = pipeline.run(project, {}, Tier::Preview);
+  ASSERT_TRUE(preview.balanced && preview.mapping && preview.colors);
+  const BalancedScene& balanced = *preview.balanced;
+  int changed = 0;
+  for (const ColorTransform& t : balanced.balance.transforms) changed += !t.identity();
+  ASSERT_GE(changed, 2) << "the exposed turtle's photos need a balance";
+  const Mesh& mesh = preview.mapping->partition->mesh;
+  const TextureMap& map = preview.mapping->map;
+  std::vector<cv::Mat> balancedTextures, sourceTextures;
+  for (const auto& p : balanced.scene->photos) balancedTextures.push_back(previewTexture(*p));
+  for (const auto& p : balanced.sources) sourceTextures.push_back(previewTexture(*p));
+  const SeamLevelling* level = &preview.colors->levelling;
+  const InpaintResult* fill = &preview.colors->inpaint;
+  const TexturedModel reference = previewModel(mesh, map, balanced.scene->photos, balancedTextures, level, fill);
+  const TexturedModel applied =
+      previewModel(mesh, map, balanced.scene->photos, sourceTextures, level, fill, balanced.balance.transforms);
+  const TexturedModel unbalanced = previewModel(mesh, map, balanced.scene->photos, sourceTextures, level, fill);
+  // Every photo face, at seeded points: squared differences against the balanced photos, in 8-bit levels.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  double sse = 0, sseUnbalanced = 0;
+  long n = 0;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    if (reference.faceMaterial[f] >= int(balanced.scene->photos.size())) continue;
+    for (int k = 0; k < 4; ++k) {
+      const double s = std::sqrt(uniform(rng)), t = uniform(rng);
+      const Vec3 b(1 - s, s * (1 - t), s * t);
+      const Vec3f want = reference.colorAt(f, b);
+      sse += (255.0f * (applied.colorAt(f, b) - want)).cast<double>().squaredNorm();
+      sseUnbalanced += (255.0f * (unbalanced.colorAt(f, b) - want)).cast<double>().squaredNorm();
+      n += 3;
+    }
+  }
+  ASSERT_GT(n, 30000);
+  const double psnr = 10 * std::log10(255.0 * 255.0 * n / std::max(sse, 1e-12));
+  const double psnrUnbalanced = 10 * std::log10(255.0 * 255.0 * n / std::max(sseUnbalanced, 1e-12));
+  std::printf("preview model with the balance applied: %.2f dB from the balanced photos (without it: %.2f dB)\n", psnr,
+              psnrUnbalanced);
+  EXPECT_GE(psnr, 40.0);
+  EXPECT_LT(psnrUnbalanced, 30.0);
 }

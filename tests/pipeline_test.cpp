@@ -394,12 +394,14 @@ int expectPreviewLooksLikeFinal(const PipelineResult& preview, const PipelineRes
   for (const auto& p : preview.balanced->scene->photos) photos.push_back(p.get());
   const PreviewSurface surface(preview.mapping->map, photos, &preview.colors->levelling, &preview.colors->inpaint);
   const Mesh& mesh = preview.mapping->partition->mesh;
-  // The preview model the editor draws (photos sampled through their UVs plus the corner colours,
-  // as shaders/mesh.frag does), checked against the final bake as well.
+  // The preview model the editor draws (the photos before colour balance sampled through their UVs, their
+  // balance applied as they are read, plus the corner colours, as shaders/mesh.frag does; ui/worker.cpp
+  // builds it so), checked against the final bake as well.
   std::vector<cv::Mat> textures;
-  for (const Photo* p : photos) textures.push_back(previewTexture(*p));
-  const TexturedModel gpu = previewModel(mesh, preview.mapping->map, preview.balanced->scene->photos, textures,
-                                         &preview.colors->levelling, &preview.colors->inpaint);
+  for (const auto& p : preview.balanced->sources) textures.push_back(previewTexture(*p));
+  const TexturedModel gpu =
+      previewModel(mesh, preview.mapping->map, preview.balanced->scene->photos, textures, &preview.colors->levelling,
+                   &preview.colors->inpaint, preview.balanced->balance.transforms);
   auto gpuColor = [&](int f, const Vec3& b) {
     Vec3f c = gpu.colorAt(f, b);
     for (int k = 0; k < 3; ++k) c += float(b[k]) * gpu.cornerColor[f][k];

@@ -245,8 +245,9 @@ void Editor::frame() {
   // Each document change goes to the worker as an immutable snapshot; a drag (open group) sends
   // its final state only, so the pipeline is not restarted at every mouse move.
   if (!doc_.project().mesh.empty() && doc_.revision() != submittedRevision_ && !doc_.inGroup()) {
+    const auto at = std::chrono::steady_clock::now();  // before the worker may start
     submittedGeneration_ = worker_->submit(doc_.snapshot());
-    submittedAt_[submittedGeneration_] = std::chrono::steady_clock::now();
+    submittedAt_[submittedGeneration_] = {at, frameNumber_};
     while (submittedAt_.size() > 64) submittedAt_.erase(submittedAt_.begin());
     cancelled_ = false;
     submittedRevision_ = doc_.revision();
@@ -255,9 +256,16 @@ void Editor::frame() {
   autosaveTick();
   renderScene();
   if (shownGeneration_ >= 0) {  // the result taken this frame is drawn: the edit's latency
-    if (auto it = submittedAt_.find(shownGeneration_); it != submittedAt_.end())
-      shownLatency_[result_->tier == Tier::Final ? 1 : 0] =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - it->second).count();
+    if (auto it = submittedAt_.find(shownGeneration_); it != submittedAt_.end()) {
+      const auto drawn = std::chrono::steady_clock::now();
+      const auto seconds = [](auto from, auto to) { return std::chrono::duration<double>(to - from).count(); };
+      const int tier = result_->tier == Tier::Final ? 1 : 0;
+      shownLatency_[tier] = seconds(it->second.at, drawn);
+      const OutcomeTimes& t = shownTimes_;
+      shownParts_[tier] = {
+          seconds(it->second.at, t.started), seconds(t.started, t.modelStarted), seconds(t.modelStarted, t.finished),
+          seconds(t.finished, takenAt_),     seconds(takenAt_, drawn),           frameNumber_ - it->second.frame};
+    }
     shownGeneration_ = -1;
     glfwPostEmptyEvent();  // one more frame at once: a script waiting for this result, the layout settling
   }
@@ -392,6 +400,7 @@ bool Editor::resultCurrent() const {
 void Editor::pollWorker() {
   std::optional<WorkerOutcome> outcome = worker_->take();
   if (!outcome) return;
+  takenAt_ = std::chrono::steady_clock::now();
   outcomes_.emplace_back(outcome->generation, outcome->tier);
   if (outcome->result) {
     // A result for a mesh the document no longer names (a file opened meanwhile) is dropped.
@@ -401,6 +410,7 @@ void Editor::pollWorker() {
     progress_.record(outcome->tier, result_->stages);  // the next run's progress weights
     resultGeneration_ = outcome->generation;
     shownGeneration_ = outcome->generation;
+    shownTimes_ = outcome->times;
     lastError_.clear();
     meshDirty_ = overlayDirty_ = linesDirty_ = true;
     stretch_.clear();

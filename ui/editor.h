@@ -358,6 +358,11 @@ class Editor {
   // Material textures by content hash: the shown model's, and the unused ones of the model shown before
   // it (a drag's preview after a final finds its photos still on the GPU).
   std::map<std::uint64_t, std::unique_ptr<Texture>> textureCache_, spareTextures_;
+  // The content hashes of the textures of the shown model and the one before, by pixel buffer, each
+  // buffer held so that its address stays its own: a next result's textures that are the same buffers (a
+  // preview's photos after a final) are not hashed again. Results are immutable: a buffer's content
+  // never changes.
+  std::map<const unsigned char*, std::pair<cv::Mat, std::uint64_t>> textureHashes_, spareHashes_;
   std::vector<unsigned> materialTextureIds_;                         // per material: GL texture or 0
   std::vector<std::pair<int, std::pair<int, int>>> materialRanges_;  // material, [first vertex, count)
   std::vector<int> gpuFaceOrder_;                                    // faces in upload order (sorted by material)
@@ -369,9 +374,23 @@ class Editor {
   long submittedRevision_ = -1, submittedGeneration_ = 0;
   // Edit -> result on screen: when each generation was submitted, and the last latency per tier
   // (seconds from the submit to the end of the frame that first drew the result; -1 = none yet).
-  std::map<long, std::chrono::steady_clock::time_point> submittedAt_;
+  struct Submitted {
+    std::chrono::steady_clock::time_point at;
+    long frame = 0;  // the frame number then
+  };
+  std::map<long, Submitted> submittedAt_;
   long shownGeneration_ = -1;  // generation taken this frame, measured after it is drawn
   std::array<double, 2> shownLatency_ = {-1, -1};
+  // The last latency per tier split into its parts, in seconds: submit -> worker start (waiting for a
+  // cancelled run to stop), the pipeline run, the preview model, published -> taken by the UI, taken ->
+  // drawn (mesh upload, frame); and the UI frames drawn meanwhile (they share the cores with the worker).
+  struct LatencyParts {
+    double queue = -1, pipeline = -1, model = -1, take = -1, draw = -1;
+    long frames = -1;
+  };
+  std::array<LatencyParts, 2> shownParts_;
+  OutcomeTimes shownTimes_;  // of the outcome taken this frame
+  std::chrono::steady_clock::time_point takenAt_;
   std::shared_ptr<const PipelineResult> result_;
   std::shared_ptr<const TexturedModel> resultPreview_;  // the worker's preview model of result_ (preview tier)
   long resultGeneration_ = 0;

@@ -534,6 +534,10 @@ void Editor::writeState(const std::string& path) const {
   std::vector<std::string> outcomeTiers;
   for (const auto& [generation, tier] : outcomes_)
     outcomeGenerations.push_back(generation), outcomeTiers.push_back(kTierNames[static_cast<int>(tier)]);
+  const auto latencyParts = [](const LatencyParts& l) {
+    return json{{"queue", l.queue}, {"pipeline", l.pipeline}, {"model", l.model},
+                {"take", l.take},   {"draw", l.draw},         {"frames", l.frames}};
+  };
   state["worker"] = {{"busy", ws.busy},
                      {"submitted_generation", submittedGeneration_},
                      {"result_generation", resultGeneration_},
@@ -541,6 +545,7 @@ void Editor::writeState(const std::string& path) const {
                      {"outcome_tiers", outcomeTiers},
                      {"preview_latency_seconds", shownLatency_[0]},  // last edit -> preview drawn
                      {"final_latency_seconds", shownLatency_[1]},    // last edit -> final drawn
+                     {"latency_parts", json::array({latencyParts(shownParts_[0]), latencyParts(shownParts_[1])})},
                      {"last_error", lastError_}};
   if (result_) {
     json stages = json::array();

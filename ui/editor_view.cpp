@@ -271,24 +271,32 @@ void Editor::uploadMesh() {
 
   // Textures by content: the photos of the previous results stay on the GPU.
   std::map<std::uint64_t, std::unique_ptr<Texture>> cache;
+  std::map<const unsigned char*, std::pair<cv::Mat, std::uint64_t>> hashes;
   materialTextureIds_.assign(model ? model->materials.size() : 0, 0);
   for (size_t m = 0; model && m < model->materials.size(); ++m) {
     const cv::Mat& tex = model->materials[m].texture;
     if (tex.empty() || tex.type() != CV_8UC4) continue;
-    const std::uint64_t key = contentHash(tex);
-    auto it = cache.find(key);
+    std::optional<std::uint64_t> key;
+    for (const auto* pool : {&textureHashes_, &spareHashes_})
+      if (const auto known = pool->find(tex.data); !key && known != pool->end()) {
+        const cv::Mat& held = known->second.first;
+        if (held.size == tex.size && held.step[0] == tex.step[0]) key = known->second.second;
+      }
+    if (!key) key = contentHash(tex);
+    hashes[tex.data] = {tex, *key};
+    auto it = cache.find(*key);
     if (it == cache.end()) {
       std::unique_ptr<Texture>* kept = nullptr;
       for (auto* pool : {&textureCache_, &spareTextures_}) {
-        const auto old = pool->find(key);
+        const auto old = pool->find(*key);
         if (!kept && old != pool->end() && old->second) kept = &old->second;
       }
       if (kept) {
-        it = cache.emplace(key, std::move(*kept)).first;
+        it = cache.emplace(*key, std::move(*kept)).first;
       } else {
         auto texture = std::make_unique<Texture>();
         texture->upload(tex);
-        it = cache.emplace(key, std::move(texture)).first;
+        it = cache.emplace(*key, std::move(texture)).first;
       }
     }
     materialTextureIds_[m] = it->second->id();
@@ -298,6 +306,8 @@ void Editor::uploadMesh() {
   for (auto& [key, texture] : textureCache_)
     if (texture) spareTextures_.emplace(key, std::move(texture));
   textureCache_ = std::move(cache);
+  spareHashes_ = std::move(textureHashes_);
+  textureHashes_ = std::move(hashes);
 }
 
 void Editor::uploadOverlay() {
@@ -481,16 +491,21 @@ void Editor::renderScene() {
   glActiveTexture(GL_TEXTURE0);
   for (const auto& [material, range] : materialRanges_) {
     GLuint texture = 0;
-    Vec3f base(0.72f, 0.72f, 0.72f);
+    Vec3f base(0.72f, 0.72f, 0.72f), gain = Vec3f::Ones(), offset = Vec3f::Zero();
+    bool linearGain = true;
     if (model && material >= 0 && material < static_cast<int>(model->materials.size())) {
       if (material < static_cast<int>(materialTextureIds_.size())) texture = materialTextureIds_[material];
-      base = model->materials[material].diffuse;
+      const Material& m = model->materials[material];
+      base = m.diffuse, gain = m.gain, offset = m.offset, linearGain = m.linearGain;
     }
     const bool textured = textured_ && texture != 0;
     glUniform1i(meshShader_->uniform("uTextured"), textured ? 1 : 0);
     glUniform1f(meshShader_->uniform("uCornerColorWeight"), textured_ ? 1.0f : 0.0f);
     if (!textured_) base = Vec3f(0.72f, 0.72f, 0.72f);
     glUniform3f(meshShader_->uniform("uBaseColor"), base.x(), base.y(), base.z());
+    glUniform3f(meshShader_->uniform("uGain"), gain.x(), gain.y(), gain.z());
+    glUniform3f(meshShader_->uniform("uOffset"), offset.x(), offset.y(), offset.z());
+    glUniform1i(meshShader_->uniform("uLinearGain"), linearGain ? 1 : 0);
     glBindTexture(GL_TEXTURE_2D, texture);
     meshVbo_->draw(GL_TRIANGLES, range.first, range.second);
   }

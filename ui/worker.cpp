@@ -63,24 +63,34 @@ bool PipelineWorker::runTier(const Project& project, Tier tier, WorkerOutcome& o
       status_.what = what;
     });
     outcome.tier = tier;
+    outcome.times.started = std::chrono::steady_clock::now();
     outcome.result = std::make_shared<const PipelineResult>(pipeline_.run(project, job, tier));
+    outcome.times.modelStarted = std::chrono::steady_clock::now();
     const PipelineResult& r = *outcome.result;
     if (!r.model && r.mapping && r.colors && r.scene) {
-      // The preview model: the photos as textures (converted once per photo), the mapping's faces.
+      // The preview model: the photos as textures (converted once per photo), the mapping's faces. The
+      // textures are of the photos before colour balance, which the model applies as it reads them
+      // (gain and offset per photo), so a balance that moves after each edit converts and uploads no
+      // photo again.
       std::vector<cv::Mat> textures;
       std::map<const Photo*, std::pair<std::weak_ptr<const Photo>, cv::Mat>> kept;
-      // The photos the colour stages read (balanced ones when colour balance is on).
-      const Scene& colorScene = r.balanced && r.balanced->scene ? *r.balanced->scene : *r.scene;
-      for (const auto& p : colorScene.photos) {
+      const bool balanced = r.balanced && r.balanced->scene;
+      // The photos the colour stages read (balanced ones when colour balance is on), and their sources.
+      const Scene& colorScene = balanced ? *r.balanced->scene : *r.scene;
+      const std::vector<std::shared_ptr<const Photo>>& sources = balanced ? r.balanced->sources : r.scene->photos;
+      // Per photo, the balance the model applies to its texture (none without a balance stage).
+      const std::vector<ColorTransform> transforms =
+          balanced ? r.balanced->balance.transforms : std::vector<ColorTransform>{};
+      for (const auto& p : sources) {
         auto it = photoTextures_.find(p.get());
         const bool reuse = it != photoTextures_.end() && it->second.first.lock() == p;
         textures.push_back(reuse ? it->second.second : previewTexture(*p));
         kept[p.get()] = {p, textures.back()};
       }
       photoTextures_ = std::move(kept);
-      outcome.preview = std::make_shared<const TexturedModel>(previewModel(r.mapping->partition->mesh, r.mapping->map,
-                                                                           colorScene.photos, textures,
-                                                                           &r.colors->levelling, &r.colors->inpaint));
+      outcome.preview = std::make_shared<const TexturedModel>(
+          previewModel(r.mapping->partition->mesh, r.mapping->map, colorScene.photos, textures, &r.colors->levelling,
+                       &r.colors->inpaint, transforms));
     }
     return true;
   } catch (const Cancelled&) {
@@ -115,6 +125,7 @@ void PipelineWorker::loop() {
       // A cancelled run, or one overtaken by a newer snapshot, publishes nothing: the newest wins.
       const bool overtaken = !finished || pending_ || quit_;
       const bool succeeded = finished && outcome.result;
+      outcome.times.finished = std::chrono::steady_clock::now();
       if (!overtaken) finished_ = std::move(outcome);
       wake_.notify_all();
       if (!overtaken && notify_) notify_();

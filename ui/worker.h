@@ -31,6 +31,12 @@ struct WorkerStatus {
   std::chrono::steady_clock::time_point started;  // when the run of this tier started
 };
 
+// When the worker took a snapshot, started the preview model (the pipeline run before it) and published
+// the outcome: the editor's latency figures are split by them.
+struct OutcomeTimes {
+  std::chrono::steady_clock::time_point started, modelStarted, finished;
+};
+
 // What one run produced: a result or an error message, for snapshot `generation`.
 struct WorkerOutcome {
   long generation = 0;
@@ -38,6 +44,7 @@ struct WorkerOutcome {
   std::shared_ptr<const PipelineResult> result;  // null when the run failed
   std::shared_ptr<const TexturedModel> preview;  // preview tier: previewModel() of the result (surface/preview.h)
   std::string error;                             // empty on success
+  OutcomeTimes times;
 };
 
 class PipelineWorker {

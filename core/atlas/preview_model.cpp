@@ -2,6 +2,7 @@
 
 #include "geometry/mesh.h"
 #include "image/photo.h"
+#include "surface/balance.h"
 #include "surface/inpaint.h"
 #include "surface/level.h"
 #include "surface/preview.h"
@@ -15,13 +16,17 @@ cv::Mat previewTexture(const Photo& photo) {
 TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
                            const std::vector<std::shared_ptr<const Photo>>& photos,
                            const std::vector<cv::Mat>& photoTextures, const SeamLevelling* levelling,
-                           const InpaintResult* inpaint, const AtlasOptions& options) {
+                           const InpaintResult* inpaint, const std::vector<ColorTransform>& photoTransforms,
+                           const AtlasOptions& options) {
   const int nf = mesh.numFaces();
   const int np = static_cast<int>(photos.size());
   TM_CHECK(map.numFaces() == nf, "preview model: the texture map has " + std::to_string(map.numFaces()) +
                                      " faces, the mesh " + std::to_string(nf));
   TM_CHECK(static_cast<int>(photoTextures.size()) == np, "preview model: " + std::to_string(photoTextures.size()) +
                                                              " textures for " + std::to_string(np) + " photos");
+  TM_CHECK(photoTransforms.empty() || static_cast<int>(photoTransforms.size()) == np,
+           "preview model: " + std::to_string(photoTransforms.size()) + " colour transforms for " + std::to_string(np) +
+               " photos");
   const bool hasInpaint = inpaint && static_cast<int>(inpaint->faceRegion.size()) == nf;
   const int inpaintedMaterial = np, emptyMaterial = np + 1;
   TexturedModel model;
@@ -35,6 +40,11 @@ TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
     Material m;
     m.name = "photo_" + std::to_string(p);
     m.texture = photoTextures[p];
+    if (!photoTransforms.empty()) {
+      m.gain = photoTransforms[p].gain;
+      m.offset = photoTransforms[p].offset;
+      m.linearGain = photoTransforms[p].linear;
+    }
     model.materials.push_back(std::move(m));
   }
   Material inpainted, empty;

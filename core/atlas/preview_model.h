@@ -18,13 +18,16 @@ namespace montage {
 struct Photo;
 struct SeamLevelling;
 struct InpaintResult;
+struct ColorTransform;
 
 // A photo as a preview texture: CV_8UC4 RGBA at its stored resolution (rows top first).
 cv::Mat previewTexture(const Photo& photo);
 
 // The preview model over `mesh` (the mapping's mesh; face f of the model is face f of the mapping):
 // - material p < photos.size(): photo p, its texture `photoTextures[p]` (previewTexture, shared, not
-//   copied); UVs = photo pixels / photo size, v up (OBJ); TexturedModel::cornerColor holds the seam
+//   copied) with the gain and offset of `photoTransforms[p]` when given (the textures are then of the
+//   photos before colour balance, `photos` the balanced ones: a balance that moves leaves the textures
+//   as they are); UVs = photo pixels / photo size, v up (OBJ); TexturedModel::cornerColor holds the seam
 //   levelling offsets;
 // - material photos.size(), "inpainted": the atlas of the inpainted faces alone (AtlasOptions as given,
 //   its size the smallest that fits), colours from PreviewSurface;
@@ -33,6 +36,7 @@ cv::Mat previewTexture(const Photo& photo);
 TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
                            const std::vector<std::shared_ptr<const Photo>>& photos,
                            const std::vector<cv::Mat>& photoTextures, const SeamLevelling* levelling,
-                           const InpaintResult* inpaint, const AtlasOptions& options = {});
+                           const InpaintResult* inpaint, const std::vector<ColorTransform>& photoTransforms = {},
+                           const AtlasOptions& options = {});
 
 }  // namespace montage

@@ -2,7 +2,8 @@
 // settings win, TEXTUREMONTAGE_TUNING=off leaves the process alone, and programs they run inherit
 // nothing. Each case runs this test program again as a child with a chosen environment; the child's
 // ProcessTuning.DISABLED_Report prints what it started with (/proc/self/environ, the environment exec gave
-// it), what it has now, what a program it runs sees, and whether a 64 MB block came from the heap.
+// it), what it has now, what a program it runs sees, whether a 64 MB block came from the heap, and its
+// process name.
 #include "base/process_tuning.h"
 
 #include <gtest/gtest.h>
@@ -40,12 +41,23 @@ std::string valueOr(const char* name, const char* otherwise) {
 
 // Runs this program with `env` (arguments to env(1), after the variables it clears) and returns the
 // child's report as name -> value.
+// This program's file, by its own path (the child's name comes from it).
+std::string selfPath() {
+  char path[4096];
+  const ssize_t n = readlink("/proc/self/exe", path, sizeof(path) - 1);
+  return n > 0 ? std::string(path, size_t(n)) : std::string("/proc/self/exe");
+}
+
+// The name the kernel gives a process started from `path`: its file name, cut to 15 bytes.
+std::string processName(const std::string& path) {
+  return path.substr(path.rfind('/') + 1).substr(0, 15);
+}
+
 std::map<std::string, std::string> childReport(const std::string& env) {
   const std::string cmd =
       "env -u GLIBC_TUNABLES -u OPENBLAS_THREAD_TIMEOUT -u GOTO_THREAD_TIMEOUT -u "
       "TEXTUREMONTAGE_TUNING -u LD_PRELOAD " +
-      env + " /proc/" + std::to_string(getpid()) +
-      "/exe --gtest_also_run_disabled_tests --gtest_filter=ProcessTuning.DISABLED_Report";
+      env + " '" + selfPath() + "' --gtest_also_run_disabled_tests --gtest_filter=ProcessTuning.DISABLED_Report";
   std::string out;
   EXPECT_EQ(runCommand(cmd, &out), 0) << out;
   std::map<std::string, std::string> report;
@@ -70,6 +82,10 @@ TEST(ProcessTuning, DISABLED_Report) {
   std::printf("report now GLIBC_TUNABLES=%s\n", valueOr("GLIBC_TUNABLES", "(unset)").c_str());
   std::printf("report now OPENBLAS_THREAD_TIMEOUT=%s\n", valueOr("OPENBLAS_THREAD_TIMEOUT", "(unset)").c_str());
   std::printf("report now TEXTUREMONTAGE_TUNING=%s\n", valueOr("TEXTUREMONTAGE_TUNING", "(unset)").c_str());
+  std::ifstream comm("/proc/self/comm");
+  std::string name;
+  std::getline(comm, name);
+  std::printf("report name=%s\n", name.c_str());
   std::string child;
   runCommand("sh -c 'echo \"${GLIBC_TUNABLES-(unset)},${OPENBLAS_THREAD_TIMEOUT-(unset)}\"'", &child);
   std::printf("report child=%s\n", child.substr(0, child.find('\n')).c_str());
@@ -127,6 +143,8 @@ TEST(ProcessTuning, TheProgramStartsAgainTunedAndPassesNothingOn) {
   EXPECT_EQ(r["child"], "(unset),(unset)");
   EXPECT_EQ(r["mapped_blocks"], "0");
   EXPECT_NE(r["huge_pages"], "no");
+  // Started again from /proc/self/exe, it has its own name again (ps, top and pkill show it, not "exe").
+  EXPECT_EQ(r["name"], processName(selfPath()));
 }
 
 TEST(ProcessTuning, OffLeavesTheProcessAsItIs) {
@@ -135,6 +153,7 @@ TEST(ProcessTuning, OffLeavesTheProcessAsItIs) {
   EXPECT_EQ(r["start OPENBLAS_THREAD_TIMEOUT"], "(unset)");
   EXPECT_EQ(r["now TEXTUREMONTAGE_TUNING"], "off");
   EXPECT_EQ(r["mapped_blocks"], "1");
+  EXPECT_EQ(r["name"], processName(selfPath()));
 }
 
 TEST(ProcessTuning, TheUsersOwnSettingsWin) {

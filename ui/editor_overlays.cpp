@@ -273,6 +273,7 @@ void Editor::drawMarkers(const Mat4f& view, const Mat4f& projection) {
   // The hovered and the selected vertex: bigger markers, depth-tested like the others (a vertex
   // behind the surface is not shown through it).
   std::vector<float> data;
+  data.reserve(2 * 7);
   auto add = [&](int v, const Vec4f& c) {
     if (v < 0 || v >= input_.mesh->numVertices()) return;
     const Vec3 q = input_.mesh->position(v);

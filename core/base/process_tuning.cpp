@@ -1,5 +1,6 @@
 #include "base/process_tuning.h"
 
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -41,6 +42,12 @@ void tuneProcess(char** argv) {
         start = end + 1;
       }
       unsetenv(kSwitch);
+      // The new start of "/proc/self/exe" is named "exe" (after the file exec was given): the program's
+      // own name again, as the first start had it, for ps, top and pkill (the kernel keeps 15 bytes).
+      if (argv != nullptr && argv[0] != nullptr) {
+        const char* slash = std::strrchr(argv[0], '/');
+        prctl(PR_SET_NAME, slash ? slash + 1 : argv[0]);
+      }
     }
     return;
   }

@@ -16,7 +16,7 @@ uniform vec3 uBaseColor;    // sRGB, untextured faces
 uniform bool uWireframe;
 uniform float uOverlayWeight;  // 0 hides the overlay
 uniform float uCornerColorWeight;  // 1 adds vColor (the preview's offsets and inpainted colours), 0 not
-// The material's gain and offset on its texture (the preview's colour balance of a photo: Material::gain),
+// The material's transform of its texture (the preview's colour balance of a photo: Material::transform),
 // in linear light when uLinearGain.
 uniform vec3 uGain;
 uniform vec3 uOffset;

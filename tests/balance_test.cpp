@@ -447,7 +447,7 @@ TEST(Balance, PreviewKeepsBalancedPhotosWithinOneLevelAndTheFinalOnlyTheSamePixe
 }
 
 // The editor's preview model reads the photos as they were loaded and applies each one's balance as it
-// samples them (Material::gain, as shaders/mesh.frag does), so that a balance that moves after an edit
+// samples them (Material::transform, as shaders/mesh.frag does), so that a balance that moves after an edit
 // leaves the photo textures as they are. It shows what the balanced photos show.
 TEST(Balance, ThePreviewModelAppliesTheBalanceWhereTheBalancedPhotosWouldBe) {
   const Project project = exposedTurtle("balance_preview_model");

@@ -491,21 +491,21 @@ void Editor::renderScene() {
   glActiveTexture(GL_TEXTURE0);
   for (const auto& [material, range] : materialRanges_) {
     GLuint texture = 0;
-    Vec3f base(0.72f, 0.72f, 0.72f), gain = Vec3f::Ones(), offset = Vec3f::Zero();
-    bool linearGain = true;
+    Vec3f base(0.72f, 0.72f, 0.72f);
+    ColorTransform transform;
     if (model && material >= 0 && material < static_cast<int>(model->materials.size())) {
       if (material < static_cast<int>(materialTextureIds_.size())) texture = materialTextureIds_[material];
-      const Material& m = model->materials[material];
-      base = m.diffuse, gain = m.gain, offset = m.offset, linearGain = m.linearGain;
+      base = model->materials[material].diffuse;
+      transform = model->materials[material].transform;
     }
     const bool textured = textured_ && texture != 0;
     glUniform1i(meshShader_->uniform("uTextured"), textured ? 1 : 0);
     glUniform1f(meshShader_->uniform("uCornerColorWeight"), textured_ ? 1.0f : 0.0f);
     if (!textured_) base = Vec3f(0.72f, 0.72f, 0.72f);
     glUniform3f(meshShader_->uniform("uBaseColor"), base.x(), base.y(), base.z());
-    glUniform3f(meshShader_->uniform("uGain"), gain.x(), gain.y(), gain.z());
-    glUniform3f(meshShader_->uniform("uOffset"), offset.x(), offset.y(), offset.z());
-    glUniform1i(meshShader_->uniform("uLinearGain"), linearGain ? 1 : 0);
+    glUniform3f(meshShader_->uniform("uGain"), transform.gain.x(), transform.gain.y(), transform.gain.z());
+    glUniform3f(meshShader_->uniform("uOffset"), transform.offset.x(), transform.offset.y(), transform.offset.z());
+    glUniform1i(meshShader_->uniform("uLinearGain"), transform.linear ? 1 : 0);
     glBindTexture(GL_TEXTURE_2D, texture);
     meshVbo_->draw(GL_TRIANGLES, range.first, range.second);
   }

@@ -2,7 +2,6 @@
 
 #include "geometry/mesh.h"
 #include "image/photo.h"
-#include "surface/balance.h"
 #include "surface/inpaint.h"
 #include "surface/level.h"
 #include "surface/preview.h"
@@ -40,11 +39,7 @@ TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
     Material m;
     m.name = "photo_" + std::to_string(p);
     m.texture = photoTextures[p];
-    if (!photoTransforms.empty()) {
-      m.gain = photoTransforms[p].gain;
-      m.offset = photoTransforms[p].offset;
-      m.linearGain = photoTransforms[p].linear;
-    }
+    if (!photoTransforms.empty()) m.transform = photoTransforms[p];
     model.materials.push_back(std::move(m));
   }
   Material inpainted, empty;

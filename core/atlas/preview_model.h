@@ -18,14 +18,13 @@ namespace montage {
 struct Photo;
 struct SeamLevelling;
 struct InpaintResult;
-struct ColorTransform;
 
 // A photo as a preview texture: CV_8UC4 RGBA at its stored resolution (rows top first).
 cv::Mat previewTexture(const Photo& photo);
 
 // The preview model over `mesh` (the mapping's mesh; face f of the model is face f of the mapping):
 // - material p < photos.size(): photo p, its texture `photoTextures[p]` (previewTexture, shared, not
-//   copied) with the gain and offset of `photoTransforms[p]` when given (the textures are then of the
+//   copied) with `photoTransforms[p]` as its Material::transform when given (the textures are then of the
 //   photos before colour balance, `photos` the balanced ones: a balance that moves leaves the textures
 //   as they are); UVs = photo pixels / photo size, v up (OBJ); TexturedModel::cornerColor holds the seam
 //   levelling offsets;

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace montage {
 
@@ -73,6 +74,57 @@ double linearToSrgb(double l) {
   const double a = std::abs(l);
   const double c = a <= 0.0031308 ? 12.92 * a : 1.055 * std::pow(a, 1 / 2.4) - 0.055;
   return std::copysign(c, l);
+}
+
+namespace {
+
+class TransferTables {
+ public:
+  TransferTables() : toLinear_(kSteps + 1), toSrgb_(kSteps + 1) {
+    for (int i = 0; i <= kSteps; ++i) {
+      toLinear_[i] = float(srgbToLinear(double(i) / kSteps));
+      toSrgb_[i] = float(linearToSrgb(double(i) / kSteps));
+    }
+  }
+  float linear(float srgb) const { return lookup(toLinear_, srgb); }
+  float srgb(float linear) const { return lookup(toSrgb_, linear); }
+
+ private:
+  static constexpr int kSteps = 65536;
+  static float lookup(const std::vector<float>& table, float x) {
+    const float u = std::clamp(x, 0.0f, 1.0f) * kSteps;
+    const int i = std::min(int(u), kSteps - 1);
+    return table[i] + (u - i) * (table[i + 1] - table[i]);
+  }
+  std::vector<float> toLinear_, toSrgb_;
+};
+
+const TransferTables& tables() {
+  static const TransferTables instance;  // immutable after construction (thread-safe initialisation)
+  return instance;
+}
+
+}  // namespace
+
+float srgbToLinearFast(float c) {
+  return tables().linear(c);
+}
+
+float linearToSrgbFast(float l) {
+  return tables().srgb(l);
+}
+
+float ColorTransform::apply(float srgb, int c) const {
+  const float x = linear ? srgbToLinearFast(srgb) : srgb;
+  const float y = std::clamp(gain[c] * x + offset[c], 0.0f, 1.0f);
+  return linear ? linearToSrgbFast(y) : y;
+}
+
+Vec3f ColorTransform::apply(const Vec3f& srgb) const {
+  if (identity()) return srgb;
+  Vec3f out;
+  for (int c = 0; c < 3; ++c) out[c] = apply(srgb[c], c);
+  return out;
 }
 
 Vec3f srgbToLuv(const Vec3f& rgb) {

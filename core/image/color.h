@@ -12,6 +12,24 @@ namespace montage {
 double srgbToLinear(double c);
 // Inverse of srgbToLinear: linear light to gamma-encoded sRGB (odd extension below 0, no clamping).
 double linearToSrgb(double l);
+// The same through tables with linear interpolation (65536 steps: error below 1e-7), inputs clamped to
+// [0,1], so that a 12-megapixel photo is transformed in a fraction of a second.
+float srgbToLinearFast(float c);
+float linearToSrgbFast(float l);
+
+// A colour transform on linear RGB (or on the sRGB values themselves when not `linear`): c' = gain * c +
+// offset, per channel, clamped to [0, 1]. Colour balance makes one per photo (surface/balance.h); a
+// Material applies one to its texture (io/model.h).
+struct ColorTransform {
+  Vec3f gain = Vec3f::Ones();
+  Vec3f offset = Vec3f::Zero();
+  bool linear = true;
+  bool identity() const { return gain == Vec3f::Ones() && offset == Vec3f::Zero(); }
+  // Channel c of an sRGB value in [0,1] after the transform.
+  float apply(float srgb, int c) const;
+  // The transformed colour of an sRGB colour in [0,1].
+  Vec3f apply(const Vec3f& srgb) const;
+};
 
 // sRGB in [0,1] (gamma encoded) to CIE L*u*v* with the D65 white point; L in [0,100].
 Vec3f srgbToLuv(const Vec3f& rgb);

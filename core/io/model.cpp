@@ -974,13 +974,7 @@ Vec3f TexturedModel::colorAt(int f, const Vec3& b) const {
     const double bottom = (1 - fx) * r1[x0][c] + fx * r1[x1][c];
     out[c] = static_cast<float>(((1 - fy) * top + fy * bottom) / 255.0);
   }
-  if (mat->transformsTexture())
-    for (int c = 0; c < 3; ++c) {
-      const double x = mat->linearGain ? srgbToLinear(out[c]) : out[c];
-      const double y = std::clamp(mat->gain[c] * x + mat->offset[c], 0.0, 1.0);
-      out[c] = static_cast<float>(mat->linearGain ? linearToSrgb(y) : y);
-    }
-  return out;
+  return mat->transform.apply(out);
 }
 
 TexturedModel loadModel(const std::string& path) {

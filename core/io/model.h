@@ -10,6 +10,7 @@
 
 #include "base/common.h"
 #include "geometry/mesh.h"
+#include "image/color.h"
 
 namespace montage {
 
@@ -24,13 +25,10 @@ struct Material {
   // write one image per distinct texture, named after this or, when empty, the first material using it.
   std::string textureName;
   Vec3f diffuse = Vec3f(0.7f, 0.7f, 0.7f);  // sRGB [0,1], used where there is no texture
-  // A colour change applied to the texture's colours as they are read (colorAt, the editor's shader): per
-  // channel clamp(gain x + offset, 0, 1), x in linear light when `linearGain` (sRGB decoded, then encoded
-  // again), else the sRGB value itself. Only the editor's preview model sets one (a photo's colour
-  // balance, so that the photo's texture serves unchanged while the balance moves); exporters ignore it.
-  Vec3f gain = Vec3f::Ones(), offset = Vec3f::Zero();
-  bool linearGain = true;
-  bool transformsTexture() const { return gain != Vec3f::Ones() || offset != Vec3f::Zero(); }
+  // Applied to the texture's colours as they are read (colorAt, the editor's shader). Only the editor's
+  // preview model sets one (a photo's colour balance, so that the photo's texture serves unchanged while
+  // the balance moves); exporters ignore it.
+  ColorTransform transform;
 };
 
 struct TexturedModel {
@@ -49,7 +47,7 @@ struct TexturedModel {
 
   bool textured() const { return !uv.empty(); }
   // Colour (sRGB [0,1]) of face f at barycentrics b: bilinear texture lookup with repeat wrapping (then
-  // the material's gain and offset), or the material's diffuse colour when it has no texture.
+  // the material's transform), or the material's diffuse colour when it has no texture.
   Vec3f colorAt(int f, const Vec3& b) const;
 };
 

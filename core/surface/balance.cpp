@@ -19,34 +19,6 @@ namespace montage {
 
 namespace {
 
-// sRGB <-> linear through tables with linear interpolation (65536 steps: error below 1e-7), so that a
-// 12-megapixel photo is transformed in a fraction of a second.
-class TransferTables {
- public:
-  TransferTables() : toLinear_(kSteps + 1), toSrgb_(kSteps + 1) {
-    for (int i = 0; i <= kSteps; ++i) {
-      toLinear_[i] = float(srgbToLinear(double(i) / kSteps));
-      toSrgb_[i] = float(linearToSrgb(double(i) / kSteps));
-    }
-  }
-  float linear(float srgb) const { return lookup(toLinear_, srgb); }
-  float srgb(float linear) const { return lookup(toSrgb_, linear); }
-
- private:
-  static constexpr int kSteps = 65536;
-  static float lookup(const std::vector<float>& table, float x) {
-    const float u = std::clamp(x, 0.0f, 1.0f) * kSteps;
-    const int i = std::min(int(u), kSteps - 1);
-    return table[i] + (u - i) * (table[i + 1] - table[i]);
-  }
-  std::vector<float> toLinear_, toSrgb_;
-};
-
-const TransferTables& tables() {
-  static const TransferTables instance;  // immutable after construction (thread-safe initialisation)
-  return instance;
-}
-
 // One seam sample: the same surface point seen in photos a and b (colours in the fit's space).
 struct Sample {
   int a = 0, b = 0;
@@ -154,8 +126,8 @@ std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const s
         }
       }
       for (int c = 0; c < 3; ++c) {
-        sample.xa[c] = options.linear ? tables().linear(sample.srgbA[c]) : sample.srgbA[c];
-        sample.xb[c] = options.linear ? tables().linear(sample.srgbB[c]) : sample.srgbB[c];
+        sample.xa[c] = options.linear ? srgbToLinearFast(sample.srgbA[c]) : sample.srgbA[c];
+        sample.xb[c] = options.linear ? srgbToLinearFast(sample.srgbB[c]) : sample.srgbB[c];
       }
       out.push_back(sample);
     }
@@ -327,21 +299,7 @@ bool unclipped(const Sample& s, int c, const std::vector<double>& gain, const st
   return std::max(ta, tb) < hi && std::min(ta, tb) > lo;
 }
 
-// Channel c of an sRGB value in [0, 1] after the transform (apply() for one channel).
-float transformed(const ColorTransform& t, float v, int c) {
-  const float x = t.linear ? tables().linear(v) : v;
-  const float y = std::clamp(t.gain[c] * x + t.offset[c], 0.0f, 1.0f);
-  return t.linear ? tables().srgb(y) : y;
-}
-
 }  // namespace
-
-Vec3f ColorTransform::apply(const Vec3f& srgb) const {
-  if (identity()) return srgb;
-  Vec3f out;
-  for (int c = 0; c < 3; ++c) out[c] = transformed(*this, srgb[c], c);
-  return out;
-}
 
 ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
                            const std::vector<bool>& locked, const BalanceOptions& options, const JobControl& job,
@@ -497,7 +455,7 @@ std::array<std::vector<uint16_t>, 3> levelTables(const ColorTransform& t, int le
   for (int c = 0; c < 3; ++c) {
     table[c].resize(levels);
     for (int v = 0; v < levels; ++v)
-      table[c][v] = uint16_t(std::lround(transformed(t, float(v) / (levels - 1), c) * (levels - 1)));
+      table[c][v] = uint16_t(std::lround(t.apply(float(v) / (levels - 1), c) * (levels - 1)));
   }
   return table;
 }
@@ -518,7 +476,7 @@ double balancedPhotoDistance(const ColorTransform& a, const ColorTransform& b, i
   double most = 1e-9;
   for (int c = 0; c < 3; ++c)
     for (int v = 0; v <= 4096; ++v)
-      most = std::max(most, 255.0 * std::abs(double(transformed(a, v / 4096.0f, c)) - transformed(b, v / 4096.0f, c)));
+      most = std::max(most, 255.0 * std::abs(double(a.apply(v / 4096.0f, c)) - b.apply(v / 4096.0f, c)));
   return most;
 }
 
@@ -549,7 +507,7 @@ std::shared_ptr<const Photo> balancedPhoto(const std::shared_ptr<const Photo>& p
       for (int y = rows.start; y < rows.end; ++y) {
         const float* p = in.ptr<float>(y);
         float* o = rgb.ptr<float>(y);
-        for (int i = 0; i < 3 * rgb.cols; ++i) o[i] = transformed(transform, p[i], i % 3);
+        for (int i = 0; i < 3 * rgb.cols; ++i) o[i] = transform.apply(p[i], i % 3);
       }
     });
   }

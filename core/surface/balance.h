@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "base/common.h"
+#include "image/color.h"
 #include "io/options.h"
 #include "mapping/texture_map.h"
 
@@ -50,16 +51,7 @@ struct BalanceOptions {
                             // leaves them a relative error that biases gains towards 0
 };
 
-// A colour transform on linear RGB (or sRGB values, see BalanceOptions::linear): c' = gain * c + offset,
-// per channel, clamped to [0, 1].
-struct ColorTransform {
-  Vec3f gain = Vec3f::Ones();
-  Vec3f offset = Vec3f::Zero();
-  bool linear = true;
-  bool identity() const { return gain == Vec3f::Ones() && offset == Vec3f::Zero(); }
-  // The transformed colour of an sRGB colour in [0,1].
-  Vec3f apply(const Vec3f& srgb) const;
-};
+// ColorTransform (image/color.h): per photo, on linear RGB or on sRGB values (BalanceOptions::linear).
 
 struct ColorBalance {
   std::vector<ColorTransform> transforms;  // per photo (identity for references and photos on no seam)

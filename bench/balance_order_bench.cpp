@@ -24,8 +24,8 @@ int main(int argc, char** argv) {
     // Seams first: on the photos as loaded, then the balance over the seamed map.
     auto start = Clock::now();
     SeamResult seams;
-    const auto seamed =
-        optimiseMappingSeams(*balanceFirst.scene, balanceFirst.projection->mapping, balanceFirst.cameras.get(), seams);
+    const auto seamed = optimiseMappingSeams(*balanceFirst.scene, balanceFirst.projection->mapping,
+                                             &balanceFirst.projection->result.projected, seams);
     const double seamSeconds = secondsSince(start);
     const auto balanced = std::make_shared<const BalancedScene>(balanceScene(balanceFirst.scene, *seamed));
     const auto colors = std::make_shared<const SurfaceColors>(colorSurface(*balanced->scene, *seamed));

@@ -164,8 +164,26 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
     options.silhouetteRounds = 1, options.contourReusePx = kPreviewContourPx, options.silhouetteStep = 1e-6,
     options.silhouetteSampleStride = 2;
   CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options, start);
+  // What the photo shows: the user's word, or decided from the clicks (subject.h).
+  const PhotoMode mode = scene.project.photos[photo].mode;
+  PhotoMode use = mode;
+  std::string decision;
+  if (mode == PhotoMode::Auto) {
+    const ModeDecision d = decidePhotoMode(*scene.mesh, p, clicks, fit, options);
+    use = d.mode;
+    decision = "auto: " + d.why;
+  } else {
+    decision =
+        mode == PhotoMode::Object ? "the object itself (the photo's mode)" : "another subject (the photo's mode)";
+  }
+  if (use == PhotoMode::Subject) {
+    CameraFit s = fitCameraToEveryClick(*scene.mesh, clicks, p.width, p.height, options, fit);
+    s.decision = decision;
+    return s;
+  }
   if (start && !fit.fits) return fitPhoto(scene, photo, silhouette, contours);  // too far from the start
   refineOnSilhouette(*scene.mesh, p, fit, options, silhouette, contours);
+  fit.decision = decision;
   return fit;
 }
 
@@ -175,7 +193,11 @@ nlohmann::json fitJson(const CameraFit& fit, int photo) {
     if (fit.fits && i < fit.inlier.size() && !fit.inlier[i])
       outliers.push_back({{"point", fit.clicks[i].point}, {"residual", fit.residual[i]}});
   nlohmann::json j = {{"photo", photo},
-                      {"path", fit.fits ? "projection" : "paper"},
+                      {"shows", fit.subject ? "another subject" : "the object itself"},
+                      {"decision", fit.decision},
+                      {"path", fit.subject ? "camera and warp, or paper"
+                               : fit.fits  ? "projection"
+                                           : "paper"},
                       {"fits", fit.fits},
                       {"reason", fit.reason},
                       {"clicks", fit.clicks.size()},
@@ -332,7 +354,7 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
 }
 
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
-                                                    const CameraStage* cameras, SeamResult& seams,
+                                                    const std::vector<char>* projected, SeamResult& seams,
                                                     const JobControl& job,
                                                     std::vector<std::shared_ptr<const LuvTiles>> luv,
                                                     const SeamMemo* warm, uint64_t meshHash) {
@@ -346,7 +368,7 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   in.warm = warm;
   in.meshHash = meshHash;
   in.warmTolerancePx = warm ? kPreviewFramePx : 0;
-  if (cameras) in.projectedPhotos = fittingPhotos(cameras->fits);
+  if (projected) in.projectedPhotos = *projected;
   SeamOptions options;
   options.lambda = o.seamLambda;
   options.rounds = o.seamRounds;
@@ -420,8 +442,15 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
     std::vector<const Photo*> photos;
     for (const auto& p : scene.photos) photos.push_back(p.get());
     const PreviewSurface surface(mapping.map, photos, &colors.levelling, inpaint, options.emptyColor);
-    out.originalModel = bakeOriginalTopology(*scene.mesh, mesh, mapping.partition->faceParent, out.atlas, out.image,
-                                             options, {}, [&](int f, const Vec3& b) { return surface.color(f, b); });
+    // The mesh as loaded: a welded mesh's faces are the loaded ones (WeldedMesh), each refined face lies in one.
+    std::vector<int> loadedParent;
+    if (scene.welded()) {
+      loadedParent.reserve(mapping.partition->faceParent.size());
+      for (int f : mapping.partition->faceParent) loadedParent.push_back(scene.mesh->faceOrigin[f]);
+    }
+    out.originalModel = bakeOriginalTopology(
+        *scene.loaded, mesh, scene.welded() ? loadedParent : mapping.partition->faceParent, out.atlas, out.image,
+        options, {}, [&](int f, const Vec3& b) { return surface.color(f, b); });
     out.originalModel.model.name = out.model.name;
     out.transferSeconds = secondsSince(start);
   }
@@ -433,18 +462,53 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   // The mesh and each photo are reloaded only when their files changed.
   auto scene = std::make_shared<Scene>();
   scene->project = project;
-  const std::string meshKey = fileKey(project.mesh);
-  cached = meshKey == meshKey_ && cachedMesh_;
+  const std::string meshFile = fileKey(project.mesh);
+  cached = meshFile == meshFile_ && cachedMesh_;
   if (!cached) {
     job.progress(StageId::Load, 0.0, "mesh " + fs::path(project.mesh).filename().string());
     LoadedMesh loaded = loadMesh(project.mesh);
     cachedMeshReport_ = loaded.report;
     cachedMesh_ = requireUsable(std::move(loaded));
-    meshKey_ = meshKey;
+    meshFile_ = meshFile;
+  }
+  // A mesh split at UV seams: the stages work on it welded (once per mesh file).
+  const bool weld = project.options.weldIdenticalPositions;
+  if (!cached || weld != weldTried_) {
+    weldTried_ = weld;
+    cachedWelded_ = {};
+    if (weld) {
+      WeldedMesh w = weldIdenticalPositions(*cachedMesh_);
+      if (w.mesh) {
+        cachedWelded_.mesh = std::move(w.mesh);
+        cachedWelded_.report = std::move(w.report);
+        cachedWelded_.vertexOf = std::make_shared<const std::vector<int>>(std::move(w.vertexOf));
+        cachedWelded_.faceOf = std::make_shared<const std::vector<int>>(std::move(w.faceOf));
+        cachedWelded_.merged = w.mergedVertices;
+      }
+    }
+    cached = false;
   }
   const bool sameMesh = cached;
-  scene->mesh = cachedMesh_;
-  scene->meshReport = cachedMeshReport_;
+  meshKey_ = meshFile_ + (cachedWelded_.mesh ? "|welded" : "");  // what the stages read
+  scene->loaded = cachedMesh_;
+  scene->mesh = cachedWelded_.mesh ? cachedWelded_.mesh : cachedMesh_;
+  scene->meshReport = cachedWelded_.mesh ? cachedWelded_.report : cachedMeshReport_;
+  if (cachedWelded_.mesh) {
+    scene->vertexOf = cachedWelded_.vertexOf;
+    scene->faceOf = cachedWelded_.faceOf;
+    scene->meshReport.path = cachedMeshReport_.path;
+    scene->meshReport.format = cachedMeshReport_.format;
+    scene->meshReport.inputVertices = cachedMeshReport_.inputVertices;
+    scene->meshReport.inputFaces = cachedMeshReport_.inputFaces;
+    scene->meshReport.findings.insert(
+        scene->meshReport.findings.begin(),
+        {MeshFinding::Severity::Warning,
+         std::to_string(cachedWelded_.merged) +
+             " vertices share their position with another (the mesh is split at UV seams): they are welded for "
+             "mapping, and the export keeps the mesh's own vertices",
+         {},
+         cachedWelded_.merged});
+  }
   std::vector<CachedPhoto> photos;
   for (size_t i = 0; i < project.photos.size(); ++i) {
     const PhotoRef& ref = project.photos[i];
@@ -477,13 +541,18 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
     scene->photoKeys.push_back(scene->skippedPhotos.count(int(i)) ? std::string() : key);
   }
   cachedPhotos_ = std::move(photos);
+  if (!scene->skippedPhotos.empty() || scene->welded()) scene->requested = project;
   if (!scene->skippedPhotos.empty()) {
     std::set<int> skipped;
     for (const auto& [i, reason] : scene->skippedPhotos) skipped.insert(i);
-    scene->requested = project;
     scene->project = withoutPhotoReferences(project, skipped);
   }
-  validateProject(scene->project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
+  // The document's ids name the mesh as loaded: checked there, then carried to the welded mesh.
+  validateProject(scene->project, scene->loaded->numVertices(), scene->loaded->numFaces(), photoSizes(scene->photos));
+  if (scene->welded()) {
+    scene->project = withMeshIds(scene->project, *scene->vertexOf, *scene->faceOf);
+    validateProject(scene->project, scene->mesh->numVertices(), scene->mesh->numFaces(), photoSizes(scene->photos));
+  }
   checkClones(scene->project, *scene->mesh, scene->photos);
   std::vector<const Photo*> photoPointers;
   for (const auto& p : scene->photos) photoPointers.push_back(p.get());
@@ -564,12 +633,12 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   std::vector<size_t> toFit;
   std::vector<const PhotoCamera*> warmStart(np, nullptr);  // kept alive by cachedFits_ until the fits end
   for (size_t p = 0; p < np; ++p) {
-    photoClickLists[p] = photoClicks(project, static_cast<int>(p));
+    photoClickLists[p] = photoClicks(scene->project, static_cast<int>(p));
     nlohmann::json clicks = nlohmann::json::array();
     for (const CameraClick& c : photoClickLists[p]) clicks.push_back({c.vertex, c.pixel.x(), c.pixel.y()});
     const std::string photoKey = meshKey_ + '#' + cachedPhotos_[p].key;
-    fits[p].first =
-        photoKey + clicks.dump() + opts["cameraMode"].dump() + opts["cameraThreshold"].dump() + opts["seed"].dump();
+    fits[p].first = photoKey + clicks.dump() + opts["cameraMode"].dump() + opts["cameraThreshold"].dump() +
+                    opts["seed"].dump() + "|mode:" + kPhotoModeNames[size_t(project.photos[p].mode)];
     std::string found;
     for (const auto& [k, f] : cachedFits_)
       if (k == fits[p].first || (tier == Tier::Preview && k == fits[p].first + kWarm)) fits[p].second = f, found = k;
@@ -609,7 +678,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     job.checkCancel();
     for (const auto& [key, fit] : fits) {
       cameras->fits.push_back(*fit);
-      cameras->fitted += fit->fits;
+      cameras->fitted += fit->fits && !fit->subject;
+      cameras->subjects += fit->subject;
     }
     cachedFits_ = std::move(fits);
     cameras->seconds = secondsSince(cameraStart);
@@ -653,12 +723,17 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     result.stages.push_back({StageId::Camera,
                              all,
                              all ? 0 : cameras->seconds,
-                             {{"fitted", cameras->fitted}, {"reused", cameras->reused}, {"photos", photos}}});
+                             {{"fitted", cameras->fitted},
+                              {"subjects", cameras->subjects},
+                              {"reused", cameras->reused},
+                              {"photos", photos}}});
   }
-  for (size_t p = 0; p < cameras->fits.size(); ++p)
-    if (!cameras->fits[p].fits && !cameras->fits[p].clicks.empty() && project.options.cameraMode == CameraMode::Auto)
-      result.warnings.push_back("camera: photo " + std::to_string(p) +
-                                " takes the paper's path: " + cameras->fits[p].reason);
+  for (size_t p = 0; p < cameras->fits.size(); ++p) {
+    const CameraFit& fit = cameras->fits[p];
+    if (!fit.fits && !fit.clicks.empty() && project.options.cameraMode == CameraMode::Auto)
+      result.warnings.push_back("camera: photo " + std::to_string(p) + (fit.subject ? " (another subject)" : "") +
+                                " takes the paper's path: " + fit.reason);
+  }
 
   const Mapping& mapping = *cachedMapping_;
   nlohmann::json rejected = nlohmann::json::object();
@@ -718,9 +793,23 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   {
     const ProjectionResult& pr = projection.result;
     nlohmann::json photos = nlohmann::json::array();
+    nlohmann::json subjects = nlohmann::json::array();
+    for (const SubjectChoice& c : pr.subjects)
+      subjects.push_back({{"photo", c.photo},
+                          {"map", c.warp ? "camera and warp" : "paper"},
+                          {"why", c.why},
+                          {"warp_faces", c.warpFaces},
+                          {"warp_share", c.warpArea},
+                          {"warp_folds", c.warpFolds},
+                          {"warp_stretch", c.warpStretch},
+                          {"paper_faces", c.paperFaces},
+                          {"paper_share", c.paperArea},
+                          {"paper_stretch", c.paperStretch},
+                          {"held_out_median_px", c.heldOutMedianPx},
+                          {"held_out_max_px", c.heldOutMaxPx}});
     for (size_t p = 0; p < pr.photoFaces.size(); ++p)
       photos.push_back({{"photo", p},
-                        {"path", cameras->fits[p].fits ? "projection" : "paper"},
+                        {"path", pr.projected.size() > p && pr.projected[p] ? "projection" : "paper"},
                         {"faces", pr.photoFaces[p]},
                         {"projected_faces", pr.photoProjectedFaces[p]},
                         {"refused_flipped", pr.photoRefusedFlipped[p]},
@@ -744,10 +833,16 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                               {"views_carried", pr.viewsCarried},
                               {"carried_share", pr.carriedShare},
                               {"select_seconds", pr.selectSeconds},
-                              {"photos", photos}}});
+                              {"photos", photos},
+                              {"subjects", subjects}}});
   }
-  result.proposals =
-      proposeCorrespondences(project, projection.mapping->partition->mesh, cameras->fits, projection.result.views);
+  for (const SubjectChoice& c : projection.result.subjects)
+    if (!c.warp)
+      result.warnings.push_back("projection: photo " + std::to_string(c.photo) +
+                                " (another subject) takes the paper's path: " + c.why);
+  result.proposals = proposeCorrespondences(scene->project, projection.mapping->partition->mesh, cameras->fits,
+                                            projection.result.views);
+  for (Proposal& pr : result.proposals) pr.vertex = scene->documentVertex(pr.vertex);  // as the document names it
 
   // Balance: rerun when the final mapping, the mode or the locks changed. It reads the seams between
   // photos of the final mapping (which photo each face shows: seam optimisation moves UVs, never a face
@@ -815,8 +910,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     }
     luvTiles_ = std::move(kept);
     if (keep_ == Keep::ThisRunOnly) luvTiles_.clear();  // `luv` holds them for this run's seams
-    cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, cameras.get(), *seams, job, std::move(luv),
-                                         warmSeams, projection.result.meshHash);
+    cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, &projection.result.projected, *seams, job,
+                                         std::move(luv), warmSeams, projection.result.meshHash);
     seams->map = TextureMap();  // the seamed mapping holds it
     seamMemo_ = std::move(seams->memo);
     if (keep_ == Keep::ThisRunOnly) seamMemo_.reset();
@@ -1037,12 +1132,22 @@ CoverageReport coverageOf(const PipelineResult& result, const CoverageOptions& o
   const Mapping& m = *result.mapping;
   const bool views = result.projection && result.projection->mapping &&
                      result.projection->mapping->partition->mesh.numFaces() == m.partition->mesh.numFaces();
-  return analyseCoverage(
-      {result.scene ? result.scene->project : Project{}, *m.partition, m.map, m.cells,
-       result.cameras ? result.cameras->fits : noFits, views ? result.projection->result.views : noViews,
-       result.scene ? static_cast<int>(result.scene->photos.size()) : 0,
-       result.scene && result.scene->mesh ? result.scene->mesh->numVertices() : 0},
+  const Scene* scene = result.scene.get();
+  CoverageReport report = analyseCoverage(
+      {scene ? scene->project : Project{}, *m.partition, m.map, m.cells, result.cameras ? result.cameras->fits : noFits,
+       views ? result.projection->result.views : noViews, scene ? static_cast<int>(scene->photos.size()) : 0,
+       scene && scene->mesh ? scene->mesh->numVertices() : 0,
+       scene && scene->welded() ? std::function<int(int)>([scene](int v) { return scene->documentVertex(v); })
+                                : std::function<int(int)>()},
       options);
+  // Clicks name vertices as the document does (a welded mesh's: the loaded vertex).
+  if (scene && scene->welded())
+    for (CoverageRegion& r : report.regions) {
+      r.centreVertex = scene->documentVertex(r.centreVertex);
+      for (RegionCause& c : r.causes)
+        if (c.click.vertex >= 0) c.click.vertex = scene->documentVertex(c.click.vertex);
+    }
+  return report;
 }
 
 PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
@@ -1141,6 +1246,13 @@ void writeRunOutputs(const PipelineResult& result, OutputFolder& out) {
   report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
   writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
   out.commit();
+}
+
+ModeDecision decideAutoMode(const Scene& scene, int photo) {
+  const Photo& p = *scene.photos.at(photo);
+  const std::vector<CameraClick> clicks = photoClicks(scene.project, photo);
+  const CameraFitOptions options = cameraFitOptions(scene.project.options);
+  return decidePhotoMode(*scene.mesh, p, clicks, fitCamera(*scene.mesh, clicks, p.width, p.height, options), options);
 }
 
 }  // namespace montage

@@ -59,7 +59,8 @@ struct Mapping {
 // others take the paper's path.
 struct CameraStage {
   std::vector<CameraFit> fits;  // per photo
-  int fitted = 0;               // photos that fit
+  int fitted = 0;               // photos that fit a camera as the object itself
+  int subjects = 0;             // photos taken for another subject (mapping/subject.h)
   int reused = 0;               // fits reused from the previous run (same clicks, photo, mesh, options)
   double seconds = 0;
 };
@@ -178,13 +179,14 @@ BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapp
 // Seams: content-based seam optimisation (4.2-4.3, seams.h) over the final map. Returns `mapping` itself
 // when nothing moved (seamRounds = 0 or no seam), else a copy with the optimised map (moved out of
 // `seams.map`); figures in `seams`.
-// `cameras` (may be null) says which photos are mapped by projection (SeamInput::projectedPhotos).
+// `projected` (may be null: none) says which photos are mapped by projection (ProjectionResult::projected,
+// SeamInput::projectedPhotos).
 // `luv` (per photo, may be empty) holds the L*u*v* tiles of photos the caller keeps (SeamInput::luv); `warm`
 // (may be null) the last run's sides for the preview's warm start (SeamMemo; sides whose surroundings moved
 // less than kPreviewFramePx take their kept move), and `meshHash` (0: unknown) the partition mesh's hash
 // (ProjectionResult::meshHash), with which a warm run may keep the last run's sides (SeamMemo::structure).
 std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const std::shared_ptr<const Mapping>& mapping,
-                                                    const CameraStage* cameras, SeamResult& seams,
+                                                    const std::vector<char>* projected, SeamResult& seams,
                                                     const JobControl& job = {},
                                                     std::vector<std::shared_ptr<const LuvTiles>> luv = {},
                                                     const SeamMemo* warm = nullptr, uint64_t meshHash = 0);
@@ -200,6 +202,10 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
 // Bake: see BakeResult.
 BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
                      const JobControl& job = {});
+
+// What the camera stage decides for photo `photo` of `scene` in auto mode (mapping/subject.h): the object itself or
+// another subject, and why; whatever the photo's mode and the camera option say.
+ModeDecision decideAutoMode(const Scene& scene, int photo);
 
 class Pipeline {
  public:
@@ -226,9 +232,17 @@ class Pipeline {
   std::string documentKey(const Project& project) const;
 
   Keep keep_;
-  std::shared_ptr<const Mesh> cachedMesh_;
+  std::shared_ptr<const Mesh> cachedMesh_;  // as loaded
   MeshReport cachedMeshReport_;
-  std::string meshKey_;
+  struct Welded {  // cachedMesh_ welded (weldIdenticalPositions), when it has vertices to merge
+    std::shared_ptr<const Mesh> mesh;
+    MeshReport report;
+    std::shared_ptr<const std::vector<int>> vertexOf, faceOf;
+    int merged = 0;
+  } cachedWelded_;
+  bool weldTried_ = false;  // cachedWelded_ was made for this value of the option
+  std::string meshFile_;    // the mesh file's identity
+  std::string meshKey_;     // the stages' mesh: the file's identity, and whether it was welded
   // A loaded photo and what later stages derive from it alone, made on first use and kept with it.
   struct CachedPhoto {
     std::string key;
@@ -239,11 +253,11 @@ class Pipeline {
   std::vector<CachedPhoto> cachedPhotos_;
   // seams: luvImage(photo), tile by tile, of the photos the last run's seams read (loaded or balanced)
   std::vector<std::pair<std::shared_ptr<const Photo>, std::shared_ptr<const LuvTiles>>> luvTiles_;
-  BalanceMemo balanceSamples_;  // balance: the seam edges' samples of the last runs
-  ViewFrameCache frames_;       // projection: each fitted photo's frame, by camera
-  PoissonCache solvers_;        // inpaint: the factorisations of the last two runs' regions
-  SynthesisMemo synthesis_;     // inpaint: the synthesised holes' shift-map results of the last two runs
-  std::string mapKey_;          // the partition's inputs
+  BalanceMemo balanceSamples_;         // balance: the seam edges' samples of the last runs
+  ViewFrameCache frames_;              // projection: each fitted photo's frame, by camera
+  PoissonCache solvers_;               // inpaint: the factorisations of the last two runs' regions
+  SynthesisMemo synthesis_;            // inpaint: the synthesised holes' shift-map results of the last two runs
+  std::string mapKey_;                 // the partition's inputs
   std::vector<char> mappedProjected_;  // the photos that fitted a camera when the cells were mapped
   std::shared_ptr<const Mapping> cachedMapping_;
   MapCaches mapCaches_;

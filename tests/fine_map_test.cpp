@@ -140,10 +140,11 @@ struct GridCase {
   std::vector<View> views;
 
   static int id(int i, int j) { return i + n * j; }
+  // The position of grid vertex v.
+  static Vec3 at(int v) { return Vec3(v % n, v / n, 0); }
 
-  GridCase(std::vector<std::shared_ptr<Photo>> photos, std::vector<View> photoViews,
-           std::vector<std::vector<int>> pathPhotos = {})
-      : views(std::move(photoViews)) {
+  // The n x n grid in the plane z = 0, two triangles per square.
+  static std::shared_ptr<const Mesh> gridMesh() {
     std::vector<Vec3> vertices;
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) vertices.emplace_back(i, j, 0);
@@ -153,9 +154,15 @@ struct GridCase {
         triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
         triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
       }
+    return requireUsable(buildMesh(vertices, triangles));
+  }
+
+  GridCase(std::vector<std::shared_ptr<Photo>> photos, std::vector<View> photoViews,
+           std::vector<std::vector<int>> pathPhotos = {})
+      : views(std::move(photoViews)) {
     scene = std::make_shared<Scene>();
-    scene->mesh = requireUsable(buildMesh(vertices, triangles));
-    partition.mesh = *requireUsable(buildMesh(vertices, triangles));
+    scene->mesh = gridMesh();
+    partition.mesh = *scene->mesh;
     for (size_t k = 0; k < photos.size(); ++k) {
       scene->photos.push_back(photos[k]);
       scene->project.photos.push_back(PhotoRef{"grid" + std::to_string(k) + ".png", ""});
@@ -165,7 +172,7 @@ struct GridCase {
     for (int v : corners) {
       FeaturePoint point{v, {}};
       for (size_t k = 0; k < views.size(); ++k) {
-        const Vec2 px = views[k](vertices[v]);
+        const Vec2 px = views[k](at(v));
         point.at.push_back(PhotoPoint{static_cast<int>(k), px.x(), px.y()});
       }
       scene->project.points.push_back(point);
@@ -184,10 +191,9 @@ struct GridCase {
       std::vector<int> inPhotos = pathPhotos.empty() ? std::vector<int>() : pathPhotos[partition.paths.size()];
       if (pathPhotos.empty())
         for (size_t k = 0; k < views.size(); ++k) inPhotos.push_back(static_cast<int>(k));
-      for (int k : inPhotos)
-        path.curves.push_back(Curve{k, views[k](vertices[corners[from]]), views[k](vertices[corners[to]])});
+      for (int k : inPhotos) path.curves.push_back(Curve{k, views[k](at(corners[from])), views[k](at(corners[to]))});
       path.fromChain = true;
-      path.length = (vertices[corners[to]] - vertices[corners[from]]).norm();
+      path.length = (at(corners[to]) - at(corners[from])).norm();
       partition.paths.push_back(path);
     };
     addPath(0, 1, 1, 0);   // bottom
@@ -384,6 +390,133 @@ TEST(FineMap, AFaceWithThreeCornersOnOneSideFailsItsCellOnly) {
   const int side = GridCase::hi - GridCase::lo;
   EXPECT_EQ(cm.map.numMapped(), side * side);  // the upper triangle
   EXPECT_EQ(countFlips(cm.map), 0);
+}
+
+// ---- Cells that are not triangles: feature polygons, features inside, the mesh border (issue 33) ----
+
+// A flat grid as GridCase's, one photo seeing it through `view`, features at the grid points `corners` (counter-
+// clockwise, as the grid is seen from +z) joined by paths along straight grid runs (steps along the axes or the
+// triangulation's diagonals), except the sides `freeSides` lists (from corner k to k + 1: no path, e.g. along the
+// mesh border); features at `inner` with clicks `innerShift` px off their exact images, and no paths.
+struct PolygonCase {
+  static constexpr int n = GridCase::n;
+  std::shared_ptr<Scene> scene;
+  Partition partition;
+  View view;
+  std::vector<int> innerVertices;
+
+  PolygonCase(const std::vector<std::pair<int, int>>& corners, const std::vector<std::pair<int, int>>& inner,
+              const std::vector<int>& freeSides = {}, Vec2 innerShift = Vec2::Zero()) {
+    scene = std::make_shared<Scene>();
+    scene->mesh = GridCase::gridMesh();
+    partition.mesh = *scene->mesh;
+    scene->photos.push_back(makePhoto(340, 340));
+    scene->project.photos.push_back(PhotoRef{"grid.png", ""});
+    auto addPoint = [&](int v, Vec2 shift) {
+      const Vec2 px = view(GridCase::at(v)) + shift;
+      scene->project.points.push_back(FeaturePoint{v, {PhotoPoint{0, px.x(), px.y()}}});
+      partition.featureVertex.push_back(v);
+    };
+    for (const auto& [i, j] : corners) addPoint(GridCase::id(i, j), Vec2::Zero());
+    for (const auto& [i, j] : inner)
+      addPoint(GridCase::id(i, j), innerShift), innerVertices.push_back(GridCase::id(i, j));
+    const int k = static_cast<int>(corners.size());
+    for (int c = 0; c < k; ++c) {
+      if (std::find(freeSides.begin(), freeSides.end(), c) != freeSides.end()) continue;
+      const auto [i0, j0] = corners[c];
+      const auto [i1, j1] = corners[(c + 1) % k];
+      const int di = (i1 > i0) - (i1 < i0), dj = (j1 > j0) - (j1 < j0);
+      MeshPath path;
+      path.fromPoint = c;
+      path.toPoint = (c + 1) % k;
+      for (int i = i0, j = j0;; i += di, j += dj) {
+        path.vertices.push_back(GridCase::id(i, j));
+        if (i == i1 && j == j1) break;
+      }
+      path.curves.push_back(
+          Curve{0, view(GridCase::at(GridCase::id(i0, j0))), view(GridCase::at(GridCase::id(i1, j1)))});
+      path.fromChain = true;
+      partition.paths.push_back(path);
+    }
+    partition.faceParent.resize(partition.mesh.numFaces());
+    for (int f = 0; f < partition.mesh.numFaces(); ++f) partition.faceParent[f] = f;
+    partition.faceCell = floodCells(partition.mesh, partition.paths, partition.numCells);
+  }
+
+  // Mapped cells, flips, the largest distance of a mapped vertex from its exact image (the inner features'
+  // clicks excepted), and whether every inner feature sits exactly on its click.
+  struct Figures {
+    int mapped = 0, flips = 0;
+    double maxError = 0;
+    bool innerExact = true;
+  };
+  Figures figures(const CellMapping& cm) const {
+    Figures out;
+    out.mapped = countStatus(cm, CellStatus::Mapped);
+    out.flips = countFlips(cm.map);
+    const auto uvs = vertexUVs(partition.mesh, cm.map);
+    for (const auto& [key, uv] : uvs)
+      if (std::find(innerVertices.begin(), innerVertices.end(), key.first) == innerVertices.end())
+        out.maxError = std::max(out.maxError, (uv - view(partition.mesh.position(key.first))).norm());
+    for (size_t i = 0; i < innerVertices.size(); ++i) {
+      const auto it = uvs.find({innerVertices[i], 0});
+      const PhotoPoint& click = scene->project.points[scene->project.points.size() - innerVertices.size() + i].at[0];
+      out.innerExact = out.innerExact && it != uvs.end() && it->second == Vec2(click.x, click.y);
+    }
+    return out;
+  }
+};
+
+TEST(FineMap, APolygonCellMapsWithZeroOneAndThreeFeaturesInside) {
+  // A square of four paths (no diagonal): one cell bounded by four sides, mapped into the photo polygon. Features
+  // inside without paths constrain it: their clicks are 6 px off the flat map, and the map goes through them.
+  const std::vector<std::pair<int, int>> square = {{5, 5}, {25, 5}, {25, 25}, {5, 25}};
+  const std::vector<std::vector<std::pair<int, int>>> insides = {{}, {{15, 15}}, {{10, 12}, {19, 11}, {14, 20}}};
+  for (const auto& inner : insides) {
+    SCOPED_TRACE(std::to_string(inner.size()) + " features inside");
+    const PolygonCase c(square, inner, {}, Vec2(6, -4));
+    const CellMapping cm = mapCells(*c.scene, c.partition, FineMapOptions{}, JobControl{});
+    const auto f = c.figures(cm);
+    EXPECT_EQ(f.mapped, 1);
+    EXPECT_EQ(countStatus(cm, CellStatus::TouchesBorder), 1);  // the ring around the square
+    EXPECT_EQ(f.flips, 0);
+    EXPECT_EQ(cm.stats.flippedFaces, 0);
+    EXPECT_TRUE(f.innerExact);
+    EXPECT_EQ(cm.map.numMapped(), 20 * 20 * 2);
+    // The square's true map is a similarity: without inner features it is reproduced; with a feature moved
+    // 7 px, the map bends smoothly towards it (not further than the move).
+    if (inner.empty()) EXPECT_LT(f.maxError, 0.05);
+    EXPECT_LT(f.maxError, 7.3);
+    std::printf("square, %zu inside: max error %.3f px, max stretch %.4f\n", inner.size(), f.maxError,
+                cm.stats.maxStretch);
+  }
+}
+
+TEST(FineMap, AConcavePolygonCellMapsWithoutFolds) {
+  // An L: six sides, the corner (15, 15) reflex.
+  const PolygonCase c({{5, 5}, {25, 5}, {25, 15}, {15, 15}, {15, 25}, {5, 25}}, {});
+  const CellMapping cm = mapCells(*c.scene, c.partition, FineMapOptions{}, JobControl{});
+  const auto f = c.figures(cm);
+  EXPECT_EQ(f.mapped, 1);
+  EXPECT_EQ(f.flips, 0);
+  EXPECT_EQ(cm.map.numMapped(), 2 * (20 * 10 + 10 * 10));
+  EXPECT_LT(f.maxError, 0.5);
+  std::printf("L polygon: max error %.3f px, base inner vertices %d\n", f.maxError, cm.stats.baseInnerVertices);
+}
+
+TEST(FineMap, ACellOnTheMeshBorderMapsWithoutFolds) {
+  // The square's left side lies on the mesh border (i = 0) with no path: the cell is closed by three paths and
+  // the border, which stays free in the photo. The rest of the grid, a disc around it, touches the border too.
+  const PolygonCase c({{0, 5}, {20, 5}, {20, 25}, {0, 25}}, {}, {3});
+  const CellMapping cm = mapCells(*c.scene, c.partition, FineMapOptions{}, JobControl{});
+  const auto f = c.figures(cm);
+  EXPECT_EQ(f.mapped, 2);
+  EXPECT_EQ(f.flips, 0);
+  EXPECT_EQ(cm.stats.flippedFaces, 0);
+  EXPECT_EQ(cm.map.numMapped(), cm.map.numFaces());
+  // Conformal with the three paths held: the free border stays near the flat map.
+  EXPECT_LT(f.maxError, 3.0);
+  std::printf("border cell: max error %.3f px\n", f.maxError);
 }
 
 TEST(FineMap, CellCacheReusesUnchangedCellsExactly) {

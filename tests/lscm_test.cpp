@@ -1,6 +1,6 @@
 // Tests of the LSCM flattening: a flat disc is recovered up to a similarity, a hemisphere flattens
 // without flips, zero-area faces do not break it, the topology checks, and errors on bad input.
-#include "atlas/lscm.h"
+#include "geometry/lscm.h"
 
 #include <Eigen/Geometry>
 #include <cmath>

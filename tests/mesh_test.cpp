@@ -11,6 +11,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "geometry/shapes.h"
 #include "io/mesh_io.h"
@@ -316,6 +317,44 @@ TEST(MeshReal, LeePerrySmithSharedPositionsAndWeld) {
     }
     EXPECT_EQ(a, b);
   }
+}
+
+TEST(MeshWeld, LeePerrySmithWeldedWithTheWayBackToTheLoadedIds) {
+  TM_REQUIRE_SHARED(path, "meshes/leeperrysmith/LeePerrySmith.obj");
+  const auto loaded = requireUsable(loadMesh(path));
+  const WeldedMesh w = weldIdenticalPositions(*loaded);
+  ASSERT_TRUE(w.mesh);
+  EXPECT_EQ(w.mergedVertices, 435);
+  EXPECT_EQ(w.mesh->numVertices(), loaded->numVertices() - 435);
+  EXPECT_EQ(w.report.components, 1);
+  EXPECT_EQ(w.report.boundaryLoops, 0);
+  ASSERT_EQ(static_cast<int>(w.vertexOf.size()), loaded->numVertices());
+  ASSERT_EQ(static_cast<int>(w.faceOf.size()), loaded->numFaces());
+  // Every loaded vertex lands on a welded vertex at its position, and back on the first loaded vertex there.
+  std::map<std::tuple<double, double, double>, int> firstAt;
+  for (int v = 0; v < loaded->numVertices(); ++v) {
+    const Vec3 p = loaded->position(v);
+    firstAt.emplace(std::make_tuple(p.x(), p.y(), p.z()), v);
+  }
+  for (int v = 0; v < loaded->numVertices(); ++v) {
+    const int u = w.vertexOf[v];
+    ASSERT_GE(u, 0) << "vertex " << v;
+    EXPECT_EQ(w.mesh->position(u), loaded->position(v));
+    const Vec3 p = loaded->position(v);
+    EXPECT_EQ(w.mesh->vertexOrigin[u], firstAt.at(std::make_tuple(p.x(), p.y(), p.z())));
+  }
+  // Faces one to one, with the same corner positions, UVs and materials.
+  for (int g = 0; g < loaded->numFaces(); ++g) {
+    const int f = w.faceOf[g];
+    ASSERT_GE(f, 0);
+    EXPECT_EQ(w.mesh->faceOrigin[f], g);
+    std::set<std::tuple<double, double, double>> a, b;
+    for (const Vec3& q : loaded->facePositions(g)) a.insert({q.x(), q.y(), q.z()});
+    for (const Vec3& q : w.mesh->facePositions(f)) b.insert({q.x(), q.y(), q.z()});
+    EXPECT_EQ(a, b);
+  }
+  // A mesh without shared positions has nothing to weld.
+  EXPECT_FALSE(weldIdenticalPositions(*w.mesh).mesh);
 }
 
 // ---- every format on a cube ------------------------------------------------------------------------------

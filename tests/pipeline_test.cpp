@@ -1,6 +1,7 @@
 // The pipeline object (stages, caching, cancel, report) and the `montage` command line end to end.
 #include "pipeline.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -500,6 +501,212 @@ TEST(PipelineTiers, PreviewAfterEditsKeepsSynthesesAndLooksLikeTheFinalBake) {
   const PipelineResult final = pipeline.run(project, {}, Tier::Final);
   for (const InpaintRegion& r : final.colors->inpaint.regions) EXPECT_NE(r.synthesisKept, SynthesisKept::Chart);
   EXPECT_GT(expectPreviewLooksLikeFinal(preview, final, "structure_after_edits"), 0);
+}
+
+// ---- Meshes split at UV seams (issue 33) ----
+
+namespace {
+
+std::string turtlePath() {
+  return test::testDataDir() + "/turtle.obj";
+}
+
+// A synthetic scene (512 px photos) of `photographed`, the turtle or a twin of it with its vertex ids; the project
+// names the turtle's file.
+Project turtleScene(const Mesh& photographed, int views, int features, const std::string& name) {
+  SynthOptions options;
+  options.views = views;
+  options.features = features;
+  options.size = 512;
+  const std::string dir = test::tempDir(name);
+  writeSynthScene(synthesize(photographed, turtlePath(), meshPattern(photographed), options), dir);
+  return loadProject(dir + "/project.json");
+}
+
+// `mesh` with each vertex on the line between faces whose centroid lies at x > 0 and the others copied (appended),
+// the copy taking the x > 0 faces' corners: the surface falls apart along that seam, as a mesh split at UV seams
+// does (positions repeat). copyOf[v] is the copy of vertex v, or -1.
+std::unique_ptr<Mesh> splitAtSeam(const Mesh& mesh, std::vector<int>& copyOf) {
+  std::vector<Vec3> positions;
+  for (int v = 0; v < mesh.numVertices(); ++v) positions.push_back(mesh.position(v));
+  auto right = [&](int f) {
+    const auto q = mesh.facePositions(f);
+    return (q[0] + q[1] + q[2]).x() > 0;
+  };
+  std::vector<char> sides(mesh.numVertices(), 0);  // bit 1: a face at x > 0, bit 2: another
+  for (int f = 0; f < mesh.numFaces(); ++f)
+    for (int v : mesh.faceVertices(f)) sides[v] |= right(f) ? 1 : 2;
+  copyOf.assign(mesh.numVertices(), -1);
+  for (int v = 0; v < mesh.numVertices(); ++v)
+    if (sides[v] == 3) copyOf[v] = static_cast<int>(positions.size()), positions.push_back(mesh.position(v));
+  std::vector<std::array<int, 3>> faces;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    auto fv = mesh.faceVertices(f);
+    if (right(f))
+      for (int& v : fv)
+        if (copyOf[v] >= 0) v = copyOf[v];
+    faces.push_back(fv);
+  }
+  return requireUsable(buildMesh(positions, faces));
+}
+
+double photoShare(const PipelineResult& r) {
+  return r.report()["surface"]["photo_share"].get<double>();
+}
+
+}  // namespace
+
+TEST(PipelineWeld, AMeshSplitAtSeamsMapsAsItsWeldedTwinAndExportsItsOwnVertices) {
+  const auto mesh = requireUsable(loadMesh(turtlePath()));
+  const Project whole = turtleScene(*mesh, 3, 90, "weld");
+  const std::string dir = fs::path(whole.file).parent_path().string();
+
+  std::vector<int> copyOf;
+  const auto split = splitAtSeam(*mesh, copyOf);
+  const int seamCopies = split->numVertices() - mesh->numVertices();
+  ASSERT_GT(seamCopies, 20);  // the seam's vertices
+  const std::string splitPath = dir + "/turtle_split.obj";
+  saveMeshObj(*split, splitPath);
+  ASSERT_GT(loadMesh(splitPath).report.components, 1);
+  // The same clicks on the split mesh; a vertex on the seam is named by its copy.
+  Project apart = whole;
+  apart.mesh = splitPath;
+  int renamed = 0;
+  for (FeaturePoint& p : apart.points)
+    if (copyOf[p.vertex] >= 0) p.vertex = copyOf[p.vertex], ++renamed;
+  ASSERT_GE(renamed, 2);
+
+  for (CameraMode camera : {CameraMode::Auto, CameraMode::Off}) {
+    SCOPED_TRACE(kCameraModeNames[size_t(camera)]);
+    Project a = whole, b = apart;
+    a.options.cameraMode = b.options.cameraMode = camera;
+    const PipelineResult onWhole = Pipeline().run(a);
+    const PipelineResult onSplit = Pipeline().run(b);
+    ASSERT_TRUE(onSplit.scene->welded());
+    test::expectSameMapping(*onWhole.mapping, *onSplit.mapping, "split vs whole");
+    EXPECT_NEAR(photoShare(onSplit), photoShare(onWhole), 0.005);
+    std::printf("camera %s: photo share %.1f%% whole, %.1f%% split at a seam (%d copies)\n",
+                kCameraModeNames[size_t(camera)], 100 * photoShare(onWhole), 100 * photoShare(onSplit), seamCopies);
+    // The export keeps the split mesh's own vertices, in its order.
+    ASSERT_TRUE(onSplit.exported);
+    ASSERT_EQ(onSplit.exported->mesh.numVertices(), split->numVertices());
+    for (int v = 0; v < split->numVertices(); v += 7) EXPECT_EQ(onSplit.exported->mesh.position(v), split->position(v));
+    // Proposals name vertices of the split mesh (the first of those at a position) as the document does.
+    for (const Proposal& pr : onSplit.proposals) {
+      ASSERT_LT(pr.vertex, split->numVertices());
+      EXPECT_EQ(split->position(pr.vertex),
+                onSplit.mapping->partition->mesh.position(onSplit.scene->vertexOf->at(pr.vertex)));
+    }
+    if (camera == CameraMode::Off) {
+      // Unwelded, the paper's path stops at the seam: regions touching it stay empty.
+      b.options.weldIdenticalPositions = false;
+      const PipelineResult unwelded = Pipeline().run(b);
+      EXPECT_FALSE(unwelded.scene->welded());
+      std::printf("  unwelded: photo share %.1f%%\n", 100 * photoShare(unwelded));
+      EXPECT_LT(photoShare(unwelded), photoShare(onWhole) - 0.02);
+    }
+  }
+}
+
+// ---- Photos of another subject with a known truth (issue 33) ----
+
+namespace {
+
+// The turtle bent, stretched and sheared: a subject of the same kind as the turtle, its proportions not (the same
+// vertex ids, so the true correspondence is known).
+std::unique_ptr<Mesh> deformedTwin(const Mesh& mesh) {
+  Vec3 lo = mesh.position(0), hi = lo;
+  for (int v = 0; v < mesh.numVertices(); ++v) lo = lo.cwiseMin(mesh.position(v)), hi = hi.cwiseMax(mesh.position(v));
+  const Vec3 centre = (lo + hi) / 2, half = (hi - lo) / 2;
+  const double size = half.norm();
+  std::vector<Vec3> positions;
+  for (int v = 0; v < mesh.numVertices(); ++v) {
+    const Vec3 q = (mesh.position(v) - centre).cwiseQuotient(half);  // in [-1, 1]^3
+    Vec3 p = mesh.position(v) - centre;
+    p.x() *= 1.25;                                              // longer
+    p.y() *= 0.8;                                               // flatter
+    p.y() += 0.25 * size * q.x() * q.x();                       // bent
+    p.z() += 0.15 * size * q.x() + 0.1 * size * q.y() * q.x();  // sheared and twisted
+    positions.push_back(centre + p);
+  }
+  std::vector<std::array<int, 3>> faces;
+  for (int f = 0; f < mesh.numFaces(); ++f) faces.push_back(mesh.faceVertices(f));
+  return requireUsable(buildMesh(positions, faces));
+}
+
+// Where the mapping puts vertex v in photo k: the mean of its corners' UVs on the faces mapped from k; NaN when no
+// such face holds it.
+Vec2 mappedAt(const Mapping& mapping, int v, int k) {
+  const Mesh& mesh = mapping.partition->mesh;
+  Vec2 sum = Vec2::Zero();
+  int n = 0;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    if (mapping.map.facePhoto[f] != k) continue;
+    const auto fv = mesh.faceVertices(f);
+    for (int c = 0; c < 3; ++c)
+      if (fv[c] == v) sum += mapping.map.cornerUV[f][c], ++n;
+  }
+  return n ? Vec2(sum / n) : Vec2(NAN, NAN);
+}
+
+}  // namespace
+
+TEST(PipelineSubject, HeldOutClicksOfADeformedTwinLandWhereThePapersMapAloneMissesThem) {
+  // Photos of a deformed turtle, clicked onto the turtle: photos of another subject whose true correspondence is
+  // known. A quarter of the clicks are held out; each should land, in the mapping, at its true place in the photo.
+  const auto mesh = requireUsable(loadMesh(turtlePath()));
+  const Project all = turtleScene(*deformedTwin(*mesh), 2, 96, "subject_heldout");
+  Project clicked = all;
+  clicked.points.clear();
+  std::vector<FeaturePoint> heldOut;
+  for (size_t i = 0; i < all.points.size(); ++i) (i % 4 == 3 ? heldOut : clicked.points).push_back(all.points[i]);
+  std::printf("%zu points, %zu held out\n", all.points.size(), heldOut.size());
+  ASSERT_GE(heldOut.size(), 8u);
+  for (PhotoRef& photo : clicked.photos) photo.mode = PhotoMode::Subject;
+
+  // The subject's size in each photo: the diagonal of its clicks' bounding box.
+  std::vector<Eigen::AlignedBox2d> extent(all.photos.size());
+  for (const FeaturePoint& p : all.points)
+    for (const PhotoPoint& q : p.at) extent[q.photo].extend(Vec2(q.x, q.y));
+  // Per held-out click: the distance from where the mapping puts its vertex to the click, as a share of the
+  // subject's size in that photo (1 when the mapping does not map the vertex from that photo).
+  auto errors = [&](const PipelineResult& r) {
+    std::vector<double> e;
+    for (const FeaturePoint& p : heldOut)
+      for (const PhotoPoint& q : p.at) {
+        const Vec2 uv = mappedAt(*r.mapping, p.vertex, q.photo);
+        const double size = extent[q.photo].diagonal().norm();
+        e.push_back(uv.allFinite() ? (uv - Vec2(q.x, q.y)).norm() / size : 1.0);
+      }
+    std::sort(e.begin(), e.end());
+    return e;
+  };
+  const PipelineResult subject = Pipeline().run(clicked);
+  Project paperOnly = clicked;
+  paperOnly.options.cameraMode = CameraMode::Off;
+  const PipelineResult paper = Pipeline().run(paperOnly);
+  const std::vector<double> warped = errors(subject), pieces = errors(paper);
+  auto median = [](const std::vector<double>& e) { return e[e.size() / 2]; };
+  auto mapped = [](const std::vector<double>& e) {
+    return std::count_if(e.begin(), e.end(), [](double x) { return x < 1; });
+  };
+  auto mappedMedian = [&](const std::vector<double>& e) {  // over the clicks mapped from their photo
+    return median(std::vector<double>(e.begin(), e.begin() + std::max<long>(1, mapped(e))));
+  };
+  std::printf(
+      "held-out clicks (%zu): camera and warp median %.1f%% of the subject's size, %ld mapped (median over "
+      "those %.1f%%); paper's map alone median %.1f%%, %ld mapped (median over those %.1f%%)\n",
+      warped.size(), 100 * median(warped), mapped(warped), 100 * mappedMedian(warped), 100 * median(pieces),
+      mapped(pieces), 100 * mappedMedian(pieces));
+  ASSERT_EQ(subject.cameras->subjects, int(clicked.photos.size()));
+  for (const CameraFit& fit : subject.cameras->fits) {  // a camera fitted to every click: none dropped
+    EXPECT_TRUE(fit.subject);
+    EXPECT_EQ(fit.inliers, int(fit.clicks.size()));
+  }
+  constexpr double kThreshold = 0.025;
+  EXPECT_EQ(mapped(warped), long(warped.size()));
+  EXPECT_LT(median(warped), kThreshold);
+  EXPECT_GT(median(pieces), kThreshold);
 }
 
 TEST(PipelineValidation, InfoAndRunRejectTheSameClone) {

@@ -192,13 +192,16 @@ TEST_F(ProjectTest, Version1FilesStillLoadAndDeclinedProposalsAreChecked) {
 
 TEST_F(ProjectTest, FileIsPrettyVersionedJson) {
   Project p = sample();
+  p.photos[1].mode = PhotoMode::Subject;  // a photo of another subject: version 4
   saveProject(p, path("p.json"));
   const std::string text = readFile(path("p.json"));
-  EXPECT_NE(text.find("\n  \"version\": 3,"), std::string::npos) << text;  // two-space indent
+  EXPECT_NE(text.find("\n  \"version\": 4,"), std::string::npos) << text;  // two-space indent
   const json j = json::parse(text);
   EXPECT_EQ(j["format"], "texturemontage-project");
   EXPECT_EQ(j["version"], Project::kVersion);
   EXPECT_EQ(j["photos"][1]["mirror"], true);
+  EXPECT_EQ(j["photos"][1]["mode"], "subject");
+  EXPECT_FALSE(j["photos"][0].contains("mode"));    // auto: no field
   EXPECT_FALSE(j["photos"][0].contains("mirror"));  // false: no field
   EXPECT_EQ(j["photos"][0]["colorLocked"], true);
   EXPECT_EQ(j["options"]["colorBalance"], "gain-offset");
@@ -357,10 +360,10 @@ TEST_F(ProjectTest, SaveIntoReadOnlyFolderKeepsTheEarlierFile) {
 
 TEST_F(ProjectTest, RejectsUnknownVersion) {
   json j = sampleJson();
-  j["version"] = 4;
+  j["version"] = 5;
   const std::string message = loadError(j);
-  EXPECT_MESSAGE_HAS(message, "version: 4 is not supported");
-  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 3");
+  EXPECT_MESSAGE_HAS(message, "version: 5 is not supported");
+  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 4");
   EXPECT_MESSAGE_HAS(message, "written by a newer TextureMontage");
   j["version"] = 0;
   EXPECT_MESSAGE_HAS(loadError(j), "version: 0 is not supported");

@@ -391,6 +391,12 @@ void Document::setColorLocked(int photo, bool locked) {
         [&](Project& p) { p.photos[photo].colorLocked = locked; });
 }
 
+void Document::setPhotoMode(int photo, PhotoMode mode) {
+  checkIndex("photo mode", "photo", photo, current_->photos.size());
+  apply("Photo " + std::to_string(photo) + " shows: " + kPhotoModeNames[size_t(mode)],
+        [&](Project& p) { p.photos[photo].mode = mode; });
+}
+
 void Document::relinkPhoto(int photo, const std::string& path) {
   checkIndex("relink photo", "photo", photo, current_->photos.size());
   TM_CHECK(!path.empty(), "relink photo: the new path is empty");

@@ -101,6 +101,8 @@ class Document {
   void setPhotoMask(int photo, const std::string& mask);
   // Locks a photo's colours for the colour balance (the others are matched to it) or unlocks them.
   void setColorLocked(int photo, bool locked);
+  // What a photo shows (PhotoMode): auto, the object itself, another subject.
+  void setPhotoMode(int photo, PhotoMode mode);
   // Points a photo, or the mesh, at another file (a moved or renamed one); everything else stays.
   void relinkPhoto(int photo, const std::string& path);
   void relinkMesh(const std::string& path);

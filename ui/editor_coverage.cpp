@@ -170,7 +170,10 @@ nlohmann::json Editor::coverageState() const {
     if (front) {
       const VertexPick pick = pickAt(viewRect_.x + viewRect_.w / 2, viewRect_.y + viewRect_.h / 2);
       const auto& parent = result_->mapping->partition->faceParent;
-      for (int f : r.faces) centred = centred || (f < int(parent.size()) && parent[f] == pick.face);
+      const Scene& scene = *result_->scene;
+      for (int f : r.faces)
+        centred = centred || (f < int(parent.size()) &&
+                              (scene.welded() ? scene.mesh->faceOrigin[parent[f]] : parent[f]) == pick.face);
     }
     regions.push_back({{"share", r.share},
                        {"faces", r.faces.size()},

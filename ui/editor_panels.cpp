@@ -665,6 +665,11 @@ void Editor::pipelineTab() {
     int mode = static_cast<int>(o.inpaintMode);
     if (ImGui::Combo("inpainting", &mode, kInpaintModeNames.data(), static_cast<int>(kInpaintModeNames.size())))
       o.inpaintMode = InpaintMode(mode), commit = true;
+    if (ImGui::Checkbox("weld seams of the mesh", &o.weldIdenticalPositions)) commit = true;
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "vertices at one position (a mesh split at its UV seams) are one vertex for mapping; the "
+          "export keeps the mesh's own vertices");
     ImGui::PopItemWidth();
     if (commit) edit([&] { doc_.setOptions(o); });
   }

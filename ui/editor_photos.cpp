@@ -102,6 +102,24 @@ void Editor::photosTab() {
     ImGui::SameLine();
     if (button("x", nullptr, "remove photo " + id)) remove = i;
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("remove the photo with its points, chains and clones (undoable)");
+    // What the photo shows: decides how its clicks map it (mapping/subject.h).
+    static constexpr const char* kShows[] = {"decide from the clicks", "the object itself", "another subject"};
+    int shows = static_cast<int>(ref.mode);
+    ImGui::SetNextItemWidth(ImGui::CalcTextSize(kShows[0]).x + px(40));
+    if (ImGui::Combo("shows", &shows, kShows, IM_ARRAYSIZE(kShows)))
+      edit([&] { doc_.setPhotoMode(i, PhotoMode(shows)); });
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "the object itself: a camera fitted to the clicks projects the photo; a click the camera disagrees with is "
+          "marked as an outlier\nanother subject (e.g. a tiger's flank for a cat): every click is kept exactly, by a "
+          "camera and a smooth warp, or by the paper's piecewise map\ndecide from the clicks: from its first 8 "
+          "clicks, and it changes only when all the clicks clearly say otherwise");
+    if (resultUsable() && result_->cameras && i < static_cast<int>(result_->cameras->fits.size()) &&
+        !result_->cameras->fits[i].decision.empty()) {
+      ImGui::PushTextWrapPos(0);
+      ImGui::TextDisabled("%s", result_->cameras->fits[i].decision.c_str());
+      ImGui::PopTextWrapPos();
+    }
     if (button("Cut out", nullptr, "cut out photo " + id)) cut = i;
     ImGui::SameLine();
     if (button("Relink...", nullptr, "relink photo " + id))

@@ -408,6 +408,8 @@ void Editor::runAction(const ScriptAction& a) {
     TM_CHECK(options.contains(name), where + ": unknown option '" + name + "'");
     if (options[name].is_string()) {
       options[name] = a.text(1);
+    } else if (options[name].is_boolean()) {
+      options[name] = optionFlag(a.text(1), where);
     } else if (options[name].is_number_integer()) {
       options[name] = a.integer(1);
     } else {
@@ -459,6 +461,13 @@ void Editor::runAction(const ScriptAction& a) {
       throw Error(where + ": unknown flag '" + a.text(1) + "' (mirror, lock)");
     }
     TM_CHECK(ok, where + ": " + (lastProblem_.empty() ? "refused" : lastProblem_));
+  } else if (a.verb == "photo_mode") {
+    const int photo = a.integer(0);
+    requirePhoto(photo);
+    const auto it = std::find(kPhotoModeNames.begin(), kPhotoModeNames.end(), a.text(1));
+    TM_CHECK(it != kPhotoModeNames.end(), where + ": unknown photo mode '" + a.text(1) + "' (auto, object, subject)");
+    TM_CHECK(edit([&] { doc_.setPhotoMode(photo, PhotoMode(it - kPhotoModeNames.begin())); }),
+             where + ": " + (lastProblem_.empty() ? "refused" : lastProblem_));
   } else if (a.verb == "cutout_mode") {
     const auto it = std::find(kCutoutModeNames.begin(), kCutoutModeNames.end(), a.text(0));
     TM_CHECK(it != kCutoutModeNames.end(),
@@ -614,9 +623,21 @@ void Editor::writeState(const std::string& path) const {
                   {"mask", p.photos[i].mask},
                   {"mirror", p.photos[i].mirror},
                   {"color_locked", p.photos[i].colorLocked},
+                  {"mode", kPhotoModeNames[size_t(p.photos[i].mode)]},
                   {"loaded", slot && slot->photo != nullptr},
                   {"error", slot ? slot->error : ""}};
     if (slot && slot->photo) entry["size"] = {slot->photo->width, slot->photo->height};
+    if (resultUsable() && result_->cameras && i < result_->cameras->fits.size()) {
+      // What the last result took the photo for, why, and how it mapped it.
+      const CameraFit& fit = result_->cameras->fits[i];
+      int outliers = 0;
+      for (size_t k = 0; k < fit.inlier.size(); ++k) outliers += fit.fits && !fit.inlier[k];
+      const auto& projected = result_->projection ? result_->projection->result.projected : std::vector<char>{};
+      entry["shows"] = fit.subject ? "subject" : "object";
+      entry["decision"] = fit.decision;
+      entry["outliers"] = outliers;
+      entry["projected"] = i < projected.size() && projected[i];
+    }
     photos.push_back(entry);
   }
   state["photos"] = photos;

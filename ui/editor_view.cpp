@@ -338,8 +338,10 @@ void Editor::uploadOverlay() {
   if (!cloneFaces_.empty()) {
     // Clone targets are input faces; the displayed result's faces map to them by faceParent.
     const std::vector<int>* parent = model && result_->mapping ? &result_->mapping->partition->faceParent : nullptr;
+    const Scene* scene = result_ ? result_->scene.get() : nullptr;
     for (int f = 0; f < F; ++f) {
-      const int input = parent && f < static_cast<int>(parent->size()) ? (*parent)[f] : f;
+      int input = parent && f < static_cast<int>(parent->size()) ? (*parent)[f] : f;
+      if (parent && scene && scene->welded()) input = scene->mesh->faceOrigin[input];  // the loaded mesh's face
       if (cloneFaces_.count(input)) face[f] = Vec4f(0.2f, 0.9f, 0.9f, 0.45f);
     }
   }

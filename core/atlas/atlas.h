@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "atlas/lscm.h"
 #include "base/common.h"
+#include "geometry/lscm.h"
 #include "io/model.h"
 #include "mapping/texture_map.h"
 

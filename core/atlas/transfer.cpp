@@ -1,9 +1,10 @@
 #include "atlas/transfer.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
-#include <tbb/parallel_for.h>
 
 #include "base/util.h"
 #include "geometry/predicates.h"
@@ -63,14 +64,14 @@ RefinedLocator::RefinedLocator(const Mesh& input, const Mesh& refined, const std
     TM_CHECK(f >= 0 && f < F, "transfer: refined face " + std::to_string(r) + " has parent face " + std::to_string(f) +
                                   " outside the input mesh (" + std::to_string(F) + " faces)");
     children_[f].push_back(r);
-    const auto pv = input.faceVertices(f);
     const auto pp = input.facePositions(f);
     const auto rv = refined.faceVertices(r);
     for (int k = 0; k < 3; ++k) {
-      // Input vertices keep their ids in the refinement: their barycentrics are exact.
-      const auto it = std::find(pv.begin(), pv.end(), rv[k]);
-      corners_[r][k] = it != pv.end() ? Vec3::Unit(static_cast<int>(it - pv.begin()))
-                                      : planeBarycentrics(pp, refined.position(rv[k]));
+      // Input vertices keep their positions in the refinement (and their ids, unless the refinement is of the
+      // input welded): their barycentrics are exact.
+      const Vec3 q = refined.position(rv[k]);
+      const auto it = std::find(pp.begin(), pp.end(), q);
+      corners_[r][k] = it != pp.end() ? Vec3::Unit(static_cast<int>(it - pp.begin())) : planeBarycentrics(pp, q);
     }
   }
 }

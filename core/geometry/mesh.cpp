@@ -445,6 +445,7 @@ LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::a
   TriMesh& tri = mesh.tri;
   tri.reserve(origin.size(), numEdges, nt);
   for (int o : origin) tri.add_vertex(TriMesh::Point(vertices[o][0], vertices[o][1], vertices[o][2]));
+  mesh.vertexOrigin = origin;
   {
     OmerrSilencer silence;
     for (int t = 0; t < nt; ++t) {
@@ -538,7 +539,57 @@ LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::a
   addFinding(report, Severity::Warning, unreferenced, "vertices used by no face (kept, ignored)");
   addFinding(report, Severity::Warning, sharedPositions,
              "vertices have the same position as an earlier vertex (e.g. a mesh split at UV seams), which "
-             "leaves the seams open; the weldIdenticalPositions load option merges them");
+             "leaves the seams open; the project option weldIdenticalPositions (on by default) welds them");
+  return out;
+}
+
+WeldedMesh weldIdenticalPositions(const Mesh& loaded) {
+  WeldedMesh out;
+  const int nv = loaded.numVertices(), nf = loaded.numFaces();
+  std::vector<Vec3> positions(nv);
+  for (int v = 0; v < nv; ++v) positions[v] = loaded.position(v);
+  const std::vector<int> first = firstWithSamePosition(positions);
+  for (int v = 0; v < nv; ++v) out.mergedVertices += first[v] != v;
+  if (out.mergedVertices == 0) return out;
+
+  // The loaded faces as a soup (vertex ids of the loaded mesh), built again with welding: the welded mesh's
+  // faceOrigin and vertexOrigin then index the loaded mesh.
+  std::vector<std::array<int, 3>> triangles(nf);
+  for (int f = 0; f < nf; ++f) triangles[f] = loaded.faceVertices(f);
+  MeshLoadOptions options;
+  options.weldIdenticalPositions = true;
+  LoadedMesh built = buildMesh(positions, triangles, loaded.cornerUV, options, "welded mesh");
+  out.report = std::move(built.report);
+  out.mesh = std::move(built.mesh);
+  Mesh& mesh = *out.mesh;
+  auto labels = [&](const std::vector<int>& from, std::vector<int>& ids) {
+    if (from.empty()) return;
+    ids.resize(mesh.numFaces());
+    for (int f = 0; f < mesh.numFaces(); ++f) ids[f] = from[mesh.faceOrigin[f]];
+  };
+  labels(loaded.faceMaterial, mesh.faceMaterial);
+  mesh.materialNames = loaded.materialNames;
+  mesh.mtllib = loaded.mtllib;
+  labels(loaded.faceGroup, mesh.faceGroup);
+  mesh.groupNames = loaded.groupNames;
+
+  // Faces map one to one; a vertex maps to the welded corner at its position in a face around it (exact
+  // at vertices a non-manifold fan split into several), else to the first welded vertex at its position.
+  out.faceOf.assign(nf, -1);
+  out.vertexOf.assign(nv, -1);
+  for (int w = 0; w < mesh.numFaces(); ++w) {
+    const int g = mesh.faceOrigin[w];
+    out.faceOf[g] = w;
+    const auto wv = mesh.faceVertices(w);
+    for (int v : loaded.faceVertices(g))
+      for (int u : wv)
+        if (positions[v] == mesh.position(u)) out.vertexOf[v] = u;
+  }
+  std::vector<int> weldedOfFirst(nv, -1);
+  for (int u = 0; u < mesh.numVertices(); ++u)
+    if (weldedOfFirst[mesh.vertexOrigin[u]] < 0) weldedOfFirst[mesh.vertexOrigin[u]] = u;
+  for (int v = 0; v < nv; ++v)
+    if (out.vertexOf[v] < 0 && !loaded.tri.is_isolated(VertexHandle(v))) out.vertexOf[v] = weldedOfFirst[first[v]];
   return out;
 }
 

@@ -36,7 +36,9 @@ struct Mesh {
   // Optional per-face OBJ group index (`g` name; `o` when no `g`) into `groupNames`; empty when absent.
   std::vector<int> faceGroup;
   std::vector<std::string> groupNames;
-  std::vector<int> faceOrigin;  // #F: index of the input face (after fan triangulation) of each face
+  std::vector<int> faceOrigin;    // #F: index of the input face (after fan triangulation) of each face
+  std::vector<int> vertexOrigin;  // #V: index of the input vertex each vertex was made from (the first of those at
+                                  // its position when welded; a vertex split at a non-manifold fan: the same)
 
   int numVertices() const { return static_cast<int>(tri.n_vertices()); }
   int numFaces() const { return static_cast<int>(tri.n_faces()); }
@@ -130,6 +132,19 @@ struct MeshLoadOptions {
   // shared vertices). Off by default so vertex ids match the file, which project files refer to.
   bool weldIdenticalPositions = false;
 };
+
+// A mesh whose file splits its surface at UV seams (vertices at identical positions: glTF, most meshes from
+// games and scanners) with those vertices merged, so that the stages see one connected surface, and the way
+// from the ids of the mesh as loaded (which project files name and the export writes) to its own. The way
+// back: the welded mesh's vertexOrigin and faceOrigin, which index the loaded mesh.
+struct WeldedMesh {
+  std::unique_ptr<Mesh> mesh;  // null when no two vertices of the loaded mesh share a position
+  MeshReport report;           // the welded mesh's validation (components, borders, genus as the stages see them)
+  std::vector<int> vertexOf;   // #V(loaded): its welded vertex (-1 for a vertex used by no face)
+  std::vector<int> faceOf;     // #F(loaded): its welded face (-1 for a face that welding makes degenerate)
+  int mergedVertices = 0;      // loaded vertices merged into another one
+};
+WeldedMesh weldIdenticalPositions(const Mesh& loaded);
 
 // Throws montage::Error with the report's errors when the mesh is unusable; returns the mesh otherwise.
 std::unique_ptr<Mesh> requireUsable(LoadedMesh loaded);

@@ -38,6 +38,13 @@ inline constexpr std::array<const char*, 2> kExportTopologyNames = {"original", 
 enum class CameraMode { Auto, Off };
 inline constexpr std::array<const char*, 2> kCameraModeNames = {"auto", "off"};
 
+// What a photo shows (mapping/camera.h, mapping/subject.h): decided from its clicks (auto); the object itself (a
+// camera fitted to its clicks maps it by projection, and a click the camera disagrees with is an outlier); or
+// another subject (a camera fitted to every click and a warp that keeps each one exact, or the paper's piecewise
+// map where that maps with less error; no click is ever an outlier).
+enum class PhotoMode { Auto, Object, Subject };
+inline constexpr std::array<const char*, 3> kPhotoModeNames = {"auto", "object", "subject"};
+
 // Which clicks the correction field of projection mapping keeps exact (mapping/projection.h): none
 // (the camera alone), those that agree with the camera, or every click (the paper: clicks are hard
 // constraints).
@@ -66,6 +73,11 @@ template <>
 struct EnumNames<CameraMode> {
   static constexpr const auto& names = kCameraModeNames;
   static constexpr const char* what = "a camera mode";
+};
+template <>
+struct EnumNames<PhotoMode> {
+  static constexpr const auto& names = kPhotoModeNames;
+  static constexpr const char* what = "a photo mode";
 };
 template <>
 struct EnumNames<CorrectionMode> {
@@ -107,6 +119,8 @@ struct PipelineOptions {
   double viewSmoothness = 1.0;                      // projection: seam cost of view selection (0 = best view per face)
   int maxPhotoSide = 0;  // load: working resolution, photos kept at most this many pixels a side (0 = full;
                          // else 256..16384); coordinates stay the files' pixels; less memory, coarser texture
+  bool weldIdenticalPositions = true;  // load: vertices at one position (a mesh split at UV seams) are one vertex
+                                       // for every stage; the export keeps the mesh's own vertices
 
   bool operator==(const PipelineOptions& o) const {
     return backgroundThresholdPx == o.backgroundThresholdPx && stretchSearches == o.stretchSearches &&
@@ -115,7 +129,8 @@ struct PipelineOptions {
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
            seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression &&
            cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold && correction == o.correction &&
-           viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide;
+           viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide &&
+           weldIdenticalPositions == o.weldIdenticalPositions;
   }
 };
 

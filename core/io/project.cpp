@@ -213,6 +213,7 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("correction", o.correction, CorrectionMode::Off, CorrectionMode::All);
   visit("viewSmoothness", o.viewSmoothness, 0.0, 100.0);
   visit("maxPhotoSide", o.maxPhotoSide, 0, 16384);
+  visit("weldIdenticalPositions", o.weldIdenticalPositions, false, true);
 }
 
 void fromJson(const Field& f, PipelineOptions& o) {
@@ -579,6 +580,7 @@ Project parseProjectText(const std::string& text, const std::string& path, std::
     if (photos[i]["mask"].present()) ref.mask = resolveFile(photos[i]["mask"], dir, missing, at + ".mask");
     ref.mirror = photos[i]["mirror"].as(false);
     ref.colorLocked = photos[i]["colorLocked"].as(false);
+    ref.mode = photos[i]["mode"].as(PhotoMode::Auto);
     project.photos.push_back(ref);
   }
   project.points = root["points"].as(project.points);
@@ -612,8 +614,43 @@ Project withoutPhotoReferences(const Project& project, const std::set<int>& phot
   return out;
 }
 
+Project withMeshIds(const Project& project, const std::vector<int>& vertexOf, const std::vector<int>& faceOf) {
+  Project out = project;
+  const std::string file = project.file.empty() ? "project" : project.file;
+  auto map = [&](int& id, const std::vector<int>& table, const std::string& field, const char* what) {
+    TM_CHECK(id >= 0 && id < static_cast<int>(table.size()),
+             located(file, located(field, std::to_string(id) + " is out of range")));
+    if (table[id] < 0)
+      throw Error(
+          located(file, located(field, std::string(what) + " " + std::to_string(id) +
+                                           (what[0] == 'v' ? " is used by no face of the mesh"
+                                                           : " has no area once the mesh's seams are welded"))));
+    id = table[id];
+  };
+  for (size_t i = 0; i < out.points.size(); ++i)
+    map(out.points[i].vertex, vertexOf, "points[" + std::to_string(i) + "].vertex", "vertex");
+  for (size_t i = 0; i < out.strokes.size(); ++i)
+    for (size_t k = 0; k < out.strokes[i].vertices.size(); ++k)
+      map(out.strokes[i].vertices[k], vertexOf,
+          "strokes[" + std::to_string(i) + "].vertices[" + std::to_string(k) + "]", "vertex");
+  for (size_t i = 0; i < out.clones.size(); ++i) {
+    const std::string path = "clones[" + std::to_string(i) + "]";
+    map(out.clones[i].anchorVertex, vertexOf, path + ".anchorVertex", "vertex");
+    auto& faces = out.clones[i].targetFaces;
+    for (size_t k = 0; k < faces.size(); ++k)
+      map(faces[k], faceOf, path + ".targetFaces[" + std::to_string(k) + "]", "face");
+  }
+  for (size_t i = 0; i < out.holeModes.size(); ++i)
+    map(out.holeModes[i].face, faceOf, "holeModes[" + std::to_string(i) + "].face", "face");
+  for (size_t i = 0; i < out.declinedProposals.size(); ++i)
+    map(out.declinedProposals[i].vertex, vertexOf, "declinedProposals[" + std::to_string(i) + "].vertex", "vertex");
+  return out;
+}
+
 int requiredVersion(const Project& project) {
   bool photoFlags = false;
+  for (const PhotoRef& p : project.photos)
+    if (p.mode != PhotoMode::Auto) return 4;
   for (const PhotoRef& p : project.photos) photoFlags = photoFlags || p.mirror || p.colorLocked;
   if (photoFlags || project.options.colorBalance != BalanceMode::Off) return 3;
   return project.declinedProposals.empty() ? 1 : 2;
@@ -641,6 +678,7 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
     if (!photo.mask.empty()) p["mask"] = storedPath(photo.mask, base);
     if (photo.mirror) p["mirror"] = true;
     if (photo.colorLocked) p["colorLocked"] = true;
+    if (photo.mode != PhotoMode::Auto) p["mode"] = kPhotoModeNames[size_t(photo.mode)];
     j["photos"].push_back(p);
   }
   j["points"] = ojson::array();

@@ -79,17 +79,18 @@ struct DeclinedProposal {
 };
 
 struct PhotoRef {
-  std::string path;          // absolute once loaded; written relative to the project file
-  std::string mask;          // optional foreground mask image (in the file's own pixels); same rules
-  bool mirror = false;       // flipped left to right on load; positions are in the mirrored photo
-  bool colorLocked = false;  // colour balance keeps this photo as it is and matches the others to it
+  std::string path;                  // absolute once loaded; written relative to the project file
+  std::string mask;                  // optional foreground mask image (in the file's own pixels); same rules
+  bool mirror = false;               // flipped left to right on load; positions are in the mirrored photo
+  bool colorLocked = false;          // colour balance keeps this photo as it is and matches the others to it
+  PhotoMode mode = PhotoMode::Auto;  // what the photo shows: the object itself, another subject, or decided (auto)
   bool operator==(const PhotoRef& o) const {
-    return path == o.path && mask == o.mask && mirror == o.mirror && colorLocked == o.colorLocked;
+    return path == o.path && mask == o.mask && mirror == o.mirror && colorLocked == o.colorLocked && mode == o.mode;
   }
 };
 
 struct Project {
-  static constexpr int kVersion = 3;        // newest format version this build reads and writes
+  static constexpr int kVersion = 4;        // newest format version this build reads and writes
   static constexpr int kOldestVersion = 1;  // oldest version it reads
 
   std::string file;  // where it was loaded from / last saved to (absolute); empty for a new project
@@ -131,9 +132,9 @@ struct MissingFile {
 Project loadProjectAllowingMissing(const std::string& path, std::vector<MissingFile>& missing);
 
 // The lowest version that holds a document: 1, 2 when it has declined proposals, 3 when it has a mirrored
-// or colour-locked photo or colour balance on, so that an older build refuses the file instead of
-// silently ignoring what it does not know, and reads it when nothing is lost. projectToJson writes this
-// version.
+// or colour-locked photo or colour balance on, 4 when a photo's mode is set (not auto), so that an older build refuses
+// the file instead of silently ignoring what it does not know, and reads it when nothing is lost. projectToJson writes
+// this version.
 int requiredVersion(const Project& project);
 
 // Checks a project against its mesh and photo sizes: vertex ids in range, points inside their
@@ -148,6 +149,11 @@ void validateProject(const Project& project, int numVertices, int numFaces,
 // them. Photo entries and photo indices stay as they are. The pipeline runs on this when a photo cannot
 // be loaded, so that a broken photo disables only itself.
 Project withoutPhotoReferences(const Project& project, const std::set<int>& photos);
+
+// The project with its mesh ids (points' and strokes' vertices, clones' anchors and target faces, hole modes'
+// faces, declined proposals' vertices) carried to another mesh by per-id tables (a welded mesh's
+// WeldedMesh::vertexOf and faceOf). Throws montage::Error naming the field when an id has no counterpart.
+Project withMeshIds(const Project& project, const std::vector<int>& vertexOf, const std::vector<int>& faceOf);
 
 // Serialises to JSON text (paths relative to `relativeTo`'s folder when given).
 std::string projectToJson(const Project& project, const std::string& relativeTo);

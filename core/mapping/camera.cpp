@@ -15,6 +15,9 @@
 //   k1 = 0.08 and 9 dB lost).
 #include "mapping/camera.h"
 
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -22,7 +25,6 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
-#include <tbb/parallel_for.h>
 
 #include "base/util.h"
 #include "geometry/mesh.h"
@@ -85,17 +87,47 @@ double msac(const std::vector<double>& r, double tau) {
   return s;
 }
 
+// The clicked vertices about their centroid (a well-conditioned PnP) and their pixels, as OpenCV takes them.
+struct CentredClicks {
+  Vec3 centre = Vec3::Zero();
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+};
+
+CentredClicks centredClicks(const Mesh& mesh, const std::vector<CameraClick>& clicks) {
+  CentredClicks c;
+  for (const CameraClick& k : clicks) c.centre += mesh.position(k.vertex);
+  c.centre /= std::max<size_t>(clicks.size(), 1);
+  for (const CameraClick& k : clicks) {
+    const Vec3 q = mesh.position(k.vertex) - c.centre;
+    c.object.emplace_back(q.x(), q.y(), q.z());
+    c.image.emplace_back(k.pixel.x(), k.pixel.y());
+  }
+  return c;
+}
+
 // LM callback: residuals (projection - click) of the selected clicks, with the chosen free parameters.
 class Reprojection : public cv::LMSolver::Callback {
  public:
+  // `weights` (may be empty: all 1): per click, the weight of its squared residual.
+  // `fixedFocal` > 0: the focal length is held at it (pose only; no radial terms).
   Reprojection(const std::vector<cv::Point3d>& obj, const std::vector<cv::Point2d>& img, double cx, double cy,
-               int radialTerms)
-      : obj_(obj), img_(img), cx_(cx), cy_(cy), radial_(radialTerms) {}
+               int radialTerms, std::vector<double> weights = {}, double fixedFocal = 0)
+      : obj_(obj),
+        img_(img),
+        cx_(cx),
+        cy_(cy),
+        radial_(fixedFocal > 0 ? 0 : radialTerms),
+        sqrtWeight_(std::move(weights)),
+        fixedFocal_(fixedFocal) {
+    for (double& w : sqrtWeight_) w = std::sqrt(std::max(0.0, w));
+  }
 
-  int numParams() const { return 7 + radial_; }
+  int numParams() const { return fixedFocal_ > 0 ? 6 : 7 + radial_; }
   cv::Mat pack(const Params& p) const {
     cv::Mat x(numParams(), 1, CV_64F);
     for (int i = 0; i < 3; ++i) x.at<double>(i) = p.rvec[i], x.at<double>(3 + i) = p.tvec[i];
+    if (fixedFocal_ > 0) return x;
     x.at<double>(6) = p.focal;
     if (radial_ >= 1) x.at<double>(7) = p.k1;
     if (radial_ >= 2) x.at<double>(8) = p.k2;
@@ -104,7 +136,7 @@ class Reprojection : public cv::LMSolver::Callback {
   Params unpack(const cv::Mat& x) const {
     Params p;
     for (int i = 0; i < 3; ++i) p.rvec[i] = x.at<double>(i), p.tvec[i] = x.at<double>(3 + i);
-    p.focal = x.at<double>(6);
+    p.focal = fixedFocal_ > 0 ? fixedFocal_ : x.at<double>(6);
     p.k1 = radial_ >= 1 ? x.at<double>(7) : 0;
     p.k2 = radial_ >= 2 ? x.at<double>(8) : 0;
     return p;
@@ -118,18 +150,21 @@ class Reprojection : public cv::LMSolver::Callback {
     projectAll(obj_, p, cx_, cy_, proj, J.needed() ? &full : nullptr);
     err.create(2 * n, 1, CV_64F);
     cv::Mat e = err.getMat();
+    auto weight = [&](int row) { return sqrtWeight_.empty() ? 1.0 : sqrtWeight_[row / 2]; };
     for (int i = 0; i < n; ++i) {
-      e.at<double>(2 * i) = proj[i].x - img_[i].x;
-      e.at<double>(2 * i + 1) = proj[i].y - img_[i].y;
+      e.at<double>(2 * i) = weight(2 * i) * (proj[i].x - img_[i].x);
+      e.at<double>(2 * i + 1) = weight(2 * i) * (proj[i].y - img_[i].y);
     }
     if (J.needed()) {
       J.create(2 * n, numParams(), CV_64F);
       cv::Mat j = J.getMat();
       for (int r = 0; r < 2 * n; ++r) {
-        for (int c = 0; c < 6; ++c) j.at<double>(r, c) = full.at<double>(r, c);
-        j.at<double>(r, 6) = full.at<double>(r, 6) + full.at<double>(r, 7);  // fx = fy = focal
-        if (radial_ >= 1) j.at<double>(r, 7) = full.at<double>(r, 10);
-        if (radial_ >= 2) j.at<double>(r, 8) = full.at<double>(r, 11);
+        const double w = weight(r);
+        for (int c = 0; c < 6; ++c) j.at<double>(r, c) = w * full.at<double>(r, c);
+        if (fixedFocal_ > 0) continue;
+        j.at<double>(r, 6) = w * (full.at<double>(r, 6) + full.at<double>(r, 7));  // fx = fy = focal
+        if (radial_ >= 1) j.at<double>(r, 7) = w * full.at<double>(r, 10);
+        if (radial_ >= 2) j.at<double>(r, 8) = w * full.at<double>(r, 11);
       }
     }
     return true;
@@ -140,15 +175,21 @@ class Reprojection : public cv::LMSolver::Callback {
   const std::vector<cv::Point2d>& img_;
   double cx_, cy_;
   int radial_;
+  std::vector<double> sqrtWeight_;
+  double fixedFocal_;
 };
 
+// LM from `start` on the clicks `use` selects (weighted by `weights` when given: one per click).
 Params refine(const std::vector<cv::Point3d>& obj, const std::vector<cv::Point2d>& img, const std::vector<char>& use,
-              const Params& start, double cx, double cy, int radialTerms) {
+              const Params& start, double cx, double cy, int radialTerms, const std::vector<double>& weights = {},
+              bool fixFocal = false) {
   std::vector<cv::Point3d> o;
   std::vector<cv::Point2d> m;
+  std::vector<double> w;
   for (size_t i = 0; i < obj.size(); ++i)
-    if (use[i]) o.push_back(obj[i]), m.push_back(img[i]);
-  auto callback = cv::makePtr<Reprojection>(o, m, cx, cy, radialTerms);
+    if (use[i]) o.push_back(obj[i]), m.push_back(img[i]), w.push_back(weights.empty() ? 1.0 : weights[i]);
+  auto callback = cv::makePtr<Reprojection>(o, m, cx, cy, radialTerms, weights.empty() ? std::vector<double>() : w,
+                                            fixFocal ? start.focal : 0.0);
   cv::Mat x = callback->pack(start);
   cv::Ptr<cv::LMSolver> solver = cv::LMSolver::create(callback, 200, 1e-12);
   try {
@@ -241,6 +282,38 @@ void measureClicks(const Mesh& mesh, CameraFit& fit) {
   }
 }
 
+// The camera in world coordinates from LM's parameters on points centred on `centre`:
+// p_cam = R (x - centre) + t = R x + (t - R centre).
+void setCamera(PhotoCamera& camera, const Params& p, const Vec3& centre) {
+  cv::Matx33d R;
+  cv::Rodrigues(p.rvec, R);
+  Camera& cam = camera.pinhole;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) cam.R(r, c) = R(r, c);
+  cam.t = Vec3(p.tvec[0], p.tvec[1], p.tvec[2]) - cam.R * centre;
+  cam.fx = cam.fy = p.focal;
+  camera.k1 = p.k1;
+  camera.k2 = p.k2;
+}
+
+// LM's parameters (on points centred on `centre`) of a world camera.
+Params paramsOf(const PhotoCamera& camera, const Vec3& centre) {
+  const Camera& c = camera.pinhole;
+  cv::Matx33d R;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) R(r, k) = c.R(r, k);
+  cv::Mat rvec;
+  cv::Rodrigues(R, rvec);
+  Params p;
+  p.rvec = cv::Vec3d(rvec);
+  const Vec3 t = c.t + c.R * centre;
+  p.tvec = cv::Vec3d(t.x(), t.y(), t.z());
+  p.focal = c.fx;
+  p.k1 = camera.k1;
+  p.k2 = camera.k2;
+  return p;
+}
+
 void checkInputs(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height) {
   TM_CHECK(width > 0 && height > 0,
            "camera fit: photo size " + std::to_string(width) + "x" + std::to_string(height) + " must be positive");
@@ -254,7 +327,7 @@ void checkInputs(const Mesh& mesh, const std::vector<CameraClick>& clicks, int w
 
 std::vector<char> fittingPhotos(const std::vector<CameraFit>& fits) {
   std::vector<char> out;
-  for (const CameraFit& fit : fits) out.push_back(fit.fits);
+  for (const CameraFit& fit : fits) out.push_back(fit.fits && !fit.subject);
   return out;
 }
 
@@ -291,17 +364,7 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
                   " are needed to fit a camera");
   }
 
-  // Centred object points (double) and their clicks.
-  Vec3 centre = Vec3::Zero();
-  for (const CameraClick& c : clicks) centre += mesh.position(c.vertex);
-  centre /= n;
-  std::vector<cv::Point3d> obj(n);
-  std::vector<cv::Point2d> img(n);
-  for (int i = 0; i < n; ++i) {
-    const Vec3 q = mesh.position(clicks[i].vertex) - centre;
-    obj[i] = cv::Point3d(q.x(), q.y(), q.z());
-    img[i] = cv::Point2d(clicks[i].pixel.x(), clicks[i].pixel.y());
-  }
+  auto [centre, obj, img] = centredClicks(mesh, clicks);
 
   // Start: the given camera, or a focal sweep x RANSAC PnP with the best MSAC score. RANSAC's pose on its
   // inliers is EPnP's, not Levenberg-Marquardt's: the refinement below polishes the chosen start, and the
@@ -309,16 +372,8 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   Params best;
   double bestScore = kInf;
   if (startCamera && startCamera->pinhole.width == width && startCamera->pinhole.height == height) {
-    const Camera& c = startCamera->pinhole;
-    cv::Matx33d R;
-    for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k) R(r, k) = c.R(r, k);
-    cv::Mat rvec;
-    cv::Rodrigues(R, rvec);
-    best.rvec = cv::Vec3d(rvec);
-    const Vec3 t = c.t + c.R * centre;  // the translation of the centred points
-    best.tvec = cv::Vec3d(t.x(), t.y(), t.z());
-    best.focal = c.fx;
+    best = paramsOf(*startCamera, centre);
+    best.k1 = best.k2 = 0;
     bestScore = msac(residuals(obj, img, best, cx, cy), tau);
   }
   const double halfSize = 0.5 * std::max(width, height);
@@ -386,16 +441,7 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
     }
   }
 
-  // The camera in world coordinates: p_cam = R (x - centre) + t = R x + (t - R centre).
-  cv::Matx33d R;
-  cv::Rodrigues(p.rvec, R);
-  Camera& cam = fit.camera.pinhole;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) cam.R(r, c) = R(r, c);
-  cam.t = Vec3(p.tvec[0], p.tvec[1], p.tvec[2]) - cam.R * centre;
-  cam.fx = cam.fy = p.focal;
-  fit.camera.k1 = p.k1;
-  fit.camera.k2 = p.k2;
+  setCamera(fit.camera, p, centre);
   measureClicks(mesh, fit);
 
   const double fov = fit.camera.fovYDeg();
@@ -412,6 +458,147 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
     return finish("implausible field of view " + fixed(fov, 1) + " degrees");
   fit.fits = true;
   return finish(describeFit(fit));
+}
+
+CameraFit fitCameraToEveryClick(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height,
+                                const CameraFitOptions& o, const CameraFit& start) {
+  const auto begin = Clock::now();
+  checkInputs(mesh, clicks, width, height);
+  CameraFit fit;
+  fit.subject = true;
+  fit.clicks = clicks;
+  fit.thresholdPx = std::max(o.minThresholdPx, o.thresholdFraction * std::hypot(width, height));
+  const double cx = 0.5 * width, cy = 0.5 * height;
+  const int n = static_cast<int>(clicks.size());
+  PhotoCamera& camera = fit.camera;
+  camera.pinhole.width = width;
+  camera.pinhole.height = height;
+  camera.pinhole.cx = cx;
+  camera.pinhole.cy = cy;
+  auto finish = [&](const std::string& reason) {
+    fit.reason = reason;
+    fit.seconds = secondsSince(begin);
+    return fit;
+  };
+  if (n < o.minInliers) {
+    fit.reprojected.assign(n, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
+    fit.residual.assign(n, kInf);
+    fit.inlier.assign(n, 0);
+    return finish(std::to_string(n) + " clicks: at least " + std::to_string(o.minInliers) +
+                  " are needed for a camera and warp");
+  }
+  auto [centre, obj, img] = centredClicks(mesh, clicks);
+  // Robust cost: Cauchy with scale c, summed over every click (none is left out).
+  auto cauchy = [](const std::vector<double>& r, double c) {
+    double s = 0;
+    for (double x : r) s += std::isfinite(x) ? std::log1p((x / c) * (x / c)) : 1e3;
+    return s;
+  };
+  auto spreadOf = [](std::vector<double> r) {
+    std::sort(r.begin(), r.end());
+    return r.empty() ? 0.0 : 1.4826 * r[r.size() / 2];
+  };
+  // Starts: the object fit's best camera when it has one, and EPnP on every click over a focal sweep.
+  std::vector<Params> starts;
+  if (start.inliers >= 4 && start.camera.pinhole.width == width && start.camera.pinhole.height == height) {
+    Params p = paramsOf(start.camera, centre);
+    p.k1 = p.k2 = 0;
+    starts.push_back(p);
+  }
+  const double halfSize = 0.5 * std::max(width, height);
+  const std::vector<char> all(n, 1);
+  {
+    // The affine camera of every click (least squares), as a long-lens perspective camera: the scaled rotation
+    // closest to its 2 x 3 matrix, far enough that every click is in front. EPnP on clicks that no camera
+    // explains can put some behind it; this start never does.
+    Eigen::Matrix4d normal = Eigen::Matrix4d::Zero();
+    Eigen::Matrix<double, 4, 2> rhs = Eigen::Matrix<double, 4, 2>::Zero();
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector4d x(obj[i].x, obj[i].y, obj[i].z, 1);
+      normal += x * x.transpose();
+      rhs.col(0) += x * img[i].x;
+      rhs.col(1) += x * img[i].y;
+    }
+    const Eigen::Matrix<double, 4, 2> a = normal.ldlt().solve(rhs);
+    Eigen::Matrix<double, 2, 3> m;
+    m.row(0) = a.col(0).head<3>().transpose();
+    m.row(1) = a.col(1).head<3>().transpose();
+    Eigen::JacobiSVD<Eigen::Matrix<double, 2, 3>> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const double scale = 0.5 * (svd.singularValues()[0] + svd.singularValues()[1]);
+    if (a.allFinite() && scale > 0) {
+      const Eigen::Matrix<double, 2, 3> rows = svd.matrixU() * svd.matrixV().leftCols<2>().transpose();
+      Eigen::Matrix3d R;
+      R.row(0) = rows.row(0);
+      R.row(1) = rows.row(1);
+      R.row(2) = rows.row(0).cross(rows.row(1));
+      Params p;
+      p.focal = halfSize / std::tan(0.5 * 20.0 * M_PI / 180);
+      const double tz = p.focal / scale;
+      cv::Matx33d Rcv;
+      for (int r = 0; r < 3; ++r)
+        for (int k = 0; k < 3; ++k) Rcv(r, k) = R(r, k);
+      cv::Mat rvec;
+      cv::Rodrigues(Rcv, rvec);
+      p.rvec = cv::Vec3d(rvec);
+      p.tvec = cv::Vec3d((a(3, 0) - cx) / scale, (a(3, 1) - cy) / scale, tz);
+      starts.push_back(p);
+    }
+  }
+  for (double fov : {20.0, 35.0, 50.0, 70.0}) {
+    Params p;
+    p.focal = halfSize / std::tan(0.5 * fov * M_PI / 180);
+    cv::Mat rvec, tvec;
+    try {
+      if (!cv::solvePnP(obj, img, intrinsics(p.focal, cx, cy), cv::noArray(), rvec, tvec, false,
+                        n >= 6 ? cv::SOLVEPNP_EPNP : cv::SOLVEPNP_ITERATIVE))
+        continue;
+    } catch (const cv::Exception&) {
+      continue;
+    }
+    p.rvec = cv::Vec3d(rvec.reshape(1, 3));
+    p.tvec = cv::Vec3d(tvec.reshape(1, 3));
+    starts.push_back(p);
+  }
+  // Iteratively reweighted LM on the pose from each start, its focal length held (a photo of another subject
+  // says little about it, and left free it runs off to infinity); the lowest robust cost wins.
+  Params best;
+  double bestCost = kInf;
+  for (Params p : starts) {
+    double scale = fit.thresholdPx;
+    for (int round = 0; round < 6; ++round) {
+      const std::vector<double> r = residuals(obj, img, p, cx, cy);
+      scale = std::max(fit.thresholdPx, spreadOf(r));
+      std::vector<double> w(n);
+      for (int i = 0; i < n; ++i) w[i] = std::isfinite(r[i]) ? 1 / (1 + (r[i] / scale) * (r[i] / scale)) : 1e-3;
+      p = refine(obj, img, all, p, cx, cy, 0, w, true);
+    }
+    const double cost = cauchy(residuals(obj, img, p, cx, cy), fit.thresholdPx);
+    if (cost < bestCost) bestCost = cost, best = p;
+  }
+  if (!std::isfinite(bestCost)) {
+    fit.reprojected.assign(n, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
+    fit.residual.assign(n, kInf);
+    fit.inlier.assign(n, 0);
+    return finish("no camera places the clicks in front of it");
+  }
+  setCamera(camera, best, centre);
+  measureClicks(mesh, fit);
+  // Every click is kept: the warp makes each exact (none is an outlier).
+  int behind = 0;
+  for (int i = 0; i < n; ++i) behind += !std::isfinite(fit.residual[i]);
+  if (behind > 0) return finish(std::to_string(behind) + " clicks lie behind every camera that places the others");
+  fit.inlier.assign(n, 1);
+  fit.inliers = n;
+  std::vector<double> r = fit.residual;
+  std::sort(r.begin(), r.end());
+  fit.medianResidual = r[n / 2];
+  fit.maxResidual = r.back();
+  double ss = 0;
+  for (double x : r) ss += x * x;
+  fit.rmsResidual = std::sqrt(ss / n);
+  fit.fits = true;
+  return finish("another subject: a camera fitted to all " + std::to_string(n) + " clicks (median residual " +
+                fixed(fit.medianResidual, 1) + " px, max " + fixed(fit.maxResidual, 1) + " px), warped to each click");
 }
 
 void SilhouetteDistance::make() const {

@@ -70,7 +70,7 @@ struct CameraFitOptions {
   // agreeing clicks when minInlierRatio of them agree (86 at 0.6; at most 1000): a photo with fewer agreeing clicks
   // does not fit anyway, and a focal far from the photo's spends them all.
   int ransacIterations = 0;
-  unsigned seed = 1;                      // RANSAC seed, so fits are repeatable
+  unsigned seed = 1;  // RANSAC seed, so fits are repeatable
   // Silhouette refinement (refineOnSilhouette), for photos with a background:
   bool silhouette = true;                 // refine the camera on the photo's silhouette as well as the clicks
   double silhouetteMinClickRmsPx = 0.15;  // clicks that agree better than this fix the camera on their own
@@ -105,12 +105,17 @@ struct CameraFit {
   int inliers = 0;
   double medianResidual = 0, maxResidual = 0;  // over the inliers, pixels
   double rmsResidual = 0;                      // over the inliers, pixels
-  int silhouettePoints = 0;                    // contour samples of the silhouette refinement (0: not refined)
-  double silhouetteResidualPx = 0;             // their mean distance to the photo's silhouette, pixels
-  double seconds = 0;                          // time of the fit
+  bool subject = false;  // a photo of another subject (fitCameraToEveryClick): a camera fitted to every click, which a
+                         // warp then keeps exact (mapping/subject.h); every click is an inlier
+  std::string
+      decision;  // why the photo is taken for the object itself or another subject (its mode, or auto's evidence)
+  int silhouettePoints = 0;         // contour samples of the silhouette refinement (0: not refined)
+  double silhouetteResidualPx = 0;  // their mean distance to the photo's silhouette, pixels
+  double seconds = 0;               // time of the fit
 };
 
-// Per fit: whether its photo fits a camera (the photos the projection maps).
+// Per fit: whether its photo fits a camera as the object itself (the photos the projection maps whatever the paper's
+// map does; another subject's camera and warp compete with the paper's map: ProjectionResult::projected).
 std::vector<char> fittingPhotos(const std::vector<CameraFit>& fits);
 
 // Fits a camera to one photo's clicks on `mesh` (vertex ids index mesh). `width` x `height` is the
@@ -120,6 +125,15 @@ std::vector<char> fittingPhotos(const std::vector<CameraFit>& fits);
 // sweep and RANSAC as the refinement's start; the rest is the same. The editor's preview refits so.
 CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height,
                     const CameraFitOptions& options = {}, const PhotoCamera* start = nullptr);
+
+// A photo of another subject (a tiger's flank for a cat, a portrait for a head scan): no camera explains its clicks,
+// but one camera explains most of their layout, and a smooth warp the rest (mapping/subject.h). Fitted to EVERY
+// click with a robust (Cauchy) loss, iteratively reweighted Levenberg-Marquardt from the object fit's best camera
+// (`start`, when it has one) and from EPnP on all clicks over a sweep of focal lengths; no radial terms. No click
+// is dropped: `inlier` is 1 for all, `subject` is set. `fits` is false (with a reason) with fewer than
+// options.minInliers clicks, or when no camera of a plausible field of view has every click in front.
+CameraFit fitCameraToEveryClick(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height,
+                                const CameraFitOptions& options, const CameraFit& start);
 
 // Refines a fitted camera on the photo's silhouette, after Lensch, Heidrich and Seidel 2001: the mesh's
 // outer contour (edges between front- and back-facing faces that the z-buffer shows on the rendered

@@ -43,6 +43,7 @@ std::string pointsText(const Partition& partition, const MeshPath& path) {
 // The cell's boundary: one loop of half-edges with the cell on their left, as vertex sequence.
 struct Loop {
   std::vector<int> vertices;  // counter-clockwise seen from outside; closed implicitly
+  std::vector<char> border;   // per loop edge i (vertices[i] -> vertices[i + 1]): an edge of the mesh border
   bool ok = false;
   bool touchesBorder = false;
   bool dangling = false;  // a path edge with the cell on both sides
@@ -52,42 +53,61 @@ Loop boundaryLoop(const Partition& partition, const std::vector<int>& faces, int
                   const std::unordered_map<uint64_t, int>& edgePath) {
   const TriMesh& tri = partition.mesh.tri;
   Loop loop;
-  std::unordered_map<int, int> next;  // from -> to of boundary half-edges
+  std::unordered_map<int, std::pair<int, char>> next;  // from -> (to, on the mesh border) of boundary half-edges
   int pinches = 0;
   for (int f : faces) {
     for (auto h = tri.cfh_iter(TriMesh::FaceHandle(f)); h.is_valid(); ++h) {
       const auto g = tri.opposite_face_handle(*h);
       const int from = tri.from_vertex_handle(*h).idx(), to = tri.to_vertex_handle(*h).idx();
-      if (!g.is_valid()) {
-        loop.touchesBorder = true;
-        continue;
-      }
-      if (partition.faceCell[g.idx()] == cell) {
+      const bool border = !g.is_valid();
+      if (border) loop.touchesBorder = true;
+      if (!border && partition.faceCell[g.idx()] == cell) {
         if (edgePath.count(edgeKey(from, to))) loop.dangling = true;
         continue;
       }
-      if (!next.emplace(from, to).second) ++pinches;
+      if (!next.emplace(from, std::pair<int, char>{to, border}).second) ++pinches;
     }
   }
-  if (loop.touchesBorder || loop.dangling || pinches > 0 || next.empty()) return loop;
+  if (loop.dangling || pinches > 0 || next.empty()) return loop;
   const int start = next.begin()->first;
   int v = start;
   do {
     loop.vertices.push_back(v);
     const auto it = next.find(v);
     if (it == next.end()) return loop;
-    v = it->second;
+    loop.border.push_back(it->second.second);
+    v = it->second.first;
     if (loop.vertices.size() > next.size()) return loop;
   } while (v != start);
   loop.ok = loop.vertices.size() == next.size();  // one loop uses every boundary half-edge
   return loop;
 }
 
+// Whether the closed polygon has two non-adjacent edges that cross.
+bool selfIntersecting(const std::vector<Vec2>& polygon) {
+  const int n = static_cast<int>(polygon.size());
+  auto crosses = [](const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
+    const double d1 = orient2(c, d, a), d2 = orient2(c, d, b), d3 = orient2(a, b, c), d4 = orient2(a, b, d);
+    return ((d1 > 0) != (d2 > 0)) && ((d3 > 0) != (d4 > 0)) && d1 != 0 && d2 != 0 && d3 != 0 && d4 != 0;
+  };
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 2; j < n; ++j) {
+      if (i == 0 && j == n - 1) continue;  // adjacent through the closing edge
+      if (crosses(polygon[i], polygon[(i + 1) % n], polygon[j], polygon[(j + 1) % n])) return true;
+    }
+  return false;
+}
+
+double signedArea(const std::vector<Vec2>& polygon) {
+  double a = 0;
+  for (size_t i = 0; i < polygon.size(); ++i) a += cross2(polygon[i], polygon[(i + 1) % polygon.size()]);
+  return 0.5 * a;
+}
+
 }  // namespace
 
 std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) {
   const Mesh& mesh = partition.mesh;
-  const TriMesh& tri = mesh.tri;
   std::vector<CellPlan> plans(std::max(partition.numCells, 0));
   for (int c = 0; c < partition.numCells; ++c) plans[c].cell = c;
   for (int f = 0; f < mesh.numFaces(); ++f) plans[partition.faceCell[f]].faces.push_back(f);
@@ -97,9 +117,21 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
     const auto& pv = partition.paths[p].vertices;
     for (size_t i = 1; i < pv.size(); ++i) edgePath[edgeKey(pv[i - 1], pv[i])] = p;
   }
-  std::vector<char> isFeature(mesh.numVertices(), 0);
-  for (int v : partition.featureVertex)
-    if (v >= 0 && v < mesh.numVertices()) isFeature[v] = 1;
+  // Features by vertex (a vertex may carry several points: the first serves).
+  std::vector<int> featureAt(mesh.numVertices(), -1);
+  for (size_t p = 0; p < partition.featureVertex.size(); ++p) {
+    const int v = partition.featureVertex[p];
+    if (v >= 0 && v < mesh.numVertices() && featureAt[v] < 0) featureAt[v] = static_cast<int>(p);
+  }
+  auto clickIn = [&](int vertex, int photo, Vec2& at) {
+    if (featureAt[vertex] < 0 || featureAt[vertex] >= static_cast<int>(scene.project.points.size())) return false;
+    for (const PhotoPoint& a : scene.project.points[featureAt[vertex]].at)
+      if (a.photo == photo) {
+        at = Vec2(a.x, a.y);
+        return true;
+      }
+    return false;
+  };
 
   // Cells in parallel, each with its thread's vertex marks (a cell's id marks its own vertices).
   tbb::enumerable_thread_specific<std::vector<int>> marks(std::vector<int>(mesh.numVertices(), -1));
@@ -108,11 +140,6 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
     std::vector<int>& mark = marks.local();
     const int c = plan.cell;
     const Loop loop = boundaryLoop(partition, plan.faces, c, edgePath);
-    if (loop.touchesBorder) {
-      plan.status = CellStatus::TouchesBorder;
-      plan.detail = "the region reaches the border of the mesh: only regions closed by paths map to a photo";
-      return;
-    }
     if (loop.dangling) {
       plan.status = CellStatus::NotTriangle;
       plan.detail = "a path ends inside the region: its end feature needs paths to two more features";
@@ -125,6 +152,13 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
       for (int v : mesh.faceVertices(f))
         if (mark[v] != c) mark[v] = c, ++vertices;
     const int faces = int(plan.faces.size()), edges = (3 * faces + int(loop.vertices.size())) / 2;
+    if (loop.touchesBorder && (!loop.ok || vertices - edges + faces != 1)) {
+      plan.status = CellStatus::TouchesBorder;
+      plan.detail =
+          "the region reaches the border of the mesh and is not a disc (a ring around paths, or several "
+          "borders): paths across it from the border cut it into discs";
+      return;
+    }
     if (!loop.ok || vertices - edges + faces != 1) {
       plan.status = CellStatus::NotDisc;
       plan.detail =
@@ -132,76 +166,108 @@ std::vector<CellPlan> planCells(const Scene& scene, const Partition& partition) 
           "and paths across it";
       return;
     }
-    // Corners: the feature vertices on the loop; sides: one path between consecutive corners.
-    std::vector<int> cornerAt;
-    for (size_t i = 0; i < loop.vertices.size(); ++i)
-      if (isFeature[loop.vertices[i]]) cornerAt.push_back(static_cast<int>(i));
-    bool sidesOk = cornerAt.size() == 3;
+    // Sides: runs of loop edges along one path (or along the mesh border, -1); corners where they meet.
     const int n = static_cast<int>(loop.vertices.size());
-    for (size_t k = 0; k < cornerAt.size() && sidesOk; ++k) {
-      const int from = cornerAt[k], to = cornerAt[(k + 1) % cornerAt.size()];
-      int path = -1;
-      for (int i = from; i != to; i = (i + 1) % n) {
-        const auto it = edgePath.find(edgeKey(loop.vertices[i], loop.vertices[(i + 1) % n]));
-        if (it == edgePath.end() || (path >= 0 && it->second != path)) {
-          sidesOk = false;
-          break;
-        }
-        path = it->second;
-      }
-      if (sidesOk && k < 3) plan.sides[k] = path, plan.corners[k] = loop.vertices[from];
+    std::vector<int> label(n);
+    bool sidesOk = true;
+    for (int i = 0; i < n; ++i) {
+      const auto it = edgePath.find(edgeKey(loop.vertices[i], loop.vertices[(i + 1) % n]));
+      label[i] = it != edgePath.end() ? it->second : loop.border[i] ? -1 : -2;
+      sidesOk = sidesOk && label[i] != -2;
     }
-    if (!sidesOk) {
-      plan.status = CellStatus::NotTriangle;
-      plan.detail = "the region is bounded by " + std::to_string(cornerAt.size()) +
-                    " features and their paths, not by three: add paths (features clicked in a common photo) "
-                    "to cut it into triangles";
+    std::vector<int> cornerAt;
+    for (int i = 0; i < n && sidesOk; ++i)
+      if (label[i] != label[(i + n - 1) % n]) cornerAt.push_back(i);
+    int pathSides = 0;
+    for (int k = 0; k < static_cast<int>(cornerAt.size()); ++k) {
+      const int side = label[cornerAt[k]];
+      plan.corners.push_back(loop.vertices[cornerAt[k]]);
+      plan.sides.push_back(side);
+      pathSides += side >= 0;
+    }
+    const bool enough = sidesOk && (loop.touchesBorder ? pathSides >= 2 : pathSides >= 3 && cornerAt.size() >= 3);
+    if (!enough) {
+      plan.status = loop.touchesBorder ? CellStatus::TouchesBorder : CellStatus::NotTriangle;
+      plan.detail = loop.touchesBorder
+                        ? "the region reaches the border of the mesh with " + std::to_string(pathSides) +
+                              " path(s) around it: two paths (features clicked in one photo) close it off"
+                        : "the region is bounded by " + std::to_string(pathSides) +
+                              " paths, not a loop of three or more: add paths (features clicked in a common photo)";
+      plan.corners.clear(), plan.sides.clear();
       return;
     }
-    int inside = -1;
-    for (int f : plan.faces)
-      for (int v : mesh.faceVertices(f))
-        if (isFeature[v] && std::find(plan.corners.begin(), plan.corners.end(), v) == plan.corners.end()) inside = v;
-    if (inside >= 0) {
-      plan.status = CellStatus::FeatureInside;
-      plan.detail = "the feature at vertex " + std::to_string(inside) +
-                    " lies inside the region without paths to its corners: click it in a photo that shows them";
-      return;
-    }
-    // Photos with a curve on all three sides; the texture triangle must keep the orientation.
+    // Photos with a curve on every path side.
     std::vector<int> photos;
-    for (const Curve& cv : partition.paths[plan.sides[0]].curves)
-      if (curveIn(partition.paths[plan.sides[1]], cv.photo) && curveIn(partition.paths[plan.sides[2]], cv.photo))
-        photos.push_back(cv.photo);
+    const int first = *std::find_if(plan.sides.begin(), plan.sides.end(), [](int s) { return s >= 0; });
+    for (const Curve& cv : partition.paths[first].curves) {
+      bool all = true;
+      for (int s : plan.sides) all = all && (s < 0 || curveIn(partition.paths[s], cv.photo));
+      if (all) photos.push_back(cv.photo);
+    }
     if (photos.empty()) {
       plan.status = CellStatus::NoCommonPhoto;
-      plan.detail = "its three paths (points";
-      for (int s : plan.sides) plan.detail += " " + pointsText(partition, partition.paths[s]);
-      plan.detail += ") have no photo in common: click its three corner features in one photo";
+      plan.detail = "its paths (points";
+      for (int s : plan.sides)
+        if (s >= 0) plan.detail += " " + pointsText(partition, partition.paths[s]);
+      plan.detail += ") have no photo in common: click its corner features in one photo";
       return;
     }
-    const std::array<Vec3, 3> q = {mesh.position(plan.corners[0]), mesh.position(plan.corners[1]),
-                                   mesh.position(plan.corners[2])};
+    // In each, the polygon of the corners (flipped to y up) must keep the cell's orientation and not cross
+    // itself; among several, the most frontal: the smallest L-infinity stretch of its fan triangles. (A cell on the
+    // mesh border has no closed polygon: its free border may wrap around the paths. Its base map says whether it
+    // folds, fine_map.h.)
+    const int k = static_cast<int>(plan.corners.size());
     double bestGamma = std::numeric_limits<double>::infinity();
+    int anyPhoto = -1;
     for (int p : photos) {
-      std::array<Vec2, 3> uv;
-      for (int k = 0; k < 3; ++k) {
-        const MeshPath& side = partition.paths[plan.sides[k]];
-        const Curve* curve = curveIn(side, p);
-        uv[k] = flipY(side.vertices.front() == plan.corners[k] ? curve->from : curve->to);
+      std::vector<Vec2> polygon(k);
+      bool placed = true;
+      for (int j = 0; j < k; ++j) {
+        // A corner's place: the end of a path side at it (the side it starts, else the one it ends).
+        const int out = plan.sides[j], in = plan.sides[(j + k - 1) % k];
+        const int side = out >= 0 ? out : in;
+        if (side < 0) {
+          placed = false;
+          break;
+        }
+        const MeshPath& path = partition.paths[side];
+        const Curve* curve = curveIn(path, p);
+        polygon[j] = flipY(path.vertices.front() == plan.corners[j] ? curve->from : curve->to);
       }
-      const TriangleStretch s = triangleStretch(q, uv);
-      if (s.flipped || !std::isfinite(s.gamma)) continue;
-      if (s.gamma < bestGamma) bestGamma = s.gamma, plan.photo = p;
+      if (!placed) continue;
+      if (!loop.touchesBorder && (!(signedArea(polygon) > 0) || selfIntersecting(polygon))) continue;
+      double gamma = 0;
+      for (int j = 1; j + 1 < k; ++j) {
+        const TriangleStretch st = triangleStretch(
+            {mesh.position(plan.corners[0]), mesh.position(plan.corners[j]), mesh.position(plan.corners[j + 1])},
+            {polygon[0], polygon[j], polygon[j + 1]});
+        if (!st.flipped && std::isfinite(st.gamma)) gamma = std::max(gamma, st.gamma);
+      }
+      if (gamma < bestGamma) bestGamma = gamma, plan.photo = p;
+      if (anyPhoto < 0) anyPhoto = p;
     }
+    if (plan.photo == TextureMap::kEmpty) plan.photo = loop.touchesBorder ? anyPhoto : plan.photo;
     if (plan.photo == TextureMap::kEmpty) {
       plan.status = CellStatus::Mirrored;
-      plan.detail = "its texture triangle is mirrored in every photo of its paths (the photos show its back side)";
+      plan.detail =
+          "its texture polygon is mirrored or crosses itself in every photo of its paths (the photos show "
+          "its back side, or a click is misplaced)";
       return;
     }
+    // Features inside (or on a border run) with a click in the photo constrain the map.
+    for (int f : plan.faces)
+      for (int v : mesh.faceVertices(f)) {
+        Vec2 at;
+        if (featureAt[v] < 0 || std::find(plan.corners.begin(), plan.corners.end(), v) != plan.corners.end() ||
+            std::find(plan.inner.begin(), plan.inner.end(), v) != plan.inner.end() || !clickIn(v, plan.photo, at))
+          continue;
+        bool onPath = false;
+        for (int i = 0; i < n && !onPath; ++i) onPath = loop.vertices[i] == v && label[i] >= 0;
+        if (!onPath) plan.inner.push_back(v);
+      }
+    std::sort(plan.inner.begin(), plan.inner.end());
     plan.status = CellStatus::Mapped;
   });
-  (void)tri;
   return plans;
 }
 
@@ -291,8 +357,9 @@ struct CellJob {
   bool cacheable = false;
 };
 
+// `sideUV`: per side of the plan, its path's fixed UVs (empty for a border run); `innerUV`: per inner feature.
 CellJob buildJob(const Scene& scene, const Partition& partition, const CellPlan& plan, const FineMapOptions& options,
-                 const std::vector<std::vector<Vec2>>& sideUV) {
+                 const std::vector<std::vector<Vec2>>& sideUV, const std::vector<Vec2>& innerUV) {
   const Mesh& mesh = partition.mesh;
   const int inputVertices = scene.mesh ? scene.mesh->numVertices() : mesh.numVertices();
   CellJob job;
@@ -329,7 +396,8 @@ CellJob buildJob(const Scene& scene, const Partition& partition, const CellPlan&
   std::sort(pr.faces.begin(), pr.faces.end());
   pr.fixed.assign(n, 0);
   pr.fixedUV.assign(n, Vec2::Zero());
-  for (int k = 0; k < 3; ++k) {
+  for (size_t k = 0; k < plan.sides.size(); ++k) {
+    if (plan.sides[k] < 0) continue;  // a run along the mesh border: free
     const MeshPath& path = partition.paths[plan.sides[k]];
     std::vector<int> side;
     for (size_t i = 0; i < path.vertices.size(); ++i) {
@@ -341,14 +409,20 @@ CellJob buildJob(const Scene& scene, const Partition& partition, const CellPlan&
     if (path.vertices.front() != plan.corners[k]) std::reverse(side.begin(), side.end());
     pr.sides.push_back(side);
   }
+  for (size_t i = 0; i < plan.inner.size(); ++i) {
+    const int l = local.at(plan.inner[i]);
+    pr.fixed[l] = 1;
+    pr.fixedUV[l] = innerUV[i];
+  }
   // Sides in a canonical order too: starting at the side whose first corner has the smallest local id.
   std::rotate(pr.sides.begin(),
               std::min_element(pr.sides.begin(), pr.sides.end(),
                                [](const auto& a, const auto& b) { return a.front() < b.front(); }),
               pr.sides.end());
 
+  pr.triangle = plan.triangle();
   std::string& key = pr.key;
-  key = "cell1|";
+  key = pr.triangle ? "cell2|" : "cell2p|";
   key += scene.photoKeys.size() > size_t(plan.photo) ? scene.photoKeys[plan.photo] : std::string();
   job.cacheable = !(scene.photoKeys.size() <= size_t(plan.photo) || scene.photoKeys[plan.photo].empty());
   key += '|';
@@ -363,6 +437,8 @@ CellJob buildJob(const Scene& scene, const Partition& partition, const CellPlan&
     appendBytes(key, int(side.size()));
     for (int l : side) appendBytes(key, l), appendBytes(key, pr.fixedUV[l].x()), appendBytes(key, pr.fixedUV[l].y());
   }
+  for (int l = 0; l < n; ++l)  // every fixed vertex (sides' and inner features')
+    if (pr.fixed[l]) appendBytes(key, l), appendBytes(key, pr.fixedUV[l].x()), appendBytes(key, pr.fixedUV[l].y());
   return job;
 }
 
@@ -388,8 +464,17 @@ CellMapping mapCells(const Scene& scene, const Partition& partition, const FineM
       continue;
     }
     mapped.push_back(i);
-    for (int k = 0; k < 3; ++k) pathUV[{plan.sides[k], plan.photo}];
+    for (int side : plan.sides)
+      if (side >= 0) pathUV[{side, plan.photo}];
   }
+  // An inner feature's click in a photo (planCells made sure it has one).
+  std::unordered_map<int, int> pointAt;
+  for (size_t p = 0; p < partition.featureVertex.size(); ++p) pointAt.emplace(partition.featureVertex[p], int(p));
+  auto clickOf = [&](int vertex, int photo) {
+    for (const PhotoPoint& a : scene.project.points[pointAt.at(vertex)].at)
+      if (a.photo == photo) return Vec2(a.x, a.y);
+    return Vec2(Vec2::Zero());
+  };
   std::vector<std::pair<const std::pair<int, int>, std::vector<Vec2>>*> entries;
   for (auto& entry : pathUV) entries.push_back(&entry);
   tbb::parallel_for(size_t(0), entries.size(), [&](size_t e) {
@@ -400,9 +485,12 @@ CellMapping mapCells(const Scene& scene, const Partition& partition, const FineM
   std::vector<CellJob> jobs(mapped.size());
   tbb::parallel_for(size_t(0), mapped.size(), [&](size_t j) {
     const CellPlan& plan = out.cells[mapped[j]];
-    std::vector<std::vector<Vec2>> sideUV(3);
-    for (int k = 0; k < 3; ++k) sideUV[k] = pathUV.at({plan.sides[k], plan.photo});
-    jobs[j] = buildJob(scene, partition, plan, options, sideUV);
+    std::vector<std::vector<Vec2>> sideUV(plan.sides.size());
+    for (size_t k = 0; k < plan.sides.size(); ++k)
+      if (plan.sides[k] >= 0) sideUV[k] = pathUV.at({plan.sides[k], plan.photo});
+    std::vector<Vec2> innerUV;
+    for (int v : plan.inner) innerUV.push_back(clickOf(v, plan.photo));
+    jobs[j] = buildJob(scene, partition, plan, options, sideUV, innerUV);
     jobs[j].plan = mapped[j];
   });
   job.checkCancel();

@@ -13,6 +13,7 @@
 // photo did not change since an earlier run is taken from a CellCache instead of being mapped again.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <memory>
 #include <mutex>
@@ -37,26 +38,36 @@ class JobControl;
 // Why a cell is mapped or left empty.
 enum class CellStatus {
   Mapped,         // mapped into `photo`
-  TouchesBorder,  // the cell reaches the mesh border
+  TouchesBorder,  // the cell reaches the mesh border with fewer than two paths in one photo around it
   NotDisc,        // the cell is not a disc (a handle, a pinch, or several boundary loops)
-  NotTriangle,    // its boundary does not run along exactly three paths between three features
-  FeatureInside,  // a feature vertex lies inside the cell
-  NoCommonPhoto,  // its three paths have no photo in common
-  Mirrored,       // in every common photo the texture triangle is mirrored (the photo shows its back)
+  NotTriangle,    // its boundary is not a loop of paths between features (a path ends inside it)
+  FeatureInside,  // a feature vertex lies inside the cell (no longer a reason: such a feature constrains it)
+  NoCommonPhoto,  // its paths have no photo in common
+  Mirrored,       // in every common photo the texture polygon is mirrored or crosses itself
   Failed,         // the cell's map could not be built (see CellPlan::detail)
 };
 inline constexpr const char* kCellStatusNames[] = {
     "mapped",         "touches the mesh border", "not a disc", "not a triangle",
     "feature inside", "no common photo",         "mirrored",   "failed"};
 
+// A cell maps when it is a disc bounded by paths between features (and, on an open mesh, runs of the mesh border)
+// whose curves lie in one photo, forming there a polygon with the cell's orientation: the paper's base triangle
+// "that corresponds to a texture triangle in one image", and more generally the polygon of a feature polygon's
+// interior or of any closed loop of paths. Features inside it with a click in that photo constrain its map.
 struct CellPlan {
   int cell = -1;  // Partition cell id
   CellStatus status = CellStatus::NotTriangle;
-  int photo = TextureMap::kEmpty;          // the photo it maps into (Mapped)
-  std::vector<int> faces;                  // faces of Partition::mesh
-  std::array<int, 3> corners{-1, -1, -1};  // feature vertices, counter-clockwise seen from outside
-  std::array<int, 3> sides{-1, -1, -1};    // Partition::paths index of the side from corner k to k + 1
-  std::string detail;                      // for the user: what keeps the cell empty
+  int photo = TextureMap::kEmpty;  // the photo it maps into (Mapped)
+  std::vector<int> faces;          // faces of Partition::mesh
+  std::vector<int> corners;        // feature vertices on its boundary, counter-clockwise seen from outside (and the
+                                   // ends of mesh border runs)
+  std::vector<int> sides;          // per corner k: the Partition::paths index of the side from corner k to k + 1,
+                                   // or -1 for a run along the mesh border (free in the photo)
+  std::vector<int> inner;          // feature vertices inside it with a click in `photo`: fixed there (Mapped)
+  std::string detail;              // for the user: what keeps the cell empty
+  bool triangle() const {
+    return sides.size() == 3 && inner.empty() && std::find(sides.begin(), sides.end(), -1) == sides.end();
+  }
 };
 
 // Decides, per cell of the partition, whether and into which photo it maps.

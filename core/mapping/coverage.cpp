@@ -138,6 +138,9 @@ class Analysis {
       if (at.photo == photo) return true;
     return false;
   }
+  // A vertex as the user knows it (CoverageInput::documentVertex).
+  std::string vertexName(int v) const { return std::to_string(in_.documentVertex ? in_.documentVertex(v) : v); }
+
   int pointAt(int vertex) const {
     return vertex >= 0 && vertex < static_cast<int>(pointsAt_.size()) && !pointsAt_[vertex].empty()
                ? pointsAt_[vertex].front()
@@ -246,7 +249,7 @@ class Analysis {
       const bool inPairPhoto = r.photo >= 0 && !clickedIn(c.click.point, r.photo) &&
                                (!viewOf(r.photo) || viewOf(r.photo)->vertexVisible[mid]);
       c.click.photo = inPairPhoto ? r.photo : photoFor(mid, prefer, c.click.point);
-      c.fix = fix + " (vertex " + std::to_string(mid) + ")" +
+      c.fix = fix + " (vertex " + vertexName(mid) + ")" +
               (c.click.photo >= 0 ? " in photo " + std::to_string(c.click.photo) : std::string());
     };
     switch (r.reason) {
@@ -347,7 +350,7 @@ class Analysis {
       }
     if (best < 0) return;
     c.click = {-1, best, photo};
-    c.fix = "add a feature amid features " + listText(amid) + ": click vertex " + std::to_string(best) + " in photo " +
+    c.fix = "add a feature amid features " + listText(amid) + ": click vertex " + vertexName(best) + " in photo " +
             std::to_string(photo);
   }
 
@@ -378,7 +381,7 @@ class Analysis {
       if (v < 0) return;
       c.click = {pointAt(v), v, photoFor(v, near, pointAt(v))};
       if (c.click.valid())
-        c.fix = fix + ": click vertex " + std::to_string(v) + " in photo " + std::to_string(c.click.photo);
+        c.fix = fix + ": click vertex " + vertexName(v) + " in photo " + std::to_string(c.click.photo);
     };
     const CellStatus status = plan ? plan->status : CellStatus::NotTriangle;
     if (allFit_ || status == CellStatus::Mapped) {
@@ -404,6 +407,13 @@ class Analysis {
         if (pointAt(v) >= 0) corners.push_back(pointAt(v));
     switch (status) {
       case CellStatus::NoCommonPhoto: {
+        // A polygon of four or more features sharing no photo: the paper's fix, a pair that cuts it into
+        // triangles of features clicked together, comes first (one missing click rarely closes all its sides).
+        if (corners.size() > 3)
+          if (auto pair = rejectedCause(near)) {
+            if (!pair->click.valid()) fanClick(*pair, faces, near);
+            return *pair;
+          }
         c.cause = CoverageCause::NoCommonPhoto;
         c.points = corners;
         c.why = "features " + listText(corners) + " share no photo";
@@ -431,9 +441,11 @@ class Analysis {
         return c;
       case CellStatus::TouchesBorder:
         c.cause = CoverageCause::TouchesBorder;
-        c.why = "it reaches the mesh's open border, and only regions closed by paths map to a photo";
-        c.fix = "click 6 or more features in a photo so that its camera fits (projection maps it), or inpaint it";
-        newFeature("click more features in one photo so its camera fits");
+        c.why = "it reaches the mesh's open border with fewer than two paths of one photo around it";
+        c.fix =
+            "click features along its edge in one photo (two paths close it off), or outline it with a feature "
+            "polygon, or inpaint it";
+        newFeature("add a feature here, clicked in the photo of the features around it");
         return c;
       case CellStatus::NotDisc:
         c.cause = CoverageCause::NotDisc;

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -115,6 +116,9 @@ struct CoverageInput {
   int photos = 0;         // number of photos of the project
   int inputVertices = 0;  // vertices of the input mesh (Steiner vertices follow): only these are suggested
                           // for a click; 0 = all of Partition::mesh
+  // The id the user knows of a vertex below inputVertices, in the words (Scene::documentVertex: a welded
+  // mesh's loaded vertex); null: the id itself. Clicks and centres in the report stay Partition::mesh's.
+  std::function<int(int)> documentVertex;
 };
 
 // Throws montage::Error when the map, the partition and the cells disagree in size.

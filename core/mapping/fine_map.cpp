@@ -27,9 +27,11 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <random>
 
 #include "base/job.h"
+#include "geometry/lscm.h"
 #include "geometry/predicates.h"
 #include "geometry/stretch.h"
 #include "image/photo.h"
@@ -336,8 +338,12 @@ void CellMapper::insertVertex(const CollapseRecord& r) {
   }
 }
 
-// The base mesh: fixed boundary, inner vertices by a Tutte embedding with mean value weights (Floater
-// 2003): positive, so the embedding inside the convex boundary has no flip, and exact on flat meshes.
+// The base mesh. With its whole boundary fixed (a cell closed by paths): the free vertices by a Tutte embedding
+// with mean value weights (Floater 2003): positive, so the embedding inside a convex boundary (a texture triangle)
+// has no flip, and exact on flat meshes. With part of its boundary free (a run along the mesh border): the
+// least-squares conformal map with the fixed vertices held (Levy et al. 2002), whose free border keeps its shape.
+// A polygon that is not convex, or fixed inner features, may fold either: a few rounds move each free vertex of a
+// folded face to the centroid of its kernel (Sander et al. 2002's fallback) before the base is given up.
 bool CellMapper::embedBase() {
   const int n = static_cast<int>(problem_.positions.size());
   std::vector<int> unknown(n, -1);
@@ -352,7 +358,28 @@ bool CellMapper::embedBase() {
       }
     }
   out_.stats.baseInnerVertices = count;
-  if (count > 0) {
+  // Free vertices on the base's boundary (edges of one alive face): the mesh border.
+  std::map<std::pair<int, int>, int> edgeUse;
+  for (int f = 0; f < pm_->numFaces(); ++f) {
+    if (!pm_->faceAlive(f)) continue;
+    const auto& c = pm_->face(f);
+    for (int k = 0; k < 3; ++k) ++edgeUse[std::minmax(c[k], c[(k + 1) % 3])];
+  }
+  bool freeBorder = false;
+  for (const auto& [e, uses] : edgeUse)
+    if (uses == 1 && (!problem_.fixed[e.first] || !problem_.fixed[e.second])) freeBorder = true;
+  if (count > 0 && freeBorder) {
+    std::vector<std::array<int, 3>> faces;
+    for (int f = 0; f < pm_->numFaces(); ++f)
+      if (pm_->faceAlive(f)) faces.push_back(pm_->face(f));
+    std::vector<std::pair<int, Vec2>> pins;
+    for (int v = 0; v < n; ++v)
+      if (unknown[v] < 0 && placed_[v]) pins.emplace_back(v, uv_[v]);
+    if (pins.size() < 2) return false;
+    const std::vector<Vec2> uv = lscm(problem_.positions, faces, pins);
+    for (int v = 0; v < n; ++v)
+      if (unknown[v] >= 0) uv_[v] = uv[v], placed_[v] = 1;
+  } else if (count > 0) {
     // Mean value weights: each face (v, a, b) adds tan(angle at v / 2) / |q_w - q_v| to w = a, b.
     std::vector<Eigen::Triplet<double>> triplets;
     Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(count, 2);
@@ -396,13 +423,26 @@ bool CellMapper::embedBase() {
     for (int v = 0; v < n; ++v)
       if (unknown[v] >= 0) uv_[v] = x.row(unknown[v]).transpose(), placed_[v] = 1;
   }
-  for (int f = 0; f < pm_->numFaces(); ++f) {
-    if (!pm_->faceAlive(f)) continue;
-    ++out_.stats.baseFaces;
-    const auto& c = pm_->face(f);
-    if (!(orient2(uv_[c[0]], uv_[c[1]], uv_[c[2]]) > 0)) return false;
+  auto folded = [&] {
+    std::vector<int> out;
+    for (int f = 0; f < pm_->numFaces(); ++f) {
+      if (!pm_->faceAlive(f)) continue;
+      const auto& c = pm_->face(f);
+      if (!(orient2(uv_[c[0]], uv_[c[1]], uv_[c[2]]) > 0)) out.push_back(f);
+    }
+    return out;
+  };
+  for (int f = 0; f < pm_->numFaces(); ++f) out_.stats.baseFaces += pm_->faceAlive(f);
+  for (int round = 0; round < 16; ++round) {
+    const std::vector<int> bad = folded();
+    if (bad.empty()) return true;
+    for (int f : bad)
+      for (int v : pm_->face(f)) {
+        Vec2 c;
+        if (!problem_.fixed[v] && kernelCentroid(buildFan(v), c)) uv_[v] = c;
+      }
   }
-  return true;
+  return folded().empty();
 }
 
 CellMap CellMapper::run() {
@@ -417,8 +457,15 @@ CellMap CellMapper::run() {
   uv_.assign(n, Vec2::Zero());
   placed_.assign(n, 0);
   optimised_.assign(n, 0);
+  // A cell that is not the paper's base triangle (a polygon, features inside, a free border) is embedded at full
+  // resolution: its coarsest mesh joins fixed vertices whose places the simplifier never saw, and may fold.
+  if (!problem_.triangle)
+    while (!pm_->atFull()) pm_->split();
   if (!embedBase()) {
-    out_.failure = "its base mesh has a face with three corners on the boundary's straight sides";
+    out_.failure = problem_.triangle
+                       ? "its coarsest mesh has a face with three corners on one straight side of the triangle"
+                       : "its map folds inside the photo polygon (a concave outline, or features inside placed "
+                         "against their neighbours): add features along it";
     return std::move(out_);
   }
   out_.stats.baseMappedFaces = 1;
@@ -438,7 +485,8 @@ CellMap CellMapper::run() {
   std::vector<int> order;
   for (int v = 0; v < n; ++v)
     if (!problem_.fixed[v]) order.push_back(v);
-  for (int sweep = 0; sweep < options_.finalSweeps; ++sweep) {
+  const int sweeps = problem_.triangle ? options_.finalSweeps : options_.finalSweeps + 4;
+  for (int sweep = 0; sweep < sweeps; ++sweep) {
     job_.checkCancel();
     std::shuffle(order.begin(), order.end(), rng_);
     for (int v : order) optimise(v);

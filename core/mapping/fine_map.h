@@ -50,8 +50,10 @@ struct CellProblem {
   std::vector<std::array<int, 3>> faces;  // local faces, counter-clockwise seen from outside
   std::vector<char> fixed;                // per local vertex: its UV is given (the cell's boundary)
   std::vector<Vec2> fixedUV;              // per local vertex: the given UV (pixels, photo.h), else unused
-  std::vector<std::vector<int>> sides;    // the boundary's three paths as local vertex sequences
-  std::string key;                        // everything the map depends on (content, photo, options)
+  std::vector<std::vector<int>> sides;    // the boundary's paths (fixed) as local vertex sequences
+  bool triangle = true;  // the paper's base triangle (three sides, nothing inside): coarse to fine from its
+                         // coarsest mesh; else embedded at full resolution first, then optimised
+  std::string key;       // everything the map depends on (content, photo, options)
 };
 
 // The map of one cell: a UV per local vertex (pixels), or a failure reason.

@@ -36,7 +36,9 @@
 #include "base/job.h"
 #include "base/util.h"
 #include "geometry/mesh.h"
+#include "geometry/predicates.h"
 #include "geometry/raster.h"
+#include "geometry/stretch.h"
 #include "image/photo.h"
 #include "io/scene.h"
 #include "mapping/partition.h"
@@ -60,10 +62,6 @@ uint64_t hashCamera(uint64_t h, const Camera& c) {
   for (double x : {c.fx, c.fy, c.cx, c.cy}) h = hashMix(h, x);
   for (int i = 0; i < 9; ++i) h = hashMix(h, c.R.data()[i]);
   return hashMix(hashMix(hashMix(h, c.t), c.width), c.height);
-}
-
-double cross2(const Vec2& a, const Vec2& b) {
-  return a.x() * b.y() - a.y() * b.x();
 }
 
 double diagonalOf(const Mesh& mesh) {
@@ -122,8 +120,65 @@ CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, Correcti
   return field;
 }
 
+uint64_t CorrectionField::hash(uint64_t h) const {
+  for (size_t i = 0; i < centres.size(); ++i) h = hashMix(hashMix(hashMix(h, centres[i]), local[i]), localSupport[i]);
+  h = warp.hash(h);
+  for (const auto& outline : outlines) {
+    h = hashMix(h, uint64_t(outline.size()));
+    for (const Vec2& q : outline) h = hashMix(h, q);
+  }
+  h = hashMix(h, uint64_t(walls.size()));
+  for (const auto& [a, b] : walls) h = hashMix(hashMix(h, uint64_t(a)), uint64_t(b));
+  return h;
+}
+
+CorrectionField subjectField(const Project& project, const CameraFit& fit, int photo, const SubjectOptions& options) {
+  CorrectionField field;
+  ImageWarp& warp = field.warp;
+  warp.alpha = options.warpAlpha;
+  warp.affine = options.affineWarp;
+  for (size_t i = 0; i < fit.clicks.size(); ++i) {
+    if (!fit.reprojected[i].allFinite()) continue;
+    warp.from.push_back(fit.reprojected[i]);
+    warp.to.push_back(fit.clicks[i].pixel);
+  }
+  // The outline: closed chains of this photo. (Its paths are not handles: pinned onto the polygon's straight sides,
+  // they pulled the surface inside them along, docs/pipeline.md.)
+  for (const FeatureChain& chain : project.chains) {
+    if (chain.photo != photo || !chain.closed || chain.points.size() < 3) continue;
+    std::vector<Vec2> polygon;
+    for (int point : chain.points)
+      for (const PhotoPoint& at : project.points[point].at)
+        if (at.photo == photo) polygon.push_back(Vec2(at.x, at.y));
+    if (polygon.size() >= 3) field.outlines.push_back(std::move(polygon));
+  }
+  return field;
+}
+
+std::vector<std::pair<int, int>> outlineWalls(const Project& project, const Partition& partition, int photo) {
+  std::vector<std::pair<int, int>> walls;
+  for (const FeatureChain& chain : project.chains) {
+    if (chain.photo != photo || !chain.closed || chain.points.size() < 3) continue;
+    const size_t n = chain.points.size();
+    for (size_t i = 0; i < n; ++i) {
+      const int a = chain.points[i], b = chain.points[(i + 1) % n];
+      const auto side = std::find_if(partition.paths.begin(), partition.paths.end(), [&](const MeshPath& p) {
+        return (p.fromPoint == a && p.toPoint == b) || (p.fromPoint == b && p.toPoint == a);
+      });
+      if (side == partition.paths.end()) return {};  // the outline is open: its inside is not known on the mesh
+      for (size_t k = 1; k < side->vertices.size(); ++k)
+        walls.emplace_back(std::min(side->vertices[k - 1], side->vertices[k]),
+                           std::max(side->vertices[k - 1], side->vertices[k]));
+    }
+  }
+  std::sort(walls.begin(), walls.end());
+  walls.erase(std::unique(walls.begin(), walls.end()), walls.end());
+  return walls;
+}
+
 bool predictPixel(const CameraFit& fit, const CorrectionField& field, const Vec3& p, Vec2& pixel) {
   if (!fit.camera.project(p, pixel)) return false;
+  if (!field.warp.empty()) pixel = field.warp.apply(pixel);
   pixel += field.at(p);
   return true;
 }
@@ -339,6 +394,7 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
   TM_CHECK(static_cast<int>(faceParent.size()) == nf, "viewPhoto: faceParent: " + std::to_string(faceParent.size()) +
                                                           " entries for " + std::to_string(nf) + " faces");
   if (!base || !carry || carry->vertex.size() != size_t(nv) || carry->face.size() != size_t(nf)) base = nullptr;
+  if (!field.walls.empty()) base = nullptr;  // a region's faces decide together: none is carried alone
   const double tol = o.depthTolerance * diagonalOf(mesh);
   const Vec3 eye = cam.center();
   const TriMesh& tri = mesh.tri;
@@ -385,9 +441,10 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
   view.faceQuality.assign(nf, 0.0f);
   const std::array<Vec3, 4> samples = {Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3), Vec3(0.8, 0.1, 0.1), Vec3(0.1, 0.8, 0.1),
                                        Vec3(0.1, 0.1, 0.8)};
-  enum : char { kKept, kFlipped, kBackground };
+  enum : char { kKept, kFlipped, kBackground, kOutside };
   std::vector<char>& refused = view.faceRefused;
   refused.assign(nf, kKept);
+  std::vector<signed char> polygonSide(field.walls.empty() ? 0 : nf, 0);  // image inside (1) or outside (-1) an outline
   tbb::parallel_for(tbb::blocked_range<int>(0, nf, 1024), [&](const tbb::blocked_range<int>& range) {
     for (int f = range.begin(); f < range.end(); ++f) {
       if (base && carry->face[f] >= 0) {
@@ -432,13 +489,56 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
         refused[f] = kBackground;
         continue;
       }
+      if (!field.outlines.empty()) {
+        const Vec2 centre = (uv[0] + uv[1] + uv[2]) / 3;
+        const bool inside =
+            std::any_of(field.outlines.begin(), field.outlines.end(),
+                        [&](const std::vector<Vec2>& polygon) { return insidePolygon(polygon, centre); });
+        if (!field.walls.empty()) {
+          polygonSide[f] = inside ? 1 : -1;  // its region decides below
+        } else if (!inside) {
+          refused[f] = kOutside;
+          continue;
+        }
+      }
       const double factor = std::clamp(silhouetteDistance / std::max(1e-9, o.silhouetteMarginPx), 0.1, 1.0);
       view.faceQuality[f] = static_cast<float>(0.5 * std::abs(mapped) * factor);
       if (!(view.faceQuality[f] > 0)) view.faceQuality[f] = std::numeric_limits<float>::min();
     }
   });
+  if (!field.walls.empty()) {
+    // Regions between the walls: one maps whole when most of its mapped faces' images lie inside an outline.
+    auto isWall = [&](OpenMesh::SmartHalfedgeHandle h) {
+      const int a = h.from().idx(), b = h.to().idx();
+      return std::binary_search(field.walls.begin(), field.walls.end(), std::make_pair(std::min(a, b), std::max(a, b)));
+    };
+    std::vector<int> region(nf, -1), stack;
+    for (int seed = 0; seed < nf; ++seed) {
+      if (region[seed] >= 0) continue;
+      std::vector<int> members;
+      int vote = 0;
+      region[seed] = seed;
+      stack.push_back(seed);
+      while (!stack.empty()) {
+        const int f = stack.back();
+        stack.pop_back();
+        members.push_back(f);
+        vote += polygonSide[f];
+        for (auto h : tri.fh_range(tri.face_handle(f))) {
+          const auto g = h.opp().face();
+          if (!g.is_valid() || region[g.idx()] >= 0 || isWall(h)) continue;
+          region[g.idx()] = seed;
+          stack.push_back(g.idx());
+        }
+      }
+      if (vote > 0) continue;
+      for (int f : members)
+        if (polygonSide[f] != 0) refused[f] = kOutside, view.faceQuality[f] = 0;
+    }
+  }
   view.refusedFlipped = static_cast<int>(std::count(refused.begin(), refused.end(), kFlipped));
   view.refusedBackground = static_cast<int>(std::count(refused.begin(), refused.end(), kBackground));
+  view.refusedOutline = static_cast<int>(std::count(refused.begin(), refused.end(), kOutside));
   view.edgeLuv.assign(tri.n_edges(), Vec3f::Zero());
   tbb::parallel_for(tbb::blocked_range<int>(0, int(tri.n_edges()), 1024), [&](const tbb::blocked_range<int>& range) {
     for (int e = range.begin(); e < range.end(); ++e) {
@@ -454,6 +554,91 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
     }
   });
   return view;
+}
+
+namespace {
+
+// Normalised L2 stretch (Sander et al. 2001) of the faces `use` selects under per-corner UVs (pixels, y down): 1 for
+// a map that is isometric up to scale. 0 when it selects none.
+template <class UV>
+double normalisedStretch(const Mesh& mesh, const std::vector<char>& use, UV&& uvOf) {
+  double sum = 0, area3 = 0, areaUV = 0;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    if (!use[f]) continue;
+    const auto q = mesh.facePositions(f);
+    std::array<Vec2, 3> uv = uvOf(f);
+    for (Vec2& x : uv) x.y() = -x.y();
+    const TriangleStretch st = triangleStretch(q, uv);
+    if (st.flipped || !std::isfinite(st.l2())) continue;
+    const double a = mesh.faceArea(f);
+    sum += st.l2() * st.l2() * a;
+    area3 += a;
+    areaUV += 0.5 * std::abs(cross2(uv[1] - uv[0], uv[2] - uv[0]));
+  }
+  return area3 > 0 ? std::sqrt(sum / area3) * std::sqrt(areaUV / area3) : 0;
+}
+
+std::string fixedText(double v, int digits) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", digits, v);
+  return buffer;
+}
+
+}  // namespace
+
+SubjectChoice chooseSubjectMap(const Mesh& mesh, const TextureMap& paperMap, const PhotoView& view,
+                               const CorrectionField& field, const CameraFit& fit, const SubjectOptions& o) {
+  SubjectChoice c;
+  c.photo = view.photo;
+  const int nf = mesh.numFaces();
+  double total = 0;
+  std::vector<char> warped(nf, 0), paper(nf, 0);
+  for (int f = 0; f < nf; ++f) {
+    const double a = mesh.faceArea(f);
+    total += a;
+    if (view.faceQuality[f] > 0) warped[f] = 1, ++c.warpFaces, c.warpArea += a;
+    if (view.faceRefused[f] == 1) ++c.warpFolds;
+    // The paper's map is compared where the camera sees the surface (its hidden faces show nothing).
+    const bool seen = view.faceQuality[f] > 0 || view.faceRefused[f] != 0;
+    if (paperMap.facePhoto[f] == view.photo && seen) paper[f] = 1, ++c.paperFaces, c.paperArea += a;
+  }
+  if (total > 0) c.warpArea /= total, c.paperArea /= total;
+  c.warpStretch = normalisedStretch(mesh, warped, [&](int f) {
+    const auto v = mesh.faceVertices(f);
+    return std::array<Vec2, 3>{view.vertexUV[v[0]], view.vertexUV[v[1]], view.vertexUV[v[2]]};
+  });
+  c.paperStretch = normalisedStretch(mesh, paper, [&](int f) { return paperMap.cornerUV[f]; });
+  std::vector<double> heldOut;
+  const int clicks = static_cast<int>(
+      std::count_if(fit.reprojected.begin(), fit.reprojected.end(), [](const Vec2& x) { return x.allFinite(); }));
+  for (int i = 0; i < clicks && clicks >= 3; ++i) heldOut.push_back(field.warp.heldOut(i).norm());
+  if (!heldOut.empty()) {
+    std::sort(heldOut.begin(), heldOut.end());
+    c.heldOutMedianPx = heldOut[heldOut.size() / 2];
+    c.heldOutMaxPx = heldOut.back();
+  }
+  const double foldShare = double(c.warpFolds) / std::max(1, c.warpFaces + c.warpFolds);
+  const std::string figures = " (warp: " + std::to_string(c.warpFaces) + " faces, " + fixedText(100 * c.warpArea, 1) +
+                              "% of the surface, stretch " + fixedText(c.warpStretch, 2) + ", " +
+                              std::to_string(c.warpFolds) + " folds; paper: " + std::to_string(c.paperFaces) +
+                              " faces, " + fixedText(100 * c.paperArea, 1) + "%, stretch " +
+                              fixedText(c.paperStretch, 2) + ")";
+  if (c.warpFaces == 0) {
+    c.why = "the camera and warp map no face inside the photo's outline" + figures;
+  } else if (foldShare > o.maxFoldShare) {
+    c.why = "the warp folds " + fixedText(100 * foldShare, 1) + "% of its faces" + figures;
+  } else if (c.paperFaces > 0 && c.warpStretch > o.stretchRatio * c.paperStretch && c.paperArea >= c.warpArea) {
+    c.why = "the paper's map covers as much with less stretch" + figures;
+  } else {
+    c.warp = true;
+    c.why = "camera and warp: no folds, " +
+            std::string(c.paperFaces == 0                 ? "the paper's map covers nothing"
+                        : c.warpStretch <= c.paperStretch ? "less stretch"
+                        : c.warpArea >= c.paperArea       ? "it covers more"
+                                                          : "stretch within " + fixedText(o.stretchRatio, 1) + "x") +
+            figures;
+  }
+  return c;
 }
 
 ProjectionResult projectionFill(const Scene& scene, const Partition& partition, const TextureMap& paperMap,
@@ -475,19 +660,28 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   out.photoProjectedFaces.assign(np, 0);
   out.photoRefusedFlipped.assign(np, 0);
   out.photoRefusedBackground.assign(np, 0);
-  std::vector<int> fitted;
+  out.projected.assign(np, 0);
+  std::vector<int> fitted;  // photos with a camera: the object itself, or another subject (its warp a candidate)
   for (int p = 0; p < np; ++p)
     if (fits[p].fits) fitted.push_back(p);
-  out.fittedPhotos = static_cast<int>(fitted.size());
-  for (int p = 0; p < np; ++p)
-    out.map.notes.push_back("photo " + std::to_string(p) +
-                            (fits[p].fits ? " maps by projection: " : " takes the paper's path: ") +
-                            (fits[p].fits ? describeFit(fits[p]) : fits[p].reason));
   auto countFaces = [&] {
     for (int f = 0; f < nf; ++f)
       if (out.map.facePhoto[f] >= 0) ++out.photoFaces[out.map.facePhoto[f]];
   };
+  auto notes = [&] {
+    for (int p = 0; p < np; ++p) {
+      std::string note = "photo " + std::to_string(p);
+      if (out.projected[p])
+        note += " maps by projection: " + describeFit(fits[p]);
+      else if (fits[p].subject)
+        note += " takes the paper's path (another subject)";
+      else
+        note += " takes the paper's path: " + fits[p].reason;
+      out.map.notes.push_back(note);
+    }
+  };
   if (fitted.empty()) {
+    notes();
     countFaces();
     out.seconds = secondsSince(start);
     return out;
@@ -538,14 +732,14 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   std::vector<char> carried(np, 0);  // views made this run from a carry that took some entries
   tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
     const int p = fitted[k];
-    out.fields[p] = correctionField(mesh, fits[p], o.correction, o.localRadiusPx);
+    out.fields[p] = fits[p].subject ? subjectField(scene.project, fits[p], p)
+                                    : correctionField(mesh, fits[p], o.correction, o.localRadiusPx);
+    if (!out.fields[p].outlines.empty()) out.fields[p].walls = outlineWalls(scene.project, partition, p);
     if (cache) {
       const PhotoCamera& c = fits[p].camera;
       // The frame's own camera too: a frame within reuseFramePx makes another view.
-      uint64_t h = hashMix(hashMix(hashCamera(hashCamera(options, frames[p]->camera), c.pinhole), c.k1), c.k2);
-      const CorrectionField& field = out.fields[p];
-      for (size_t i = 0; i < field.centres.size(); ++i)
-        h = hashMix(hashMix(hashMix(h, field.centres[i]), field.local[i]), field.localSupport[i]);
+      const uint64_t h = out.fields[p].hash(
+          hashMix(hashMix(hashCamera(hashCamera(options, frames[p]->camera), c.pinhole), c.k1), c.k2));
       out.views[p] = cache->view(p, out.meshHash, h, [&](const PhotoView* base) {
         const std::shared_ptr<const ViewCarry> carry = carryFrom(base);
         carried[p] = carry && carry->vertices + carry->faces > 0;
@@ -566,6 +760,30 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   out.viewsCarried = static_cast<int>(std::count(carried.begin(), carried.end(), 1));
   if (out.viewsCarried > 0) out.carriedShare = double(fromLast->vertices + fromLast->faces) / (mesh.numVertices() + nf);
   out.viewSeconds = secondsSince(t);
+
+  // Photos of another subject: the warp, or the paper's map where that maps with less error.
+  for (int p : fitted) {
+    if (!fits[p].subject) {
+      out.projected[p] = 1;
+      continue;
+    }
+    SubjectChoice choice = chooseSubjectMap(mesh, paperMap, *out.views[p], out.fields[p], fits[p]);
+    out.projected[p] = choice.warp;
+    if (!choice.warp) {
+      out.views[p] = nullptr;
+      out.fields[p] = {};
+      out.photoRefusedFlipped[p] = out.photoRefusedBackground[p] = 0;
+    }
+    out.subjects.push_back(std::move(choice));
+  }
+  fitted.erase(std::remove_if(fitted.begin(), fitted.end(), [&](int p) { return !out.projected[p]; }), fitted.end());
+  out.fittedPhotos = static_cast<int>(fitted.size());
+  notes();
+  if (fitted.empty()) {
+    countFaces();
+    out.seconds = secondsSince(start);
+    return out;
+  }
   job.progress(StageId::Projection, 0.6, "view selection");
 
   // The preview: faces whose views barely changed since the last run keep its labels (see projectionFill).
@@ -621,7 +839,7 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   for (int f = 0; f < nf; ++f) {
     auto cost = [&](int label) -> double& { return problem.cost[size_t(f) * problem.numLabels + label]; };
     const int paper = paperMap.facePhoto[f];
-    if (paper >= 0 && !fits[paper].fits) {  // the paper's path: fixed
+    if (paper >= 0 && !out.projected[paper]) {  // the paper's path: fixed
       cost(paper) = 0;
       labels[f] = paper;
       continue;
@@ -709,7 +927,7 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       ++out.emptyFaces;
       continue;
     }
-    if (!fits[label].fits) continue;  // paper's path, unchanged
+    if (!out.projected[label]) continue;  // paper's path, unchanged
     if (paper == TextureMap::kEmpty)
       ++out.filledFaces;
     else if (paper != label)
@@ -721,11 +939,11 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   }
   out.faceLabels.assign(nf, -1);
   for (int f = 0; f < nf; ++f)
-    if (labels[f] >= 0 && labels[f] < np && fits[labels[f]].fits) out.faceLabels[f] = labels[f];
+    if (labels[f] >= 0 && labels[f] < np && out.projected[labels[f]]) out.faceLabels[f] = labels[f];
   // Patch ids of projected faces: edge-connected sets of faces on one photo.
   for (int f = 0; f < nf; ++f) {
     const int label = out.map.facePhoto[f];
-    if (label < 0 || !fits[label].fits || patchOf[f] >= 0) continue;
+    if (label < 0 || !out.projected[label] || patchOf[f] >= 0) continue;
     std::vector<int> stack = {f};
     patchOf[f] = nextPatch;
     while (!stack.empty()) {

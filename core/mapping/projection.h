@@ -22,6 +22,7 @@
 #include "geometry/raster.h"
 #include "io/options.h"
 #include "mapping/camera.h"
+#include "mapping/subject.h"
 #include "mapping/texture_map.h"
 
 namespace montage {
@@ -29,6 +30,7 @@ namespace montage {
 struct Mesh;
 struct Photo;
 struct Scene;
+struct Project;
 struct Partition;
 class JobControl;
 
@@ -39,19 +41,38 @@ class JobControl;
 // rules. Where bumps overlap, their weights are solved so that every click stays exact.
 // (A second, coherent part, Wendland RBFs over the click spacing ridge-regularised by generalised
 // cross-validation, was measured and dropped: it spread click noise over the surface, docs/pipeline.md.)
+// A photo of another subject (mapping/subject.h) has no bumps: its clicks are the handles of a warp of the photo
+// plane applied to the camera's projection, and only the surface inside its outlines maps.
 struct CorrectionField {
-  std::vector<Vec3> centres;         // click vertex positions, model units
-  std::vector<Vec2> local;           // weights of the bumps, pixels
-  std::vector<double> localSupport;  // per click, model units
-  Vec2 at(const Vec3& p) const;      // pixels
-  bool empty() const { return centres.empty(); }
+  std::vector<Vec3> centres;                // click vertex positions, model units
+  std::vector<Vec2> local;                  // weights of the bumps, pixels
+  std::vector<double> localSupport;         // per click, model units
+  ImageWarp warp;                           // another subject: the projection's warp (empty for the object itself)
+  std::vector<std::vector<Vec2>> outlines;  // another subject: the photo's closed feature polygons, pixels; when
+                                            // there are any, only the surface inside one of them maps
+  // Another subject: the mesh edges (vertex pairs, lower id first, sorted) of the paths along the outlines' sides,
+  // when every side became a path (`outlineWalls`). They split the surface into regions; a region maps when most
+  // of its faces' images lie inside an outline, and all of it maps then, its border too (a path's image bulges
+  // off the polygon's straight side). Empty: each face's image must lie inside an outline.
+  std::vector<std::pair<int, int>> walls;
+  Vec2 at(const Vec3& p) const;  // the bumps' sum, pixels
+  bool empty() const { return centres.empty() && warp.empty(); }
+  uint64_t hash(uint64_t seed) const;  // of everything above
 };
 
 // The field of one photo's clicks (mode decides which), over the positions of `mesh`.
 // `localRadiusPx`: the smallest reach of a click's bump, photo pixels.
 CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode, double localRadiusPx = 8);
 
-// Where a fitted photo puts a surface point: its projection plus the correction. False when behind.
+// The field of a photo of another subject (fit.subject): the warp of its clicks (from their projections to the
+// clicks), and its outline: the project's closed feature polygons in that photo.
+CorrectionField subjectField(const Project& project, const CameraFit& fit, int photo,
+                             const SubjectOptions& options = {});
+// The walls of photo `photo`'s outlines (CorrectionField::walls) over `partition`'s mesh: empty unless every side
+// of every closed chain of the photo became a path.
+std::vector<std::pair<int, int>> outlineWalls(const Project& project, const Partition& partition, int photo);
+
+// Where a fitted photo puts a surface point: its projection, warped, plus the correction. False when behind.
 bool predictPixel(const CameraFit& fit, const CorrectionField& field, const Vec3& p, Vec2& pixel);
 
 struct ProjectionOptions {
@@ -166,8 +187,9 @@ struct PhotoView {
   std::vector<Vec3f> edgeLuv;             // per mesh edge (OpenMesh index) whose two faces it can texture: the
                                           // photo's L*u*v* at the midpoint of the edge's UVs (view selection's
                                           // smoothness); unset elsewhere
-  std::vector<char> faceRefused;          // #F: 1 refused for a flip, 2 for the background, 0 otherwise
+  std::vector<char> faceRefused;  // #F: 1 refused for a flip, 2 for the background, 3 outside the outline, else 0
   int refusedFlipped = 0, refusedBackground = 0;  // faces otherwise seen, refused for a flip / the background
+  int refusedOutline = 0;                         // ... for lying outside the photo's outline (another subject)
   uint64_t meshHash = 0;                          // the mesh it was made on (with a ViewFrameCache)
 };
 
@@ -185,11 +207,33 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
                     const ProjectionOptions& options, const PhotoView* base = nullptr,
                     const ViewCarry* carry = nullptr);
 
+// Per photo of another subject: the map it took (the warp or the paper's), why, and the figures compared.
+struct SubjectChoice {
+  int photo = -1;
+  bool warp = false;  // mapped by its camera and warp; else by the paper's piecewise map
+  std::string why;
+  int warpFaces = 0, paperFaces = 0;             // faces each would map (the paper's: of those the camera sees)
+  double warpArea = 0, paperArea = 0;            // their area, share of the surface
+  int warpFolds = 0;                             // faces the warp would fold (seen and facing the camera, flipped)
+  double warpStretch = 0, paperStretch = 0;      // normalised L2 stretch over the faces each maps (1 = isometric up to
+                                                 // scale; 0 when it maps none)
+  double heldOutMedianPx = 0, heldOutMaxPx = 0;  // the warp's leave-one-out error at the clicks, pixels
+};
+
+// Compares, for a photo of another subject, its camera and warp (its view and field) with the paper's map of it
+// (the faces `paperMap` gives it): the warp unless it folds more than options.maxFoldShare of its faces, or the
+// paper's map covers as much with less than 1 / options.stretchRatio of its stretch.
+SubjectChoice chooseSubjectMap(const Mesh& mesh, const TextureMap& paperMap, const PhotoView& view,
+                               const CorrectionField& field, const CameraFit& fit, const SubjectOptions& options = {});
+
 // The projection stage's output: the final texture map and its figures.
 struct ProjectionResult {
   TextureMap map;                           // the paper's map with projection-mapped faces replaced/filled
-  std::vector<CorrectionField> fields;      // per photo (empty for photos that do not fit)
-  PhotoViews views;                         // per photo (null for photos that do not fit)
+  std::vector<CorrectionField> fields;      // per photo (empty for photos not mapped by projection)
+  PhotoViews views;                         // per photo (null for photos not mapped by projection)
+  std::vector<char> projected;              // per photo: mapped by projection (its camera: the object itself, or
+                                            // another subject whose warp won over the paper's map)
+  std::vector<SubjectChoice> subjects;      // photos of another subject, in photo order
   std::vector<int> photoFaces;              // per photo: faces mapped to it in the final map
   std::vector<int> photoProjectedFaces;     // per photo: of those, mapped by projection
   std::vector<int> photoRefusedFlipped;     // per photo: faces refused for a flip

@@ -23,7 +23,7 @@ std::vector<Proposal> proposeCorrespondences(const Project& project, const Mesh&
     for (const PhotoPoint& at : point.at) {
       if (at.photo < 0 || at.photo >= np) continue;
       clicked[at.photo] = 1;
-      if (from < 0 && fits[at.photo].fits) from = at.photo;
+      if (from < 0 && fits[at.photo].fits && !fits[at.photo].subject) from = at.photo;
     }
     if (from < 0) continue;
     // Area-weighted vertex normal.
@@ -32,7 +32,7 @@ std::vector<Proposal> proposeCorrespondences(const Project& project, const Mesh&
       normal += mesh.faceNormal(fh.idx()) * mesh.faceArea(fh.idx());
     if (normal.norm() > 0) normal.normalize();
     for (int q = 0; q < np; ++q) {
-      if (clicked[q] || !fits[q].fits || !views[q] || views[q]->vertexVisible.empty()) continue;
+      if (clicked[q] || !fits[q].fits || fits[q].subject || !views[q] || views[q]->vertexVisible.empty()) continue;
       if (std::find(project.declinedProposals.begin(), project.declinedProposals.end(), DeclinedProposal{v, q}) !=
           project.declinedProposals.end())
         continue;

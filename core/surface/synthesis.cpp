@@ -7,9 +7,9 @@
 #include <opencv2/imgproc.hpp>
 #include <unordered_map>
 
-#include "atlas/lscm.h"
 #include "base/hash.h"
 #include "base/job.h"
+#include "geometry/lscm.h"
 #include "geometry/mesh.h"
 #include "geometry/raster.h"
 #include "image/color.h"

@@ -1,4 +1,4 @@
-#include "atlas/lscm.h"
+#include "geometry/lscm.h"
 
 #include <Eigen/Geometry>
 #include <Eigen/Sparse>
@@ -37,43 +37,22 @@ std::array<Vec2, 3> localFrame(const std::array<Vec3, 3>& q, double& longest) {
 
 }  // namespace
 
-std::vector<Vec2> lscm(const std::vector<Vec3>& positions, const std::vector<std::array<int, 3>>& triangles,
-                       const LscmOptions& options) {
-  const int n = static_cast<int>(positions.size());
-  TM_CHECK(!triangles.empty(), "lscm: the chart has no triangles");
-  std::vector<char> used(n, 0);
-  for (size_t t = 0; t < triangles.size(); ++t)
-    for (int v : triangles[t]) {
-      TM_CHECK(v >= 0 && v < n, "lscm: triangle " + std::to_string(t) + " has vertex index " + std::to_string(v) +
-                                    " outside [0, " + std::to_string(n) + ")");
-      used[v] = 1;
-    }
-  for (const Vec3& p : positions) TM_CHECK(p.allFinite(), "lscm: a vertex position is not finite");
+namespace {
 
-  // Pins: the extreme used vertices along the longest axis of the bounding box. Any two distinct
-  // points fix the similarity LSCM leaves free; far-apart ones keep the system well conditioned.
-  Vec3 lo = Vec3::Constant(HUGE_VAL), hi = Vec3::Constant(-HUGE_VAL);
-  for (int v = 0; v < n; ++v)
-    if (used[v]) lo = lo.cwiseMin(positions[v]), hi = hi.cwiseMax(positions[v]);
-  int axis = 0;
-  (hi - lo).maxCoeff(&axis);
-  int pinA = -1, pinB = -1;
-  for (int v = 0; v < n; ++v) {
-    if (!used[v]) continue;
-    if (pinA < 0 || positions[v][axis] < positions[pinA][axis]) pinA = v;
-    if (pinB < 0 || positions[v][axis] > positions[pinB][axis]) pinB = v;
-  }
+// The conformal solve with the vertices of `pins` held at their UVs (at least two distinct ones).
+std::vector<Vec2> solveLscm(const std::vector<Vec3>& positions, const std::vector<std::array<int, 3>>& triangles,
+                            const std::vector<std::pair<int, Vec2>>& pins, const std::vector<char>& used,
+                            const LscmOptions& options) {
+  const int n = static_cast<int>(positions.size());
   std::vector<Vec2> uv(n, Vec2::Zero());
-  const double span = (positions[pinB] - positions[pinA]).norm();
-  if (pinA == pinB || !(span > 0)) return uv;  // every vertex at one point: nothing to flatten
-  uv[pinA] = Vec2(0, 0);
-  uv[pinB] = Vec2(span, 0);
+  std::vector<char> pinnedVertex(n, 0);
+  for (const auto& [v, at] : pins) uv[v] = at, pinnedVertex[v] = 1;
 
   // Unknowns: u of the free vertices, then their v.
   std::vector<int> freeIndex(n, -1);
   int nf = 0;
   for (int v = 0; v < n; ++v)
-    if (used[v] && v != pinA && v != pinB) freeIndex[v] = nf++;
+    if (used[v] && !pinnedVertex[v]) freeIndex[v] = nf++;
   if (nf == 0) return uv;
   const auto var = [&](int v, int c) { return freeIndex[v] < 0 ? -1 : freeIndex[v] + c * nf; };
   const auto pinned = [&](int v, int c) { return uv[v][c]; };
@@ -133,6 +112,45 @@ std::vector<Vec2> lscm(const std::vector<Vec3>& positions, const std::vector<std
            "lscm: solving the conformal system of a " + std::to_string(triangles.size()) + "-triangle chart failed");
   for (int v = 0; v < n; ++v)
     if (freeIndex[v] >= 0) uv[v] = Vec2(x[freeIndex[v]], x[freeIndex[v] + nf]);
+  return uv;
+}
+
+std::vector<char> checkedUse(const std::vector<Vec3>& positions, const std::vector<std::array<int, 3>>& triangles) {
+  const int n = static_cast<int>(positions.size());
+  TM_CHECK(!triangles.empty(), "lscm: the chart has no triangles");
+  std::vector<char> used(n, 0);
+  for (size_t t = 0; t < triangles.size(); ++t)
+    for (int v : triangles[t]) {
+      TM_CHECK(v >= 0 && v < n, "lscm: triangle " + std::to_string(t) + " has vertex index " + std::to_string(v) +
+                                    " outside [0, " + std::to_string(n) + ")");
+      used[v] = 1;
+    }
+  for (const Vec3& p : positions) TM_CHECK(p.allFinite(), "lscm: a vertex position is not finite");
+  return used;
+}
+
+}  // namespace
+
+std::vector<Vec2> lscm(const std::vector<Vec3>& positions, const std::vector<std::array<int, 3>>& triangles,
+                       const LscmOptions& options) {
+  const int n = static_cast<int>(positions.size());
+  const std::vector<char> used = checkedUse(positions, triangles);
+  // Pins: the extreme used vertices along the longest axis of the bounding box. Any two distinct
+  // points fix the similarity LSCM leaves free; far-apart ones keep the system well conditioned.
+  Vec3 lo = Vec3::Constant(HUGE_VAL), hi = Vec3::Constant(-HUGE_VAL);
+  for (int v = 0; v < n; ++v)
+    if (used[v]) lo = lo.cwiseMin(positions[v]), hi = hi.cwiseMax(positions[v]);
+  int axis = 0;
+  (hi - lo).maxCoeff(&axis);
+  int pinA = -1, pinB = -1;
+  for (int v = 0; v < n; ++v) {
+    if (!used[v]) continue;
+    if (pinA < 0 || positions[v][axis] < positions[pinA][axis]) pinA = v;
+    if (pinB < 0 || positions[v][axis] > positions[pinB][axis]) pinB = v;
+  }
+  const double span = (positions[pinB] - positions[pinA]).norm();
+  if (pinA == pinB || !(span > 0)) return std::vector<Vec2>(n, Vec2::Zero());  // every vertex at one point
+  std::vector<Vec2> uv = solveLscm(positions, triangles, {{pinA, Vec2(0, 0)}, {pinB, Vec2(span, 0)}}, used, options);
 
   double signedArea = 0;
   for (const auto& t : triangles) {
@@ -142,6 +160,17 @@ std::vector<Vec2> lscm(const std::vector<Vec3>& positions, const std::vector<std
   if (signedArea < 0)
     for (Vec2& q : uv) q.x() = -q.x();
   return uv;
+}
+
+std::vector<Vec2> lscm(const std::vector<Vec3>& positions, const std::vector<std::array<int, 3>>& triangles,
+                       const std::vector<std::pair<int, Vec2>>& pins, const LscmOptions& options) {
+  const std::vector<char> used = checkedUse(positions, triangles);
+  TM_CHECK(pins.size() >= 2,
+           "lscm: at least two pinned vertices are needed, " + std::to_string(pins.size()) + " given");
+  for (const auto& [v, at] : pins)
+    TM_CHECK(v >= 0 && v < static_cast<int>(positions.size()) && at.allFinite(),
+             "lscm: pinned vertex " + std::to_string(v) + " is out of range or not finite");
+  return solveLscm(positions, triangles, pins, used, options);
 }
 
 FlatteningQuality flatteningQuality(const std::vector<Vec3>& positions,

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <utility>
 #include <vector>
 
 #include "base/common.h"
@@ -30,6 +31,11 @@ struct LscmOptions {
 // is out of range or the solve fails.
 std::vector<Vec2> lscm(const std::vector<Vec3>& positions, const std::vector<std::array<int, 3>>& triangles,
                        const LscmOptions& options = {});
+
+// The same with the vertices of `pins` held at the given UVs (at least two, distinct): the conformal map closest to
+// those constraints (with a fixed boundary: the harmonic map inside it). No reorientation.
+std::vector<Vec2> lscm(const std::vector<Vec3>& positions, const std::vector<std::array<int, 3>>& triangles,
+                       const std::vector<std::pair<int, Vec2>>& pins, const LscmOptions& options = {});
 
 // Quality of a flattening: Sander stretch normalised so that 1 means isometric up to one global scale
 // (the uv are scaled to the 3D area first), and flips among the faces with a non-zero 3D area.

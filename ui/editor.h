@@ -286,6 +286,8 @@ class Editor {
                      std::string& tooltip);
   bool clickProposal(int photo, bool decline);  // true when the click went to a proposal
   std::string cameraCaption(int photo) const;
+  // The usable result's map choice for photo `photo` of another subject (warp or the paper's map), or null.
+  const SubjectChoice* subjectChoice(int photo) const;
 
   // Coverage tab (editor_coverage.cpp): the empty regions of the result with why and the fix, where to
   // click next, fly to a region (and outline it), rejected pairs by reason.

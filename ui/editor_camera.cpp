@@ -174,11 +174,25 @@ bool Editor::clickProposal(int photo, bool decline) {
   return true;
 }
 
+const SubjectChoice* Editor::subjectChoice(int photo) const {
+  if (!resultUsable() || !result_->projection) return nullptr;
+  for (const SubjectChoice& c : result_->projection->result.subjects)
+    if (c.photo == photo) return &c;
+  return nullptr;
+}
+
 std::string Editor::cameraCaption(int photo) const {
   const CameraFit* fit = photoFit(photo);
   if (!fit) return "";
+  char text[200];
+  if (fit->subject) {
+    const SubjectChoice* choice = subjectChoice(photo);
+    if (!fit->fits || !choice || !choice->warp) return "  another subject: the paper's map";
+    std::snprintf(text, sizeof text, "  another subject: camera (f %.0f px, clicks %.2f px median off it) + warp",
+                  fit->camera.focal(), fit->medianResidual);
+    return text;
+  }
   if (!fit->fits) return "  paper's path";
-  char text[160];
   std::snprintf(text, sizeof text, "  projection: f %.0f px, %d/%zu agree, median %.2f px, max %.2f px",
                 fit->camera.focal(), fit->inliers, fit->clicks.size(), fit->medianResidual, fit->maxResidual);
   return text;

@@ -103,10 +103,13 @@ void Editor::photosTab() {
     if (button("x", nullptr, "remove photo " + id)) remove = i;
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("remove the photo with its points, chains and clones (undoable)");
     // What the photo shows: decides how its clicks map it (mapping/subject.h).
-    static constexpr const char* kShows[] = {"decide from the clicks", "the object itself", "another subject"};
+    static constexpr const char* kShows[] = {"auto: decided from the clicks", "the object itself", "another subject"};
     int shows = static_cast<int>(ref.mode);
+    ImGui::AlignTextToFramePadding();
+    ImGui::TextUnformatted("shows");
+    ImGui::SameLine();
     ImGui::SetNextItemWidth(ImGui::CalcTextSize(kShows[0]).x + px(40));
-    if (ImGui::Combo("shows", &shows, kShows, IM_ARRAYSIZE(kShows)))
+    if (ImGui::Combo(("##shows" + id).c_str(), &shows, kShows, IM_ARRAYSIZE(kShows)))
       edit([&] { doc_.setPhotoMode(i, PhotoMode(shows)); });
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip(
@@ -118,6 +121,7 @@ void Editor::photosTab() {
         !result_->cameras->fits[i].decision.empty()) {
       ImGui::PushTextWrapPos(0);
       ImGui::TextDisabled("%s", result_->cameras->fits[i].decision.c_str());
+      if (const SubjectChoice* choice = subjectChoice(i)) ImGui::TextDisabled("map: %s", choice->why.c_str());
       ImGui::PopTextWrapPos();
     }
     if (button("Cut out", nullptr, "cut out photo " + id)) cut = i;

@@ -240,6 +240,7 @@ void Editor::frame() {
   syncInputs();
   pollCutout();
   buildUi();
+  syncInputs();  // the dialogs, drops and shortcuts at the end of buildUi edit too; the 3D view draws next
   validateSelection();
   pollWorker();
   // Each document change goes to the worker as an immutable snapshot; a drag (open group) sends

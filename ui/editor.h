@@ -485,6 +485,8 @@ class Editor {
   std::map<std::string, Rect> tabRects_;  // its tab buttons, last frame, unclipped
   std::string requestedMenu_;             // menu item to activate next frame (script `menu`), "File/Save"
   std::string menuFailed_;                // a requested item that was not found or disabled
+  std::string menuListFile_;              // script `menu_list`: the next menu bar walks every menu, writes here
+  nlohmann::json menuList_;               // the items walked so far: {"path", "enabled"}
   struct MenuLevel {
     std::string path;
     bool open = false;  // ImGui drew it (else only a script's request walks through it)

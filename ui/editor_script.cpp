@@ -489,6 +489,9 @@ void Editor::runAction(const ScriptAction& a) {
       TM_CHECK(menuFailed_.empty(), where + ": no enabled menu item '" + menuFailed_ + "'");
     };
     inputQueue_.push_back(std::move(check));
+  } else if (a.verb == "menu_list") {
+    menuListFile_ = a.text(0);
+    waitFor(where, 10, [this] { return menuListFile_.empty(); });  // the next frame's menu bar writes it
   } else if (a.verb == "dialog_filter") {
     TM_CHECK(dialogs_.active(), where + ": no file dialog is open");
     TM_CHECK(dialogs_.chooseFilter(a.text(0)), where + ": the dialog has no filter '" + a.text(0) + "'");

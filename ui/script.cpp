@@ -61,6 +61,8 @@ const std::vector<ScriptVerb>& scriptVerbs() {
       {"state", 1, 1, "JSON", "write the editor's state (document, selection, worker, layout) as JSON"},
       {"menu", 1, 1, "MENU/ITEM",
        "choose a menu item as a click would, e.g. File/Save, \"View/Photos in a grid\" (fails when it is disabled)"},
+      {"menu_list", 1, 1, "JSON",
+       "write every menu item (path, enabled) of the menu bar as it is now, submenus walked, nothing chosen"},
       {"dialog_filter", 1, 1, "NAME", "choose the open file dialog's type filter by its name (e.g. Meshes)"},
       {"drag_splitter", 3, 3, "left|tools|view DX DY",
        "drag a splitter bar by (DX, DY) pixels: left column | 3D view, Tools / Document, 3D view | photos"},

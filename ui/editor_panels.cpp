@@ -108,7 +108,10 @@ const std::vector<Shortcut>& editorShortcuts() {
       {"Photo: left drag on a point", "move it (one undo step)"},
       {"Photo: wheel / right or middle drag", "zoom at the cursor / pan"},
       {"Photo: click the first point", "close the polygon being drawn"},
-      {"Photo, cut-out tool: left drag", "rectangle, foreground / background stroke, or mask brush (tool options)"},
+      {"Photo, cut-out tool: left drag",
+       "rectangle (then strokes), foreground / background stroke, or mask brush (tool options); drawn while "
+       "GrabCut runs: queued"},
+      {"Cut-out tool: Ctrl+Z, Ctrl+Y", "undo / redo the cut's last stroke or rectangle (before the document's edits)"},
       {"Drop files on the window", "a project or mesh opens; photos are added"},
   };
   return shortcuts;
@@ -258,10 +261,16 @@ void Editor::menuBar() {
     endMenu();
   }
   if (beginMenu("Edit")) {
-    const std::string undoLabel = doc_.canUndo() ? "Undo " + doc_.history()[doc_.position() - 1].label : "Undo";
-    const std::string redoLabel = doc_.canRedo() ? "Redo " + doc_.history()[doc_.position()].label : "Redo";
-    if (menuItem(undoLabel.c_str(), "Ctrl+Z", false, doc_.canUndo())) undo();
-    if (menuItem(redoLabel.c_str(), "Ctrl+Shift+Z", false, doc_.canRedo())) redo();
+    // With the cut-out tool, its own steps come first (undo() and redo() route them).
+    const bool toolUndo = cutoutOwnsUndo(), toolRedo = cutoutOwnsRedo();
+    const std::string undoLabel = toolUndo         ? "Undo " + cutoutUndoLabel()
+                                  : doc_.canUndo() ? "Undo " + doc_.history()[doc_.position() - 1].label
+                                                   : "Undo";
+    const std::string redoLabel = toolRedo         ? "Redo " + cutoutRedoLabel()
+                                  : doc_.canRedo() ? "Redo " + doc_.history()[doc_.position()].label
+                                                   : "Redo";
+    if (menuItem(undoLabel.c_str(), "Ctrl+Z", false, toolUndo || doc_.canUndo())) undo();
+    if (menuItem(redoLabel.c_str(), "Ctrl+Shift+Z", false, toolRedo || doc_.canRedo())) redo();
     menuSeparator();
     if (menuItem("Delete selected point", "Delete", false, selectedPoint_ >= 0)) deleteSelection();
     if (menuItem("Clear selection", "Escape")) selectVertex(-1);

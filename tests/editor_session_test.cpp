@@ -281,6 +281,60 @@ void copyDemo(const std::string& dir) {
     fs::copy_file(entry.path(), fs::path(dir) / entry.path().filename(), fs::copy_options::overwrite_existing);
 }
 
+// The demo's tiger (Tux Paint's stamp: a real photo cut out with alpha, the size of the demo's photo 0)
+// flattened onto a busy background, without alpha: what a user's photo looks like. Writes dir/flat.png and
+// dir/cut.json (the demo with photo 0 replaced by it, no points); returns the true foreground (255) and
+// a rectangle around it (photo pixels).
+struct FlatTiger {
+  cv::Mat truth;
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+FlatTiger makeFlatTiger(const std::string& dir) {
+  copyDemo(dir);
+  const cv::Mat stamp = cv::imread(dir + "/tiger_sumatran_stamp.png", cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(stamp.type(), CV_8UC4);
+  // The stamp fills its frame: framed with background on every side (80 px left and right, 60 px above and
+  // below), as a photo of an object shows it.
+  cv::Mat rgba;
+  cv::copyMakeBorder(stamp, rgba, 60, 60, 80, 80, cv::BORDER_CONSTANT, cv::Scalar(0, 0, 0, 0));
+  FlatTiger t;
+  cv::Mat flat(rgba.size(), CV_8UC3);
+  t.truth = cv::Mat(rgba.size(), CV_8U, cv::Scalar(0));
+  for (int y = 0; y < rgba.rows; ++y)
+    for (int x = 0; x < rgba.cols; ++x) {
+      const cv::Vec4b s = rgba.at<cv::Vec4b>(y, x);
+      const cv::Vec3b bg(uchar(90 + 70 * std::sin(x / 9.0)), uchar(140 + 60 * std::cos(y / 13.0)),
+                         uchar((x / 24 + y / 31) % 2 ? 200 : 60));
+      const double a = s[3] / 255.0;
+      for (int c = 0; c < 3; ++c) flat.at<cv::Vec3b>(y, x)[c] = cv::saturate_cast<uchar>(a * s[c] + (1 - a) * bg[c]);
+      t.truth.at<uchar>(y, x) = s[3] > 127 ? 255 : 0;
+    }
+  EXPECT_TRUE(cv::imwrite(dir + "/flat.png", flat));
+  // Photo 0 is the framed photo, without mask; the demo's points (for the unframed photo) are left out.
+  Project project = loadProject(dir + "/project.json");
+  project.photos[0].path = dir + "/flat.png";
+  project.photos[0].mask.clear();
+  project.points.clear();
+  project.chains.clear();
+  saveProject(project, dir + "/cut.json");
+  const cv::Rect box = cv::boundingRect(t.truth);
+  const int gx = box.width / 16, gy = box.height / 16;
+  t.x0 = std::max(0, box.x - gx), t.y0 = std::max(0, box.y - gy);
+  t.x1 = std::min(rgba.cols - 1, box.x + box.width + gx), t.y1 = std::min(rgba.rows - 1, box.y + box.height + gy);
+  return t;
+}
+
+// The point of `region` (non-zero pixels) farthest from its outside, among the pixels `allowed` (non-zero)
+// keeps: where a stroke certainly lies within it.
+cv::Point deepest(const cv::Mat& region, const cv::Mat& allowed) {
+  cv::Mat distance;
+  cv::distanceTransform(region, distance, cv::DIST_L2, 5);
+  double best = 0;
+  cv::Point at;
+  cv::minMaxLoc(distance, nullptr, &best, nullptr, &at, allowed);
+  return at;
+}
+
 bool hasWarning(const json& state, const std::string& part) {
   for (const auto& w : state["result"]["warnings"])
     if (w.get<std::string>().find(part) != std::string::npos) return true;
@@ -395,37 +449,9 @@ TEST(EditorSession, PhotosAreDroppedRemovedAndReorderedAndEveryStepUndoes) {
 TEST(EditorSession, TheCutOutToolMasksAPhotoWithoutAlpha) {
   TM_REQUIRE_XVFB();
   const std::string dir = test::tempDir("editor_cutout");
-  copyDemo(dir);
-  // The demo's tiger (Tux Paint's stamp: a real photo cut out with alpha, the size of the demo's photo 0)
-  // flattened onto a busy background, without alpha: what a user's photo looks like.
-  const cv::Mat stamp = cv::imread(dir + "/tiger_sumatran_stamp.png", cv::IMREAD_UNCHANGED);
-  ASSERT_EQ(stamp.type(), CV_8UC4);
-  // The stamp fills its frame: framed with background on every side (80 px left and right, 60 px above and
-  // below), as a photo of an object shows it.
-  cv::Mat rgba;
-  cv::copyMakeBorder(stamp, rgba, 60, 60, 80, 80, cv::BORDER_CONSTANT, cv::Scalar(0, 0, 0, 0));
-  cv::Mat flat(rgba.size(), CV_8UC3), truth(rgba.size(), CV_8U, cv::Scalar(0));
-  for (int y = 0; y < rgba.rows; ++y)
-    for (int x = 0; x < rgba.cols; ++x) {
-      const cv::Vec4b s = rgba.at<cv::Vec4b>(y, x);
-      const cv::Vec3b bg(uchar(90 + 70 * std::sin(x / 9.0)), uchar(140 + 60 * std::cos(y / 13.0)),
-                         uchar((x / 24 + y / 31) % 2 ? 200 : 60));
-      const double a = s[3] / 255.0;
-      for (int c = 0; c < 3; ++c) flat.at<cv::Vec3b>(y, x)[c] = cv::saturate_cast<uchar>(a * s[c] + (1 - a) * bg[c]);
-      truth.at<uchar>(y, x) = s[3] > 127 ? 255 : 0;
-    }
-  ASSERT_TRUE(cv::imwrite(dir + "/flat.png", flat));
-  // Photo 0 is the framed photo, without mask; the demo's points (for the unframed photo) are left out.
-  Project project = loadProject(dir + "/project.json");
-  project.photos[0].path = dir + "/flat.png";
-  project.photos[0].mask.clear();
-  project.points.clear();
-  project.chains.clear();
-  saveProject(project, dir + "/cut.json");
-  const cv::Rect box = cv::boundingRect(truth);
-  const int gx = box.width / 16, gy = box.height / 16;
-  const int x0 = std::max(0, box.x - gx), y0 = std::max(0, box.y - gy);
-  const int x1 = std::min(rgba.cols - 1, box.x + box.width + gx), y1 = std::min(rgba.rows - 1, box.y + box.height + gy);
+  const FlatTiger tiger = makeFlatTiger(dir);
+  const cv::Mat& truth = tiger.truth;
+  const int x0 = tiger.x0, y0 = tiger.y0, x1 = tiger.x1, y1 = tiger.y1;
   // A background stroke along the rectangle's top inner edge, where nothing of the object is.
   std::ostringstream script;
   script << "wait_frames 2\ntool cutout\nphoto 0\ncutout_mode rect\ndrag_photo 0 " << x0 << " " << y0 << " " << x1
@@ -457,6 +483,133 @@ TEST(EditorSession, TheCutOutToolMasksAPhotoWithoutAlpha) {
   // Undo goes back to no mask; the file written stays (undo/redo may need it).
   EXPECT_TRUE(loadProject(dir + "/unmasked.json").photos[0].mask.empty());
   EXPECT_TRUE(fs::exists(dir + "/masks/flat_mask.png"));
+}
+
+// Issue 35: Ctrl+Z inside the cut-out tool takes back the tool's last step (a stroke, a brush stroke, a
+// rectangle) and gives back exactly the cut before it, never the document's "Add photo"; Ctrl+Y redoes it;
+// a second rectangle over a cut with strokes is such a step too; after a rectangle, drags are strokes.
+TEST(EditorCutout, UndoAndRedoRestoreTheCutStepByStep) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = test::tempDir("editor_cutout_undo");
+  const FlatTiger t = makeFlatTiger(dir);
+  const cv::Mat inRect = cv::Mat::zeros(t.truth.size(), CV_8U);
+  inRect(cv::Rect(t.x0 + 12, t.y0 + 12, t.x1 - t.x0 - 24, t.y1 - t.y0 - 24)).setTo(255);
+  const cv::Point bg = deepest(255 - t.truth, inRect), fg = deepest(t.truth, inRect);
+  std::ostringstream script;
+  script << "wait_frames 2\ntool cutout\nphoto 0\nstate s0.json\ncutout_mode rect 4 0\ndrag_photo 0 " << t.x0 << " "
+         << t.y0 << " " << t.x1 << " " << t.y1 << "\nwait_cutout 120\nstate s1.json\n"
+         << "cutout_mode background 5\ndrag_photo 0 " << bg.x - 8 << " " << bg.y << " " << bg.x + 8 << " " << bg.y
+         << "\nwait_cutout 120\nstate s2.json\ncutout_mode erase 6\ndrag_photo 0 " << fg.x - 10 << " " << fg.y << " "
+         << fg.x + 10 << " " << fg.y
+         << "\nwait_frames 2\nstate s3.json\n"
+         // Back step by step, one step too far (the document keeps its photos), then forward again.
+         << "key ctrl+z\nwait_cutout 120\nwait_frames 2\nstate u2.json\nkey ctrl+z\nwait_frames 2\nstate u1.json\n"
+         << "key ctrl+z\nwait_frames 2\nstate u0.json\nkey ctrl+z\nwait_frames 2\nstate beyond.json\n"
+         << "key ctrl+y\nwait_frames 2\nstate r1.json\nkey ctrl+y\nwait_frames 2\nstate r2.json\n"
+         // A second rectangle over the cut with a stroke replaces it, as an undoable step.
+         << "cutout_mode rect\ndrag_photo 0 " << t.x0 + 30 << " " << t.y0 + 30 << " " << t.x1 - 30 << " " << t.y1 - 30
+         << "\nwait_cutout 120\nstate second.json\nmenu_list menus.json\nkey ctrl+z\nwait_frames 2\n"
+         << "state second_undone.json\nquit\n";
+  writeText(dir + "/s.txt", script.str());
+  std::string out;
+  ASSERT_EQ(runEditor(dir, "cut.json --script s.txt", &out), 0) << out;
+  auto cut = [&](const std::string& name) { return test::readJson(dir + "/" + name)["cutout"]; };
+  const json s0 = test::readJson(dir + "/s0.json"), s1 = cut("s1.json"), s2 = cut("s2.json"), s3 = cut("s3.json");
+  ASSERT_TRUE(s1["started"].get<bool>());
+  EXPECT_EQ(s1["mode"], "foreground") << "after a rectangle, a drag is a stroke";
+  EXPECT_NE(s1["mask_hash"], s2["mask_hash"]) << "the background stroke changed nothing";
+  EXPECT_NE(s2["mask_hash"], s3["mask_hash"]) << "the erase brush changed nothing";
+  EXPECT_LT(s3["foreground_pixels"].get<int>(), s2["foreground_pixels"].get<int>());
+  EXPECT_EQ(s3["undo_steps"], 3);
+  // Each undo gives back the cut before that step, bit for bit.
+  EXPECT_EQ(cut("u2.json")["mask_hash"], s2["mask_hash"]);
+  EXPECT_EQ(cut("u2.json")["strokes"], 1);
+  EXPECT_EQ(cut("u1.json")["mask_hash"], s1["mask_hash"]);
+  EXPECT_EQ(cut("u1.json")["strokes"], 0);
+  EXPECT_EQ(cut("u0.json")["foreground_pixels"], 0);
+  EXPECT_FALSE(cut("u0.json")["started"].get<bool>());
+  // One more Ctrl+Z at the start of the cut: a hint, the document untouched ("Add photo" is not undone).
+  const json beyond = test::readJson(dir + "/beyond.json");
+  EXPECT_EQ(beyond["history"], s0["history"]);
+  EXPECT_EQ(beyond["photos"].size(), 2u);
+  EXPECT_NE(beyond["hint"].get<std::string>().find("cut-out"), std::string::npos) << beyond["hint"];
+  EXPECT_EQ(cut("r1.json")["mask_hash"], s1["mask_hash"]);
+  EXPECT_EQ(cut("r2.json")["mask_hash"], s2["mask_hash"]);
+  EXPECT_EQ(cut("r2.json")["redo_steps"], 1);
+  // The second rectangle: a step that Ctrl+Z takes back to the cut with its stroke.
+  const json second = cut("second.json");
+  EXPECT_EQ(second["strokes"], 0);
+  EXPECT_NE(second["mask_hash"], s2["mask_hash"]);
+  const json menus = test::readJson(dir + "/menus.json");
+  bool named = false;
+  for (const auto& item : menus) named = named || item["path"] == "Edit/Undo cut-out rectangle (replaced 1 stroke)";
+  EXPECT_TRUE(named) << "the Edit menu names the tool's step: " << menus.dump();
+  EXPECT_EQ(cut("second_undone.json")["mask_hash"], s2["mask_hash"]);
+  EXPECT_EQ(cut("second_undone.json")["strokes"], 1);
+  EXPECT_EQ(test::readJson(dir + "/second_undone.json")["history"], s0["history"]);
+}
+
+// Issue 35: strokes drawn while GrabCut runs are queued and applied after it, none dropped; the pane shows
+// that GrabCut runs. Each GrabCut run is held 4 s (script `cutout_delay`) so that the strokes surely come
+// while it runs, as they do on a large photo.
+TEST(EditorCutout, StrokesDrawnWhileGrabCutRunsAreAllApplied) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = test::tempDir("editor_cutout_queue");
+  const FlatTiger t = makeFlatTiger(dir);
+  const cv::Mat inRect = cv::Mat::zeros(t.truth.size(), CV_8U);
+  inRect(cv::Rect(t.x0 + 12, t.y0 + 12, t.x1 - t.x0 - 24, t.y1 - t.y0 - 24)).setTo(255);
+  // Where each stroke goes: a background stroke on background inside the rectangle, a foreground stroke deep in
+  // the tiger, an erase brush elsewhere in the tiger (away from the foreground stroke).
+  const cv::Point bg = deepest(255 - t.truth, inRect), fg = deepest(t.truth, inRect);
+  cv::Mat away = inRect.clone();
+  cv::circle(away, fg, 60, cv::Scalar(0), cv::FILLED);
+  const cv::Point erase = deepest(t.truth, away);
+  std::ostringstream script;
+  script << "wait_frames 2\ntool cutout\nphoto 0\ncutout_delay 4\ncutout_mode rect 4 0\ndrag_photo 0 " << t.x0 << " "
+         << t.y0 << " " << t.x1 << " " << t.y1 << "\nstate running.json\n"
+         << "cutout_mode background 5\ndrag_photo 0 " << bg.x - 8 << " " << bg.y << " " << bg.x + 8 << " " << bg.y
+         << "\ncutout_mode foreground 5\ndrag_photo 0 " << fg.x - 8 << " " << fg.y << " " << fg.x + 8 << " " << fg.y
+         << "\ncutout_mode erase 6\ndrag_photo 0 " << erase.x - 6 << " " << erase.y << " " << erase.x + 6 << " "
+         << erase.y << "\nstate queued.json\nscreenshot busy.png\nwait_cutout 120\nstate done.json\n"
+         << "click_button \"Use mask\"\nwait_frames 3\nsave masked.json\nquit\n";
+  writeText(dir + "/s.txt", script.str());
+  std::string out;
+  ASSERT_EQ(runEditor(dir, "cut.json --script s.txt", &out), 0) << out;
+  const json running = test::readJson(dir + "/running.json")["cutout"];
+  const json queued = test::readJson(dir + "/queued.json")["cutout"];
+  const json done = test::readJson(dir + "/done.json")["cutout"];
+  EXPECT_TRUE(running["running"].get<bool>());
+  ASSERT_TRUE(queued["running"].get<bool>()) << "GrabCut finished before the strokes: nothing was queued";
+  EXPECT_EQ(queued["queued"], 3) << queued.dump();
+  EXPECT_FALSE(done["running"].get<bool>());
+  EXPECT_EQ(done["queued"], 0);
+  EXPECT_EQ(done["steps_applied"], 4) << done.dump();
+  EXPECT_EQ(done["strokes"], 3);
+  // Applied, in the mask written: the strokes' pixels are what they marked.
+  const Project masked = loadProject(dir + "/masked.json");
+  const cv::Mat mask = cv::imread(masked.photos[0].mask, cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(mask.size(), t.truth.size());
+  for (int dx = -8; dx <= 8; dx += 4) {
+    EXPECT_EQ(mask.at<uchar>(bg.y, bg.x + dx), 0) << "background stroke at dx " << dx;
+    EXPECT_GT(mask.at<uchar>(fg.y, fg.x + dx), 0) << "foreground stroke at dx " << dx;
+  }
+  for (int dx = -6; dx <= 6; dx += 3) EXPECT_EQ(mask.at<uchar>(erase.y, erase.x + dx), 0) << "erased at dx " << dx;
+  const double inter = cv::countNonZero((mask > 0) & t.truth), uni = cv::countNonZero((mask > 0) | t.truth);
+  std::printf("editor cut-out with queued strokes: IoU %.4f against the true alpha\n", inter / uni);
+  EXPECT_GT(inter / uni, 0.78);
+  // The busy state is on screen: the pane's band (dark amber with a bright bar) over the photo's top.
+  const cv::Mat shot = cv::imread(dir + "/busy.png");
+  ASSERT_FALSE(shot.empty());
+  const json layout = test::readJson(dir + "/queued.json")["layout"]["photos"];
+  int amber = 0;
+  const int top = int(layout["y"].get<double>());
+  for (int y = top; y < std::min(shot.rows, top + 140); ++y)
+    for (int x = int(layout["x"].get<double>());
+         x < std::min(shot.cols, int(layout["x"].get<double>() + layout["w"].get<double>())); ++x) {
+      const cv::Vec3b p = shot.at<cv::Vec3b>(y, x);  // BGR: the band's text, (255, 230, 120) in RGB
+      amber += p[2] > 220 && p[1] > 200 && p[0] > 90 && p[0] < 150;
+    }
+  EXPECT_GT(amber, 50) << "no busy band in the pane";
 }
 
 TEST(EditorSession, ColourBalanceLockAndBeforeAfter) {

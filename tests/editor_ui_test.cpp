@@ -374,3 +374,100 @@ TEST(EditorLayout, ScaleTwoDoublesFontsAndSizesAt2560x1600) {
   ASSERT_EQ(runEditor(dir, demoProject(), "wait_frames 3\nstate one.json\nquit\n", "1280x800", &out), 0) << out;
   EXPECT_EQ(read(dir, "one.json")["font_size"].get<double>(), 15);
 }
+
+// Issue 35, the crash: the editor started empty, then File > Open recent > a project with photos. The menu
+// replaced the document while the frame was being built, and the photo panes indexed photos not loaded
+// yet (SIGSEGV in photoCanvas). The project now opens and its photos are drawn in the same run.
+TEST(EditorFiles, OpenRecentFromTheEmptyEditorShowsTheProjectsPhotos) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_open_recent");
+  const std::string project = dir + "/project.json";
+  std::ofstream(project) << montage::test::demoProjectAbsolute().dump(2);
+  std::string out;
+  // A first session opens the project: it joins the recent list (kept in dir/state).
+  ASSERT_EQ(runEditor(dir, project, "wait_frames 3\nquit\n", "1280x800", &out), 0) << out;
+  // The second starts empty and opens it from the menu, as a user does.
+  const std::string script = "wait_frames 3\nstate empty.json\nmenu \"File/Open recent/" + project +
+                             "\"\nwait_frames 5\nstate opened.json\nscreenshot opened.png\nwait_result\n"
+                             "state result.json\nquit\n";
+  ASSERT_EQ(runEditor(dir, "", script, "1280x800", &out), 0) << "the editor did not survive Open recent:\n" << out;
+  const json empty = read(dir, "empty.json");
+  EXPECT_TRUE(empty["mesh"].get<std::string>().empty());
+  ASSERT_FALSE(empty["recent"].empty());
+  EXPECT_EQ(empty["recent"][0], project);
+  const json opened = read(dir, "opened.json");
+  EXPECT_EQ(opened["file"], project);
+  ASSERT_EQ(opened["photos"].size(), 2u);
+  for (const auto& photo : opened["photos"]) EXPECT_TRUE(photo["loaded"].get<bool>()) << photo.dump();
+  EXPECT_TRUE(opened["errors"].empty()) << opened["errors"].dump(1);
+  // The photo pane shows the tiger: not the empty panel's flat colour.
+  const cv::Mat shot = cv::imread(dir + "/opened.png");
+  ASSERT_FALSE(shot.empty());
+  const json& pane = opened["layout"]["photos"];
+  const cv::Rect r(int(pane["x"].get<double>()), int(pane["y"].get<double>()), int(pane["w"].get<double>()),
+                   int(pane["h"].get<double>()));
+  ASSERT_GT(r.area(), 10000) << pane.dump();
+  cv::Scalar mean, sd;
+  cv::meanStdDev(shot(r & cv::Rect(0, 0, shot.cols, shot.rows)), mean, sd);
+  EXPECT_GT(sd[0] + sd[1] + sd[2], 30) << "the photo pane looks empty";
+  EXPECT_TRUE(read(dir, "result.json")["result"]["matches_document"].get<bool>());
+}
+
+// Its kin: Edit > Redo of "Add 2 photos" from the menu (the photos come back within the frame that draws
+// them) and Edit > Undo of it.
+TEST(EditorMenus, RedoOfAddedPhotosFromTheMenuShowsThem) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_menu_redo");
+  fs::create_directories(dir + "/photos");
+  for (const char* name : {"tiger_left.png", "tiger_right.png"})
+    fs::copy_file(montage::test::assetsDir() + "/demo/" + name, dir + "/photos/" + name);
+  const std::string script = "wait_frames 3\nadd_photos \"" + dir +
+                             "/photos\"\nwait_frames 3\nmenu \"Edit/Undo Add 2 photos\"\nwait_frames 3\n"
+                             "state undone.json\nmenu \"Edit/Redo Add 2 photos\"\nwait_frames 3\nstate redone.json\n"
+                             "screenshot redone.png\nquit\n";
+  std::string out;
+  ASSERT_EQ(runEditor(dir, montage::test::assetsDir() + "/demo/cat.obj", script, "1280x800", &out), 0) << out;
+  EXPECT_EQ(read(dir, "undone.json")["photos"].size(), 0u);
+  const json redone = read(dir, "redone.json");
+  ASSERT_EQ(redone["photos"].size(), 2u);
+  for (const auto& photo : redone["photos"]) EXPECT_TRUE(photo["loaded"].get<bool>()) << photo.dump();
+}
+
+// Every enabled menu command, from the three states a user starts in (empty with a recent project, a mesh
+// only, a project open): each runs and the editor lives on (dialogs it opens are closed with Escape). The
+// items are the menu bar's own (script `menu_list`), so a new command is walked too.
+TEST(EditorMenus, EveryMenuCommandFromEveryStateKeepsTheEditorAlive) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = montage::test::tempDir("editor_menu_walk");
+  const std::string project = dir + "/project.json";
+  std::ofstream(project) << montage::test::demoProjectAbsolute().dump(2);
+  fs::copy_file(montage::test::assetsDir() + "/demo/cat.obj", dir + "/cat.obj");
+  std::string out;
+  ASSERT_EQ(runEditor(dir, project, "wait_frames 3\nquit\n", "1280x800", &out), 0) << out;  // the recent list
+  const std::vector<std::pair<std::string, std::string>> starts = {
+      {"empty", ""}, {"mesh", dir + "/cat.obj"}, {"project", project}};
+  for (const auto& [name, file] : starts) {
+    SCOPED_TRACE(name);
+    ASSERT_EQ(runEditor(dir, file, "wait_frames 3\nmenu_list menus_" + name + ".json\nquit\n", "1280x800", &out), 0)
+        << out;
+    const json items = read(dir, "menus_" + name + ".json");
+    ASSERT_TRUE(items.is_array() && items.size() > 30) << items.dump(1);
+    std::vector<std::string> walk, open, clear;
+    for (const auto& item : items) {
+      const std::string path = item["path"].get<std::string>();
+      if (!item["enabled"].get<bool>() || path.back() == '/' || path == "File/Quit") continue;
+      // Opening a recent file comes last (what follows would be another state's menu), then clearing the list.
+      const bool recent = path.rfind("File/Open recent/", 0) == 0;
+      (!recent ? walk : path == "File/Open recent/Clear list" ? clear : open).push_back(path);
+    }
+    walk.insert(walk.end(), open.begin(), open.end());
+    walk.insert(walk.end(), clear.begin(), clear.end());
+    std::string script = "wait_frames 3\n";
+    for (const std::string& path : walk) script += "menu \"" + path + "\"\nwait_frames 2\nkey escape\nwait_frames 2\n";
+    script += "state end.json\nquit\n";
+    const int status = runEditor(dir, file, script, "1280x800", &out);
+    EXPECT_EQ(status, 0) << walk.size() << " commands from the " << name << " editor:\n" << out;
+    EXPECT_EQ(out.find("Segmentation"), std::string::npos) << out;
+    std::printf("%s editor: %zu menu commands walked\n", name.c_str(), walk.size());
+  }
+}

@@ -240,6 +240,7 @@ void Editor::frame() {
   syncInputs();
   pollCutout();
   buildUi();
+  syncInputs();  // the dialogs, drops and shortcuts at the end of buildUi edit too; the 3D view draws next
   validateSelection();
   pollWorker();
   // Each document change goes to the worker as an immutable snapshot; a drag (open group) sends
@@ -438,7 +439,11 @@ void Editor::pollWorker() {
 // --- Autosave and recovery ------------------------------------------------------------------------
 
 void Editor::undo() {
-  if (dragging_) return;  // the drag's group closes on release
+  if (dragging_) return;   // the drag's group closes on release
+  if (cutoutOwnsUndo()) {  // the cut-out tool's last stroke or rectangle first (editor_photos.cpp)
+    cutoutUndo();
+    return;
+  }
   cancelInProgress();
   if (doc_.canUndo()) {
     setStatus("undo: " + doc_.history()[doc_.position() - 1].label);
@@ -448,6 +453,10 @@ void Editor::undo() {
 
 void Editor::redo() {
   if (dragging_) return;
+  if (cutoutOwnsRedo()) {
+    cutoutRedo();
+    return;
+  }
   cancelInProgress();
   if (doc_.canRedo()) {
     setStatus("redo: " + doc_.history()[doc_.position()].label);

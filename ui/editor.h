@@ -111,6 +111,23 @@ class Editor {
     const Photo* balancedFrom = nullptr;  // which balanced photo `balanced` holds
     PaneView tabView, gridView;
   };
+  // One step of the cut-out tool, as the user drew it: a rectangle (GrabCut starts over from it), a
+  // foreground or background stroke (GrabCut runs again) or a brush stroke (the mask edited, no GrabCut).
+  // Steps drawn while GrabCut runs wait in the session's queue and are applied, in order, after it.
+  struct CutoutStep {
+    CutoutMode mode = CutoutMode::Rect;
+    cv::Rect2d rect;      // Rect
+    CutoutStroke stroke;  // the other modes
+  };
+  // The cut-out as it stands after some steps: the tool's undo and redo put it back exactly.
+  struct CutoutState {
+    std::unique_ptr<Cutout> cut;
+    cv::Mat mask;
+    std::vector<CutoutStroke> strokes;
+    std::optional<cv::Rect2d> rect;
+    double seconds = 0;
+    std::string label;  // the step made from this state (undo stack) or undone back to it (redo stack)
+  };
   // The cut-out tool's session on one photo (editor_photos.cpp). GrabCut runs on a helper thread: the
   // Cutout object travels to it and back, so the UI never touches it while it runs.
   struct CutoutSession {
@@ -127,6 +144,15 @@ class Editor {
     Vec2 dragStart = Vec2::Zero();
     std::optional<cv::Rect2d> rect;
     double seconds = 0;
+    // The tool's own history (Ctrl+Z / Ctrl+Y undo and redo its steps before the document's edits): the
+    // states before each step, newest last, and the states undone.
+    std::vector<CutoutState> undo, redo;
+    std::deque<CutoutStep> queue;      // drawn while GrabCut runs: applied in order when it has finished
+    std::vector<CutoutStep> unqueued;  // queued steps taken back by undo before they ran (redo queues them)
+    std::string jobLabel;              // what the running job applies ("rectangle", "2 strokes")
+    int undoAfterJob = 0;              // undos asked for while GrabCut ran with nothing queued
+    int docPosition = 0;               // the document's history position at the tool's last step, undo or redo
+    long stepsApplied = 0;             // steps applied so far (tests: no stroke is lost)
   };
   struct InputMesh {
     std::string path;
@@ -270,6 +296,20 @@ class Editor {
   bool startCutout(int photo, bool fromCurrentMask);
   void runCutout(std::function<void(Cutout&)> step);
   void pollCutout();
+  // A drawn step: applied now, or queued while GrabCut runs (applyCutoutQueue takes it then).
+  void cutoutStep(const CutoutStep& step);
+  void applyCutoutQueue();                        // applies queued steps until one starts GrabCut or none is left
+  void pushCutoutUndo(const std::string& label);  // the state before a step, onto the tool's undo stack
+  CutoutState takeCutoutState(const std::string& label);
+  void restoreCutoutState(CutoutState&& state);
+  // Whether Ctrl+Z / Ctrl+Y go to the cut-out tool's steps rather than to the document's history: the tool is
+  // in use on a cut with steps, and no document edit came after its last step.
+  bool cutoutOwnsUndo() const;
+  bool cutoutOwnsRedo() const;
+  std::string cutoutUndoLabel() const;  // what the tool's undo / redo would take back, for the Edit menu
+  std::string cutoutRedoLabel() const;
+  void cutoutUndo();
+  void cutoutRedo();
   bool applyCutoutMask();
   std::string newMaskPath(int photo) const;
   void uploadBalanced(PhotoSlot& slot, int photo);
@@ -487,6 +527,8 @@ class Editor {
   std::map<std::string, Rect> tabRects_;  // its tab buttons, last frame, unclipped
   std::string requestedMenu_;             // menu item to activate next frame (script `menu`), "File/Save"
   std::string menuFailed_;                // a requested item that was not found or disabled
+  std::string menuListFile_;              // script `menu_list`: the next menu bar walks every menu, writes here
+  nlohmann::json menuList_;               // the items walked so far: {"path", "enabled"}
   struct MenuLevel {
     std::string path;
     bool open = false;  // ImGui drew it (else only a script's request walks through it)
@@ -516,6 +558,7 @@ class Editor {
   CutoutMode cutoutMode_ = CutoutMode::Rect;
   float cutoutRadius_ = 8;     // stroke and brush radius, photo pixels
   float cutoutFeather_ = 0;    // feathered edge of the mask written, photo pixels
+  double cutoutDelay_ = 0;     // seconds each GrabCut run waits first (script `cutout_delay`: tests of the queue)
   bool showBalanced_ = false;  // photo panes: the colour-balanced photos of the last result (after) or the files
 
   // Scripts and benchmarks.

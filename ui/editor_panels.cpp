@@ -108,7 +108,10 @@ const std::vector<Shortcut>& editorShortcuts() {
       {"Photo: left drag on a point", "move it (one undo step)"},
       {"Photo: wheel / right or middle drag", "zoom at the cursor / pan"},
       {"Photo: click the first point", "close the polygon being drawn"},
-      {"Photo, cut-out tool: left drag", "rectangle, foreground / background stroke, or mask brush (tool options)"},
+      {"Photo, cut-out tool: left drag",
+       "rectangle (then strokes), foreground / background stroke, or mask brush (tool options); drawn while "
+       "GrabCut runs: queued"},
+      {"Cut-out tool: Ctrl+Z, Ctrl+Y", "undo / redo the cut's last stroke or rectangle (before the document's edits)"},
       {"Drop files on the window", "a project or mesh opens; photos are added"},
   };
   return shortcuts;
@@ -118,6 +121,10 @@ void Editor::buildUi() {
   buttonRects_.clear();
   const ImGuiIO& io = ImGui::GetIO();
   menuBar();
+  // A menu command may have replaced the document (File > Open recent) or changed its photos (Edit >
+  // Redo): the panels below index the loaded photos and mesh by the document's photos and vertices, so
+  // they are loaded for the document as it is now (issue 35: the empty editor crashed in photoCanvas).
+  syncInputs();
   const float top = ImGui::GetFrameHeight();
   const float statusH = ImGui::GetFrameHeight() + px(8);
   const float W = io.DisplaySize.x, H = io.DisplaySize.y;
@@ -137,6 +144,7 @@ void Editor::buildUi() {
   place(l.document);
   if (ImGui::Begin("Document", nullptr, fixed)) listsPanel();
   ImGui::End();
+  syncInputs();  // the Tools and Document panels edit too (remove, reorder, relink a photo; history)
 
   place(l.view);
   ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(0, 0));
@@ -253,10 +261,16 @@ void Editor::menuBar() {
     endMenu();
   }
   if (beginMenu("Edit")) {
-    const std::string undoLabel = doc_.canUndo() ? "Undo " + doc_.history()[doc_.position() - 1].label : "Undo";
-    const std::string redoLabel = doc_.canRedo() ? "Redo " + doc_.history()[doc_.position()].label : "Redo";
-    if (menuItem(undoLabel.c_str(), "Ctrl+Z", false, doc_.canUndo())) undo();
-    if (menuItem(redoLabel.c_str(), "Ctrl+Shift+Z", false, doc_.canRedo())) redo();
+    // With the cut-out tool, its own steps come first (undo() and redo() route them).
+    const bool toolUndo = cutoutOwnsUndo(), toolRedo = cutoutOwnsRedo();
+    const std::string undoLabel = toolUndo         ? "Undo " + cutoutUndoLabel()
+                                  : doc_.canUndo() ? "Undo " + doc_.history()[doc_.position() - 1].label
+                                                   : "Undo";
+    const std::string redoLabel = toolRedo         ? "Redo " + cutoutRedoLabel()
+                                  : doc_.canRedo() ? "Redo " + doc_.history()[doc_.position()].label
+                                                   : "Redo";
+    if (menuItem(undoLabel.c_str(), "Ctrl+Z", false, toolUndo || doc_.canUndo())) undo();
+    if (menuItem(redoLabel.c_str(), "Ctrl+Shift+Z", false, toolRedo || doc_.canRedo())) redo();
     menuSeparator();
     if (menuItem("Delete selected point", "Delete", false, selectedPoint_ >= 0)) deleteSelection();
     if (menuItem("Clear selection", "Escape")) selectVertex(-1);
@@ -304,6 +318,15 @@ void Editor::menuBar() {
     endMenu();
   }
   ImGui::EndMainMenuBar();
+  if (!menuListFile_.empty()) {  // script `menu_list`: every item walked this frame
+    try {
+      writeFileAtomic(menuListFile_, menuList_.dump(1) + "\n");
+    } catch (const Error& e) {
+      reportError(e.what());
+    }
+    menuList_ = nlohmann::json::array();
+    menuListFile_.clear();
+  }
   // A script's request that no enabled item answered.
   if (!requestedMenu_.empty()) menuFailed_ = requestedMenu_;
   requestedMenu_.clear();
@@ -324,7 +347,10 @@ std::string menuKey(std::string path) {
 bool Editor::beginMenu(const char* label, bool enabled) {
   const std::string path = menuStack_.empty() ? label : menuStack_.back().path + "/" + label;
   const bool open = ImGui::BeginMenu(label, enabled);
-  const bool walked = !open && enabled && !requestedMenu_.empty() && menuKey(requestedMenu_).rfind(path + "/", 0) == 0;
+  const bool walked =
+      !open && enabled &&
+      ((!requestedMenu_.empty() && menuKey(requestedMenu_).rfind(path + "/", 0) == 0) || !menuListFile_.empty());
+  if (!menuListFile_.empty() && !enabled) menuList_.push_back({{"path", path + "/"}, {"enabled", false}});
   if (!open && !walked) return false;
   menuStack_.push_back({path, open});
   return true;
@@ -343,6 +369,7 @@ bool Editor::menuItem(const char* label, const char* shortcut, bool selected, bo
   const bool drawn = menuStack_.empty() || menuStack_.back().open;
   bool clicked = drawn && ImGui::MenuItem(label, shortcut, selected, enabled);
   const std::string path = (menuStack_.empty() ? "" : menuStack_.back().path + "/") + label;
+  if (!menuListFile_.empty()) menuList_.push_back({{"path", path}, {"enabled", enabled}});
   if (enabled && !requestedMenu_.empty() && menuKey(requestedMenu_) == menuKey(path)) {
     clicked = true;
     requestedMenu_.clear();

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
+#include <thread>
 
 #include "editor.h"
 #include "gl.h"
@@ -34,6 +35,10 @@ ImU32 strokeColour(const CutoutStroke& s, bool brush) {
   if (brush) return s.foreground ? IM_COL32(255, 255, 255, 150) : IM_COL32(20, 20, 20, 170);
   return s.foreground ? IM_COL32(70, 230, 90, 200) : IM_COL32(240, 70, 60, 200);
 }
+
+const char* const kSpinner[] = {"|", "/", "-", "\\"};
+// What a drag does in each cut-out mode (CutoutMode order), written beside the cursor.
+const char* const kModeText[] = {"rectangle", "foreground stroke", "background stroke", "brush: add", "brush: erase"};
 
 // The session key: a cut-out belongs to a photo file as shown (mirrored or not), whatever its mask.
 std::string cutoutKey(const PhotoRef& ref) {
@@ -237,7 +242,7 @@ void Editor::cutoutPanel() {
   int mode = static_cast<int>(cutoutMode_);
   const char* labels[] = {"rectangle", "foreground", "background", "add", "erase"};
   for (int m = 0; m < 5; ++m) {
-    if (m % 3) ImGui::SameLine();
+    if (m % 3) sameLineIfFits(ImGui::CalcTextSize(labels[m]).x + ImGui::GetFrameHeight() * 1.5f);
     if (ImGui::RadioButton(labels[m], mode == m)) cutoutMode_ = CutoutMode(m);
   }
   ImGui::PushItemWidth(std::max(
@@ -255,7 +260,11 @@ void Editor::cutoutPanel() {
   const bool running = cutout_.job.valid();
   if (cutout_.photo >= 0) {
     if (running) {
-      ImGui::Text("photo %d: GrabCut running...", cutout_.photo);
+      // The busy state: what runs, and what waits for it (nothing drawn meanwhile is lost).
+      ImGui::TextColored(
+          ImVec4(1.0f, 0.85f, 0.4f, 1.0f), "%s photo %d: GrabCut running (%s)%s",
+          kSpinner[int(ImGui::GetTime() * 8) % 4], cutout_.photo, cutout_.jobLabel.c_str(),
+          cutout_.queue.empty() ? "" : (", then " + std::to_string(cutout_.queue.size()) + " queued").c_str());
     } else if (!cutout_.mask.empty()) {
       const double share = cv::countNonZero(cutout_.mask) / double(cutout_.mask.total());
       ImGui::Text("photo %d: foreground %.1f%%%s", cutout_.photo, 100 * share,
@@ -268,20 +277,37 @@ void Editor::cutoutPanel() {
   } else {
     ImGui::TextDisabled("no cut-out yet: drag in a photo");
   }
-  const bool ready = cutout_.cut && cutout_.cut->started() && !running;
+  const bool ready = cutout_.cut && cutout_.cut->started() && !running && cutout_.queue.empty();
   if (!ready) ImGui::BeginDisabled();
   if (button("Use mask")) applyCutoutMask();
   if (!ready) ImGui::EndDisabled();
   ImGui::SameLine();
   if (button("Start over##cutout")) {
     const int photo = cutout_.photo;
-    if (!running) cutout_ = CutoutSession{};
-    if (photo >= 0) startCutout(photo, false);
+    if (running) {
+      setStatus("cut-out: GrabCut is running; start over once it has finished");
+    } else if (photo >= 0 && cutout_.cut) {
+      // An undoable step like the others: the cut drawn so far comes back with Ctrl+Z.
+      pushCutoutUndo("start over");
+      const Photo* shown = photo < static_cast<int>(photos_.size()) ? photos_[photo].photo.get() : nullptr;
+      if (shown) {
+        CutoutOptions options;
+        options.featherPx = cutoutFeather_;
+        cutout_.cut = std::make_unique<Cutout>(shown->rgb, options, cv::Size(shown->width, shown->height));
+        cutout_.mask = cutout_.cut->mask();
+        cutout_.strokes.clear();
+        cutout_.rect.reset();
+        cutout_.seconds = 0;
+        cutout_.overlayDirty = true;
+        cutoutMode_ = CutoutMode::Rect;
+      }
+    }
   }
   // The help last, so that the buttons stay on screen in a short panel.
   ImGui::TextWrapped(
       "Drag a rectangle around the object in a photo; GrabCut separates it. Then drag strokes on what is wrong "
-      "(foreground / background), or paint the mask (add / erase). Use mask writes it beside the project.");
+      "(foreground / background), or paint the mask (add / erase). Ctrl+Z undoes the last stroke or rectangle. "
+      "Use mask writes it beside the project.");
 }
 
 bool Editor::startCutout(int photo, bool fromCurrentMask) {
@@ -298,6 +324,7 @@ bool Editor::startCutout(int photo, bool fromCurrentMask) {
   cutout_ = CutoutSession{};
   cutout_.photo = photo;
   cutout_.key = cutoutKey(p.photos[photo]);
+  cutout_.docPosition = doc_.position();
   try {
     CutoutOptions options;
     options.featherPx = cutoutFeather_;
@@ -317,37 +344,214 @@ bool Editor::startCutout(int photo, bool fromCurrentMask) {
 void Editor::runCutout(std::function<void(Cutout&)> step) {
   if (!cutout_.cut || cutout_.job.valid()) return;
   // The Cutout goes to the helper thread and comes back with the result (pollCutout).
-  cutout_.job = std::async(std::launch::async, [cut = std::move(cutout_.cut), step = std::move(step)]() mutable {
-    std::string error;
-    try {
-      step(*cut);
-    } catch (const Error& e) {
-      error = e.what();
-    } catch (const std::exception& e) {
-      error = std::string("cut-out: ") + e.what();
-    }
-    return std::make_pair(std::move(cut), error);
-  });
+  cutout_.job = std::async(std::launch::async,
+                           [cut = std::move(cutout_.cut), step = std::move(step), delay = cutoutDelay_]() mutable {
+                             std::string error;
+                             try {
+                               if (delay > 0) std::this_thread::sleep_for(std::chrono::duration<double>(delay));
+                               step(*cut);
+                             } catch (const Error& e) {
+                               error = e.what();
+                             } catch (const std::exception& e) {
+                               error = std::string("cut-out: ") + e.what();
+                             }
+                             return std::make_pair(std::move(cut), error);
+                           });
 }
 
 void Editor::pollCutout() {
   if (cutout_.job.valid() && cutout_.job.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
     auto [cut, error] = cutout_.job.get();
     cutout_.cut = std::move(cut);
+    cutout_.jobLabel.clear();
     if (!error.empty()) {
+      // The step failed (a rectangle over the whole photo...): the cut goes back to the state before it.
       setStatus(error);
       reportError(error);
+      if (!cutout_.undo.empty()) {
+        restoreCutoutState(std::move(cutout_.undo.back()));
+        cutout_.undo.pop_back();
+      }
     }
     cutout_.cut->setFeather(cutoutFeather_);
     cutout_.mask = cutout_.cut->mask();
     cutout_.seconds = cutout_.cut->lastSeconds();
     cutout_.overlayDirty = true;
+    // Undos asked for while it ran take back the newest steps first, then what was drawn meanwhile runs.
+    for (; cutout_.undoAfterJob > 0; --cutout_.undoAfterJob) cutoutUndo();
+    applyCutoutQueue();
   }
   // The session ends when its photo goes away or shows another file.
   const Project& p = doc_.project();
   if (cutout_.photo >= 0 && !cutout_.job.valid() &&
-      (cutout_.photo >= static_cast<int>(p.photos.size()) || cutoutKey(p.photos[cutout_.photo]) != cutout_.key))
+      (cutout_.photo >= static_cast<int>(p.photos.size()) || cutoutKey(p.photos[cutout_.photo]) != cutout_.key)) {
+    if (!cutout_.queue.empty()) setStatus("cut-out: the photo changed; the strokes drawn on it were not applied");
     cutout_ = CutoutSession{};
+  }
+}
+
+void Editor::pushCutoutUndo(const std::string& label) {
+  CutoutState before;
+  before.cut = std::make_unique<Cutout>(cutout_.cut->copy());
+  before.mask = cutout_.mask.clone();
+  before.strokes = cutout_.strokes;
+  before.rect = cutout_.rect;
+  before.seconds = cutout_.seconds;
+  before.label = label;
+  cutout_.undo.push_back(std::move(before));
+  cutout_.redo.clear();
+  cutout_.docPosition = doc_.position();
+  // Bounded: a session keeps its last 100 steps (each a copy of the working labels, about 1 MB).
+  if (cutout_.undo.size() > 100) cutout_.undo.erase(cutout_.undo.begin());
+}
+
+Editor::CutoutState Editor::takeCutoutState(const std::string& label) {
+  CutoutState now;
+  now.cut = std::move(cutout_.cut);
+  now.mask = cutout_.mask;
+  now.strokes = std::move(cutout_.strokes);
+  now.rect = cutout_.rect;
+  now.seconds = cutout_.seconds;
+  now.label = label;
+  return now;
+}
+
+void Editor::restoreCutoutState(CutoutState&& state) {
+  cutout_.cut = std::move(state.cut);
+  cutout_.mask = state.mask;
+  cutout_.strokes = std::move(state.strokes);
+  cutout_.rect = state.rect;
+  cutout_.seconds = state.seconds;
+  cutout_.overlayDirty = true;
+}
+
+void Editor::cutoutStep(const CutoutStep& step) {
+  cutout_.queue.push_back(step);
+  cutout_.unqueued.clear();
+  if (cutout_.job.valid()) {
+    setStatus("cut-out: GrabCut is running; your " +
+              std::string(step.mode == CutoutMode::Rect ? "rectangle" : "stroke") + " is queued (" +
+              std::to_string(cutout_.queue.size()) + " waiting)");
+    return;
+  }
+  applyCutoutQueue();
+}
+
+void Editor::applyCutoutQueue() {
+  while (!cutout_.queue.empty() && cutout_.cut && !cutout_.job.valid()) {
+    const CutoutStep step = cutout_.queue.front();
+    cutout_.queue.pop_front();
+    ++cutout_.stepsApplied;
+    if (step.mode == CutoutMode::Rect) {
+      const size_t replaced = cutout_.strokes.size();
+      pushCutoutUndo(replaced == 0 ? "rectangle"
+                                   : "rectangle (replaced " + std::to_string(replaced) +
+                                         (replaced == 1 ? " stroke)" : " strokes)"));
+      cutout_.rect = step.rect;
+      cutout_.strokes.clear();
+      cutout_.jobLabel = "rectangle";
+      runCutout([rect = step.rect](Cutout& c) { c.setRect(rect); });
+      return;
+    }
+    if (step.mode == CutoutMode::Add || step.mode == CutoutMode::Erase) {
+      // The brush edits the mask directly: no GrabCut, no wait.
+      pushCutoutUndo(step.mode == CutoutMode::Add ? "add brush" : "erase brush");
+      try {
+        cutout_.cut->brush(step.stroke);
+        cutout_.strokes.push_back(step.stroke);
+        cutout_.mask = cutout_.cut->mask();
+        cutout_.overlayDirty = true;
+      } catch (const Error& e) {
+        restoreCutoutState(std::move(cutout_.undo.back()));
+        cutout_.undo.pop_back();
+        reportError(e.what());
+      }
+      continue;
+    }
+    // GrabCut strokes: this one and the ones queued right after it, in one run and one undo step.
+    std::vector<CutoutStroke> strokes = {step.stroke};
+    while (!cutout_.queue.empty() && (cutout_.queue.front().mode == CutoutMode::Foreground ||
+                                      cutout_.queue.front().mode == CutoutMode::Background)) {
+      strokes.push_back(cutout_.queue.front().stroke);
+      cutout_.queue.pop_front();
+      ++cutout_.stepsApplied;
+    }
+    const std::string label = strokes.size() == 1
+                                  ? std::string(strokes[0].foreground ? "foreground" : "background") + " stroke"
+                                  : std::to_string(strokes.size()) + " strokes";
+    pushCutoutUndo(label);
+    cutout_.strokes.insert(cutout_.strokes.end(), strokes.begin(), strokes.end());
+    cutout_.jobLabel = label;
+    runCutout([strokes](Cutout& c) { c.addStrokes(strokes); });
+    return;
+  }
+}
+
+bool Editor::cutoutOwnsUndo() const {
+  if (tool_ != Tool::Cutout || cutout_.photo < 0 || doc_.position() > cutout_.docPosition) return false;
+  return !cutout_.undo.empty() || !cutout_.redo.empty() || !cutout_.queue.empty() || cutout_.job.valid();
+}
+
+bool Editor::cutoutOwnsRedo() const {
+  if (tool_ != Tool::Cutout || cutout_.photo < 0 || doc_.position() != cutout_.docPosition) return false;
+  return !cutout_.redo.empty() || !cutout_.unqueued.empty();
+}
+
+std::string Editor::cutoutUndoLabel() const {
+  if (!cutout_.queue.empty()) return "queued cut-out stroke";
+  if (cutout_.job.valid()) return "cut-out " + cutout_.jobLabel;
+  return cutout_.undo.empty() ? "" : "cut-out " + cutout_.undo.back().label;
+}
+
+std::string Editor::cutoutRedoLabel() const {
+  if (!cutout_.unqueued.empty()) return "queued cut-out stroke";
+  return cutout_.redo.empty() ? "" : "cut-out " + cutout_.redo.back().label;
+}
+
+void Editor::cutoutUndo() {
+  if (cutout_.drawing) return;
+  if (!cutout_.queue.empty()) {
+    // Not run yet: taken off the queue (redo puts it back).
+    cutout_.unqueued.push_back(cutout_.queue.back());
+    cutout_.queue.pop_back();
+    setStatus("undo: queued cut-out stroke");
+  } else if (cutout_.job.valid()) {
+    ++cutout_.undoAfterJob;  // GrabCut cannot stop midway: its step is taken back when it has finished
+    setStatus("undo: cut-out " + cutout_.jobLabel + " (once GrabCut has finished)");
+  } else if (!cutout_.undo.empty()) {
+    CutoutState before = std::move(cutout_.undo.back());
+    cutout_.undo.pop_back();
+    const std::string label = before.label;
+    cutout_.redo.push_back(takeCutoutState(label));
+    restoreCutoutState(std::move(before));
+    setStatus("undo: cut-out " + label);
+  } else {
+    hint("cut-out: this is where the cut started (Ctrl+Y redoes; choose another tool to undo document edits)");
+  }
+  cutout_.docPosition = doc_.position();
+}
+
+void Editor::cutoutRedo() {
+  if (cutout_.drawing) return;
+  if (!cutout_.unqueued.empty()) {
+    const CutoutStep step = cutout_.unqueued.back();
+    cutout_.unqueued.pop_back();
+    std::vector<CutoutStep> rest;
+    rest.swap(cutout_.unqueued);
+    cutoutStep(step);  // clears the unqueued list: the rest is kept
+    cutout_.unqueued.swap(rest);
+    setStatus("redo: queued cut-out stroke");
+  } else if (cutout_.job.valid()) {
+    setStatus("cut-out: GrabCut is running; redo once it has finished");
+  } else if (!cutout_.redo.empty()) {
+    CutoutState after = std::move(cutout_.redo.back());
+    cutout_.redo.pop_back();
+    const std::string label = after.label;
+    cutout_.undo.push_back(takeCutoutState(label));
+    restoreCutoutState(std::move(after));
+    setStatus("redo: cut-out " + label);
+  }
+  cutout_.docPosition = doc_.position();
 }
 
 std::string Editor::newMaskPath(int photo) const {
@@ -434,9 +638,39 @@ void Editor::cutoutCanvas(int i, const PaneView& view, bool hovered) {
   }
   if (hovered && cutoutMode_ != CutoutMode::Rect)
     draw->AddCircle(im(mouse), std::max(2.0f, cutoutRadius_ * zoom), IM_COL32(255, 255, 255, 200), 0, 1.0f);
-  if (mine && cutout_.job.valid() && canvasRects_.count(i))
-    draw->AddText(ImVec2(float(canvasRects_[i].x) + 8, float(canvasRects_[i].y) + 8), IM_COL32(255, 230, 120, 255),
-                  "GrabCut running...");
+  // Strokes drawn while GrabCut runs, waiting for it: shown fainter until they are applied.
+  if (mine)
+    for (const CutoutStep& q : cutout_.queue) {
+      if (q.mode == CutoutMode::Rect) {
+        draw->AddRect(im(view.toScreen(Vec2(q.rect.x, q.rect.y))),
+                      im(view.toScreen(Vec2(q.rect.x + q.rect.width, q.rect.y + q.rect.height))),
+                      IM_COL32(255, 220, 60, 120), 0, 0, 1.5f);
+      } else {
+        const bool qBrush = q.mode == CutoutMode::Add || q.mode == CutoutMode::Erase;
+        drawPath(q.stroke.points, float(q.stroke.radius),
+                 strokeColour(q.stroke, qBrush) & IM_COL32(255, 255, 255, 110));
+      }
+    }
+  if (mine && cutout_.job.valid() && canvasRects_.count(i)) {
+    // The busy state, in the pane where the user is drawing: a band across its top with a moving bar.
+    const Rect& c = canvasRects_[i];
+    const float bandH = ImGui::GetFontSize() + px(8);
+    const ImVec2 b0(float(c.x), float(c.y)), b1(float(c.x + c.w), float(c.y) + bandH);
+    draw->AddRectFilled(b0, b1, IM_COL32(40, 34, 10, 210));
+    const float t = float(std::fmod(ImGui::GetTime() * 0.8, 1.0));
+    const float barW = float(c.w) * 0.2f, barX = float(c.x) + t * (float(c.w) + barW) - barW;
+    draw->AddRectFilled(ImVec2(std::max(b0.x, barX), b1.y - px(3)), ImVec2(std::min(b1.x, barX + barW), b1.y),
+                        IM_COL32(255, 200, 60, 255));
+    const std::string text = "GrabCut running (" + cutout_.jobLabel + ")" +
+                             (cutout_.queue.empty() ? std::string(": keep drawing, strokes are queued")
+                                                    : ", then " + std::to_string(cutout_.queue.size()) + " queued");
+    draw->AddText(ImVec2(b0.x + px(8), b0.y + px(4)), IM_COL32(255, 230, 120, 255), text.c_str());
+  }
+  if (hovered && !cutout_.drawing) {
+    // The mode at the cursor, so that a drag never does something other than the user expects.
+    draw->AddText(ImVec2(float(mouse.x()) + px(14), float(mouse.y()) + px(10)), IM_COL32(255, 255, 255, 220),
+                  kModeText[static_cast<int>(cutoutMode_)]);
+  }
 
   // Input: press, drag, release.
   const auto clamped = [&](Vec2 q) {
@@ -444,12 +678,14 @@ void Editor::cutoutCanvas(int i, const PaneView& view, bool hovered) {
   };
   if (hovered && ImGui::IsMouseClicked(ImGuiMouseButton_Left)) {
     activePhoto_ = i;
-    if (cutout_.job.valid()) {
-      setStatus("cut-out: GrabCut is running; wait for it");
-    } else if (mine || startCutout(i, cutoutMode_ != CutoutMode::Rect)) {
+    // While GrabCut runs, the user draws on: the step is queued (cutoutStep) and applied after it.
+    if (mine || startCutout(i, cutoutMode_ != CutoutMode::Rect)) {
       cutout_.drawing = true;
       cutout_.dragStart = clamped(at);
       cutout_.path = {cutout_.dragStart};
+    } else if (cutout_.job.valid()) {
+      setStatus("cut-out: GrabCut is running on photo " + std::to_string(cutout_.photo) +
+                "; draw on that photo, or wait for it");
     }
   }
   if (!mine || !cutout_.drawing) return;
@@ -462,34 +698,26 @@ void Editor::cutoutCanvas(int i, const PaneView& view, bool hovered) {
   cutout_.drawing = false;
   const std::vector<Vec2> path = std::move(cutout_.path);
   cutout_.path.clear();
-  if (!cutout_.cut) return;
+  CutoutStep step;
+  step.mode = cutoutMode_;
   if (cutoutMode_ == CutoutMode::Rect) {
     const Vec2 a = cutout_.dragStart, b = path.back();
-    const cv::Rect2d rect(std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::abs(b.x() - a.x()),
-                          std::abs(b.y() - a.y()));
-    if (rect.width < 3 || rect.height < 3) {
+    step.rect =
+        cv::Rect2d(std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::abs(b.x() - a.x()), std::abs(b.y() - a.y()));
+    if (step.rect.width < 3 || step.rect.height < 3) {
       setStatus("cut-out: drag a rectangle around the object");
       return;
     }
-    cutout_.rect = rect;
-    cutout_.strokes.clear();
-    runCutout([rect](Cutout& c) { c.setRect(rect); });
+    // The next drag refines this cut: strokes, not another rectangle that would start over (the
+    // rectangle mode is one click away, and a new rectangle is an undoable step too).
+    cutoutMode_ = CutoutMode::Foreground;
+    cutoutStep(step);
+    if (!cutout_.job.valid() || cutout_.queue.empty())
+      setStatus("cut-out: GrabCut from the rectangle; now strokes refine it (mode: foreground)");
     return;
   }
-  CutoutStroke stroke{path, cutoutRadius_, fg};
-  cutout_.strokes.push_back(stroke);
-  if (brush) {
-    // The brush edits the mask directly: no GrabCut, no wait.
-    try {
-      cutout_.cut->brush(stroke);
-      cutout_.mask = cutout_.cut->mask();
-      cutout_.overlayDirty = true;
-    } catch (const Error& e) {
-      reportError(e.what());
-    }
-  } else {
-    runCutout([stroke](Cutout& c) { c.addStroke(stroke); });
-  }
+  step.stroke = CutoutStroke{path, cutoutRadius_, fg};
+  cutoutStep(step);
 }
 
 }  // namespace montage

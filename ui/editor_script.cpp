@@ -475,9 +475,11 @@ void Editor::runAction(const ScriptAction& a) {
     cutoutMode_ = CutoutMode(it - kCutoutModeNames.begin());
     if (a.args.size() > 1) cutoutRadius_ = static_cast<float>(a.number(1));
     if (a.args.size() > 2) cutoutFeather_ = static_cast<float>(a.number(2));
+  } else if (a.verb == "cutout_delay") {
+    cutoutDelay_ = a.number(0);
   } else if (a.verb == "wait_cutout") {
     waitFor(where + " (GrabCut did not finish)", a.args.empty() ? 120 : timeout,
-            [this] { return !cutout_.job.valid(); });
+            [this] { return !cutout_.job.valid() && cutout_.queue.empty(); });
   } else if (a.verb == "save") {
     const std::string path = a.args.empty() ? p.file : a.text(0);
     TM_CHECK(!path.empty(), where + ": the project has no file yet: give a path");
@@ -498,6 +500,9 @@ void Editor::runAction(const ScriptAction& a) {
       TM_CHECK(menuFailed_.empty(), where + ": no enabled menu item '" + menuFailed_ + "'");
     };
     inputQueue_.push_back(std::move(check));
+  } else if (a.verb == "menu_list") {
+    menuListFile_ = a.text(0);
+    waitFor(where, 10, [this] { return menuListFile_.empty(); });  // the next frame's menu bar writes it
   } else if (a.verb == "dialog_filter") {
     TM_CHECK(dialogs_.active(), where + ": no file dialog is open");
     TM_CHECK(dialogs_.chooseFilter(a.text(0)), where + ": the dialog has no filter '" + a.text(0) + "'");
@@ -645,10 +650,25 @@ void Editor::writeState(const std::string& path) const {
   for (const MissingFile& m : missing_) missing.push_back({{"field", m.field}, {"path", m.path}});
   state["missing"] = missing;
   state["missing_window"] = missingPopup_;
+  // The cut-out's mask by content (FNV-1a of its bytes): undo must give back exactly the mask before.
+  std::uint64_t maskHash = 1469598103934665603ull;
+  if (!cutout_.mask.empty()) {
+    const cv::Mat m = cutout_.mask.isContinuous() ? cutout_.mask : cutout_.mask.clone();
+    for (size_t k = 0; k < m.total() * m.elemSize(); ++k) maskHash = (maskHash ^ m.data[k]) * 1099511628211ull;
+  }
   state["cutout"] = {{"photo", cutout_.photo},
                      {"running", cutout_.job.valid()},
                      {"started", cutout_.cut && cutout_.cut->started()},
-                     {"foreground_pixels", cutout_.mask.empty() ? 0 : cv::countNonZero(cutout_.mask)}};
+                     {"foreground_pixels", cutout_.mask.empty() ? 0 : cv::countNonZero(cutout_.mask)},
+                     {"mask_hash", std::to_string(maskHash)},
+                     {"mode", kCutoutModeNames[static_cast<int>(cutoutMode_)]},
+                     {"strokes", cutout_.strokes.size()},
+                     {"rect", bool(cutout_.rect)},
+                     {"undo_steps", cutout_.undo.size()},
+                     {"redo_steps", cutout_.redo.size()},
+                     {"queued", cutout_.queue.size()},
+                     {"steps_applied", cutout_.stepsApplied},
+                     {"undo_label", cutoutOwnsUndo() ? cutoutUndoLabel() : ""}};
   if (result_ && result_->balanced) {
     json transforms = json::array();
     for (size_t i = 0; i < result_->balanced->balance.transforms.size(); ++i) {

@@ -61,6 +61,14 @@ Cutout::Cutout(const cv::Mat& rgb, const CutoutOptions& options, cv::Size photoS
   labels_ = cv::Mat(image_.size(), CV_8UC1, cv::Scalar(cv::GC_PR_BGD));
 }
 
+Cutout Cutout::copy() const {
+  Cutout c = *this;  // cv::Mat copies share their pixels: deep copies of what runs and strokes write
+  c.labels_ = labels_.clone();
+  c.bgdModel_ = bgdModel_.clone();
+  c.fgdModel_ = fgdModel_.clone();
+  return c;  // image_ is written only by the constructor: shared
+}
+
 cv::Point2d Cutout::toWorking(const Vec2& p) const {
   return cv::Point2d(p.x() * scale_ - 0.5, p.y() * scale_ - 0.5);  // pixel centres at +0.5
 }

@@ -63,6 +63,10 @@ class Cutout {
   // running GrabCut; they stay so in later runs.
   void brush(const CutoutStroke& stroke);
 
+  // An independent copy of the cut-out's state (labels, colour models, options), to go back to it later
+  // (the editor's undo): the copy and this object never share a buffer that either writes.
+  Cutout copy() const;
+
   bool started() const { return started_; }
   const CutoutOptions& options() const { return options_; }
   void setFeather(double featherPx) { options_.featherPx = featherPx; }

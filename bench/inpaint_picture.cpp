@@ -1,11 +1,27 @@
-// Inpainting picture (docs/images): a photo mapped onto a flat sheet with a round hole cut out, filled
-// by each inpainting mode, drawn side by side (truth, harmonic, rbf, synthesis). Prints per mode the
-// mean Delta E to the truth and the fill's gradient energy against the truth's.
-// Usage: tm_inpaint_picture PHOTO OUT.png [centre_x centre_y radius]   (sheet coordinates in [0,1])
+// Inpainting against the truth (issue 34's measure; docs/images): a photo mapped onto a flat sheet with a hole
+// cut out, filled by each inpainting mode, drawn side by side (truth, harmonic, rbf, structure, synthesis).
+// Holes: a disc, an annulus (a ring of texture around a mapped island) and a whole side (a strip along the sheet's
+// border). Prints per hole and mode, over the hole's pixels:
+//  - the gradient energy of the fill divided by the truth's (1 is right; a smooth fill is near 0);
+//  - the earth mover's distance between the fill's and the truth's L*u*v* colour histograms (8 bins a channel);
+//  - a patch score: the mean distance (L*u*v*, per texel) of the fill's 7x7 patches to their nearest patch of
+//    the truth's hole (a fill made of texture that belongs there scores low);
+//  - mean ΔE to the truth (not a measure of a synthesis: a right-looking random texture scores worse than its
+//    smooth mean), and the CPU time of the fill (user + sys, the whole inpainting) at final density and at the
+//    preview's (detail 0.25).
+// Usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...]   (default: all three; one image per hole,
+//        OUT with the hole's name before .png)
+//        tm_inpaint_picture PHOTO OUT.png X Y R                  (a disc at (X, Y) of radius R, sheet units 0..1)
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <opencv2/imgproc.hpp>
+#include <random>
+#include <string>
 
 #include "base/job.h"
 #include "geometry/raster.h"
@@ -17,16 +33,72 @@
 
 using namespace montage;
 
+namespace {
+
+double cpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+// A hole on the unit sheet: whether a point is in it, and the square of the sheet the pictures show.
+struct Hole {
+  std::string name;
+  Vec2 centre;
+  double r0 = 0, r1 = 0;  // disc: r1; annulus: r0..r1; side: x > 1 - r1
+  bool contains(const Vec2& p) const {
+    if (name == "side") return p.x() > 1 - r1;
+    const double d = (p - centre).norm();
+    return d < r1 && d >= r0;
+  }
+};
+
+// 3D histogram of L*u*v* colours (8 bins a channel over L 0..100, u -100..180, v -140..110) as an EMD signature.
+cv::Mat signature(const std::vector<Vec3f>& luv) {
+  std::vector<float> count(512, 0);
+  auto bin = [](float x, float lo, float hi) { return std::clamp(int((x - lo) / (hi - lo) * 8), 0, 7); };
+  for (const Vec3f& c : luv) count[bin(c[0], 0, 100) * 64 + bin(c[1], -100, 180) * 8 + bin(c[2], -140, 110)] += 1;
+  const int bins = static_cast<int>(std::count_if(count.begin(), count.end(), [](float c) { return c > 0; }));
+  cv::Mat sig(std::max(bins, 1), 4, CV_32F, cv::Scalar(0));
+  for (int i = 0, row = 0; i < 512; ++i) {
+    if (count[i] == 0) continue;
+    float* r = sig.ptr<float>(row++);
+    r[0] = count[i] / float(luv.size());
+    r[1] = float(i / 64) * 100 / 8.f, r[2] = float(i / 8 % 8) * 280 / 8.f, r[3] = float(i % 8) * 250 / 8.f;
+  }
+  return sig;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: tm_inpaint_picture PHOTO OUT.png [centre_x centre_y radius]\n");
+    std::fprintf(stderr, "usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...]\n");
     return 2;
   }
-  const Vec3 centre(argc > 4 ? std::atof(argv[3]) : 0.6, argc > 4 ? std::atof(argv[4]) : 0.6, 0);
-  const double radius = argc > 5 ? std::atof(argv[5]) : 0.14;
+  std::vector<Hole> holes;
+  if (argc == 6 && std::isdigit(static_cast<unsigned char>(argv[3][0]))) {  // a disc at x y with radius r
+    holes.push_back(Hole{"disc", Vec2(std::atof(argv[3]), std::atof(argv[4])), 0, std::atof(argv[5])});
+    argc = 3;
+  }
+  for (int i = 3; i < argc; ++i) holes.push_back(Hole{argv[i]});
+  if (holes.empty()) holes = {Hole{"disc"}, Hole{"annulus"}, Hole{"side"}};
+  for (Hole& h : holes) {
+    if (h.r1 > 0) continue;  // given
+    if (h.name == "disc")
+      h.centre = Vec2(0.6, 0.6), h.r1 = 0.14;
+    else if (h.name == "annulus")
+      h.centre = Vec2(0.5, 0.5), h.r0 = 0.08, h.r1 = 0.2;
+    else if (h.name == "side")
+      h.centre = Vec2(0.85, 0.5), h.r1 = 0.3;
+    else {
+      std::fprintf(stderr, "unknown hole %s (disc, annulus, side)\n", h.name.c_str());
+      return 2;
+    }
+  }
   const Photo photo = loadPhoto(argv[1]);
-  const auto mesh = makeGrid(41, 41, 1.0 / 40);
-  const double scale = 0.6 * std::min(photo.width, photo.height), offset = 20;
+  const auto mesh = makeGrid(61, 61, 1.0 / 60);
+  const double scale = 0.9 * std::min(photo.width, photo.height), offset = 0.05 * std::min(photo.width, photo.height);
   TextureMap truth;
   for (int f = 0; f < mesh->numFaces(); ++f) {
     const auto p = mesh->facePositions(f);
@@ -36,83 +108,152 @@ int main(int argc, char** argv) {
                               Vec2(offset + scale * p[1].x(), offset + scale * p[1].y()),
                               Vec2(offset + scale * p[2].x(), offset + scale * p[2].y())});
   }
-  TextureMap map = truth;
-  for (int f = 0; f < mesh->numFaces(); ++f) {
-    const auto p = mesh->facePositions(f);
-    if (((p[0] + p[1] + p[2]) / 3 - centre).norm() < radius) map.facePhoto[f] = TextureMap::kEmpty;
-  }
-  // A square crop around the hole, 2.5 radii wide, one panel per mode.
-  const int side = int(std::ceil(2.5 * 2 * radius * scale));
-  const Vec2 origin = Vec2(centre.x(), centre.y()) * scale - Vec2(side / 2.0, side / 2.0);
-  const std::vector<std::pair<const char*, InpaintMode>> modes = {{"truth", InpaintMode::Off},
-                                                                  {"harmonic", InpaintMode::Harmonic},
-                                                                  {"rbf", InpaintMode::Rbf},
-                                                                  {"synthesis", InpaintMode::Synthesis}};
-  cv::Mat out(side, side * int(modes.size()), CV_8UC3, cv::Scalar(0, 0, 0));
-  for (size_t m = 0; m < modes.size(); ++m) {
-    cv::Mat panel = out(cv::Rect(int(m) * side, 0, side, side));
-    // Mapped faces: the photo; the truth panel shows it everywhere.
+  double load[3] = {0, 0, 0};
+  if (getloadavg(load, 3) < 0) load[0] = -1;
+  std::printf("%s: %dx%d, sheet %d faces, %.0f texels across; load %.2f\n", argv[1], photo.width, photo.height,
+              mesh->numFaces(), scale, load[0]);
+  std::printf(
+      "| hole | mode | gradient energy / truth | histogram EMD | patch score | mean ΔE | CPU s final | CPU s "
+      "preview | note |\n|---|---|---|---|---|---|---|---|---|\n");
+  for (const Hole& hole : holes) {
+    TextureMap map = truth;
+    int holeFaces = 0;
     for (int f = 0; f < mesh->numFaces(); ++f) {
       const auto p = mesh->facePositions(f);
-      std::array<Vec2, 3> q;
-      for (int k = 0; k < 3; ++k) q[k] = Vec2(p[k].x(), p[k].y()) * scale - origin;
-      const bool use = m == 0 || map.facePhoto[f] >= 0;
-      if (!use) continue;
-      scanTriangle(q, side, side, [&](int x, int y, const Vec3& b) {
-        const Vec3f c = mappedColor(truth, {&photo}, nullptr, f, b);
-        panel.at<cv::Vec3b>(y, x) =
-            cv::Vec3b(cv::saturate_cast<uchar>(255 * c[2]), cv::saturate_cast<uchar>(255 * c[1]),
-                      cv::saturate_cast<uchar>(255 * c[0]));
-      });
+      const Vec3 c = (p[0] + p[1] + p[2]) / 3;
+      if (hole.contains(Vec2(c.x(), c.y()))) map.facePhoto[f] = TextureMap::kEmpty, ++holeFaces;
     }
-    if (m == 0) continue;
-    InpaintInput in;
-    in.mesh = mesh.get();
-    in.map = &map;
-    in.photos = {&photo};
-    in.options.mode = modes[m].second;
-    const InpaintResult res = inpaintSurface(in, {}, nullptr);
-    const RefinedSurface& rs = res.refined;
-    double sumDe = 0, energy = 0, truthEnergy = 0;
-    long n = 0;
-    for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
-      if (rs.region[t] < 0) continue;
-      std::array<Vec2, 3> q;
-      for (int k = 0; k < 3; ++k)
-        q[k] = Vec2(rs.mesh.positions[rs.mesh.triangles[t][k]].x(), rs.mesh.positions[rs.mesh.triangles[t][k]].y()) *
-                   scale -
-               origin;
-      std::array<Vec3f, 3> c;
-      for (int k = 0; k < 3; ++k) c[k] = res.colors.row(rs.mesh.triangles[t][k]).transpose();
-      scanTriangle(q, side, side, [&](int x, int y, const Vec3& b) {
-        const Vec3f v = float(b[0]) * c[0] + float(b[1]) * c[1] + float(b[2]) * c[2];
-        panel.at<cv::Vec3b>(y, x) =
-            cv::Vec3b(cv::saturate_cast<uchar>(255 * v[2]), cv::saturate_cast<uchar>(255 * v[1]),
-                      cv::saturate_cast<uchar>(255 * v[0]));
-        const Vec3 pb = b[0] * rs.parentBary[t][0] + b[1] * rs.parentBary[t][1] + b[2] * rs.parentBary[t][2];
-        sumDe += deltaEuv(v, mappedColor(truth, {&photo}, nullptr, rs.parentFace[t], pb));
-        ++n;
-      });
-    }
-    // Gradient energy over the hole's pixels of the panel against the truth panel (Sobel on grey).
-    cv::Mat grey, truthGrey, gx, gy, tx, ty;
-    cv::cvtColor(panel, grey, cv::COLOR_BGR2GRAY);
-    cv::cvtColor(out(cv::Rect(0, 0, side, side)), truthGrey, cv::COLOR_BGR2GRAY);
-    cv::Sobel(grey, gx, CV_32F, 1, 0), cv::Sobel(grey, gy, CV_32F, 0, 1);
-    cv::Sobel(truthGrey, tx, CV_32F, 1, 0), cv::Sobel(truthGrey, ty, CV_32F, 0, 1);
-    long pixels = 0;
-    for (int y = 0; y < side; ++y)
-      for (int x = 0; x < side; ++x) {
-        const Vec2 s = (Vec2(x + 0.5, y + 0.5) + origin) / scale;
-        if ((Vec2(centre.x(), centre.y()) - s).norm() > 0.9 * radius) continue;
-        energy += gx.at<float>(y, x) * gx.at<float>(y, x) + gy.at<float>(y, x) * gy.at<float>(y, x);
-        truthEnergy += tx.at<float>(y, x) * tx.at<float>(y, x) + ty.at<float>(y, x) * ty.at<float>(y, x);
-        ++pixels;
+    // The picture: the hole's bounding square, a margin around it.
+    const double half = hole.name == "side" ? 0.5 : 1.25 * hole.r1;
+    const int side = int(std::ceil(2 * half * scale));
+    const Vec2 origin = hole.centre * scale - Vec2(side / 2.0, side / 2.0);
+    auto sheetOf = [&](int x, int y) -> Vec2 { return (Vec2(x + 0.5, y + 0.5) + origin) / scale; };
+    // Pixels well inside the hole (a texel off its border), where the measures are taken.
+    auto measured = [&](int x, int y) {
+      const Vec2 s = sheetOf(x, y);
+      const double e = 1.5 / scale;
+      return hole.contains(s) && hole.contains(s + Vec2(e, 0)) && hole.contains(s - Vec2(e, 0)) &&
+             hole.contains(s + Vec2(0, e)) && hole.contains(s - Vec2(0, e)) && s.x() < 1 && s.y() < 1 && s.y() > 0;
+    };
+    const std::vector<std::pair<const char*, InpaintMode>> modes = {{"truth", InpaintMode::Off},
+                                                                    {"harmonic", InpaintMode::Harmonic},
+                                                                    {"rbf", InpaintMode::Rbf},
+                                                                    {"structure", InpaintMode::Structure},
+                                                                    {"synthesis", InpaintMode::Synthesis}};
+    cv::Mat out(side, side * int(modes.size()), CV_32FC3, cv::Scalar(0, 0, 0));
+    cv::Mat truthLuv;
+    for (size_t m = 0; m < modes.size(); ++m) {
+      cv::Mat panel = out(cv::Rect(int(m) * side, 0, side, side));
+      for (int f = 0; f < mesh->numFaces(); ++f) {
+        if (m != 0 && map.facePhoto[f] < 0) continue;
+        const auto p = mesh->facePositions(f);
+        std::array<Vec2, 3> q;
+        for (int k = 0; k < 3; ++k) q[k] = Vec2(p[k].x(), p[k].y()) * scale - origin;
+        scanTriangle(q, side, side, [&](int x, int y, const Vec3& b) {
+          const Vec3f c = mappedColor(truth, {&photo}, nullptr, f, b);
+          panel.at<cv::Vec3f>(y, x) = cv::Vec3f(c[0], c[1], c[2]);
+        });
       }
-    std::printf("%-10s mean Delta E %.2f   gradient energy %.0f (truth %.0f, ratio %.2f)   %s\n", modes[m].first,
-                sumDe / std::max(n, 1L), energy / std::max(pixels, 1L), truthEnergy / std::max(pixels, 1L),
-                energy / std::max(truthEnergy, 1e-9), res.regions.empty() ? "" : res.regions[0].note.c_str());
+      std::string note;
+      double cpuFinal = 0, cpuPreview = 0;
+      if (m > 0) {
+        InpaintInput in;
+        in.mesh = mesh.get();
+        in.map = &map;
+        in.photos = {&photo};
+        in.options.mode = modes[m].second;
+        in.options.detail = 0.25;
+        double c0 = cpuSeconds();
+        inpaintSurface(in, {}, nullptr);
+        cpuPreview = cpuSeconds() - c0;
+        in.options.detail = 1;
+        c0 = cpuSeconds();
+        const InpaintResult res = inpaintSurface(in, {}, nullptr);
+        cpuFinal = cpuSeconds() - c0;
+        if (!res.regions.empty()) note = res.regions[0].note;
+        const RefinedSurface& rs = res.refined;
+        for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
+          if (rs.region[t] < 0) continue;
+          std::array<Vec2, 3> q;
+          std::array<Vec3f, 3> c;
+          for (int k = 0; k < 3; ++k) {
+            const Vec3& p = rs.mesh.positions[rs.mesh.triangles[t][k]];
+            q[k] = Vec2(p.x(), p.y()) * scale - origin;
+            c[k] = res.colors.row(rs.mesh.triangles[t][k]).transpose();
+          }
+          scanTriangle(q, side, side, [&](int x, int y, const Vec3& b) {
+            const Vec3f v = float(b[0]) * c[0] + float(b[1]) * c[1] + float(b[2]) * c[2];
+            panel.at<cv::Vec3f>(y, x) = cv::Vec3f(v[0], v[1], v[2]);
+          });
+        }
+      }
+      const cv::Mat luv = srgbToLuv(panel);
+      if (m == 0) {
+        truthLuv = luv;
+        continue;
+      }
+      // Gradient energy (Sobel on L*), histograms, ΔE.
+      cv::Mat gx, gy, tx, ty, l, tl;
+      cv::extractChannel(luv, l, 0), cv::extractChannel(truthLuv, tl, 0);
+      cv::Sobel(l, gx, CV_32F, 1, 0), cv::Sobel(l, gy, CV_32F, 0, 1);
+      cv::Sobel(tl, tx, CV_32F, 1, 0), cv::Sobel(tl, ty, CV_32F, 0, 1);
+      double energy = 0, truthEnergy = 0, sumDe = 0;
+      std::vector<Vec3f> fill, real;
+      std::vector<cv::Point> centres;
+      for (int y = 0; y < side; ++y)
+        for (int x = 0; x < side; ++x) {
+          if (!measured(x, y)) continue;
+          energy += gx.at<float>(y, x) * gx.at<float>(y, x) + gy.at<float>(y, x) * gy.at<float>(y, x);
+          truthEnergy += tx.at<float>(y, x) * tx.at<float>(y, x) + ty.at<float>(y, x) * ty.at<float>(y, x);
+          const cv::Vec3f a = luv.at<cv::Vec3f>(y, x), b = truthLuv.at<cv::Vec3f>(y, x);
+          fill.emplace_back(a[0], a[1], a[2]);
+          real.emplace_back(b[0], b[1], b[2]);
+          sumDe += cv::norm(a - b);
+          if (x >= 3 && y >= 3 && x + 3 < side && y + 3 < side) centres.emplace_back(x, y);
+        }
+      if (fill.empty()) {
+        std::printf("| %s | %s | no pixel inside the hole (%d x %d picture) |\n", hole.name.c_str(), modes[m].first,
+                    side, side);
+        continue;
+      }
+      const double emd = cv::EMD(signature(fill), signature(real), cv::DIST_L2);
+      // Patch score: 400 of the fill's patches (seeded), each against every second patch of the truth's hole.
+      std::mt19937 rng(7);
+      std::vector<cv::Point> probes = centres;
+      std::shuffle(probes.begin(), probes.end(), rng);
+      probes.resize(std::min<size_t>(probes.size(), 400));
+      std::vector<cv::Point> library;
+      for (const cv::Point& c : centres)
+        if (c.x % 2 == 0 && c.y % 2 == 0) library.push_back(c);
+      double patchSum = 0;
+      for (const cv::Point& p : probes) {
+        double best = 1e300;
+        for (const cv::Point& c : library) {
+          double d = 0;
+          for (int dy = -3; dy <= 3 && d < best; ++dy) {
+            const cv::Vec3f* a = luv.ptr<cv::Vec3f>(p.y + dy) + p.x - 3;
+            const cv::Vec3f* b = truthLuv.ptr<cv::Vec3f>(c.y + dy) + c.x - 3;
+            for (int dx = 0; dx < 7; ++dx) {
+              const cv::Vec3f e = a[dx] - b[dx];
+              d += e.dot(e);
+            }
+          }
+          best = std::min(best, d);
+        }
+        patchSum += std::sqrt(best / 49);
+      }
+      std::printf("| %s | %s | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %s |\n", hole.name.c_str(), modes[m].first,
+                  energy / std::max(truthEnergy, 1e-9), emd, patchSum / std::max<size_t>(probes.size(), 1),
+                  sumDe / std::max<size_t>(fill.size(), 1), cpuFinal, cpuPreview, note.c_str());
+      std::fflush(stdout);
+    }
+    std::string path = argv[2];
+    const size_t dot = path.rfind(".png");
+    path = (dot == std::string::npos ? path : path.substr(0, dot)) + "_" + hole.name + ".png";
+    cv::Mat rgb8;
+    out.convertTo(rgb8, CV_8UC3, 255);
+    montage::writePng(path, rgb8, kPngFast, false);
+    std::printf("(%d hole faces; picture %s: truth, harmonic, rbf, structure, synthesis)\n", holeFaces, path.c_str());
   }
-  montage::writePng(argv[2], out);
   return 0;
 }

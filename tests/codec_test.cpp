@@ -172,6 +172,44 @@ TEST(Codec, JpegDecodesAsOpenCvDecodesIt) {
     }
 }
 
+// A JPEG with an EXIF orientation (a portrait shot stored sideways) comes as photo apps show it, as OpenCV's own
+// decoder (which applies the orientation) shows it; the header gives the shown size without decoding.
+TEST(Codec, JpegExifOrientationIsApplied) {
+  const cv::Mat image = testImage(48, 80, CV_8U, 3, 5u);  // 80 wide, 48 high as stored
+  const std::vector<unsigned char> plain = cvEncode(".jpg", image, {cv::IMWRITE_JPEG_QUALITY, 95});
+  for (bool bigEndian : {false, true})
+    for (int orientation = 1; orientation <= 8; ++orientation) {
+      SCOPED_TRACE("orientation " + std::to_string(orientation) + (bigEndian ? " MM" : " II"));
+      // APP1: "Exif\0\0", a TIFF header, IFD0 with one entry: tag 274, SHORT, count 1, the value.
+      std::vector<unsigned char> exif = {'E', 'x', 'i', 'f', 0, 0};
+      const auto put16 = [&](int v) {
+        bigEndian ? exif.insert(exif.end(), {uchar(v >> 8), uchar(v)})
+                  : exif.insert(exif.end(), {uchar(v), uchar(v >> 8)});
+      };
+      const auto put32 = [&](int v) {
+        if (bigEndian)
+          put16(v >> 16), put16(v & 0xFFFF);
+        else
+          put16(v & 0xFFFF), put16(v >> 16);
+      };
+      exif.insert(exif.end(),
+                  bigEndian ? std::initializer_list<uchar>{'M', 'M'} : std::initializer_list<uchar>{'I', 'I'});
+      put16(42), put32(8), put16(1), put16(274), put16(3), put32(1), put16(orientation), put16(0), put32(0);
+      std::vector<unsigned char> bytes(plain.begin(), plain.begin() + 2);  // SOI
+      const size_t length = exif.size() + 2;
+      bytes.insert(bytes.end(), {0xFF, 0xE1, uchar(length >> 8), uchar(length & 0xFF)});
+      bytes.insert(bytes.end(), exif.begin(), exif.end());
+      bytes.insert(bytes.end(), plain.begin() + 2, plain.end());
+      const cv::Mat shown = ours(bytes, "portrait.jpg");
+      EXPECT_EQ(maxDifference(shown, cv::imdecode(bytes, cv::IMREAD_COLOR)), 0);
+      EXPECT_EQ(shown.size(), orientation >= 5 ? cv::Size(48, 80) : cv::Size(80, 48));
+      const ImageHeader header = readImageHeader(bytes.data(), bytes.size());
+      EXPECT_EQ(header.orientation, orientation);
+      ASSERT_TRUE(header.size);
+      EXPECT_EQ(*header.size, shown.size());
+    }
+}
+
 // A CMYK JPEG (as Adobe software writes it, inverted: 255 = no ink; written with libjpeg: OpenCV writes
 // none) comes as B,G,R within JPEG's loss of the colours it stands for.
 TEST(Codec, CmykJpegComesAsBgr) {

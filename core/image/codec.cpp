@@ -88,8 +88,62 @@ std::optional<cv::Size> pngSize(ByteReader& in) {
   return cv::Size(int(std::min<uint32_t>(*w, INT32_MAX)), int(std::min<uint32_t>(*h, INT32_MAX)));
 }
 
-// JPEG: walk the marker segments to the first start-of-frame (SOFn) segment.
-std::optional<cv::Size> jpegSize(ByteReader& in) {
+// The orientation (TIFF tag 274, 1..8) an APP1 segment's EXIF data gives (the segment's payload, from "Exif\0\0"
+// on); 1 when it has none or the data is not EXIF. Every offset is checked against the payload.
+int exifOrientation(const uint8_t* p, size_t n) {
+  if (n < 14 || std::memcmp(p, "Exif\0\0", 6) != 0) return 1;
+  const uint8_t* t = p + 6;  // the TIFF header
+  const size_t tn = n - 6;
+  const bool big = t[0] == 'M' && t[1] == 'M';
+  if (!big && !(t[0] == 'I' && t[1] == 'I')) return 1;
+  const auto u16 = [&](size_t at) { return big ? uint32_t(t[at]) << 8 | t[at + 1] : uint32_t(t[at + 1]) << 8 | t[at]; };
+  const auto u32 = [&](size_t at) { return big ? u16(at) << 16 | u16(at + 2) : u16(at + 2) << 16 | u16(at); };
+  const size_t ifd = u32(4);
+  if (ifd + 2 > tn) return 1;
+  const size_t entries = u16(ifd);
+  for (size_t i = 0; i < entries && ifd + 2 + 12 * (i + 1) <= tn; ++i) {
+    const size_t e = ifd + 2 + 12 * i;
+    if (u16(e) != 274) continue;
+    const uint32_t value = u16(e) == 274 && u16(e + 2) == 3 ? u16(e + 8) : 1;  // SHORT, stored in the entry
+    return value >= 1 && value <= 8 ? int(value) : 1;
+  }
+  return 1;
+}
+
+// Turns an image decoded as stored into the image as shown, by its EXIF orientation.
+cv::Mat orient(const cv::Mat& stored, int orientation) {
+  cv::Mat shown;
+  switch (orientation) {
+    case 2:
+      cv::flip(stored, shown, 1);
+      break;
+    case 3:
+      cv::rotate(stored, shown, cv::ROTATE_180);
+      break;
+    case 4:
+      cv::flip(stored, shown, 0);
+      break;
+    case 5:
+      cv::transpose(stored, shown);
+      break;
+    case 6:
+      cv::rotate(stored, shown, cv::ROTATE_90_CLOCKWISE);
+      break;
+    case 7:
+      cv::transpose(stored, shown), cv::flip(shown, shown, -1);
+      break;
+    case 8:
+      cv::rotate(stored, shown, cv::ROTATE_90_COUNTERCLOCKWISE);
+      break;
+    default:
+      return stored;
+  }
+  return shown;
+}
+
+// JPEG: walk the marker segments to the first start-of-frame (SOFn) segment; an EXIF APP1 segment on the way gives
+// the orientation, and the size is the shown image's.
+std::optional<cv::Size> jpegSize(ByteReader& in, int& orientation) {
   in.seek(2);
   for (;;) {
     auto marker = in.u8();
@@ -103,9 +157,15 @@ std::optional<cv::Size> jpegSize(ByteReader& in) {
     if (sof) {
       auto precision = in.u8(), h = in.u16(true), w = in.u16(true);
       if (!precision || !h || !w) return std::nullopt;
-      return cv::Size(int(*w), int(*h));
+      return orientation >= 5 ? cv::Size(int(*h), int(*w)) : cv::Size(int(*w), int(*h));
     }
-    if (!in.skip(*length - 2)) return std::nullopt;
+    if (*marker == 0xE1 && orientation == 1) {  // APP1: EXIF (or XMP, which has no orientation here)
+      std::vector<uint8_t> payload(*length - 2);
+      if (!in.read(payload.data(), payload.size())) return std::nullopt;
+      orientation = exifOrientation(payload.data(), payload.size());
+    } else if (!in.skip(*length - 2)) {
+      return std::nullopt;
+    }
     auto next = in.u8();  // every segment is followed by a marker
     if (!next || *next != 0xFF) return std::nullopt;
   }
@@ -179,7 +239,7 @@ ImageHeader readImageHeader(std::istream& stream) {
       header.size = pngSize(in);
       break;
     case ImageFormat::Jpeg:
-      header.size = jpegSize(in);
+      header.size = jpegSize(in, header.orientation);
       break;
     case ImageFormat::Bmp:
       bmpHeader(in, header);
@@ -358,6 +418,7 @@ bool jpegHeader(JpegReader& r, const Encoded& in) {
     jpeg_stdio_src(&r.info, in.file);
   else
     jpeg_mem_src(&r.info, in.data, static_cast<unsigned long>(in.size));
+  jpeg_save_markers(&r.info, JPEG_APP0 + 1, 0xFFFF);  // EXIF: the orientation
   jpeg_read_header(&r.info, TRUE);
   const J_COLOR_SPACE space = r.info.jpeg_color_space;
   r.info.out_color_space = space == JCS_GRAYSCALE                   ? JCS_GRAYSCALE
@@ -377,13 +438,22 @@ bool jpegPixels(JpegReader& r, cv::Mat& out) {
   return true;
 }
 
-cv::Mat decodeJpeg(const Encoded& in, const std::string& where) {
-  JpegReader reader;
+// The orientation of the first EXIF APP1 segment libjpeg kept (jpegHeader), 1 when none.
+int jpegOrientation(const jpeg_decompress_struct& info) {
+  for (jpeg_saved_marker_ptr m = info.marker_list; m; m = m->next)
+    if (m->marker == JPEG_APP0 + 1) {
+      const int o = exifOrientation(m->data, m->data_length);
+      if (o != 1) return o;
+    }
+  return 1;
+}
+
+// Decoded as stored (orientation not applied).
+cv::Mat decodeJpegStored(JpegReader& reader, const std::string& where) {
   const auto fail = [&] {
     return Error(located(where, std::string("cannot decode JPEG image: ") +
                                     (*reader.error.message ? reader.error.message : "damaged data")));
   };
-  if (!jpegHeader(reader, in)) throw fail();
   const int w = int(reader.info.output_width), h = int(reader.info.output_height);
   const int channels = reader.info.output_components;
   checkSize(cv::Size(w, h), where);
@@ -401,6 +471,15 @@ cv::Mat decodeJpeg(const Encoded& in, const std::string& where) {
       for (int c = 0; c < 3; ++c) d[c] = uint8_t((s[2 - c] * s[3] + 127) / 255);
   }
   return bgr;
+}
+
+cv::Mat decodeJpeg(const Encoded& in, const std::string& where) {
+  JpegReader reader;
+  if (!jpegHeader(reader, in))
+    throw Error(located(where, std::string("cannot decode JPEG image: ") +
+                                   (*reader.error.message ? reader.error.message : "damaged data")));
+  const int orientation = jpegOrientation(reader.info);
+  return orient(decodeJpegStored(reader, where), orientation);
 }
 
 // ---- BMP (stb_image) ----

@@ -19,7 +19,11 @@ enum class ImageFormat { Unknown, Png, Jpeg, Bmp, TiffLittle, TiffBig };
 // decoding it. Only PNG, JPEG, BMP and TIFF are recognised.
 struct ImageHeader {
   ImageFormat format = ImageFormat::Unknown;
-  std::optional<cv::Size> size;
+  std::optional<cv::Size> size;  // as the image is shown: a JPEG's EXIF orientation applied (below)
+  // A JPEG's EXIF orientation (1..8, TIFF tag 274: how the stored rows turn to be shown, as photo apps show them;
+  // 1 when absent). Decoding applies it: the pixels and `size` are the shown image's, which project coordinates,
+  // masks and the editor use.
+  int orientation = 1;
   uint64_t minBytes = 0;  // the data a complete file holds at least, when its header says (uncompressed BMP)
 };
 ImageHeader readImageHeader(std::istream& in);

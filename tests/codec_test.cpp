@@ -5,8 +5,10 @@
 
 // jpeglib.h needs FILE from <cstdio> first.
 // clang-format off
+#include <Eigen/Core>
 #include <cstdio>
 #include <jpeglib.h>
+#include <lcms2.h>
 // clang-format on
 #include <tiffio.h>
 
@@ -172,6 +174,38 @@ TEST(Codec, JpegDecodesAsOpenCvDecodesIt) {
     }
 }
 
+namespace {
+
+// `image` encoded by libjpeg itself (OpenCV writes neither CMYK nor an ICC profile): its samples in colour space
+// `space`, with `icc` as the embedded profile when given.
+std::vector<unsigned char> libjpegEncode(const cv::Mat& image, J_COLOR_SPACE space, int quality,
+                                         const std::vector<unsigned char>& icc = {}) {
+  jpeg_compress_struct info;
+  jpeg_error_mgr error;
+  info.err = jpeg_std_error(&error);
+  jpeg_create_compress(&info);
+  unsigned char* buffer = nullptr;
+  unsigned long size = 0;
+  jpeg_mem_dest(&info, &buffer, &size);
+  info.image_width = image.cols, info.image_height = image.rows, info.input_components = image.channels();
+  info.in_color_space = space;
+  jpeg_set_defaults(&info);
+  jpeg_set_quality(&info, quality, TRUE);
+  jpeg_start_compress(&info, TRUE);
+  if (!icc.empty()) jpeg_write_icc_profile(&info, icc.data(), unsigned(icc.size()));
+  for (int y = 0; y < image.rows; ++y) {
+    JSAMPROW row = const_cast<uchar*>(image.ptr(y));
+    jpeg_write_scanlines(&info, &row, 1);
+  }
+  jpeg_finish_compress(&info);
+  jpeg_destroy_compress(&info);
+  std::vector<unsigned char> bytes(buffer, buffer + size);
+  std::free(buffer);
+  return bytes;
+}
+
+}  // namespace
+
 // A JPEG with an EXIF orientation (a portrait shot stored sideways) comes as photo apps show it, as OpenCV's own
 // decoder (which applies the orientation) shows it; the header gives the shown size without decoding.
 TEST(Codec, JpegExifOrientationIsApplied) {
@@ -210,6 +244,57 @@ TEST(Codec, JpegExifOrientationIsApplied) {
     }
 }
 
+// A photo with an embedded colour profile (Adobe RGB, as many cameras can store) comes in sRGB: its colours as the
+// profile says they are (Little CMS), within JPEG's loss; without the conversion its reds would be off by more.
+TEST(Codec, EmbeddedColourProfilesComeInSrgb) {
+  // Adobe RGB (1998): D65, its primaries, gamma 563/256.
+  const cmsCIExyY white = {0.3127, 0.3290, 1.0};
+  const cmsCIExyYTRIPLE primaries = {{0.64, 0.33, 1.0}, {0.21, 0.71, 1.0}, {0.15, 0.06, 1.0}};
+  cmsToneCurve* gamma = cmsBuildGamma(nullptr, 563.0 / 256.0);
+  cmsToneCurve* curves[3] = {gamma, gamma, gamma};
+  cmsHPROFILE adobe = cmsCreateRGBProfile(&white, &primaries, curves);
+  cmsFreeToneCurve(gamma);
+  cmsUInt32Number size = 0;
+  ASSERT_TRUE(cmsSaveProfileToMem(adobe, nullptr, &size));
+  std::vector<unsigned char> icc(size);
+  ASSERT_TRUE(cmsSaveProfileToMem(adobe, icc.data(), &size));
+  cmsCloseProfile(adobe);
+
+  // Flat patches of Adobe RGB colours (B,G,R), each 16 x 16 (JPEG keeps flat blocks nearly exact).
+  const std::vector<cv::Vec3b> colours = {{40, 40, 200}, {60, 180, 60}, {200, 90, 30}, {128, 128, 128}};
+  cv::Mat image(16, 16 * int(colours.size()), CV_8UC3);
+  for (size_t i = 0; i < colours.size(); ++i) image(cv::Rect(16 * int(i), 0, 16, 16)).setTo(colours[i]);
+  const std::vector<unsigned char> bytes = libjpegEncode(image, JCS_EXT_BGR, 100, icc);
+  const cv::Mat decoded = ours(bytes, "adobe.jpg");
+  ASSERT_EQ(decoded.type(), CV_8UC3);
+
+  // The expected sRGB: Adobe RGB to XYZ to linear sRGB (both D65), encoded.
+  const Eigen::Matrix3d adobeToXyz{
+      {0.5767309, 0.1855540, 0.1881852}, {0.2973769, 0.6273491, 0.0752741}, {0.0270343, 0.0706872, 0.9911085}};
+  const Eigen::Matrix3d xyzToSrgb{
+      {3.2404542, -1.5371385, -0.4985314}, {-0.9692660, 1.8760108, 0.0415560}, {0.0556434, -0.2040259, 1.0572252}};
+  int worstConverted = 0, worstStored = 0;
+  for (size_t i = 0; i < colours.size(); ++i) {
+    const cv::Vec3b got = decoded.at<cv::Vec3b>(8, 16 * int(i) + 8);
+    Eigen::Vector3d linear;
+    for (int c = 0; c < 3; ++c) linear[c] = std::pow(colours[i][2 - c] / 255.0, 563.0 / 256.0);  // R,G,B
+    const Eigen::Vector3d srgb = xyzToSrgb * adobeToXyz * linear;
+    for (int c = 0; c < 3; ++c) {
+      const double v = std::clamp(srgb[c], 0.0, 1.0);
+      const double encoded = 255 * (v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055);
+      worstConverted = std::max(worstConverted, int(std::lround(std::abs(got[2 - c] - encoded))));
+      worstStored = std::max(worstStored, std::abs(int(colours[i][2 - c]) - int(std::lround(encoded))));
+    }
+  }
+  std::printf("Adobe RGB patches: %d levels from the expected sRGB (stored values would be %d off)\n", worstConverted,
+              worstStored);
+  EXPECT_LE(worstConverted, 3);
+  EXPECT_GE(worstStored, 20);
+  // The same pixels without a profile are taken as sRGB, as stored.
+  const cv::Mat plain = ours(cvEncode(".jpg", image, {cv::IMWRITE_JPEG_QUALITY, 100}), "plain.jpg");
+  EXPECT_LE(cv::norm(plain.at<cv::Vec3b>(8, 8), colours[0], cv::NORM_INF), 2);
+}
+
 // A CMYK JPEG (as Adobe software writes it, inverted: 255 = no ink; written with libjpeg: OpenCV writes
 // none) comes as B,G,R within JPEG's loss of the colours it stands for.
 TEST(Codec, CmykJpegComesAsBgr) {
@@ -221,25 +306,7 @@ TEST(Codec, CmykJpegComesAsBgr) {
       cmyk.at<cv::Vec4b>(y, x) = cv::Vec4b(uchar(c), uchar(m), uchar(ye), uchar(k));
       expected.at<cv::Vec3b>(y, x) = cv::Vec3b(uchar(ye * k / 255), uchar(m * k / 255), uchar(c * k / 255));
     }
-  jpeg_compress_struct info;
-  jpeg_error_mgr error;
-  info.err = jpeg_std_error(&error);
-  jpeg_create_compress(&info);
-  unsigned char* buffer = nullptr;
-  unsigned long size = 0;
-  jpeg_mem_dest(&info, &buffer, &size);
-  info.image_width = w, info.image_height = h, info.input_components = 4, info.in_color_space = JCS_CMYK;
-  jpeg_set_defaults(&info);
-  jpeg_set_quality(&info, 95, TRUE);
-  jpeg_start_compress(&info, TRUE);
-  for (int y = 0; y < h; ++y) {
-    JSAMPROW row = cmyk.ptr(y);
-    jpeg_write_scanlines(&info, &row, 1);
-  }
-  jpeg_finish_compress(&info);
-  jpeg_destroy_compress(&info);
-  const std::vector<unsigned char> bytes(buffer, buffer + size);
-  std::free(buffer);
+  const std::vector<unsigned char> bytes = libjpegEncode(cmyk, JCS_CMYK, 95);
   const cv::Mat decoded = ours(bytes, "cmyk.jpg");
   ASSERT_EQ(decoded.type(), CV_8UC3);
   cv::Mat diff;

@@ -4,6 +4,7 @@
 // clang-format off
 #include <cstdio>
 #include <jpeglib.h>
+#include <lcms2.h>
 #include <jerror.h>
 // clang-format on
 #include <png.h>
@@ -359,7 +360,7 @@ bool pngPixels(PngReader& r, png_bytepp rows) {
   return true;
 }
 
-cv::Mat decodePng(const Encoded& in, const std::string& where) {
+cv::Mat decodePng(const Encoded& in, const std::string& where, std::vector<uint8_t>& icc) {
   PngSource source{in, 0, ""};
   PngReader reader;
   const auto fail = [&] {
@@ -374,6 +375,12 @@ cv::Mat decodePng(const Encoded& in, const std::string& where) {
   std::vector<png_bytep> rows(reader.height);
   for (int y = 0; y < reader.height; ++y) rows[y] = out.ptr(y);
   if (!pngPixels(reader, rows.data())) throw fail();
+  png_charp name = nullptr;
+  png_bytep profile = nullptr;
+  png_uint_32 length = 0;
+  int compression = 0;
+  if (png_get_iCCP(reader.png, reader.info, &name, &compression, &profile, &length) && profile)
+    icc.assign(profile, profile + length);
   return out;
 }
 
@@ -419,6 +426,7 @@ bool jpegHeader(JpegReader& r, const Encoded& in) {
   else
     jpeg_mem_src(&r.info, in.data, static_cast<unsigned long>(in.size));
   jpeg_save_markers(&r.info, JPEG_APP0 + 1, 0xFFFF);  // EXIF: the orientation
+  jpeg_save_markers(&r.info, JPEG_APP0 + 2, 0xFFFF);  // ICC: the colour profile
   jpeg_read_header(&r.info, TRUE);
   const J_COLOR_SPACE space = r.info.jpeg_color_space;
   r.info.out_color_space = space == JCS_GRAYSCALE                   ? JCS_GRAYSCALE
@@ -473,12 +481,18 @@ cv::Mat decodeJpegStored(JpegReader& reader, const std::string& where) {
   return bgr;
 }
 
-cv::Mat decodeJpeg(const Encoded& in, const std::string& where) {
+cv::Mat decodeJpeg(const Encoded& in, const std::string& where, std::vector<uint8_t>& icc) {
   JpegReader reader;
   if (!jpegHeader(reader, in))
     throw Error(located(where, std::string("cannot decode JPEG image: ") +
                                    (*reader.error.message ? reader.error.message : "damaged data")));
   const int orientation = jpegOrientation(reader.info);
+  JOCTET* profile = nullptr;
+  unsigned int length = 0;
+  if (setjmp(reader.error.jump) == 0) {  // a damaged profile leaves the pixels as stored
+    if (jpeg_read_icc_profile(&reader.info, &profile, &length) && profile) icc.assign(profile, profile + length);
+  }
+  std::free(profile);
   return orient(decodeJpegStored(reader, where), orientation);
 }
 
@@ -552,7 +566,7 @@ struct TiffCloser {
   void operator()(TIFF* t) const { TIFFClose(t); }
 };
 
-cv::Mat decodeTiff(const Encoded& in, const std::string& where) {
+cv::Mat decodeTiff(const Encoded& in, const std::string& where, std::vector<uint8_t>& icc) {
   TiffSource source{in, 0, ""};
   TIFFOpenOptions* options = TIFFOpenOptionsAlloc();
   TIFFOpenOptionsSetErrorHandlerExtR(options, tiffError, &source);
@@ -564,6 +578,10 @@ cv::Mat decodeTiff(const Encoded& in, const std::string& where) {
     return Error(located(where, "cannot decode TIFF image: " + (source.error.empty() ? why : source.error)));
   };
   if (!tif) throw fail("damaged header");
+  uint32_t iccLength = 0;
+  const uint8_t* iccData = nullptr;
+  if (TIFFGetField(tif.get(), TIFFTAG_ICCPROFILE, &iccLength, &iccData) && iccData)
+    icc.assign(iccData, iccData + iccLength);
   uint32_t w = 0, h = 0;
   uint16_t samples = 1, bits = 1, format = SAMPLEFORMAT_UINT, planar = PLANARCONFIG_CONTIG, photometric = 0;
   TIFFGetField(tif.get(), TIFFTAG_IMAGEWIDTH, &w);
@@ -678,27 +696,53 @@ void checkImageHeader(const ImageHeader& header, const std::string& where) {
 
 namespace {
 
+// Pixels in the colour space an embedded ICC profile describes, to sRGB (relative colorimetric with black point
+// compensation, Little CMS): what every stage assumes photos are. Only RGB profiles on 8- and 16-bit B,G,R(,A)
+// pixels, alpha kept; a profile that names itself sRGB is left alone (the pixels are what it says), and so is one
+// Little CMS cannot read (the pixels as stored).
+void convertToSrgb(cv::Mat& image, const std::vector<uint8_t>& icc) {
+  const int depth = image.depth(), channels = image.channels();
+  if ((depth != CV_8U && depth != CV_16U) || (channels != 3 && channels != 4)) return;
+  std::unique_ptr<void, decltype(&cmsCloseProfile)> from(cmsOpenProfileFromMem(icc.data(), cmsUInt32Number(icc.size())),
+                                                         &cmsCloseProfile);
+  if (!from || cmsGetColorSpace(from.get()) != cmsSigRgbData) return;
+  char name[256] = {};
+  cmsGetProfileInfoASCII(from.get(), cmsInfoDescription, "en", "US", name, sizeof name);
+  if (std::strstr(name, "sRGB")) return;
+  std::unique_ptr<void, decltype(&cmsCloseProfile)> to(cmsCreate_sRGBProfile(), &cmsCloseProfile);
+  const cmsUInt32Number format =
+      depth == CV_8U ? (channels == 3 ? TYPE_BGR_8 : TYPE_BGRA_8) : (channels == 3 ? TYPE_BGR_16 : TYPE_BGRA_16);
+  cmsHTRANSFORM transform = cmsCreateTransform(from.get(), format, to.get(), format, INTENT_RELATIVE_COLORIMETRIC,
+                                               cmsFLAGS_BLACKPOINTCOMPENSATION | cmsFLAGS_COPY_ALPHA);
+  if (!transform) return;
+  for (int y = 0; y < image.rows; ++y)
+    cmsDoTransform(transform, image.ptr(y), image.ptr(y), cmsUInt32Number(image.cols));
+  cmsDeleteTransform(transform);
+}
+
 // stb_image reads zeros past the end of a BMP: a file shorter than its header's rows is refused first.
 cv::Mat decode(const Encoded& in, const ImageHeader& header, const std::string& where) {
   TM_CHECK(in.size >= header.minBytes,
            located(where, "cannot decode the image: the data ends early (truncated file: " + std::to_string(in.size) +
                               " bytes, its header needs " + std::to_string(header.minBytes) + ")"));
   cv::Mat image;
+  std::vector<uint8_t> icc;
   switch (header.format) {
     case ImageFormat::Png:
-      image = decodePng(in, where);
+      image = decodePng(in, where, icc);
       break;
     case ImageFormat::Jpeg:
-      image = decodeJpeg(in, where);
+      image = decodeJpeg(in, where, icc);
       break;
     case ImageFormat::Bmp:
       image = decodeBmp(in, where);
       break;
     default:
-      image = decodeTiff(in, where);
+      image = decodeTiff(in, where, icc);
       break;
   }
   checkSize(image.size(), where);
+  if (!icc.empty()) convertToSrgb(image, icc);
   return image;
 }
 

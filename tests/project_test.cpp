@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "io/project_warnings.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -268,6 +269,22 @@ TEST_F(ProjectTest, MinimalFileGetsDefaultsAndUnknownFieldsAreIgnored) {
   EXPECT_FALSE(loaded.chains[1].closed);
   EXPECT_EQ(loaded.clones[0].rotationDeg, 0);
   EXPECT_EQ(loaded.points, sample().points);
+  // Ignored, but named: the run's warnings say so, with the option a misspelt one meant.
+  EXPECT_EQ(loaded.unknownFields, (std::vector<std::string>{"comment", "options.futureOption"}));
+  j["options"]["atlasSise"] = 4096;
+  j["photos"][0]["colourLocked"] = true;
+  writeText(path("p.json"), j.dump());
+  const Project misspelt = loadProject(path("p.json"));
+  EXPECT_EQ(misspelt.options.atlasSize, 2048);
+  EXPECT_EQ(misspelt.unknownFields,
+            (std::vector<std::string>{"comment", "photos[0].colourLocked (did you mean \"colorLocked\"?)",
+                                      "options.atlasSise (did you mean \"atlasSize\"?)", "options.futureOption"}));
+  const std::vector<std::string> warnings = projectWarnings(misspelt, {});
+  const auto named = std::count_if(warnings.begin(), warnings.end(), [](const std::string& w) {
+    return w.find("options.atlasSise (did you mean \"atlasSize\"?): not a field this build knows") != std::string::npos;
+  });
+  EXPECT_EQ(named, 1) << ::testing::PrintToString(warnings);
+  EXPECT_TRUE(misspelt.sameDocument(loaded));  // not part of the document
 }
 
 // ---- Atomic save ----

@@ -52,6 +52,22 @@ std::string describe(const json& v) {
   return v.type_name();  // null, boolean
 }
 
+// Levenshtein distance, for naming the field a misspelt one meant.
+size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
 class Field {
  public:
   Field(const std::string& file, const json* value, std::string path)
@@ -76,6 +92,21 @@ class Field {
     const json& object = require([](const json& v) { return v.is_object(); }, "an object");
     const auto it = object.find(key);
     return Field(file_, it == object.end() ? nullptr : &*it, path_.empty() ? key : path_ + "." + key);
+  }
+  // The keys of an object that are not in `known`, each as "<path>.<key>" with the closest known key when one is
+  // near (a misspelling): what the reader ignores.
+  void unknownKeys(const std::vector<std::string>& known, std::vector<std::string>& out) const {
+    if (!value_ || !value_->is_object()) return;
+    for (const auto& [key, value] : value_->items()) {
+      if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+      std::string entry = (path_.empty() ? "" : path_ + ".") + key;
+      size_t best = 3;  // at most 2 edits away
+      std::string nearest;
+      for (const std::string& k : known)
+        if (const size_t d = editDistance(key, k); d < best) best = d, nearest = k;
+      if (!nearest.empty()) entry += " (did you mean \"" + nearest + "\"?)";
+      out.push_back(entry);
+    }
   }
   // Element of an array.
   size_t size() const { return array().size(); }
@@ -590,6 +621,18 @@ Project parseProjectText(const std::string& text, const std::string& path, std::
   project.holeModes = root["holeModes"].as(project.holeModes);
   if (version >= 2) project.declinedProposals = root["declinedProposals"].as(project.declinedProposals);
   if (root["options"].present()) project.options = root["options"].as<PipelineOptions>();
+  // Fields this build does not know are ignored (a newer build's additions, docs/project-format.md), and named.
+  root.unknownKeys({"format", "version", "mesh", "photos", "points", "chains", "strokes", "clones", "holeModes",
+                    "declinedProposals", "options"},
+                   project.unknownFields);
+  for (size_t i = 0, n = photos.present() ? photos.size() : 0; i < n; ++i)
+    photos[i].unknownKeys({"path", "mask", "mirror", "colorLocked", "mode"}, project.unknownFields);
+  if (root["options"].present()) {
+    std::vector<std::string> names;
+    PipelineOptions defaults;
+    forEachOption(defaults, [&](const char* name, auto&, auto, auto) { names.push_back(name); });
+    root["options"].unknownKeys(names, project.unknownFields);
+  }
   // Versions 1 and 2 had no colour balance: such a file keeps its behaviour.
   if (version < 3 && !(root["options"].present() && root["options"]["colorBalance"].present()))
     project.options.colorBalance = BalanceMode::Off;

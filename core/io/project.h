@@ -103,8 +103,12 @@ struct Project {
   std::vector<HoleMode> holeModes;
   std::vector<DeclinedProposal> declinedProposals;  // version 2
   PipelineOptions options;
+  // Fields of the file this build does not know and ignored (a newer build's, or misspelt), each as its path with
+  // the nearest known name when one is close ("options.atlasSise (did you mean "atlasSize"?)"); not part of the
+  // document (a save drops them). projectWarnings names them.
+  std::vector<std::string> unknownFields;
 
-  // Document equality (ignores `file`): what save + load must preserve.
+  // Document equality (ignores `file` and `unknownFields`): what save + load must preserve.
   bool sameDocument(const Project& o) const;
 };
 

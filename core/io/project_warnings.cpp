@@ -89,6 +89,11 @@ std::vector<std::string> projectWarnings(const Project& project, const std::vect
   std::vector<std::string> out;
   const int numPhotos = static_cast<int>(std::min(photos.size(), project.photos.size()));
   {
+    Kind unknown(out, options.maxPerKind, "fields this build does not know");
+    for (const std::string& field : project.unknownFields)
+      unknown.add(field + ": not a field this build knows: ignored (a newer TextureMontage's, or misspelt)");
+  }
+  {
     Kind background(out, options.maxPerKind, "points lie on a photo's background");
     for (size_t i = 0; i < project.points.size(); ++i)
       for (size_t j = 0; j < project.points[i].at.size(); ++j) {

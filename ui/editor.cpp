@@ -6,6 +6,7 @@
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
 #include <imgui.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -36,6 +37,10 @@ double now() {
 }  // namespace
 
 Editor::Editor(EditorOptions options) : options_(std::move(options)) {
+  sessionId_ = std::to_string(static_cast<long long>(getpid())) + "_" +
+               std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(
+                                  std::chrono::system_clock::now().time_since_epoch())
+                                  .count());
   autosaveClock_.setInterval(options_.autosaveSeconds);
   layout_ = loadLayout();
   savedLayout_ = layout_.toJson();

@@ -312,6 +312,13 @@ class Editor {
   void cutoutRedo();
   bool applyCutoutMask();
   std::string newMaskPath(int photo) const;
+  // Where masks of a project not saved yet go: a folder of this editor session under editorStateDir(),
+  // moved beside the project when it is first saved (moveUnsavedMasks), never the mesh's or a photo's.
+  std::string unsavedMaskFolder() const;
+  // Before saving to `projectFile`: copies the masks the document names from unsavedMaskFolder() into the
+  // project's masks/ folder and renames them in the document (every undo step too); returns the copies'
+  // sources, removed once the save has succeeded.
+  std::vector<std::string> moveUnsavedMasks(const std::string& projectFile);
   void uploadBalanced(PhotoSlot& slot, int photo);
 
   // Camera feedback in the panes (editor_camera.cpp): wireframe and silhouette, residuals, outliers,
@@ -550,6 +557,7 @@ class Editor {
   std::vector<MissingFile> missing_;  // what the opened project names but is not there (relink offered)
   bool missingPopup_ = false;
   std::vector<std::string> dropped_;  // files dropped on the window, handled in the next frame
+  std::string sessionId_;             // this editor process (pid, start time): its unsaved-mask folder's name
 
   // Photos and the cut-out tool.
   CutoutSession cutout_;

@@ -13,7 +13,7 @@ BUILD_PKGS=(
   libsuitesparse-dev libopenblas-dev libtbb-dev libpng-dev libjpeg-dev libtiff-dev
   libgl-dev
 )
-TOOL_PKGS=(xvfb xauth assimp-utils libcgal-demo nodejs python3-opencv python3-scipy)  # python3-*: scripts/make_demo.py
+TOOL_PKGS=(xvfb xauth xdotool assimp-utils libcgal-demo nodejs python3-opencv python3-scipy)  # python3-*: scripts/make_demo.py; xdotool: editor_ui_test (real keys)
 
 want=("${BUILD_PKGS[@]}")
 if [[ "${1:-}" == "--with-tools" ]]; then want+=("${TOOL_PKGS[@]}"); fi

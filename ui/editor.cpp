@@ -106,10 +106,15 @@ void Editor::initWindow() {
   float xs = 1, ys = 1;
   glfwGetWindowContentScale(window_, &xs, &ys);
   applyScale(options_.scale > 0 ? static_cast<float>(options_.scale) : std::max({xs, ys, 1.0f}));
+  // Key presses, for the shortcuts (keyPressed): installed before the ImGui backend, which calls it first.
+  glfwSetWindowUserPointer(window_, this);
+  glfwSetKeyCallback(window_, [](GLFWwindow* window, int key, int, int action, int mods) {
+    auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
+    if (action == GLFW_PRESS && key >= 0) editor->keyPresses_.emplace_back(key, mods);
+  });
   ImGui_ImplGlfw_InitForOpenGL(window_, true);
   // Files dropped on the window: kept for the next frame's UI (the only place the document changes).
   // The ImGui backend uses neither the window's user pointer nor the drop callback.
-  glfwSetWindowUserPointer(window_, this);
   glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
     auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
     for (int i = 0; i < count; ++i) editor->dropped_.push_back(paths[i]);
@@ -241,6 +246,11 @@ void Editor::frame() {
   }
   if (benchOrbit_) benchOrbitStep();
   ImGui::NewFrame();
+  // Presses whose key is up again at this frame's start: ImGui never saw them down (keyPressed).
+  missedKeys_.clear();
+  for (const auto& [key, mods] : keyPresses_)
+    if (key >= IM_ARRAYSIZE(io.KeysDown) || !io.KeysDown[key]) missedKeys_.emplace_back(key, mods);
+  keyPresses_.clear();
 
   syncInputs();
   pollCutout();

@@ -472,9 +472,12 @@ TEST(EditorMenus, EveryMenuCommandFromEveryStateKeepsTheEditorAlive) {
   }
 }
 
-// A real key press, as X delivers it (xdotool): press and release within one frame. Dear ImGui 1.86 keeps
-// only whether a key is down when a frame starts, and the editor waits for events between frames, so a quick
-// Ctrl+Z or Ctrl+Q was lost (found driving the cut-out tool with xdotool for issue 35). Ctrl+Q now quits.
+// A real key press, as X delivers it (xdotool): press and release often within one frame. Dear ImGui 1.86
+// keeps only whether a key is down when a frame starts, and the editor waits for events between frames, so a
+// quick Ctrl+Z or Ctrl+Q was often lost (found driving the cut-out tool with xdotool for issue 35: twice in a
+// row by hand). A smoke test of real keys: whether the press falls within one frame depends on timing, so it
+// does not reliably fail without the fix (with Editor::keyPressed reduced to ImGui's view it passed once on a
+// later try).
 TEST(EditorRealInput, AQuickCtrlQBetweenTwoFramesQuits) {
   TM_REQUIRE_XVFB();
   if (montage::test::runCommand("command -v xdotool >/dev/null 2>&1") != 0)
@@ -484,7 +487,7 @@ TEST(EditorRealInput, AQuickCtrlQBetweenTwoFramesQuits) {
   std::ofstream(project) << montage::test::demoProjectAbsolute().dump(2);
   // The editor without a script (frames on events, as a user's). Once its window is visible, a quick Ctrl+Q
   // with the pointer over it, then 5 s for it to exit; three tries, in case the first comes before the editor
-  // is up on a loaded machine (without the fix every quick press is lost, so all three fail).
+  // is up on a loaded machine.
   std::ofstream(dir + "/walk.sh")
       << "'" << TM_EDITOR_EXE << "' '" << project << "' --size 1280x800 &\n"
       << "pid=$!\n"

@@ -506,3 +506,32 @@ TEST(EditorDocument, MaskLockAndRelinkAreUndoableEdits) {
   doc.jumpTo(0);
   EXPECT_TRUE(doc.project().sameDocument(p));
 }
+
+// A mask written before the first save moves beside the project when it is saved (issue 35): the document
+// then names the moved file in its current state and in every undo step, without a step of its own.
+TEST(EditorDocument, RenamedMasksAreRenamedInEveryUndoStep) {
+  Project p = twoPhotos();
+  for (PhotoRef& ref : p.photos) ref.mask.clear();
+  Document doc(p);
+  doc.setPhotoMask(0, "/state/unsaved/a_mask.png");
+  doc.setPhotoMask(1, "/state/unsaved/b_mask.png");
+  doc.setColorLocked(1, true);
+  doc.undo();  // the lock can be redone
+  EXPECT_EQ(doc.masksNamed(), (std::set<std::string>{"/state/unsaved/a_mask.png", "/state/unsaved/b_mask.png"}));
+  const long revision = doc.revision();
+  doc.renameMasks({{"/state/unsaved/a_mask.png", "/project/masks/a_mask.png"},
+                   {"/state/unsaved/b_mask.png", "/project/masks/b_mask.png"}});
+  EXPECT_GT(doc.revision(), revision);
+  EXPECT_EQ(doc.history().size(), 3u) << "renaming is not an edit";
+  EXPECT_EQ(doc.project().photos[0].mask, "/project/masks/a_mask.png");
+  EXPECT_EQ(doc.project().photos[1].mask, "/project/masks/b_mask.png");
+  EXPECT_EQ(doc.masksNamed(), (std::set<std::string>{"/project/masks/a_mask.png", "/project/masks/b_mask.png"}));
+  doc.redo();
+  EXPECT_TRUE(doc.project().photos[1].colorLocked);
+  EXPECT_EQ(doc.project().photos[1].mask, "/project/masks/b_mask.png");
+  doc.jumpTo(1);
+  EXPECT_EQ(doc.project().photos[0].mask, "/project/masks/a_mask.png");
+  EXPECT_TRUE(doc.project().photos[1].mask.empty());
+  doc.jumpTo(0);
+  EXPECT_TRUE(doc.project().sameDocument(p));
+}

@@ -612,6 +612,42 @@ TEST(EditorCutout, StrokesDrawnWhileGrabCutRunsAreAllApplied) {
   EXPECT_GT(amber, 50) << "no busy band in the pane";
 }
 
+// Issue 35: "Use mask" on a project not saved yet writes the mask in a folder of the editor's own, not beside
+// the mesh (which may be a shared folder); the first save moves it beside the project, and every undo step
+// names the moved file.
+TEST(EditorCutout, AMaskOfAnUnsavedProjectMovesBesideItOnSave) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = test::tempDir("editor_cutout_unsaved");
+  const FlatTiger t = makeFlatTiger(dir);
+  fs::create_directories(dir + "/shared_mesh");
+  fs::copy_file(dir + "/cat.obj", dir + "/shared_mesh/cat.obj");
+  std::ostringstream script;
+  script << "wait_frames 2\nadd_photos \"" << dir << "/flat.png\"\nwait_frames 3\ntool cutout\nphoto 0\n"
+         << "cutout_mode rect 4 0\ndrag_photo 0 " << t.x0 << " " << t.y0 << " " << t.x1 << " " << t.y1
+         << "\nwait_cutout 120\nclick_button \"Use mask\"\nwait_frames 3\nstate unsaved.json\n"
+         << "save \"" << dir << "/project/p.json\"\nwait_frames 3\nstate saved.json\n"
+         << "tool point\nkey ctrl+z\nwait_frames 2\nkey ctrl+y\nwait_frames 3\nstate redone.json\nquit\n";
+  writeText(dir + "/s.txt", script.str());
+  std::string out;
+  ASSERT_EQ(runEditor(dir, "shared_mesh/cat.obj --script s.txt", &out), 0) << out;
+  const std::string unsavedMask = test::readJson(dir + "/unsaved.json")["photos"][0]["mask"];
+  ASSERT_FALSE(unsavedMask.empty());
+  EXPECT_FALSE(fs::exists(dir + "/shared_mesh/masks")) << "a mask was written beside the mesh";
+  EXPECT_EQ(unsavedMask.rfind(dir + "/state/", 0), 0u) << unsavedMask;
+  const json saved = test::readJson(dir + "/saved.json");
+  EXPECT_EQ(saved["photos"][0]["mask"], dir + "/project/masks/flat_mask.png");
+  EXPECT_TRUE(saved["photos"][0]["loaded"].get<bool>());
+  EXPECT_TRUE(fs::exists(dir + "/project/masks/flat_mask.png"));
+  EXPECT_FALSE(fs::exists(unsavedMask)) << "the temporary mask stayed";
+  EXPECT_FALSE(saved["modified"].get<bool>());
+  EXPECT_EQ(loadProject(dir + "/project/p.json").photos[0].mask, dir + "/project/masks/flat_mask.png");
+  // Undo and redo of "Use mask" name the moved file.
+  const json redone = test::readJson(dir + "/redone.json");
+  EXPECT_EQ(redone["photos"][0]["mask"], dir + "/project/masks/flat_mask.png");
+  EXPECT_TRUE(redone["photos"][0]["loaded"].get<bool>());
+  EXPECT_FALSE(fs::exists(dir + "/shared_mesh/masks"));
+}
+
 TEST(EditorSession, ColourBalanceLockAndBeforeAfter) {
   TM_REQUIRE_XVFB();
   const std::string dir = test::tempDir("editor_balance");

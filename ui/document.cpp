@@ -379,6 +379,43 @@ void Document::setPhotoMirror(int photo, bool mirror, int width) {
   });
 }
 
+void Document::renameMasks(const std::map<std::string, std::string>& moved) {
+  std::map<const Project*, std::shared_ptr<const Project>> renamed;  // each state once (steps share them)
+  std::vector<std::shared_ptr<const Project>> old;  // alive until the end: no address is reused meanwhile
+  auto rename = [&](std::shared_ptr<const Project>& state) {
+    if (!state) return;
+    old.push_back(state);
+    if (auto it = renamed.find(state.get()); it != renamed.end()) {
+      state = it->second;
+      return;
+    }
+    auto next = std::make_shared<Project>(*state);
+    for (PhotoRef& ref : next->photos)
+      if (auto m = moved.find(ref.mask); m != moved.end()) ref.mask = m->second;
+    renamed[state.get()] = next;
+    state = std::move(next);
+  };
+  const bool wasSaved = saved_ && saved_ == current_;
+  rename(current_);
+  for (UndoStep& step : history_) rename(step.before), rename(step.after);
+  if (groupBefore_) rename(groupBefore_);
+  if (saved_) rename(saved_);
+  if (wasSaved) saved_ = current_;
+  ++revision_;
+}
+
+std::set<std::string> Document::masksNamed() const {
+  std::set<std::string> masks;
+  auto add = [&](const std::shared_ptr<const Project>& state) {
+    if (state)
+      for (const PhotoRef& ref : state->photos)
+        if (!ref.mask.empty()) masks.insert(ref.mask);
+  };
+  add(current_);
+  for (const UndoStep& step : history_) add(step.before), add(step.after);
+  return masks;
+}
+
 void Document::setPhotoMask(int photo, const std::string& mask) {
   checkIndex("set mask", "photo", photo, current_->photos.size());
   apply((mask.empty() ? "Remove mask of photo " : "Set mask of photo ") + std::to_string(photo),

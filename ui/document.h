@@ -8,7 +8,9 @@
 // a snapshot cannot get an inverse wrong. Undo never stores pipeline outputs.
 #pragma once
 
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -106,6 +108,13 @@ class Document {
   // Points a photo, or the mesh, at another file (a moved or renamed one); everything else stays.
   void relinkPhoto(int photo, const std::string& path);
   void relinkMesh(const std::string& path);
+
+  // Files the document names that moved (a mask written beside an unsaved project, moved beside it when it
+  // is first saved): every photo mask named as a key of `moved` is renamed to its value, in the current
+  // state, in every undo step and in the saved state. Not an edit: no undo step; the revision changes.
+  void renameMasks(const std::map<std::string, std::string>& moved);
+  // Every photo mask the current state or an undo step names (absolute paths).
+  std::set<std::string> masksNamed() const;
 
   // Index of the feature point of `vertex` that has a position in `photo`, or -1.
   int pointAt(int vertex, int photo) const;

@@ -6,6 +6,7 @@
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
 #include <imgui.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -36,6 +37,10 @@ double now() {
 }  // namespace
 
 Editor::Editor(EditorOptions options) : options_(std::move(options)) {
+  sessionId_ = std::to_string(static_cast<long long>(getpid())) + "_" +
+               std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(
+                                  std::chrono::system_clock::now().time_since_epoch())
+                                  .count());
   autosaveClock_.setInterval(options_.autosaveSeconds);
   layout_ = loadLayout();
   savedLayout_ = layout_.toJson();
@@ -101,10 +106,15 @@ void Editor::initWindow() {
   float xs = 1, ys = 1;
   glfwGetWindowContentScale(window_, &xs, &ys);
   applyScale(options_.scale > 0 ? static_cast<float>(options_.scale) : std::max({xs, ys, 1.0f}));
+  // Key presses, for the shortcuts (keyPressed): installed before the ImGui backend, which calls it first.
+  glfwSetWindowUserPointer(window_, this);
+  glfwSetKeyCallback(window_, [](GLFWwindow* window, int key, int, int action, int mods) {
+    auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
+    if (action == GLFW_PRESS && key >= 0) editor->keyPresses_.emplace_back(key, mods);
+  });
   ImGui_ImplGlfw_InitForOpenGL(window_, true);
   // Files dropped on the window: kept for the next frame's UI (the only place the document changes).
   // The ImGui backend uses neither the window's user pointer nor the drop callback.
-  glfwSetWindowUserPointer(window_, this);
   glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
     auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
     for (int i = 0; i < count; ++i) editor->dropped_.push_back(paths[i]);
@@ -236,6 +246,11 @@ void Editor::frame() {
   }
   if (benchOrbit_) benchOrbitStep();
   ImGui::NewFrame();
+  // Presses whose key is up again at this frame's start: ImGui never saw them down (keyPressed).
+  missedKeys_.clear();
+  for (const auto& [key, mods] : keyPresses_)
+    if (key >= IM_ARRAYSIZE(io.KeysDown) || !io.KeysDown[key]) missedKeys_.emplace_back(key, mods);
+  keyPresses_.clear();
 
   syncInputs();
   pollCutout();

@@ -205,6 +205,12 @@ class Editor {
   void helpWindow();
   void modals();
   void shortcuts();
+  // Keyboard shortcuts: pressed this frame as ImGui sees it, or pressed and released again since the last
+  // frame (Dear ImGui 1.86 keeps only whether a key is down at the frame's start, so a quick Ctrl+Z between
+  // two slow frames was lost); the modifiers held with such a press count too.
+  bool keyPressed(int key) const;
+  bool ctrlHeld() const;
+  bool shiftHeld() const;
   void pollWorker();
   void autosaveTick();
   void syncInputs();  // load the mesh / photos the document names
@@ -312,6 +318,13 @@ class Editor {
   void cutoutRedo();
   bool applyCutoutMask();
   std::string newMaskPath(int photo) const;
+  // Where masks of a project not saved yet go: a folder of this editor session under editorStateDir(),
+  // moved beside the project when it is first saved (moveUnsavedMasks), never the mesh's or a photo's.
+  std::string unsavedMaskFolder() const;
+  // Before saving to `projectFile`: copies the masks the document names from unsavedMaskFolder() into the
+  // project's masks/ folder and renames them in the document (every undo step too); returns the copies'
+  // sources, removed once the save has succeeded.
+  std::vector<std::string> moveUnsavedMasks(const std::string& projectFile);
   void uploadBalanced(PhotoSlot& slot, int photo);
 
   // Camera feedback in the panes (editor_camera.cpp): wireframe and silhouette, residuals, outliers,
@@ -551,7 +564,10 @@ class Editor {
   std::string exportFormat_ = ".glb";
   std::vector<MissingFile> missing_;  // what the opened project names but is not there (relink offered)
   bool missingPopup_ = false;
-  std::vector<std::string> dropped_;  // files dropped on the window, handled in the next frame
+  std::vector<std::string> dropped_;             // files dropped on the window, handled in the next frame
+  std::vector<std::pair<int, int>> keyPresses_;  // GLFW key presses (key, mods) since the last frame
+  std::vector<std::pair<int, int>> missedKeys_;  // of those, released before the frame: ImGui did not see them
+  std::string sessionId_;  // this editor process (pid, start time): its unsaved-mask folder's name
 
   // Photos and the cut-out tool.
   CutoutSession cutout_;

@@ -156,8 +156,14 @@ bool Editor::saveTo(const std::string& path) {
   if (fs::path(target).extension().empty()) target += ".json";
   const std::string oldAutosave = autosavePath();
   try {
+    // Masks cut out before the first save move beside the project (editor_photos.cpp).
+    const std::vector<std::string> movedMasks = moveUnsavedMasks(target);
     Project copy = doc_.project();
     saveProject(copy, target);  // atomic: temporary file, fsync, rename
+    for (const std::string& mask : movedMasks) {
+      std::error_code ec;
+      fs::remove(mask, ec);  // best effort: the project names the copy now
+    }
     // An autosave still being written would land after this save and look like newer work.
     if (autosaveJob_.valid()) autosaveJob_.wait();
     doc_.markSaved(copy.file);

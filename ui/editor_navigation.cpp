@@ -30,10 +30,9 @@ void Editor::setViewPreset(ViewPreset preset) {
 }
 
 void Editor::navigationShortcuts() {
-  auto pressed = [](int key) { return ImGui::IsKeyPressed(key, false); };
-  const ImGuiIO& io = ImGui::GetIO();
+  auto pressed = [this](int key) { return keyPressed(key); };
   // Blender's numeric keypad, and Ctrl + 1/3/7 for keyboards without one (1-9 alone choose photos).
-  const bool ctrl = io.KeyCtrl;
+  const bool ctrl = ctrlHeld();
   if (pressed(GLFW_KEY_KP_1) || (ctrl && pressed(GLFW_KEY_1))) setViewPreset(ViewPreset::Front);
   if (pressed(GLFW_KEY_KP_3) || (ctrl && pressed(GLFW_KEY_3))) setViewPreset(ViewPreset::Right);
   if (pressed(GLFW_KEY_KP_7) || (ctrl && pressed(GLFW_KEY_7))) setViewPreset(ViewPreset::Top);

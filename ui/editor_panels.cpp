@@ -1008,12 +1008,27 @@ void Editor::modals() {
   }
 }
 
+bool Editor::keyPressed(int key) const {
+  if (ImGui::IsKeyPressed(key, false)) return true;
+  return std::any_of(missedKeys_.begin(), missedKeys_.end(), [&](const auto& k) { return k.first == key; });
+}
+
+bool Editor::ctrlHeld() const {
+  return ImGui::GetIO().KeyCtrl || std::any_of(missedKeys_.begin(), missedKeys_.end(),
+                                               [](const auto& k) { return (k.second & GLFW_MOD_CONTROL) != 0; });
+}
+
+bool Editor::shiftHeld() const {
+  return ImGui::GetIO().KeyShift || std::any_of(missedKeys_.begin(), missedKeys_.end(),
+                                                [](const auto& k) { return (k.second & GLFW_MOD_SHIFT) != 0; });
+}
+
 void Editor::shortcuts() {
   ImGuiIO& io = ImGui::GetIO();
   if (io.WantTextInput || ImGui::IsPopupOpen(nullptr, ImGuiPopupFlags_AnyPopupId)) return;
   navigationShortcuts();
-  const bool ctrl = io.KeyCtrl, shift = io.KeyShift;
-  auto pressed = [](int key) { return ImGui::IsKeyPressed(key, false); };
+  const bool ctrl = ctrlHeld(), shift = shiftHeld();
+  auto pressed = [this](int key) { return keyPressed(key); };
   if (ctrl) {
     if (pressed(GLFW_KEY_Z)) shift ? redo() : undo();
     if (pressed(GLFW_KEY_Y)) redo();

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
@@ -555,16 +556,43 @@ void Editor::cutoutRedo() {
 }
 
 std::string Editor::newMaskPath(int photo) const {
-  // Beside the project (its folder, or the mesh's while it is unsaved), in masks/; a new name each time,
-  // so that undo goes back to the previous file, which stays as it was.
+  // Beside the project, in masks/; while it is unsaved, in this session's own folder, which the first save
+  // moves beside it (never beside the mesh: that may be a shared folder). A new name each time, so that undo
+  // goes back to the previous file, which stays as it was.
   const Project& p = doc_.project();
-  const fs::path dir = fs::path(p.file.empty() ? p.mesh : p.file).parent_path() / "masks";
+  const fs::path dir = p.file.empty() ? fs::path(unsavedMaskFolder()) : fs::path(p.file).parent_path() / "masks";
   const std::string stem = fs::path(p.photos[photo].path).stem().string();
   for (int n = 1;; ++n) {
     const fs::path candidate = dir / (stem + (n == 1 ? "_mask.png" : "_mask_" + std::to_string(n) + ".png"));
     std::error_code ec;
     if (!fs::exists(candidate, ec)) return candidate.string();
   }
+}
+
+std::string Editor::unsavedMaskFolder() const {
+  return (fs::path(editorStateDir()) / "unsaved-masks" / sessionId_).string();
+}
+
+std::vector<std::string> Editor::moveUnsavedMasks(const std::string& projectFile) {
+  const fs::path from = fs::path(unsavedMaskFolder()).lexically_normal();
+  const fs::path dir = fs::path(projectFile).parent_path() / "masks";
+  std::map<std::string, std::string> moved;
+  std::vector<std::string> sources;
+  for (const std::string& mask : doc_.masksNamed()) {
+    std::error_code ec;
+    if (fs::path(mask).parent_path().lexically_normal() != from || !fs::exists(mask, ec)) continue;
+    fs::create_directories(dir, ec);
+    TM_CHECK(!ec, "save: cannot create the masks folder " + dir.string() + ": " + ec.message());
+    const std::string stem = fs::path(mask).stem().string();
+    fs::path to = dir / fs::path(mask).filename();
+    for (int n = 2; fs::exists(to, ec); ++n) to = dir / (stem + "_" + std::to_string(n) + ".png");
+    fs::copy_file(mask, to, ec);
+    TM_CHECK(!ec, "save: cannot copy the mask " + mask + " to " + to.string() + ": " + ec.message());
+    moved[mask] = to.string();
+    sources.push_back(mask);
+  }
+  if (!moved.empty()) doc_.renameMasks(moved);
+  return sources;
 }
 
 bool Editor::applyCutoutMask() {
@@ -580,7 +608,8 @@ bool Editor::applyCutoutMask() {
     const std::string path = newMaskPath(photo);
     writeMaskPng(mask, path);
     if (!edit([&] { doc_.setPhotoMask(photo, path); })) return false;
-    setStatus("mask of photo " + std::to_string(photo) + " written to " + path);
+    setStatus("mask of photo " + std::to_string(photo) + " written to " + path +
+              (p.file.empty() ? " (moved beside the project when you save it)" : ""));
     return true;
   } catch (const Error& e) {
     reportError(e.what());

@@ -668,7 +668,9 @@ void Editor::writeState(const std::string& path) const {
                      {"redo_steps", cutout_.redo.size()},
                      {"queued", cutout_.queue.size()},
                      {"steps_applied", cutout_.stepsApplied},
-                     {"undo_label", cutoutOwnsUndo() ? cutoutUndoLabel() : ""}};
+                     {"undo_label", cutoutOwnsUndo() ? cutoutUndoLabel() : ""},
+                     {"drawing", cutout_.drawing}};
+  state["dragging_point"] = dragging_;
   if (result_ && result_->balanced) {
     json transforms = json::array();
     for (size_t i = 0; i < result_->balanced->balance.transforms.size(); ++i) {

@@ -410,6 +410,9 @@ int cmdMask(const MaskArgs& args) {
 int main(int argc, char** argv) {
   montage::tuneProcess(argv);
   CLI::App app{"TextureMontage: texture a mesh from a few photos (Zhou et al. 2005)", "montage"};
+  app.set_version_flag("--version", "montage " TM_VERSION " (project format versions " +
+                                        std::to_string(Project::kOldestVersion) + " to " +
+                                        std::to_string(Project::kVersion) + ")");
   app.require_subcommand(1);
 
   std::string infoFile;

@@ -176,6 +176,10 @@ TEST(ModelRoundTrip, SpotObj) {
   int files = 0;
   for (const auto& e : fs::directory_iterator(dir)) files += e.is_regular_file() ? 1 : 0;
   EXPECT_EQ(files, 3) << "no temporary files may be left behind";
+  // Consumers multiply the texture by Kd: a textured material's is white (three.js showed it darkened by 0.7).
+  std::ifstream mtl(dir + "/spot.mtl");
+  const std::string text((std::istreambuf_iterator<char>(mtl)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("Kd 1 1 1\n"), std::string::npos) << text;
 
   const TexturedModel back = loadModel(dir + "/spot.obj");
   ASSERT_EQ(back.mesh.numFaces(), model.mesh.numFaces());

@@ -1051,10 +1051,13 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
   std::string mtl = "# TextureMontage\n";
   for (size_t m = 0; m < materialNames.size(); ++m) {
     const Material* mat = m < model.materials.size() ? &model.materials[m] : nullptr;
-    const Vec3f kd = mat ? mat->diffuse : kDefaultDiffuse;
+    // Consumers multiply map_Kd by Kd (the MTL format, three.js, Blender): a textured material's Kd is white, as the
+    // GLB's base colour factor is; the diffuse colour is for untextured faces.
+    const bool textured = mat && hasTexture(model, static_cast<int>(m));
+    const Vec3f kd = textured ? Vec3f(1, 1, 1) : mat ? mat->diffuse : kDefaultDiffuse;
     mtl += "\nnewmtl " + materialNames[m] + "\nKa 0 0 0\nKd " + number(kd[0]) + " " + number(kd[1]) + " " +
            number(kd[2]) + "\nKs 0 0 0\nd 1\nillum 1\n";
-    if (mat && hasTexture(model, static_cast<int>(m))) {
+    if (textured) {
       std::string png;
       for (const auto& [data, file] : written)
         if (data == mat->texture.data) png = file;

@@ -462,7 +462,7 @@ TEST(SynthDeform, ClicksNameTheUndeformedVerticesAndLandAtTheDeformedProjections
   ASSERT_EQ(scene.photographed->numVertices(), mesh->numVertices());
   ASSERT_EQ(scene.photographed->numFaces(), mesh->numFaces());
   EXPECT_EQ(scene.featureVertices, farthestPointSamples(*mesh, 60, o.seed));  // sampled on the undeformed mesh
-  ASSERT_GE(scene.project.points.size(), 40u);
+  ASSERT_GE(scene.project.points.size(), 25u);                                // of 60 sampled: the turtle in 3 views
   int far = 0, clicks = 0;
   for (const FeaturePoint& p : scene.project.points) {
     ASSERT_GE(p.vertex, 0);

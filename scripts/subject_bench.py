@@ -44,6 +44,32 @@ def run(cmd, lock):
     return time.monotonic() - start
 
 
+def error_table(rows, out):
+    """Where the error goes, per scene: the share of the result's squared colour error on the samples it inpaints
+    (from its PSNR over all and over photo-covered samples), the worst share of a photo's faces the warp folds,
+    and the leave-one-out error of the photos' maps at their clicks (report.json's subjects: held_out_median_px,
+    the median over the photos), against the camera's median residual (the displacement the warp carries)."""
+    print("\n| mesh | deform | features | noise px | squared error on inpainted samples % | warp folds % (worst photo) "
+          "| click held out: median px | camera residual: median px |")
+    print("|---|---|---|---|---|---|---|---|")
+    for row in rows:
+        r = row["result"]
+        mse_all, mse_cov = 10 ** (-r["psnr_all"] / 10), 10 ** (-r["psnr_covered"] / 10)
+        share_cov = r["covered_samples"] / max(1, r["samples"])
+        inpainted_error = max(0.0, 1 - share_cov * mse_cov / mse_all)
+        d = os.path.join(out, f"{row['mesh']}_{row['kind']}_{row['features']}_{row['noise']:g}")
+        with open(d + "/out/report.json") as f:
+            report = json.load(f)
+        subjects = [c for st in report.get("stages", []) if st["stage"] == "projection"
+                    for c in st.get("counts", {}).get("subjects", [])]
+        folds = max([c["warp_folds"] / max(1, c["warp_faces"]) for c in subjects] or [0])
+        held = sorted(c["held_out_median_px"] for c in subjects if c.get("held_out_median_px", -1) >= 0)
+        resid = sorted(c.get("residual_median_px", 0) for c in report.get("cameras", []))
+        med = lambda v: v[len(v) // 2] if v else float("nan")
+        print(f"| {row['mesh']} | {row['kind']} | {row['features']} | {row['noise']:g} | {100 * inpainted_error:.0f} "
+              f"| {100 * folds:.1f} | {med(held):.1f} | {med(resid):.1f} |")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--montage", default="build/bin/montage")
@@ -58,7 +84,13 @@ def main():
     ap.add_argument("--samples", default="100000")
     ap.add_argument("--full", action="store_true")
     ap.add_argument("--lock", action="store_true")
+    ap.add_argument("--errors", action="store_true",
+                    help="only print where the error goes, from OUT/results.json and the runs' reports")
     a = ap.parse_args()
+    if a.errors:
+        with open(os.path.join(a.out, "results.json")) as f:
+            error_table(json.load(f), a.out)
+        return
     if a.full:
         a.features = "60,120,240"
     rows = []
@@ -126,6 +158,7 @@ def main():
                           f"| {r['flipped_triangles']} | {wall:.1f} |", flush=True)
     with open(os.path.join(a.out, "results.json"), "w") as f:
         json.dump(rows, f, indent=1)
+    error_table(rows, a.out)
     la = os.getloadavg()
     print(f"\n{len(rows)} scenes in {time.monotonic() - start:.0f} s; load average: {la[0]:.2f} {la[1]:.2f} {la[2]:.2f}")
 

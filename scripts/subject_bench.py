@@ -15,9 +15,11 @@ holds what no photo sees (it cannot map it). Covered figures are over each model
 Usage: scripts/subject_bench.py [--montage build/bin/montage] [--data ../shared/data] [--out /tmp/tm_subject_bench]
        [--meshes spot,bob,turtle] [--kinds bend,twist,scale,limbs,turn] [--features 120] [--noise 0,1]
        [--views 3] [--size 1024] [--full] [--lock]
-The default (3 meshes, 5 kinds, 120 features, exact and 1 px clicks: 30 scenes) takes about 5-8 minutes on the
-2-core machine; --full is the whole sweep, features 60,120,240 (90 scenes, about 3 x as long).
---lock runs each command under the machine-wide build lock (flock /tmp/tm-build.lock).
+The default (3 meshes, 5 kinds, 120 features, exact and 1 px clicks: 30 scenes) takes about 3 minutes on the
+2-core machine; --full is the whole sweep, features 60,120,240 (90 scenes, about 3 x as long). Run it whole under
+the machine-wide build lock (flock /tmp/tm-build.lock scripts/subject_bench.py); --lock instead takes the lock for
+each command, which lets other jobs in between (the default sweep then took 25 minutes on a busy day), and its
+"run s" then includes the wait.
 """
 import argparse
 import json
@@ -46,10 +48,11 @@ def run(cmd, lock):
 
 def error_table(rows, out):
     """Where the error goes, per scene: the share of the result's squared colour error on the samples it inpaints
-    (from its PSNR over all and over photo-covered samples), the worst share of a photo's faces the warp folds,
+    (from its PSNR over all and over photo-covered samples), the worst share of a photo's faces its warp folds
+    (of the photos that took the warp),
     and the leave-one-out error of the photos' maps at their clicks (report.json's subjects: held_out_median_px,
     the median over the photos), against the camera's median residual (the displacement the warp carries)."""
-    print("\n| mesh | deform | features | noise px | squared error on inpainted samples % | warp folds % (worst photo) "
+    print("\n| mesh | deform | features | noise px | squared error on inpainted samples % | chosen warp folds % (worst photo) "
           "| click held out: median px | camera residual: median px |")
     print("|---|---|---|---|---|---|---|---|")
     for row in rows:
@@ -62,7 +65,7 @@ def error_table(rows, out):
             report = json.load(f)
         subjects = [c for st in report.get("stages", []) if st["stage"] == "projection"
                     for c in st.get("counts", {}).get("subjects", [])]
-        folds = max([c["warp_folds"] / max(1, c["warp_faces"]) for c in subjects] or [0])
+        folds = max([c["warp_folds"] / max(1, c["warp_faces"]) for c in subjects if c["map"] == "camera and warp"] or [0])
         held = sorted(c["held_out_median_px"] for c in subjects if c.get("held_out_median_px", -1) >= 0)
         resid = sorted(c.get("residual_median_px", 0) for c in report.get("cameras", []))
         med = lambda v: v[len(v) // 2] if v else float("nan")

@@ -21,6 +21,7 @@
 #include "base/fileio.h"
 #include "base/process_tuning.h"
 #include "base/util.h"
+#include "bench/deform.h"
 #include "bench/eval.h"
 #include "bench/render.h"
 #include "bench/synth.h"
@@ -141,6 +142,7 @@ TexturedModel loadTruth(const std::string& meshPath, const std::string& textureP
 struct SynthArgs {
   std::string mesh, texture, out;
   SynthOptions options;
+  std::string deform;  // --deform KIND[:AMOUNT], parsed into options.deform
 };
 
 int cmdSynth(const SynthArgs& args) {
@@ -149,6 +151,8 @@ int cmdSynth(const SynthArgs& args) {
   TM_CHECK(!fs::exists(args.out, ec) || fs::is_directory(args.out, ec),
            located(args.out, "synth: --out: is a file, not a folder"));
   auto mesh = requireUsable(loadMesh(args.mesh));
+  SynthOptions options = args.options;
+  if (!args.deform.empty()) options.deform = parseDeformation(args.deform);
   SurfaceColor color;
   std::shared_ptr<TexturedModel> truth;
   if (!args.texture.empty()) {
@@ -158,11 +162,12 @@ int cmdSynth(const SynthArgs& args) {
     color = meshPattern(*mesh);
   }
   ProgressLine line;
-  SynthScene scene = synthesize(*mesh, fs::absolute(args.mesh).lexically_normal().string(), color, args.options,
+  SynthScene scene = synthesize(*mesh, fs::absolute(args.mesh).lexically_normal().string(), color, options,
                                 [&](double f) { line("synth", f, "rendering views"); });
   line.finish();
   writeSynthScene(scene, args.out);
-  std::printf("wrote %zu photos, %zu feature points (of %zu sampled) to %s\n", scene.photos.size(),
+  std::printf("wrote %zu photos%s, %zu feature points (of %zu sampled) to %s\n", scene.photos.size(),
+              scene.photographed ? (" of the mesh deformed (" + options.deform.text() + ", deformed.obj)").c_str() : "",
               scene.project.points.size(), scene.featureVertices.size(), args.out.c_str());
   return 0;
 }
@@ -180,22 +185,37 @@ int cmdEval(const std::string& resultPath, const std::string& truthMesh, const s
                                    (result.textured() ? "texture coordinates but no material with a texture image"
                                                       : "no texture coordinates") +
                                    "): there is nothing to evaluate; give the model.obj or model.glb of a run"));
-  TexturedModel truth = loadTruth(truthMesh, truthTexture);
+  // Without a texture the truth is synth's solid pattern of the truth mesh.
+  std::unique_ptr<Mesh> patterned;
+  TexturedModel truth;
   EvalOptions options;
   options.samples = samples;
+  if (truthTexture.empty()) {
+    patterned = requireUsable(loadMesh(truthMesh));
+    truth.mesh = *patterned;
+    options.truthColor = meshPattern(*patterned);
+  } else {
+    truth = loadTruth(truthMesh, truthTexture);
+  }
   EvalResult eval = evaluate(result, truth, options);
   std::printf("%s", eval.summary().c_str());
   nlohmann::json json = eval.toJson();
   if (!oracleDir.empty()) {
     // The projection oracle: the scene textured through its true cameras (its ceiling).
     const Project project = loadProject((fs::path(oracleDir) / "project.json").string());
-    const std::vector<PhotoCamera> cameras = readSynthCameras((fs::path(oracleDir) / "cameras.json").string());
+    const std::string camerasPath = (fs::path(oracleDir) / "cameras.json").string();
+    const std::vector<PhotoCamera> cameras = readSynthCameras(camerasPath);
+    // A scene of the mesh deformed: the true correspondence, through the deformed mesh (bench/deform.h).
+    const std::string deformed = readSynthDeformedMesh(camerasPath);
     ProgressLine line;
     JobControl job(nullptr, [&](StageId s, double f, const std::string& what) { line(stageName(s), f, what); });
-    const PipelineResult oracle = projectionOracle(project, cameras, job);
+    const PipelineResult oracle = deformed.empty() ? projectionOracle(project, cameras, job)
+                                                   : deformedProjectionOracle(project, cameras, deformed, job);
     line.finish();
     const EvalResult o = evaluate(*oracle.model, truth, options);
-    std::printf("projection oracle (true cameras of %s):\n", oracleDir.c_str());
+    std::printf("%s (true cameras of %s):\n",
+                deformed.empty() ? "projection oracle" : "true correspondence (the photos show the mesh deformed)",
+                oracleDir.c_str());
     std::printf("%s", o.summary().c_str());
     const double unseen = o.coverageInpainted + o.coverageEmpty;
     std::printf(
@@ -347,7 +367,7 @@ int cmdBench(BenchArgs args) {
   std::printf("bench: %s, %d views, %d features, %d px\n", args.mesh.c_str(), args.synth.views, args.synth.features,
               args.synth.size);
   auto t0 = Clock::now();
-  SynthArgs synth{args.mesh, args.texture, (fs::path(args.work) / "scene").string(), args.synth};
+  SynthArgs synth{args.mesh, args.texture, (fs::path(args.work) / "scene").string(), args.synth, {}};
   cmdSynth(synth);
   const double synthSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
   std::printf("  %-8s %8.3f s\n", "synth", synthSeconds);
@@ -437,6 +457,11 @@ int main(int argc, char** argv) {
       ->add_option("--click-noise", synth.options.clickNoisePx,
                    "standard deviation of a seeded Gaussian error added to every click, pixels")
       ->check(CLI::Range(0.0, 1000.0));
+  synthCmd
+      ->add_option("--deform", synth.deform,
+                   "photos of the mesh deformed (another subject with a known truth), clicks on the mesh: "
+                   "bend, twist, scale, limbs or turn, with :AMOUNT (default 1; scale 1.3, scale:1 = none)")
+      ->type_name("KIND[:AMOUNT]");
   synthCmd->add_option("--out", synth.out, "output folder")->required();
 
   std::string evalResult, evalTruth, evalTexture, evalJson;
@@ -444,7 +469,8 @@ int main(int argc, char** argv) {
   auto* evalCmd = app.add_subcommand("eval", "Compare a textured result with the ground truth");
   evalCmd->add_option("--result", evalResult, "result model (.obj or .glb)")->required();
   evalCmd->add_option("--truth", evalTruth, "ground-truth mesh with UVs")->required();
-  evalCmd->add_option("--truth-texture", evalTexture, "ground-truth texture")->required();
+  evalCmd->add_option("--truth-texture", evalTexture,
+                      "ground-truth texture (default: synth's solid pattern of --truth)");
   evalCmd->add_option("--json", evalJson, "also write the figures as JSON");
   evalCmd->add_option("--samples", evalSamples, "surface samples")->check(CLI::Range(100, 100000000));
   std::string evalOracle;

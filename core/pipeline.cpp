@@ -14,6 +14,7 @@
 
 #include "base/hash.h"
 #include "base/util.h"
+#include "bench/deform.h"
 #include "geometry/predicates.h"
 #include "image/cutout.h"
 #include "io/mesh_io.h"
@@ -1206,6 +1207,26 @@ PipelineResult projectionOracle(const Project& project, const std::vector<PhotoC
   result.stages.push_back({StageId::Bake, false, secondsSince(start), {}});
   result.baked = baked;
   result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
+  return result;
+}
+
+PipelineResult deformedProjectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
+                                        const std::string& photographedMesh, const JobControl& job) {
+  const auto rest = requireUsable(loadMesh(project.mesh));
+  const auto shown = requireUsable(loadMesh(photographedMesh));
+  TM_CHECK(shown->numVertices() == rest->numVertices() && shown->numFaces() == rest->numFaces(),
+           located(photographedMesh, std::to_string(shown->numVertices()) + " vertices and " +
+                                         std::to_string(shown->numFaces()) + " faces: not a deformed copy of " +
+                                         project.mesh + " (" + std::to_string(rest->numVertices()) + " and " +
+                                         std::to_string(rest->numFaces()) + ")"));
+  std::vector<Vec3> positions(shown->numVertices());
+  for (int v = 0; v < shown->numVertices(); ++v) positions[v] = shown->position(v);
+  Project deformed = project;
+  deformed.mesh = photographedMesh;
+  PipelineResult result = projectionOracle(deformed, cameras, job);
+  auto model = std::make_shared<TexturedModel>(*result.model);
+  moveToRest(*model, *withPositions(*rest, positions), *rest);
+  result.model = model;
   return result;
 }
 

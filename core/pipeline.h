@@ -284,6 +284,13 @@ class Pipeline {
 // them. The covered PSNR of its model is the ceiling of any result on that scene.
 PipelineResult projectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
                                 const JobControl& job = {});
+// The oracle of a scene whose photos show a deformed copy of the project's mesh (`montage synth --deform`: the
+// same vertex ids and faces, its file `photographedMesh`): the true correspondence. projectionOracle on the
+// deformed mesh (projection through the true cameras, visibility from its z-buffer), then every point of its model
+// moved to the same surface point of the project's mesh (bench/deform's moveToRest): the undeformed mesh textured
+// by where each of its points lands in the photos.
+PipelineResult deformedProjectionOracle(const Project& project, const std::vector<PhotoCamera>& cameras,
+                                        const std::string& photographedMesh, const JobControl& job = {});
 
 // Guidance to full coverage (mapping/coverage.h) over a result's final mapping, its cameras and views;
 // an empty report (mapped share 0, no regions) when the result has no mapping.

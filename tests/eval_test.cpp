@@ -1,6 +1,5 @@
 // Tests of the evaluation (core/eval.h): self-evaluation is perfect, wrong colours, flipped UVs,
 // stretch and seams are measured, and the result's face order does not matter.
-#include "io/mesh_io.h"
 #include "bench/eval.h"
 
 #include <algorithm>
@@ -10,9 +9,13 @@
 #include <random>
 #include <set>
 
+#include "bench/synth.h"
 #include "geometry/mesh.h"
-#include "io/model.h"
 #include "image/photo.h"
+#include "io/mesh_io.h"
+#include "io/model.h"
+#include "mapping/camera.h"
+#include "pipeline.h"
 #include "test_support.h"
 
 namespace montage {
@@ -384,6 +387,37 @@ TEST(Eval, RejectsInconsistentModels) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("result: uv"), std::string::npos) << e.what();
   }
+}
+
+// The true-correspondence oracle of a deformed scene (`montage eval --oracle` of `synth --deform`) on a scene whose
+// deformation is the identity (scale:1) is the projection oracle.
+TEST(EvalOracle, TheDeformedOracleOfAnUndeformedSceneIsTheProjectionOracle) {
+  const std::string obj = test::testDataDir() + "/turtle.obj";
+  const auto mesh = requireUsable(loadMesh(obj));
+  SynthOptions o;
+  o.views = 3;
+  o.features = 30;
+  o.size = 384;
+  o.deform = parseDeformation("scale:1");
+  const std::string dir = test::tempDir("eval_deformed_oracle");
+  writeSynthScene(synthesize(*mesh, obj, meshPattern(*mesh), o), dir);
+  const Project project = loadProject(dir + "/project.json");
+  const std::vector<PhotoCamera> cameras = readSynthCameras(dir + "/cameras.json");
+  const std::string deformed = readSynthDeformedMesh(dir + "/cameras.json");
+  ASSERT_FALSE(deformed.empty());
+  const PipelineResult plain = projectionOracle(project, cameras);
+  const PipelineResult moved = deformedProjectionOracle(project, cameras, deformed);
+  TexturedModel truth;
+  truth.mesh = *mesh;
+  EvalOptions eo;
+  eo.samples = 40000;
+  eo.truthColor = meshPattern(*mesh);
+  const EvalResult a = evaluate(*plain.model, truth, eo), b = evaluate(*moved.model, truth, eo);
+  std::printf("projection oracle %.2f dB covered, %.1f%% inpainted; through deformed.obj %.2f dB, %.1f%%\n",
+              a.psnrCovered, 100 * a.coverageInpainted, b.psnrCovered, 100 * b.coverageInpainted);
+  EXPECT_GT(a.psnrCovered, 18);  // the pattern at 384 px: 21.4 dB; a wrong map scores about 8
+  EXPECT_NEAR(b.psnrCovered, a.psnrCovered, 0.1);
+  EXPECT_NEAR(b.coveragePhoto, a.coveragePhoto, 0.002);
 }
 
 }  // namespace

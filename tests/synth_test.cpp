@@ -423,5 +423,79 @@ TEST(Synth, SolidPatternOnAMeshWithoutUvs) {
   }
 }
 
+// ---- Deformed scenes: photos of another subject with a known truth (issue 33) ----
+
+TEST(SynthDeform, KindsMoveTheMeshAndScaleOneIsTheIdentity) {
+  const auto mesh = requireUsable(loadMesh(test::testDataDir() + "/turtle.obj"));
+  Vec3 lo, hi;
+  mesh->bounds(lo, hi);
+  const double diagonal = (hi - lo).norm();
+  for (const char* kind : {"bend", "twist", "scale", "limbs", "turn"}) {
+    SCOPED_TRACE(kind);
+    const std::vector<Vec3> moved = deformPositions(*mesh, parseDeformation(kind));
+    ASSERT_EQ(int(moved.size()), mesh->numVertices());
+    double most = 0;
+    for (int v = 0; v < mesh->numVertices(); ++v) most = std::max(most, (moved[v] - mesh->position(v)).norm());
+    EXPECT_GT(most, 0.05 * diagonal);
+    EXPECT_LT(most, diagonal);
+  }
+  for (const char* none : {"scale:1", "bend:0", "turn:0"}) {
+    const std::vector<Vec3> same = deformPositions(*mesh, parseDeformation(none));
+    for (int v = 0; v < mesh->numVertices(); v += 13) EXPECT_LT((same[v] - mesh->position(v)).norm(), 1e-12) << none;
+  }
+  EXPECT_EQ(parseDeformation("limbs:0.5").text(), "limbs:0.5");
+  EXPECT_NE(test::errorOf([] { parseDeformation("curl"); }).find("unknown kind"), std::string::npos);
+  EXPECT_NE(test::errorOf([] { parseDeformation("bend:x"); }).find("not a number"), std::string::npos);
+  EXPECT_NE(test::errorOf([] { parseDeformation("scale:0"); }).find("> 0"), std::string::npos);
+}
+
+TEST(SynthDeform, ClicksNameTheUndeformedVerticesAndLandAtTheDeformedProjections) {
+  const std::string obj = test::testDataDir() + "/turtle.obj";
+  const auto mesh = requireUsable(loadMesh(obj));
+  SynthOptions o;
+  o.views = 3;
+  o.features = 60;
+  o.size = 384;
+  o.deform = parseDeformation("limbs");
+  const SynthScene scene = synthesize(*mesh, obj, meshPattern(*mesh), o);
+  ASSERT_TRUE(scene.photographed);
+  ASSERT_EQ(scene.photographed->numVertices(), mesh->numVertices());
+  ASSERT_EQ(scene.photographed->numFaces(), mesh->numFaces());
+  EXPECT_EQ(scene.featureVertices, farthestPointSamples(*mesh, 60, o.seed));  // sampled on the undeformed mesh
+  ASSERT_GE(scene.project.points.size(), 25u);                                // of 60 sampled: the turtle in 3 views
+  int far = 0, clicks = 0;
+  for (const FeaturePoint& p : scene.project.points) {
+    ASSERT_GE(p.vertex, 0);
+    ASSERT_LT(p.vertex, mesh->numVertices());
+    for (const PhotoPoint& at : p.at) {
+      Vec2 shown, rest;
+      ASSERT_TRUE(scene.cameras[at.photo].project(scene.photographed->position(p.vertex), shown));
+      EXPECT_LT((shown - Vec2(at.x, at.y)).norm(), 1e-9);
+      scene.cameras[at.photo].project(mesh->position(p.vertex), rest);
+      far += (rest - shown).norm() > 2;
+      ++clicks;
+    }
+  }
+  EXPECT_GT(far, clicks / 5);  // the deformation moves many clicks away from the undeformed mesh's projections
+
+  const std::string dir = test::tempDir("synth_deform");
+  writeSynthScene(scene, dir);
+  const Project project = loadProject(dir + "/project.json");
+  EXPECT_TRUE(fs::equivalent(project.mesh, obj)) << project.mesh;  // the clicks are for the mesh itself
+  const std::string deformed = readSynthDeformedMesh(dir + "/cameras.json");
+  EXPECT_TRUE(fs::equivalent(deformed, fs::path(dir) / "deformed.obj")) << deformed;
+  const auto reloaded = requireUsable(loadMesh(deformed));
+  ASSERT_EQ(reloaded->numVertices(), mesh->numVertices());
+  for (int v = 0; v < mesh->numVertices(); v += 17)
+    EXPECT_LT((reloaded->position(v) - scene.photographed->position(v)).norm(), 1e-9);
+  // A scene of the mesh itself records no deformation.
+  const std::string plain = test::tempDir("synth_plain");
+  o.deform = {};
+  o.features = 5;
+  writeSynthScene(synthesize(*mesh, obj, meshPattern(*mesh), o), plain);
+  EXPECT_EQ(readSynthDeformedMesh(plain + "/cameras.json"), "");
+  EXPECT_FALSE(fs::exists(plain + "/deformed.obj"));
+}
+
 }  // namespace
 }  // namespace montage

@@ -175,7 +175,7 @@ EvalResult evaluate(const TexturedModel& result, const TexturedModel& truth, con
       const auto q = truth.mesh.facePositions(f);
       const Vec3& b = sampleBary[i];
       const Vec3 p = b[0] * q[0] + b[1] * q[1] + b[2] * q[2];
-      const Vec3f want = truth.colorAt(f, b);
+      const Vec3f want = options.truthColor ? options.truthColor(f, b) : truth.colorAt(f, b);
       const ClosestPoint hit = bvh.closest(p);
       TM_ASSERT(hit.face >= 0);
       const Vec3f got = result.colorAt(hit.face, hit.bary);

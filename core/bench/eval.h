@@ -1,6 +1,7 @@
 // Evaluation of a textured result against a ground-truth textured mesh (`montage eval`).
 #pragma once
 
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -12,6 +13,9 @@ struct EvalOptions {
   int samples = 200000;  // random surface samples (area-weighted)
   unsigned seed = 7;
   int seamSamplesPerEdge = 4;
+  // The truth's colour (sRGB [0,1]) at a point of its face f with barycentrics b, instead of its texture (a solid
+  // pattern, e.g. synth's meshPattern of the truth's mesh); empty = truth.colorAt.
+  std::function<Vec3f(int face, const Vec3& bary)> truthColor;
 };
 
 struct EvalResult {

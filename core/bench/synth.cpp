@@ -24,6 +24,7 @@
 #include "geometry/mesh.h"
 #include "image/codec.h"
 #include "image/color.h"
+#include "io/mesh_io.h"
 #include "mapping/camera.h"
 
 namespace fs = std::filesystem;
@@ -291,7 +292,7 @@ std::vector<int> farthestPointSamples(const Mesh& mesh, int count, unsigned seed
   return samples;
 }
 
-SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const SurfaceColor& color,
+SynthScene synthesize(const Mesh& restMesh, const std::string& meshPath, const SurfaceColor& color,
                       const SynthOptions& options, const std::function<void(double)>& progress) {
   const std::string where = "synthesize";
   auto fail = [&](const std::string& field, const std::string& reason) {
@@ -309,10 +310,14 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
   if (!(options.clickNoisePx >= 0 && options.clickNoisePx <= options.size / 4.0))
     throw fail("clickNoisePx", "must be in [0, size/4] pixels (got " + std::to_string(options.clickNoisePx) + ")");
   if (!color) throw fail("color", "no surface colour function given");
-  if (mesh.numFaces() == 0) throw fail(meshPath.empty() ? "mesh" : meshPath, "the mesh has no faces");
+  if (restMesh.numFaces() == 0) throw fail(meshPath.empty() ? "mesh" : meshPath, "the mesh has no faces");
 
   SynthScene scene;
   scene.options = options;
+  // What the photos show: the mesh, or its deformed copy (same faces, so `color` reads the undeformed place).
+  if (options.deform.kind != DeformKind::None)
+    scene.photographed = withPositions(restMesh, deformPositions(restMesh, options.deform));
+  const Mesh& mesh = scene.photographed ? *scene.photographed : restMesh;
 
   // Bounding sphere: box centre, radius to the farthest vertex used by a face.
   std::vector<char> used(mesh.numVertices(), 0);
@@ -341,7 +346,7 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
   const double borderSq = options.borderPx * options.borderPx;
 
   const std::vector<Vec3> normals = vertexNormals(mesh);
-  scene.featureVertices = farthestPointSamples(mesh, options.features, options.seed);
+  scene.featureVertices = farthestPointSamples(restMesh, options.features, options.seed);
   std::vector<std::vector<PhotoPoint>> seen(scene.featureVertices.size());
 
   const std::vector<Vec3> dirs = viewDirections(options.views, options.seed);
@@ -530,6 +535,11 @@ void writeSynthScene(const SynthScene& scene, const std::string& dir) {
                               {"border_px", o.borderPx},
                               {"click_noise_px", o.clickNoisePx},
                               {"supersampling", 2}}}};
+  if (scene.photographed) {
+    saveMeshObj(*scene.photographed, (folder / "deformed.obj").string());
+    cameras["deformation"] = {
+        {"kind", kDeformKindNames[size_t(o.deform.kind)]}, {"amount", o.deform.amount}, {"mesh", "deformed.obj"}};
+  }
   writeFileAtomic((folder / "cameras.json").string(), cameras.dump(2) + "\n");
 }
 
@@ -583,6 +593,22 @@ std::vector<PhotoCamera> readSynthCameras(const std::string& path) {
     cameras.push_back(c);
   }
   return cameras;
+}
+
+std::string readSynthDeformedMesh(const std::string& path) {
+  std::ifstream in(path);
+  TM_CHECK(in, located(path, "cannot open the cameras file"));
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(located(path, std::string("invalid JSON: ") + e.what()));
+  }
+  if (!j.is_object() || !j.contains("deformation")) return {};
+  const nlohmann::json& d = j["deformation"];
+  TM_CHECK(d.is_object() && d.contains("mesh") && d["mesh"].is_string() && !d["mesh"].get<std::string>().empty(),
+           located(path, "deformation.mesh: missing or not a file name"));
+  return (fs::path(path).parent_path() / d["mesh"].get<std::string>()).lexically_normal().string();
 }
 
 }  // namespace montage

@@ -4,11 +4,13 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
 #include "base/common.h"
+#include "bench/deform.h"
 #include "geometry/raster.h"
 #include "io/project.h"
 
@@ -35,14 +37,18 @@ struct SynthOptions {
   // Standard deviation (pixels) of a seeded Gaussian error added to each click's x and y (clamped to the
   // photo): clicks as a careful user makes them. 0 = exact projections. The true cameras are unchanged.
   double clickNoisePx = 0;
+  // Photos of another subject with a known truth (issue 33): the photos show the mesh deformed (same vertex ids),
+  // coloured at each point's undeformed place, and the clicks name the undeformed mesh's vertices. None = the mesh.
+  Deformation deform;
 };
 
 struct SynthScene {
   SynthOptions options;         // the options the scene was made with
   std::vector<cv::Mat> photos;  // CV_8UC4 RGBA, alpha 0 = background; silhouette antialiased (2x2 supersampling)
   std::vector<Camera> cameras;
-  std::vector<int> featureVertices;  // in sampling order
-  Project project;                   // photos named photo_<k>.png, mesh path as given
+  std::vector<int> featureVertices;          // in sampling order
+  Project project;                           // photos named photo_<k>.png, mesh path as given
+  std::shared_ptr<const Mesh> photographed;  // the deformed copy the photos show (options.deform); null when none
 };
 
 // The ground-truth colour function of the surface: colour at a point of face f with barycentrics b.
@@ -51,7 +57,9 @@ using SurfaceColor = std::function<Vec3f(int face, const Vec3& bary)>;
 // The mesh must outlive the function.
 SurfaceColor meshPattern(const Mesh& mesh);
 
-// Renders and samples a scene. `color` gives the surface colour (texture lookup or solidPattern).
+// Renders and samples a scene. `color` gives the surface colour (texture lookup or solidPattern). With
+// options.deform the photos show the deformed copy, each point coloured by `color` at its face and barycentrics
+// (its undeformed place: the texture sticks to the surface); features are sampled on `mesh`.
 // Progress is reported through `progress(fraction)` when given.
 SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const SurfaceColor& color,
                       const SynthOptions& options, const std::function<void(double)>& progress = {});
@@ -60,12 +68,16 @@ SynthScene synthesize(const Mesh& mesh, const std::string& meshPath, const Surfa
 // edges) distances, starting from a vertex chosen by `seed`.
 std::vector<int> farthestPointSamples(const Mesh& mesh, int count, unsigned seed);
 
-// Writes photos, project.json and cameras.json (ground truth) into `dir`.
+// Writes photos, project.json and cameras.json (ground truth) into `dir`; a deformed scene also writes the
+// photographed mesh as deformed.obj and records it in cameras.json ("deformation": kind, amount, mesh).
 void writeSynthScene(const SynthScene& scene, const std::string& dir);
 
 struct PhotoCamera;
 // Reads the true cameras of a scene's cameras.json (one per photo, in photo order; no distortion).
 // Throws montage::Error naming the file and the field when it is missing or malformed.
 std::vector<PhotoCamera> readSynthCameras(const std::string& path);
+// The mesh a scene's photos show when it was made deformed (cameras.json's "deformation"), as a path beside the
+// cameras file; empty for a scene of the mesh itself.
+std::string readSynthDeformedMesh(const std::string& path);
 
 }  // namespace montage

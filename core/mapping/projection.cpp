@@ -631,7 +631,10 @@ SubjectChoice chooseSubjectMap(const Mesh& mesh, const TextureMap& paperMap, con
     c.why = "the paper's map covers as much with less stretch" + figures;
   } else {
     c.warp = true;
-    c.why = "camera and warp: no folds, " +
+    c.why = "camera and warp: " +
+            (c.warpFolds == 0 ? std::string("no folds, ")
+                              : fixedText(100 * foldShare, 1) + "% folds (at most " +
+                                    fixedText(100 * o.maxFoldShare, 1) + "% allowed), ") +
             std::string(c.paperFaces == 0                 ? "the paper's map covers nothing"
                         : c.warpStretch <= c.paperStretch ? "less stretch"
                         : c.warpArea >= c.paperArea       ? "it covers more"

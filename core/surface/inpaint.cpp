@@ -836,19 +836,25 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
         if (faceLabel[g] == -2) faceLabel[g] = -1;  // ring
       }
   }
+  // A hole that touches no mapped face is filled with one flat colour (below): it is not refined, and the
+  // bake gives it a sixteenth of the fallback density (a flat colour needs no texels; a mesh with no photos
+  // then bakes in a fraction of a second instead of refining and baking the whole surface at full density).
+  std::vector<char> flat(numRegions, 0);
   for (int r = 0; r < numRegions; ++r) {
     double density = fallback;
     if (res.regions[r].kind == InpaintRegion::Kind::Clone)
       density = cloneDensity[res.regions[r].clone];
     else if (ringArea[r] > 0 && ringPix[r] > 0)
       density = std::sqrt(ringPix[r] / ringArea[r]);
+    else if (ringArea[r] == 0)
+      flat[r] = 1, density = fallback / 16;
     if (opt.texelsPerUnit > 0) density = opt.texelsPerUnit;
     res.regions[r].texelsPerUnit = density * opt.detail;
   }
   std::vector<double> maxEdge(nf, kInf);
   for (int f = 0; f < nf; ++f) {
     const int r = faceLabel[f];
-    if (r < 0) continue;
+    if (r < 0 || flat[r]) continue;
     const double h = kEdgePerTexel / res.regions[r].texelsPerUnit;
     for (int v : mesh.faceVertices(f))
       for (int g : vertexFaces[v]) maxEdge[g] = std::min(maxEdge[g], h);
@@ -866,7 +872,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
          std::to_string(grow).substr(0, 4) + "x coarser");
   }
   for (int f = 0; f < nf; ++f)
-    if (faceLabel[f] < -1) maxEdge[f] = 1;  // unused
+    if (faceLabel[f] < -1 || maxEdge[f] == kInf) maxEdge[f] = 1e300;  // unused, or a flat hole's: not refined
   const auto refineStart = Clock::now();
   std::vector<int> baseVertex;
   res.refined = refineFaces(mesh, faceLabel, maxEdge, &baseVertex);

@@ -4,7 +4,8 @@
 // and share of the face width), the share of the outlined region mapped from the photo, folds, stretch and time;
 // then whether the auto decision holds when any one held-out landmark is added as a click, any click moved by 2 px,
 // or any click off the outline deleted.
-//   tm_subject_bench CASE [--data DIR (../shared/data)] [--out DIR: renders of both results] [--runs N (3)]
+//   tm_subject_bench CASE [--data DIR (../shared/data)] [--out DIR: renders of both results, and the case as a
+//                    project, DIR/case.project.json, for tm_edit_bench and the editor] [--runs N (3)]
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -69,6 +70,12 @@ int main(int argc, char** argv) {
     if (getloadavg(load, 3) < 0) load[0] = -1;
     std::printf("%s: %zu clicks, %zu held out, outline of %zu; face width %.0f px; load %.2f\n", argv[1],
                 c.clicks.size(), c.heldOut.size(), c.outline.size(), c.faceWidth, load[0]);
+    if (!out.empty()) {
+      fs::create_directories(out);
+      Project saved = c.project;
+      saveProject(saved, out + "/case.project.json");
+      std::printf("project: %s\n", saved.file.c_str());
+    }
     for (const bool camera : {true, false}) {
       Project project = c.project;
       project.options.cameraMode = camera ? CameraMode::Auto : CameraMode::Off;

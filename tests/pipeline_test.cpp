@@ -470,6 +470,37 @@ TEST(PipelineTiers, PreviewLooksLikeTheFinalBake) {
   }
 }
 
+// After a drag the preview does not retry the flattening of a large hole whose band folded in the last run and
+// which keeps nine in ten of its faces (SynthesisMemo::flatteningFailedNear): those LSCM retries were most of a
+// preview's cost while the first clicks leave large holes. The final tries again, and the two still look alike.
+TEST(PipelineTiers, ADraggedPreviewDoesNotRetryALargeHoleThatDidNotFlatten) {
+  Project project = loadProject(demoProject());
+  project.options.inpaintMode = InpaintMode::Structure;
+  Pipeline pipeline;
+  const PipelineResult first = pipeline.run(project, {}, Tier::Preview);
+  const InpaintRegion* big = nullptr;
+  for (const InpaintRegion& g : first.colors->inpaint.regions)
+    if (!big || g.unknowns > big->unknowns) big = &g;
+  ASSERT_NE(big, nullptr);
+  ASSERT_EQ(big->note, "synthesis: the hole and its band do not flatten without folds");  // tried, and failed
+  for (FeaturePoint& p : project.points)
+    for (PhotoPoint& at : p.at) at.x += 2;  // every click 2 px right: the holes' borders move a little
+  const PipelineResult dragged = pipeline.run(project, {}, Tier::Preview);
+  const PipelineResult draggedFinal = pipeline.run(project, {}, Tier::Final);
+  int near = 0, retried = 0;
+  for (const InpaintRegion& g : dragged.colors->inpaint.regions) {
+    if (g.unknowns < big->unknowns / 2) continue;  // the large holes
+    std::printf("dragged preview, %d unknowns: %s (%.3f s guidance)\n", g.unknowns, g.note.c_str(), g.guidanceSeconds);
+    near += g.note.find("nine in ten") != std::string::npos;
+    retried += g.note == "synthesis: the hole and its band do not flatten without folds";
+  }
+  EXPECT_GT(near, 0);  // the drag changed the large hole, and the memo knew it anyway
+  EXPECT_EQ(retried, 0);
+  for (const InpaintRegion& g : draggedFinal.colors->inpaint.regions)
+    EXPECT_EQ(g.note.find("nine in ten"), std::string::npos) << g.note;  // the final tries again
+  EXPECT_GT(expectPreviewLooksLikeFinal(dragged, draggedFinal, "dragged_structure"), 0);
+}
+
 // After edits the preview keeps syntheses whose charts still cover their holes (SynthesisMemo), while
 // the final synthesises them again (and, after edits, fits cameras, selects views and moves seams from
 // scratch where the preview started from the last run): the two must still look alike. The demo's one hole does not

@@ -93,14 +93,37 @@ void SynthesisMemo::store(std::shared_ptr<const SynthesisChart> chart) {
 bool SynthesisMemo::flatteningFailed(uint64_t ringsKey) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (failed_.count(ringsKey)) return true;
-  if (!previousFailed_.count(ringsKey)) return false;
-  failed_.insert(ringsKey);
+  const auto it = previousFailed_.find(ringsKey);
+  if (it == previousFailed_.end()) return false;
+  failed_.insert(*it);
   return true;
 }
 
-void SynthesisMemo::storeFailedFlattening(uint64_t ringsKey) {
+bool SynthesisMemo::flatteningFailedNear(const std::vector<uint64_t>& holeKey) {
+  std::vector<uint64_t> mine = holeKey;
+  std::sort(mine.begin(), mine.end());
   std::lock_guard<std::mutex> lock(mutex_);
-  failed_.insert(ringsKey);
+  for (const auto* list : {&failed_, &previousFailed_})
+    for (const auto& [key, faces] : *list) {
+      const size_t larger = std::max(mine.size(), faces->size());
+      if (10 * std::min(mine.size(), faces->size()) < 9 * larger) continue;
+      size_t shared = 0;
+      for (size_t i = 0, j = 0; i < mine.size() && j < faces->size();)
+        if (mine[i] < (*faces)[j]) ++i;
+        else if ((*faces)[j] < mine[i]) ++j;
+        else ++shared, ++i, ++j;
+      if (10 * shared < 9 * larger) continue;
+      failed_.emplace(key, faces);  // kept for the next run too
+      return true;
+    }
+  return false;
+}
+
+void SynthesisMemo::storeFailedFlattening(uint64_t ringsKey, const std::vector<uint64_t>& holeKey) {
+  auto faces = std::make_shared<std::vector<uint64_t>>(holeKey);
+  std::sort(faces->begin(), faces->end());
+  std::lock_guard<std::mutex> lock(mutex_);
+  failed_.emplace(ringsKey, std::move(faces));
 }
 
 void SynthesisMemo::endRun() {
@@ -176,6 +199,10 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     out.note = std::string(foldNote) + " (known from the last run)";
     return out;
   }
+  if (in.memo && in.reuseCharts && in.memo->flatteningFailedNear(holeKey)) {
+    out.note = std::string(foldNote) + " (a hole sharing nine in ten of its faces did not, in the last run)";
+    return out;
+  }
 
   // Flatten hole + band; when the flattening folds (a band wrapping around a limb is no disc), retry with
   // fewer rings.
@@ -216,7 +243,7 @@ SynthesisResult synthesiseHole(const SynthesisInput& in, const SynthesisOptions&
     uv.clear();
   }
   if (uv.empty()) {
-    if (in.memo) in.memo->storeFailedFlattening(ringsKey);
+    if (in.memo) in.memo->storeFailedFlattening(ringsKey, holeKey);
     out.note = foldNote;
     return out;
   }

@@ -87,14 +87,19 @@ class SynthesisMemo {
   // Holes whose band did not flatten (both tiers: the flattening depends on the rings' faces and their
   // positions only, `ringsKey`), so that the next run does not try the same LSCM solves again.
   bool flatteningFailed(uint64_t ringsKey);
-  void storeFailedFlattening(uint64_t ringsKey);
+  // The preview only: a hole whose band failed to flatten shares at least nine in ten of its faces with this
+  // one (`holeKey`: the faces' position hashes), both ways. A drag moves a large hole's border by a few faces;
+  // its band folds as it did, and the LSCM retries are most of the preview's cost. The final tries again.
+  bool flatteningFailedNear(const std::vector<uint64_t>& holeKey);
+  void storeFailedFlattening(uint64_t ringsKey, const std::vector<uint64_t>& holeKey);
   void endRun();  // the run is over: charts and failures it did not meet are dropped
 
  private:
   void keep(const std::shared_ptr<const SynthesisChart>& chart);  // marks it used in this run (mutex held)
   std::mutex mutex_;
   std::vector<std::shared_ptr<const SynthesisChart>> current_, previous_;
-  std::unordered_set<uint64_t> failed_, previousFailed_;
+  // Failed flattenings by rings key, with their holes' sorted face keys.
+  std::unordered_map<uint64_t, std::shared_ptr<const std::vector<uint64_t>>> failed_, previousFailed_;
 };
 
 struct SynthesisInput {
@@ -106,7 +111,8 @@ struct SynthesisInput {
   double texelsPerUnit = 0;                  // canvas density (texels per model unit)
   const JobControl* job = nullptr;           // cancellation (may be null): a cancel stops the shift-map call at once
   SynthesisMemo* memo = nullptr;             // syntheses of earlier runs (may be null)
-  bool reuseCharts = false;                  // memo: a kept chart covering the hole serves (the preview)
+  bool reuseCharts = false;                  // memo: a kept chart covering the hole serves, and a failed flattening of
+                                             // a hole sharing nine in ten faces (the preview)
   uint64_t photosKey = 0;                    // what identifies the photos' content (0: unknown, no chart reuse)
   // The faces around each vertex of `mesh` (may be null: made per call), for the band's rings.
   const VertexFaces* vertexFaces = nullptr;

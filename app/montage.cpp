@@ -457,6 +457,10 @@ int main(int argc, char** argv) {
       ->add_option("--click-noise", synth.options.clickNoisePx,
                    "standard deviation of a seeded Gaussian error added to every click, pixels")
       ->check(CLI::Range(0.0, 1000.0));
+  synthCmd->add_option("--k1", synth.options.k1, "radial lens distortion of every view (OpenCV's k1; e.g. -0.25 barrel)")
+      ->check(CLI::Range(-1.0, 1.0));
+  synthCmd->add_option("--k2", synth.options.k2, "radial lens distortion, fourth-order term (OpenCV's k2)")
+      ->check(CLI::Range(-1.0, 1.0));
   synthCmd
       ->add_option("--deform", synth.deform,
                    "photos of the mesh deformed (another subject with a known truth), clicks on the mesh: "

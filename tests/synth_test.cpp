@@ -19,6 +19,7 @@
 #include "io/mesh_io.h"
 #include "io/model.h"
 #include "io/project.h"
+#include "mapping/camera.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -495,6 +496,81 @@ TEST(SynthDeform, ClicksNameTheUndeformedVerticesAndLandAtTheDeformedProjections
   writeSynthScene(synthesize(*mesh, obj, meshPattern(*mesh), o), plain);
   EXPECT_EQ(readSynthDeformedMesh(plain + "/cameras.json"), "");
   EXPECT_FALSE(fs::exists(plain + "/deformed.obj"));
+}
+
+// Lens distortion (synth --k1 --k2): the photos are rendered through PhotoCamera's radial model, each click sits at its
+// vertex's distorted projection and shows the vertex's colour there (not at the pinhole projection), cameras.json
+// carries the terms, and a camera fit on one photo's exact clicks finds k1 again.
+TEST(SynthLens, DistortedPhotosShowEachClickAtItsDistortedProjectionAndTheFitFindsK1) {
+  const std::string obj = test::testDataDir() + "/turtle.obj";
+  const auto mesh = requireUsable(loadMesh(obj));
+  SynthOptions o;
+  o.views = 3;
+  o.features = 90;
+  o.size = 1024;
+  o.fovYDeg = 50;  // a wide lens, so that the turtle reaches where the distortion moves points by pixels
+  o.k1 = -0.2;
+  const SurfaceColor color = meshPattern(*mesh);
+  const SynthScene scene = synthesize(*mesh, obj, color, o);
+  std::vector<std::vector<int>> vertexFaces(mesh->numVertices());
+  for (int f = 0; f < mesh->numFaces(); ++f)
+    for (int v : mesh->faceVertices(f)) vertexFaces[v].push_back(f);
+  auto colourDistance = [&](int vertex, const cv::Mat& rgb, const Vec2& at) {
+    const Vec3f seen = sampleBilinear3(rgb, at.x(), at.y());
+    double best = std::numeric_limits<double>::infinity();
+    for (int f : vertexFaces[vertex]) {
+      Vec3 b = Vec3::Zero();
+      const auto c = mesh->faceVertices(f);
+      b[std::find(c.begin(), c.end(), vertex) - c.begin()] = 1;
+      best = std::min<double>(best, (color(f, b) - seen).cwiseAbs().maxCoeff());
+    }
+    return best;
+  };
+  std::vector<cv::Mat> rgb;
+  for (const auto& p : scene.photos) rgb.push_back(toFloatRgb(p));
+  int clicks = 0, moved = 0;
+  double worstMove = 0, errorAtLens = 0, errorAtPinhole = 0;
+  for (const FeaturePoint& p : scene.project.points)
+    for (const PhotoPoint& at : p.at) {
+      const PhotoCamera lens{scene.cameras[at.photo], o.k1, o.k2};
+      Vec2 distorted, pinhole;
+      ASSERT_TRUE(lens.project(mesh->position(p.vertex), distorted));
+      ASSERT_TRUE(scene.cameras[at.photo].project(mesh->position(p.vertex), pinhole));
+      EXPECT_LT((distorted - Vec2(at.x, at.y)).norm(), 1e-9);
+      ++clicks;
+      worstMove = std::max(worstMove, (distorted - pinhole).norm());
+      if ((distorted - pinhole).norm() < 1.5) continue;
+      ++moved;
+      errorAtLens += colourDistance(p.vertex, rgb[at.photo], distorted);
+      errorAtPinhole += colourDistance(p.vertex, rgb[at.photo], pinhole);
+    }
+  std::printf("%d clicks, %d moved 1.5 px or more by the lens (at most %.1f px); the vertex's colour there: mean "
+              "error %.4f at the distorted projection, %.4f at the pinhole projection\n",
+              clicks, moved, worstMove, errorAtLens / std::max(moved, 1), errorAtPinhole / std::max(moved, 1));
+  ASSERT_GE(moved, 10);
+  EXPECT_LT(errorAtLens / moved, 0.1);  // bilinear reads of a pattern with texel-sized detail
+  EXPECT_LT(2 * errorAtLens, errorAtPinhole);
+
+  const std::string dir = test::tempDir("synth_lens");
+  writeSynthScene(scene, dir);
+  const std::vector<PhotoCamera> cameras = readSynthCameras(dir + "/cameras.json");
+  ASSERT_EQ(cameras.size(), 3u);
+  EXPECT_EQ(cameras[1].k1, o.k1);
+  EXPECT_EQ(cameras[1].k2, 0.0);
+
+  const Project project = loadProject(dir + "/project.json");
+  const std::vector<CameraClick> photo0 = photoClicks(project, 0);
+  ASSERT_GE(photo0.size(), 20u);
+  const CameraFit fit = fitCamera(*mesh, photo0, o.size, o.size);
+  ASSERT_TRUE(fit.fits) << fit.reason;
+  std::printf("photo 0: %zu exact clicks, fitted k1 %.4f k2 %.4f, RMS %.4f px\n", photo0.size(), fit.camera.k1,
+              fit.camera.k2, fit.rmsResidual);
+  EXPECT_NEAR(fit.camera.k1, o.k1, 0.02);
+  EXPECT_LT(fit.rmsResidual, 0.05);
+
+  // A distortion that folds the photo before its corners is refused, naming the terms.
+  o.k1 = -1;
+  EXPECT_NE(test::errorOf([&] { synthesize(*mesh, obj, color, o); }).find("folds the photo"), std::string::npos);
 }
 
 }  // namespace

@@ -5,7 +5,9 @@
 // supersampling: the mesh is rasterised at twice the resolution with a camera whose intrinsics are
 // exactly twice the photo camera's (so sub-pixel centres sit at +0.25 and +0.75 of each photo
 // pixel), and each photo pixel is the box-filtered average of its four samples: alpha = covered/4,
-// colour = premultiplied average / alpha (the straight-alpha colour PNG stores).
+// colour = premultiplied average / alpha (the straight-alpha colour PNG stores). With lens distortion
+// (options.k1, k2) the view is rendered so through a pinhole camera on a canvas large enough for every
+// undistorted pixel, then resampled (bilinear on premultiplied colour) at each photo pixel's undistorted place.
 #include "bench/synth.h"
 
 #include <Eigen/Geometry>
@@ -156,6 +158,17 @@ std::vector<Vec3> viewDirections(int views, unsigned seed) {
     dirs.push_back(d);
   }
   return dirs;
+}
+
+// The normalised point that PhotoCamera's radial distortion (1 + k1 r^2 + k2 r^4) takes to `distorted`
+// (fixed-point iteration; the distortion is checked monotonic over the photo beforehand).
+Vec2 undistortNormalised(const Vec2& distorted, double k1, double k2) {
+  Vec2 x = distorted;
+  for (int i = 0; i < 50; ++i) {
+    const double r2 = x.squaredNorm();
+    x = distorted / (1 + k1 * r2 + k2 * r2 * r2);
+  }
+  return x;
 }
 
 std::string photoName(int k) {
@@ -309,6 +322,8 @@ SynthScene synthesize(const Mesh& restMesh, const std::string& meshPath, const S
   if (!std::isfinite(options.minFacing)) throw fail("minFacing", "must be finite");
   if (!(options.clickNoisePx >= 0 && options.clickNoisePx <= options.size / 4.0))
     throw fail("clickNoisePx", "must be in [0, size/4] pixels (got " + std::to_string(options.clickNoisePx) + ")");
+  if (!(std::isfinite(options.k1) && std::isfinite(options.k2) && std::abs(options.k1) <= 1 && std::abs(options.k2) <= 1))
+    throw fail("k1, k2", "must be in [-1, 1] (got " + std::to_string(options.k1) + ", " + std::to_string(options.k2) + ")");
   if (!color) throw fail("color", "no surface colour function given");
   if (restMesh.numFaces() == 0) throw fail(meshPath.empty() ? "mesh" : meshPath, "the mesh has no faces");
 
@@ -354,9 +369,38 @@ SynthScene synthesize(const Mesh& restMesh, const std::string& meshPath, const S
   // the band's first row, so memory stays bounded for large photos (about 16M samples per band).
   const int fineSize = 2 * size;
   const int bandRows = std::max(2, std::min(fineSize, (1 << 24) / fineSize) / 2 * 2);
+  const bool distorted = options.k1 != 0 || options.k2 != 0;
   for (int k = 0; k < options.views; ++k) {
     const Vec3 eye = centre + distance * dirs[k];
     const Camera camera = Camera::lookAt(eye, centre, up, options.fovYDeg, size, size);
+    const PhotoCamera lens{camera, options.k1, options.k2};
+    // The pinhole camera the view is rendered through: the photo camera itself, or with distortion the same view
+    // on a canvas that holds every photo pixel's undistorted place (its border's, the distortion being radial
+    // and monotonic), with a margin of 2 pixels for the bilinear resampling.
+    Camera render = camera;
+    if (distorted) {
+      // Monotonic out to the photo's corners: d/dr [r (1 + k1 r^2 + k2 r^4)] > 0 wherever an undistorted corner
+      // can lie.
+      const double cornerR = std::hypot(std::max(camera.cx, size - camera.cx) / camera.fx,
+                                        std::max(camera.cy, size - camera.cy) / camera.fy);
+      double r = 0;
+      for (; r * (1 + options.k1 * r * r + options.k2 * r * r * r * r) < cornerR; r += 1e-3)
+        if (1 + 3 * options.k1 * r * r + 5 * options.k2 * r * r * r * r <= 0 || r > 4)
+          throw fail("k1, k2", "the distortion (" + std::to_string(options.k1) + ", " + std::to_string(options.k2) +
+                                   ") folds the photo before its corners: choose smaller terms");
+      Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+      for (int i = 0; i <= size; ++i)
+        for (const Vec2& edge : {Vec2(i, 0), Vec2(i, size), Vec2(0, i), Vec2(size, i)}) {
+          const Vec2 n((edge.x() - camera.cx) / camera.fx, (edge.y() - camera.cy) / camera.fy);
+          const Vec2 u = undistortNormalised(n, options.k1, options.k2);
+          const Vec2 pixel(camera.fx * u.x() + camera.cx, camera.fy * u.y() + camera.cy);
+          lo = lo.cwiseMin(pixel), hi = hi.cwiseMax(pixel);
+        }
+      const int x0 = static_cast<int>(std::floor(lo.x())) - 2, y0 = static_cast<int>(std::floor(lo.y())) - 2;
+      render.width = static_cast<int>(std::ceil(hi.x())) + 2 - x0;
+      render.height = static_cast<int>(std::ceil(hi.y())) + 2 - y0;
+      render.cx -= x0, render.cy -= y0;
+    }
 
     // Candidate features: in front, facing the camera, far enough from the image border.
     struct Candidate {
@@ -371,34 +415,37 @@ SynthScene synthesize(const Mesh& restMesh, const std::string& meshPath, const S
     for (size_t i = 0; i < scene.featureVertices.size(); ++i) {
       const int v = scene.featureVertices[i];
       const Vec3 p = mesh.position(v);
-      Vec2 pixel;
+      Vec2 pixel, rendered;
       double depth = 0;
-      if (!camera.project(p, pixel, &depth)) continue;  // behind the camera
+      if (!lens.project(p, pixel, &depth) || !render.project(p, rendered)) continue;  // behind the camera
       if (normals[v].dot((eye - p).normalized()) < options.minFacing) continue;
       const double x = pixel.x(), y = pixel.y();
       if (!(x >= options.borderPx && y >= options.borderPx && x <= size - options.borderPx &&
             y <= size - options.borderPx && x < size && y < size))
         continue;
-      candidates.push_back(Candidate{i, pixel, depth, std::min(fineSize - 1, static_cast<int>(std::floor(2 * x))),
-                                     std::min(fineSize - 1, static_cast<int>(std::floor(2 * y)))});
+      candidates.push_back(
+          Candidate{i, pixel, depth,
+                    std::clamp(static_cast<int>(std::floor(2 * rendered.x())), 0, 2 * render.width - 1),
+                    std::clamp(static_cast<int>(std::floor(2 * rendered.y())), 0, 2 * render.height - 1)});
     }
 
     const double exposure = options.exposures.empty() ? 1.0 : options.exposures[k % options.exposures.size()];
     TM_CHECK(exposure > 0 && std::isfinite(exposure), "synth: exposure " + std::to_string(exposure) + " must be > 0");
-    cv::Mat photo(size, size, CV_8UC4, cv::Scalar(0, 0, 0, 0));
-    for (int band = 0; band < fineSize; band += bandRows) {
-      const int rows = std::min(bandRows, fineSize - band);
-      Camera fine = camera;  // 2x2 supersampling camera: same view, twice the intrinsics
-      fine.width = fineSize;
+    cv::Mat photo(render.height, render.width, CV_8UC4, cv::Scalar(0, 0, 0, 0));
+    const int fineRows = 2 * render.height;
+    for (int band = 0; band < fineRows; band += bandRows) {
+      const int rows = std::min(bandRows, fineRows - band);
+      Camera fine = render;  // 2x2 supersampling camera: same view, twice the intrinsics
+      fine.width = 2 * render.width;
       fine.height = rows;
       fine.fx *= 2;
       fine.fy *= 2;
       fine.cx *= 2;
-      fine.cy = 2 * camera.cy - band;
+      fine.cy = 2 * render.cy - band;
       const RasterBuffers raster = rasterize(mesh, fine);
       for (int y = band / 2; y < (band + rows) / 2; ++y) {
         auto* row = photo.ptr<cv::Vec4b>(y);
-        for (int x = 0; x < size; ++x) {
+        for (int x = 0; x < render.width; ++x) {
           Vec3 sum = Vec3::Zero();
           int covered = 0;
           for (int sy = 0; sy < 2; ++sy)
@@ -425,6 +472,26 @@ SynthScene synthesize(const Mesh& restMesh, const std::string& meshPath, const S
           c.face = raster.face[i];
           c.zbuffer = raster.depth[i];
         }
+    }
+
+    if (distorted) {  // each photo pixel from its undistorted place on the pinhole canvas
+      cv::Mat mapX(size, size, CV_32F), mapY(size, size, CV_32F);
+      for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x) {
+          const Vec2 n((x + 0.5 - camera.cx) / camera.fx, (y + 0.5 - camera.cy) / camera.fy);
+          const Vec2 u = undistortNormalised(n, options.k1, options.k2);
+          mapX.at<float>(y, x) = static_cast<float>(render.fx * u.x() + render.cx - 0.5);
+          mapY.at<float>(y, x) = static_cast<float>(render.fy * u.y() + render.cy - 0.5);
+        }
+      cv::Mat premultiplied;
+      photo.convertTo(premultiplied, CV_32FC4, 1.0 / 255);
+      premultiplied.forEach<cv::Vec4f>([](cv::Vec4f& p, const int*) { p[0] *= p[3], p[1] *= p[3], p[2] *= p[3]; });
+      cv::Mat sampled;
+      cv::remap(premultiplied, sampled, mapX, mapY, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0, 0, 0, 0));
+      sampled.forEach<cv::Vec4f>([](cv::Vec4f& p, const int*) {
+        if (p[3] > 1e-6f) p[0] /= p[3], p[1] /= p[3], p[2] /= p[3];
+      });
+      sampled.convertTo(photo, CV_8UC4, 255.0);
     }
 
     for (const Candidate& c : candidates) {
@@ -510,6 +577,8 @@ void writeSynthScene(const SynthScene& scene, const std::string& dir) {
                      {"fy", c.fy},
                      {"cx", c.cx},
                      {"cy", c.cy},
+                     {"k1", scene.options.k1},
+                     {"k2", scene.options.k2},
                      {"R", R},
                      {"t", vecJson(c.t)},
                      {"eye", vecJson(c.center())}});
@@ -520,8 +589,9 @@ void writeSynthScene(const SynthScene& scene, const std::string& dir) {
   nlohmann::json cameras = {{"format", "texturemontage-synth-cameras"},
                             {"version", 1},
                             {"convention",
-                             "OpenCV pinhole: p_cam = R p_world + t; pixel = (fx x/z + cx, fy y/z + cy), origin at the "
-                             "top-left image corner, pixel centres at +0.5"},
+                             "OpenCV: p_cam = R p_world + t; (x, y) = (x/z, y/z) scaled by 1 + k1 r^2 + k2 r^4 "
+                             "(r^2 = x^2 + y^2); pixel = (fx x + cx, fy y + cy), origin at the top-left image corner, "
+                             "pixel centres at +0.5"},
                             {"mesh", project.mesh},
                             {"views", views},
                             {"features", scene.featureVertices},
@@ -534,6 +604,8 @@ void writeSynthScene(const SynthScene& scene, const std::string& dir) {
                               {"min_facing", o.minFacing},
                               {"border_px", o.borderPx},
                               {"click_noise_px", o.clickNoisePx},
+                              {"k1", o.k1},
+                              {"k2", o.k2},
                               {"supersampling", 2}}}};
   if (scene.photographed) {
     saveMeshObj(*scene.photographed, (folder / "deformed.obj").string());
@@ -590,6 +662,8 @@ std::vector<PhotoCamera> readSynthCameras(const std::string& path) {
     for (int r = 0; r < 3; ++r)
       for (int col = 0; col < 3; ++col) c.pinhole.R(r, col) = R[3 * r + col];
     c.pinhole.t = Vec3(t[0], t[1], t[2]);
+    for (const char* field : {"k1", "k2"})  // optional: scenes written before distortion have none
+      if (v.contains(field)) (field[1] == '1' ? c.k1 : c.k2) = number(field);
     cameras.push_back(c);
   }
   return cameras;

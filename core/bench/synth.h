@@ -37,6 +37,10 @@ struct SynthOptions {
   // Standard deviation (pixels) of a seeded Gaussian error added to each click's x and y (clamped to the
   // photo): clicks as a careful user makes them. 0 = exact projections. The true cameras are unchanged.
   double clickNoisePx = 0;
+  // Radial lens distortion of every view (one camera, PhotoCamera's model: OpenCV's k1, k2): the photos are
+  // rendered through it, the clicks sit at the distorted projections, and cameras.json carries it (the oracle
+  // projects through it). 0, 0 = a pinhole, as before.
+  double k1 = 0, k2 = 0;
   // Photos of another subject with a known truth (issue 33): the photos show the mesh deformed (same vertex ids),
   // coloured at each point's undeformed place, and the clicks name the undeformed mesh's vertices. None = the mesh.
   Deformation deform;
@@ -73,7 +77,7 @@ std::vector<int> farthestPointSamples(const Mesh& mesh, int count, unsigned seed
 void writeSynthScene(const SynthScene& scene, const std::string& dir);
 
 struct PhotoCamera;
-// Reads the true cameras of a scene's cameras.json (one per photo, in photo order; no distortion).
+// Reads the true cameras of a scene's cameras.json (one per photo, in photo order; k1, k2 when written).
 // Throws montage::Error naming the file and the field when it is missing or malformed.
 std::vector<PhotoCamera> readSynthCameras(const std::string& path);
 // The mesh a scene's photos show when it was made deformed (cameras.json's "deformation"), as a path beside the

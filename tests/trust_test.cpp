@@ -70,8 +70,8 @@ TEST(Trust, HeadOnFacesAreTrustedGrazingOnesNotAndSparseOnesLess) {
   };
   // The median density is photo 0's (the larger half of the faces' densities): photo 1's density term is
   // sqrt(squeeze * scale^2) where that is below 1.
-  for (const Case& c : {Case{1, 1, 1, 1}, Case{0.45, 1, 0.45, 0.5 * std::sqrt(0.45)}, Case{0.25, 1, 0.25, 0},
-                        Case{1, 0.5, 1, 0.5}}) {
+  for (const Case& c :
+       {Case{1, 1, 1, 1}, Case{0.45, 1, 0.45, 0.5 * std::sqrt(0.45)}, Case{0.25, 1, 0.25, 0}, Case{1, 0.5, 1, 0.5}}) {
     SCOPED_TRACE("squeeze " + std::to_string(c.squeeze) + ", scale " + std::to_string(c.scale));
     const SplitScene s = splitScene([&](double) { return c.squeeze; }, c.scale);
     const FaceTrust t = faceTrust(*s.mesh, s.map);

@@ -45,7 +45,7 @@ struct BalanceOptions {
   double channelPrior = 4;  // a channel's gain is pulled towards the photo's common gain (exposure) as much
                             // as this many average samples agreeing with it would: a channel with few usable
                             // samples does not stray, one with many is free (0 = channels independent)
-  int minSamples = 16;      // a photo pair with fewer usable seam samples does not count
+  int minSamples = 16;      // a photo pair with fewer usable seam samples (counted by their trust) does not count
   double saturated = 0.99;  // sRGB channel values at or above this are clipped: they say
                             // nothing about a gain and are left out
   double darkest = 0.08;    // ... and so are values below this (sRGB): 8-bit quantisation

@@ -116,7 +116,9 @@ SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vec
   // too. A pair with fewer than kMinTrusted trusted samples (its edges all grazing) takes 0 instead.
   constexpr double kMinTrusted = 16;
   std::unordered_map<uint64_t, std::pair<Vec3, double>> pairTrusted;  // photo pair -> trust-weighted sum, weight
-  auto pairOf = [&](const SeamEdge& e) { return uint64_t(map.facePhoto[e.fa]) * 65536 + uint64_t(map.facePhoto[e.fb]); };
+  auto pairOf = [&](const SeamEdge& e) {
+    return uint64_t(map.facePhoto[e.fa]) * 65536 + uint64_t(map.facePhoto[e.fb]);
+  };
   for (const SeamEdge& e : seams) {
     auto& m = pairTrusted[pairOf(e)];
     if (m.second == 0) m.first = Vec3::Zero();

@@ -13,8 +13,8 @@ FaceTrust faceTrust(const Mesh& mesh, const TextureMap& map, const TrustOptions&
   TM_CHECK(options.grazingRatio >= 0 && options.grazingRatio < options.fullRatio && options.fullRatio <= 1,
            "trust: grazingRatio and fullRatio must satisfy 0 <= grazingRatio < fullRatio <= 1");
   const int nf = mesh.numFaces();
-  TM_CHECK(map.numFaces() == nf, "trust: the map has " + std::to_string(map.numFaces()) + " faces, the mesh " +
-                                     std::to_string(nf));
+  TM_CHECK(map.numFaces() == nf,
+           "trust: the map has " + std::to_string(map.numFaces()) + " faces, the mesh " + std::to_string(nf));
   FaceTrust out;
   out.trust.assign(nf, 0.0f);
   out.ratio.assign(nf, 0.0f);

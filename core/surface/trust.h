@@ -15,9 +15,9 @@ namespace montage {
 struct Mesh;
 
 struct TrustOptions {
-  double grazingRatio = 0.3;  // a face's stretch ratio (smallest / largest singular value of its map from the
-                              // surface to the photo, 1 = seen head on) below which it is not trusted at all ...
-  double fullRatio = 0.6;     // ... and from which on fully (linear in between)
+  double grazingRatio = 0.3;      // a face's stretch ratio (smallest / largest singular value of its map from the
+                                  // surface to the photo, 1 = seen head on) below which it is not trusted at all ...
+  double fullRatio = 0.6;         // ... and from which on fully (linear in between)
   double clipLow = 3 / 255.0;     // sRGB channel values at or below this are clipped (not trusted) ...
   double clipHigh = 252 / 255.0;  // ... and so are values at or above this
 };

@@ -197,9 +197,10 @@ int cmdEval(const std::string& resultPath, const std::string& truthMesh, const s
   } else {
     truth = loadTruth(truthMesh, truthTexture);
   }
-  EvalResult eval = evaluate(result, truth, options);
-  std::printf("%s", eval.summary().c_str());
-  nlohmann::json json = eval.toJson();
+  // With --oracle, the oracle is evaluated first: the samples it textures from a photo (what the photos see
+  // through the true cameras) are where the result's "seen" figures are taken, whatever the result does there.
+  EvalResult o;
+  std::string oracleWhat;
   if (!oracleDir.empty()) {
     // The projection oracle: the scene textured through its true cameras (its ceiling).
     const Project project = loadProject((fs::path(oracleDir) / "project.json").string());
@@ -212,10 +213,16 @@ int cmdEval(const std::string& resultPath, const std::string& truthMesh, const s
     const PipelineResult oracle = deformed.empty() ? projectionOracle(project, cameras, job)
                                                    : deformedProjectionOracle(project, cameras, deformed, job);
     line.finish();
-    const EvalResult o = evaluate(*oracle.model, truth, options);
-    std::printf("%s (true cameras of %s):\n",
-                deformed.empty() ? "projection oracle" : "true correspondence (the photos show the mesh deformed)",
-                oracleDir.c_str());
+    o = evaluate(*oracle.model, truth, options);
+    o.seenSamples = o.coveredSamples, o.psnrSeen = o.psnrCovered, o.deltaESeen = o.deltaECovered;
+    options.seen = o.coveredSample;
+    oracleWhat = deformed.empty() ? "projection oracle" : "true correspondence (the photos show the mesh deformed)";
+  }
+  EvalResult eval = evaluate(result, truth, options);
+  std::printf("%s", eval.summary().c_str());
+  nlohmann::json json = eval.toJson();
+  if (!oracleDir.empty()) {
+    std::printf("%s (true cameras of %s):\n", oracleWhat.c_str(), oracleDir.c_str());
     std::printf("%s", o.summary().c_str());
     const double unseen = o.coverageInpainted + o.coverageEmpty;
     std::printf(
@@ -224,10 +231,19 @@ int cmdEval(const std::string& resultPath, const std::string& truthMesh, const s
         eval.psnrCovered - o.psnrCovered, eval.deltaECovered - o.deltaECovered,
         100 * (eval.coverageInpainted + eval.coverageEmpty), 100 * unseen,
         100 * (eval.coverageInpainted + eval.coverageEmpty - unseen));
+    std::printf(
+        "seen by the photos (the oracle's %d photo-textured samples): PSNR %.2f dB (oracle %.2f, %+.2f dB), "
+        "Delta E %.3f (oracle %.3f, %+.3f)\n",
+        o.seenSamples, eval.psnrSeen, o.psnrSeen, eval.psnrSeen - o.psnrSeen, eval.deltaESeen, o.deltaESeen,
+        eval.deltaESeen - o.deltaESeen);
     json = {{"result", eval.toJson()},
             {"oracle", o.toJson()},
             {"psnr_covered_gap", eval.psnrCovered - o.psnrCovered},
             {"delta_e_covered_gap", eval.deltaECovered - o.deltaECovered},
+            {"psnr_seen", eval.psnrSeen},
+            {"delta_e_seen", eval.deltaESeen},
+            {"psnr_seen_gap", eval.psnrSeen - o.psnrSeen},
+            {"delta_e_seen_gap", eval.deltaESeen - o.deltaESeen},
             {"unseen_share", unseen},
             {"inpainted_share", eval.coverageInpainted + eval.coverageEmpty}};
   }

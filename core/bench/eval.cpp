@@ -202,6 +202,18 @@ EvalResult evaluate(const TexturedModel& result, const TexturedModel& truth, con
   out.psnrCovered = psnr(sqCovered, nCovered);
   out.deltaEAll = deAll / n;
   out.deltaECovered = nCovered > 0 ? deCovered / nCovered : 0;
+  out.coveredSample = covered;
+  if (!options.seen.empty()) {
+    TM_CHECK(static_cast<int>(options.seen.size()) == n, "evaluate: seen: " + std::to_string(options.seen.size()) +
+                                                             " flags for " + std::to_string(n) + " samples");
+    double sqSeen = 0, deSeen = 0;
+    long nSeen = 0;
+    for (int i = 0; i < n; ++i)
+      if (options.seen[i]) sqSeen += squared[i], deSeen += deltaE[i], ++nSeen;
+    out.seenSamples = static_cast<int>(nSeen);
+    out.psnrSeen = psnr(sqSeen, nSeen);
+    out.deltaESeen = nSeen > 0 ? deSeen / nSeen : 0;
+  }
 
   // ---- Coverage by area of the result's face sources.
   std::vector<double> area3(rfaces);
@@ -326,7 +338,7 @@ EvalResult evaluate(const TexturedModel& result, const TexturedModel& truth, con
 }
 
 nlohmann::json EvalResult::toJson() const {
-  return nlohmann::json{{"samples", samples},
+  nlohmann::json j{{"samples", samples},
                         {"covered_samples", coveredSamples},
                         {"psnr_all", psnrAll},
                         {"psnr_covered", psnrCovered},
@@ -343,6 +355,8 @@ nlohmann::json EvalResult::toJson() const {
                         {"seam_edges", seamEdges},
                         {"photo_seam_mismatch", photoSeamMismatch},
                         {"photo_seam_edges", photoSeamEdges}};
+  if (seenSamples > 0) j["seen_samples"] = seenSamples, j["psnr_seen"] = psnrSeen, j["delta_e_seen"] = deltaESeen;
+  return j;
 }
 
 std::string EvalResult::summary() const {

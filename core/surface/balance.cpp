@@ -14,6 +14,7 @@
 #include "geometry/mesh.h"
 #include "image/color.h"
 #include "image/photo.h"
+#include "surface/trust.h"
 
 namespace montage {
 
@@ -25,6 +26,7 @@ struct Sample {
   Vec3f xa, xb;
   Vec3f srgbA, srgbB;          // as photographed, for the mismatch figures
   float weight = 1;            // min(alpha_a, alpha_b)
+  float trust = 1;             // min of the two faces' trust (surface/trust.h); set per run, not kept in the memo
   Vec3f flat = Vec3f::Ones();  // per channel: 1 where both sides are flat around the point, towards 0 near edges
 };
 
@@ -64,7 +66,8 @@ namespace {
 // whose photos, UVs and sampling options an earlier run saw takes its samples from there.
 std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,
                                 const BalanceOptions& options, BalanceMemo::Impl* memo,
-                                const std::vector<uint64_t>& photoKeys, int& edgesKept) {
+                                const std::vector<uint64_t>& photoKeys, const std::vector<float>& trust,
+                                int& edgesKept) {
   const TriMesh& tri = mesh.tri;
   std::vector<OpenMesh::HalfedgeHandle> seams;  // edges between two photos, in edge order
   for (const auto eh : tri.edges()) {
@@ -137,7 +140,13 @@ std::vector<Sample> seamSamples(const Mesh& mesh, const TextureMap& map, const s
       if (keys[i]) memo->current[keys[i]] = perEdge[i];
   edgesKept = static_cast<int>(std::count(kept.begin(), kept.end(), 1));
   std::vector<Sample> out;
-  for (std::vector<Sample>& samples : perEdge) out.insert(out.end(), samples.begin(), samples.end());
+  for (size_t i = 0; i < seams.size(); ++i) {
+    const float t = std::min(trust[tri.face_handle(seams[i]).idx()], trust[tri.opposite_face_handle(seams[i]).idx()]);
+    for (Sample& sample : perEdge[i]) {
+      sample.trust = t;
+      out.push_back(sample);
+    }
+  }
   return out;
 }
 
@@ -188,7 +197,7 @@ struct Fit {
 // pulled towards (per photo; the photo's common gain, for one channel's fit), with options.channelSigma.
 Fit fitObservations(const std::vector<Observation>& obs, const std::vector<int>& unknownOf, int free, bool withOffset,
                     BalanceLoss loss, const BalanceOptions& options, const Fit* start = nullptr,
-                    const std::vector<double>* gainPrior = nullptr) {
+                    const std::vector<double>* gainPrior = nullptr, double exposurePrior = 0) {
   const int per = withOffset ? 2 : 1;
   const int n = free * per;
   const int photos = static_cast<int>(unknownOf.size());
@@ -249,10 +258,13 @@ Fit fitObservations(const std::vector<Observation>& obs, const std::vector<int>&
     const double ridge = 1e-9 * std::max(1.0, normal.trace() / n);
     const double offsetPrior = (kNoise / options.offsetSigma) * (kNoise / options.offsetSigma);
     double meanCurvature = 0;  // of one observation, for one gain
-    if (gainPrior) {
-      for (const Observation& o : obs) meanCurvature += o.weight * 0.5 * (o.xa * o.xa + o.xb * o.xb);
-      meanCurvature /= double(obs.size());
+    double trustedCurvature = 0, weights = 0;  // ... of one observation of weight 1 (a fully trusted sample)
+    for (const Observation& o : obs) {
+      meanCurvature += o.weight * 0.5 * (o.xa * o.xa + o.xb * o.xb);
+      weights += o.weight;
     }
+    trustedCurvature = weights > 0 ? meanCurvature / weights : 0.0;
+    meanCurvature /= double(obs.size());
     for (int p = 0; p < photos; ++p) {
       if (unknownOf[p] < 0) continue;
       const int g = unknownOf[p] * per;
@@ -261,8 +273,10 @@ Fit fitObservations(const std::vector<Observation>& obs, const std::vector<int>&
         normal(g, g) += weight;
         rhs[g] += weight * (*gainPrior)[p];
       } else {
-        normal(g, g) += ridge;
-        rhs[g] += ridge;
+        // The exposure prior: gains pulled towards 1 as by `exposurePrior` fully trusted samples that agree.
+        const double weight = exposurePrior * trustedCurvature + ridge;
+        normal(g, g) += weight;
+        rhs[g] += weight;
       }
       if (withOffset) normal(g + 1, g + 1) += offsetPrior;
     }
@@ -312,6 +326,7 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
   TM_CHECK(options.tolerance > 0, "colour balance: tolerance must be > 0");
   TM_CHECK(options.offsetSigma > 0, "colour balance: offsetSigma must be > 0");
   TM_CHECK(options.saturated > 0.5 && options.saturated <= 1, "colour balance: saturated must be in (0.5, 1]");
+  TM_CHECK(options.exposurePrior >= 0, "colour balance: exposurePrior must be >= 0");
   TM_CHECK(options.darkest >= 0 && options.darkest < 0.5, "colour balance: darkest must be in [0, 0.5)");
   ColorBalance out;
   out.transforms.assign(np, ColorTransform{});
@@ -319,8 +334,9 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
   out.reference.assign(np, 1);
   TM_CHECK(!memo || photoKeys.size() == photos.size(),
            "colour balance: " + std::to_string(photoKeys.size()) + " photo keys for " + std::to_string(np) + " photos");
-  const std::vector<Sample> samples =
-      seamSamples(mesh, map, photos, options, memo ? &memo->impl() : nullptr, photoKeys, out.edgesKept);
+  const FaceTrust trust = faceTrust(mesh, map, options.trust);
+  const std::vector<Sample> samples = seamSamples(mesh, map, photos, options, memo ? &memo->impl() : nullptr,
+                                                  photoKeys, trust.trust, out.edgesKept);
   job.checkCancel();
 
   const ClipRange clip{options.linear ? srgbToLinear(options.darkest) : options.darkest,
@@ -332,10 +348,11 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
   };
 
   // Photo pairs with enough samples join photos into groups; each group needs a reference.
-  std::vector<int> pairCount(size_t(np) * np, 0);
+  // Samples are counted by their trust: a pair seen only at grazing angles joins nothing.
+  std::vector<double> pairCount(size_t(np) * np, 0);
   auto pairOf = [&](const Sample& s) { return size_t(std::min(s.a, s.b)) * np + std::max(s.a, s.b); };
   for (const Sample& s : samples)
-    if (anyChannel(s)) ++pairCount[pairOf(s)];
+    if (anyChannel(s)) pairCount[pairOf(s)] += s.trust;
   UnionFind groups(np);
   for (int a = 0; a < np; ++a)
     for (int b = a + 1; b < np; ++b)
@@ -361,7 +378,8 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
   // Only samples between two photos of one group, with a free side, count.
   std::vector<Sample> used;
   for (const Sample& s : samples)
-    if (pairCount[pairOf(s)] >= options.minSamples && (unknownOf[s.a] >= 0 || unknownOf[s.b] >= 0)) used.push_back(s);
+    if (s.trust > 0 && pairCount[pairOf(s)] >= options.minSamples && (unknownOf[s.a] >= 0 || unknownOf[s.b] >= 0))
+      used.push_back(s);
 
   if (free > 0) {
     // A first estimate: one gain per photo shared by the channels (exposure), from the samples clipped
@@ -369,7 +387,8 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
     std::vector<Observation> obs;
     for (const Sample& s : used)
       for (int c = 0; c < 3; ++c)
-        if (unclipped(s, c, ones, zeros, clip)) obs.push_back({s.a, s.b, s.xa[c], s.xb[c], s.weight * s.flat[c]});
+        if (unclipped(s, c, ones, zeros, clip))
+          obs.push_back({s.a, s.b, s.xa[c], s.xb[c], s.weight * s.trust * s.flat[c]});
     // Huber is convex: its answer does not depend on the start, and it is a good start for Cauchy.
     const BalanceLoss firstLoss = options.loss == BalanceLoss::L2 ? BalanceLoss::L2 : BalanceLoss::Huber;
     // A warm start serves when it balanced the same photos with the same references.
@@ -386,7 +405,8 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
           fits[c].gain[p] = warm->transforms[p].gain[c], fits[c].offset[p] = warm->transforms[p].offset[c];
       }
     }
-    const Fit shared = fitObservations(obs, unknownOf, free, false, firstLoss, options, warmed ? &warmShared : nullptr);
+    const Fit shared = fitObservations(obs, unknownOf, free, false, firstLoss, options, warmed ? &warmShared : nullptr,
+                                       nullptr, options.exposurePrior);
     out.commonGain = shared.gain;
     if (!warmed)
       for (auto& f : fits) f = shared;
@@ -401,7 +421,7 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
         std::vector<Observation> channel;
         for (const Sample& s : used)
           if (unclipped(s, c, fits[c].gain, fits[c].offset, clip))
-            channel.push_back({s.a, s.b, s.xa[c], s.xb[c], s.weight * s.flat[c]});
+            channel.push_back({s.a, s.b, s.xa[c], s.xb[c], s.weight * s.trust * s.flat[c]});
         const Fit previous = fits[c];
         fits[c] = fitObservations(channel, unknownOf, free, options.mode == BalanceMode::GainOffset, options.loss,
                                   options, options.loss == BalanceLoss::L2 ? nullptr : &previous,

@@ -16,6 +16,7 @@
 #include "image/color.h"
 #include "io/options.h"
 #include "mapping/texture_map.h"
+#include "surface/trust.h"
 
 namespace montage {
 
@@ -44,11 +45,16 @@ struct BalanceOptions {
   double channelPrior = 4;  // a channel's gain is pulled towards the photo's common gain (exposure) as much
                             // as this many average samples agreeing with it would: a channel with few usable
                             // samples does not stray, one with many is free (0 = channels independent)
-  int minSamples = 16;      // a photo pair with fewer usable seam samples does not count
+  int minSamples = 16;      // a photo pair with fewer usable seam samples (counted by their trust) does not count
   double saturated = 0.99;  // sRGB channel values at or above this are clipped: they say
                             // nothing about a gain and are left out
   double darkest = 0.08;    // ... and so are values below this (sRGB): 8-bit quantisation
                             // leaves them a relative error that biases gains towards 0
+  TrustOptions trust;       // seam samples are weighted by the smaller trust of their two faces (surface/trust.h):
+                            // grazing and sparsely seen texels count less or not at all, also towards minSamples
+  double exposurePrior = 1;  // every photo's common gain is pulled towards 1 as much as this many fully trusted
+                             // samples agreeing with it would: a seam with few trusted samples leaves the
+                             // exposures alone (0 = no pull)
 };
 
 // ColorTransform (image/color.h): per photo, on linear RGB or on sRGB values (BalanceOptions::linear).
@@ -88,7 +94,7 @@ class BalanceMemo {
 // Solves the transforms over the seams of `map` (edges between faces mapped to two different photos).
 // `locked[i]`: photo i keeps its colours (may be empty: none locked). Photos joined by seams to no locked
 // photo are matched to the first of them. Seam samples are weighted by the smaller alpha of their two
-// sides, so a feathered cut-out edge counts less.
+// sides, so a feathered cut-out edge counts less, and by the smaller trust of their two faces (faceTrust).
 // With `memo` (may be null) and `photoKeys` (per photo, what identifies its pixels; 0 = unknown, never
 // kept), the samples of seam edges an earlier run saw are taken from the memo.
 // With `warm` (the preview tier: an earlier balance of the same photos), the fits start from its transforms

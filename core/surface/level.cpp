@@ -11,6 +11,7 @@
 #include "geometry/mesh.h"
 #include "geometry/poisson.h"
 #include "image/photo.h"
+#include "surface/trust.h"
 
 namespace montage {
 
@@ -38,6 +39,9 @@ SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vec
     int fa, fb;     // faces on photo a < photo b
     Vec3f sumDiff;  // sum over samples of colour(b) - colour(a)
     int samples;
+    Vec3f unclippedDiff = Vec3f::Zero();  // ... over the samples clipped on neither side
+    int unclipped = 0;
+    float trust = 0;  // the smaller trust of the two faces (faceTrust)
   };
   std::vector<SeamEdge> seams;
   const TriMesh& tri = mesh.tri;
@@ -54,6 +58,8 @@ SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vec
       visit(mappedColor(map, photos, lev, e.fa, ba), mappedColor(map, photos, lev, e.fb, bb));
     }
   };
+  const TrustOptions trustOptions;
+  const FaceTrust trust = faceTrust(mesh, map, trustOptions);
   for (const auto eh : tri.edges()) {
     if (tri.is_boundary(eh)) continue;
     const auto h0 = tri.halfedge_handle(eh, 0);
@@ -68,7 +74,12 @@ SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vec
     const double lenA = (uva[cornerOf(fa, e.u)] - uva[cornerOf(fa, e.w)]).norm();
     const double lenB = (uvb[cornerOf(fb, e.u)] - uvb[cornerOf(fb, e.w)]).norm();
     e.samples = std::clamp(int(std::ceil(std::max(lenA, lenB))), 2, 64);
-    edgeSamples(e, nullptr, [&](const Vec3f& ca, const Vec3f& cb) { e.sumDiff += cb - ca; });
+    edgeSamples(e, nullptr, [&](const Vec3f& ca, const Vec3f& cb) {
+      e.sumDiff += cb - ca;
+      if (clippedColor(ca, trustOptions) || clippedColor(cb, trustOptions)) return;
+      e.unclippedDiff += cb - ca, ++e.unclipped;
+    });
+    e.trust = e.unclipped > 0 ? std::min(trust.trust[fa], trust.trust[fb]) : 0.0f;
     seams.push_back(e);
   }
   auto mismatch = [&](const SeamLevelling* lev) {
@@ -99,11 +110,33 @@ SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vec
       }
     }
   }
+  // What an edge's difference is taken to be. Its own samples (those clipped on neither side) as far as it is
+  // trusted, the rest from the trusted edges of the same photo pair: a grazing edge's smeared texels do not
+  // shift the photos' colours, while an exposure difference the pair's trusted edges show is closed there
+  // too. A pair with fewer than kMinTrusted trusted samples (its edges all grazing) takes 0 instead.
+  constexpr double kMinTrusted = 16;
+  std::unordered_map<uint64_t, std::pair<Vec3, double>> pairTrusted;  // photo pair -> trust-weighted sum, weight
+  auto pairOf = [&](const SeamEdge& e) {
+    return uint64_t(map.facePhoto[e.fa]) * 65536 + uint64_t(map.facePhoto[e.fb]);
+  };
+  for (const SeamEdge& e : seams) {
+    auto& m = pairTrusted[pairOf(e)];
+    if (m.second == 0) m.first = Vec3::Zero();
+    m.first += double(e.trust) * e.unclippedDiff.cast<double>(), m.second += double(e.trust) * e.unclipped;
+  }
+  std::vector<Vec3f> edgeDiff(seams.size());
+  for (size_t i = 0; i < seams.size(); ++i) {
+    const SeamEdge& e = seams[i];
+    const auto& m = pairTrusted[pairOf(e)];
+    const Vec3f pairDiff = m.second >= kMinTrusted ? Vec3f((m.first / m.second).cast<float>()) : Vec3f::Zero();
+    const Vec3f own = e.unclipped > 0 ? Vec3f(e.unclippedDiff / float(e.unclipped)) : pairDiff;
+    edgeDiff[i] = e.trust * own + (1 - e.trust) * pairDiff;
+  }
   std::unordered_map<int, std::pair<Vec3f, int>> seamMean;
   for (int i = 0; i < static_cast<int>(seams.size()); ++i) {
     auto& m = seamMean[sets.find(i)];
     if (m.second == 0) m.first = Vec3f::Zero();
-    m.first += seams[i].sumDiff, m.second += seams[i].samples;
+    m.first += edgeDiff[i] * float(seams[i].samples), m.second += seams[i].samples;
   }
   out.seams = static_cast<int>(seamMean.size());
 
@@ -117,7 +150,7 @@ SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vec
       const auto& m = seamMean[sets.find(i)];
       diff = m.first / float(m.second);
     } else {
-      diff = e.sumDiff / float(e.samples);
+      diff = edgeDiff[i];
     }
     const uint64_t pa = uint64_t(map.facePhoto[e.fa]) << 32, pb = uint64_t(map.facePhoto[e.fb]) << 32;
     for (int v : {e.u, e.w}) {

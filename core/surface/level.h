@@ -27,6 +27,9 @@ struct SeamLevelling {
 };
 
 // Levels the colours across seams between photos (faces mapped to different photos sharing an edge).
+// Samples clipped on either side (clippedColor) are left out; an edge's difference is its own as far as the
+// edge is trusted (the smaller faceTrust of its faces) and otherwise the trusted mean of its photo pair, or 0
+// when the pair has fewer than 16 trusted samples: grazing, smeared texels do not shift a photo's colours.
 // `solvers` (may be null) keeps each photo's factorisation across runs: a photo whose faces and seam
 // vertices did not change is solved again without factorising (PoissonCache; the same result bit for bit).
 SeamLevelling levelSeams(const Mesh& mesh, const TextureMap& map, const std::vector<const Photo*>& photos,

@@ -6,6 +6,8 @@
 //   montage run PROJECT --out DIR           run the pipeline and export
 //   montage bench                           per-stage times and peak memory
 //   montage mask PHOTO --rect x,y,w,h ...   cut-out mask (GrabCut) of a photo
+// Options of every command: --threads N, --strict. Exit codes (docs/command-line.md): 0 done, 1 error,
+// 2 usage, 3 done with warnings under --strict.
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -38,6 +40,39 @@ namespace fs = std::filesystem;
 using namespace montage;
 
 namespace {
+
+// Exit codes (docs/command-line.md).
+constexpr int kExitDone = 0, kExitError = 1, kExitUsage = 2, kExitWarnings = 3;
+
+// A mistake in the command line itself found after parsing (a bad --set): exit code 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// What every command shares: --strict makes warnings count (exit 3) and unknown project fields errors.
+struct Common {
+  bool strict = false;
+  int threads = 0;  // 0: all cores
+};
+
+// Under --strict, the fields a project names that this build does not know are an error (they are a
+// warning otherwise: projectWarnings names them).
+void refuseUnknownFields(const Common& common, const Project& project, const std::string& path) {
+  if (!common.strict || project.unknownFields.empty()) return;
+  std::string list;
+  for (const std::string& f : project.unknownFields) list += (list.empty() ? "" : "; ") + f;
+  throw Error(located(path, std::to_string(project.unknownFields.size()) + " field" +
+                                (project.unknownFields.size() == 1 ? "" : "s") +
+                                " this build does not know (an error under --strict): " + list));
+}
+
+// The exit code of a command that finished with `warnings` warnings.
+int doneWith(const Common& common, size_t warnings) {
+  if (!common.strict || warnings == 0) return kExitDone;
+  std::fprintf(stderr, "montage: done with %zu warning%s (--strict: exit code %d)\n", warnings,
+               warnings == 1 ? "" : "s", kExitWarnings);
+  return kExitWarnings;
+}
 
 // A one-line progress display on stderr: rewritten in place on a terminal, one line per stage
 // otherwise (so logs stay readable).
@@ -87,26 +122,119 @@ void say(const char* format, ...) {
   std::fputs(printable(text, true).c_str(), stdout);
 }
 
-int cmdInfo(const std::string& file) {
+nlohmann::json meshReportJson(const MeshReport& r) {
+  nlohmann::json findings = nlohmann::json::array();
+  for (const MeshFinding& f : r.findings)
+    findings.push_back({{"severity", f.severity == MeshFinding::Severity::Error ? "error" : "warning"},
+                        {"what", f.what},
+                        {"count", f.count},
+                        {"elements", f.elements}});
+  return {{"path", r.path},
+          {"format", r.format},
+          {"input_vertices", r.inputVertices},
+          {"input_faces", r.inputFaces},
+          {"vertices", r.vertices},
+          {"faces", r.faces},
+          {"edges", r.edges},
+          {"components", r.components},
+          {"boundary_loops", r.boundaryLoops},
+          {"genus", r.genus},
+          {"has_uv", r.hasUV},
+          {"diagonal", r.diagonal},
+          {"usable", r.usable()},
+          {"findings", findings}};
+}
+
+// `montage info --json`: the same report as one JSON object on stdout ("kind", "file", "valid",
+// "warnings" and what the kind has); docs/command-line.md lists the fields.
+int cmdInfoJson(const std::string& file, const Common& common) {
+  const std::string ext = lowerExtension(file);
+  nlohmann::json j = {{"file", file}};
+  std::vector<std::string> warnings;
+  bool valid = true;
+  if (ext == ".json") {
+    Project project = loadProject(file);
+    refuseUnknownFields(common, project, file);
+    auto scene = loadScene(project);
+    nlohmann::json photos = nlohmann::json::array();
+    for (size_t i = 0; i < scene->photos.size(); ++i) {
+      const Photo& photo = *scene->photos[i];
+      if (auto skipped = scene->skippedPhotos.find(int(i)); skipped != scene->skippedPhotos.end()) {
+        photos.push_back({{"path", photo.path}, {"mask", photo.maskPath}, {"skipped", skipped->second}});
+        warnings.push_back("photo " + std::to_string(i) + " skipped: " + skipped->second);
+        continue;
+      }
+      photos.push_back({{"path", photo.path},
+                        {"mask", photo.maskPath},
+                        {"mirror", photo.mirrored},
+                        {"width", photo.width},
+                        {"height", photo.height},
+                        {"background_mask", photo.hasBackground},
+                        {"working_width", photo.rgb.cols},
+                        {"working_height", photo.rgb.rows}});
+    }
+    j["kind"] = "project";
+    j["mesh"] = meshReportJson(scene->meshReport);
+    j["photos"] = photos;
+    j["counts"] = {{"points", project.points.size()},   {"chains", project.chains.size()},
+                   {"strokes", project.strokes.size()}, {"clones", project.clones.size()}};
+    j["unknown_fields"] = project.unknownFields;
+    warnings.insert(warnings.end(), scene->warnings.begin(), scene->warnings.end());
+  } else if (isImageExtension(ext)) {
+    const PhotoStats stats = photoStats(file);
+    j["kind"] = "photo";
+    j["width"] = stats.width, j["height"] = stats.height;
+    j["channels"] = stats.channels, j["bits_per_channel"] = stats.bitsPerChannel;
+    j["foreground"] = stats.foreground, j["alpha"] = stats.hasBackground;
+    j["max_distance_px"] = stats.maxDistance, j["max_distance_error_px"] = stats.maxDistanceError;
+    warnings = foregroundWarnings(stats.hasBackground, stats.borderForeground);
+  } else if (ext == ".glb" || ext == ".gltf") {
+    TexturedModel model = loadModel(file);
+    j["kind"] = "model";
+    j["vertices"] = model.mesh.numVertices(), j["faces"] = model.mesh.numFaces();
+    j["materials"] = model.materials.size(), j["textured"] = model.textured();
+  } else {
+    TM_CHECK(!isOtherImageExtension(ext), located(file, unsupportedPhotoFormat(ext)));
+    LoadedMesh loaded = loadMesh(file);
+    j["kind"] = "mesh";
+    j["mesh"] = meshReportJson(loaded.report);
+    valid = loaded.report.usable();
+    for (const MeshFinding& f : loaded.report.findings)
+      if (f.severity == MeshFinding::Severity::Warning) warnings.push_back(f.what);
+  }
+  j["valid"] = valid;
+  j["warnings"] = warnings;
+  std::printf("%s\n", j.dump(2).c_str());
+  return valid ? doneWith(common, warnings.size()) : kExitError;
+}
+
+int cmdInfo(const std::string& file, const Common& common) {
   const std::string ext = lowerExtension(file);
   if (ext == ".json") {
     Project project = loadProject(file);
+    refuseUnknownFields(common, project, file);
     say("project %s\n  mesh: %s\n  photos: %zu\n  feature points: %zu\n  chains: %zu\n  strokes: %zu\n"
         "  clones: %zu\n",
         file.c_str(), project.mesh.c_str(), project.photos.size(), project.points.size(), project.chains.size(),
         project.strokes.size(), project.clones.size());
     auto scene = loadScene(project);  // the validation `run` does, too
     say("%s", scene->meshReport.summary().c_str());
+    std::vector<std::string> warnings = scene->warnings;
     for (size_t i = 0; i < scene->photos.size(); ++i) {
       const Photo& photo = *scene->photos[i];
+      if (auto skipped = scene->skippedPhotos.find(int(i)); skipped != scene->skippedPhotos.end()) {
+        say("  photo %zu: %s: cannot be read, a run skips it (%s)\n", i, photo.path.c_str(), skipped->second.c_str());
+        warnings.push_back("photo " + std::to_string(i) + " skipped: " + skipped->second);
+        continue;
+      }
       say("  photo %zu: %s (%dx%d%s", i, photo.path.c_str(), photo.width, photo.height,
           photo.hasBackground ? ", with background mask" : "");
       if (photo.scale != 1) say(", kept at %dx%d (working resolution)", photo.rgb.cols, photo.rgb.rows);
       say(")\n");
     }
     for (const std::string& w : scene->warnings) say("  warning: %s\n", w.c_str());
-    say("project is valid%s\n", scene->warnings.empty() ? "" : " (with the warnings above)");
-    return 0;
+    say("project is valid%s\n", warnings.empty() ? "" : " (with the warnings above)");
+    return doneWith(common, warnings.size());
   }
   if (isImageExtension(ext)) {
     const PhotoStats stats = photoStats(file);
@@ -118,9 +246,9 @@ int cmdInfo(const std::string& file) {
     if (stats.maxDistanceError > 0)
       say(" (within %.1f px: measured at 1/%d resolution)", stats.maxDistanceError, stats.distanceScale);
     say("\n");
-    for (const std::string& w : foregroundWarnings(stats.hasBackground, stats.borderForeground))
-      say("  warning: %s\n", w.c_str());
-    return 0;
+    const std::vector<std::string> warnings = foregroundWarnings(stats.hasBackground, stats.borderForeground);
+    for (const std::string& w : warnings) say("  warning: %s\n", w.c_str());
+    return doneWith(common, warnings.size());
   }
   if (ext == ".glb" || ext == ".gltf") {
     TexturedModel model = loadModel(file);
@@ -128,9 +256,13 @@ int cmdInfo(const std::string& file) {
         model.mesh.numVertices(), model.mesh.numFaces(), model.materials.size(), model.textured() ? "yes" : "no");
     return 0;
   }
+  TM_CHECK(!isOtherImageExtension(ext), located(file, unsupportedPhotoFormat(ext)));
   LoadedMesh loaded = loadMesh(file);
   say("%s", loaded.report.summary().c_str());
-  return loaded.report.usable() ? 0 : 1;
+  if (!loaded.report.usable()) return kExitError;
+  size_t warnings = 0;
+  for (const MeshFinding& f : loaded.report.findings) warnings += f.severity == MeshFinding::Severity::Warning;
+  return doneWith(common, warnings);
 }
 
 TexturedModel loadTruth(const std::string& meshPath, const std::string& texturePath) {
@@ -347,7 +479,26 @@ void printStages(const PipelineResult& result) {
   }
 }
 
-int cmdRun(const std::string& projectPath, const std::string& out, int pngCompression) {
+// `--set KEY=VALUE` applied to `options` in order; a malformed one, an unknown key or a bad value is a
+// UsageError naming it.
+void applySets(const std::vector<std::string>& sets, PipelineOptions& options) {
+  for (const std::string& set : sets) {
+    const size_t eq = set.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw UsageError("--set " + printable(set) + ": expected KEY=VALUE, e.g. --set atlasSize=2048");
+    try {
+      setProjectOption(options, set.substr(0, eq), set.substr(eq + 1), "--set " + set);
+    } catch (const Error& e) {
+      throw UsageError(e.what());
+    }
+  }
+}
+
+int cmdRun(const std::string& projectPath, const std::string& out, int pngCompression,
+           const std::vector<std::string>& sets, const Common& common) {
+  // The command line first: a bad --set is a usage error whatever the project holds.
+  PipelineOptions checked;
+  applySets(sets, checked);
   // --out is checked and locked before the pipeline: a bad folder or a second run on it is refused at
   // once, not after minutes of work. A missing photo or mask disables only that photo (the pipeline
   // skips it with a warning); the mesh must be there.
@@ -357,6 +508,8 @@ int cmdRun(const std::string& projectPath, const std::string& out, int pngCompre
     TM_CHECK(m.field != "mesh", located(projectPath, "mesh: file '" + m.path + "' not found"));
     say("  warning: %s: %s not found\n", m.field.c_str(), m.path.c_str());
   }
+  refuseUnknownFields(common, project, projectPath);
+  applySets(sets, project.options);
   if (pngCompression >= 0) project.options.pngCompression = pngCompression;
   OutputFolder folder(out);
   Pipeline pipeline(Pipeline::Keep::ThisRunOnly);  // one run: nothing is kept for a next one
@@ -368,7 +521,8 @@ int cmdRun(const std::string& projectPath, const std::string& out, int pngCompre
   printStages(result);
   for (const auto& w : result.warnings) std::printf("  warning: %s\n", printable(w).c_str());
   std::printf("wrote %s/model.obj, model.glb, report.json\n", printable(folder.path()).c_str());
-  return 0;
+  std::fflush(stdout);
+  return doneWith(common, missing.size() + result.warnings.size());
 }
 
 struct BenchArgs {
@@ -450,12 +604,24 @@ int main(int argc, char** argv) {
                                         std::to_string(Project::kOldestVersion) + " to " +
                                         std::to_string(Project::kVersion) + ")");
   app.require_subcommand(1);
+  Common common;
+  app.add_option("--threads", common.threads,
+                 "threads the work uses at most (TBB, OpenCV, OpenBLAS); default: every core. Results do not "
+                 "depend on it")
+      ->check(CLI::Range(1, 4096));
+  app.add_flag("--strict", common.strict,
+               "warnings count: exit code 3 when a command finished with warnings, and fields of a project this "
+               "build does not know are an error");
+  app.footer("Exit codes: 0 done, 1 error, 2 usage, 3 done with warnings under --strict (docs/command-line.md).");
 
   std::string infoFile;
+  bool infoJson = false;
   auto* info = app.add_subcommand("info", "Validation report of a mesh, photo, model or project");
   info->add_option("FILE", infoFile,
-                   "mesh (.obj .ply .off .stl), photo (.png .jpg .tif .bmp), model (.glb) or project (.json)")
+                   "mesh (.obj .ply .off .stl), photo (.png .jpg .jpeg .tif .tiff .bmp), model (.glb) or project "
+                   "(.json)")
       ->required();
+  info->add_flag("--json", infoJson, "print the report as one JSON object (docs/command-line.md)");
 
   SynthArgs synth;
   auto* synthCmd = app.add_subcommand("synth", "Render a synthetic ground-truth scene: photos, features, project.json");
@@ -523,6 +689,13 @@ int main(int argc, char** argv) {
   run->add_option("--png-compression", runPng,
                   "zlib level of the atlas PNG, overriding the project's option: 1 fast (previews) .. 9 smallest")
       ->check(CLI::Range(0, 9));
+  std::vector<std::string> runSets;
+  run->add_option("--set", runSets,
+                  "set a project option for this run, checked as in the project file (repeatable): "
+                  "--set atlasSize=2048 --set inpaintMode=synthesis")
+      ->type_name("KEY=VALUE")
+      ->take_first()
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
 
   BenchArgs bench;
   auto* benchCmd =
@@ -552,18 +725,34 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 16384));
   maskCmd->add_option("--out", mask.out, "mask PNG to write (8-bit grey: 0 background, 255 foreground)")->required();
 
-  CLI11_PARSE(app, argc, argv);
+  // --threads and --strict are accepted after the command too (montage run P --out D --threads 1).
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) sub->fallthrough();
   try {
-    if (*info) return cmdInfo(infoFile);
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version exit 0; any other mistake in the command line is a usage error.
+    return app.exit(e) == 0 ? kExitDone : kExitUsage;
+  }
+  try {
+    std::unique_ptr<ThreadLimit> threads;
+    if (common.threads > 0) threads = std::make_unique<ThreadLimit>(common.threads);
+    if (*info) return infoJson ? cmdInfoJson(infoFile, common) : cmdInfo(infoFile, common);
     if (*synthCmd) return cmdSynth(synth);
     if (*evalCmd) return cmdEval(evalResult, evalTruth, evalTexture, evalJson, evalSamples, evalOracle);
     if (*render) return cmdRender(renderArgs);
-    if (*run) return cmdRun(runProject, runOut, runPng);
+    if (*run) return cmdRun(runProject, runOut, runPng, runSets, common);
     if (*benchCmd) return cmdBench(bench);
     if (*maskCmd) return cmdMask(mask);
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "usage error: %s\nRun with --help for more information.\n", printable(e.what()).c_str());
+    return kExitUsage;
   } catch (const std::exception& e) {  // montage::Error and anything else: one line, exit status 1
     std::fprintf(stderr, "error: %s\n", printable(e.what()).c_str());
-    return 1;
+    if (*info && infoJson)  // a script reading stdout gets an answer too
+      std::printf("%s\n", nlohmann::json({{"file", infoFile}, {"valid", false}, {"error", printable(e.what())}})
+                               .dump(2)
+                               .c_str());
+    return kExitError;
   }
-  return 0;
+  return kExitDone;
 }

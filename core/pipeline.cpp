@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 
+#include "base/fileio.h"
 #include "base/hash.h"
 #include "base/util.h"
 #include "bench/deform.h"
@@ -38,9 +39,22 @@ std::string fileKey(const std::string& path) {
   return key.str();
 }
 
-std::string photoKey(const PhotoRef& ref, const PipelineOptions& options) {
+// A photo's file identity (paths and times): the key of a document state's results, never of a seed.
+std::string photoFileKey(const PhotoRef& ref, const PipelineOptions& options) {
   return fileKey(ref.path) + "|mask:" + (ref.mask.empty() ? "" : fileKey(ref.mask)) +
          "|side:" + std::to_string(options.maxPhotoSide) + (ref.mirror ? "|mirror" : "");
+}
+
+// photoContentKey with the file hashes from `hashOf` (which may throw montage::Error).
+template <class HashOf>
+std::string photoContentKeyWith(const PhotoRef& ref, const PipelineOptions& options, HashOf&& hashOf) {
+  std::string key;
+  try {
+    key = "photo:" + hashOf(ref.path) + "|mask:" + (ref.mask.empty() ? "" : hashOf(ref.mask));
+  } catch (const Error&) {
+    return "unreadable:" + ref.path;
+  }
+  return key + "|side:" + std::to_string(options.maxPhotoSide) + (ref.mirror ? "|mirror" : "");
 }
 
 // A photo that could not be loaded: 1 x 1 and all background, so that nothing maps into it.
@@ -106,6 +120,19 @@ void checkClones(const Project& project, const Mesh& mesh, const std::vector<std
 }
 
 }  // namespace
+
+std::string photoContentKey(const PhotoRef& ref, const PipelineOptions& options) {
+  return photoContentKeyWith(ref, options, fileContentHashHex);
+}
+
+std::string Pipeline::contentHash(const std::string& path) {
+  const std::string identity = fileKey(path);
+  if (auto it = contentHashes_.find(identity); it != contentHashes_.end()) return it->second;
+  std::string hash = fileContentHashHex(path);
+  if (contentHashes_.size() > 256) contentHashes_.clear();  // bounded: a long session relinks photos
+  contentHashes_.emplace(identity, hash);
+  return hash;
+}
 
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job) {
   Pipeline pipeline;
@@ -490,7 +517,8 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
     cached = false;
   }
   const bool sameMesh = cached;
-  meshKey_ = meshFile_ + (cachedWelded_.mesh ? "|welded" : "");  // what the stages read
+  // What the stages read: the mesh's contents, not its path or time (photoContentKey).
+  meshKey_ = "mesh:" + contentHash(project.mesh) + (cachedWelded_.mesh ? "|welded" : "");
   scene->loaded = cachedMesh_;
   scene->mesh = cachedWelded_.mesh ? cachedWelded_.mesh : cachedMesh_;
   scene->meshReport = cachedWelded_.mesh ? cachedWelded_.report : cachedMeshReport_;
@@ -513,10 +541,10 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   std::vector<CachedPhoto> photos;
   for (size_t i = 0; i < project.photos.size(); ++i) {
     const PhotoRef& ref = project.photos[i];
-    std::string key = photoKey(ref, project.options);
+    std::string key = photoContentKeyWith(ref, project.options, [&](const std::string& p) { return contentHash(p); });
     CachedPhoto entry;
-    for (const CachedPhoto& c : cachedPhotos_)
-      if (c.key == key) entry = c;
+    for (const CachedPhoto& c : cachedPhotos_)  // the same contents under the same names (messages show them)
+      if (c.key == key && c.photo && c.photo->path == ref.path && c.photo->maskPath == ref.mask) entry = c;
     if (!entry.contours || !sameMesh) entry.contours = std::make_shared<ContourMemo>();  // the mesh's contours
     if (!entry.photo) {
       job.progress(StageId::Load, double(i + 1) / (project.photos.size() + 1),
@@ -565,7 +593,7 @@ std::string Pipeline::documentKey(const Project& project) const {
   // The document (everything but its file name) and the identity of every file it reads.
   std::string key = projectToJson(project, "");
   key += '|' + fileKey(project.mesh);
-  for (const PhotoRef& ref : project.photos) key += '|' + photoKey(ref, project.options);
+  for (const PhotoRef& ref : project.photos) key += '|' + photoFileKey(ref, project.options);
   return key;
 }
 

@@ -6,6 +6,7 @@
 #include <array>
 #include <atomic>
 #include <functional>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -134,6 +135,13 @@ struct PipelineResult {
 // Stage functions, in pipeline order.
 // Load: reads the mesh and photos of a validated project and checks the project against them.
 std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job = {});
+
+// What identifies a photo for the stages (Scene::photoKeys, the cell cache) and seeds their random
+// generators: the bytes of the photo and of its mask (fileContentHash), the working resolution and the
+// mirror flag; never a path or a file time, so a project copied to another folder, or a photo touched,
+// gives the same bytes out. A file that cannot be read gives "unreadable:<path>" (its load then fails and
+// the photo is skipped with a warning).
+std::string photoContentKey(const PhotoRef& ref, const PipelineOptions& options);
 // What the map stage keeps across runs: the partition's searches and each cell's map.
 struct MapCaches {
   PartitionMemo partition;
@@ -241,8 +249,11 @@ class Pipeline {
     int merged = 0;
   } cachedWelded_;
   bool weldTried_ = false;  // cachedWelded_ was made for this value of the option
-  std::string meshFile_;    // the mesh file's identity
-  std::string meshKey_;     // the stages' mesh: the file's identity, and whether it was welded
+  std::string meshFile_;    // the mesh file's identity (path, size, time): whether to load it again
+  std::string meshKey_;     // the stages' mesh: the file's contents (hash), and whether it was welded
+  // fileContentHashHex by the file's identity (path, size, time): an unchanged file is not read again.
+  std::map<std::string, std::string> contentHashes_;
+  std::string contentHash(const std::string& path);
   // A loaded photo and what later stages derive from it alone, made on first use and kept with it.
   struct CachedPhoto {
     std::string key;

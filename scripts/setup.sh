@@ -13,7 +13,7 @@ BUILD_PKGS=(
   libsuitesparse-dev libopenblas-dev libtbb-dev libpng-dev libjpeg-dev libtiff-dev liblcms2-dev
   libgl-dev
 )
-TOOL_PKGS=(xvfb xauth xdotool assimp-utils libcgal-demo nodejs python3-opencv python3-scipy python3-skimage tuxpaint-stamps-default)  # python3-opencv, -scipy: scripts/make_demo.py; xdotool: editor_ui_test (real keys); python3-skimage, tuxpaint-stamps-default: the face and tiger cases' photos (tests, tm_subject_bench)
+TOOL_PKGS=(xvfb xauth xdotool assimp-utils libcgal-demo nodejs python3-opencv python3-scipy python3-skimage tuxpaint-stamps-default parallel)  # parallel: scripts/batch.sh and the batch test; python3-opencv, -scipy: scripts/make_demo.py; xdotool: editor_ui_test (real keys); python3-skimage, tuxpaint-stamps-default: the face and tiger cases' photos (tests, tm_subject_bench)
 
 want=("${BUILD_PKGS[@]}")
 if [[ "${1:-}" == "--with-tools" ]]; then want+=("${TOOL_PKGS[@]}"); fi

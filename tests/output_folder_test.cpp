@@ -310,3 +310,27 @@ TEST(PublishFiles, RenamesInOrderAndCleansUp) {
 
 }  // namespace
 }  // namespace montage
+
+// fileContentHash (docs/command-line.md, "Determinism"): the bytes, not the name, folder or times.
+TEST(FileContentHash, BytesOnly) {
+  const std::string dir = montage::test::tempDir("content_hash");
+  const auto write = [&](const std::string& name, const std::string& bytes) {
+    std::ofstream(dir + "/" + name, std::ios::binary) << bytes;
+    return dir + "/" + name;
+  };
+  std::string big(200000, '\0');  // more than one 64 KiB block, not a multiple of 8
+  for (size_t i = 0; i < big.size(); ++i) big[i] = char((i * 2654435761u) >> 13);
+  big.resize(199999);
+  const std::string a = write("a.bin", big), b = write("sub_b.bin", big);
+  EXPECT_EQ(montage::fileContentHash(a), montage::fileContentHash(b));
+  fs::last_write_time(b, fs::last_write_time(b) + std::chrono::hours(3));
+  EXPECT_EQ(montage::fileContentHashHex(a), montage::fileContentHashHex(b));
+  EXPECT_EQ(montage::fileContentHashHex(a).size(), 16u);
+  std::string changed = big;
+  changed[150000] ^= 1;
+  EXPECT_NE(montage::fileContentHash(a), montage::fileContentHash(write("c.bin", changed)));
+  EXPECT_NE(montage::fileContentHash(a), montage::fileContentHash(write("d.bin", big + std::string(1, '\0'))));
+  EXPECT_NE(montage::fileContentHash(write("e.bin", "")), montage::fileContentHash(write("f.bin", std::string(8, '\0'))));
+  const std::string message = montage::test::errorOf([&] { montage::fileContentHash(dir + "/none.bin"); });
+  EXPECT_NE(message.find("none.bin"), std::string::npos) << message;
+}

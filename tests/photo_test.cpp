@@ -592,8 +592,8 @@ TEST(Photo, AMirroredPhotoMapsLikeAPreMirroredCopy) {
   flagged.photos[1].mirror = true;
   const auto copyScene = loadScene(demo);
   // The random line searches of each cell are seeded by the cell's content, which names the photo by its
-  // file key (path, size, time: mapping/cells.cpp): the two scenes use the same keys, so that any
-  // difference comes from the pixels.
+  // key (photoContentKey: the file's bytes and the mirror flag; mapping/cells.cpp): the two scenes use the
+  // same keys, so that any difference comes from the pixels.
   auto flaggedScene = std::make_shared<Scene>(*loadScene(flagged));
   ASSERT_NE(flaggedScene->photoKeys[1], copyScene->photoKeys[1]);
   flaggedScene->photoKeys = copyScene->photoKeys;

@@ -778,3 +778,28 @@ TEST_F(ProjectTest, WithoutPhotoReferencesKeepsIndices) {
   for (const FeaturePoint& pt : none.points) EXPECT_TRUE(pt.at.empty());
   EXPECT_TRUE(none.chains.empty());
 }
+
+// `montage run --set KEY=VALUE` (docs/command-line.md): read and checked as the file's options are.
+TEST(ProjectOptions, SetFromTheCommandLine) {
+  PipelineOptions o;
+  setProjectOption(o, "atlasSize", "2048", "--set atlasSize=2048");
+  setProjectOption(o, "inpaintMode", "synthesis", "--set inpaintMode=synthesis");  // a bare word: a name
+  setProjectOption(o, "weldIdenticalPositions", "false", "--set weldIdenticalPositions=false");
+  setProjectOption(o, "seamLambda", "0.25", "--set seamLambda=0.25");
+  EXPECT_EQ(o.atlasSize, 2048);
+  EXPECT_EQ(o.inpaintMode, InpaintMode::Synthesis);
+  EXPECT_FALSE(o.weldIdenticalPositions);
+  EXPECT_EQ(o.seamLambda, 0.25);
+  const PipelineOptions before = o;
+  const auto message = [&](const std::string& key, const std::string& value) {
+    return test::errorOf([&] { setProjectOption(o, key, value, "--set " + key + "=" + value); });
+  };
+  EXPECT_NE(message("atlasSise", "1024").find("--set atlasSise=1024: options.atlasSise (did you mean \"atlasSize\"?)"),
+            std::string::npos);
+  EXPECT_NE(message("gutter", "99").find("options.gutter: 99 is out of range"), std::string::npos);
+  EXPECT_NE(message("gutter", "two").find("options.gutter: must be"), std::string::npos);
+  EXPECT_NE(message("inpaintMode", "paint").find("'paint' is not an inpainting mode"), std::string::npos);
+  EXPECT_NE(message("atlasSize", "100").find("options.atlasSize"), std::string::npos);
+  EXPECT_TRUE(o == before) << "a refused value leaves the options as they were";
+  EXPECT_EQ(projectOptionNames().size(), 20u);
+}

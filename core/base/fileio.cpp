@@ -6,13 +6,17 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <iterator>
 #include <utility>
 #include <vector>
+
+#include "base/hash.h"
 
 namespace fs = std::filesystem;
 
@@ -259,6 +263,66 @@ std::string lowerExtension(const std::string& path) {
 
 bool isImageExtension(const std::string& ext) {
   return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" || ext == ".bmp";
+}
+
+const char* const kPhotoExtensions = ".png, .jpg, .jpeg, .tif, .tiff, .bmp";
+
+bool isOtherImageExtension(const std::string& ext) {
+  static const char* const kOther[] = {".webp", ".exr", ".gif", ".heic", ".heif", ".avif", ".jxl", ".hdr",
+                                       ".pic", ".psd", ".tga", ".jp2", ".j2k", ".pbm", ".pgm", ".ppm",
+                                       ".pnm", ".dng", ".cr2", ".cr3", ".nef", ".arw", ".raf", ".orf",
+                                       ".rw2", ".svg", ".ico", ".xcf", ".kra"};
+  return std::find(std::begin(kOther), std::end(kOther), ext) != std::end(kOther);
+}
+
+std::string unsupportedPhotoFormat(const std::string& ext) {
+  return "unsupported photo format '" + (ext.empty() ? std::string("(no extension)") : ext.substr(1)) +
+         "' (supported: " + kPhotoExtensions + ")";
+}
+
+uint64_t fileContentHash(const std::string& path) {
+  requireRegularFile(path);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    const int err = errno;
+    throw Error(located(path, std::string("cannot open: ") + std::strerror(err)));
+  }
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  // Words of 8 bytes mixed in order (base/hash.h), the tail padded with zeros, then the length: two files
+  // that differ only in trailing zero bytes still differ.
+  uint64_t h = 0x7e47c0de5eedull, length = 0;
+  char buffer[1 << 16];
+  size_t held = 0;  // bytes of `buffer` not yet mixed in (fewer than 8)
+  for (;;) {
+    const ssize_t n = ::read(fd, buffer + held, sizeof buffer - held);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      const int err = errno;
+      throw Error(located(path, std::string("read error: ") + std::strerror(err)));
+    }
+    length += uint64_t(n);
+    const size_t have = held + size_t(n);
+    const size_t words = n == 0 ? (have + 7) / 8 : have / 8;
+    if (n == 0) std::memset(buffer + have, 0, words * 8 - have);
+    for (size_t w = 0; w < words; ++w) {
+      uint64_t v;
+      std::memcpy(&v, buffer + 8 * w, 8);
+      h = hashMix(h, v);
+    }
+    if (n == 0) break;
+    held = have - words * 8;
+    std::memmove(buffer, buffer + words * 8, held);
+  }
+  return hashMix(h, length);
+}
+
+std::string fileContentHashHex(const std::string& path) {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(fileContentHash(path)));
+  return text;
 }
 
 }  // namespace montage

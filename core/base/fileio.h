@@ -34,6 +34,13 @@ void requireRegularFile(const std::string& path, const std::string& what = "");
 std::string readFileBytes(const std::string& path, const std::string& what, uint64_t maxBytes = UINT64_MAX,
                           const std::string& why = "");
 
+// A 64-bit hash of the file's bytes (its contents only: not its name, folder or times), for keys and
+// random seeds that must not change when a file is copied, moved or touched. Reads the file in 64 KiB
+// blocks. Throws montage::Error naming the path and the reason when it cannot be read (see fileProblem).
+uint64_t fileContentHash(const std::string& path);
+// The same hash as 16 lower-case hex digits.
+std::string fileContentHashHex(const std::string& path);
+
 // Whether `path` lies inside the folder `folder` (or is in it), after resolving ".." and symbolic
 // links of both (so a link inside the folder that points out of it is outside).
 bool isInsideFolder(const std::string& path, const std::string& folder);
@@ -50,5 +57,13 @@ std::string byteSize(uint64_t bytes);
 std::string lowerExtension(const std::string& path);
 // Whether the extension (from lowerExtension) is one of the photo formats we read.
 bool isImageExtension(const std::string& ext);
+// The photo formats we read, for messages: ".png, .jpg, .jpeg, .tif, .tiff, .bmp".
+extern const char* const kPhotoExtensions;
+// Whether the extension (from lowerExtension) is an image format other programs write that we do not read
+// (.webp, .exr, .gif, .heic, .avif, .jxl, .hdr, .psd, .tga, .jp2, camera raw...): a file named so is meant
+// as a photo, and its message should say so.
+bool isOtherImageExtension(const std::string& ext);
+// "unsupported photo format 'webp' (supported: .png, .jpg, .jpeg, .tif, .tiff, .bmp)".
+std::string unsupportedPhotoFormat(const std::string& ext);
 
 }  // namespace montage

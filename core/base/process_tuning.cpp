@@ -1,7 +1,10 @@
 #include "base/process_tuning.h"
 
+#include <dlfcn.h>
 #include <sys/prctl.h>
 #include <unistd.h>
+
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -9,6 +12,9 @@
 #include <string>
 #include <utility>
 #include <vector>
+#include <opencv2/core/utility.hpp>
+
+#include "base/common.h"
 
 namespace montage {
 
@@ -71,5 +77,22 @@ void tuneProcess(char** argv) {
   (void)argv;
 #endif
 }
+
+struct ThreadLimit::State {
+  explicit State(int threads)
+      : control(tbb::global_control::max_allowed_parallelism, size_t(threads)), openCvThreads(cv::getNumThreads()) {}
+  tbb::global_control control;
+  int openCvThreads;
+};
+
+ThreadLimit::ThreadLimit(int threads) {
+  TM_CHECK(threads >= 1, "--threads: " + std::to_string(threads) + " is not a number of threads (1 or more)");
+  state_ = std::make_unique<State>(threads);
+  cv::setNumThreads(threads);
+  using SetThreads = void (*)(int);
+  if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(threads);
+}
+
+ThreadLimit::~ThreadLimit() { cv::setNumThreads(state_->openCvThreads); }
 
 }  // namespace montage

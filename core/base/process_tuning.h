@@ -9,6 +9,8 @@
 //     call, against the pipeline's own threads. Tuned: they go to sleep at once.
 #pragma once
 
+#include <memory>
+
 namespace montage {
 
 // Call first in main(). Starts this program again (same process, same arguments) with the settings
@@ -18,5 +20,22 @@ namespace montage {
 // follow), when TEXTUREMONTAGE_TUNING=off, off glibc/Linux, or when the program cannot be started again
 // (it then runs as it is).
 void tuneProcess(char** argv);
+
+// The threads a program's work uses, at most `threads` (>= 1) while the object lives (`montage --threads N`):
+// TBB's parallel loops and tasks (the pipeline's own parallelism: tbb::global_control), OpenCV's
+// parallel_for_ (cv::setNumThreads) and OpenBLAS's threads under CHOLMOD (openblas_set_num_threads, looked
+// up at run time: nothing when OpenBLAS is not loaded). The pipeline's results do not depend on it
+// (docs/command-line.md, "Determinism"). Throws montage::Error for threads < 1.
+class ThreadLimit {
+ public:
+  explicit ThreadLimit(int threads);
+  ~ThreadLimit();
+  ThreadLimit(const ThreadLimit&) = delete;
+  ThreadLimit& operator=(const ThreadLimit&) = delete;
+
+ private:
+  struct State;  // the TBB control and OpenCV's earlier thread count
+  std::unique_ptr<State> state_;
+};
 
 }  // namespace montage

@@ -764,6 +764,9 @@ cv::Mat decodeImage(const unsigned char* bytes, size_t size, const std::string& 
 cv::Mat readImageFile(const std::string& path) {
   requireRegularFile(path, "image file");
   const ImageHeader header = readImageFileHeader(path);
+  // A file of another format named as such (.webp, .exr...): say which formats are read.
+  const std::string ext = lowerExtension(path);
+  TM_CHECK(header.format != ImageFormat::Unknown || isImageExtension(ext), located(path, unsupportedPhotoFormat(ext)));
   checkImageHeader(header, path);
   const std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
   TM_CHECK(file != nullptr, located(path, "cannot open the image file: " + std::string(std::strerror(errno))));

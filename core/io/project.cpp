@@ -699,6 +699,40 @@ int requiredVersion(const Project& project) {
   return project.declinedProposals.empty() ? 1 : 2;
 }
 
+std::vector<std::string> projectOptionNames() {
+  std::vector<std::string> names;
+  PipelineOptions defaults;
+  forEachOption(defaults, [&](const char* name, auto&, auto, auto) { names.push_back(name); });
+  return names;
+}
+
+void setProjectOption(PipelineOptions& options, const std::string& key, const std::string& value,
+                      const std::string& where) {
+  json parsed;
+  try {
+    parsed = json::parse(value);
+  } catch (const json::exception&) {
+    parsed = value;  // a bare word: a string (an enum's name)
+  }
+  const json object = {{key, parsed}};
+  const Field field(where, &object, "options");
+  const std::vector<std::string> names = projectOptionNames();
+  std::vector<std::string> unknown;
+  field.unknownKeys(names, unknown);
+  if (!unknown.empty()) {
+    std::string list;
+    for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+    throw Error(located(where, unknown.front() + ": not an option (the options: " + list + ")"));
+  }
+  Project project;
+  project.options = options;
+  forEachOption(project.options, [&](const char* name, auto& v, auto, auto) {
+    if (key == name) v = field[name].as<std::decay_t<decltype(v)>>();
+  });
+  DocumentCheck(project, where, nullptr).run();
+  options = project.options;
+}
+
 void validateProject(const Project& project, int numVertices, int numFaces,
                      const std::vector<std::pair<int, int>>& photoSizes) {
   const std::string file = project.file.empty() ? "project" : project.file;

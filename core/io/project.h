@@ -159,6 +159,16 @@ Project withoutPhotoReferences(const Project& project, const std::set<int>& phot
 // WeldedMesh::vertexOf and faceOf). Throws montage::Error naming the field when an id has no counterpart.
 Project withMeshIds(const Project& project, const std::vector<int>& vertexOf, const std::vector<int>& faceOf);
 
+// Sets option `key` of `options` from `value` as a command line gives it (`montage run --set KEY=VALUE`):
+// JSON (a number, true or false, "text") or else a bare word, taken as a string (an enum's name such as
+// synthesis), read and checked as a project file's "options" are. Throws montage::Error naming `where`,
+// the option and the reason: "--set: options.atlasSise: not an option (did you mean "atlasSize"?) ...",
+// "--set: options.gutter: 99 is out of range (0..64)".
+void setProjectOption(PipelineOptions& options, const std::string& key, const std::string& value,
+                      const std::string& where);
+// The names of the options, in the order of docs/project-format.md.
+std::vector<std::string> projectOptionNames();
+
 // Serialises to JSON text (paths relative to `relativeTo`'s folder when given).
 std::string projectToJson(const Project& project, const std::string& relativeTo);
 

@@ -123,8 +123,12 @@ int cmdInfo(const std::string& file) {
     return 0;
   }
   if (ext == ".glb" || ext == ".gltf") {
+    // The mesh as the pipeline loads it (every instance, skins and morph targets noted), then the model.
+    const LoadedMesh loaded = loadMesh(file);
+    say("%s", loaded.report.summary().c_str());
+    if (!loaded.report.usable()) return 1;
     TexturedModel model = loadModel(file);
-    say("model %s\n  vertices: %d\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
+    say("model %s\n  vertices: %d (welded)\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
         model.mesh.numVertices(), model.mesh.numFaces(), model.materials.size(), model.textured() ? "yes" : "no");
     return 0;
   }
@@ -437,8 +441,9 @@ int main(int argc, char** argv) {
 
   std::string infoFile;
   auto* info = app.add_subcommand("info", "Validation report of a mesh, photo, model or project");
-  info->add_option("FILE", infoFile,
-                   "mesh (.obj .ply .off .stl), photo (.png .jpg .tif .bmp), model (.glb) or project (.json)")
+  info->add_option(
+          "FILE", infoFile,
+          "mesh (.obj .ply .off .stl .glb .gltf), photo (.png .jpg .tif .bmp), model (.glb .gltf) or project (.json)")
       ->required();
 
   SynthArgs synth;

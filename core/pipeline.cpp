@@ -435,9 +435,9 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
   const std::string name = fs::path(scene.project.mesh).stem().string();
   out.model.name = name.empty() ? "model" : name;
   if (scene.project.options.exportTopology == ExportTopology::Original) {
-    job.progress(StageId::Bake, 0.8, "transfer to the original mesh");
+    const bool meshUVs = scene.project.options.bakeInto == BakeInto::MeshUVs;
+    job.progress(StageId::Bake, 0.8, meshUVs ? "bake into the mesh's own UVs" : "transfer to the original mesh");
     const auto start = Clock::now();
-    out.original = true;
     // Texels take the montage's own colours (photos, levelling, inpainting), not a second resampling of
     // the refined atlas.
     std::vector<const Photo*> photos;
@@ -451,7 +451,7 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
     }
     const std::vector<int>& parent = scene.welded() ? loadedParent : mapping.partition->faceParent;
     const auto montage = [&](int f, const Vec3& b) { return surface.color(f, b); };
-    if (scene.project.options.bakeInto == BakeInto::MeshUVs) {
+    if (meshUVs) {
       TM_CHECK(scene.loaded->hasUV(),
                located(scene.project.mesh,
                        "options.bakeInto \"meshUVs\": the mesh has no texture coordinates (OBJ "
@@ -463,6 +463,7 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
       out.meshUVBake = bakeMeshUVs(*scene.loaded, mesh, parent, out.atlas.faceSource, montage, uvOptions);
       out.meshUVBake.model.name = out.model.name;
     } else {
+      out.original = true;
       out.originalModel = bakeOriginalTopology(*scene.loaded, mesh, parent, out.atlas, out.image, options, {}, montage);
       out.originalModel.model.name = out.model.name;
     }

@@ -722,3 +722,47 @@ TEST(MeshUVs, GltfValidatorAndAssimpReadTheTiledExport) {
   EXPECT_EQ(rc, 0) << out;
   EXPECT_NE(out.find("errors: 0, warnings: 0,"), std::string::npos) << out;
 }
+
+// Two materials in one tile: a texture each, named after the material (model_skin.1001.png, model_cloth.1001.png).
+TEST(MeshUVs, SeveralMaterialsNameTheirTextures) {
+  auto mesh = stripMesh({Vec2(0, 0), Vec2(0, 0), Vec2(0, 0), Vec2(0, 0)});
+  mesh->materialNames = {"skin", "cloth"};
+  mesh->faceMaterial = {0, 0, 0, 0, 1, 1, 1, 1};
+  MeshUVOptions options;
+  options.size = 64;
+  const MeshUVBake bake = bakeMeshUVs(
+      *mesh, *mesh, identityParents(*mesh), std::vector<int>(mesh->numFaces(), 0),
+      [&](int f, const Vec3& b) { return stripColor(*mesh, f, b); }, options);
+  ASSERT_EQ(bake.tiles.size(), 2u);
+  ASSERT_EQ(bake.model.materials.size(), 2u);
+  EXPECT_EQ(bake.model.materials[0].name, "skin");
+  EXPECT_EQ(bake.model.materials[1].name, "cloth");
+  const std::string dir = test::tempDir("mesh_uvs_materials");
+  exportObj(bake.model, dir, "model");
+  for (const char* png : {"model_skin.1001.png", "model_cloth.1001.png"})
+    EXPECT_TRUE(fs::exists(fs::path(dir) / png)) << png;
+  const std::string mtl = readBytes(dir + "/model.mtl");
+  EXPECT_NE(mtl.find("newmtl cloth\nKa 0 0 0\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\nmap_Kd model_cloth.1001.png"),
+            std::string::npos)
+      << mtl;
+}
+
+// The options are checked when the project is read: bakeSize a power of two, meshUVs only on the mesh as loaded.
+TEST(MeshUVs, ProjectOptionsAreChecked) {
+  const std::string dir = test::tempDir("mesh_uvs_options");
+  const auto errorWith = [&](const nlohmann::json& options) {
+    nlohmann::json j = test::demoProjectAbsolute();
+    for (const auto& [key, value] : options.items()) j["options"][key] = value;
+    const std::string path = dir + "/project.json";
+    std::ofstream(path) << j.dump();
+    return test::errorOf([&] { loadProject(path); });
+  };
+  const std::string size = errorWith({{"bakeInto", "meshUVs"}, {"bakeSize", 1000}});
+  EXPECT_NE(size.find("options.bakeSize: 1000 is not a power of two"), std::string::npos) << size;
+  const std::string range = errorWith({{"bakeSize", 8}});
+  EXPECT_NE(range.find("options.bakeSize"), std::string::npos) << range;
+  const std::string refined = errorWith({{"bakeInto", "meshUVs"}, {"exportTopology", "refined"}});
+  EXPECT_NE(refined.find("options.bakeInto: \"meshUVs\" bakes into the mesh as loaded"), std::string::npos) << refined;
+  const std::string name = errorWith({{"bakeInto", "uvs"}});
+  EXPECT_NE(name.find("options.bakeInto"), std::string::npos) << name;
+}

@@ -451,11 +451,7 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
     }
     const std::vector<int>& parent = scene.welded() ? loadedParent : mapping.partition->faceParent;
     const auto montage = [&](int f, const Vec3& b) { return surface.color(f, b); };
-    if (meshUVs) {
-      TM_CHECK(scene.loaded->hasUV(),
-               located(scene.project.mesh,
-                       "options.bakeInto \"meshUVs\": the mesh has no texture coordinates (OBJ "
-                       "vt, glTF TEXCOORD) to bake into; use bakeInto \"atlas\" for a new layout"));
+    if (meshUVs) {  // (loadScene checked that the mesh has UVs)
       MeshUVOptions uvOptions;
       uvOptions.size = scene.project.options.bakeSize;
       uvOptions.emptyColor = options.emptyColor;
@@ -486,6 +482,11 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
     cachedMesh_ = requireUsable(std::move(loaded));
     meshFile_ = meshFile;
   }
+  // Refused before any stage runs rather than at the bake.
+  TM_CHECK(project.options.bakeInto != BakeInto::MeshUVs || cachedMesh_->hasUV(),
+           located(project.mesh,
+                   "options.bakeInto \"meshUVs\": the mesh has no texture coordinates (OBJ vt, glTF "
+                   "TEXCOORD) to bake into; use bakeInto \"atlas\" for a new layout"));
   // A mesh split at UV seams: the stages work on it welded (once per mesh file).
   const bool weld = project.options.weldIdenticalPositions;
   if (!cached || weld != weldTried_) {

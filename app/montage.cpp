@@ -188,19 +188,20 @@ int cmdInfoJson(const std::string& file, const Common& common) {
     j["foreground"] = stats.foreground, j["alpha"] = stats.hasBackground;
     j["max_distance_px"] = stats.maxDistance, j["max_distance_error_px"] = stats.maxDistanceError;
     warnings = foregroundWarnings(stats.hasBackground, stats.borderForeground);
-  } else if (ext == ".glb" || ext == ".gltf") {
-    TexturedModel model = loadModel(file);
-    j["kind"] = "model";
-    j["vertices"] = model.mesh.numVertices(), j["faces"] = model.mesh.numFaces();
-    j["materials"] = model.materials.size(), j["textured"] = model.textured();
   } else {
     TM_CHECK(!isOtherImageExtension(ext), located(file, unsupportedPhotoFormat(ext)));
-    LoadedMesh loaded = loadMesh(file);
+    LoadedMesh loaded = loadMesh(file);  // a GLB or glTF: the mesh as the pipeline loads it, then the model
     j["kind"] = "mesh";
     j["mesh"] = meshReportJson(loaded.report);
     valid = loaded.report.usable();
     for (const MeshFinding& f : loaded.report.findings)
       if (f.severity == MeshFinding::Severity::Warning) warnings.push_back(f.what);
+    if (valid && (ext == ".glb" || ext == ".gltf")) {
+      const TexturedModel model = loadModel(file);
+      j["kind"] = "model";
+      j["model"] = {{"vertices", model.mesh.numVertices()}, {"faces", model.mesh.numFaces()},
+                    {"materials", model.materials.size()}, {"textured", model.textured()}};
+    }
   }
   j["valid"] = valid;
   j["warnings"] = warnings;
@@ -251,10 +252,16 @@ int cmdInfo(const std::string& file, const Common& common) {
     return doneWith(common, warnings.size());
   }
   if (ext == ".glb" || ext == ".gltf") {
+    // The mesh as the pipeline loads it (every instance, skins and morph targets noted), then the model.
+    const LoadedMesh loaded = loadMesh(file);
+    say("%s", loaded.report.summary().c_str());
+    if (!loaded.report.usable()) return kExitError;
     TexturedModel model = loadModel(file);
-    say("model %s\n  vertices: %d\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
+    say("model %s\n  vertices: %d (welded)\n  faces: %d\n  materials: %zu\n  textured: %s\n", file.c_str(),
         model.mesh.numVertices(), model.mesh.numFaces(), model.materials.size(), model.textured() ? "yes" : "no");
-    return 0;
+    size_t warnings = 0;
+    for (const MeshFinding& f : loaded.report.findings) warnings += f.severity == MeshFinding::Severity::Warning;
+    return doneWith(common, warnings);
   }
   TM_CHECK(!isOtherImageExtension(ext), located(file, unsupportedPhotoFormat(ext)));
   LoadedMesh loaded = loadMesh(file);
@@ -618,8 +625,8 @@ int main(int argc, char** argv) {
   bool infoJson = false;
   auto* info = app.add_subcommand("info", "Validation report of a mesh, photo, model or project");
   info->add_option("FILE", infoFile,
-                   "mesh (.obj .ply .off .stl), photo (.png .jpg .jpeg .tif .tiff .bmp), model (.glb) or project "
-                   "(.json)")
+                   "mesh (.obj .ply .off .stl .glb .gltf), photo (.png .jpg .jpeg .tif .tiff .bmp), model (.glb "
+                   ".gltf) or project (.json)")
       ->required();
   info->add_flag("--json", infoJson, "print the report as one JSON object (docs/command-line.md)");
 

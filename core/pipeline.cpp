@@ -462,9 +462,9 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
   const std::string name = fs::path(scene.project.mesh).stem().string();
   out.model.name = name.empty() ? "model" : name;
   if (scene.project.options.exportTopology == ExportTopology::Original) {
-    job.progress(StageId::Bake, 0.8, "transfer to the original mesh");
+    const bool meshUVs = scene.project.options.bakeInto == BakeInto::MeshUVs;
+    job.progress(StageId::Bake, 0.8, meshUVs ? "bake into the mesh's own UVs" : "transfer to the original mesh");
     const auto start = Clock::now();
-    out.original = true;
     // Texels take the montage's own colours (photos, levelling, inpainting), not a second resampling of
     // the refined atlas.
     std::vector<const Photo*> photos;
@@ -476,10 +476,20 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
       loadedParent.reserve(mapping.partition->faceParent.size());
       for (int f : mapping.partition->faceParent) loadedParent.push_back(scene.mesh->faceOrigin[f]);
     }
-    out.originalModel = bakeOriginalTopology(
-        *scene.loaded, mesh, scene.welded() ? loadedParent : mapping.partition->faceParent, out.atlas, out.image,
-        options, {}, [&](int f, const Vec3& b) { return surface.color(f, b); });
-    out.originalModel.model.name = out.model.name;
+    const std::vector<int>& parent = scene.welded() ? loadedParent : mapping.partition->faceParent;
+    const auto montage = [&](int f, const Vec3& b) { return surface.color(f, b); };
+    if (meshUVs) {  // (loadScene checked that the mesh has UVs)
+      MeshUVOptions uvOptions;
+      uvOptions.size = scene.project.options.bakeSize;
+      uvOptions.emptyColor = options.emptyColor;
+      out.meshUVs = true;
+      out.meshUVBake = bakeMeshUVs(*scene.loaded, mesh, parent, out.atlas.faceSource, montage, uvOptions);
+      out.meshUVBake.model.name = out.model.name;
+    } else {
+      out.original = true;
+      out.originalModel = bakeOriginalTopology(*scene.loaded, mesh, parent, out.atlas, out.image, options, {}, montage);
+      out.originalModel.model.name = out.model.name;
+    }
     out.transferSeconds = secondsSince(start);
   }
   job.progress(StageId::Bake, 1.0);
@@ -499,6 +509,11 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
     cachedMesh_ = requireUsable(std::move(loaded));
     meshFile_ = meshFile;
   }
+  // Refused before any stage runs rather than at the bake.
+  TM_CHECK(project.options.bakeInto != BakeInto::MeshUVs || cachedMesh_->hasUV(),
+           located(project.mesh,
+                   "options.bakeInto \"meshUVs\": the mesh has no texture coordinates (OBJ vt, glTF "
+                   "TEXCOORD) to bake into; use bakeInto \"atlas\" for a new layout"));
   // A mesh split at UV seams: the stages work on it welded (once per mesh file).
   const bool weld = project.options.weldIdenticalPositions;
   if (!cached || weld != weldTried_) {
@@ -1020,7 +1035,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
 
   // Bake (final tier): rerun when the colours or the atlas and export options changed.
   if (tier == Tier::Final) {
-    key << opts["atlasSize"].dump() << opts["gutter"].dump() << opts["exportTopology"].dump();
+    key << opts["atlasSize"].dump() << opts["gutter"].dump() << opts["exportTopology"].dump() << opts["bakeInto"].dump()
+        << opts["bakeSize"].dump();
     const bool bakeCached = colorCached && key.str() == bakeKey_ && cachedBake_;
     start = Clock::now();
     if (!bakeCached) {
@@ -1047,6 +1063,26 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                        {"measure_seconds", o.measureSeconds},
                        {"transfer_loss", o.loss.toJson()}});
       bake.counts["original"] = original;
+    }
+    if (baked.meshUVs) {
+      const MeshUVBake& u = baked.meshUVBake;
+      nlohmann::json tiles = nlohmann::json::array();
+      for (const MeshUVTile& t : u.tiles)
+        tiles.push_back(
+            {{"material", u.model.materials[&t - u.tiles.data()].name}, {"udim", t.udim}, {"faces", t.faces.size()}});
+      bake.counts["mesh_uvs"] = {{"size", project.options.bakeSize},
+                                 {"tiles", tiles},
+                                 {"overlapping_faces", u.overlappingFaces},
+                                 {"faces_across_tiles", u.crossingFaces},
+                                 {"faces_out_of_range", u.outOfRangeFaces},
+                                 {"psnr_vs_montage", u.psnr},
+                                 {"psnr_covered_vs_montage", u.psnrCovered},
+                                 {"samples", u.samples},
+                                 {"covered_samples", u.coveredSamples},
+                                 {"seconds", baked.transferSeconds},
+                                 {"bake_seconds", u.bakeSeconds},
+                                 {"measure_seconds", u.measureSeconds}};
+      for (const std::string& w : u.warnings) result.warnings.push_back("bake into the mesh's UVs: " + w);
     }
     result.stages.push_back(bake);
     result.baked = cachedBake_;
@@ -1275,10 +1311,10 @@ void writeRunOutputs(const PipelineResult& result, OutputFolder& out) {
   std::vector<std::string> files = {"model.obj", "model.mtl", "model.glb"};
   for (const Material& m : model->materials)
     if (!m.texture.empty()) {
-      const std::string png = "model_" + (m.textureName.empty() ? m.name : m.textureName) + ".png";
+      const std::string png = textureFileName("model", m.textureName.empty() ? m.name : m.textureName);
       if (std::find(files.begin(), files.end(), png) == files.end()) files.push_back(png);
     }
-  if (result.baked) {
+  if (result.baked && !result.baked->meshUVs) {  // the mesh's own UVs: no atlas layers (a texture per tile)
     if (result.baked->original)
       writeAtlasLayers(result.baked->originalModel.source, dir, "model");
     else

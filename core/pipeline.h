@@ -96,15 +96,19 @@ struct SurfaceColors {
 // Bake (paper section 2, step 5): charts, LSCM, packing and baking into one texture atlas (atlas.h),
 // and the model over the partition's mesh that carries it (one material per source, all showing the atlas).
 // With exportTopology "original" (the default), the result is also transferred onto the input mesh as
-// loaded, with an atlas of its own (atlas/transfer.h), and that is the model the pipeline exports.
+// loaded, with an atlas of its own (atlas/transfer.h), and that is the model the pipeline exports; with
+// bakeInto "meshUVs" it is baked into the mesh's own UV layout instead (bakeMeshUVs: UDIM tiles, a texture per
+// material and tile).
 struct BakeResult {
   Atlas atlas;
   AtlasImage image;       // image.rgba is the model's texture (shared, not copied)
   TexturedModel model;    // over the refined mesh
   bool original = false;  // exportTopology is original: `originalModel` holds the exported model
   OriginalModel originalModel;
+  bool meshUVs = false;  // bakeInto is meshUVs: `meshUVBake` holds the exported model (the mesh's own UVs)
+  MeshUVBake meshUVBake;
   double transferSeconds = 0;
-  const TexturedModel& exported() const { return original ? originalModel.model : model; }
+  const TexturedModel& exported() const { return meshUVs ? meshUVBake.model : original ? originalModel.model : model; }
 };
 
 // What a run produces. The preview is what the editor shows after each edit: the mapping, the

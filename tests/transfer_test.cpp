@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numeric>
 #include <opencv2/imgcodecs.hpp>
 #include <regex>
 
@@ -447,4 +448,321 @@ TEST(Demo, MapsMostOfItsSurfaceFromThePhotos) {
   std::printf("demo: %.1f%% of the surface from the photos, %.1f%% inpainted\n", 100 * photo, 100 * inpainted);
   EXPECT_GE(photo, 0.58);  // README: "about 60%"
   EXPECT_NEAR(photo + inpainted + report["surface"]["empty_share"].get<double>(), 1.0, 1e-9);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Baking into the mesh's own UVs (bakeMeshUVs, project option bakeInto "meshUVs").
+
+namespace {
+
+// A strip of four unit squares along x (8 triangles, 10 vertices), UVs per square given by `tile` (u offset of
+// square i's [0,1]^2 layout, each square filling a quarter of its tile's width).
+std::unique_ptr<Mesh> stripMesh(const std::vector<Vec2>& squareOffset) {
+  std::vector<Vec3> v;
+  for (int i = 0; i <= 4; ++i) v.emplace_back(i, 0, 0), v.emplace_back(i, 1, 0);
+  std::vector<std::array<int, 3>> t;
+  std::vector<std::array<Vec2, 3>> uv;
+  for (int i = 0; i < 4; ++i) {
+    const int a = 2 * i, b = 2 * i + 2, c = 2 * i + 3, d = 2 * i + 1;
+    const Vec2 o = squareOffset[i];
+    const auto at = [&](double x, double y) -> Vec2 {
+      return o + Vec2(0.05 + 0.2 * x + 0.25 * (i % 4), 0.1 + 0.8 * y);
+    };
+    t.push_back({a, b, c});
+    uv.push_back({at(0, 0), at(1, 0), at(1, 1)});
+    t.push_back({a, c, d});
+    uv.push_back({at(0, 0), at(1, 1), at(0, 1)});
+  }
+  return requireUsable(buildMesh(v, t, uv));
+}
+
+// A smooth colour of the strip's surface: the montage of these tests (the refined mesh is the mesh itself).
+Vec3f stripColor(const Mesh& mesh, int f, const Vec3& b) {
+  const auto p = mesh.facePositions(f);
+  const Vec3 q = b[0] * p[0] + b[1] * p[1] + b[2] * p[2];
+  return Vec3f(static_cast<float>(0.2 + 0.15 * q.x()), static_cast<float>(0.3 + 0.5 * q.y()), 0.6f);
+}
+
+std::vector<int> identityParents(const Mesh& mesh) {
+  std::vector<int> p(mesh.numFaces());
+  std::iota(p.begin(), p.end(), 0);
+  return p;
+}
+
+}  // namespace
+
+// A mesh without texture coordinates cannot be baked into them: the error says so and what to use instead.
+TEST(MeshUVs, NoUVsIsAClearError) {
+  auto mesh = stripMesh({Vec2(0, 0), Vec2(0, 0), Vec2(0, 0), Vec2(0, 0)});
+  mesh->cornerUV.clear();
+  const std::string e = test::errorOf([&] {
+    bakeMeshUVs(*mesh, *mesh, identityParents(*mesh), std::vector<int>(mesh->numFaces(), 0),
+                [&](int f, const Vec3& b) { return stripColor(*mesh, f, b); });
+  });
+  EXPECT_NE(e.find("the mesh has no texture coordinates"), std::string::npos) << e;
+  EXPECT_NE(e.find("bakeInto \"atlas\""), std::string::npos) << e;
+  const auto uvMesh = stripMesh({Vec2(0, 0), Vec2(0, 0), Vec2(0, 0), Vec2(0, 0)});
+  MeshUVOptions options;
+  options.size = 1000;
+  const std::string e2 = test::errorOf([&] {
+    bakeMeshUVs(
+        *uvMesh, *uvMesh, identityParents(*uvMesh), std::vector<int>(uvMesh->numFaces(), 0),
+        [&](int f, const Vec3& b) { return stripColor(*uvMesh, f, b); }, options);
+  });
+  EXPECT_NE(e2.find("1000 is not a power of two"), std::string::npos) << e2;
+}
+
+// Squares 0 and 1 in tile 1001, square 2 in 1002, square 3 in 1011: three textures, each texel inside a face
+// the surface colour there; exportObj writes model.1001.png, model.1002.png and model.1011.png and the .mtl
+// names them, one material per tile; the exported GLB has three materials. Then warnings: square 1 moved onto
+// square 0's UVs overlaps it, a face stretched over the 1001/1011 border crosses it, a square at u < 0 is out of
+// range, each naming its faces.
+TEST(MeshUVs, UdimTilesOneTexturePerTileAndWarningsNameTheFaces) {
+  const auto mesh = stripMesh({Vec2(0, 0), Vec2(0, 0), Vec2(1, 0), Vec2(0, 1)});
+  const SurfaceColor color = [&](int f, const Vec3& b) { return stripColor(*mesh, f, b); };
+  MeshUVOptions options;
+  options.size = 256;
+  const MeshUVBake bake =
+      bakeMeshUVs(*mesh, *mesh, identityParents(*mesh), std::vector<int>(mesh->numFaces(), 0), color, options);
+  EXPECT_TRUE(bake.warnings.empty()) << bake.warnings[0];
+  ASSERT_EQ(bake.tiles.size(), 3u);
+  EXPECT_EQ(bake.tiles[0].udim, 1001);
+  EXPECT_EQ(bake.tiles[1].udim, 1002);
+  EXPECT_EQ(bake.tiles[2].udim, 1011);
+  EXPECT_EQ(bake.tiles[0].faces, (std::vector<int>{0, 1, 2, 3}));
+  ASSERT_EQ(bake.model.materials.size(), 3u);
+  EXPECT_EQ(bake.model.materials[1].name, "material_1002");
+  EXPECT_EQ(bake.model.materials[1].textureName, ".1002");
+  // Every texel centre inside a face has the colour there (8-bit rounding).
+  int checked = 0;
+  for (const MeshUVTile& tile : bake.tiles)
+    for (int f : tile.faces)
+      for (const Vec3& b : {Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3), Vec3(0.6, 0.2, 0.2), Vec3(0.1, 0.1, 0.8)}) {
+        const auto& t = mesh->cornerUV[f];
+        const Vec2 uv = b[0] * t[0] + b[1] * t[1] + b[2] * t[2];
+        const int x = static_cast<int>((uv.x() - std::floor(uv.x())) * 256);
+        const int y = static_cast<int>((1 - (uv.y() - std::floor(uv.y()))) * 256);
+        // The texel's own centre, as barycentrics: compare with the colour there.
+        const Vec3f want = color(f, b);
+        const cv::Vec4b got = tile.rgba.at<cv::Vec4b>(y, x);
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c] / 255.0, want[c], 0.02) << "face " << f << " tile " << tile.udim;
+        ++checked;
+      }
+  EXPECT_EQ(checked, 24);
+  EXPECT_GT(bake.psnr, 40.0);
+  EXPECT_GT(bake.psnrCovered, 40.0);
+
+  const std::string dir = test::tempDir("mesh_uvs_udim");
+  exportObj(bake.model, dir, "model");
+  exportGlb(bake.model, dir + "/model.glb");
+  for (const char* png : {"model.1001.png", "model.1002.png", "model.1011.png"})
+    EXPECT_TRUE(fs::exists(fs::path(dir) / png)) << png;
+  const std::string mtl = readBytes(dir + "/model.mtl");
+  EXPECT_NE(mtl.find("newmtl material_1002\n"), std::string::npos) << mtl;
+  EXPECT_NE(mtl.find("map_Kd model.1002.png"), std::string::npos) << mtl;
+  const TexturedModel back = loadModel(dir + "/model.glb");
+  EXPECT_EQ(back.materials.size(), 3u);
+  // The GLB read back shows the bake: its colours at face centres are the surface's.
+  for (int f = 0; f < back.mesh.numFaces(); ++f) {
+    const Vec3f c = back.colorAt(f, Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3));
+    const auto p = back.mesh.facePositions(f);
+    const Vec3 q = (p[0] + p[1] + p[2]) / 3;
+    EXPECT_NEAR(c[0], 0.2 + 0.15 * q.x(), 0.02) << "face " << f;
+    EXPECT_NEAR(c[1], 0.3 + 0.5 * q.y(), 0.02) << "face " << f;
+  }
+
+  // Overlap (square 1 onto square 0's place), a face across 1001/1002, a square out of range.
+  auto bad = stripMesh({Vec2(0, 0), Vec2(-0.25, 0), Vec2(1, 0), Vec2(-2, 0)});
+  bad->cornerUV[4] = {Vec2(0.6, 0.95), Vec2(0.7, 1.05), Vec2(0.65, 0.9)};  // across the 1001/1011 border
+  const MeshUVBake warned =
+      bakeMeshUVs(*bad, *bad, identityParents(*bad), std::vector<int>(bad->numFaces(), 0), color, options);
+  ASSERT_EQ(warned.warnings.size(), 3u);
+  EXPECT_NE(warned.warnings[0].find("overlap"), std::string::npos) << warned.warnings[0];
+  EXPECT_NE(warned.warnings[0].find("4 faces have UVs that overlap another face's (faces 0, 1, 2, 3)"),
+            std::string::npos)
+      << warned.warnings[0];
+  EXPECT_NE(warned.warnings[1].find("cross a UDIM tile border (face 4)"), std::string::npos) << warned.warnings[1];
+  EXPECT_NE(warned.warnings[2].find("outside the UDIM range"), std::string::npos) << warned.warnings[2];
+  EXPECT_NE(warned.warnings[2].find("faces 6, 7"), std::string::npos) << warned.warnings[2];
+  EXPECT_EQ(warned.crossingFaces, 1);
+  EXPECT_EQ(warned.outOfRangeFaces, 2);
+}
+
+namespace {
+
+// A synthetic scene of a shared-data mesh textured with its own texture (4 views, 150 clicks), run with bakeInto
+// "meshUVs": the bake's figures. `mesh` replaces the project's mesh (same vertices and faces, other UVs) when given.
+// The run's outputs are in `outDir`.
+const BakeResult& meshUVRun(const std::string& meshPath, const std::string& texturePath, const std::string& tag,
+                            int bakeSize, const std::string& mesh = "", std::string* outDir = nullptr) {
+  static std::map<std::string, std::pair<PipelineResult, std::string>> runs;
+  auto it = runs.find(tag);
+  if (it == runs.end()) {
+    const auto loaded = requireUsable(loadMesh(meshPath));
+    const TexturedModel truth = modelFromMesh(*loaded, readImageRgba8(texturePath));
+    SynthOptions options;
+    options.views = 4;
+    options.features = 150;
+    const std::string dir = test::tempDir("mesh_uvs_" + tag);
+    writeSynthScene(synthesize(
+                        *loaded, meshPath, [&](int f, const Vec3& b) { return truth.colorAt(f, b); }, options),
+                    dir);
+    Project project = loadProject(dir + "/project.json");
+    if (!mesh.empty()) project.mesh = mesh;
+    project.options.bakeInto = BakeInto::MeshUVs;
+    project.options.bakeSize = bakeSize;
+    PipelineResult result = Pipeline().run(project);
+    writeRunOutputs(result, dir + "/out");
+    it = runs.emplace(tag, std::make_pair(std::move(result), dir + "/out")).first;
+  }
+  if (outDir) *outDir = it->second.second;
+  EXPECT_TRUE(it->second.first.baked && it->second.first.baked->meshUVs);
+  return *it->second.first.baked;
+}
+
+}  // namespace
+
+// Spot and bob baked into their own UV layouts: the bake within 40 dB of the montage on the covered surface.
+TEST(MeshUVs, SpotAndBobOwnLayoutsWithin40dBOfTheMontage) {
+  TM_REQUIRE_SHARED(spot, "meshes/spot/spot_triangulated.obj");
+  for (const auto& [mesh, texture, tag] :
+       {std::tuple<std::string, std::string, std::string>{spot, test::sharedFile("meshes/spot/spot_texture.png"),
+                                                          "spot"},
+        {test::sharedFile("meshes/bob/bob_tri.obj"), test::sharedFile("meshes/bob/bob_diffuse.png"), "bob"}}) {
+    const BakeResult& baked = meshUVRun(mesh, texture, tag, 2048);
+    const MeshUVBake& u = baked.meshUVBake;
+    std::printf(
+        "%s into its own UVs at 2048: covered %.2f dB, all %.2f dB (%d covered samples of %d), %zu tiles, "
+        "%d overlapping faces, bake %.2f s\n",
+        tag.c_str(), u.psnrCovered, u.psnr, u.coveredSamples, u.samples, u.tiles.size(), u.overlappingFaces,
+        u.bakeSeconds);
+    EXPECT_GE(u.psnrCovered, 40.0) << tag;
+    EXPECT_GT(u.coveredSamples, u.samples / 4) << tag;
+    ASSERT_EQ(u.tiles.size(), 1u) << tag;
+    EXPECT_EQ(u.tiles[0].udim, 1001);
+    EXPECT_EQ(u.tiles[0].rgba.rows, 2048);
+    // The exported model is the mesh as loaded with its own UVs.
+    const auto loaded = requireUsable(loadMesh(mesh));
+    ASSERT_EQ(u.model.mesh.numFaces(), loaded->numFaces());
+    for (int f = 0; f < loaded->numFaces(); f += 97)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_EQ(u.model.uv[f][k], loaded->cornerUV[f][k].cast<float>()) << tag << " face " << f;
+  }
+}
+
+// Spot with its right half moved to tile 1002 (u + 1): two textures, model.1001.png and model.1002.png, both
+// referenced by the OBJ's materials and the GLB, and the bake within 40 dB of the montage at 1024.
+TEST(MeshUVs, TwoTileSpot) {
+  TM_REQUIRE_SHARED(spot, "meshes/spot/spot_triangulated.obj");
+  auto mesh = requireUsable(loadMesh(spot));
+  int moved = 0;
+  for (auto& t : mesh->cornerUV)
+    if ((t[0].x() + t[1].x() + t[2].x()) / 3 > 0.5) {
+      for (Vec2& q : t) q.x() += 1;
+      ++moved;
+    }
+  ASSERT_GT(moved, 100);
+  const std::string dir = test::tempDir("mesh_uvs_two_tile_mesh");
+  const std::string twoTile = dir + "/spot_two_tiles.obj";
+  saveMeshObj(*mesh, twoTile);
+  std::string out;
+  const BakeResult& baked =
+      meshUVRun(spot, test::sharedFile("meshes/spot/spot_texture.png"), "spot_two_tiles", 1024, twoTile, &out);
+  const MeshUVBake& u = baked.meshUVBake;
+  std::printf("two-tile spot at 1024: covered %.2f dB, all %.2f dB, %zu tiles, %d faces across tiles\n", u.psnrCovered,
+              u.psnr, u.tiles.size(), u.crossingFaces);
+  ASSERT_EQ(u.tiles.size(), 2u);
+  EXPECT_EQ(u.tiles[0].udim, 1001);
+  EXPECT_EQ(u.tiles[1].udim, 1002);
+  EXPECT_EQ(static_cast<int>(u.tiles[1].faces.size()), moved);
+  EXPECT_GE(u.psnrCovered, 40.0);
+  // The files: one PNG per tile, one material per tile in the .mtl, two materials in the GLB read back.
+  for (const char* png : {"model.1001.png", "model.1002.png"})
+    EXPECT_TRUE(fs::exists(fs::path(out) / png)) << out << "/" << png;
+  const std::string mtl = readBytes(out + "/model.mtl");
+  EXPECT_NE(mtl.find("map_Kd model.1001.png"), std::string::npos) << mtl;
+  EXPECT_NE(mtl.find("map_Kd model.1002.png"), std::string::npos) << mtl;
+  const TexturedModel glb = loadModel(out + "/model.glb");
+  EXPECT_EQ(glb.materials.size(), 2u);
+  const nlohmann::json report = test::readJson(out + "/report.json");
+  EXPECT_NE(report.dump().find("\"udim\":1002"), std::string::npos);
+}
+
+// The strip in three UDIM tiles exported: the Khronos validator finds no error or warning in the GLB, and assimp
+// reads the GLB and the OBJ with one material per tile.
+TEST(MeshUVs, GltfValidatorAndAssimpReadTheTiledExport) {
+  const auto mesh = stripMesh({Vec2(0, 0), Vec2(0, 0), Vec2(1, 0), Vec2(0, 1)});
+  MeshUVOptions options;
+  options.size = 64;
+  const MeshUVBake bake = bakeMeshUVs(
+      *mesh, *mesh, identityParents(*mesh), std::vector<int>(mesh->numFaces(), 0),
+      [&](int f, const Vec3& b) { return stripColor(*mesh, f, b); }, options);
+  const std::string dir = test::tempDir("mesh_uvs_validate");
+  exportObj(bake.model, dir, "model");
+  exportGlb(bake.model, dir + "/model.glb");
+  if (test::runCommand("command -v assimp") == 0) {
+    for (const std::string name : {"model.glb", "model.obj"}) {
+      std::string out;
+      ASSERT_EQ(test::runCommand("assimp info '" + dir + "/" + name + "'", &out), 0) << out;
+      std::smatch m;
+      ASSERT_TRUE(std::regex_search(out, m, std::regex("Materials:\\s+(\\d+)"))) << out;
+      EXPECT_GE(std::stoi(m[1]), 3) << name << "\n" << out;
+      ASSERT_TRUE(std::regex_search(out, m, std::regex("Faces:\\s+(\\d+)"))) << out;
+      EXPECT_EQ(std::stoi(m[1]), 8) << name;
+    }
+  } else {
+    std::printf("assimp is not installed (Debian package assimp-utils): only the validator runs\n");
+  }
+  if (!validatorReady())
+    GTEST_SKIP() << "the Khronos glTF validator is not installed in '" << TM_GLTF_NODE_DIR
+                 << "': the ctest test npm_gltf_validator_setup installs it";
+  int rc = 0;
+  const std::string out = validate(dir + "/model.glb", &rc);
+  std::printf("%s", out.c_str());
+  EXPECT_EQ(rc, 0) << out;
+  EXPECT_NE(out.find("errors: 0, warnings: 0,"), std::string::npos) << out;
+}
+
+// Two materials in one tile: a texture each, named after the material (model_skin.1001.png, model_cloth.1001.png).
+TEST(MeshUVs, SeveralMaterialsNameTheirTextures) {
+  auto mesh = stripMesh({Vec2(0, 0), Vec2(0, 0), Vec2(0, 0), Vec2(0, 0)});
+  mesh->materialNames = {"skin", "cloth"};
+  mesh->faceMaterial = {0, 0, 0, 0, 1, 1, 1, 1};
+  MeshUVOptions options;
+  options.size = 64;
+  const MeshUVBake bake = bakeMeshUVs(
+      *mesh, *mesh, identityParents(*mesh), std::vector<int>(mesh->numFaces(), 0),
+      [&](int f, const Vec3& b) { return stripColor(*mesh, f, b); }, options);
+  ASSERT_EQ(bake.tiles.size(), 2u);
+  ASSERT_EQ(bake.model.materials.size(), 2u);
+  EXPECT_EQ(bake.model.materials[0].name, "skin");
+  EXPECT_EQ(bake.model.materials[1].name, "cloth");
+  const std::string dir = test::tempDir("mesh_uvs_materials");
+  exportObj(bake.model, dir, "model");
+  for (const char* png : {"model_skin.1001.png", "model_cloth.1001.png"})
+    EXPECT_TRUE(fs::exists(fs::path(dir) / png)) << png;
+  const std::string mtl = readBytes(dir + "/model.mtl");
+  EXPECT_NE(mtl.find("newmtl cloth\nKa 0 0 0\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\nmap_Kd model_cloth.1001.png"),
+            std::string::npos)
+      << mtl;
+}
+
+// The options are checked when the project is read: bakeSize a power of two, meshUVs only on the mesh as loaded.
+TEST(MeshUVs, ProjectOptionsAreChecked) {
+  const std::string dir = test::tempDir("mesh_uvs_options");
+  const auto errorWith = [&](const nlohmann::json& options) {
+    nlohmann::json j = test::demoProjectAbsolute();
+    for (const auto& [key, value] : options.items()) j["options"][key] = value;
+    const std::string path = dir + "/project.json";
+    std::ofstream(path) << j.dump();
+    return test::errorOf([&] { loadProject(path); });
+  };
+  const std::string size = errorWith({{"bakeInto", "meshUVs"}, {"bakeSize", 1000}});
+  EXPECT_NE(size.find("options.bakeSize: 1000 is not a power of two"), std::string::npos) << size;
+  const std::string range = errorWith({{"bakeSize", 8}});
+  EXPECT_NE(range.find("options.bakeSize"), std::string::npos) << range;
+  const std::string refined = errorWith({{"bakeInto", "meshUVs"}, {"exportTopology", "refined"}});
+  EXPECT_NE(refined.find("options.bakeInto: \"meshUVs\" bakes into the mesh as loaded"), std::string::npos) << refined;
+  const std::string name = errorWith({{"bakeInto", "uvs"}});
+  EXPECT_NE(name.find("options.bakeInto"), std::string::npos) << name;
 }

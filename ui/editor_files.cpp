@@ -109,8 +109,8 @@ bool Editor::openFile(const std::string& path) {
     } else {
       std::error_code ec;
       TM_CHECK(fs::is_regular_file(abs, ec), located(abs, "file not found"));
-      TM_CHECK(ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl",
-               located(abs, "not a project (.json) or a mesh (.obj .ply .off .stl)"));
+      TM_CHECK(ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl" || ext == ".glb" || ext == ".gltf",
+               located(abs, "not a project (.json) or a mesh (.obj .ply .off .stl .glb .gltf)"));
       project.mesh = abs;  // a new, unsaved project on this mesh
     }
     doc_.reset(std::move(project));
@@ -143,9 +143,9 @@ bool Editor::openFile(const std::string& path) {
 void Editor::requestOpen() {
   guardUnsaved([this] {
     dialogs_.request(DialogKind::OpenFile, "Open a project or a mesh",
-                     {{"Projects and meshes", {"*.json", "*.obj", "*.ply", "*.off", "*.stl"}},
+                     {{"Projects and meshes", {"*.json", "*.obj", "*.ply", "*.off", "*.stl", "*.glb", "*.gltf"}},
                       {"Projects", {"*.json"}},
-                      {"Meshes", {"*.obj", "*.ply", "*.off", "*.stl"}},
+                      {"Meshes", {"*.obj", "*.ply", "*.off", "*.stl", "*.glb", "*.gltf"}},
                       {"All files", {"*"}}},
                      "open", projectFolder());
   });
@@ -286,7 +286,8 @@ void Editor::handleDrop(const std::vector<std::string>& paths) {
   std::vector<std::string> images;
   for (const std::string& p : paths) {
     const std::string ext = lowerExtension(p);
-    const bool openable = ext == ".json" || ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl";
+    const bool openable = ext == ".json" || ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl" ||
+                          ext == ".glb" || ext == ".gltf";
     if (openable && open.empty())
       open = p;
     else if (openable)

@@ -200,8 +200,8 @@ void Editor::missingFilesWindow() {
       if (m.field == "mesh") {
         if (button("Relink...", nullptr, "relink mesh"))
           dialogs_.request(DialogKind::OpenFile, "Relink the mesh",
-                           {{"Meshes", {"*.obj", "*.ply", "*.off", "*.stl"}}, {"All files", {"*"}}}, "relink_mesh",
-                           start);
+                           {{"Meshes", {"*.obj", "*.ply", "*.off", "*.stl", "*.glb", "*.gltf"}}, {"All files", {"*"}}},
+                           "relink_mesh", start);
       } else if (photo >= 0 && !mask) {
         if (button("Relink...", nullptr, "relink photo " + std::to_string(photo)))
           dialogs_.request(DialogKind::OpenFile, "Relink photo " + std::to_string(photo),

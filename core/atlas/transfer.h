@@ -103,4 +103,56 @@ TransferLoss measureTransfer(const TexturedModel& original, const TexturedModel&
                              const Atlas& originalAtlas, const TransferOptions& options = {},
                              const SurfaceColor& montage = {});
 
+// ---------------------------------------------------------------------------------------------
+// Baking into the mesh's own UV layout (project option bakeInto "meshUVs").
+//
+// The input mesh keeps its texture coordinates (Mesh::cornerUV, v up). UDIM tiles: a face belongs to the tile
+// of its UV centroid, 1001 + floor(u) + 10 floor(v) (u in 0..10, v >= 0); a mesh whose UVs all lie in [0,1]^2
+// has the one tile 1001. Each (material, tile) gets a texture of its own, size x size texels, baked like the
+// atlas (bakeAtlasSurface: every texel of a face's footprint takes the montage's colour at its surface point,
+// then the gutters take the nearest baked colour, so filtering and mipmaps never see a background).
+
+struct MeshUVOptions {
+  int size = 2048;  // texels a side of every tile's texture, a power of two in 16..8192
+  Vec3f emptyColor = Vec3f(0.7f, 0.7f, 0.7f);  // sRGB colour where the montage has no refined face
+  int samples = 50000;                          // area-weighted surface samples of the PSNR measurement
+  unsigned seed = 7;                            // their random seed
+};
+
+// One texture of the bake: a material's faces in one UDIM tile.
+struct MeshUVTile {
+  int material = 0;  // index into the exported model's source materials (Mesh::materialNames; 0 when none)
+  int udim = 1001;   // 1001 + floor(u) + 10 floor(v)
+  std::vector<int> faces;  // input faces baked into it, ascending
+  cv::Mat rgba;            // CV_8UC4, size x size, row 0 = top (v = tile's v + 1)
+  cv::Mat source;          // CV_8UC1: codes of atlasSourceLayer (photo + 1, 254 inpainted, 253 empty), 0 = gutter
+};
+
+struct MeshUVBake {
+  // The input mesh exactly as loaded with its own UVs; one material per (material, tile), named after the input
+  // material (with "_<udim>" when the mesh has several tiles), each showing its tile's texture. The texture names
+  // (Material::textureName) make exportObj write model.<udim>.png, or model_<material>.<udim>.png when the mesh
+  // has several materials.
+  TexturedModel model;
+  std::vector<MeshUVTile> tiles;  // by (material, udim)
+  // Faces whose UVs overlap another face's (one of them shows in the texture), faces that cross a tile border
+  // (baked into their centroid's tile; the part outside repeats the tile), faces outside the UDIM range (u not
+  // in 0..10 or v < 0: baked wrapped into their tile's place in 1001), each naming the first faces.
+  std::vector<std::string> warnings;
+  int overlappingFaces = 0, crossingFaces = 0, outOfRangeFaces = 0;
+  // The bake against the montage at the same surface points (RGB in [0,255]): all samples, and the covered ones
+  // (whose refined face shows a photo).
+  double psnr = 0, psnrCovered = 0;
+  int samples = 0, coveredSamples = 0;
+  double seconds = 0, bakeSeconds = 0, measureSeconds = 0;
+};
+
+// Bakes the montage into `input`'s own UVs. refined/faceParent as for RefinedLocator; refinedSource: #F(refined)
+// face sources (FaceSource or photo index: the refined atlas's faceSource); color: the montage's colour at a
+// point of the refined surface. Throws montage::Error when the input has no texture coordinates, the sizes do not
+// match or the size is not a power of two in 16..8192.
+MeshUVBake bakeMeshUVs(const Mesh& input, const Mesh& refined, const std::vector<int>& faceParent,
+                       const std::vector<int>& refinedSource, const SurfaceColor& color,
+                       const MeshUVOptions& options = {});
+
 }  // namespace montage

@@ -16,6 +16,7 @@
 #include <unordered_map>
 
 #include "base/fileio.h"
+#include "io/model.h"
 
 namespace montage {
 
@@ -754,7 +755,7 @@ Reader meshReader(const std::string& ext, const std::string& path) {
       {"obj", readObj}, {"off", readOff}, {"ply", readPly}, {"stl", readStl}};
   const auto reader = std::find_if(std::begin(readers), std::end(readers), [&](auto& r) { return ext == r.first; });
   if (reader == std::end(readers))
-    failAt(path, 0, "unsupported mesh format " + quote(ext) + " (expected .obj, .ply, .off or .stl)");
+    failAt(path, 0, "unsupported mesh format " + quote(ext) + " (expected .obj, .ply, .off, .stl, .glb or .gltf)");
   return reader->second;
 }
 
@@ -763,6 +764,7 @@ Reader meshReader(const std::string& ext, const std::string& path) {
 LoadedMesh loadMesh(const std::string& path, const MeshLoadOptions& options) {
   std::string ext = lowerExtension(path);
   if (!ext.empty()) ext.erase(0, 1);
+  if (ext == "glb" || ext == "gltf") return loadGltfMesh(path, options);  // io/model.h: the model reader's
   meshReader(ext, path);  // an unknown format is refused before the file is read
   return parseMesh(readFileBytes(path, "mesh file"), ext, path, options);
 }

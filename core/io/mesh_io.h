@@ -9,7 +9,8 @@
 
 namespace montage {
 
-// Reads OBJ, PLY (ascii, binary), OFF or STL (ascii, binary), by extension. Polygons are fan
+// Reads OBJ, PLY (ascii, binary), OFF or STL (ascii, binary), by extension; glTF (.glb, .gltf) through
+// loadGltfMesh (io/model.h). Polygons are fan
 // triangulated. Faces that cannot enter a manifold half-edge mesh are dropped and reported one by
 // one. Throws montage::Error naming the file, line and reason when the file cannot be read or parsed.
 // A mesh that parses but cannot be processed (no faces, non-finite coordinates) comes back with

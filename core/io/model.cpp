@@ -472,9 +472,16 @@ Eigen::Matrix4d nodeMatrix(const tinygltf::Node& node) {
   return a.matrix();
 }
 
-// World matrix of the first node (depth first from the scene roots) that instantiates mesh 0;
-// identity when no node does.
-Eigen::Matrix4d meshWorldMatrix(const tinygltf::Model& gm) {
+// One mesh instance of a glTF scene: a node that shows a mesh, and its world matrix.
+struct GltfInstance {
+  int node = -1;  // -1: a mesh no node shows (a file without nodes), placed at the origin
+  int mesh = 0;
+  Eigen::Matrix4d world = Eigen::Matrix4d::Identity();
+};
+
+// Every node that shows a mesh, depth first from the default scene's roots (every root node when the
+// file has no scene), children in order; each mesh once at the origin when no node shows any.
+std::vector<GltfInstance> meshInstances(const tinygltf::Model& gm) {
   std::vector<int> roots;
   const int scene = gm.defaultScene >= 0 ? gm.defaultScene : 0;
   if (scene < static_cast<int>(gm.scenes.size())) {
@@ -488,6 +495,7 @@ Eigen::Matrix4d meshWorldMatrix(const tinygltf::Model& gm) {
       if (!isChild[i]) roots.push_back(static_cast<int>(i));
   }
   // Depth first with an explicit stack (a file may chain millions of nodes), children in order.
+  std::vector<GltfInstance> out;
   std::vector<bool> visited(gm.nodes.size(), false);
   std::vector<std::pair<int, Eigen::Matrix4d>> stack;
   for (auto r = roots.rbegin(); r != roots.rend(); ++r) stack.emplace_back(*r, Eigen::Matrix4d::Identity());
@@ -497,11 +505,13 @@ Eigen::Matrix4d meshWorldMatrix(const tinygltf::Model& gm) {
     if (n < 0 || n >= static_cast<int>(gm.nodes.size()) || visited[n]) continue;
     visited[n] = true;
     const Eigen::Matrix4d world = parent * nodeMatrix(gm.nodes[n]);
-    if (gm.nodes[n].mesh == 0) return world;
+    if (gm.nodes[n].mesh >= 0) out.push_back({n, gm.nodes[n].mesh, world});
     const auto& children = gm.nodes[n].children;
     for (auto c = children.rbegin(); c != children.rend(); ++c) stack.emplace_back(*c, world);
   }
-  return Eigen::Matrix4d::Identity();
+  if (out.empty())
+    for (size_t m = 0; m < gm.meshes.size(); ++m) out.push_back({-1, static_cast<int>(m), Eigen::Matrix4d::Identity()});
+  return out;
 }
 
 // The base colour texture of a glTF material as RGBA8 (empty when there is none).
@@ -528,7 +538,7 @@ cv::Mat gltfBaseColorTexture(const tinygltf::Model& gm, const tinygltf::Material
   return toRgba8(view, false, at);
 }
 
-Material gltfMaterial(const tinygltf::Model& gm, int index, const std::string& path) {
+Material gltfMaterial(const tinygltf::Model& gm, int index, const std::string& path, bool withTexture) {
   Material out;
   if (index < 0) {
     out.name = "default";
@@ -543,7 +553,8 @@ Material gltfMaterial(const tinygltf::Model& gm, int index, const std::string& p
     out.diffuse = Vec3f(static_cast<float>(linearToSrgb(std::clamp(f[0], 0.0, 1.0))),
                         static_cast<float>(linearToSrgb(std::clamp(f[1], 0.0, 1.0))),
                         static_cast<float>(linearToSrgb(std::clamp(f[2], 0.0, 1.0))));
-  out.texture = gltfBaseColorTexture(gm, mat, path + ": materials[" + std::to_string(index) + "]", out.textureFile);
+  if (withTexture)
+    out.texture = gltfBaseColorTexture(gm, mat, path + ": materials[" + std::to_string(index) + "]", out.textureFile);
   return out;
 }
 
@@ -666,6 +677,7 @@ void checkGltfJson(const std::string& text, const fs::path& modelDir, const std:
 struct GltfFiles {
   fs::path dir;
   std::string path;
+  bool decodeImages = true;  // false: images are left undecoded (only the geometry is read)
   static bool exists(const std::string& file, void* self) {
     // Files outside the folder "exist" so that read() refuses them with the reason, not "not found".
     const auto* me = static_cast<GltfFiles*>(self);
@@ -693,6 +705,7 @@ struct GltfFiles {
   static bool image(tinygltf::Image* image, const int index, std::string* err, std::string*, int, int,
                     const unsigned char* bytes, int size, void* self) {
     const auto* me = static_cast<GltfFiles*>(self);
+    if (!me->decodeImages) return true;
     try {
       const cv::Mat rgba =
           decodeImageRgba8(bytes, size_t(std::max(size, 0)), me->path + ": images[" + std::to_string(index) + "]");
@@ -710,11 +723,25 @@ struct GltfFiles {
   }
 };
 
-TexturedModel loadGltfModel(const std::string& path, bool binary) {
+// A glTF file's triangles: every mesh instance of the scene (meshInstances) with its node's transform
+// applied, as one soup for buildMesh. Primitives of one instance that share their vertex accessors share
+// their vertices; instances never share vertices.
+struct GltfSoup {
+  std::vector<Vec3> vertices;
+  std::vector<std::array<int, 3>> triangles;
+  std::vector<std::array<Vec2, 3>> uv;  // per triangle, OBJ convention (v up)
+  std::vector<int> triMaterial;         // per triangle, index into materials
+  std::vector<int> triSource;           // per triangle, extras.tm_source (kSourceEmpty when absent)
+  std::vector<Material> materials;      // in order of first use (textures only when asked for)
+  bool anyUV = false, anySource = false;
+  std::vector<MeshFinding> notes;  // skins and morph targets read in rest pose
+};
+
+GltfSoup readGltf(const std::string& path, bool binary, bool withTextures) {
   tinygltf::TinyGLTF loader;
   tinygltf::Model gm;
   std::string err, warn;
-  GltfFiles files{fs::absolute(path).lexically_normal().parent_path(), path};
+  GltfFiles files{fs::absolute(path).lexically_normal().parent_path(), path, withTextures};
   loader.SetFsCallbacks({&GltfFiles::exists, &GltfFiles::expand, &GltfFiles::read, &GltfFiles::write, &files});
   loader.SetImageLoader(&GltfFiles::image, &files);
   const std::string bytes = readFileBytes(path, "glTF file", uint64_t(UINT32_MAX));
@@ -731,113 +758,134 @@ TexturedModel loadGltfModel(const std::string& path, bool binary) {
   TM_CHECK(ok, located(path, "cannot read glTF: " + trim(err.empty() ? warn : err)));
   TM_CHECK(!gm.meshes.empty(), located(path, "the file contains no mesh"));
 
-  const tinygltf::Mesh& gmesh = gm.meshes[0];
-  const Eigen::Matrix4d world = meshWorldMatrix(gm);
-  const Eigen::Matrix3d linear = world.topLeftCorner<3, 3>();
-  const bool mirrored = linear.determinant() < 0;  // keep front faces counter-clockwise
-
-  std::vector<Vec3> vertices;
-  std::vector<std::array<int, 3>> triangles;
-  std::vector<std::array<Vec2, 3>> uv;
-  std::vector<int> triMaterial, triSource;
-  std::vector<Material> materials;
+  GltfSoup soup;
   std::map<int, int> materialIndex;  // glTF material -> ours
-  bool anyUV = false, anySource = false;
-  std::map<std::pair<int, int>, int> vertexBase;  // (POSITION, TEXCOORD accessor) -> first vertex
+  std::set<int> skinned, morphed;    // nodes with a skin, meshes with morph targets (noted once each)
+  for (const GltfInstance& instance : meshInstances(gm)) {
+    const std::string nodeName =
+        instance.node < 0 ? "" : "nodes[" + std::to_string(instance.node) + "] " + quote(gm.nodes[instance.node].name);
+    TM_CHECK(instance.mesh < static_cast<int>(gm.meshes.size()),
+             located(path, nodeName + ": mesh " + std::to_string(instance.mesh) + " does not exist"));
+    const tinygltf::Mesh& gmesh = gm.meshes[instance.mesh];
+    const std::string meshName =
+        "meshes[" + std::to_string(instance.mesh) + "]" + (gmesh.name.empty() ? "" : " " + quote(gmesh.name));
+    if (instance.node >= 0 && gm.nodes[instance.node].skin >= 0 && skinned.insert(instance.node).second)
+      soup.notes.push_back({MeshFinding::Severity::Warning,
+                            nodeName + " (" + meshName +
+                                ") has a skin: read in its rest pose, joints and weights are "
+                                "not applied",
+                            {},
+                            1});
+    const Eigen::Matrix3d linear = instance.world.topLeftCorner<3, 3>();
+    const bool mirrored = linear.determinant() < 0;  // keep front faces counter-clockwise
+    std::map<std::pair<int, int>, int> vertexBase;   // (POSITION, TEXCOORD accessor) -> first vertex
 
-  for (size_t p = 0; p < gmesh.primitives.size(); ++p) {
-    const tinygltf::Primitive& prim = gmesh.primitives[p];
-    const std::string where = path + ": meshes[0].primitives[" + std::to_string(p) + "]";
-    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
-    TM_CHECK(mode == TINYGLTF_MODE_TRIANGLES,
-             located(where, std::string("mode ") + modeName(mode) + " is not supported (only TRIANGLES)"));
-    const auto pos = prim.attributes.find("POSITION");
-    TM_CHECK(pos != prim.attributes.end(), located(where, "has no POSITION attribute"));
-    int comps;
-    const std::vector<double> positions = readAccessor(gm, pos->second, where + ".POSITION", comps);
-    TM_CHECK(comps == 3, located(where, "POSITION is not a VEC3"));
-    const size_t nv = positions.size() / 3;
+    for (size_t p = 0; p < gmesh.primitives.size(); ++p) {
+      const tinygltf::Primitive& prim = gmesh.primitives[p];
+      const std::string where = path + ": " + meshName + ".primitives[" + std::to_string(p) + "]";
+      const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+      TM_CHECK(mode == TINYGLTF_MODE_TRIANGLES,
+               located(where, std::string("mode ") + modeName(mode) + " is not supported (only TRIANGLES)"));
+      if (!prim.targets.empty() && morphed.insert(instance.mesh).second)
+        soup.notes.push_back({MeshFinding::Severity::Warning,
+                              meshName + " has " + std::to_string(prim.targets.size()) +
+                                  " morph targets: read in its rest pose, the targets' weights are not applied",
+                              {},
+                              static_cast<int>(prim.targets.size())});
+      const auto pos = prim.attributes.find("POSITION");
+      TM_CHECK(pos != prim.attributes.end(), located(where, "has no POSITION attribute"));
+      int comps;
+      const std::vector<double> positions = readAccessor(gm, pos->second, where + ".POSITION", comps);
+      TM_CHECK(comps == 3, located(where + ".POSITION", "is not a VEC3"));
+      const size_t nv = positions.size() / 3;
 
-    // Texture coordinates of the set the material's base colour texture uses (TEXCOORD_0 by default).
-    int texCoordSet = 0;
-    if (prim.material >= 0 && prim.material < static_cast<int>(gm.materials.size()))
-      texCoordSet = std::max(0, gm.materials[prim.material].pbrMetallicRoughness.baseColorTexture.texCoord);
-    std::vector<double> texcoords;
-    const auto tc = prim.attributes.find("TEXCOORD_" + std::to_string(texCoordSet));
-    if (tc != prim.attributes.end()) {
-      texcoords = readAccessor(gm, tc->second, where + "." + tc->first, comps);
-      TM_CHECK(comps == 2 && texcoords.size() == nv * 2,
-               located(where, tc->first + " must be a VEC2 with one element per vertex"));
-      anyUV = true;
-    }
-
-    std::vector<size_t> indices;
-    if (prim.indices >= 0) {
-      const std::vector<double> raw = readAccessor(gm, prim.indices, where + ".indices", comps);
-      TM_CHECK(comps == 1, located(where, "indices are not SCALAR"));
-      indices.reserve(raw.size());
-      for (double i : raw) {
-        TM_CHECK(i >= 0 && i < static_cast<double>(nv),
-                 located(where, "index " + number(i) + " is out of range (" + std::to_string(nv) + " vertices)"));
-        indices.push_back(static_cast<size_t>(i));
+      // Texture coordinates of the set the material's base colour texture uses (TEXCOORD_0 by default).
+      int texCoordSet = 0;
+      if (prim.material >= 0 && prim.material < static_cast<int>(gm.materials.size()))
+        texCoordSet = std::max(0, gm.materials[prim.material].pbrMetallicRoughness.baseColorTexture.texCoord);
+      std::vector<double> texcoords;
+      const auto tc = prim.attributes.find("TEXCOORD_" + std::to_string(texCoordSet));
+      if (tc != prim.attributes.end()) {
+        texcoords = readAccessor(gm, tc->second, where + "." + tc->first, comps);
+        TM_CHECK(comps == 2 && texcoords.size() == nv * 2,
+                 located(where + "." + tc->first + " (accessor " + std::to_string(tc->second) + ")",
+                         "must be a VEC2 with one element per vertex (" + std::to_string(nv) + ")"));
+        soup.anyUV = true;
       }
-    } else {
-      for (size_t i = 0; i < nv; ++i) indices.push_back(i);
-    }
-    TM_CHECK(indices.size() % 3 == 0,
-             located(where, std::to_string(indices.size()) + " indices is not a multiple of 3 (TRIANGLES)"));
 
-    // Primitives that share their vertex accessors share their vertices.
-    const int tcAccessor = tc != prim.attributes.end() ? tc->second : -1;
-    const auto shared = vertexBase.find({pos->second, tcAccessor});
-    const int base = shared != vertexBase.end() ? shared->second : static_cast<int>(vertices.size());
-    if (shared == vertexBase.end()) {
-      vertexBase.emplace(std::make_pair(pos->second, tcAccessor), base);
-      for (size_t i = 0; i < nv; ++i) {
-        const Eigen::Vector4d h =
-            world * Eigen::Vector4d(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], 1);
-        vertices.emplace_back(h.head<3>());
+      std::vector<size_t> indices;
+      if (prim.indices >= 0) {
+        const std::string at = where + ".indices (accessor " + std::to_string(prim.indices) + ")";
+        const std::vector<double> raw = readAccessor(gm, prim.indices, where + ".indices", comps);
+        TM_CHECK(comps == 1, located(at, "is not SCALAR"));
+        indices.reserve(raw.size());
+        for (double i : raw) {
+          TM_CHECK(i >= 0 && i < static_cast<double>(nv),
+                   located(at, "index " + number(i) + " is out of range (" + std::to_string(nv) + " vertices)"));
+          indices.push_back(static_cast<size_t>(i));
+        }
+      } else {
+        for (size_t i = 0; i < nv; ++i) indices.push_back(i);
       }
-    }
-    auto mit = materialIndex.find(prim.material);
-    if (mit == materialIndex.end()) {
-      mit = materialIndex.emplace(prim.material, static_cast<int>(materials.size())).first;
-      materials.push_back(gltfMaterial(gm, prim.material, path));
-    }
-    int source = kSourceEmpty;
-    if (prim.extras.IsObject() && prim.extras.Has("tm_source")) {
-      const tinygltf::Value& s = prim.extras.Get("tm_source");
-      TM_CHECK(s.IsNumber() && s.GetNumberAsDouble() == std::floor(s.GetNumberAsDouble()) &&
-                   s.GetNumberAsDouble() >= kSourceEmpty,
-               located(where, "extras.tm_source must be an integer >= -2"));
-      source = s.GetNumberAsInt();
-      anySource = true;
-    }
-    for (size_t t = 0; t + 2 < indices.size(); t += 3) {
-      std::array<size_t, 3> c = {indices[t], indices[t + 1], indices[t + 2]};
-      if (mirrored) std::swap(c[1], c[2]);
-      triangles.push_back(
-          {base + static_cast<int>(c[0]), base + static_cast<int>(c[1]), base + static_cast<int>(c[2])});
-      std::array<Vec2, 3> tuv;
-      for (int k = 0; k < 3; ++k)
-        tuv[k] = texcoords.empty() ? Vec2::Zero() : Vec2(texcoords[2 * c[k]], 1.0 - texcoords[2 * c[k] + 1]);
-      uv.push_back(tuv);
-      triMaterial.push_back(mit->second);
-      triSource.push_back(source);
+      TM_CHECK(indices.size() % 3 == 0,
+               located(where, std::to_string(indices.size()) + " indices is not a multiple of 3 (TRIANGLES)"));
+
+      // Primitives that share their vertex accessors share their vertices.
+      const int tcAccessor = tc != prim.attributes.end() ? tc->second : -1;
+      const auto shared = vertexBase.find({pos->second, tcAccessor});
+      const int base = shared != vertexBase.end() ? shared->second : static_cast<int>(soup.vertices.size());
+      if (shared == vertexBase.end()) {
+        vertexBase.emplace(std::make_pair(pos->second, tcAccessor), base);
+        for (size_t i = 0; i < nv; ++i) {
+          const Eigen::Vector4d h =
+              instance.world * Eigen::Vector4d(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], 1);
+          soup.vertices.emplace_back(h.head<3>());
+        }
+      }
+      auto mit = materialIndex.find(prim.material);
+      if (mit == materialIndex.end()) {
+        mit = materialIndex.emplace(prim.material, static_cast<int>(soup.materials.size())).first;
+        soup.materials.push_back(gltfMaterial(gm, prim.material, path, withTextures));
+      }
+      int source = kSourceEmpty;
+      if (prim.extras.IsObject() && prim.extras.Has("tm_source")) {
+        const tinygltf::Value& s = prim.extras.Get("tm_source");
+        TM_CHECK(s.IsNumber() && s.GetNumberAsDouble() == std::floor(s.GetNumberAsDouble()) &&
+                     s.GetNumberAsDouble() >= kSourceEmpty,
+                 located(where, "extras.tm_source must be an integer >= -2"));
+        source = s.GetNumberAsInt();
+        soup.anySource = true;
+      }
+      for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+        std::array<size_t, 3> c = {indices[t], indices[t + 1], indices[t + 2]};
+        if (mirrored) std::swap(c[1], c[2]);
+        soup.triangles.push_back(
+            {base + static_cast<int>(c[0]), base + static_cast<int>(c[1]), base + static_cast<int>(c[2])});
+        std::array<Vec2, 3> tuv;
+        for (int k = 0; k < 3; ++k)
+          tuv[k] = texcoords.empty() ? Vec2::Zero() : Vec2(texcoords[2 * c[k]], 1.0 - texcoords[2 * c[k] + 1]);
+        soup.uv.push_back(tuv);
+        soup.triMaterial.push_back(mit->second);
+        soup.triSource.push_back(source);
+      }
     }
   }
-  TM_CHECK(!triangles.empty(), located(path, "meshes[0] has no triangles"));
+  TM_CHECK(!soup.triangles.empty(), located(path, "no mesh of the scene has triangles"));
+  if (!soup.anyUV) soup.uv.clear();
+  return soup;
+}
 
+TexturedModel loadGltfModel(const std::string& path, bool binary) {
+  GltfSoup soup = readGltf(path, binary, true);
   MeshLoadOptions options;
   options.weldIdenticalPositions = true;  // glTF splits vertices at UV seams; the surface is connected
-  std::unique_ptr<Mesh> mesh =
-      requireUsable(buildMesh(vertices, triangles, anyUV ? uv : std::vector<std::array<Vec2, 3>>{}, options, path));
+  std::unique_ptr<Mesh> mesh = requireUsable(buildMesh(soup.vertices, soup.triangles, soup.uv, options, path));
   TexturedModel model;
   model.mesh = std::move(*mesh);
-  model.materials = std::move(materials);
-  model.faceMaterial = perMeshFace(model.mesh, triMaterial);
-  if (anySource) model.faceSource = perMeshFace(model.mesh, triSource);
-  if (anyUV) {
+  model.materials = std::move(soup.materials);
+  model.faceMaterial = perMeshFace(model.mesh, soup.triMaterial);
+  if (soup.anySource) model.faceSource = perMeshFace(model.mesh, soup.triSource);
+  if (soup.anyUV) {
     TM_ASSERT(model.mesh.cornerUV.size() == static_cast<size_t>(model.mesh.numFaces()));
     model.uv = floatUV(model.mesh.cornerUV);
   }
@@ -917,6 +965,21 @@ std::vector<Vec3> vertexNormals(const Mesh& mesh) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
+
+LoadedMesh loadGltfMesh(const std::string& path, const MeshLoadOptions& options) {
+  const std::string ext = lowerExtension(path);
+  TM_CHECK(ext == ".glb" || ext == ".gltf", located(path, "not a glTF file (expected .glb or .gltf)"));
+  GltfSoup soup = readGltf(path, ext == ".glb", false);
+  LoadedMesh loaded = buildMesh(soup.vertices, soup.triangles, soup.uv, options, path);
+  loaded.report.format = ext.substr(1);
+  loaded.report.findings.insert(loaded.report.findings.end(), soup.notes.begin(), soup.notes.end());
+  if (loaded.mesh) {
+    Mesh& mesh = *loaded.mesh;
+    mesh.faceMaterial = perMeshFace(mesh, soup.triMaterial);
+    for (const Material& m : soup.materials) mesh.materialNames.push_back(m.name);
+  }
+  return loaded;
+}
 
 std::vector<int> meshFaceValues(const Mesh& mesh, const std::vector<int>& values) {
   const size_t nf = static_cast<size_t>(mesh.numFaces());
@@ -998,6 +1061,10 @@ TexturedModel loadModel(const std::string& path) {
   return model;
 }
 
+std::string textureFileName(const std::string& base, const std::string& textureName) {
+  return base + (textureName.rfind('.', 0) == 0 ? "" : "_") + fileNamePart(textureName) + ".png";
+}
+
 TexturedModel modelFromMesh(const Mesh& mesh, const cv::Mat& textureRgba, const std::string& textureName) {
   TM_CHECK(mesh.hasUV(), "modelFromMesh: the mesh has no texture coordinates");
   TM_CHECK(mesh.cornerUV.size() == static_cast<size_t>(mesh.numFaces()),
@@ -1062,7 +1129,7 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
       for (const auto& [data, file] : written)
         if (data == mat->texture.data) png = file;
       if (png.empty()) {
-        png = base + "_" + fileNamePart(mat->textureName.empty() ? materialNames[m] : mat->textureName) + ".png";
+        png = textureFileName(base, mat->textureName.empty() ? materialNames[m] : mat->textureName);
         const std::vector<unsigned char>& bytes = cache.encode(mat->texture, (folder / png).string());
         writeFileAtomic((folder / png).string(), std::string(bytes.begin(), bytes.end()));
         written.emplace_back(mat->texture.data, png);
@@ -1180,6 +1247,7 @@ void exportGlb(const TexturedModel& model, const std::string& path, PngCache* pn
         const std::vector<unsigned char>& png = cache.encode(mat->texture, path + ": texture " + quote(out.name));
         tinygltf::Image image;
         image.name = mat->textureName.empty() ? out.name : mat->textureName;
+        if (image.name.size() > 1 && image.name[0] == '.') image.name.erase(0, 1);  // a UDIM tile: ".1001"
         image.mimeType = "image/png";
         image.bufferView = b.addView(png.data(), png.size(), 0);
         gm.images.push_back(image);

@@ -22,7 +22,8 @@ struct Material {
   cv::Mat texture;          // CV_8UC4 RGBA, row 0 = top of the image; empty when untextured
   std::string textureFile;  // file name relative to the model (OBJ) or empty; set by the loaders
   // Name of the texture image when several materials show the same one (the atlas): the exporters
-  // write one image per distinct texture, named after this or, when empty, the first material using it.
+  // write one image per distinct texture, named after this or, when empty, the first material using it
+  // (textureFileName: <base>_<name>.png; a name that starts with '.', a UDIM tile's ".1001", <base>.1001.png).
   std::string textureName;
   Vec3f diffuse = Vec3f(0.7f, 0.7f, 0.7f);  // sRGB [0,1], used where there is no texture
   // Applied to the texture's colours as they are read (colorAt, the editor's shader). Only the editor's
@@ -52,9 +53,20 @@ struct TexturedModel {
 };
 
 // Loads .obj (with its .mtl and map_Kd textures, groups "tm_source_<k>", "tm_inpainted",
-// "tm_empty" as face sources), .glb/.gltf (first mesh, baseColorTexture, primitive extras
-// "tm_source"), or any plain mesh format (untextured). Throws montage::Error naming the file and reason.
+// "tm_empty" as face sources), .glb/.gltf (every mesh instance, as loadGltfMesh reads them, welded;
+// baseColorTexture, primitive extras "tm_source"), or any plain mesh format (untextured). Throws montage::Error naming
+// the file and reason.
 TexturedModel loadModel(const std::string& path);
+
+// Reads a glTF 2.0 file (.glb, or .gltf with its buffers) as a mesh for the pipeline, with the same reader as
+// loadModel: every mesh instance of the default scene (each node that shows a mesh) with its node's world
+// transform (a mirroring transform turns the faces over so that they stay front-facing), the texture coordinates
+// of the set each material's base colour texture uses (Mesh::cornerUV, v up), material names
+// (Mesh::faceMaterial, materialNames). Vertices in file order (instance by instance, primitive by primitive;
+// primitives sharing their accessors share their vertices), welded only as `options` asks. Skins and morph targets
+// are read in their rest pose, with a warning in the report. Throws montage::Error naming the file, the mesh, the
+// primitive and the accessor.
+LoadedMesh loadGltfMesh(const std::string& path, const MeshLoadOptions& options = {});
 
 // Per-face values of a loaded mesh (Mesh::faceMaterial, Mesh::faceGroup: per mesh face, or per input face
 // mapped through Mesh::faceOrigin). Empty when `values` is empty or does not fit the mesh.
@@ -79,6 +91,11 @@ class PngCache {
   double seconds_ = 0;
   std::list<std::pair<cv::Mat, std::vector<unsigned char>>> cache_;  // texture (kept alive) -> bytes
 };
+
+// The file exportObj writes a texture to: <base>_<textureName>.png, or <base><textureName>.png when the name starts
+// with '.' (UDIM tiles: model.1001.png, model_skin.1001.png); characters other than letters, digits, '_', '-' and
+// '.' become '_'.
+std::string textureFileName(const std::string& base, const std::string& textureName);
 
 // Makes a model from a mesh that carries UVs (Mesh::cornerUV) and one texture image.
 TexturedModel modelFromMesh(const Mesh& mesh, const cv::Mat& textureRgba, const std::string& textureName = "texture");

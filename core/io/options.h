@@ -32,6 +32,11 @@ inline constexpr std::array<const char*, 3> kBalanceModeNames = {"off", "gain", 
 enum class ExportTopology { Original, Refined };
 inline constexpr std::array<const char*, 2> kExportTopologyNames = {"original", "refined"};
 
+// What the exported texture is laid out in (exportTopology "original"): a new atlas of the mesh's faces, or
+// the mesh's own UV layout (atlas/transfer.h, bakeMeshUVs: one texture per material and UDIM tile).
+enum class BakeInto { Atlas, MeshUVs };
+inline constexpr std::array<const char*, 2> kBakeIntoNames = {"atlas", "meshUVs"};
+
 // Camera fit per photo (mapping/camera.h): automatic (a photo whose clicks agree with one perspective
 // camera is mapped by projection, the others take the paper's path), or off (every photo takes the
 // paper's path).
@@ -90,7 +95,13 @@ struct EnumNames<ExportTopology> {
   static constexpr const auto& names = kExportTopologyNames;
   static constexpr const char* what = "an export topology";
 };
+template <>
+struct EnumNames<BakeInto> {
+  static constexpr const auto& names = kBakeIntoNames;
+  static constexpr const char* what = "a bake layout";
+};
 inline constexpr int kMinAtlasSizeOption = 256, kMaxAtlasSizeOption = 8192;  // atlas/atlas.h's limits
+inline constexpr int kMinBakeSize = 16, kMaxBakeSize = 8192;                 // bakeSize: a power of two
 
 struct PipelineOptions {
   double backgroundThresholdPx = 2.0;  // partition: max mean distance (px) of a curve to the foreground
@@ -111,6 +122,8 @@ struct PipelineOptions {
 
   // Export: the user's mesh as loaded with a new atlas (original) or the refined mesh (refined).
   ExportTopology exportTopology = ExportTopology::Original;
+  BakeInto bakeInto = BakeInto::Atlas;  // export (original topology): a new atlas, or the mesh's own UVs (UDIM tiles)
+  int bakeSize = 2048;     // export, bakeInto meshUVs: texels a side of each texture (16..8192, power of 2)
   int pngCompression = 3;  // export: zlib level of the atlas PNG, 0..9 (up to 3: run-length, fast; 6: 7% smaller, 3x
                            // slower; 9 smallest, 25x slower)
   CameraMode cameraMode = CameraMode::Auto;  // camera fit per photo; off = every photo takes the paper's path
@@ -127,9 +140,9 @@ struct PipelineOptions {
            seamLambda == o.seamLambda && seamRounds == o.seamRounds && gradientWeight == o.gradientWeight &&
            colorBalance == o.colorBalance && seamLevelling == o.seamLevelling && inpaintMode == o.inpaintMode &&
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
-           seed == o.seed && exportTopology == o.exportTopology && pngCompression == o.pngCompression &&
-           cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold && correction == o.correction &&
-           viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide &&
+           seed == o.seed && exportTopology == o.exportTopology && bakeInto == o.bakeInto && bakeSize == o.bakeSize &&
+           pngCompression == o.pngCompression && cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold &&
+           correction == o.correction && viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide &&
            weldIdenticalPositions == o.weldIdenticalPositions;
   }
 };

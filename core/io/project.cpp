@@ -238,6 +238,8 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("gutter", o.gutter, 0, 64);
   visit("seed", o.seed, 0u, UINT_MAX);
   visit("exportTopology", o.exportTopology, ExportTopology::Original, ExportTopology::Refined);
+  visit("bakeInto", o.bakeInto, BakeInto::Atlas, BakeInto::MeshUVs);
+  visit("bakeSize", o.bakeSize, kMinBakeSize, kMaxBakeSize);
   visit("pngCompression", o.pngCompression, 0, 9);
   visit("cameraMode", o.cameraMode, CameraMode::Auto, CameraMode::Off);
   visit("cameraThreshold", o.cameraThreshold, 0.0005, 0.2);
@@ -333,6 +335,12 @@ class DocumentCheck {
     if (p_.options.atlasSize > 0 && p_.options.atlasSize < kMinAtlasSizeOption)
       fail("options.atlasSize", std::to_string(p_.options.atlasSize) + " is neither 0 (automatic) nor in " +
                                     std::to_string(kMinAtlasSizeOption) + ".." + std::to_string(kMaxAtlasSizeOption));
+    if ((p_.options.bakeSize & (p_.options.bakeSize - 1)) != 0)
+      fail("options.bakeSize", std::to_string(p_.options.bakeSize) + " is not a power of two (16, 32, .., 8192)");
+    if (p_.options.bakeInto == BakeInto::MeshUVs && p_.options.exportTopology == ExportTopology::Refined)
+      fail("options.bakeInto",
+           "\"meshUVs\" bakes into the mesh as loaded, which exportTopology \"refined\" does not "
+           "export (use exportTopology \"original\")");
   }
 
   void checkPoints() const {

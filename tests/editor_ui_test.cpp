@@ -292,14 +292,16 @@ TEST(EditorWords, WeakCameraFitsAreNamed) {
 
   // The editor names photo 0, not photo 1, in the banner over the panes.
   TM_REQUIRE_XVFB();
+  // A photo of the object itself, as the user says (auto would take a weak fit for another subject's).
+  project.photos[0].mode = montage::PhotoMode::Object;
   montage::saveProject(project, dir + "/scene/weak.json");
   ASSERT_EQ(runEditor(dir, dir + "/scene/weak.json",
-                      "wait_result 600\ntab 0\nwait_frames 3\nstate state.json\nscreenshot weak.png\nquit\n",
+                      "wait_result 600\nwait_frames 3\nstate state.json\nscreenshot weak.png\nquit\n",
                       "1280x800", &out),
             0)
       << out;
   const json state = read(dir, "state.json");
-  ASSERT_EQ(state["weak_fits"].size(), 1u) << state["weak_fits"].dump(1);
+  ASSERT_EQ(state["weak_fits"].size(), 1u) << state["weak_fits"].dump(1) << state["photos"].dump(1);
   EXPECT_EQ(state["weak_fits"][0]["photo"], 0);
   const json& banner = state["layout"]["weak_fit_banner"];
   ASSERT_GT(banner["w"].get<double>(), 100) << banner.dump();
@@ -727,10 +729,13 @@ TEST(EditorRealInput, AQuickCtrlQBetweenTwoFramesQuits) {
 }
 
 // Issue 35, findings 4 and 8, walked with a real mouse and keyboard (xdotool) through the built-in file dialog,
-// the editor running without a script as a user's does. Save as: the dialog opens in the project's folder; the
-// folder field takes another folder and Enter goes there (it showed an error before); a name typed in the name
+// the editor running without a script as a user's does. Save as (File > Save as..., clicked): the dialog opens
+// in the project's folder; the
+// folder field takes another folder ("/../b" typed after the folder's path) and Enter goes there (it showed an
+// error before); a name typed in the name
 // field and Enter save (".json" added). Export: the dialog opens in that folder, the last one used (it opened in
-// the project's before); "model" with the glTF filter gives model.glb (it gave "choose a file name ending in .glb
+// the project's before; File > Export result..., clicked); "model" typed at once (the name field has the keyboard)
+// with the glTF filter gives model.glb (it gave "choose a file name ending in .glb
 // or .obj" before); the OBJ filter chosen with the mouse and "model2" give model2.obj and its MTL, the Save
 // button clicked. The dialog's places are those of the 1280x800 window at scale 1 (15 px font): the modal is
 // 720 x 525 px, centred.
@@ -746,7 +751,7 @@ TEST(EditorRealInput, SaveAsAndExportThroughTheFileDialog) {
   // Places in the dialog (window pixels): the folder field, the type filter and its second entry, the name
   // field and the Save button.
   const int x0 = 640 - 360, y0 = 400 - 262;
-  const std::string folderField = std::to_string(x0 + 480) + " " + std::to_string(y0 + 64);
+  const std::string folderField = std::to_string(x0 + 690) + " " + std::to_string(y0 + 64);  // past its text
   const std::string filterCombo = std::to_string(x0 + 140) + " " + std::to_string(y0 + 64);
   const std::string objFilter = std::to_string(x0 + 140) + " " + std::to_string(y0 + 64 + 42);
   const std::string nameField = std::to_string(x0 + 360) + " " + std::to_string(y0 + 452);
@@ -754,16 +759,16 @@ TEST(EditorRealInput, SaveAsAndExportThroughTheFileDialog) {
   std::ostringstream walk;
   // The demo's final bake first (export takes only a final result).
   walk << "idle\n"
-       << "xdotool mousemove 640 400 sleep 0.3 key ctrl+shift+s sleep 1.5\n"
-       << "xdotool mousemove " << folderField << " sleep 0.3 click 1 sleep 0.5 key ctrl+a sleep 0.3\n"
-       << "xdotool type --delay 30 '" << dir << "/b'\n"
+       << "xdotool mousemove 21 10 sleep 0.3 click 1 sleep 0.8 mousemove 43 146 sleep 0.3 click 1 sleep 1.5\n"
+       << "xdotool mousemove " << folderField << " sleep 0.3 click 1 sleep 0.5 type --delay 60 '/../b'\n"
        << "xdotool sleep 0.3 key Return sleep 0.8\n"
        << "xdotool mousemove " << nameField << " sleep 0.3 click 1 sleep 0.5 type --delay 30 saved\n"
        << "xdotool sleep 0.3 key Return sleep 2\n"
-       << "xdotool mousemove 640 400 sleep 0.3 key ctrl+e sleep 1.5 type --delay 30 model\n"
+       << "xdotool mousemove 21 10 sleep 0.3 click 1 sleep 0.8 mousemove 59 166 sleep 0.3 click 1 sleep 1.5\n"
+       << "xdotool type --delay 30 model\n"
        << "xdotool sleep 0.3 key Return sleep 1\n"
        << "idle\n"
-       << "xdotool mousemove 640 400 sleep 0.3 key ctrl+e sleep 1.5\n"
+       << "xdotool mousemove 21 10 sleep 0.3 click 1 sleep 0.8 mousemove 59 166 sleep 0.3 click 1 sleep 1.5\n"
        << "xdotool mousemove " << filterCombo << " sleep 0.3 click 1 sleep 0.8\n"
        << "xdotool mousemove " << objFilter << " sleep 0.3 click 1 sleep 0.8\n"
        << "xdotool mousemove " << nameField << " sleep 0.3 click 1 sleep 0.5 type --delay 30 model2\n"

@@ -246,32 +246,12 @@ void Editor::frame() {
     applySyntheticInput(io);
   }
   if (benchOrbit_) benchOrbitStep();
-  // Presses whose key is up again at this frame's start: ImGui never saw them down (keyPressed). They are
-  // shown to ImGui as down for this one frame, with their modifiers, so that its widgets see them too (Ctrl+A
-  // and Enter in a text field); the next frame releases them.
-  if (!injectedKeys_.empty()) {
-    for (int key : injectedKeys_)
-      if (glfwGetKey(window_, key) != GLFW_PRESS) io.KeysDown[key] = false;
-    const auto down = [&](int a, int b) { return glfwGetKey(window_, a) == GLFW_PRESS || glfwGetKey(window_, b) == GLFW_PRESS; };
-    io.KeyCtrl = down(GLFW_KEY_LEFT_CONTROL, GLFW_KEY_RIGHT_CONTROL);
-    io.KeyShift = down(GLFW_KEY_LEFT_SHIFT, GLFW_KEY_RIGHT_SHIFT);
-    io.KeyAlt = down(GLFW_KEY_LEFT_ALT, GLFW_KEY_RIGHT_ALT);
-    injectedKeys_.clear();
-  }
-  missedKeys_.clear();
-  for (const auto& [key, mods] : keyPresses_) {
-    const bool known = key < IM_ARRAYSIZE(io.KeysDown);
-    if (known && io.KeysDown[key]) continue;
-    missedKeys_.emplace_back(key, mods);
-    if (!known || scripted_) continue;  // a script's keys are its own (applySyntheticInput)
-    io.KeysDown[key] = true;
-    injectedKeys_.push_back(key);
-    io.KeyCtrl = io.KeyCtrl || (mods & GLFW_MOD_CONTROL) != 0;
-    io.KeyShift = io.KeyShift || (mods & GLFW_MOD_SHIFT) != 0;
-    io.KeyAlt = io.KeyAlt || (mods & GLFW_MOD_ALT) != 0;
-  }
-  keyPresses_.clear();
   ImGui::NewFrame();
+  // Presses whose key is up again at this frame's start: ImGui never saw them down (keyPressed).
+  missedKeys_.clear();
+  for (const auto& [key, mods] : keyPresses_)
+    if (key >= IM_ARRAYSIZE(io.KeysDown) || !io.KeysDown[key]) missedKeys_.emplace_back(key, mods);
+  keyPresses_.clear();
 
   syncInputs();
   pollCutout();

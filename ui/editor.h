@@ -583,7 +583,6 @@ class Editor {
   std::vector<std::string> dropped_;             // files dropped on the window, handled in the next frame
   std::vector<std::pair<int, int>> keyPresses_;  // GLFW key presses (key, mods) since the last frame
   std::vector<std::pair<int, int>> missedKeys_;  // of those, released before the frame: ImGui did not see them
-  std::vector<int> injectedKeys_;                 // of those, shown to ImGui as down this frame (released next)
   std::string sessionId_;  // this editor process (pid, start time): its unsaved-mask folder's name
 
   // Photos and the cut-out tool.

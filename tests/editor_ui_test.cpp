@@ -15,10 +15,16 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "io/mesh_io.h"
+#include "io/project.h"
 #include "layout.h"
+#include "mapping/camera.h"
+#include "pipeline.h"
+#include "plain_words.h"
 #include "progress.h"
 #include "test_support.h"
 
@@ -60,6 +66,24 @@ void expectDisjoint(const json& parts, double width, const std::string& what) {
     EXPECT_LE(spans[i - 1].second, spans[i].first) << what << ": status bar parts overlap: " << parts.dump();
 }
 
+// Runs the editor without a script (frames on events, as a user's) on `file` at 1280x800, scale 1, under
+// xvfb-run in `dir`, and `walk` (sh lines: xdotool moving the mouse, clicking and typing) once its window is
+// visible; the walk may call `idle` (waits until the editor uses under a quarter of a core, its run done) and
+// ends by quitting the editor. Prints EXIT=<status>, or STILL_RUNNING (exit 3) when it did not quit.
+int runRealWalk(const std::string& dir, const std::string& file, const std::string& walk, std::string* out) {
+  std::ofstream(dir + "/walk.sh")
+      << "'" << TM_EDITOR_EXE << "' '" << file << "' --size 1280x800 --scale 1 &\n"
+      << "pid=$!\n"
+      << "idle() { prev=0; for i in $(seq 1 600); do sleep 1; t=$(awk '{print $14+$15}' /proc/$pid/stat); "
+         "[ $((t - prev)) -lt 25 ] && return; prev=$t; done; }\n"
+      << "xdotool search --sync --onlyvisible --name TextureMontage >/dev/null\n"
+      << walk << "if kill -0 $pid 2>/dev/null; then kill $pid; echo STILL_RUNNING; exit 3; fi\n"
+      << "wait $pid; echo EXIT=$?\n";
+  return montage::test::runCommand("cd '" + dir + "' && XDG_STATE_HOME='" + dir +
+                                       "/state' TM_NO_ZENITY=1 xvfb-run -a -s '-screen 0 1280x800x24' sh walk.sh 2>&1",
+                                   out);
+}
+
 }  // namespace
 
 TEST(EditorProgress, StagesWeighByTheirMeasuredSeconds) {
@@ -93,6 +117,207 @@ TEST(EditorProgress, StagesWeighByTheirMeasuredSeconds) {
   EXPECT_LT(progress.secondsLeft(Tier::Final, StageId::Load, 0, 0.1), 0);
   const double done = progress.overall(Tier::Final, StageId::Bake, 0);
   EXPECT_NEAR(progress.secondsLeft(Tier::Final, StageId::Bake, 0, 10), 10 * (1 - done) / done, 1e-9);
+}
+
+// Issue 35, finding 9: "about 1 s left" stayed on screen through a 20 s run. Once a run outlasts the end
+// first estimated for it, the status bar says how long it has run instead.
+TEST(EditorProgress, TimeLeftGivesWayToElapsedWhenTheRunOutlastsIt) {
+  using montage::StageId;
+  using montage::Tier;
+  montage::RunProgress progress;
+  // The last preview: load 0.5 s, map 1 s, inpaint 0.5 s (2 s in all).
+  std::vector<montage::StageRecord> stages(3);
+  stages[0].stage = StageId::Load, stages[0].seconds = 0.5;
+  stages[1].stage = StageId::Map, stages[1].seconds = 1;
+  stages[2].stage = StageId::Inpaint, stages[2].seconds = 0.5;
+  progress.record(Tier::Preview, stages);
+  // Run 1 goes as the last one did: an estimate all along, counting down. Run 2 sticks in the mapping (a
+  // larger edit): the estimate, scaled by at most 4, keeps saying a second or two is left; past the first
+  // estimate (2 s) by 2 s it says how long the run has taken ("about" marks an estimate of any length). Run 3
+  // estimates afresh.
+  struct Step {
+    StageId stage;
+    double fraction, elapsed, run;
+    std::string text;
+  };
+  const std::vector<Step> steps = {{StageId::Load, 0, 0, 1, "about 2 s left"},
+                                   {StageId::Map, 0.5, 1.0, 1, "about 1 s left"},
+                                   {StageId::Inpaint, 0.5, 1.8, 1, "about 1 s left"},
+                                   {StageId::Load, 0, 0, 2, "about 2 s left"},
+                                   {StageId::Map, 0.9, 3, 2, "about"},
+                                   {StageId::Map, 0.95, 4.5, 2, "4 s so far"},
+                                   {StageId::Map, 0.99, 20.2, 2, "20 s so far"},
+                                   {StageId::Map, 0.99, 95, 2, "2 min so far"},
+                                   {StageId::Load, 0, 0, 3, "about 2 s left"}};
+  for (const Step& step : steps) {
+    const std::string text = progress.timeText(Tier::Preview, step.stage, step.fraction, step.elapsed, step.run);
+    if (step.text == "about")
+      EXPECT_EQ(text.rfind("about ", 0), 0u) << text;
+    else
+      EXPECT_EQ(text, step.text) << "run " << step.run << " at " << step.elapsed << " s";
+  }
+  // The unmeasured final tier: nothing to say before 5% is done, then the estimate from elapsed time.
+  EXPECT_EQ(progress.timeText(Tier::Final, StageId::Load, 0, 0.1, 4), "");
+  const std::string first = progress.timeText(Tier::Final, StageId::Map, 0.5, 3, 4);
+  EXPECT_EQ(first.rfind("about ", 0), 0u) << first;
+}
+
+// Issue 35, finding 5: the pipeline's warnings spoke the implementation ("the hole and its band do not
+// flatten without folds: filled with rbf instead") and stage details were raw JSON. The warnings of real runs
+// (the demo; a synthetic turtle, whose holes are many) read in plain words, the original kept; the stages'
+// counts become rows of a table.
+TEST(EditorWords, WarningsInPlainWordsAndCountsAsRows) {
+  // The forms the pipeline writes (core/pipeline.cpp, cells.cpp, projection.cpp, inpaint.cpp, balance.cpp).
+  const std::vector<std::pair<std::string, std::string>> known = {
+      {"inpaint: hole 3: synthesis: the hole and its band do not flatten without folds: filled with \"rbf\" instead",
+       "Hole 3 (a part no photo covers) could not take texture copied from around it"},
+      {"map: 2 regions are left empty: no common photo", "2 parts of the surface get no photo"},
+      {"map: 1 region is left empty: touches the mesh border", "1 part of the surface gets no photo"},
+      {"map: 12 mapped faces are flipped in their photo", "12 small triangles of the surface lie mirrored"},
+      {"camera: photo 1 takes the paper's path: only 4 of 9 clicks agree within 6.0 px",
+       "Photo 1: its clicks do not fit one camera (only 4 of 9 clicks agree within 6.0 px)"},
+      {"balance: photo 2: the colour balance found no sensible transform (gain 0.010000..3.000000); it keeps its "
+       "colours",
+       "Photo 2's colours could not be matched to the other photos (gain 0.010000..3.000000)"}};
+  for (const auto& [warning, start] : known) {
+    const montage::PlainWarning plain = montage::plainWarning(warning);
+    EXPECT_EQ(plain.original, warning);
+    EXPECT_EQ(plain.text.rfind(start, 0), 0u) << plain.text;
+    for (const char* jargon : {"rbf", "band", "flatten", "paper's path", "transform", "mapped faces"})
+      EXPECT_EQ(plain.text.find(jargon), std::string::npos) << jargon << " in: " << plain.text;
+  }
+  // An unknown warning keeps its words, with where it came from instead of the prefix.
+  EXPECT_EQ(montage::plainWarning("inpaint: something new").text, "Something new (inpainting)");
+
+  // Real runs: every warning has plain words without a stage prefix; every stage's counts are rows.
+  const std::string dir = montage::test::tempDir("editor_words");
+  std::string out;
+  ASSERT_EQ(montage::test::runCommand(montage::test::montageExe() + " synth --mesh " + montage::test::testDataDir() +
+                                          "/turtle.obj --views 2 --features 12 --size 256 --seed 3 --out '" + dir +
+                                          "/scene' 2>&1",
+                                      &out),
+            0)
+      << out;
+  size_t warnings = 0, rewritten = 0, rows = 0;
+  for (const std::string& project : {demoProject(), dir + "/scene/project.json"}) {
+    montage::Pipeline pipeline;
+    const montage::PipelineResult result = pipeline.run(montage::loadProject(project));
+    for (const std::string& w : result.warnings) {
+      const montage::PlainWarning plain = montage::plainWarning(w);
+      ++warnings;
+      rewritten += plain.text != w;
+      EXPECT_FALSE(plain.text.empty());
+      for (const char* prefix : {"mesh:", "project:", "camera:", "map:", "projection:", "balance:", "inpaint:"})
+        EXPECT_NE(plain.text.rfind(prefix, 0), 0u) << plain.text;
+      std::printf("  %s\n    -> %s\n", w.c_str(), plain.text.c_str());
+    }
+    for (const montage::StageRecord& s : result.stages) {
+      const auto table = montage::countRows(s.counts);
+      for (const auto& [name, value] : table) {
+        EXPECT_FALSE(name.empty());
+        EXPECT_EQ(name.find('{'), std::string::npos) << name;
+        EXPECT_EQ(value.find('{'), std::string::npos) << name << " = " << value;
+        EXPECT_EQ(name.find('_'), std::string::npos) << name;
+      }
+      if (s.counts.is_object() && !s.counts.empty()) EXPECT_GE(table.size(), s.counts.size()) << s.counts.dump();
+      rows += table.size();
+    }
+  }
+  std::printf("%zu warnings (%zu rewritten), %zu stage rows\n", warnings, rewritten, rows);
+  EXPECT_GT(warnings, 0u);
+  EXPECT_EQ(rewritten, warnings) << "every warning of these runs has plain words";
+  EXPECT_GT(rows, 20u);
+  const auto nested = montage::countRows(nlohmann::json{{"photos", {{{"inliers", 9}, {"median_px", 1.6543}}}}});
+  ASSERT_EQ(nested.size(), 2u);
+  EXPECT_EQ(nested[0].first, "photos / 0 / inliers");
+  EXPECT_EQ(nested[1], (std::pair<std::string, std::string>{"photos / 0 / median px", "1.654"}));
+}
+
+// Issue 35, finding 6: a weak camera fit (nearly collinear clicks, one wrong: "9/10 agree, median 1.65 px")
+// passed silently. On a synthetic scene (photos of the turtle itself, exact clicks), photo 0 keeps only clicks
+// near one line through the object (within 3% of its height), one of them moved 40 px: its fit still passes, and the editor names it in
+// an orange banner over the panes; the untouched photo 1 is not named.
+TEST(EditorWords, WeakCameraFitsAreNamed) {
+  const std::string dir = montage::test::tempDir("editor_weak_fit");
+  std::string out;
+  ASSERT_EQ(montage::test::runCommand(montage::test::montageExe() + " synth --mesh " + montage::test::testDataDir() +
+                                          "/turtle.obj --views 2 --features 200 --size 512 --seed 5 --out '" + dir +
+                                          "/scene' 2>&1",
+                                      &out),
+            0)
+      << out;
+  montage::Project project = montage::loadProject(dir + "/scene/project.json");
+  const auto loaded = montage::loadMesh(project.mesh);
+  const cv::Mat photo0 = cv::imread(project.photos[0].path, cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(photo0.empty());
+  auto clicksOf = [&](int photo) { return montage::photoClicks(project, photo); };
+  // A sound fit first: every click, spread over the object.
+  const montage::CameraFit full = montage::fitCamera(*loaded.mesh, clicksOf(0), photo0.cols, photo0.rows);
+  ASSERT_TRUE(full.fits) << full.reason;
+  EXPECT_TRUE(montage::weakFitConcerns(full).empty()) << montage::weakFitConcerns(full)[0];
+  // Photo 0's clicks within 3% of the photo's height of a horizontal line.
+  std::vector<double> ys;
+  for (const auto& c : clicksOf(0)) ys.push_back(c.pixel.y());
+  const double band = 0.03 * photo0.rows;
+  double line = 0;  // the horizontal line with the most clicks within the band
+  size_t most = 0;
+  for (double y : ys) {
+    const size_t near = std::count_if(ys.begin(), ys.end(), [&](double v) { return std::abs(v - y) <= band; });
+    if (near > most) most = near, line = y;
+  }
+  int kept = 0;
+  bool moved = false;
+  for (auto& point : project.points) {
+    for (size_t k = 0; k < point.at.size(); ++k) {
+      auto& at = point.at[k];
+      if (at.photo != 0) continue;
+      if (std::abs(at.y - line) > band) {
+        point.at.erase(point.at.begin() + long(k));
+        --k;
+        continue;
+      }
+      ++kept;
+      if (!moved && kept == 3) at.x += 40, moved = true;
+    }
+  }
+  ASSERT_GE(kept, 8) << "too few clicks near the line";
+  const montage::CameraFit weak = montage::fitCamera(*loaded.mesh, clicksOf(0), photo0.cols, photo0.rows);
+  ASSERT_TRUE(weak.fits) << "the weak fit should still pass (that is the finding): " << weak.reason;
+  const auto concerns = montage::weakFitConcerns(weak);
+  std::string all;
+  for (const auto& c : concerns) all += c + "\n";
+  std::printf("weak fit: %s; concerns:\n%s", montage::describeFit(weak).c_str(), all.c_str());
+  EXPECT_NE(all.find("nearly on one line"), std::string::npos) << all;
+  EXPECT_NE(all.find("1 of " + std::to_string(kept) + " clicks disagrees"), std::string::npos) << all;
+
+  // The editor names photo 0, not photo 1, in the banner over the panes.
+  TM_REQUIRE_XVFB();
+  // A photo of the object itself, as the user says (auto would take a weak fit for another subject's).
+  project.photos[0].mode = montage::PhotoMode::Object;
+  montage::saveProject(project, dir + "/scene/weak.json");
+  ASSERT_EQ(runEditor(dir, dir + "/scene/weak.json",
+                      "wait_result 600\nwait_frames 3\nstate state.json\nscreenshot weak.png\nquit\n",
+                      "1280x800", &out),
+            0)
+      << out;
+  const json state = read(dir, "state.json");
+  ASSERT_EQ(state["weak_fits"].size(), 1u) << state["weak_fits"].dump(1) << state["photos"].dump(1);
+  EXPECT_EQ(state["weak_fits"][0]["photo"], 0);
+  const json& banner = state["layout"]["weak_fit_banner"];
+  ASSERT_GT(banner["w"].get<double>(), 100) << banner.dump();
+  ASSERT_GT(banner["h"].get<double>(), 10) << banner.dump();
+  // It is orange on screen: the banner's pixels are mostly its colour (150, 80, 10) under the text.
+  const cv::Mat shot = cv::imread(dir + "/weak.png");
+  ASSERT_FALSE(shot.empty());
+  const cv::Rect r(int(banner["x"].get<double>()) + 2, int(banner["y"].get<double>()) + 2,
+                   int(banner["w"].get<double>()) - 4, int(banner["h"].get<double>()) - 4);
+  int orange = 0;
+  for (int y = r.y; y < r.y + r.height; ++y)
+    for (int x = r.x; x < r.x + r.width; ++x) {
+      const cv::Vec3b c = shot.at<cv::Vec3b>(y, x);  // B, G, R
+      orange += c[2] > 120 && c[2] < 190 && c[1] > 55 && c[1] < 110 && c[0] < 50;
+    }
+  EXPECT_GT(orange, r.area() / 2) << "the banner is not orange in weak.png";
 }
 
 TEST(EditorStatusBar, PartsNeverOverlapAt800x600WithALongMessage) {
@@ -488,25 +713,87 @@ TEST(EditorRealInput, AQuickCtrlQBetweenTwoFramesQuits) {
   // The editor without a script (frames on events, as a user's). Once its window is visible, a quick Ctrl+Q
   // with the pointer over it, then 5 s for it to exit; three tries, in case the first comes before the editor
   // is up on a loaded machine.
-  std::ofstream(dir + "/walk.sh")
-      << "'" << TM_EDITOR_EXE << "' '" << project << "' --size 1280x800 &\n"
-      << "pid=$!\n"
-      << "xdotool search --sync --onlyvisible --name TextureMontage >/dev/null\n"
-      << "sleep 2\n"
-      << "for try in 1 2 3; do\n"
-      << "  xdotool mousemove 640 400 sleep 0.5 key ctrl+q\n"
-      << "  i=0\n"
-      << "  while kill -0 $pid 2>/dev/null && [ $i -lt 50 ]; do sleep 0.1; i=$((i+1)); done\n"
-      << "  kill -0 $pid 2>/dev/null || break\n"
-      << "  echo \"try $try: still running\"\n"
-      << "done\n"
-      << "if kill -0 $pid 2>/dev/null; then kill $pid; echo STILL_RUNNING; exit 3; fi\n"
-      << "wait $pid; echo EXIT=$?\n";
+  const std::string walk =
+      "sleep 2\n"
+      "for try in 1 2 3; do\n"
+      "  xdotool mousemove 640 400 sleep 0.5 key ctrl+q\n"
+      "  i=0\n"
+      "  while kill -0 $pid 2>/dev/null && [ $i -lt 50 ]; do sleep 0.1; i=$((i+1)); done\n"
+      "  kill -0 $pid 2>/dev/null || break\n"
+      "  echo \"try $try: still running\"\n"
+      "done\n";
   std::string out;
-  const int status = montage::test::runCommand("cd '" + dir + "' && XDG_STATE_HOME='" + dir +
-                                                   "/state' TM_NO_ZENITY=1 xvfb-run -a -s '-screen 0 1280x800x24' sh "
-                                                   "walk.sh 2>&1",
-                                               &out);
+  const int status = runRealWalk(dir, project, walk, &out);
   EXPECT_EQ(status, 0) << out;
   EXPECT_NE(out.find("EXIT=0"), std::string::npos) << "a quick Ctrl+Q did not quit the editor:\n" << out;
+}
+
+// Issue 35, findings 4 and 8, walked with a real mouse and keyboard (xdotool) through the built-in file dialog,
+// the editor running without a script as a user's does. Save as (File > Save as..., clicked): the dialog opens
+// in the project's folder; the
+// folder field takes another folder ("/../b" typed after the folder's path) and Enter goes there (it showed an
+// error before); a name typed in the name
+// field and Enter save (".json" added). Export: the dialog opens in that folder, the last one used (it opened in
+// the project's before; File > Export result..., clicked); "model" typed at once (the name field has the keyboard)
+// with the glTF filter gives model.glb (it gave "choose a file name ending in .glb
+// or .obj" before); the OBJ filter chosen with the mouse and "model2" give model2.obj and its MTL, the Save
+// button clicked; File > Quit. The dialog's places are those of the 1280x800 window at scale 1 (15 px font): the modal is
+// 720 x 525 px, centred.
+TEST(EditorRealInput, SaveAsAndExportThroughTheFileDialog) {
+  TM_REQUIRE_XVFB();
+  if (montage::test::runCommand("command -v xdotool >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "xdotool is absent (package xdotool, scripts/setup.sh --with-tools): the real-input test needs it";
+  const std::string dir = montage::test::tempDir("editor_real_dialog");
+  fs::create_directories(dir + "/a");
+  fs::create_directories(dir + "/b");
+  const std::string project = dir + "/a/project.json";
+  std::ofstream(project) << montage::test::demoProjectAbsolute().dump(2);
+  // Places in the dialog (window pixels): the folder field, the type filter and its second entry, the name
+  // field and the Save button.
+  const int x0 = 640 - 360, y0 = 400 - 262;
+  const std::string folderField = std::to_string(x0 + 690) + " " + std::to_string(y0 + 64);  // past its text
+  const std::string filterCombo = std::to_string(x0 + 140) + " " + std::to_string(y0 + 64);
+  const std::string objFilter = std::to_string(x0 + 140) + " " + std::to_string(y0 + 64 + 42);
+  const std::string nameField = std::to_string(x0 + 360) + " " + std::to_string(y0 + 452);
+  const std::string saveButton = std::to_string(x0 + 68) + " " + std::to_string(y0 + 477);
+  std::ostringstream walk;
+  // The demo's final bake first (export takes only a final result).
+  walk << "idle\n"
+       << "xdotool mousemove 21 10 sleep 0.3 click 1 sleep 0.8 mousemove 43 146 sleep 0.3 click 1 sleep 1.5\n"
+       << "xdotool mousemove " << folderField << " sleep 0.3 click 1 sleep 0.5 type --delay 60 '/../b'\n"
+       << "xdotool sleep 0.3 key Return sleep 0.8\n"
+       << "xdotool mousemove " << nameField << " sleep 0.3 click 1 sleep 0.5 type --delay 30 saved\n"
+       << "xdotool sleep 0.3 key Return sleep 2\n"
+       << "xdotool mousemove 21 10 sleep 0.3 click 1 sleep 0.8 mousemove 59 166 sleep 0.3 click 1 sleep 1.5\n"
+       << "xdotool type --delay 30 model\n"
+       << "xdotool sleep 0.3 key Return sleep 1\n"
+       << "idle\n"
+       << "xdotool mousemove 21 10 sleep 0.3 click 1 sleep 0.8 mousemove 59 166 sleep 0.3 click 1 sleep 1.5\n"
+       << "xdotool mousemove " << filterCombo << " sleep 0.3 click 1 sleep 0.8\n"
+       << "xdotool mousemove " << objFilter << " sleep 0.3 click 1 sleep 0.8\n"
+       << "xdotool mousemove " << nameField << " sleep 0.3 click 1 sleep 0.5 type --delay 30 model2\n"
+       << "xdotool mousemove " << saveButton << " sleep 0.5 click 1 sleep 1\n"
+       << "idle\n"
+       << "xdotool mousemove 21 10 sleep 0.3 click 1 sleep 0.8 mousemove 25 191 sleep 0.3 click 1\n"
+       << "i=0; while kill -0 $pid 2>/dev/null && [ $i -lt 100 ]; do sleep 0.1; i=$((i+1)); done\n";
+  std::string out;
+  const int status = runRealWalk(dir, project, walk.str(), &out);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("EXIT=0"), std::string::npos) << "the editor did not quit by File > Quit:\n" << out;
+  // Saved where the folder field went, with the name typed; nothing new beside the opened project.
+  ASSERT_TRUE(fs::exists(dir + "/b/saved.json")) << "Save as through the dialog did not save b/saved.json:\n" << out;
+  EXPECT_EQ(montage::loadProject(dir + "/b/saved.json").points.size(),
+            montage::loadProject(project).points.size());
+  EXPECT_FALSE(fs::exists(dir + "/a/saved.json"));
+  // model.glb from "model" and the glTF filter, in the last folder used.
+  ASSERT_TRUE(fs::exists(dir + "/b/model.glb")) << "Export with the glTF filter did not write b/model.glb:\n" << out;
+  std::ifstream glb(dir + "/b/model.glb", std::ios::binary);
+  char magic[4] = {};
+  glb.read(magic, 4);
+  EXPECT_EQ(std::string(magic, 4), "glTF");
+  // model2.obj, its MTL and atlas from the OBJ filter chosen with the mouse.
+  EXPECT_TRUE(fs::exists(dir + "/b/model2.obj")) << out;
+  EXPECT_TRUE(fs::exists(dir + "/b/model2.mtl")) << out;
+  // No error along the way (the editor prints each one as "texturemontage: ...").
+  EXPECT_EQ(out.find("texturemontage: "), std::string::npos) << out;
 }

@@ -210,7 +210,6 @@ int Editor::run() {
 }
 
 void Editor::frame() {
-  const double start = now();
   const bool busy = worker_->status().busy;
   // A script waiting for the worker waits as a user would (below), so that its timings are the user's.
   const bool scriptRuns = scripted_ && (frameNumber_ < 2 || !waitUntil_ || !waitOnEvents_);
@@ -225,6 +224,8 @@ void Editor::frame() {
     if (viewDivisor_ > 1) wait = std::min(wait, viewMotion_.secondsToSettle(glfwGetTime()) + 0.005);
     glfwWaitEventsTimeout(wait);
   }
+  // The frame's time is its work, from here: the wait for events above is idle time, not the frame's.
+  const double start = now();
   if (glfwWindowShouldClose(window_)) {
     glfwSetWindowShouldClose(window_, GLFW_FALSE);
     requestClose();

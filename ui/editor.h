@@ -245,6 +245,10 @@ class Editor {
   void requestClose();
   void guardUnsaved(std::function<void()> then);  // asks when there are unsaved changes
   void reportError(const std::string& message);   // listed once in the Errors window, shown in the status bar
+  // An error of a user's operation ("save", "export"): listed as reportError does, and taken off the list
+  // when the same operation next succeeds (operationSucceeded), so the count shows only what still fails.
+  void reportOperationError(const std::string& operation, const std::string& message);
+  void operationSucceeded(const std::string& operation);
   // A slip (a refused edit: a one-point line, a click outside the photo...): an inline hint in the Tools
   // panel and the status bar, not an error in the list.
   void hint(const std::string& message);
@@ -337,6 +341,15 @@ class Editor {
   void cameraToolbar();
   void cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, const Vec2& mouse, bool hovered,
                      std::string& tooltip);
+  // The proposal markers (diamonds) of a photo pane, drawn after its points.
+  void proposalMarkers(int photo, const PaneView& view, ImDrawList* draw, const Vec2& mouse, bool hovered,
+                       std::string& tooltip);
+  // Photos whose camera fit passes but is weak (plain_words.h weakFitConcerns), with why; the banner
+  // over the photo panes names them.
+  std::vector<std::pair<int, std::vector<std::string>>> weakFits() const;
+  void weakFitBanner();
+  // Indices into result_->proposals of `photo`'s proposals not yet clicked nor declined.
+  std::vector<int> pendingProposals(int photo) const;
   bool clickProposal(int photo, bool decline);  // true when the click went to a proposal
   std::string cameraCaption(int photo) const;
   // The usable result's map choice for photo `photo` of another subject (warp or the paper's map), or null.
@@ -454,6 +467,7 @@ class Editor {
   std::string lastError_;
   long lastErrorGeneration_ = 0;
   std::vector<std::string> errors_;  // shown in the Errors window, newest last
+  std::multimap<std::string, std::string> operationErrors_;  // operation -> its errors still listed
   bool showErrors_ = false, showHelp_ = false;
   std::string status_;
   double statusTime_ = 0;
@@ -510,6 +524,7 @@ class Editor {
   bool textured_ = true, wireframe_ = false, showPaths_ = true, showFeatures_ = true, showIds_ = true;
   bool showMask_ = true, showCurves_ = true, showRejected_ = true, showPaneIds_ = true;
   bool showCamera_ = true;                // camera feedback in the panes
+  bool proposalsButton_ = false;  // the Accept proposals button is shown (a photo of the object fits a camera)
   int hoverProposal_ = -1;                // proposal under the mouse (index into result_->proposals)
   std::vector<CameraLines> cameraLines_;  // per photo, for the result cameraLinesFor_
   const void* cameraLinesFor_ = nullptr;
@@ -520,6 +535,7 @@ class Editor {
   long uploadCount_ = 0;  // buffers uploaded so far: part of the scene key
   std::string sceneKey_;  // what the 3D view's framebuffer shows; redraw when it changes
   Rect viewRect_, paneRect_, windowRect_;
+  Rect weakBannerRect_;  // the weak camera fit banner this frame (empty: none)
   std::map<int, Rect> canvasRects_;  // per photo, last frame
   std::map<std::string, Rect> buttonRects_;
   std::vector<char> featureVisible_;  // per feature point, from the 3D view's depth when it was last drawn

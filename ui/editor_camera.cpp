@@ -7,8 +7,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 #include "editor.h"
+#include "plain_words.h"
 #include "mapping/camera.h"
 #include "mapping/projection.h"
 
@@ -70,21 +72,47 @@ void Editor::buildCameraLines() {
   }
 }
 
+std::vector<int> Editor::pendingProposals(int photo) const {
+  std::vector<int> out;
+  if (!resultUsable()) return out;
+  const auto& declined = doc_.project().declinedProposals;
+  for (size_t k = 0; k < result_->proposals.size(); ++k) {
+    const Proposal& pr = result_->proposals[k];
+    if (pr.photo != photo || doc_.pointAt(pr.vertex, pr.photo) >= 0) continue;
+    if (std::find(declined.begin(), declined.end(), DeclinedProposal{pr.vertex, pr.photo}) != declined.end()) continue;
+    out.push_back(static_cast<int>(k));
+  }
+  return out;
+}
+
 void Editor::cameraToolbar() {
   sameLineIfFits(checkboxWidth("camera"));
   ImGui::Checkbox("camera", &showCamera_);
-  if (!showCamera_ || !resultUsable()) return;
-  int pending = 0;
-  for (const Proposal& pr : result_->proposals)
-    pending += pr.photo == activePhoto_ && doc_.pointAt(pr.vertex, pr.photo) < 0;
-  if (pending == 0) return;
-  const std::string label = "Accept " + std::to_string(pending) + " proposals";
-  sameLineIfFits(ImGui::CalcTextSize(label.c_str()).x + ImGui::GetStyle().FramePadding.x * 2);
-  if (button(label.c_str())) {
+  if (!showCamera_) return;
+  // The button keeps its place and width while the camera is shown and some photo fits one (the last
+  // result's say while a run goes on), greyed when nothing waits: the tab row below never jumps under
+  // the cursor as the last proposal is accepted.
+  if (resultUsable()) {
+    proposalsButton_ = false;
+    for (int i = 0; i < static_cast<int>(doc_.project().photos.size()); ++i)
+      if (const CameraFit* fit = photoFit(i); fit && fit->fits && !fit->subject) proposalsButton_ = true;
+  }
+  if (!proposalsButton_) return;
+  const std::vector<int> pending = pendingProposals(activePhoto_);
+  const std::string label = pending.empty()       ? "No proposals"
+                            : pending.size() == 1 ? "Accept 1 proposal"
+                                                  : "Accept " + std::to_string(pending.size()) + " proposals";
+  const ImVec2 size(ImGui::CalcTextSize("Accept 9999 proposals").x + ImGui::GetStyle().FramePadding.x * 2, 0);
+  sameLineIfFits(size.x);
+  ImGui::BeginDisabled(pending.empty());
+  const bool pressed = button((label + "##accept_proposals").c_str(), &size, label);
+  ImGui::EndDisabled();
+  if (pressed && !pending.empty()) {
     doc_.beginGroup("Accept proposals in photo " + std::to_string(activePhoto_));
-    for (const Proposal& pr : result_->proposals)
-      if (pr.photo == activePhoto_ && doc_.pointAt(pr.vertex, pr.photo) < 0)
-        edit([&] { doc_.setPosition(pr.vertex, pr.photo, pr.pixel.x(), pr.pixel.y()); });
+    for (int k : pending) {
+      const Proposal& pr = result_->proposals[k];
+      edit([&] { doc_.setPosition(pr.vertex, pr.photo, pr.pixel.x(), pr.pixel.y()); });
+    }
     doc_.endGroup();
   }
 }
@@ -122,7 +150,9 @@ void Editor::cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, co
   // The selected vertex where the camera predicts it.
   const auto& fields = result_->projection ? result_->projection->result.fields : std::vector<CorrectionField>{};
   const Mesh& mesh = result_->mapping->partition->mesh;
-  if (selectedVertex_ >= 0 && selectedVertex_ < mesh.numVertices() && photo < static_cast<int>(fields.size())) {
+  // Not where the user has clicked that vertex already: the click is the answer.
+  if (selectedVertex_ >= 0 && selectedVertex_ < mesh.numVertices() && photo < static_cast<int>(fields.size()) &&
+      doc_.pointAt(selectedVertex_, photo) < 0) {
     Vec2 px;
     if (predictPixel(*fit, fields[photo], mesh.position(selectedVertex_), px)) {
       const ImVec2 s = im(view.toScreen(px));
@@ -135,19 +165,26 @@ void Editor::cameraOverlay(int photo, const PaneView& view, ImDrawList* draw, co
       draw->AddText(ImVec2(s.x + 10, s.y + 6), c, ("predicted " + std::to_string(selectedVertex_)).c_str());
     }
   }
-  // Proposals (not yet clicked, not declined).
-  for (size_t k = 0; k < result_->proposals.size(); ++k) {
+}
+
+void Editor::proposalMarkers(int photo, const PaneView& view, ImDrawList* draw, const Vec2& mouse, bool hovered,
+                             std::string& tooltip) {
+  if (!showCamera_) return;
+  const CameraFit* fit = photoFit(photo);
+  if (!fit || !fit->fits) return;
+  // Proposals (not yet clicked, not declined), drawn after the points so that none hides under another's
+  // marker.
+  for (int k : pendingProposals(photo)) {
     const Proposal& pr = result_->proposals[k];
-    if (pr.photo != photo || doc_.pointAt(pr.vertex, pr.photo) >= 0) continue;
-    const auto& declined = doc_.project().declinedProposals;
-    if (std::find(declined.begin(), declined.end(), DeclinedProposal{pr.vertex, pr.photo}) != declined.end()) continue;
     const Vec2 s = view.toScreen(pr.pixel);
     const bool over = hovered && (mouse - s).norm() < 7;
     const ImU32 c = over ? IM_COL32(255, 120, 255, 255) : IM_COL32(235, 90, 235, 230);
+    draw->AddQuadFilled(im(s + Vec2(0, -7)), im(s + Vec2(7, 0)), im(s + Vec2(0, 7)), im(s + Vec2(-7, 0)),
+                        IM_COL32(0, 0, 0, 140));
     draw->AddQuad(im(s + Vec2(0, -6)), im(s + Vec2(6, 0)), im(s + Vec2(0, 6)), im(s + Vec2(-6, 0)), c,
                   over ? 2.5f : 1.5f);
     if (over) {
-      hoverProposal_ = static_cast<int>(k);
+      hoverProposal_ = k;
       tooltip = "proposed: point #" + std::to_string(pr.point) + " (vertex " + std::to_string(pr.vertex) +
                 "), clicked in photo " + std::to_string(pr.from) + "\nclick: accept, shift+click: decline";
     }
@@ -172,6 +209,47 @@ bool Editor::clickProposal(int photo, bool decline) {
     setStatus("accepted the proposal of vertex " + std::to_string(pr.vertex) + " in photo " + std::to_string(photo));
   }
   return true;
+}
+
+std::vector<std::pair<int, std::vector<std::string>>> Editor::weakFits() const {
+  std::vector<std::pair<int, std::vector<std::string>>> out;
+  for (int i = 0; i < static_cast<int>(doc_.project().photos.size()); ++i)
+    if (const CameraFit* fit = photoFit(i))
+      if (auto concerns = weakFitConcerns(*fit); !concerns.empty()) out.emplace_back(i, std::move(concerns));
+  return out;
+}
+
+void Editor::weakFitBanner() {
+  const auto weak = weakFits();
+  if (weak.empty()) return;
+  // An orange banner over the panes: a fit that passes but should not be trusted is named, with why and
+  // what to do, instead of passing silently (the silhouette overlay was the only sign).
+  std::string text = weak.size() == 1 ? "Weak camera fit, check it before trusting it:"
+                                      : "Weak camera fits, check them before trusting them:";
+  for (const auto& [photo, concerns] : weak) {
+    text += "\nphoto " + std::to_string(photo) + " (" +
+            std::filesystem::path(doc_.project().photos[photo].path).filename().string() + "): ";
+    for (size_t k = 0; k < concerns.size(); ++k) text += (k ? "; " : "") + concerns[k];
+  }
+  const ImVec2 lo = ImGui::GetCursorScreenPos();
+  const float width = ImGui::GetContentRegionAvail().x;
+  const float pad = px(4);
+  const ImVec2 size = ImGui::CalcTextSize(text.c_str(), nullptr, false, width - 2 * pad);
+  ImDrawList* draw = ImGui::GetWindowDrawList();
+  draw->AddRectFilled(lo, ImVec2(lo.x + width, lo.y + size.y + 2 * pad), IM_COL32(150, 80, 10, 235), px(3));
+  ImGui::SetCursorScreenPos(ImVec2(lo.x + pad, lo.y + pad));
+  ImGui::PushTextWrapPos(ImGui::GetCursorPos().x + width - 2 * pad);
+  ImGui::TextColored(ImVec4(1, 0.93f, 0.8f, 1), "%s", text.c_str());
+  ImGui::PopTextWrapPos();
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("click: show photo %d with its camera (its silhouette shows how far off the fit is)",
+                      weak.front().first);
+  if (ImGui::IsItemClicked()) {
+    activePhoto_ = weak.front().first;
+    showCamera_ = true;
+  }
+  ImGui::SetCursorScreenPos(ImVec2(lo.x, lo.y + size.y + 2 * pad + ImGui::GetStyle().ItemSpacing.y));
+  weakBannerRect_ = Rect{lo.x, lo.y, width, size.y + 2 * pad};
 }
 
 const SubjectChoice* Editor::subjectChoice(int photo) const {

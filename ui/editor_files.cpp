@@ -85,6 +85,20 @@ void Editor::reportError(const std::string& message) {
   std::fprintf(stderr, "texturemontage: %s\n", message.c_str());
 }
 
+void Editor::reportOperationError(const std::string& operation, const std::string& message) {
+  reportError(message);
+  operationErrors_.emplace(operation, message);
+}
+
+void Editor::operationSucceeded(const std::string& operation) {
+  const auto [from, to] = operationErrors_.equal_range(operation);
+  for (auto it = from; it != to; ++it) {
+    errors_.erase(std::remove(errors_.begin(), errors_.end(), it->second), errors_.end());
+    if (lastProblem_ == it->second) lastProblem_.clear();
+  }
+  operationErrors_.erase(from, to);
+}
+
 void Editor::hint(const std::string& message) {
   hint_ = message;
   hintTime_ = now();
@@ -171,11 +185,12 @@ bool Editor::saveTo(const std::string& path) {
     removeAutosave(autosavePath());
     autosaveClock_.reset(now(), doc_.revision());
     recent_.add(copy.file);
+    operationSucceeded("save");
     setStatus("saved " + copy.file);
     glfwSetWindowTitle(window_, ("TextureMontage - " + fs::path(copy.file).filename().string()).c_str());
     return true;
   } catch (const Error& e) {
-    reportError(e.what());
+    reportOperationError("save", e.what());
     return false;
   }
 }
@@ -201,7 +216,7 @@ void Editor::requestSaveAs() {
 
 void Editor::requestExport() {
   if (!resultUsable()) return;
-  dialogs_.request(DialogKind::SaveFile, "Export the textured model (.glb or .obj)",
+  dialogs_.request(DialogKind::SaveFile, "Export the textured model",
                    {{"glTF binary", {"*.glb"}}, {"OBJ + MTL + PNG", {"*.obj"}}}, "export", projectFolder());
 }
 
@@ -235,13 +250,15 @@ bool Editor::exportTo(const std::string& path) {
                      exportObj(result_->exported ? *result_->exported : *result_->model, staging, stem);
                    });
     } else {
-      throw Error(located(abs, "export: choose a file name ending in .glb or .obj"));
+      throw Error(located(abs, "export: the file type comes from the name's ending: choose a name ending in .glb "
+                               "(glTF binary) or .obj (OBJ + MTL + PNG)"));
     }
+    operationSucceeded("export");
     setStatus(stale ? "exported " + abs + " - the result of an earlier state: the document changed since"
                     : "exported " + abs);
     return true;
   } catch (const Error& e) {
-    reportError(e.what());
+    reportOperationError("export", e.what());
     return false;
   }
 }

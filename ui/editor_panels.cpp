@@ -17,6 +17,7 @@
 #include "io/mesh_io.h"
 #include "io/model.h"
 #include "overlays.h"
+#include "plain_words.h"
 
 namespace fs = std::filesystem;
 
@@ -170,7 +171,10 @@ void Editor::buildUi() {
   errorsWindow();
   helpWindow();
   modals();
-  if (auto chosen = dialogs_.frame()) {
+  const bool enterMissed = std::any_of(missedKeys_.begin(), missedKeys_.end(), [](const auto& k) {
+    return k.first == GLFW_KEY_ENTER || k.first == GLFW_KEY_KP_ENTER;
+  });
+  if (auto chosen = dialogs_.frame(enterMissed)) {
     if (chosen->purpose == "open") {
       openFile(chosen->path);
       checkRecovery();
@@ -705,23 +709,45 @@ void Editor::pipelineTab() {
     return;
   }
   if (ImGui::CollapsingHeader("Stages", ImGuiTreeNodeFlags_DefaultOpen) &&
-      ImGui::BeginTable("##stages", 3, ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingFixedFit)) {
-    // Generic over the stage records: new stages appear without changes here.
+      ImGui::BeginTable("##stages", 2, ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingFixedFit)) {
+    // Generic over the stage records: new stages appear without changes here. A stage's counts open as
+    // a table of their own (plain_words.h countRows), not as raw JSON.
     for (const StageRecord& s : result_->stages) {
       ImGui::TableNextRow();
       ImGui::TableNextColumn();
-      ImGui::TextUnformatted(stageName(s.stage));
+      const auto rows = countRows(s.counts);
+      const std::string id = std::string(stageName(s.stage)) + "##stage" + std::to_string(int(s.stage));
+      const bool open = !rows.empty() && ImGui::TreeNodeEx(id.c_str(), ImGuiTreeNodeFlags_SpanFullWidth);
+      if (rows.empty()) ImGui::TextUnformatted(stageName(s.stage));
       ImGui::TableNextColumn();
       ImGui::Text(s.cached ? "cached" : "%.3f s", s.seconds);
-      ImGui::TableNextColumn();
-      ImGui::TextUnformatted(s.counts.dump().c_str());
-      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", s.counts.dump(2).c_str());
+      if (!open) continue;
+      for (const auto& [name, value] : rows) {
+        ImGui::TableNextRow();
+        ImGui::TableNextColumn();
+        ImGui::Indent();
+        ImGui::TextDisabled("%s", name.c_str());
+        ImGui::Unindent();
+        ImGui::TableNextColumn();
+        ImGui::TextUnformatted(value.c_str());
+      }
+      ImGui::TreePop();
     }
     ImGui::EndTable();
   }
   if (ImGui::CollapsingHeader(("Warnings and notes (" + std::to_string(result_->warnings.size()) + ")").c_str(),
-                              ImGuiTreeNodeFlags_DefaultOpen))
-    for (const std::string& w : result_->warnings) ImGui::BulletText("%s", w.c_str());
+                              ImGuiTreeNodeFlags_DefaultOpen)) {
+    // In plain words, wrapped at the column's width; the pipeline's own words on hover.
+    for (const std::string& w : result_->warnings) {
+      const PlainWarning plain = plainWarning(w);
+      ImGui::Bullet();
+      ImGui::PushTextWrapPos(0);
+      ImGui::TextUnformatted(plain.text.c_str());
+      ImGui::PopTextWrapPos();
+      if (ImGui::IsItemHovered() && plain.text != plain.original)
+        ImGui::SetTooltip("%s", wrapped("the pipeline's words: " + plain.original).c_str());
+    }
+  }
   if (result_->mapping) {
     const auto& rejected = result_->mapping->partition->rejected;
     if (ImGui::CollapsingHeader(("Rejected pairs (" + std::to_string(rejected.size()) + ")").c_str())) {
@@ -817,7 +843,8 @@ void Editor::runControls() {
     // Weighted by the stages' seconds in the last run of this tier (typical shares before the first).
     const double done = progress_.overall(ws.tier, ws.stage, ws.fraction);
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - ws.started).count();
-    const double left = progress_.secondsLeft(ws.tier, ws.stage, ws.fraction, elapsed);
+    const std::string timeText = progress_.timeText(ws.tier, ws.stage, ws.fraction, elapsed,
+                                                    std::chrono::duration<double>(ws.started.time_since_epoch()).count());
     char overlay[16];
     std::snprintf(overlay, sizeof(overlay), "%.0f%%", 100 * done);
     ImGui::ProgressBar(static_cast<float>(done), ImVec2(px(90), 0), overlay);
@@ -830,14 +857,9 @@ void Editor::runControls() {
     scriptButton("Cancel run");
     ImGui::SameLine();
     ImGui::Text("%s%s", ws.tier == Tier::Final ? "final: " : "", stageName(ws.stage));
-    if (left >= 0) {
+    if (!timeText.empty()) {
       ImGui::SameLine();
-      char text[48];
-      if (left < 60)
-        std::snprintf(text, sizeof(text), "about %.0f s left", std::max(1.0, std::ceil(left)));
-      else
-        std::snprintf(text, sizeof(text), "about %.0f min left", std::ceil(left / 60));
-      ImGui::TextDisabled("%s", text);
+      ImGui::TextDisabled("%s", timeText.c_str());
     }
     return;
   }
@@ -887,7 +909,7 @@ void Editor::errorsWindow() {
   ImGui::SetNextWindowSize(ImVec2(std::min(px(640), display.x * 0.6f), px(240)), ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowPos(ImVec2(display.x * 0.5f, display.y - px(60)), ImGuiCond_FirstUseEver, ImVec2(0.5f, 1.0f));
   if (ImGui::Begin("Errors", &showErrors_, ImGuiWindowFlags_NoSavedSettings)) {
-    if (button("Clear")) errors_.clear(), lastError_.clear();
+    if (button("Clear")) errors_.clear(), operationErrors_.clear(), lastError_.clear();
     ImGui::Separator();
     for (auto it = errors_.rbegin(); it != errors_.rend(); ++it) {
       ImGui::PushStyleColor(ImGuiCol_Text, kErrorColor);

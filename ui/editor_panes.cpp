@@ -92,6 +92,8 @@ void Editor::photosPanel() {
     ImGui::Checkbox(label, value);
   }
   cameraToolbar();
+  weakBannerRect_ = Rect{};
+  weakFitBanner();  // editor_camera.cpp
 
   if (gridPanes_) {
     const int n = static_cast<int>(p.photos.size());
@@ -299,6 +301,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     tooltip =
         "point #" + std::to_string(hover) + ": vertex " + std::to_string(p.points[hover].vertex) + ", photos" + photos;
   }
+  proposalMarkers(i, view, draw, mouse, hovered, tooltip);  // editor_camera.cpp
   // Where a click will put the selected vertex.
   const bool placing = (tool_ == Tool::Point || tool_ == Tool::Line || tool_ == Tool::Polygon) && selectedVertex_ >= 0;
   if (hovered && placing && hover < 0 && photo.inside(mousePhoto.x(), mousePhoto.y()) && !dragging_) {
@@ -313,10 +316,13 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   std::snprintf(caption, sizeof(caption), "%s%s%dx%d  %.0f%%%s%s%s", showName ? std::to_string(i).c_str() : "",
                 showName ? ": " : "", photo.width, photo.height, view.zoom * 100, photo.mirrored ? "  mirrored" : "",
                 after ? "  balanced" : "", cameraCaption(i).c_str());
-  const ImVec2 cs = ImGui::CalcTextSize(caption);
+  // Wrapped at the pane's width: a long camera caption takes two lines instead of being cut.
+  const float wrap = std::max(px(60), float(r.w) - px(12));
+  const ImVec2 cs = ImGui::CalcTextSize(caption, nullptr, false, wrap);
   draw->AddRectFilled(ImVec2(lo.x, hi.y - cs.y - 6), ImVec2(lo.x + cs.x + 12, hi.y), IM_COL32(0, 0, 0, 150));
-  draw->AddText(ImVec2(lo.x + 6, hi.y - cs.y - 3),
-                i == activePhoto_ ? IM_COL32(255, 255, 255, 255) : IM_COL32(180, 180, 180, 255), caption);
+  draw->AddText(ImGui::GetFont(), ImGui::GetFontSize(), ImVec2(lo.x + 6, hi.y - cs.y - 3),
+                i == activePhoto_ ? IM_COL32(255, 255, 255, 255) : IM_COL32(180, 180, 180, 255), caption, nullptr,
+                wrap);
   if (i == activePhoto_ && showName) draw->AddRect(lo, hi, IM_COL32(255, 140, 30, 200), 0, 0, 2.0f);
   draw->PopClipRect();
   if (!tooltip.empty() && !dragging_) ImGui::SetTooltip("%s", tooltip.c_str());

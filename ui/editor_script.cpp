@@ -19,6 +19,7 @@
 #include "gl_util.h"
 #include "image/codec.h"
 #include "overlay_gl.h"
+#include "plain_words.h"
 
 namespace fs = std::filesystem;
 
@@ -595,6 +596,16 @@ void Editor::writeState(const std::string& path) const {
   for (const auto& [name, r] : tabRects_) tabs[name] = rect(r);
   state["tabs"] = tabs;
   state["grid"] = gridPanes_;
+  state["frame_ms"] = frameMs_;
+  state["weak_fits"] = json::array();
+  for (const auto& [photo, concerns] : weakFits())
+    state["weak_fits"].push_back({{"photo", photo}, {"concerns", concerns}});
+  state["warnings_plain"] = json::array();
+  if (result_)
+    for (const std::string& w : result_->warnings) {
+      const PlainWarning plain = plainWarning(w);
+      state["warnings_plain"].push_back({{"text", plain.text}, {"original", plain.original}});
+    }
   // The 3D view's framebuffer: reduced while the camera moves (navigation.h), full size once still.
   state["view3d"] = {{"size", {int(viewRect_.w), int(viewRect_.h)}},
                      {"render", {viewFbo_ ? viewFbo_->width() : 0, viewFbo_ ? viewFbo_->height() : 0}},
@@ -681,7 +692,10 @@ void Editor::writeState(const std::string& path) const {
     }
     state["balance"] = transforms;
   }
-  state["layout"] = {{"window", rect(windowRect_)}, {"view3d", rect(viewRect_)}, {"photos", rect(paneRect_)}};
+  state["layout"] = {{"window", rect(windowRect_)},
+                     {"view3d", rect(viewRect_)},
+                     {"photos", rect(paneRect_)},
+                     {"weak_fit_banner", rect(weakBannerRect_)}};
   for (const auto& [name, r] : splitterRects_) state["layout"]["splitters"][name] = rect(r);
   state["coverage"] = coverageState();
   state["autosave"] = {{"path", autosavePath()}, {"written_revision", autosavedRevision_}};

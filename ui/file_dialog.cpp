@@ -47,6 +47,21 @@ bool matches(const std::string& name, const FileFilter& filter) {
   return false;
 }
 
+// "glTF binary (*.glb)": the filter as the combo and zenity show it.
+std::string label(const FileFilter& filter) {
+  std::string patterns;
+  for (const auto& p : filter.patterns) patterns += (patterns.empty() ? "" : " ") + p;
+  return patterns.empty() || patterns == "*" ? filter.name : filter.name + " (" + patterns + ")";
+}
+
+// The extension a filter names when it has one pattern "*.ext" (".glb"), else "".
+std::string soleExtension(const FileFilter& filter) {
+  if (filter.patterns.size() != 1) return "";
+  const std::string& p = filter.patterns.front();
+  if (p.rfind("*.", 0) != 0 || p.size() < 3 || p.find_first_of("*?[", 1) != std::string::npos) return "";
+  return p.substr(1);
+}
+
 }  // namespace
 
 FileDialogs::FileDialogs() {
@@ -63,10 +78,10 @@ bool FileDialogs::request(DialogKind kind, const std::string& title, const std::
   filters_ = filters;
   purpose_ = purpose;
   std::error_code ec;
-  if (!startDir.empty() && fs::is_directory(startDir, ec))
-    dir_ = startDir;
-  else if (!lastDir_.empty() && fs::is_directory(lastDir_, ec))
+  if (!lastDir_.empty() && fs::is_directory(lastDir_, ec))
     dir_ = lastDir_;
+  else if (!startDir.empty() && fs::is_directory(startDir, ec))
+    dir_ = startDir;
   else
     dir_ = fs::current_path(ec).string();
   filter_ = 0;
@@ -76,6 +91,8 @@ bool FileDialogs::request(DialogKind kind, const std::string& title, const std::
   chosen_.reset();
   chosenMany_.clear();
   done_ = false;
+  focusName_ = kind == DialogKind::SaveFile;
+  dirActive_ = false;
   if (zenity_) {
     std::string cmd = "zenity --file-selection --title=" + shellQuote(title);
     if (kind == DialogKind::SaveFile) cmd += " --save --confirm-overwrite";
@@ -83,7 +100,7 @@ bool FileDialogs::request(DialogKind kind, const std::string& title, const std::
     if (kind == DialogKind::OpenFiles) cmd += " --multiple --separator='\n'";
     cmd += " --filename=" + shellQuote(dir_ + "/");
     for (const auto& f : filters) {
-      std::string spec = f.name + " |";
+      std::string spec = label(f) + " |";
       for (const auto& p : f.patterns) spec += " " + p;
       cmd += " --file-filter=" + shellQuote(spec);
     }
@@ -107,7 +124,7 @@ bool FileDialogs::request(DialogKind kind, const std::string& title, const std::
   return true;
 }
 
-std::optional<DialogResult> FileDialogs::frame() {
+std::optional<DialogResult> FileDialogs::frame(bool enterMissed) {
   if (!active_) return std::nullopt;
   if (zenity_) {
     if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
@@ -130,7 +147,7 @@ std::optional<DialogResult> FileDialogs::frame() {
     }
     return std::nullopt;
   }
-  drawBrowser();
+  drawBrowser(enterMissed);
   if (done_) {
     active_ = false;
     done_ = false;
@@ -187,7 +204,58 @@ std::vector<std::string> FileDialogs::listed() const {
   return names;
 }
 
-void FileDialogs::drawBrowser() {
+void FileDialogs::goToTypedFolder() {
+  std::error_code ec;
+  const fs::path typed = fs::absolute(dir_.empty() ? fs::path("/") : fs::path(dir_)).lexically_normal();
+  if (fs::is_directory(typed, ec)) {
+    std::string d = typed.string();
+    if (d.size() > 1 && d.back() == '/') d.pop_back();
+    dir_ = d;
+    error_.clear();
+    selected_.clear();
+  } else if (fs::is_regular_file(typed, ec) && kind_ != DialogKind::OpenFolder) {
+    // A file's path typed in the folder field: its folder, with the file as the name.
+    dir_ = typed.parent_path().string();
+    name_ = typed.filename().string();
+    error_.clear();
+    selected_.clear();
+  } else {
+    error_ = typed.string() + ": no such folder";
+  }
+}
+
+void FileDialogs::confirm() {
+  if (kind_ == DialogKind::OpenFolder) {
+    chosen_ = dir_;
+    done_ = true;
+  } else if (kind_ == DialogKind::OpenFiles && !selected_.empty()) {
+    for (const auto& n : selected_) chosenMany_.push_back((fs::path(dir_) / n).string());
+    done_ = true;
+  } else if (name_.empty()) {
+    error_ = "type or choose a file name";
+  } else {
+    fs::path path = fs::path(name_).is_absolute() ? fs::path(name_) : fs::path(dir_) / name_;
+    std::error_code e;
+    if (kind_ == DialogKind::SaveFile && path.extension().empty() && !filters_.empty()) {
+      // The filter chosen says the type: "model" with "glTF binary (*.glb)" is model.glb.
+      const std::string ext = soleExtension(filters_[std::min<size_t>(filter_, filters_.size() - 1)]);
+      if (!ext.empty()) path += ext;
+    }
+    if ((kind_ == DialogKind::OpenFile || kind_ == DialogKind::OpenFiles) && !fs::is_regular_file(path, e)) {
+      error_ = path.string() + ": no such file";
+    } else if (fs::is_directory(path, e)) {
+      // A folder's name typed as the file name: go into it.
+      dir_ = path.lexically_normal().string();
+      name_.clear();
+      error_.clear();
+    } else {
+      chosen_ = path.string();
+      done_ = true;
+    }
+  }
+}
+
+void FileDialogs::drawBrowser(bool enterMissed) {
   const char* popupId = "##tm_file_browser";
   if (openPopup_) {
     ImGui::OpenPopup(popupId);
@@ -203,22 +271,32 @@ void FileDialogs::drawBrowser() {
     done_ = true;
     return;
   }
+  // An Enter ImGui missed goes to the field that was being typed in (it is still active: ImGui never saw
+  // the key that ends it).
+  const bool missedInDir = enterMissed && dirActive_;
+  const bool missedElsewhere = enterMissed && !dirActive_;
   ImGui::TextUnformatted(title_.c_str());
   ImGui::Separator();
-  if (ImGui::Button("Up")) dir_ = fs::path(dir_).parent_path().string();
+  if (ImGui::Button("Up")) {
+    dir_ = fs::path(dir_).parent_path().string();
+    error_.clear();
+  }
   ImGui::SameLine();
   if (filters_.size() > 1) {
     // The type filter: only the chosen one's files are listed.
-    ImGui::SetNextItemWidth(ImGui::GetFontSize() * 12);
-    if (ImGui::BeginCombo("##filter", filters_[filter_].name.c_str())) {
+    ImGui::SetNextItemWidth(ImGui::GetFontSize() * 14);
+    if (ImGui::BeginCombo("##filter", label(filters_[filter_]).c_str())) {
       for (size_t i = 0; i < filters_.size(); ++i)
-        if (ImGui::Selectable(filters_[i].name.c_str(), filter_ == static_cast<int>(i))) filter_ = static_cast<int>(i);
+        if (ImGui::Selectable(label(filters_[i]).c_str(), filter_ == static_cast<int>(i)))
+          filter_ = static_cast<int>(i);
       ImGui::EndCombo();
     }
     ImGui::SameLine();
   }
   ImGui::SetNextItemWidth(-1);
-  ImGui::InputText("##dir", &dir_);
+  const bool dirEntered = ImGui::InputText("##dir", &dir_, ImGuiInputTextFlags_EnterReturnsTrue);
+  dirActive_ = ImGui::IsItemActive();
+  if (dirEntered || missedInDir) goToTypedFolder();
 
   const float footer = ImGui::GetFrameHeightWithSpacing() * (kind_ == DialogKind::OpenFolder ? 2.2f : 3.2f);
   ImGui::BeginChild("##entries", ImVec2(0, -footer), true);
@@ -239,6 +317,7 @@ void FileDialogs::drawBrowser() {
         if (ImGui::IsMouseDoubleClicked(0)) {
           dir_ = (fs::path(dir_) / name).string();
           selected_.clear();
+          error_.clear();
         }
       } else if (many && !ImGui::IsMouseDoubleClicked(0)) {
         // A click toggles the file in the selection.
@@ -260,37 +339,28 @@ void FileDialogs::drawBrowser() {
   if (!listError.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", listError.c_str());
   ImGui::EndChild();
 
+  bool nameEntered = false;
   if (kind_ != DialogKind::OpenFolder) {
     ImGui::SetNextItemWidth(-1);
-    ImGui::InputTextWithHint("##name", "file name", &name_);
+    // A save dialog: type the name at once. Asked again until the field has the keyboard (a popup's first
+    // frame is hidden and drops the request), unless the user clicks somewhere first.
+    if (focusName_ && ImGui::IsMouseClicked(ImGuiMouseButton_Left)) focusName_ = false;
+    if (focusName_) ImGui::SetKeyboardFocusHere();
+    nameEntered = ImGui::InputTextWithHint("##name", "file name", &name_, ImGuiInputTextFlags_EnterReturnsTrue);
+    if (ImGui::IsItemActive()) focusName_ = false;
   }
   if (!error_.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error_.c_str());
   const char* ok = kind_ == DialogKind::SaveFile ? "Save" : kind_ == DialogKind::OpenFolder ? "Choose folder" : "Open";
-  if (ImGui::Button(ok, ImVec2(ImGui::GetFontSize() * 8, 0)) ||
-      (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Enter)) && !done_)) {
-    if (kind_ == DialogKind::OpenFolder) {
-      chosen_ = dir_;
-      done_ = true;
-    } else if (kind_ == DialogKind::OpenFiles && !selected_.empty()) {
-      for (const auto& n : selected_) chosenMany_.push_back((fs::path(dir_) / n).string());
-      done_ = true;
-    } else if (name_.empty()) {
-      error_ = "type or choose a file name";
-    } else {
-      const fs::path path = fs::path(name_).is_absolute() ? fs::path(name_) : fs::path(dir_) / name_;
-      std::error_code e;
-      if ((kind_ == DialogKind::OpenFile || kind_ == DialogKind::OpenFiles) && !fs::is_regular_file(path, e)) {
-        error_ = path.string() + ": no such file";
-      } else {
-        chosen_ = path.string();
-        done_ = true;
-      }
-    }
-  }
+  // Enter outside the folder field chooses (the folder field's Enter went to its folder above).
+  const bool enterOutside = ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Enter)) && !dirEntered && !dirActive_;
+  if ((ImGui::Button(ok, ImVec2(ImGui::GetFontSize() * 8, 0)) || nameEntered || enterOutside || missedElsewhere) &&
+      !done_)
+    confirm();
   ImGui::SameLine();
   if (ImGui::Button("Cancel", ImVec2(ImGui::GetFontSize() * 8, 0)) ||
       ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape))) {
     chosen_.reset();
+    chosenMany_.clear();
     done_ = true;
   }
   if (done_) ImGui::CloseCurrentPopup();

@@ -25,17 +25,21 @@ struct DialogResult {
 class FileDialogs {
  public:
   FileDialogs();
-  // Opens a dialog unless one is open already (returns false then). It starts in `startDir` (the
-  // project's folder), else in the folder of the last choice, else in the working folder. The first
-  // filter is active; the built-in browser lists the files of the active filter only (a combo chooses
-  // another), and folders; choosing a folder (OpenFolder), it lists the filter's files greyed, so the
-  // user sees what the folder holds.
+  // Opens a dialog unless one is open already (returns false then). It starts in the folder of the last
+  // choice (any dialog's, this session), else in `startDir` (the project's folder), else in the working
+  // folder. The first filter is active; the built-in browser lists the files of the active filter only (a
+  // combo, each filter shown with its patterns, chooses another), and folders; choosing a folder
+  // (OpenFolder), it lists the filter's files greyed, so the user sees what the folder holds. Saving, a
+  // name typed without an extension gets the active filter's (when it names one: "*.glb").
   bool request(DialogKind kind, const std::string& title, const std::vector<FileFilter>& filters,
                const std::string& purpose, const std::string& startDir);
   bool active() const { return active_; }
   // Draws the built-in browser when it is the one in use (call once per frame inside the ImGui
   // frame) and returns the chosen path once, when the user has chosen; cancelling returns nothing.
-  std::optional<DialogResult> frame();
+  // `enterMissed`: an Enter pressed and released between two frames, which ImGui never saw down (the
+  // editor's key callback saw it); it acts as Enter in the field being typed in (the folder field
+  // goes to that folder, the name field chooses).
+  std::optional<DialogResult> frame(bool enterMissed = false);
   bool usesZenity() const { return zenity_; }
   // Forces the built-in browser (tests, TM_NO_ZENITY=1).
   void disableZenity() { zenity_ = false; }
@@ -49,7 +53,9 @@ class FileDialogs {
   const std::string& lastFolder() const { return lastDir_; }
 
  private:
-  void drawBrowser();
+  void drawBrowser(bool enterMissed);
+  void goToTypedFolder();  // Enter in the folder field
+  void confirm();          // the Open/Save button, Enter in the name field or outside the fields
   struct Entry {
     std::string name;
     bool folder = false;
@@ -71,6 +77,8 @@ class FileDialogs {
   std::optional<std::string> chosen_;
   std::vector<std::string> chosenMany_;
   bool done_ = false;
+  bool focusName_ = false;   // the name field is to take the keyboard (a save dialog appearing)
+  bool dirActive_ = false;   // the folder field was being typed in at the last frame
 };
 
 }  // namespace montage

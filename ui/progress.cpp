@@ -1,6 +1,8 @@
 #include "progress.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <numeric>
 
 namespace montage {
@@ -57,6 +59,27 @@ double RunProgress::secondsLeft(Tier tier, StageId stage, double fraction, doubl
   }
   if (done < 0.05 || elapsedSeconds <= 0) return -1;
   return elapsedSeconds * (1 - done) / done;
+}
+
+std::string RunProgress::timeText(Tier tier, StageId stage, double fraction, double elapsedSeconds, double runId) {
+  const double left = secondsLeft(tier, stage, fraction, elapsedSeconds);
+  if (runId != estimatedRun_) {
+    estimatedRun_ = runId;
+    estimatedTotal_ = -1;
+  }
+  if (estimatedTotal_ < 0 && left >= 0) estimatedTotal_ = elapsedSeconds + left;
+  char text[48];
+  const auto duration = [&](double seconds, const char* what) {
+    if (seconds < 60)
+      std::snprintf(text, sizeof(text), "%.0f s %s", std::max(1.0, std::ceil(seconds)), what);
+    else
+      std::snprintf(text, sizeof(text), "%.0f min %s", std::ceil(seconds / 60), what);
+    return std::string(text);
+  };
+  if (estimatedTotal_ >= 0 && elapsedSeconds > estimatedTotal_ + std::max(2.0, 0.25 * estimatedTotal_))
+    return duration(std::floor(elapsedSeconds), "so far");
+  if (left < 0) return "";
+  return "about " + duration(left, "left");
 }
 
 }  // namespace montage

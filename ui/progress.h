@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <string>
 #include <vector>
 
 #include "pipeline.h"
@@ -28,11 +29,19 @@ class RunProgress {
   // time compares with the measured time of the part done), or from the elapsed time and the share done
   // with typical shares; negative when there is nothing to go on yet.
   double secondsLeft(Tier tier, StageId stage, double fraction, double elapsedSeconds) const;
+  // The status bar's words for the time of the run `runId` (anything that tells runs apart: the worker's
+  // start time): "about N s left" (or "N min"), from secondsLeft; "N s so far" once the run has outlasted
+  // the end first estimated for it by max(2 s, a quarter), as a run slower than the last or a stage that
+  // reports no progress does, instead of an estimate that stays at "about 1 s left"; "" while there is
+  // nothing to go on.
+  std::string timeText(Tier tier, StageId stage, double fraction, double elapsedSeconds, double runId);
 
  private:
   std::array<double, kStages> weights(Tier tier) const;  // per stage, summing to 1
   std::array<std::array<double, kStages>, 2> seconds_{};
   std::array<bool, 2> measured_{false, false};
+  double estimatedRun_ = -1;    // the run whose end was estimated (timeText's runId)
+  double estimatedTotal_ = -1;  // its first estimate of its whole length, seconds
 };
 
 }  // namespace montage

@@ -801,5 +801,5 @@ TEST(ProjectOptions, SetFromTheCommandLine) {
   EXPECT_NE(message("inpaintMode", "paint").find("'paint' is not an inpainting mode"), std::string::npos);
   EXPECT_NE(message("atlasSize", "100").find("options.atlasSize"), std::string::npos);
   EXPECT_TRUE(o == before) << "a refused value leaves the options as they were";
-  EXPECT_EQ(projectOptionNames().size(), 20u);
+  EXPECT_EQ(projectOptionNames().size(), 22u);
 }

@@ -197,7 +197,7 @@ struct Fit {
 // pulled towards (per photo; the photo's common gain, for one channel's fit), with options.channelSigma.
 Fit fitObservations(const std::vector<Observation>& obs, const std::vector<int>& unknownOf, int free, bool withOffset,
                     BalanceLoss loss, const BalanceOptions& options, const Fit* start = nullptr,
-                    const std::vector<double>* gainPrior = nullptr, double exposurePrior = 0) {
+                    const std::vector<double>* gainPrior = nullptr) {
   const int per = withOffset ? 2 : 1;
   const int n = free * per;
   const int photos = static_cast<int>(unknownOf.size());
@@ -258,13 +258,10 @@ Fit fitObservations(const std::vector<Observation>& obs, const std::vector<int>&
     const double ridge = 1e-9 * std::max(1.0, normal.trace() / n);
     const double offsetPrior = (kNoise / options.offsetSigma) * (kNoise / options.offsetSigma);
     double meanCurvature = 0;  // of one observation, for one gain
-    double trustedCurvature = 0, weights = 0;  // ... of one observation of weight 1 (a fully trusted sample)
-    for (const Observation& o : obs) {
-      meanCurvature += o.weight * 0.5 * (o.xa * o.xa + o.xb * o.xb);
-      weights += o.weight;
+    if (gainPrior) {
+      for (const Observation& o : obs) meanCurvature += o.weight * 0.5 * (o.xa * o.xa + o.xb * o.xb);
+      meanCurvature /= double(obs.size());
     }
-    trustedCurvature = weights > 0 ? meanCurvature / weights : 0.0;
-    meanCurvature /= double(obs.size());
     for (int p = 0; p < photos; ++p) {
       if (unknownOf[p] < 0) continue;
       const int g = unknownOf[p] * per;
@@ -273,10 +270,8 @@ Fit fitObservations(const std::vector<Observation>& obs, const std::vector<int>&
         normal(g, g) += weight;
         rhs[g] += weight * (*gainPrior)[p];
       } else {
-        // The exposure prior: gains pulled towards 1 as by `exposurePrior` fully trusted samples that agree.
-        const double weight = exposurePrior * trustedCurvature + ridge;
-        normal(g, g) += weight;
-        rhs[g] += weight;
+        normal(g, g) += ridge;
+        rhs[g] += ridge;
       }
       if (withOffset) normal(g + 1, g + 1) += offsetPrior;
     }
@@ -326,7 +321,6 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
   TM_CHECK(options.tolerance > 0, "colour balance: tolerance must be > 0");
   TM_CHECK(options.offsetSigma > 0, "colour balance: offsetSigma must be > 0");
   TM_CHECK(options.saturated > 0.5 && options.saturated <= 1, "colour balance: saturated must be in (0.5, 1]");
-  TM_CHECK(options.exposurePrior >= 0, "colour balance: exposurePrior must be >= 0");
   TM_CHECK(options.darkest >= 0 && options.darkest < 0.5, "colour balance: darkest must be in [0, 0.5)");
   ColorBalance out;
   out.transforms.assign(np, ColorTransform{});
@@ -405,8 +399,7 @@ ColorBalance balanceColors(const Mesh& mesh, const TextureMap& map, const std::v
           fits[c].gain[p] = warm->transforms[p].gain[c], fits[c].offset[p] = warm->transforms[p].offset[c];
       }
     }
-    const Fit shared = fitObservations(obs, unknownOf, free, false, firstLoss, options, warmed ? &warmShared : nullptr,
-                                       nullptr, options.exposurePrior);
+    const Fit shared = fitObservations(obs, unknownOf, free, false, firstLoss, options, warmed ? &warmShared : nullptr);
     out.commonGain = shared.gain;
     if (!warmed)
       for (auto& f : fits) f = shared;

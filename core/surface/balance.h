@@ -52,9 +52,6 @@ struct BalanceOptions {
                             // leaves them a relative error that biases gains towards 0
   TrustOptions trust;       // seam samples are weighted by the smaller trust of their two faces (surface/trust.h):
                             // grazing and sparsely seen texels count less or not at all, also towards minSamples
-  double exposurePrior = 1;  // every photo's common gain is pulled towards 1 as much as this many fully trusted
-                             // samples agreeing with it would: a seam with few trusted samples leaves the
-                             // exposures alone (0 = no pull)
 };
 
 // ColorTransform (image/color.h): per photo, on linear RGB or on sRGB values (BalanceOptions::linear).

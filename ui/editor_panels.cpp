@@ -701,6 +701,39 @@ void Editor::pipelineTab() {
       ImGui::SetTooltip(
           "vertices at one position (a mesh split at its UV seams) are one vertex for mapping; the "
           "export keeps the mesh's own vertices");
+    // Export: on the mesh as loaded (a new atlas, or baked into the mesh's own UVs) or on the refined mesh.
+    int topology = static_cast<int>(o.exportTopology);
+    if (ImGui::Combo("export mesh", &topology, kExportTopologyNames.data(),
+                     static_cast<int>(kExportTopologyNames.size()))) {
+      o.exportTopology = ExportTopology(topology), commit = true;
+      if (o.exportTopology == ExportTopology::Refined) o.bakeInto = BakeInto::Atlas;  // meshUVs needs the original
+    }
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("original: the mesh as loaded, its own vertices and faces; refined: the mesh the montage "
+                        "was made on (more faces)");
+    int into = static_cast<int>(o.bakeInto);
+    if (ImGui::Combo("texture into", &into, kBakeIntoNames.data(), static_cast<int>(kBakeIntoNames.size()))) {
+      o.bakeInto = BakeInto(into), commit = true;
+      if (o.bakeInto == BakeInto::MeshUVs) o.exportTopology = ExportTopology::Original;
+    }
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("atlas: a new texture layout; meshUVs: baked into the mesh's own UVs, one texture per "
+                        "material and UDIM tile (model.1001.png ...)");
+    if (o.bakeInto == BakeInto::MeshUVs) {
+      // Powers of two from 256 to kMaxBakeSize; the project file also takes the smaller ones.
+      std::vector<std::string> sizes;
+      int current = -1;
+      for (int size = 256; size <= kMaxBakeSize; size *= 2) {
+        if (size == o.bakeSize) current = static_cast<int>(sizes.size());
+        sizes.push_back(std::to_string(size));
+      }
+      if (current < 0) sizes.push_back(std::to_string(o.bakeSize)), current = static_cast<int>(sizes.size()) - 1;
+      if (ImGui::BeginCombo("texture size", sizes[current].c_str())) {
+        for (const std::string& size : sizes)
+          if (ImGui::Selectable(size.c_str(), size == sizes[current])) o.bakeSize = std::stoi(size), commit = true;
+        ImGui::EndCombo();
+      }
+    }
     ImGui::PopItemWidth();
     if (commit) edit([&] { doc_.setOptions(o); });
   }

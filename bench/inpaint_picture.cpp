@@ -9,8 +9,8 @@
 //  - mean ΔE to the truth (not a measure of a synthesis: a right-looking random texture scores worse than its
 //    smooth mean), and the CPU time of the fill (user + sys, the whole inpainting) at final density and at the
 //    preview's (detail 0.25).
-// Usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...]   (default: all three; one image per hole,
-//        OUT with the hole's name before .png)
+// Usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...] [--modes=a,b]   (default: all three holes; one
+//        image per hole, OUT with the hole's name before .png; every mode but strokes and off, or those named)
 //        tm_inpaint_picture PHOTO OUT.png X Y R                  (a disc at (X, Y) of radius R, sheet units 0..1)
 #include <sys/resource.h>
 
@@ -76,6 +76,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...]\n");
     return 2;
   }
+  // --modes=a,b,...: only these modes (default: harmonic, rbf, synthesis, structure, texture).
+  std::string onlyModes;
+  if (argc > 3 && std::string(argv[argc - 1]).rfind("--modes=", 0) == 0)
+    onlyModes = "," + std::string(argv[argc - 1]).substr(8) + ",", --argc;
   std::vector<Hole> holes;
   if (argc == 6 && std::isdigit(static_cast<unsigned char>(argv[3][0]))) {  // a disc at x y with radius r
     holes.push_back(Hole{"disc", Vec2(std::atof(argv[3]), std::atof(argv[4])), 0, std::atof(argv[5])});
@@ -135,11 +139,11 @@ int main(int argc, char** argv) {
       return hole.contains(s) && hole.contains(s + Vec2(e, 0)) && hole.contains(s - Vec2(e, 0)) &&
              hole.contains(s + Vec2(0, e)) && hole.contains(s - Vec2(0, e)) && s.x() < 1 && s.y() < 1 && s.y() > 0;
     };
-    const std::vector<std::pair<const char*, InpaintMode>> modes = {{"truth", InpaintMode::Off},
-                                                                    {"harmonic", InpaintMode::Harmonic},
-                                                                    {"rbf", InpaintMode::Rbf},
-                                                                    {"structure", InpaintMode::Structure},
-                                                                    {"synthesis", InpaintMode::Synthesis}};
+    std::vector<std::pair<const char*, InpaintMode>> modes = {{"truth", InpaintMode::Off}};
+    for (size_t i = 0; i < kInpaintModeNames.size(); ++i)
+      if (i != size_t(InpaintMode::Off) && i != size_t(InpaintMode::Strokes) &&
+          (onlyModes.empty() || onlyModes.find("," + std::string(kInpaintModeNames[i]) + ",") != std::string::npos))
+        modes.emplace_back(kInpaintModeNames[i], InpaintMode(i));
     cv::Mat out(side, side * int(modes.size()), CV_32FC3, cv::Scalar(0, 0, 0));
     cv::Mat truthLuv;
     for (size_t m = 0; m < modes.size(); ++m) {
@@ -253,7 +257,9 @@ int main(int argc, char** argv) {
     cv::Mat rgb8;
     out.convertTo(rgb8, CV_8UC3, 255);
     montage::writePng(path, rgb8, kPngFast, false);
-    std::printf("(%d hole faces; picture %s: truth, harmonic, rbf, structure, synthesis)\n", holeFaces, path.c_str());
+    std::string names = "truth";
+    for (size_t m = 1; m < modes.size(); ++m) names += std::string(", ") + modes[m].first;
+    std::printf("(%d hole faces; picture %s: %s)\n", holeFaces, path.c_str(), names.c_str());
   }
   return 0;
 }

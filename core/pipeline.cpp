@@ -435,12 +435,15 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   in.photosKey = photosKeyOf(scene);
   in.options.mode = o.inpaintMode;
   in.options.maxRefinedVertices = o.maxInpaintVertices;
-  // The preview inpaints harmonic fills on a coarser refinement (smooth: the same colours at viewing
-  // distance); guided fills (RBF, synthesis, structure, strokes) and clones depend on the refinement's
-  // density, so they keep it.
-  bool smooth = o.inpaintMode == InpaintMode::Harmonic && scene.project.strokes.empty() && scene.project.clones.empty();
-  for (const HoleMode& h : scene.project.holeModes) smooth = smooth && h.mode == InpaintMode::Harmonic;
-  if (tier == Tier::Preview && smooth) in.options.detail = kPreviewDetail;
+  in.options.textureSeed = o.seed;
+  // The preview inpaints harmonic and texture fills on a coarser refinement (harmonic: the same colours at
+  // viewing distance; texture: the same texture at a lower resolution, its grid cell follows the
+  // refinement); the other guided fills (RBF, synthesis, structure, strokes) and clones depend on the
+  // refinement's density, so they keep it.
+  auto coarse = [](InpaintMode m) { return m == InpaintMode::Harmonic || m == InpaintMode::Texture; };
+  bool lowDetail = coarse(o.inpaintMode) && scene.project.strokes.empty() && scene.project.clones.empty();
+  for (const HoleMode& h : scene.project.holeModes) lowDetail = lowDetail && coarse(h.mode);
+  if (tier == Tier::Preview && lowDetail) in.options.detail = kPreviewDetail;
   job.progress(StageId::Inpaint, 0.0);
   out.inpaint = inpaintSurface(in, job, &out.warnings);
   return out;

@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
@@ -1073,4 +1074,208 @@ TEST(SeamLevelling, MontageEvalSeamMismatchDropsOnTwoExposureScene) {
   }
   EXPECT_LT(mismatch[1], 0.8 * mismatch[0]);
   EXPECT_LT(mismatch[2], 0.8 * mismatch[0]);
+}
+
+// ---- Texture synthesis on the surface (inpaintMode "texture", issue 34) ----
+namespace {
+
+// A real photo of fur from a Debian package (python3-skimage's chelsea.png, a tabby cat), or "".
+std::string furPhoto() {
+  const std::string path = "/usr/lib/python3/dist-packages/skimage/data/chelsea.png";
+  return std::ifstream(path).good() ? path : "";
+}
+#define TM_REQUIRE_FUR(var)        \
+  const std::string var = furPhoto(); \
+  if (var.empty()) GTEST_SKIP() << "skimage's chelsea.png is absent (package python3-skimage, scripts/setup.sh --with-tools)"
+
+// Empties the faces whose centroid satisfies `inside`; returns how many.
+template <class Inside>
+int cutWhere(const Mesh& mesh, TextureMap& map, Inside inside) {
+  int n = 0;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    const auto p = mesh.facePositions(f);
+    if (inside((p[0] + p[1] + p[2]) / 3)) map.facePhoto[f] = TextureMap::kEmpty, ++n;
+  }
+  return n;
+}
+
+// Mean ΔE*uv across the hole's border, over the refined edges from a solved vertex to a known one: of the
+// fill (first) and of the truth (second: the texture's own variation from texel to texel there).
+std::pair<double, double> borderDeltaE(const InpaintResult& res, const TextureMap& map, const TextureMap& truth,
+                                       const Photo& photo) {
+  const RefinedSurface& rs = res.refined;
+  const auto solved = solvedVertices(rs, map);
+  const auto sites = vertexSites(rs);
+  auto truthAt = [&](int v) {
+    const int t = sites[v].triangle;
+    return mappedColor(truth, {&photo}, nullptr, rs.parentFace[t], rs.parentBary[t][sites[v].corner]);
+  };
+  double sum = 0, truthSum = 0;
+  int n = 0;
+  for (int t = 0; t < rs.mesh.numTriangles(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const int a = rs.mesh.triangles[t][k], b = rs.mesh.triangles[t][(k + 1) % 3];
+      if (solved[a] == solved[b]) continue;
+      sum += deltaEuv(res.colors.row(a).transpose(), res.colors.row(b).transpose());
+      truthSum += deltaEuv(truthAt(a), truthAt(b));
+      ++n;
+    }
+  return {sum / std::max(n, 1), truthSum / std::max(n, 1)};
+}
+
+struct TextureCase {
+  std::unique_ptr<Mesh> mesh;
+  Photo photo;
+  TextureMap truth;
+};
+TextureCase furSheet(const std::string& path) {
+  TextureCase c;
+  c.mesh = unitSquare(41);
+  c.photo = loadPhoto(path);
+  c.truth = planarMap(*c.mesh, 0.8 * std::min(c.photo.width, c.photo.height), 20);
+  return c;
+}
+
+}  // namespace
+
+// Every hole shape (a disc, an annulus around a mapped island, a whole side along the sheet's open
+// border) is filled by texture, never by a fallback: its gradient energy is a real texture's (harmonic's
+// sits near zero), and the border shows no seam: the colour steps across it are no larger than the photo's
+// own from texel to texel there (the truth's over the same edges), or harmonic's where that is larger.
+TEST(Texture, FillsEveryHoleShapeWithTextureAndASeamlessBorder) {
+  TM_REQUIRE_FUR(path);
+  const TextureCase c = furSheet(path);
+  const std::vector<std::pair<const char*, std::function<bool(const Vec3&)>>> holes = {
+      {"disc", [](const Vec3& p) { return (p - Vec3(0.55, 0.5, 0)).norm() < 0.14; }},
+      {"annulus",
+       [](const Vec3& p) {
+         const double r = (p - Vec3(0.5, 0.5, 0)).norm();
+         return r >= 0.08 && r < 0.2;
+       }},
+      {"side", [](const Vec3& p) { return p.x() > 0.75; }}};
+  for (const auto& [name, inside] : holes) {
+    TextureMap map = c.truth;
+    ASSERT_GT(cutWhere(*c.mesh, map, inside), 0) << name;
+    HoleScore score[2];
+    std::pair<double, double> border[2];
+    for (int m = 0; m < 2; ++m) {
+      const InpaintInput in = inputFor(*c.mesh, map, {&c.photo}, m ? InpaintMode::Texture : InpaintMode::Harmonic);
+      std::vector<std::string> warnings;
+      const InpaintResult res = inpaintSurface(in, {}, &warnings);
+      ASSERT_EQ(res.regions.size(), 1u) << name;
+      if (m) {
+        EXPECT_EQ(res.regions[0].note.rfind("texture:", 0), 0u) << name << ": " << res.regions[0].note;
+        EXPECT_TRUE(warnings.empty()) << name << ": " << (warnings.empty() ? "" : warnings[0]);
+      }
+      score[m] = scoreHole(res, map, c.truth, c.photo);
+      border[m] = borderDeltaE(res, map, c.truth, c.photo);
+    }
+    const double ratio = score[1].energy / score[1].truthEnergy, harmonic = score[0].energy / score[0].truthEnergy;
+    std::printf("%s: gradient energy / truth: texture %.2f, harmonic %.2f; border mean Delta E: texture %.2f, "
+                "harmonic %.2f, the truth's %.2f\n",
+                name, ratio, harmonic, border[1].first, border[0].first, border[1].second);
+    EXPECT_LT(harmonic, 0.2) << name;
+    EXPECT_GT(ratio, 0.3) << name;
+    EXPECT_LT(ratio, 1.5) << name;
+    EXPECT_LE(border[1].first, 1.1 * std::max(border[0].first, border[1].second)) << name;
+  }
+}
+
+// The same seed gives the same texels; another seed another texture.
+TEST(Texture, TheSameSeedGivesTheSameTexels) {
+  TM_REQUIRE_FUR(path);
+  const TextureCase c = furSheet(path);
+  TextureMap map = c.truth;
+  ASSERT_GT(cutHole(*c.mesh, map, Vec3(0.5, 0.5, 0), 0.1), 0);
+  InpaintInput in = inputFor(*c.mesh, map, {&c.photo}, InpaintMode::Texture);
+  const InpaintResult a = inpaintSurface(in, {}, nullptr);
+  const InpaintResult b = inpaintSurface(in, {}, nullptr);
+  in.options.textureSeed = 2;
+  const InpaintResult other = inpaintSurface(in, {}, nullptr);
+  ASSERT_EQ(a.colors.rows(), b.colors.rows());
+  EXPECT_EQ((a.colors - b.colors).cwiseAbs().maxCoeff(), 0.0f);
+  ASSERT_EQ(a.colors.rows(), other.colors.rows());
+  EXPECT_GT((a.colors - other.colors).cwiseAbs().maxCoeff(), 0.1f);
+}
+
+// A cancel during the synthesis stops it within 100 ms (the median of three cancels at different moments).
+TEST(Texture, ACancelStopsTheSynthesisWithinATenthOfASecond) {
+  TM_REQUIRE_FUR(path);
+  const TextureCase c = furSheet(path);
+  TextureMap map = c.truth;
+  ASSERT_GT(cutWhere(*c.mesh, map, [](const Vec3& p) { return p.x() > 0.6; }), 0);
+  const InpaintInput in = inputFor(*c.mesh, map, {&c.photo}, InpaintMode::Texture);
+  std::vector<double> latency;
+  for (int delayMs : {100, 250, 400}) {
+    std::atomic<bool> cancel{false};
+    std::chrono::steady_clock::time_point cancelledAt;
+    std::thread canceller([&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
+      cancelledAt = std::chrono::steady_clock::now();
+      cancel = true;
+    });
+    bool threw = false;
+    try {
+      inpaintSurface(in, JobControl(&cancel, {}), nullptr);
+    } catch (const Cancelled&) {
+      threw = true;
+    }
+    const auto stopped = std::chrono::steady_clock::now();
+    canceller.join();
+    ASSERT_TRUE(threw) << "the fill finished before the cancel at " << delayMs << " ms";
+    latency.push_back(std::chrono::duration<double>(stopped - cancelledAt).count());
+    std::printf("cancel at %d ms: stopped %.1f ms later\n", delayMs, 1e3 * latency.back());
+  }
+  std::sort(latency.begin(), latency.end());
+  EXPECT_LT(latency[1], 0.1);
+}
+
+// A hole that touches no mapped face (a separate part of the mesh no photo covers) takes texture from the
+// photo region nearest to it in space, not one flat colour.
+TEST(Texture, AHoleWithNoMappedNeighbourIsTexturedNotFlat) {
+  TM_REQUIRE_FUR(path);
+  const auto a = unitSquare(31);
+  std::vector<Vec3> vertices;
+  std::vector<std::array<int, 3>> triangles;
+  for (int part = 0; part < 2; ++part)
+    for (int f = 0; f < a->numFaces(); ++f) {
+      std::array<int, 3> t;
+      const auto p = a->facePositions(f);
+      for (int k = 0; k < 3; ++k) {
+        t[k] = static_cast<int>(vertices.size());
+        vertices.push_back(p[k] + Vec3(part * 1.2, 0, 0));
+      }
+      triangles.push_back(t);
+    }
+  MeshLoadOptions weld;
+  weld.weldIdenticalPositions = true;
+  const auto mesh = requireUsable(buildMesh(vertices, triangles, {}, weld));
+  const Photo photo = loadPhoto(path);
+  TextureMap map = planarMap(*mesh, 0.8 * std::min(photo.width, photo.height), 20);
+  const int unmapped = cutWhere(*mesh, map, [](const Vec3& p) { return p.x() > 1.1; });
+  ASSERT_EQ(unmapped, mesh->numFaces() / 2);
+  std::vector<std::string> warnings;
+  const InpaintResult res = inpaintSurface(inputFor(*mesh, map, {&photo}, InpaintMode::Texture), {}, &warnings);
+  ASSERT_EQ(res.regions.size(), 1u);
+  EXPECT_NE(res.regions[0].note.find("nearest in space"), std::string::npos) << res.regions[0].note;
+  EXPECT_TRUE(warnings.empty()) << (warnings.empty() ? "" : warnings[0]);
+  // Its colours vary as a texture's: the deviation of L* over the hole is at least a quarter of the deviation
+  // over the mapped part (sampled at its faces' centroids; one flat colour has none).
+  const auto solved = solvedVertices(res.refined, map);
+  std::vector<double> hole, known;
+  for (int v = 0; v < res.refined.mesh.numVertices(); ++v)
+    if (solved[v]) hole.push_back(srgbToLab(res.colors.row(v).transpose())[0]);
+  for (int f = 0; f < mesh->numFaces(); ++f)
+    if (map.facePhoto[f] >= 0)
+      known.push_back(srgbToLab(mappedColor(map, {&photo}, nullptr, f, Vec3::Constant(1.0 / 3)))[0]);
+  auto deviation = [](const std::vector<double>& x) {
+    double m = 0, s = 0;
+    for (double v : x) m += v;
+    m /= double(x.size());
+    for (double v : x) s += (v - m) * (v - m);
+    return std::sqrt(s / double(x.size()));
+  };
+  ASSERT_FALSE(hole.empty());
+  std::printf("L* deviation: hole %.2f, mapped part %.2f\n", deviation(hole), deviation(known));
+  EXPECT_GT(deviation(hole), 0.25 * deviation(known));
 }

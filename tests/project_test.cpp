@@ -520,7 +520,7 @@ TEST_F(ProjectTest, RejectsWrongTypes) {
   j["options"]["inpaintMode"] = "magic";
   EXPECT_MESSAGE_HAS(loadError(j),
                      "options.inpaintMode: 'magic' is not an inpainting mode (one of 'harmonic', 'rbf', 'strokes', "
-                     "'off', 'synthesis', 'structure')");
+                     "'off', 'synthesis', 'structure', 'texture')");
   j = sampleJson();
   j["options"]["seed"] = -1;
   EXPECT_MESSAGE_HAS(loadError(j), "options.seed: -1 is out of range 0..4294967295");

@@ -10,11 +10,12 @@ namespace montage {
 
 // Guidance of a hole's Poisson fill (paper section 5): d = 0, RBF of the boundary Laplacian, the
 // user's strokes (flow lines), no fill (the hole stays empty), the Laplacian of a texture synthesised
-// from the photo patches around the hole (surface/synthesis.h), or of that texture blurred to its
-// large-scale structure (what continues across the hole, without the grain).
-enum class InpaintMode { Harmonic, Rbf, Strokes, Off, Synthesis, Structure };
-inline constexpr std::array<const char*, 6> kInpaintModeNames = {"harmonic", "rbf",       "strokes",
-                                                                 "off",      "synthesis", "structure"};
+// from the photo patches around the hole on a flattened chart (surface/synthesis.h), of that texture
+// blurred to its large-scale structure (what continues across the hole, without the grain), or of a
+// texture optimised on the surface itself, for holes of any shape (surface/surface_synthesis.h).
+enum class InpaintMode { Harmonic, Rbf, Strokes, Off, Synthesis, Structure, Texture };
+inline constexpr std::array<const char*, 7> kInpaintModeNames = {"harmonic",  "rbf",       "strokes", "off",
+                                                                 "synthesis", "structure", "texture"};
 
 // Seam levelling (end of paper section 5): none, one mean colour difference per seam (the paper), or
 // per seam vertex (docs/pipeline.md compares them).
@@ -112,7 +113,7 @@ struct PipelineOptions {
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
   BalanceMode colorBalance = BalanceMode::GainOffset;  // colour balance between photos, before levelling
   LevelMode seamLevelling = LevelMode::Vertex;         // seam levelling between photos (paper end of 5)
-  InpaintMode inpaintMode = InpaintMode::Structure;    // inpainting: guidance of holes without strokes (chosen by
+  InpaintMode inpaintMode = InpaintMode::Texture;      // inpainting: guidance of holes without strokes (chosen by
                                                        // measurement, docs/pipeline.md)
   int maxInpaintVertices = 2000000;                    // inpainting: cap on refined vertices (coarser beyond)
   int atlasSize = 0;  // atlas: 0 = the smallest size holding the photos at their own resolution, or a fixed

@@ -232,7 +232,7 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("gradientWeight", o.gradientWeight, 0.0, 1.0);
   visit("colorBalance", o.colorBalance, BalanceMode::Off, BalanceMode::GainOffset);
   visit("seamLevelling", o.seamLevelling, LevelMode::Off, LevelMode::Vertex);
-  visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Structure);
+  visit("inpaintMode", o.inpaintMode, InpaintMode::Harmonic, InpaintMode::Texture);
   visit("maxInpaintVertices", o.maxInpaintVertices, 1000, 20000000);
   visit("atlasSize", o.atlasSize, 0, kMaxAtlasSizeOption);
   visit("gutter", o.gutter, 0, 64);

@@ -20,6 +20,7 @@
 #include "geometry/predicates.h"
 #include "image/photo.h"
 #include "io/scene.h"
+#include "surface/surface_synthesis.h"
 #include "surface/synthesis.h"
 
 namespace montage {
@@ -951,14 +952,18 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
 
   // Factorises a region once, solves all three channels and writes the unknowns' colours back.
   // Guided hole fills (`bounded`) stay inside their border's colour range (GuidanceBound).
-  auto solveRegion = [&](InpaintRegion& reg, const SubMesh& sub, const std::vector<char>& fixed,
-                         const Eigen::MatrixXd& d, const Eigen::MatrixXd& fixedValues, bool bounded = false) {
+  auto solverFor = [&](InpaintRegion& reg, const SubMesh& sub, const std::vector<char>& fixed) {
     bool made = true;
-    const std::shared_ptr<const PoissonSolver> kept = in.solvers
-                                                          ? in.solvers->solver(sub.mesh, fixed, &made)
-                                                          : std::make_shared<const PoissonSolver>(sub.mesh, fixed);
+    std::shared_ptr<const PoissonSolver> kept = in.solvers ? in.solvers->solver(sub.mesh, fixed, &made)
+                                                           : std::make_shared<const PoissonSolver>(sub.mesh, fixed);
+    reg.factorSeconds = made ? kept->factorSeconds() : 0;  // 0: reused
+    return kept;
+  };
+  auto solveRegion = [&](InpaintRegion& reg, const SubMesh& sub, const std::vector<char>& fixed,
+                         const Eigen::MatrixXd& d, const Eigen::MatrixXd& fixedValues, bool bounded = false,
+                         std::shared_ptr<const PoissonSolver> kept = nullptr) {
+    if (!kept) kept = solverFor(reg, sub, fixed);
     const PoissonSolver& solver = *kept;
-    reg.factorSeconds = made ? solver.factorSeconds() : 0;  // 0: reused
     const auto solveStart = Clock::now();
     Eigen::MatrixXd f = solver.solve(d, fixedValues);
     if (bounded && opt.bound != GuidanceBound::None)
@@ -1027,6 +1032,42 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     int numFixed = 0;
     for (int l = 0; l < n; ++l) numFixed += fixed[l] = known[sub.vertex[l]] > 0;
     reg.unknowns = n - numFixed;
+    const auto guideStart = Clock::now();
+    std::shared_ptr<const PoissonSolver> solver;
+    Eigen::MatrixXd fixedValues(n, 3);
+    for (int l = 0; l < n; ++l) fixedValues.row(l) = res.colors.row(sub.vertex[l]).cast<double>();
+    SurfaceSynthesisResult textured;
+    if (reg.mode == InpaintMode::Texture) {
+      // Texture optimisation on the surface (surface_synthesis.h): its direction field uses the hole's
+      // factorisation, which the Poisson solve below reuses.
+      if (numFixed > 0) solver = solverFor(reg, sub, fixed);
+      SurfaceSynthesisInput tin;
+      tin.mesh = &mesh;
+      tin.map = &map;
+      tin.photos = in.photos;
+      tin.levelling = in.levelling;
+      tin.vertexFaces = &vertexFaces;
+      tin.holeFaces = holeFaces[r];
+      tin.surface = &sub.mesh;
+      tin.triangleFace.reserve(regionTris[r].size());
+      for (int t : regionTris[r]) tin.triangleFace.push_back(rs.parentFace[t]);
+      tin.fixed = fixed;
+      tin.fixedValues = &fixedValues;
+      tin.solver = solver.get();
+      tin.job = &job;
+      SurfaceSynthesisOptions topt;
+      topt.seed = opt.textureSeed;
+      textured = synthesiseOnSurface(tin, topt);
+      reg.note = textured.note;
+      if (!textured.ok && numFixed > 0)
+        warn("hole " + std::to_string(r) + ": " + textured.note + ": filled with \"rbf\" instead");
+    }
+    if (numFixed == 0 && textured.ok) {
+      // Nothing to blend into: the synthesised texture is the fill.
+      for (int l = 0; l < n; ++l) res.colors.row(sub.vertex[l]) = textured.colours.row(l).cast<float>();
+      reg.guidanceSeconds = secondsSince(guideStart);
+      return;
+    }
     if (numFixed == 0) {
       for (int v : sub.vertex) res.colors.row(v) = meanKnown;
       reg.note = "no mapped neighbour: filled with the mean colour of the mapped surface";
@@ -1034,11 +1075,25 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
            " faces) touches no mapped face: " + "filled with one flat colour");
       return;
     }
-    Eigen::MatrixXd fixedValues(n, 3);
-    for (int l = 0; l < n; ++l) fixedValues.row(l) = res.colors.row(sub.vertex[l]).cast<double>();
-    const auto guideStart = Clock::now();
     Eigen::MatrixXd d = Eigen::MatrixXd::Zero(n, 3);
-    if (reg.mode != InpaintMode::Harmonic) {
+    if (textured.ok) {
+      // d = the Laplacian of the synthesised texture: the Poisson solve keeps it and blends its border. The
+      // guidance at a border vertex is the mean of its synthesised neighbours (the texture carried one texel
+      // on), not its photo colour: the step between the two would stay in d as a seam, where the solve
+      // instead spreads the difference smoothly over the hole (Pérez et al. 2003).
+      Eigen::MatrixXd g = textured.colours;
+      Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(n, 3);
+      std::vector<int> count(n, 0);
+      for (const auto& tri : sub.mesh.triangles)
+        for (int k = 0; k < 3; ++k)
+          for (int j = 1; j < 3; ++j) {
+            const int a = tri[k], b = tri[(k + j) % 3];
+            if (fixed[a] && !fixed[b]) sum.row(a) += textured.colours.row(b), ++count[a];
+          }
+      for (int l = 0; l < n; ++l)
+        if (fixed[l] && count[l]) g.row(l) = sum.row(l) / count[l];
+      d = laplacianOf(sub.mesh, g);
+    } else if (reg.mode != InpaintMode::Harmonic) {
       Eigen::MatrixXd bd(n, 3);
       for (int l = 0; l < n; ++l) bd.row(l) = boundaryD.row(sub.vertex[l]);
       const Graph subGraph = buildGraph(sub.mesh);
@@ -1065,7 +1120,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       if (synthesisUsed) {
         // d is the synthesised texture's Laplacian (above)
       } else if (reg.mode == InpaintMode::Rbf || reg.mode == InpaintMode::Synthesis ||
-                 reg.mode == InpaintMode::Structure) {
+                 reg.mode == InpaintMode::Structure || reg.mode == InpaintMode::Texture) {
         d = rbfGuidance(sub, subGraph, fixed, bd, opt.rbfCentres);
       } else {
         std::vector<StrokeSample> samples;
@@ -1086,7 +1141,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     }
     reg.guidanceSeconds = secondsSince(guideStart) + synthesisSeconds[r];
     synthesised[r] = {};  // its canvas is no longer needed
-    solveRegion(reg, sub, fixed, d, fixedValues, reg.mode != InpaintMode::Harmonic);
+    solveRegion(reg, sub, fixed, d, fixedValues, reg.mode != InpaintMode::Harmonic, solver);
   });
   for (const auto& ws : holeWarnings)
     for (const std::string& w : ws) warn(w);

@@ -71,7 +71,7 @@ enum class GuidanceBound { None, Clamp, Scale, Soft };
 inline constexpr std::array<const char*, 4> kGuidanceBoundNames = {"none", "clamp", "scale", "soft"};
 
 struct InpaintOptions {
-  InpaintMode mode = InpaintMode::Structure;  // holes without a HoleMode entry and without strokes
+  InpaintMode mode = InpaintMode::Texture;  // holes without a HoleMode entry and without strokes
   GuidanceBound bound = GuidanceBound::Soft;  // keeps guided fills inside the border's colour range
   double structureBlur = 0.35;  // structure: blur of the synthesised texture, in hole radii (SynthesisOptions::blur)
   double structureBand = 1.5;   // structure: the band's area in hole areas (SynthesisOptions::bandAreaRatio; plain
@@ -84,6 +84,7 @@ struct InpaintOptions {
   // Synthesised holes: a kept chart that covers the hole serves even when its canvas would differ
   // (SynthesisMemo; the preview). Without it only the same canvas is kept.
   bool synthesisReuseCharts = false;
+  uint64_t textureSeed = 1;  // texture mode: the same seed gives the same texels (SurfaceSynthesisOptions::seed)
 };
 
 // What the inpainting reads besides the mapping. Strokes, clones and hole modes use the ids of the

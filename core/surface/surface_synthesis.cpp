@@ -1,0 +1,728 @@
+#include "surface/surface_synthesis.h"
+
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <numeric>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <limits>
+#include <nanoflann.hpp>
+#include <random>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "base/hash.h"
+#include "base/job.h"
+#include "geometry/mesh.h"
+#include "image/photo.h"
+#include "surface/level.h"
+
+namespace montage {
+
+namespace {
+
+constexpr int kPatch = 7;                 // neighbourhood: kPatch x kPatch grid cells
+constexpr int kHalf = kPatch / 2;
+constexpr int kDims = kPatch * kPatch * 3;
+constexpr double kMinCellsAcross = 8;     // the coarsest level keeps the hole this many grid cells across
+constexpr float kSearchEps = 1;          // the kd-tree's patch is within (1 + eps) of the nearest's distance
+constexpr double kCoherentEnough = 6;     // finest level: a coherent patch this close (L*a*b* per cell) is kept
+
+// Points in a uniform grid of cubes, for neighbourhood queries.
+class PointGrid {
+ public:
+  PointGrid(const std::vector<Vec3f>& points, float cell) : cell_(cell) {
+    std::vector<std::pair<uint64_t, int>> keyed(points.size());
+    for (size_t i = 0; i < points.size(); ++i) keyed[i] = {keyOf(points[i]), static_cast<int>(i)};
+    std::sort(keyed.begin(), keyed.end());
+    order_.resize(points.size());
+    for (size_t i = 0; i < keyed.size(); ++i) {
+      order_[i] = keyed[i].second;
+      auto& range = range_[keyed[i].first];
+      if (i == 0 || keyed[i - 1].first != keyed[i].first) range.first = static_cast<int>(i);
+      range.second = static_cast<int>(i) + 1;
+    }
+  }
+  // Calls f(index) for every point in the cubes that the ball (q, radius) touches.
+  template <class F>
+  void forEachNear(const Vec3f& q, float radius, F&& f) const {
+    const int x0 = cellOf(q.x() - radius), x1 = cellOf(q.x() + radius);
+    const int y0 = cellOf(q.y() - radius), y1 = cellOf(q.y() + radius);
+    const int z0 = cellOf(q.z() - radius), z1 = cellOf(q.z() + radius);
+    for (int x = x0; x <= x1; ++x)
+      for (int y = y0; y <= y1; ++y)
+        for (int z = z0; z <= z1; ++z) {
+          const auto it = range_.find(pack(x, y, z));
+          if (it == range_.end()) continue;
+          for (int i = it->second.first; i < it->second.second; ++i) f(order_[i]);
+        }
+  }
+
+ private:
+  int cellOf(float v) const { return static_cast<int>(std::floor(v / cell_)); }
+  static uint64_t pack(int x, int y, int z) {
+    constexpr int kOff = 1 << 20;
+    return (uint64_t(uint32_t(x + kOff) & 0x1fffff) << 42) | (uint64_t(uint32_t(y + kOff) & 0x1fffff) << 21) |
+           uint64_t(uint32_t(z + kOff) & 0x1fffff);
+  }
+  uint64_t keyOf(const Vec3f& p) const { return pack(cellOf(p.x()), cellOf(p.y()), cellOf(p.z())); }
+  float cell_;
+  std::unordered_map<uint64_t, std::pair<int, int>> range_;
+  std::vector<int> order_;
+};
+
+// Bilinear sample of a CV_32FC3 image, coordinates clamped to its pixels.
+inline Vec3f sampleClamped(const cv::Mat& image, float x, float y) {
+  x = std::clamp(x, 0.f, float(image.cols - 1));
+  y = std::clamp(y, 0.f, float(image.rows - 1));
+  const int x0 = std::min(int(x), image.cols - 2 < 0 ? 0 : image.cols - 2);
+  const int y0 = std::min(int(y), image.rows - 2 < 0 ? 0 : image.rows - 2);
+  const int x1 = std::min(x0 + 1, image.cols - 1), y1 = std::min(y0 + 1, image.rows - 1);
+  const float fx = x - x0, fy = y - y0;
+  const auto* r0 = image.ptr<cv::Vec3f>(y0);
+  const auto* r1 = image.ptr<cv::Vec3f>(y1);
+  Vec3f out;
+  for (int c = 0; c < 3; ++c)
+    out[c] = (1 - fy) * ((1 - fx) * r0[x0][c] + fx * r0[x1][c]) + fy * ((1 - fx) * r1[x0][c] + fx * r1[x1][c]);
+  return out;
+}
+
+// sRGB in [0,1] <-> L*a*b* for many colours at once (OpenCV's conversion, as for the exemplar's pixels).
+std::vector<Vec3f> convert(const std::vector<Vec3f>& in, int code) {
+  std::vector<Vec3f> out(in.size());
+  if (in.empty()) return out;
+  cv::Mat src(static_cast<int>(in.size()), 1, CV_32FC3, const_cast<Vec3f*>(in.data()));
+  cv::Mat dst(static_cast<int>(out.size()), 1, CV_32FC3, out.data());
+  cv::cvtColor(src, dst, code);
+  return out;
+}
+
+// The photo's x and y axes on a mapped face: the 3D directions in which its photo coordinates grow.
+bool photoAxes(const Mesh& mesh, const TextureMap& map, int f, Vec3& dx, Vec3& dy) {
+  const auto p = mesh.facePositions(f);
+  const auto& c = map.cornerUV[f];
+  Eigen::Matrix<double, 3, 2> e;
+  e << p[1] - p[0], p[2] - p[0];
+  Eigen::Matrix2d d;
+  d << c[1] - c[0], c[2] - c[0];
+  if (!(std::abs(d.determinant()) > 1e-12)) return false;
+  const Eigen::Matrix<double, 3, 2> j = e * d.inverse();
+  dx = j.col(0), dy = j.col(1);
+  return dx.allFinite() && dy.allFinite() && dx.norm() > 0 && dy.norm() > 0;
+}
+
+// The candidates' PCA features as a nanoflann dataset (rows of a CV_32F matrix).
+struct FeatureRows {
+  cv::Mat rows;
+  size_t kdtree_get_point_count() const { return size_t(rows.rows); }
+  float kdtree_get_pt(size_t i, size_t d) const { return rows.at<float>(int(i), int(d)); }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const {
+    return false;
+  }
+};
+using FeatureTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, FeatureRows>, FeatureRows,
+                                                        -1, uint32_t>;
+
+// One level's exemplar: L*a*b* pixels one grid cell each, and the patches a point may take.
+struct Exemplar {
+  cv::Mat lab;                  // CV_32FC3
+  cv::Mat inner;                // CV_8UC1: the patch centred here is all foreground
+  std::vector<cv::Point> at;    // candidate patch centres
+  FeatureRows features;         // candidates x pcaDimensions, CV_32F
+  std::unique_ptr<FeatureTree> tree;  // over `features` (deterministic; queries from any thread)
+  cv::PCA pca;
+};
+
+void patchOf(const cv::Mat& lab, int cx, int cy, float* out) {
+  for (int j = -kHalf; j <= kHalf; ++j) {
+    const auto* row = lab.ptr<cv::Vec3f>(cy + j);
+    for (int i = -kHalf; i <= kHalf; ++i, out += 3) {
+      const cv::Vec3f& v = row[cx + i];
+      out[0] = v[0], out[1] = v[1], out[2] = v[2];
+    }
+  }
+}
+
+// Candidates: every patch whose pixels are all foreground, strided down to at most maxCandidates.
+bool makeExemplar(const cv::Mat& lab, const cv::Mat& valid, const SurfaceSynthesisOptions& options, std::mt19937_64& rng,
+                  Exemplar& ex) {
+  ex.lab = lab;
+  if (lab.cols < kPatch || lab.rows < kPatch) return false;
+  cv::Mat& inner = ex.inner;
+  cv::erode(valid, inner, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(kPatch, kPatch)), cv::Point(-1, -1), 1,
+            cv::BORDER_CONSTANT, cv::Scalar(0));
+  const int count = cv::countNonZero(inner);
+  if (count < 16) return false;
+  const int stride = std::max(1, int(std::ceil(std::sqrt(double(count) / options.maxCandidates))));
+  const int ox = int(rng() % stride), oy = int(rng() % stride);
+  for (int y = kHalf + oy; y < lab.rows - kHalf; y += stride)
+    for (int x = kHalf + ox; x < lab.cols - kHalf; x += stride)
+      if (inner.at<uchar>(y, x)) ex.at.emplace_back(x, y);
+  if (ex.at.size() < 16) return false;
+  cv::Mat patches(static_cast<int>(ex.at.size()), kDims, CV_32F);
+  for (size_t i = 0; i < ex.at.size(); ++i) patchOf(lab, ex.at[i].x, ex.at[i].y, patches.ptr<float>(int(i)));
+  // PCA from a sample of the candidates, then every candidate in its space.
+  const int sample = std::min(patches.rows, 4000);
+  cv::Mat rows(sample, kDims, CV_32F);
+  for (int i = 0; i < sample; ++i) patches.row(int(i * int64_t(patches.rows) / sample)).copyTo(rows.row(i));
+  const int dims = std::min({options.pcaDimensions, kDims, sample});
+  ex.pca = cv::PCA(rows, cv::noArray(), cv::PCA::DATA_AS_ROW, dims);
+  ex.features.rows = ex.pca.project(patches);
+  ex.tree = std::make_unique<FeatureTree>(ex.features.rows.cols, ex.features, nanoflann::KDTreeSingleIndexAdaptorParams(16));
+  return true;
+}
+
+std::vector<int> allIndices(int begin, int end) {
+  std::vector<int> out(end - begin);
+  std::iota(out.begin(), out.end(), begin);
+  return out;
+}
+
+// A Poisson-disk subset of points[begin, end): taken in a seeded random order, each kept when no kept
+// point lies closer than `spacing`. Sorted.
+std::vector<int> poissonDiskSubset(const std::vector<Vec3f>& points, int begin, int end, double spacing,
+                                   std::mt19937_64& rng) {
+  std::vector<int> order = allIndices(begin, end), kept;
+  std::shuffle(order.begin(), order.end(), rng);
+  const float r = float(spacing);
+  std::unordered_map<uint64_t, std::vector<int>> taken;
+  auto cellKey = [](int x, int y, int z) {
+    return (uint64_t(uint32_t(x + (1 << 20))) << 42) ^ (uint64_t(uint32_t(y + (1 << 20))) << 21) ^
+           uint64_t(uint32_t(z + (1 << 20)));
+  };
+  for (int i : order) {
+    const Vec3f& p = points[i];
+    const int cx = int(std::floor(p.x() / r)), cy = int(std::floor(p.y() / r)), cz = int(std::floor(p.z() / r));
+    bool free = true;
+    for (int x = cx - 1; x <= cx + 1 && free; ++x)
+      for (int y = cy - 1; y <= cy + 1 && free; ++y)
+        for (int z = cz - 1; z <= cz + 1 && free; ++z) {
+          const auto it = taken.find(cellKey(x, y, z));
+          if (it == taken.end()) continue;
+          for (int c : it->second)
+            if ((points[c] - p).squaredNorm() < r * r) free = false;
+        }
+    if (free) taken[cellKey(cx, cy, cz)].push_back(i), kept.push_back(i);
+  }
+  std::sort(kept.begin(), kept.end());
+  return kept;
+}
+
+}  // namespace
+
+SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, const SurfaceSynthesisOptions& options) {
+  SurfaceSynthesisResult out;
+  const Mesh& mesh = *in.mesh;
+  const TextureMap& map = *in.map;
+  const TriangleMesh& surf = *in.surface;
+  const JobControl noJob;
+  const JobControl& job = in.job ? *in.job : noJob;
+  const int nf = mesh.numFaces(), n = surf.numVertices();
+  if (in.holeFaces.empty() || n == 0 || in.fixed.size() != size_t(n) ||
+      in.triangleFace.size() != size_t(surf.numTriangles())) {
+    out.note = "texture: empty hole";
+    return out;
+  }
+  std::vector<char> inHole(nf, 0);
+  double holeArea = 0;
+  for (int f : in.holeFaces) inHole[f] = 1, holeArea += mesh.faceArea(f);
+
+  // Grid cell at the finest level: the hole's mean refined edge.
+  double edgeSum = 0;
+  int edges = 0;
+  for (int t = 0; t < surf.numTriangles(); ++t) {
+    if (!inHole[in.triangleFace[t]]) continue;
+    const auto& tri = surf.triangles[t];
+    for (int k = 0; k < 3; ++k) edgeSum += (surf.positions[tri[k]] - surf.positions[tri[(k + 1) % 3]]).norm(), ++edges;
+  }
+  if (edges == 0 || !(edgeSum > 0)) {
+    out.note = "texture: the hole has no refined triangle";
+    return out;
+  }
+  const double h0 = edgeSum / edges;
+
+  // Exemplar faces: rings of mapped faces around the hole up to exemplarBand times its area; a hole with
+  // no mapped neighbour takes the mapped faces nearest to it in space.
+  VertexFaces ownVertexFaces;
+  if (!in.vertexFaces) ownVertexFaces = facesAroundVertices(mesh);
+  const VertexFaces& vertexFaces = in.vertexFaces ? *in.vertexFaces : ownVertexFaces;
+  std::vector<int> band;
+  {
+    std::vector<char> seen(inHole);
+    std::vector<int> front = in.holeFaces;
+    double area = 0;
+    for (int ring = 0; ring < 256 && !front.empty() && area < options.exemplarBand * holeArea; ++ring) {
+      std::vector<int> next;
+      for (int f : front)
+        for (int v : mesh.faceVertices(f))
+          for (int g : vertexFaces[v])
+            if (!seen[g] && map.facePhoto[g] >= 0) seen[g] = 1, next.push_back(g), area += mesh.faceArea(g);
+      band.insert(band.end(), next.begin(), next.end());
+      front = std::move(next);
+    }
+  }
+  bool nearestInSpace = false;
+  if (band.empty()) {
+    Vec3 centre = Vec3::Zero();
+    for (int f : in.holeFaces) {
+      const auto p = mesh.facePositions(f);
+      centre += mesh.faceArea(f) * (p[0] + p[1] + p[2]) / 3;
+    }
+    centre /= std::max(holeArea, 1e-300);
+    std::vector<std::pair<double, int>> byDistance;
+    for (int f = 0; f < nf; ++f)
+      if (map.facePhoto[f] >= 0) {
+        const auto p = mesh.facePositions(f);
+        byDistance.emplace_back(((p[0] + p[1] + p[2]) / 3 - centre).squaredNorm(), f);
+      }
+    std::sort(byDistance.begin(), byDistance.end());
+    double area = 0;
+    for (const auto& [d, f] : byDistance) {
+      if (area >= options.exemplarBand * holeArea) break;
+      band.push_back(f), area += mesh.faceArea(f);
+    }
+    nearestInSpace = true;
+  }
+  if (band.empty()) {
+    out.note = "texture: no photo is mapped anywhere to take texture from";
+    return out;
+  }
+  // The photo mapped on most of the band.
+  std::unordered_map<int, double> photoArea;
+  for (int f : band) photoArea[map.facePhoto[f]] += mesh.faceArea(f);
+  int photoIndex = -1;
+  double bestArea = -1;
+  for (const auto& [p, a] : photoArea)
+    if (a > bestArea || (a == bestArea && p < photoIndex)) photoIndex = p, bestArea = a;
+  const Photo& photo = *in.photos[photoIndex];
+  out.exemplarPhoto = photoIndex;
+
+  // Its faces in the band: the crop of stored pixels, the photo's density and orientation on the surface.
+  const double stored = photo.scale;
+  double area3 = 0, areaPx = 0, chirality = 0;
+  Vec3 meanDx = Vec3::Zero();
+  Vec2 lo = Vec2::Constant(1e300), hi = Vec2::Constant(-1e300);
+  std::vector<int> exemplarFaces;
+  for (int f : band) {
+    if (map.facePhoto[f] != photoIndex) continue;
+    exemplarFaces.push_back(f);
+    const auto& c = map.cornerUV[f];
+    const double a3 = mesh.faceArea(f);
+    const double ap = 0.5 * std::abs((c[1] - c[0]).x() * (c[2] - c[0]).y() - (c[1] - c[0]).y() * (c[2] - c[0]).x()) *
+                      stored * stored;
+    area3 += a3, areaPx += ap;
+    Vec3 dx, dy;
+    if (photoAxes(mesh, map, f, dx, dy)) {
+      chirality += a3 * mesh.faceNormal(f).cross(dx.normalized()).dot(dy.normalized());
+      meanDx += a3 * dx.normalized();
+    }
+    for (const Vec2& q : c) lo = lo.cwiseMin(q * stored), hi = hi.cwiseMax(q * stored);
+  }
+  if (!(area3 > 0) || !(areaPx > 0)) {
+    out.note = "texture: the photo region near the hole has no area";
+    return out;
+  }
+  const double pixelsPerUnit = std::sqrt(areaPx / area3);  // stored pixels per model unit
+  const double flip = chirality < 0 ? -1 : 1;
+  const cv::Rect crop = cv::Rect(int(std::floor(lo.x())) - 2, int(std::floor(lo.y())) - 2,
+                                 int(std::ceil(hi.x() - lo.x())) + 5, int(std::ceil(hi.y() - lo.y())) + 5) &
+                        cv::Rect(0, 0, photo.rgb.cols, photo.rgb.rows);
+  if (crop.width < kPatch || crop.height < kPatch) {
+    out.note = "texture: the photo region near the hole is smaller than one neighbourhood";
+    return out;
+  }
+  cv::Mat rgb;
+  const double depthScale = photo.rgb.depth() == CV_8U ? 1 / 255.0 : photo.rgb.depth() == CV_16U ? 1 / 65535.0 : 1;
+  photo.rgb(crop).convertTo(rgb, CV_32FC3, depthScale);
+  cv::Mat valid(crop.size(), CV_8UC1, cv::Scalar(0));
+  for (int f : exemplarFaces) {
+    cv::Point pts[3];
+    for (int k = 0; k < 3; ++k)
+      pts[k] = cv::Point(int(std::lround((map.cornerUV[f][k].x() * stored - crop.x) * 16)),
+                         int(std::lround((map.cornerUV[f][k].y() * stored - crop.y) * 16)));
+    cv::fillConvexPoly(valid, pts, 3, cv::Scalar(255), cv::LINE_8, 4);
+  }
+  if (photo.hasBackground && !photo.alpha.empty()) {
+    cv::Mat alpha;
+    if (photo.alpha.depth() == CV_8U)
+      alpha = photo.alpha(crop) >= 128;
+    else
+      alpha = photo.alpha(crop) >= 0.5;
+    valid &= alpha;
+  }
+  job.checkCancel();
+
+  // Points: the hole's unknown vertices first, then the known ones (the surface's fixed vertices and
+  // samples of the mapped faces around the hole, as far as the coarsest neighbourhood reaches).
+  // Levels: as many as options.levels allows while the hole stays kMinCellsAcross cells across.
+  const double holeExtent = std::sqrt(holeArea);
+  int levels = 1;
+  const int maxLevels = options.levels;
+  while (levels < maxLevels && holeExtent / (h0 * (1 << levels)) >= kMinCellsAcross) ++levels;
+  const double reach = (kHalf + 1) * std::sqrt(2.0) * h0 * (1 << (levels - 1));
+  std::vector<Vec3f> pos, normal;
+  std::vector<int> unknownVertex;
+  std::vector<Vec3f> knownRgb;
+  std::vector<Vec3> vertexNormal(n, Vec3::Zero());
+  for (const auto& tri : surf.triangles) {
+    const Vec3 nrm = (surf.positions[tri[1]] - surf.positions[tri[0]]).cross(surf.positions[tri[2]] - surf.positions[tri[0]]);
+    for (int v : tri) vertexNormal[v] += nrm;
+  }
+  for (Vec3& v : vertexNormal) v = v.norm() > 0 ? Vec3(v.normalized()) : Vec3(0, 0, 1);
+  for (int v = 0; v < n; ++v)
+    if (!in.fixed[v]) unknownVertex.push_back(v), pos.push_back(surf.positions[v].cast<float>()),
+                      normal.push_back(vertexNormal[v].cast<float>());
+  const int nu = static_cast<int>(unknownVertex.size());
+  if (nu == 0) {
+    out.note = "texture: nothing to synthesise";
+    return out;
+  }
+  for (int v = 0; v < n; ++v)
+    if (in.fixed[v]) {
+      pos.push_back(surf.positions[v].cast<float>()), normal.push_back(vertexNormal[v].cast<float>());
+      knownRgb.push_back(in.fixedValues->row(v).transpose().cast<float>());
+    }
+  {
+    // Within reach of the hole: in a cube of side reach / 2 that lies two cubes or less from one holding a
+    // hole point (a little more than `reach`, tested with one lookup).
+    const double cube = reach / 2;
+    auto cubeKey = [&](const Vec3f& p, int dx, int dy, int dz) {
+      return hashMix(hashMix(hashMix(uint64_t(0xc0be), uint64_t(int64_t(std::floor(p.x() / cube)) + dx)),
+                             uint64_t(int64_t(std::floor(p.y() / cube)) + dy)),
+                     uint64_t(int64_t(std::floor(p.z() / cube)) + dz));
+    };
+    std::unordered_set<uint64_t> reached;
+    {
+      std::unordered_set<uint64_t> occupied;
+      for (int i = 0; i < nu; ++i)
+        if (occupied.insert(cubeKey(pos[i], 0, 0, 0)).second)
+          for (int dx = -2; dx <= 2; ++dx)
+            for (int dy = -2; dy <= 2; ++dy)
+              for (int dz = -2; dz <= 2; ++dz) reached.insert(cubeKey(pos[i], dx, dy, dz));
+    }
+    auto near = [&](const Vec3& p) { return reached.count(cubeKey(p.cast<float>(), 0, 0, 0)) > 0; };
+    std::vector<char> seen(inHole);
+    std::vector<int> front = in.holeFaces;
+    for (int ring = 0; ring < 512 && !front.empty(); ++ring) {
+      std::vector<int> next;
+      for (int f : front)
+        for (int v : mesh.faceVertices(f))
+          for (int g : vertexFaces[v]) {
+            if (seen[g] || map.facePhoto[g] < 0) continue;
+            seen[g] = 1;
+            const auto p = mesh.facePositions(g);
+            double longest = 0;
+            for (int k = 0; k < 3; ++k) longest = std::max(longest, (p[k] - p[(k + 1) % 3]).norm());
+            const int steps = std::max(1, int(std::ceil(longest / h0)));
+            const Vec3f nrm = mesh.faceNormal(g).cast<float>();
+            const Photo& ph = *in.photos[map.facePhoto[g]];
+            bool any = false;
+            for (int i = 0; i <= steps; ++i)
+              for (int j = 0; i + j <= steps; ++j) {
+                const Vec3 b(double(steps - i - j) / steps, double(i) / steps, double(j) / steps);
+                const Vec3 x = b[0] * p[0] + b[1] * p[1] + b[2] * p[2];
+                if (!near(x)) continue;
+                any = true;
+                if (ph.hasBackground) {
+                  const auto& c = map.cornerUV[g];
+                  const Vec2 q = b[0] * c[0] + b[1] * c[1] + b[2] * c[2];
+                  if (ph.alphaAt(q.x(), q.y()) < 0.5f) continue;
+                }
+                pos.push_back(x.cast<float>()), normal.push_back(nrm);
+                knownRgb.push_back(mappedColor(map, in.photos, in.levelling, g, b).cwiseMax(0.f).cwiseMin(1.f));
+              }
+            if (any) next.push_back(g);
+          }
+      front = std::move(next);
+      job.checkCancel();
+    }
+  }
+  const int np = static_cast<int>(pos.size());
+  const std::vector<Vec3f> knownLab = convert(knownRgb, cv::COLOR_RGB2Lab);
+
+  // The exemplar in L*a*b*, its mean and deviation matched to the known points' (the hole's border).
+  cv::Mat lab0;
+  cv::cvtColor(rgb, lab0, cv::COLOR_RGB2Lab);
+  if (!knownLab.empty()) {
+    cv::Scalar exMean, exDev;
+    cv::meanStdDev(lab0, exMean, exDev, valid);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero(), sq = Eigen::Vector3d::Zero();
+    for (const Vec3f& c : knownLab) mean += c.cast<double>(), sq += c.cast<double>().cwiseAbs2();
+    mean /= double(knownLab.size());
+    const Eigen::Vector3d dev = (sq / double(knownLab.size()) - mean.cwiseAbs2()).cwiseMax(0).cwiseSqrt();
+    std::vector<cv::Mat> ch;
+    cv::split(lab0, ch);
+    for (int c = 0; c < 3; ++c) {
+      const double gain = exDev[c] > 1e-3 ? std::clamp(dev[c] / exDev[c], 0.5, 2.0) : 1.0;
+      ch[c] = (ch[c] - exMean[c]) * gain + mean[c];
+    }
+    cv::merge(ch, lab0);
+  }
+
+  // Frames: the direction field (the photos' x axis, harmonic over the hole) in each tangent plane.
+  std::vector<Vec3> field(n, Vec3::Zero());
+  const Vec3 fallbackDx = meanDx.norm() > 0 ? Vec3(meanDx.normalized()) : Vec3(1, 0, 0);
+  if (in.solver && in.fixedValues) {
+    Eigen::MatrixXd fixedDirs = Eigen::MatrixXd::Zero(n, 3);
+    for (int t = 0; t < surf.numTriangles(); ++t) {
+      const int f = in.triangleFace[t];
+      Vec3 dx, dy;
+      if (map.facePhoto[f] < 0 || !photoAxes(mesh, map, f, dx, dy)) continue;
+      for (int v : surf.triangles[t])
+        if (in.fixed[v]) fixedDirs.row(v) += dx.normalized().transpose();
+    }
+    for (int v = 0; v < n; ++v)
+      if (in.fixed[v] && fixedDirs.row(v).norm() == 0) fixedDirs.row(v) = fallbackDx.transpose();
+    const Eigen::MatrixXd solved = in.solver->solve(Eigen::MatrixXd::Zero(n, 3), fixedDirs);
+    for (int v = 0; v < n; ++v) field[v] = solved.row(v).transpose();
+  } else {
+    std::fill(field.begin(), field.end(), fallbackDx);
+  }
+  std::vector<Vec3f> tangent(nu), bitangent(nu);
+  for (int i = 0; i < nu; ++i) {
+    const int v = unknownVertex[i];
+    const Vec3 nrm = vertexNormal[v];
+    Vec3 t = field[v] - field[v].dot(nrm) * nrm;
+    if (!(t.norm() > 1e-9)) t = fallbackDx - fallbackDx.dot(nrm) * nrm;
+    if (!(t.norm() > 1e-9)) t = nrm.unitOrthogonal();
+    t.normalize();
+    tangent[i] = t.cast<float>();
+    bitangent[i] = (flip * nrm.cross(t)).cast<float>();
+  }
+  job.checkCancel();
+
+  std::vector<Vec3f> value(nu, Vec3f::Zero());  // the synthesised L*a*b* of the unknown points
+  std::mt19937_64 rng(options.seed);
+  struct Level {  // the last level synthesised: its points, their positions and exemplar coordinates
+    std::vector<int> points;
+    std::vector<Vec3f> position;
+    std::vector<cv::Point> coord;
+    cv::Size size;
+    double h = 0;
+  } coarse;
+
+  for (int level = levels - 1; level >= 0; --level) {
+    const double h = h0 * (1 << level);
+    // The exemplar at one pixel per cell.
+    const double s = 1 / (pixelsPerUnit * h);
+    const cv::Size size(std::max(1, int(std::lround(lab0.cols * s))), std::max(1, int(std::lround(lab0.rows * s))));
+    Exemplar ex;
+    cv::Mat lab, validF, validL;
+    cv::resize(lab0, lab, size, 0, 0, s < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+    cv::Mat valid32;
+    valid.convertTo(valid32, CV_32F, 1 / 255.0);
+    cv::resize(valid32, validF, size, 0, 0, s < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+    validL = validF >= 0.99f;
+    if (!makeExemplar(lab, validL, options, rng, ex)) {
+      if (level > 0) continue;
+      out.note = "texture: the photo region near the hole (" + std::to_string(size.width) + " x " +
+                 std::to_string(size.height) + " texels) holds too few whole neighbourhoods";
+      return out;
+    }
+
+    // This level's points, about a cell apart (all of them at the finest level): the unknown ones to
+    // synthesise, and the known ones, each the mean of the known points within 0.6 of a cell.
+    std::vector<int> pts = level == 0 ? allIndices(0, nu) : poissonDiskSubset(pos, 0, nu, 0.9 * h, rng);
+    const std::vector<int> knownPts = level == 0 ? allIndices(nu, np) : poissonDiskSubset(pos, nu, np, 0.9 * h, rng);
+    std::vector<Vec3f> knownPos(knownPts.size()), knownValue(knownPts.size()), knownNormal(knownPts.size());
+    {
+      const PointGrid grid(std::vector<Vec3f>(pos.begin() + nu, pos.end()), float(h));
+      const float r = float(0.6 * h);
+      tbb::parallel_for(size_t(0), knownPts.size(), [&](size_t k) {
+        const int q = knownPts[k];
+        knownPos[k] = pos[q], knownNormal[k] = normal[q];
+        if (level == 0) {
+          knownValue[k] = knownLab[q - nu];
+          return;
+        }
+        Vec3f sum = Vec3f::Zero();
+        int count = 0;
+        grid.forEachNear(pos[q], r, [&](int j) {
+          if ((pos[nu + j] - pos[q]).squaredNorm() <= r * r) sum += knownLab[j], ++count;
+        });
+        knownValue[k] = count ? Vec3f(sum / float(count)) : knownLab[q - nu];
+      });
+    }
+    const int m = static_cast<int>(pts.size());
+    std::vector<Vec3f> levelPos(m);
+    for (int i = 0; i < m; ++i) levelPos[i] = pos[pts[i]];
+
+    // Each point's exemplar coordinate: inherited from the nearest point of the coarser level (its
+    // coordinate scaled, plus this point's offset in that point's frame), random at the coarsest level.
+    std::vector<cv::Point> coord(m);
+    auto randomCandidate = [&](uint64_t i) {
+      std::mt19937_64 r(options.seed * 0x9e3779b97f4a7c15ull + i * 0xbf58476d1ce4e5b9ull + uint64_t(level));
+      return ex.at[r() % ex.at.size()];
+    };
+    auto usable = [&](const cv::Point& c) {
+      return c.x >= kHalf && c.y >= kHalf && c.x < ex.lab.cols - kHalf && c.y < ex.lab.rows - kHalf &&
+             ex.inner.at<uchar>(c);
+    };
+    if (coarse.points.empty()) {
+      for (int i = 0; i < m; ++i) coord[i] = randomCandidate(uint64_t(pts[i]));
+    } else {
+      const PointGrid coarseGrid(coarse.position, float(coarse.h));
+      const double rx = double(size.width) / coarse.size.width, ry = double(size.height) / coarse.size.height;
+      tbb::parallel_for(0, m, [&](int i) {
+        const Vec3f& p = levelPos[i];
+        int nearest = -1;
+        float best = std::numeric_limits<float>::max();
+        coarseGrid.forEachNear(p, float(1.5 * coarse.h), [&](int j) {
+          const float d = (coarse.position[j] - p).squaredNorm();
+          if (d < best) best = d, nearest = j;
+        });
+        cv::Point c(-1, -1);
+        if (nearest >= 0) {
+          const int q = coarse.points[nearest];
+          const Vec3f d = p - pos[q];
+          const double u = d.dot(tangent[q]) / coarse.h, v = d.dot(bitangent[q]) / coarse.h;
+          c = cv::Point(int(std::lround((coarse.coord[nearest].x + u) * rx)),
+                        int(std::lround((coarse.coord[nearest].y + v) * ry)));
+        }
+        coord[i] = usable(c) ? c : randomCandidate(uint64_t(pts[i]));
+      });
+    }
+
+    // Correction passes (Lefebvre & Hoppe 2005/2006 on the surface's points): each point takes, of the
+    // kd-tree's nearest patch to its neighbourhood and the coherent candidates its neighbours suggest
+    // (k-coherence, Tong et al. 2002), the exemplar patch nearest to its neighbourhood. The points keep
+    // exemplar coordinates, never averages, so the texture stays as sharp as the photo's.
+    const float reachL = float((kHalf + 0.5) * std::sqrt(2.0) * h), depth = float(1.5 * h);
+    const PointGrid levelGrid(levelPos, reachL), knownGrid(knownPos, reachL);
+    std::vector<cv::Point> nextCoord(m);
+    std::vector<Vec3f> colour(m);
+    const int passes = std::max(1, level == 0 ? options.passes - 1 : options.passes);
+    double energy = 0;
+    for (int pass = 0; pass < passes; ++pass) {
+      job.checkCancel();
+      for (int i = 0; i < m; ++i) {
+        const cv::Vec3f& e = ex.lab.at<cv::Vec3f>(coord[i]);
+        colour[i] = Vec3f(e[0], e[1], e[2]);
+      }
+      std::vector<double> distance(m, 0);
+      tbb::parallel_for(tbb::blocked_range<int>(0, m, 64), [&](const tbb::blocked_range<int>& range) {
+        job.checkCancel();
+        cv::Mat query(1, kDims, CV_32F), projected;
+        std::array<Vec3f, kPatch * kPatch> cellSum;
+        std::array<int, kPatch * kPatch> cellCount;
+        std::vector<cv::Point> candidates;
+        for (int i = range.begin(); i != range.end(); ++i) {
+          const int q = pts[i];
+          const Vec3f& p = pos[q];
+          const Vec3f& nrm = normal[q];
+          cellSum.fill(Vec3f::Zero());
+          cellCount.fill(0);
+          candidates.clear();
+          candidates.push_back(coord[i]);
+          auto cellOf = [&](const Vec3f& x, const Vec3f& xn, float& u, float& v) {
+            const Vec3f d = x - p;
+            if (std::abs(d.dot(nrm)) > depth || xn.dot(nrm) < 0.3f) return -1;
+            u = d.dot(tangent[q]) / float(h), v = d.dot(bitangent[q]) / float(h);
+            const int ci = int(std::floor(u + 0.5f)) + kHalf, cj = int(std::floor(v + 0.5f)) + kHalf;
+            if (ci < 0 || cj < 0 || ci >= kPatch || cj >= kPatch) return -1;
+            return cj * kPatch + ci;
+          };
+          levelGrid.forEachNear(p, reachL, [&](int j) {
+            if (j == i) return;
+            float u, v;
+            const int k = cellOf(levelPos[j], normal[pts[j]], u, v);
+            if (k < 0) return;
+            cellSum[k] += colour[j], ++cellCount[k];
+            candidates.emplace_back(coord[j].x - int(std::floor(u + 0.5f)), coord[j].y - int(std::floor(v + 0.5f)));
+          });
+          knownGrid.forEachNear(p, reachL, [&](int j) {
+            float u, v;
+            const int k = cellOf(knownPos[j], knownNormal[j], u, v);
+            if (k >= 0) cellSum[k] += knownValue[j], ++cellCount[k];
+          });
+          Vec3f mean = Vec3f::Zero();
+          int filled = 0;
+          for (int k = 0; k < kPatch * kPatch; ++k)
+            if (cellCount[k]) cellSum[k] /= float(cellCount[k]), mean += cellSum[k], ++filled;
+          if (!filled) {
+            nextCoord[i] = coord[i];
+            continue;
+          }
+          mean /= float(filled);
+          float* x = query.ptr<float>();
+          for (int k = 0; k < kPatch * kPatch; ++k) {
+            const Vec3f& c = cellCount[k] ? cellSum[k] : mean;
+            x[3 * k] = c[0], x[3 * k + 1] = c[1], x[3 * k + 2] = c[2];
+          }
+          double bestD2 = std::numeric_limits<double>::max();
+          cv::Point best = coord[i];
+          auto consider = [&](const cv::Point& cand) {
+            if (!usable(cand)) return;
+            double d2 = 0;
+            for (int j = 0; j < kPatch && d2 < bestD2; ++j) {
+              const auto* row = ex.lab.ptr<cv::Vec3f>(cand.y + j - kHalf) + cand.x - kHalf;
+              for (int k = 0; k < kPatch; ++k) {
+                const int cell = j * kPatch + k;
+                if (cellCount[cell]) d2 += (cellSum[cell] - Vec3f(row[k][0], row[k][1], row[k][2])).squaredNorm();
+              }
+            }
+            if (d2 < bestD2) bestD2 = d2, best = cand;
+          };
+          // Neighbours in step suggest the same patch: each candidate is measured once.
+          std::sort(candidates.begin(), candidates.end(),
+                    [](const cv::Point& a, const cv::Point& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
+          candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+          for (const cv::Point& cand : candidates) consider(cand);
+          // The kd-tree's nearest patch: at the coarser levels always; at the finest, where the coarser levels
+          // have set the structure, only for a point its coherent candidates serve badly.
+          if (level > 0 || bestD2 > kCoherentEnough * kCoherentEnough * filled) {
+            ex.pca.project(query, projected);
+            uint32_t nearest = 0;
+            float nearestDistance = 0;
+            nanoflann::KNNResultSet<float, uint32_t> result(1);
+            result.init(&nearest, &nearestDistance);
+            ex.tree->findNeighbors(result, projected.ptr<float>(), nanoflann::SearchParams(0, kSearchEps));
+            consider(ex.at[std::min<size_t>(nearest, ex.at.size() - 1)]);
+          }
+          nextCoord[i] = best;
+          distance[i] = std::sqrt(bestD2 / filled);
+        }
+      });
+      coord.swap(nextCoord);
+      energy = m ? std::accumulate(distance.begin(), distance.end(), 0.0) / m : 0;
+    }
+    for (int i = 0; i < m; ++i) {
+      const cv::Vec3f& e = ex.lab.at<cv::Vec3f>(coord[i]);
+      value[pts[i]] = Vec3f(e[0], e[1], e[2]);
+    }
+    coarse.points = pts;
+    coarse.position = levelPos;
+    coarse.coord = coord;
+    coarse.size = size;
+    coarse.h = h;
+    if (level == 0) {
+      out.energy = energy;
+      out.exemplarWidth = size.width, out.exemplarHeight = size.height;
+    }
+  }
+
+  std::vector<Vec3f> synthesised(value.begin(), value.begin() + nu);
+  const std::vector<Vec3f> rgbOut = convert(synthesised, cv::COLOR_Lab2RGB);
+  out.colours = in.fixedValues ? *in.fixedValues : Eigen::MatrixXd::Zero(n, 3);
+  if (out.colours.rows() != n) out.colours = Eigen::MatrixXd::Zero(n, 3);
+  for (int i = 0; i < nu; ++i)
+    out.colours.row(unknownVertex[i]) = rgbOut[i].cwiseMax(0.f).cwiseMin(1.f).cast<double>().transpose();
+  out.points = np;
+  out.levels = levels;
+  out.ok = true;
+  char note[256];
+  std::snprintf(note, sizeof note,
+                "texture: %d vertices synthesised from photo %d (%d x %d texel exemplar%s), %d levels, "
+                "energy %.1f",
+                nu, photoIndex, out.exemplarWidth, out.exemplarHeight,
+                nearestInSpace ? ", the mapped region nearest in space" : "", levels, out.energy);
+  out.note = note;
+  return out;
+}
+
+}  // namespace montage

@@ -1,0 +1,84 @@
+// Texture synthesis on the surface (inpaintMode "texture", the default; issue 34): a hole's refined
+// vertices are synthesised from a photo region near it, whatever the hole's topology (a disc, an annulus,
+// a whole side, a hole touching an open border or no mapped face at all). No chart is flattened.
+//
+// The hole's refined vertices and sample points of the mapped faces around it are the "pixels" (Turk 2001,
+// Wei & Levoy 2001 synthesise on a surface's points the same way). Each hole point keeps a coordinate in
+// the exemplar; its neighbourhood is a 7 x 7 grid of cells in its tangent plane, oriented by a direction
+// field and scaled to the photos' texel density, holding its neighbours' colours (the exemplar at their
+// coordinates, or the photos' for known points). Correction passes (Lefebvre & Hoppe 2005, on surfaces
+// 2006) give each point, of the kd-tree's nearest exemplar patch (PCA, Kwatra et al. 2005's search) and the
+// coherent candidates its neighbours suggest (k-coherence, Tong et al. 2002), the patch nearest to its
+// neighbourhood. Known points never change, so the texture continues the border's. Coarse to fine: the
+// grid cell doubles per level (a Poisson-disk subset of the points), the exemplar shrinks with it, and a
+// finer point inherits its nearest coarser point's coordinate. Points take exemplar texels, never
+// averages: Kwatra's averaging M-step was measured and washes the texture out (docs/pipeline.md).
+//  - direction field: the mapped faces' photo x axis, carried onto the hole's vertices by harmonic
+//    interpolation (the hole's own Poisson factorisation) and projected onto each tangent plane; a photo
+//    that is mirrored on the surface (its y axis the other way round the normal) gives mirrored frames;
+//  - scale: grid cell = the refined hole's mean edge length; the exemplar is resampled from the photo's
+//    pixels per unit on its faces to one pixel per cell;
+//  - exemplar: the photo mapped on most of the faces nearest the hole (rings of mapped faces up to three
+//    times the hole's area; a hole with no mapped neighbour takes the mapped faces nearest to it in space),
+//    its foreground pixels only, with its mean and deviation (L*a*b*) matched to the known points'.
+// The result is the guidance of inpaint's Poisson solve (its Laplacian), which keeps the border seamless.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "geometry/poisson.h"
+#include "mapping/texture_map.h"
+
+namespace montage {
+
+struct Mesh;
+struct VertexFaces;
+struct Photo;
+struct SeamLevelling;
+class JobControl;
+
+struct SurfaceSynthesisOptions {
+  int levels = 5;              // coarse to fine: grid cells of 16 .. 1 refined edge lengths (fewer when the
+                               // coarsest would leave the hole less than 8 cells across)
+  int passes = 3;              // correction passes per level (the finest does one less)
+  double exemplarBand = 3;     // exemplar: mapped faces around the hole up to this many times its area
+  int maxCandidates = 30000;   // exemplar patches searched per level (a strided subset beyond)
+  int pcaDimensions = 24;      // patches are compared in this many principal components
+  uint64_t seed = 1;           // the same seed gives the same texels
+};
+
+struct SurfaceSynthesisInput {
+  const Mesh* mesh = nullptr;  // the mesh the map is over
+  const TextureMap* map = nullptr;
+  std::vector<const Photo*> photos;
+  const SeamLevelling* levelling = nullptr;  // offsets added to photo colours (may be null)
+  const VertexFaces* vertexFaces = nullptr;  // faces around each vertex of `mesh` (may be null: made per call)
+  std::vector<int> holeFaces;                // the hole: faces of `mesh` without a photo
+  const TriangleMesh* surface = nullptr;     // the hole's refined surface (its triangles and the ring's)
+  std::vector<int> triangleFace;             // per surface triangle: the face of `mesh` it lies in
+  std::vector<char> fixed;                   // per surface vertex: its colour is known (from a photo)
+  const Eigen::MatrixXd* fixedValues = nullptr;  // per surface vertex, sRGB in [0,1] (rows of fixed vertices)
+  const PoissonSolver* solver = nullptr;     // of `surface` with `fixed` (null when nothing is fixed)
+  const JobControl* job = nullptr;           // cancellation (may be null)
+};
+
+struct SurfaceSynthesisResult {
+  bool ok = false;
+  std::string note;            // what was done, or why it could not be (the caller then falls back)
+  Eigen::MatrixXd colours;     // per surface vertex, sRGB in [0,1]: synthesised, fixed rows as given
+  int exemplarPhoto = -1;      // the photo the exemplar came from
+  int exemplarWidth = 0, exemplarHeight = 0;  // at the finest level
+  int levels = 0;              // levels synthesised
+  int points = 0;              // points: the hole's and the known ones around it
+  double energy = 0;           // mean per-texel distance (L*a*b*) of the neighbourhoods to their patches, last pass
+};
+
+// Synthesises the unknown vertices of input.surface; never throws for a hole it cannot serve (ok = false
+// and a note). Throws Cancelled when input.job is cancelled (checked between and within the steps).
+SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& input,
+                                           const SurfaceSynthesisOptions& options = {});
+
+}  // namespace montage

@@ -243,7 +243,7 @@ void Editor::frame() {
       exitStatus_ = 1;
       quit_ = true;
     }
-    applySyntheticInput(io);
+    if (!waitRealInput_) applySyntheticInput(io);  // `real_input`: the real mouse and keys, not the script's
   }
   if (benchOrbit_) benchOrbitStep();
   ImGui::NewFrame();

@@ -603,6 +603,7 @@ class Editor {
   std::vector<int> syntheticKeys_;
   std::function<bool()> waitUntil_;
   bool waitOnEvents_ = false;
+  bool waitRealInput_ = false;  // script `real_input`: the X mouse and keyboard drive the editor meanwhile
   double waitDeadline_ = 0;
   std::string waitWhat_;
   std::string pendingScreenshot_;

@@ -34,6 +34,7 @@ class FileDialogs {
   bool request(DialogKind kind, const std::string& title, const std::vector<FileFilter>& filters,
                const std::string& purpose, const std::string& startDir);
   bool active() const { return active_; }
+  const std::string& purpose() const { return purpose_; }  // the request's ("open", "save_as", ...)
   // Draws the built-in browser when it is the one in use (call once per frame inside the ImGui
   // frame) and returns the chosen path once, when the user has chosen; cancelling returns nothing.
   // `enterMissed`: an Enter pressed and released between two frames, which ImGui never saw down (the

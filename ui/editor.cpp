@@ -106,13 +106,31 @@ void Editor::initWindow() {
   float xs = 1, ys = 1;
   glfwGetWindowContentScale(window_, &xs, &ys);
   applyScale(options_.scale > 0 ? static_cast<float>(options_.scale) : std::max({xs, ys, 1.0f}));
-  // Key presses, for the shortcuts (keyPressed): installed before the ImGui backend, which calls it first.
+  // Keys, characters, mouse buttons and pointer moves are queued in the order they come and handed to ImGui
+  // a step per frame (applyRealInput; input_queue.h says why); the ImGui backend takes the rest (focus, the
+  // pointer entering and leaving, the wheel).
   glfwSetWindowUserPointer(window_, this);
+  ImGui_ImplGlfw_InitForOpenGL(window_, false);
+  static const auto queue = [](GLFWwindow* window) -> RealInputQueue& {
+    return static_cast<Editor*>(glfwGetWindowUserPointer(window))->realInput_;
+  };
   glfwSetKeyCallback(window_, [](GLFWwindow* window, int key, int, int action, int mods) {
-    auto* editor = static_cast<Editor*>(glfwGetWindowUserPointer(window));
-    if (action == GLFW_PRESS && key >= 0) editor->keyPresses_.emplace_back(key, mods);
+    if (action == GLFW_REPEAT) return;  // ImGui repeats held keys itself
+    const bool modifier = key >= GLFW_KEY_LEFT_SHIFT && key <= GLFW_KEY_RIGHT_SUPER;
+    queue(window).push({InputEvent::Kind::Key, key, action == GLFW_PRESS, modifier, mods});
   });
-  ImGui_ImplGlfw_InitForOpenGL(window_, true);
+  glfwSetCharCallback(window_, [](GLFWwindow* window, unsigned int c) {
+    queue(window).push({InputEvent::Kind::Char, static_cast<int>(c)});
+  });
+  glfwSetMouseButtonCallback(window_, [](GLFWwindow* window, int button, int action, int mods) {
+    queue(window).push({InputEvent::Kind::Button, button, action == GLFW_PRESS});
+  });
+  glfwSetCursorPosCallback(window_, [](GLFWwindow* window, double x, double y) {
+    queue(window).push({InputEvent::Kind::Move, 0, false, false, 0, x, y});
+  });
+  glfwSetWindowFocusCallback(window_, ImGui_ImplGlfw_WindowFocusCallback);
+  glfwSetCursorEnterCallback(window_, ImGui_ImplGlfw_CursorEnterCallback);
+  glfwSetScrollCallback(window_, ImGui_ImplGlfw_ScrollCallback);
   // Files dropped on the window: kept for the next frame's UI (the only place the document changes).
   // The ImGui backend uses neither the window's user pointer nor the drop callback.
   glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
@@ -198,6 +216,23 @@ void Editor::shutdownWindow() {
   glfwTerminate();
 }
 
+// The next step of the real input, after the backend's NewFrame (which reads the buttons and the pointer as
+// they are now): each key and button as the queue presents it, the pointer where this step's last event
+// happened, the modifiers as held at this step's key press.
+void Editor::applyRealInput(ImGuiIO& io) {
+  const InputFrame in = realInput_.next();
+  realPresses_ = in.presses;
+  std::copy(in.keys.begin(), in.keys.end(), std::begin(io.KeysDown));
+  std::copy(in.buttons.begin(), in.buttons.end(), std::begin(io.MouseDown));
+  if (in.taken && in.hasPointer) io.MousePos = ImVec2(float(in.x), float(in.y));
+  for (unsigned c : in.chars) io.AddInputCharacter(c);
+  auto held = [&in](int left, int right, int mod) { return in.keys[left] || in.keys[right] || (in.pressMods & mod); };
+  io.KeyCtrl = held(GLFW_KEY_LEFT_CONTROL, GLFW_KEY_RIGHT_CONTROL, GLFW_MOD_CONTROL);
+  io.KeyShift = held(GLFW_KEY_LEFT_SHIFT, GLFW_KEY_RIGHT_SHIFT, GLFW_MOD_SHIFT);
+  io.KeyAlt = held(GLFW_KEY_LEFT_ALT, GLFW_KEY_RIGHT_ALT, GLFW_MOD_ALT);
+  io.KeySuper = held(GLFW_KEY_LEFT_SUPER, GLFW_KEY_RIGHT_SUPER, GLFW_MOD_SUPER);
+}
+
 int Editor::run() {
   while (!quit_) frame();
   // A clean exit: whatever the user chose about unsaved changes has been done; the side file would
@@ -213,7 +248,7 @@ void Editor::frame() {
   const bool busy = worker_->status().busy;
   // A script waiting for the worker waits as a user would (below), so that its timings are the user's.
   const bool scriptRuns = scripted_ && (frameNumber_ < 2 || !waitUntil_ || !waitOnEvents_);
-  if (scriptRuns || benchOrbit_ || !inputQueue_.empty()) {
+  if (scriptRuns || benchOrbit_ || !inputQueue_.empty() || realInput_.pending() || realPresses_) {
     glfwPollEvents();
   } else {
     // Redraw on input and when the worker has a result (it posts an event); otherwise a few times a
@@ -235,6 +270,7 @@ void Editor::frame() {
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGuiIO& io = ImGui::GetIO();
+  applyRealInput(io);
   if (scripted_) {
     try {
       scriptStep();
@@ -243,15 +279,10 @@ void Editor::frame() {
       exitStatus_ = 1;
       quit_ = true;
     }
-    applySyntheticInput(io);
+    if (!waitRealInput_) applySyntheticInput(io);  // `real_input`: the real mouse and keys, not the script's
   }
   if (benchOrbit_) benchOrbitStep();
   ImGui::NewFrame();
-  // Presses whose key is up again at this frame's start: ImGui never saw them down (keyPressed).
-  missedKeys_.clear();
-  for (const auto& [key, mods] : keyPresses_)
-    if (key >= IM_ARRAYSIZE(io.KeysDown) || !io.KeysDown[key]) missedKeys_.emplace_back(key, mods);
-  keyPresses_.clear();
 
   syncInputs();
   pollCutout();

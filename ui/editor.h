@@ -28,6 +28,7 @@
 #include "file_dialog.h"
 #include "geometry/bvh.h"
 #include "image/cutout.h"
+#include "input_queue.h"
 #include "io/mesh_io.h"
 #include "layout.h"
 #include "navigation.h"
@@ -181,6 +182,7 @@ class Editor {
   void rememberLayout();  // writes layout.json when the layout, grid choice or bindings changed
   void shutdownWindow();
   void frame();
+  void applyRealInput(ImGuiIO& io);  // the next step of realInput_ into ImGui's IO
   void buildUi();
   void menuBar();
   // Menus that the script's `menu` verb can drive ("File/Save"): like ImGui::BeginMenu / MenuItem, and a
@@ -205,9 +207,8 @@ class Editor {
   void helpWindow();
   void modals();
   void shortcuts();
-  // Keyboard shortcuts: pressed this frame as ImGui sees it, or pressed and released again since the last
-  // frame (Dear ImGui 1.86 keeps only whether a key is down at the frame's start, so a quick Ctrl+Z between
-  // two slow frames was lost); the modifiers held with such a press count too.
+  // Keyboard shortcuts, as ImGui sees them (every real press is seen down for a frame, with the modifiers
+  // held at that press: applyRealInput).
   bool keyPressed(int key) const;
   bool ctrlHeld() const;
   bool shiftHeld() const;
@@ -581,8 +582,8 @@ class Editor {
   std::vector<MissingFile> missing_;  // what the opened project names but is not there (relink offered)
   bool missingPopup_ = false;
   std::vector<std::string> dropped_;             // files dropped on the window, handled in the next frame
-  std::vector<std::pair<int, int>> keyPresses_;  // GLFW key presses (key, mods) since the last frame
-  std::vector<std::pair<int, int>> missedKeys_;  // of those, released before the frame: ImGui did not see them
+  RealInputQueue realInput_;  // keys, characters, buttons and moves from GLFW, handed to ImGui a step per frame
+  bool realPresses_ = false;  // the last frame took a key, character or button: one more frame draws its outcome
   std::string sessionId_;  // this editor process (pid, start time): its unsaved-mask folder's name
 
   // Photos and the cut-out tool.
@@ -603,6 +604,7 @@ class Editor {
   std::vector<int> syntheticKeys_;
   std::function<bool()> waitUntil_;
   bool waitOnEvents_ = false;
+  bool waitRealInput_ = false;  // script `real_input`: the X mouse and keyboard drive the editor meanwhile
   double waitDeadline_ = 0;
   std::string waitWhat_;
   std::string pendingScreenshot_;

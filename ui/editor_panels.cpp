@@ -171,10 +171,7 @@ void Editor::buildUi() {
   errorsWindow();
   helpWindow();
   modals();
-  const bool enterMissed = std::any_of(missedKeys_.begin(), missedKeys_.end(), [](const auto& k) {
-    return k.first == GLFW_KEY_ENTER || k.first == GLFW_KEY_KP_ENTER;
-  });
-  if (auto chosen = dialogs_.frame(enterMissed)) {
+  if (auto chosen = dialogs_.frame()) {
     if (chosen->purpose == "open") {
       openFile(chosen->path);
       checkRecovery();
@@ -1064,18 +1061,15 @@ void Editor::modals() {
 }
 
 bool Editor::keyPressed(int key) const {
-  if (ImGui::IsKeyPressed(key, false)) return true;
-  return std::any_of(missedKeys_.begin(), missedKeys_.end(), [&](const auto& k) { return k.first == key; });
+  return ImGui::IsKeyPressed(key, false);
 }
 
 bool Editor::ctrlHeld() const {
-  return ImGui::GetIO().KeyCtrl || std::any_of(missedKeys_.begin(), missedKeys_.end(),
-                                               [](const auto& k) { return (k.second & GLFW_MOD_CONTROL) != 0; });
+  return ImGui::GetIO().KeyCtrl;
 }
 
 bool Editor::shiftHeld() const {
-  return ImGui::GetIO().KeyShift || std::any_of(missedKeys_.begin(), missedKeys_.end(),
-                                                [](const auto& k) { return (k.second & GLFW_MOD_SHIFT) != 0; });
+  return ImGui::GetIO().KeyShift;
 }
 
 void Editor::shortcuts() {

@@ -236,6 +236,18 @@ void Editor::runAction(const ScriptAction& a) {
   } else if (a.verb == "sleep") {
     const double until = now() + a.number(0);
     waitFor(where, a.number(0) + 1, [this, until] { return now() >= until; });
+  } else if (a.verb == "real_input") {
+    const double seconds = a.args.size() > 1 ? a.number(1) : 300;
+    waitRealInput_ = true;
+    waitFor(
+        where + " (" + a.text(0) + " never appeared)", seconds,
+        [this, file = a.text(0)] {
+          std::error_code ec;
+          if (!fs::exists(file, ec)) return false;
+          waitRealInput_ = false;
+          return true;
+        },
+        true);
   } else if (a.verb == "tool") {
     const auto it = std::find(kToolNames.begin(), kToolNames.end(), a.text(0));
     TM_CHECK(it != kToolNames.end(),
@@ -630,7 +642,10 @@ void Editor::writeState(const std::string& path) const {
   state["status_bar"] = parts;
   state["dialog"] =
       dialogs_.active()
-          ? json{{"folder", dialogs_.folder()}, {"filter", dialogs_.filterName()}, {"listed", dialogs_.listed()}}
+          ? json{{"purpose", dialogs_.purpose()},
+                 {"folder", dialogs_.folder()},
+                 {"filter", dialogs_.filterName()},
+                 {"listed", dialogs_.listed()}}
           : json(nullptr);
   json photos = json::array();
   for (size_t i = 0; i < p.photos.size(); ++i) {

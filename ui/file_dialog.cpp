@@ -124,7 +124,7 @@ bool FileDialogs::request(DialogKind kind, const std::string& title, const std::
   return true;
 }
 
-std::optional<DialogResult> FileDialogs::frame(bool enterMissed) {
+std::optional<DialogResult> FileDialogs::frame() {
   if (!active_) return std::nullopt;
   if (zenity_) {
     if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
@@ -147,7 +147,7 @@ std::optional<DialogResult> FileDialogs::frame(bool enterMissed) {
     }
     return std::nullopt;
   }
-  drawBrowser(enterMissed);
+  drawBrowser();
   if (done_) {
     active_ = false;
     done_ = false;
@@ -255,7 +255,7 @@ void FileDialogs::confirm() {
   }
 }
 
-void FileDialogs::drawBrowser(bool enterMissed) {
+void FileDialogs::drawBrowser() {
   const char* popupId = "##tm_file_browser";
   if (openPopup_) {
     ImGui::OpenPopup(popupId);
@@ -271,10 +271,6 @@ void FileDialogs::drawBrowser(bool enterMissed) {
     done_ = true;
     return;
   }
-  // An Enter ImGui missed goes to the field that was being typed in (it is still active: ImGui never saw
-  // the key that ends it).
-  const bool missedInDir = enterMissed && dirActive_;
-  const bool missedElsewhere = enterMissed && !dirActive_;
   ImGui::TextUnformatted(title_.c_str());
   ImGui::Separator();
   if (ImGui::Button("Up")) {
@@ -296,7 +292,7 @@ void FileDialogs::drawBrowser(bool enterMissed) {
   ImGui::SetNextItemWidth(-1);
   const bool dirEntered = ImGui::InputText("##dir", &dir_, ImGuiInputTextFlags_EnterReturnsTrue);
   dirActive_ = ImGui::IsItemActive();
-  if (dirEntered || missedInDir) goToTypedFolder();
+  if (dirEntered) goToTypedFolder();
 
   const float footer = ImGui::GetFrameHeightWithSpacing() * (kind_ == DialogKind::OpenFolder ? 2.2f : 3.2f);
   ImGui::BeginChild("##entries", ImVec2(0, -footer), true);
@@ -353,9 +349,7 @@ void FileDialogs::drawBrowser(bool enterMissed) {
   const char* ok = kind_ == DialogKind::SaveFile ? "Save" : kind_ == DialogKind::OpenFolder ? "Choose folder" : "Open";
   // Enter outside the folder field chooses (the folder field's Enter went to its folder above).
   const bool enterOutside = ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Enter)) && !dirEntered && !dirActive_;
-  if ((ImGui::Button(ok, ImVec2(ImGui::GetFontSize() * 8, 0)) || nameEntered || enterOutside || missedElsewhere) &&
-      !done_)
-    confirm();
+  if ((ImGui::Button(ok, ImVec2(ImGui::GetFontSize() * 8, 0)) || nameEntered || enterOutside) && !done_) confirm();
   ImGui::SameLine();
   if (ImGui::Button("Cancel", ImVec2(ImGui::GetFontSize() * 8, 0)) ||
       ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape))) {

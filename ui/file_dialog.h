@@ -34,12 +34,10 @@ class FileDialogs {
   bool request(DialogKind kind, const std::string& title, const std::vector<FileFilter>& filters,
                const std::string& purpose, const std::string& startDir);
   bool active() const { return active_; }
+  const std::string& purpose() const { return purpose_; }  // the request's ("open", "save_as", ...)
   // Draws the built-in browser when it is the one in use (call once per frame inside the ImGui
   // frame) and returns the chosen path once, when the user has chosen; cancelling returns nothing.
-  // `enterMissed`: an Enter pressed and released between two frames, which ImGui never saw down (the
-  // editor's key callback saw it); it acts as Enter in the field being typed in (the folder field
-  // goes to that folder, the name field chooses).
-  std::optional<DialogResult> frame(bool enterMissed = false);
+  std::optional<DialogResult> frame();
   bool usesZenity() const { return zenity_; }
   // Forces the built-in browser (tests, TM_NO_ZENITY=1).
   void disableZenity() { zenity_ = false; }
@@ -53,7 +51,7 @@ class FileDialogs {
   const std::string& lastFolder() const { return lastDir_; }
 
  private:
-  void drawBrowser(bool enterMissed);
+  void drawBrowser();
   void goToTypedFolder();  // Enter in the folder field
   void confirm();          // the Open/Save button, Enter in the name field or outside the fields
   struct Entry {

@@ -23,6 +23,9 @@ const std::vector<ScriptVerb>& scriptVerbs() {
        "wait until the worker runs nothing (after a Cancel: the job has stopped); default timeout 60 s"},
       {"wait_autosave", 0, 1, "[SECONDS]", "wait until the current document has been autosaved"},
       {"sleep", 1, 1, "SECONDS", "keep rendering frames for SECONDS of wall time"},
+      {"real_input", 1, 2, "FILE [SECONDS]",
+       "until FILE exists, the real mouse and keyboard (a person, xdotool) drive the editor, frames coming on events "
+       "as without a script; the script checks what they did after (default timeout 300 s)"},
       {"tool", 1, 1, "point|line|polygon|stroke|clone|cutout", "choose a tool (same as the Tools panel)"},
       {"view", 1, 2, "textured|shaded|wireframe|patches|empty|paths|features|stretch|seams|grid|balanced [on|off]",
        "change a display setting (balanced: photo panes show the colour-balanced photos)"},

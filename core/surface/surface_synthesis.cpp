@@ -415,6 +415,7 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
           for (int g : vertexFaces[v]) {
             if (seen[g] || map.facePhoto[g] < 0) continue;
             seen[g] = 1;
+            if (next.size() % 64 == 0) job.checkCancel();
             const auto p = mesh.facePositions(g);
             double longest = 0;
             for (int k = 0; k < 3; ++k) longest = std::max(longest, (p[k] - p[(k + 1) % 3]).norm());
@@ -518,7 +519,10 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     valid.convertTo(valid32, CV_32F, 1 / 255.0);
     cv::resize(valid32, validF, size, 0, 0, s < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
     validL = validF >= 0.99f;
-    if (!makeExemplar(lab, validL, options, rng, ex)) {
+    job.checkCancel();
+    const bool exemplarMade = makeExemplar(lab, validL, options, rng, ex);
+    job.checkCancel();
+    if (!exemplarMade) {
       if (level > 0) continue;
       out.note = "texture: the photo region near the hole (" + std::to_string(size.width) + " x " +
                  std::to_string(size.height) + " texels) holds too few whole neighbourhoods";

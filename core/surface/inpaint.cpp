@@ -979,6 +979,18 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
   std::vector<std::vector<int>> holeFaces(numHoleRegions);
   for (int f = 0; f < nf; ++f)
     if (faceLabel[f] >= 0 && faceLabel[f] < numHoleRegions) holeFaces[faceLabel[f]].push_back(f);
+  // Hole r and what it is filled from, for either synthesis.
+  auto holeInput = [&](int r) {
+    HoleInput h;
+    h.mesh = &mesh;
+    h.map = &map;
+    h.photos = in.photos;
+    h.levelling = in.levelling;
+    h.vertexFaces = &vertexFaces;
+    h.holeFaces = holeFaces[r];
+    h.job = &job;
+    return h;
+  };
   std::vector<SynthesisResult> synthesised(numHoleRegions);
   std::vector<double> synthesisSeconds(numHoleRegions, 0);
   std::vector<int> toSynthesise;
@@ -991,17 +1003,11 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       const int r = toSynthesise[k];
       const auto synStart = Clock::now();
       SynthesisInput sin;
-      sin.mesh = &mesh;
-      sin.map = &map;
-      sin.photos = in.photos;
-      sin.levelling = in.levelling;
-      sin.holeFaces = holeFaces[r];
+      static_cast<HoleInput&>(sin) = holeInput(r);
       sin.texelsPerUnit = res.regions[r].texelsPerUnit;
-      sin.job = &job;
       sin.memo = in.synthesis;
       sin.reuseCharts = opt.synthesisReuseCharts;
       sin.photosKey = in.photosKey;
-      sin.vertexFaces = &vertexFaces;
       SynthesisOptions synOptions;
       if (res.regions[r].mode == InpaintMode::Structure)
         synOptions.blur = opt.structureBlur, synOptions.bandAreaRatio = opt.structureBand;
@@ -1042,19 +1048,13 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       // factorisation, which the Poisson solve below reuses.
       if (numFixed > 0) solver = solverFor(reg, sub, fixed);
       SurfaceSynthesisInput tin;
-      tin.mesh = &mesh;
-      tin.map = &map;
-      tin.photos = in.photos;
-      tin.levelling = in.levelling;
-      tin.vertexFaces = &vertexFaces;
-      tin.holeFaces = holeFaces[r];
+      static_cast<HoleInput&>(tin) = holeInput(r);
       tin.surface = &sub.mesh;
       tin.triangleFace.reserve(regionTris[r].size());
       for (int t : regionTris[r]) tin.triangleFace.push_back(rs.parentFace[t]);
       tin.fixed = fixed;
       tin.fixedValues = &fixedValues;
       tin.solver = solver.get();
-      tin.job = &job;
       SurfaceSynthesisOptions topt;
       topt.seed = opt.textureSeed;
       textured = synthesiseOnSurface(tin, topt);

@@ -15,7 +15,6 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include "base/hash.h"
 #include "base/job.h"
 #include "geometry/mesh.h"
 #include "image/photo.h"
@@ -31,6 +30,14 @@ constexpr int kDims = kPatch * kPatch * 3;
 constexpr double kMinCellsAcross = 8;     // the coarsest level keeps the hole this many grid cells across
 constexpr float kSearchEps = 1;          // the kd-tree's patch is within (1 + eps) of the nearest's distance
 constexpr double kCoherentEnough = 6;     // finest level: a coherent patch this close (L*a*b* per cell) is kept
+
+// The key of cube (x, y, z) of a uniform grid (21 bits per coordinate).
+uint64_t cubeKey(int x, int y, int z) {
+  constexpr int kOff = 1 << 20;
+  return (uint64_t(uint32_t(x + kOff) & 0x1fffff) << 42) | (uint64_t(uint32_t(y + kOff) & 0x1fffff) << 21) |
+         uint64_t(uint32_t(z + kOff) & 0x1fffff);
+}
+int cubeOf(float v, float side) { return static_cast<int>(std::floor(v / side)); }
 
 // Points in a uniform grid of cubes, for neighbourhood queries.
 class PointGrid {
@@ -50,46 +57,24 @@ class PointGrid {
   // Calls f(index) for every point in the cubes that the ball (q, radius) touches.
   template <class F>
   void forEachNear(const Vec3f& q, float radius, F&& f) const {
-    const int x0 = cellOf(q.x() - radius), x1 = cellOf(q.x() + radius);
-    const int y0 = cellOf(q.y() - radius), y1 = cellOf(q.y() + radius);
-    const int z0 = cellOf(q.z() - radius), z1 = cellOf(q.z() + radius);
+    const int x0 = cubeOf(q.x() - radius, cell_), x1 = cubeOf(q.x() + radius, cell_);
+    const int y0 = cubeOf(q.y() - radius, cell_), y1 = cubeOf(q.y() + radius, cell_);
+    const int z0 = cubeOf(q.z() - radius, cell_), z1 = cubeOf(q.z() + radius, cell_);
     for (int x = x0; x <= x1; ++x)
       for (int y = y0; y <= y1; ++y)
         for (int z = z0; z <= z1; ++z) {
-          const auto it = range_.find(pack(x, y, z));
+          const auto it = range_.find(cubeKey(x, y, z));
           if (it == range_.end()) continue;
           for (int i = it->second.first; i < it->second.second; ++i) f(order_[i]);
         }
   }
 
  private:
-  int cellOf(float v) const { return static_cast<int>(std::floor(v / cell_)); }
-  static uint64_t pack(int x, int y, int z) {
-    constexpr int kOff = 1 << 20;
-    return (uint64_t(uint32_t(x + kOff) & 0x1fffff) << 42) | (uint64_t(uint32_t(y + kOff) & 0x1fffff) << 21) |
-           uint64_t(uint32_t(z + kOff) & 0x1fffff);
-  }
-  uint64_t keyOf(const Vec3f& p) const { return pack(cellOf(p.x()), cellOf(p.y()), cellOf(p.z())); }
+  uint64_t keyOf(const Vec3f& p) const { return cubeKey(cubeOf(p.x(), cell_), cubeOf(p.y(), cell_), cubeOf(p.z(), cell_)); }
   float cell_;
   std::unordered_map<uint64_t, std::pair<int, int>> range_;
   std::vector<int> order_;
 };
-
-// Bilinear sample of a CV_32FC3 image, coordinates clamped to its pixels.
-inline Vec3f sampleClamped(const cv::Mat& image, float x, float y) {
-  x = std::clamp(x, 0.f, float(image.cols - 1));
-  y = std::clamp(y, 0.f, float(image.rows - 1));
-  const int x0 = std::min(int(x), image.cols - 2 < 0 ? 0 : image.cols - 2);
-  const int y0 = std::min(int(y), image.rows - 2 < 0 ? 0 : image.rows - 2);
-  const int x1 = std::min(x0 + 1, image.cols - 1), y1 = std::min(y0 + 1, image.rows - 1);
-  const float fx = x - x0, fy = y - y0;
-  const auto* r0 = image.ptr<cv::Vec3f>(y0);
-  const auto* r1 = image.ptr<cv::Vec3f>(y1);
-  Vec3f out;
-  for (int c = 0; c < 3; ++c)
-    out[c] = (1 - fy) * ((1 - fx) * r0[x0][c] + fx * r0[x1][c]) + fy * ((1 - fx) * r1[x0][c] + fx * r1[x1][c]);
-  return out;
-}
 
 // sRGB in [0,1] <-> L*a*b* for many colours at once (OpenCV's conversion, as for the exemplar's pixels).
 std::vector<Vec3f> convert(const std::vector<Vec3f>& in, int code) {
@@ -191,23 +176,19 @@ std::vector<int> poissonDiskSubset(const std::vector<Vec3f>& points, int begin, 
   std::shuffle(order.begin(), order.end(), rng);
   const float r = float(spacing);
   std::unordered_map<uint64_t, std::vector<int>> taken;
-  auto cellKey = [](int x, int y, int z) {
-    return (uint64_t(uint32_t(x + (1 << 20))) << 42) ^ (uint64_t(uint32_t(y + (1 << 20))) << 21) ^
-           uint64_t(uint32_t(z + (1 << 20)));
-  };
   for (int i : order) {
     const Vec3f& p = points[i];
-    const int cx = int(std::floor(p.x() / r)), cy = int(std::floor(p.y() / r)), cz = int(std::floor(p.z() / r));
+    const int cx = cubeOf(p.x(), r), cy = cubeOf(p.y(), r), cz = cubeOf(p.z(), r);
     bool free = true;
     for (int x = cx - 1; x <= cx + 1 && free; ++x)
       for (int y = cy - 1; y <= cy + 1 && free; ++y)
         for (int z = cz - 1; z <= cz + 1 && free; ++z) {
-          const auto it = taken.find(cellKey(x, y, z));
+          const auto it = taken.find(cubeKey(x, y, z));
           if (it == taken.end()) continue;
           for (int c : it->second)
             if ((points[c] - p).squaredNorm() < r * r) free = false;
         }
-    if (free) taken[cellKey(cx, cy, cz)].push_back(i), kept.push_back(i);
+    if (free) taken[cubeKey(cx, cy, cz)].push_back(i), kept.push_back(i);
   }
   std::sort(kept.begin(), kept.end());
   return kept;
@@ -362,8 +343,7 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
   // Levels: as many as options.levels allows while the hole stays kMinCellsAcross cells across.
   const double holeExtent = std::sqrt(holeArea);
   int levels = 1;
-  const int maxLevels = options.levels;
-  while (levels < maxLevels && holeExtent / (h0 * (1 << levels)) >= kMinCellsAcross) ++levels;
+  while (levels < options.levels && holeExtent / (h0 * (1 << levels)) >= kMinCellsAcross) ++levels;
   const double reach = (kHalf + 1) * std::sqrt(2.0) * h0 * (1 << (levels - 1));
   std::vector<Vec3f> pos, normal;
   std::vector<int> unknownVertex;
@@ -390,22 +370,21 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
   {
     // Within reach of the hole: in a cube of side reach / 2 that lies two cubes or less from one holding a
     // hole point (a little more than `reach`, tested with one lookup).
-    const double cube = reach / 2;
-    auto cubeKey = [&](const Vec3f& p, int dx, int dy, int dz) {
-      return hashMix(hashMix(hashMix(uint64_t(0xc0be), uint64_t(int64_t(std::floor(p.x() / cube)) + dx)),
-                             uint64_t(int64_t(std::floor(p.y() / cube)) + dy)),
-                     uint64_t(int64_t(std::floor(p.z() / cube)) + dz));
-    };
+    const float cube = float(reach / 2);
     std::unordered_set<uint64_t> reached;
     {
       std::unordered_set<uint64_t> occupied;
-      for (int i = 0; i < nu; ++i)
-        if (occupied.insert(cubeKey(pos[i], 0, 0, 0)).second)
+      for (int i = 0; i < nu; ++i) {
+        const int cx = cubeOf(pos[i].x(), cube), cy = cubeOf(pos[i].y(), cube), cz = cubeOf(pos[i].z(), cube);
+        if (occupied.insert(cubeKey(cx, cy, cz)).second)
           for (int dx = -2; dx <= 2; ++dx)
             for (int dy = -2; dy <= 2; ++dy)
-              for (int dz = -2; dz <= 2; ++dz) reached.insert(cubeKey(pos[i], dx, dy, dz));
+              for (int dz = -2; dz <= 2; ++dz) reached.insert(cubeKey(cx + dx, cy + dy, cz + dz));
+      }
     }
-    auto near = [&](const Vec3& p) { return reached.count(cubeKey(p.cast<float>(), 0, 0, 0)) > 0; };
+    auto near = [&](const Vec3& p) {
+      return reached.count(cubeKey(cubeOf(float(p.x()), cube), cubeOf(float(p.y()), cube), cubeOf(float(p.z()), cube))) > 0;
+    };
     std::vector<char> seen(inHole);
     std::vector<int> front = in.holeFaces;
     for (int ring = 0; ring < 512 && !front.empty(); ++ring) {
@@ -507,6 +486,8 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     double h = 0;
   } coarse;
 
+  cv::Mat valid32;  // the exemplar's foreground in [0,1], resampled with it per level
+  valid.convertTo(valid32, CV_32F, 1 / 255.0);
   for (int level = levels - 1; level >= 0; --level) {
     const double h = h0 * (1 << level);
     // The exemplar at one pixel per cell.
@@ -515,8 +496,6 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     Exemplar ex;
     cv::Mat lab, validF, validL;
     cv::resize(lab0, lab, size, 0, 0, s < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
-    cv::Mat valid32;
-    valid.convertTo(valid32, CV_32F, 1 / 255.0);
     cv::resize(valid32, validF, size, 0, 0, s < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
     validL = validF >= 0.99f;
     job.checkCancel();
@@ -535,18 +514,19 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     const std::vector<int> knownPts = level == 0 ? allIndices(nu, np) : poissonDiskSubset(pos, nu, np, 0.9 * h, rng);
     std::vector<Vec3f> knownPos(knownPts.size()), knownValue(knownPts.size()), knownNormal(knownPts.size());
     {
-      const PointGrid grid(std::vector<Vec3f>(pos.begin() + nu, pos.end()), float(h));
+      std::unique_ptr<const PointGrid> grid;  // the known points, for the coarser levels' means
+      if (level > 0) grid = std::make_unique<const PointGrid>(std::vector<Vec3f>(pos.begin() + nu, pos.end()), float(h));
       const float r = float(0.6 * h);
       tbb::parallel_for(size_t(0), knownPts.size(), [&](size_t k) {
         const int q = knownPts[k];
         knownPos[k] = pos[q], knownNormal[k] = normal[q];
-        if (level == 0) {
+        if (!grid) {
           knownValue[k] = knownLab[q - nu];
           return;
         }
         Vec3f sum = Vec3f::Zero();
         int count = 0;
-        grid.forEachNear(pos[q], r, [&](int j) {
+        grid->forEachNear(pos[q], r, [&](int j) {
           if ((pos[nu + j] - pos[q]).squaredNorm() <= r * r) sum += knownLab[j], ++count;
         });
         knownValue[k] = count ? Vec3f(sum / float(count)) : knownLab[q - nu];

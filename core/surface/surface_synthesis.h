@@ -30,15 +30,9 @@
 #include <vector>
 
 #include "geometry/poisson.h"
-#include "mapping/texture_map.h"
+#include "surface/synthesis.h"
 
 namespace montage {
-
-struct Mesh;
-struct VertexFaces;
-struct Photo;
-struct SeamLevelling;
-class JobControl;
 
 struct SurfaceSynthesisOptions {
   int levels = 5;              // coarse to fine: grid cells of 16 .. 1 refined edge lengths (fewer when the
@@ -50,19 +44,12 @@ struct SurfaceSynthesisOptions {
   uint64_t seed = 1;           // the same seed gives the same texels
 };
 
-struct SurfaceSynthesisInput {
-  const Mesh* mesh = nullptr;  // the mesh the map is over
-  const TextureMap* map = nullptr;
-  std::vector<const Photo*> photos;
-  const SeamLevelling* levelling = nullptr;  // offsets added to photo colours (may be null)
-  const VertexFaces* vertexFaces = nullptr;  // faces around each vertex of `mesh` (may be null: made per call)
-  std::vector<int> holeFaces;                // the hole: faces of `mesh` without a photo
+struct SurfaceSynthesisInput : HoleInput {
   const TriangleMesh* surface = nullptr;     // the hole's refined surface (its triangles and the ring's)
   std::vector<int> triangleFace;             // per surface triangle: the face of `mesh` it lies in
   std::vector<char> fixed;                   // per surface vertex: its colour is known (from a photo)
   const Eigen::MatrixXd* fixedValues = nullptr;  // per surface vertex, sRGB in [0,1] (rows of fixed vertices)
   const PoissonSolver* solver = nullptr;     // of `surface` with `fixed` (null when nothing is fixed)
-  const JobControl* job = nullptr;           // cancellation (may be null)
 };
 
 struct SurfaceSynthesisResult {
@@ -76,7 +63,7 @@ struct SurfaceSynthesisResult {
   double energy = 0;           // mean per-texel distance (L*a*b*) of the neighbourhoods to their patches, last pass
 };
 
-// Synthesises the unknown vertices of input.surface; never throws for a hole it cannot serve (ok = false
+// Synthesises the unknown vertices of input.surface (input.job: checked between and within the steps); never throws for a hole it cannot serve (ok = false
 // and a note). Throws Cancelled when input.job is cancelled (checked between and within the steps).
 SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& input,
                                            const SurfaceSynthesisOptions& options = {});

@@ -102,20 +102,23 @@ class SynthesisMemo {
   std::unordered_map<uint64_t, std::shared_ptr<const std::vector<uint64_t>>> failed_, previousFailed_;
 };
 
-struct SynthesisInput {
+// A hole and what it is filled from: what both syntheses (this chart synthesis and surface_synthesis.h) read.
+struct HoleInput {
   const Mesh* mesh = nullptr;  // the mesh the map is over
   const TextureMap* map = nullptr;
   std::vector<const Photo*> photos;
   const SeamLevelling* levelling = nullptr;  // offsets added to photo colours (may be null)
+  const VertexFaces* vertexFaces = nullptr;  // faces around each vertex of `mesh` (may be null: made per call)
   std::vector<int> holeFaces;                // the hole: faces of `mesh` without a photo, edge-connected
-  double texelsPerUnit = 0;                  // canvas density (texels per model unit)
-  const JobControl* job = nullptr;           // cancellation (may be null): a cancel stops the shift-map call at once
+  const JobControl* job = nullptr;           // cancellation (may be null)
+};
+
+struct SynthesisInput : HoleInput {
+  double texelsPerUnit = 0;  // canvas density (texels per model unit)
   SynthesisMemo* memo = nullptr;             // syntheses of earlier runs (may be null)
   bool reuseCharts = false;                  // memo: a kept chart covering the hole serves, and a failed flattening of
                                              // a hole sharing nine in ten faces (the preview)
   uint64_t photosKey = 0;                    // what identifies the photos' content (0: unknown, no chart reuse)
-  // The faces around each vertex of `mesh` (may be null: made per call), for the band's rings.
-  const VertexFaces* vertexFaces = nullptr;
 };
 
 struct SynthesisResult {

@@ -4,7 +4,8 @@
 Inputs (committed in assets/demo/): cat.obj (billyd's cat, remeshed by odedstein/meshes, CC BY 4.0) and
 tiger_sumatran_stamp.png (Tux Paint's Sumatran tiger stamp, GPL-2, a photo cut out with alpha).
 Outputs (assets/demo/): tiger_left.png + tiger_left_mask.png (the photo, and its foreground mask made
-by OpenCV grabCut seeded from the stamp's alpha, with the grass at the feet marked as background),
+by OpenCV grabCut seeded from the stamp's alpha, with the grass at the feet cut away, and the green cast
+of the pale fur white-balanced away),
 tiger_right.png + tiger_right_mask.png (the same photo mirrored: the cat's other side), project.json.
 
 Correspondences: 27 landmarks per side were picked by hand, looking at an orthographic side render of
@@ -145,6 +146,10 @@ def make_mask(rgba):
     bgd, fgd = np.zeros((1, 65)), np.zeros((1, 65))
     cv2.grabCut(rgb, mask, None, bgd, fgd, 8, cv2.GC_INIT_WITH_MASK)
     fg = ((mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)) & (alpha > 20)
+    # The feet stand in the grass: the grass's blades and a margin round them (grabCut keeps some, as
+    # their colour is close to the pale fur's green cast) are cut away.
+    fg &= ~cv2.dilate((green & (alpha > 20)).astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    fg = cv2.morphologyEx(fg.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     # Keep the largest component (the tiger), drop specks of grass.
     n, lab, stats, _ = cv2.connectedComponentsWithStats(fg.astype(np.uint8))
     if n > 1:
@@ -159,6 +164,12 @@ def main():
     # The photo without its cut-out: the stamp's colours over a plain background, as a photo would be.
     a = stamp[:, :, 3:4] / 255.0
     photo = (stamp[:, :, :3] * a + np.array([205, 215, 220]) * (1 - a)).astype(np.uint8)
+    # The stamp's pale fur (belly, legs, chest) carries the grass's green cast; a photographer would
+    # white-balance it away: a* < 0 (green) of the foreground pulled to a quarter.
+    lab = cv2.cvtColor(photo, cv2.COLOR_BGR2Lab).astype(np.float32)
+    cast = (mask > 0) & (lab[:, :, 1] < 128)
+    lab[:, :, 1][cast] = 128 + 0.25 * (lab[:, :, 1][cast] - 128)
+    photo = cv2.cvtColor(np.clip(lab, 0, 255).astype(np.uint8), cv2.COLOR_Lab2BGR)
     cv2.imwrite(os.path.join(DEMO, "tiger_left.png"), photo)
     cv2.imwrite(os.path.join(DEMO, "tiger_left_mask.png"), mask)
     cv2.imwrite(os.path.join(DEMO, "tiger_right.png"), photo[:, ::-1])
@@ -239,9 +250,9 @@ def main():
                    {"path": "tiger_right.png", "mask": "tiger_right_mask.png"}],
         "points": points,
         "chains": chains,
-        # Harmonic fill: on this demo the RBF guidance (the default) carries the stripes' dark boundary
-        # values into blobs inside the large holes (belly, tail), the harmonic fill stays smooth.
-        "options": {"inpaintMode": "harmonic"},
+        # The default fill (texture synthesis): the parts no photo covers (tail, paws, chest, back) get
+        # tiger fur synthesised from the photo regions mapped nearest them.
+        "options": {},
     }
     with open(os.path.join(DEMO, "project.json"), "w") as out:
         json.dump(project, out, indent=2)

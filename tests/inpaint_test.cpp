@@ -1181,6 +1181,37 @@ TEST(Texture, FillsEveryHoleShapeWithTextureAndASeamlessBorder) {
   }
 }
 
+// Distinctive features beside a large hole (three blue spots painted into the fur left of a hole that covers
+// 60% of the sheet) are not texture: the fill takes none of them, where taking every patch copies some.
+TEST(Texture, DistinctiveFeaturesAreNotCopiedIntoTheHole) {
+  TM_REQUIRE_FUR(path);
+  TextureCase c = furSheet(path);
+  const double scale = 0.8 * std::min(c.photo.width, c.photo.height);
+  ASSERT_EQ(c.photo.rgb.type(), CV_8UC3);
+  for (double y : {0.2, 0.5, 0.8}) {
+    const cv::Point2d at = cv::Point2d(0.2, y) * scale + cv::Point2d(20, 20);
+    cv::circle(c.photo.rgb, cv::Point(int(at.x), int(at.y)), 6, cv::Scalar(40, 70, 230), cv::FILLED);
+  }
+  TextureMap map = c.truth;
+  ASSERT_GT(cutWhere(*c.mesh, map, [](const Vec3& p) { return p.x() > 0.4; }), 0);
+  double share[2];
+  for (int m = 0; m < 2; ++m) {
+    InpaintInput in = inputFor(*c.mesh, map, {&c.photo}, InpaintMode::Texture);
+    if (m) in.options.textureRareChi2 = 0;
+    const InpaintResult res = inpaintSurface(in, {}, nullptr);
+    const auto solved = solvedVertices(res.refined, map);
+    int blue = 0, count = 0;
+    for (int v = 0; v < res.refined.mesh.numVertices(); ++v)
+      if (solved[v]) blue += srgbToLab(res.colors.row(v).transpose())[2] < -25, ++count;
+    ASSERT_GT(count, 100);
+    share[m] = double(blue) / count;
+  }
+  std::printf("hole vertices taking the blue spots: %.2f%% (every patch taken: %.2f%%)\n", 100 * share[0],
+              100 * share[1]);
+  EXPECT_LE(share[0], 0.002);
+  EXPECT_GT(share[1], share[0]);
+}
+
 // The same seed gives the same texels; another seed another texture.
 TEST(Texture, TheSameSeedGivesTheSameTexels) {
   TM_REQUIRE_FUR(path);

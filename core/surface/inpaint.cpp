@@ -1057,6 +1057,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       tin.solver = solver.get();
       SurfaceSynthesisOptions topt;
       topt.seed = opt.textureSeed;
+      topt.rareChi2 = opt.textureRareChi2;
       textured = synthesiseOnSurface(tin, topt);
       reg.note = textured.note;
       if (!textured.ok && numFixed > 0)

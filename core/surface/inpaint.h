@@ -85,6 +85,8 @@ struct InpaintOptions {
   // (SynthesisMemo; the preview). Without it only the same canvas is kept.
   bool synthesisReuseCharts = false;
   uint64_t textureSeed = 1;  // texture mode: the same seed gives the same texels (SurfaceSynthesisOptions::seed)
+  double textureRareChi2 = 11.34;  // texture mode: exemplar patches this rare are features, never taken
+                                   // (SurfaceSynthesisOptions::rareChi2; 0 takes every patch)
 };
 
 // What the inpainting reads besides the mapping. Strokes, clones and hole modes use the ids of the

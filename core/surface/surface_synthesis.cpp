@@ -29,6 +29,7 @@ constexpr int kHalf = kPatch / 2;
 constexpr int kDims = kPatch * kPatch * 3;
 constexpr double kMinCellsAcross = 8;     // the coarsest level keeps the hole this many grid cells across
 constexpr float kSearchEps = 1;          // the kd-tree's patch is within (1 + eps) of the nearest's distance
+constexpr double kMinExemplarCells = 40;   // an exemplar is at least this many finest cells a side
 constexpr double kCoherentEnough = 6;     // finest level: a coherent patch this close (L*a*b* per cell) is kept
 
 // The key of cube (x, y, z) of a uniform grid (21 bits per coordinate).
@@ -133,7 +134,46 @@ void patchOf(const cv::Mat& lab, int cx, int cy, float* out) {
   }
 }
 
-// Candidates: every patch whose pixels are all foreground, strided down to at most maxCandidates.
+// Distinctive features are not texture (a face's eyes, brows and lips beside its skin, a mole, a logo): the
+// patches whose mean colour is rare in the exemplar, at a squared Mahalanobis distance above chi2 from the
+// foreground patches' means (mean and covariance estimated twice, the second time without the rare ones),
+// leave `inner`: no point takes them, no coherent step lands on them. At most a fifth of the patches go (the
+// threshold rises to the 80th percentile): what is common is texture, however it is distributed.
+void excludeRarePatches(const cv::Mat& lab, cv::Mat& inner, double chi2) {
+  std::vector<cv::Point> at;
+  cv::findNonZero(inner, at);
+  if (at.size() < 64) return;
+  cv::Mat mean;
+  cv::blur(lab, mean, cv::Size(kPatch, kPatch));
+  std::vector<Eigen::Vector3d> value(at.size());
+  for (size_t i = 0; i < at.size(); ++i) {
+    const cv::Vec3f& v = mean.at<cv::Vec3f>(at[i]);
+    value[i] = Eigen::Vector3d(v[0], v[1], v[2]);
+  }
+  std::vector<double> d2(at.size(), 0);
+  for (int round = 0; round < 2; ++round) {
+    Eigen::Vector3d mu = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    double count = 0;
+    for (size_t i = 0; i < at.size(); ++i)
+      if (round == 0 || d2[i] <= chi2) mu += value[i], ++count;
+    if (count < 16) return;
+    mu /= count;
+    for (size_t i = 0; i < at.size(); ++i)
+      if (round == 0 || d2[i] <= chi2) cov += (value[i] - mu) * (value[i] - mu).transpose();
+    cov = cov / count + Eigen::Matrix3d::Identity();  // one L*a*b* unit of slack: a flat exemplar keeps all
+    const Eigen::Matrix3d inv = cov.inverse();
+    for (size_t i = 0; i < at.size(); ++i) d2[i] = (value[i] - mu).dot(inv * (value[i] - mu));
+  }
+  std::vector<double> sorted = d2;
+  const size_t q = sorted.size() * 4 / 5;
+  std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
+  const double threshold = std::max(chi2, sorted[q]);
+  for (size_t i = 0; i < at.size(); ++i)
+    if (d2[i] > threshold) inner.at<uchar>(at[i]) = 0;
+}
+
+// Candidates: every patch whose pixels are all foreground and not rare, strided down to at most maxCandidates.
 bool makeExemplar(const cv::Mat& lab, const cv::Mat& valid, const SurfaceSynthesisOptions& options, std::mt19937_64& rng,
                   Exemplar& ex) {
   ex.lab = lab;
@@ -141,6 +181,7 @@ bool makeExemplar(const cv::Mat& lab, const cv::Mat& valid, const SurfaceSynthes
   cv::Mat& inner = ex.inner;
   cv::erode(valid, inner, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(kPatch, kPatch)), cv::Point(-1, -1), 1,
             cv::BORDER_CONSTANT, cv::Scalar(0));
+  if (options.rareChi2 > 0) excludeRarePatches(lab, inner, options.rareChi2);
   const int count = cv::countNonZero(inner);
   if (count < 16) return false;
   const int stride = std::max(1, int(std::ceil(std::sqrt(double(count) / options.maxCandidates))));
@@ -232,12 +273,15 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
   VertexFaces ownVertexFaces;
   if (!in.vertexFaces) ownVertexFaces = facesAroundVertices(mesh);
   const VertexFaces& vertexFaces = in.vertexFaces ? *in.vertexFaces : ownVertexFaces;
+  // At least kMinExemplarCells cells a side at the finest level, so that a small hole's exemplar still holds
+  // enough whole neighbourhoods.
+  const double bandArea = std::max(options.exemplarBand * holeArea, std::pow(kMinExemplarCells * h0, 2));
   std::vector<int> band;
   {
     std::vector<char> seen(inHole);
     std::vector<int> front = in.holeFaces;
     double area = 0;
-    for (int ring = 0; ring < 256 && !front.empty() && area < options.exemplarBand * holeArea; ++ring) {
+    for (int ring = 0; ring < 256 && !front.empty() && area < bandArea; ++ring) {
       std::vector<int> next;
       for (int f : front)
         for (int v : mesh.faceVertices(f))
@@ -264,7 +308,7 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     std::sort(byDistance.begin(), byDistance.end());
     double area = 0;
     for (const auto& [d, f] : byDistance) {
-      if (area >= options.exemplarBand * holeArea) break;
+      if (area >= bandArea) break;
       band.push_back(f), area += mesh.faceArea(f);
     }
     nearestInSpace = true;
@@ -358,8 +402,10 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     if (!in.fixed[v]) unknownVertex.push_back(v), pos.push_back(surf.positions[v].cast<float>()),
                       normal.push_back(vertexNormal[v].cast<float>());
   const int nu = static_cast<int>(unknownVertex.size());
-  if (nu == 0) {
-    out.note = "texture: nothing to synthesise";
+  if (nu == 0) {  // every vertex is on the border: their photo colours are the fill
+    out.note = "texture: every vertex of the hole is on its border (nothing to synthesise)";
+    out.colours = in.fixedValues && in.fixedValues->rows() == n ? *in.fixedValues : Eigen::MatrixXd::Zero(n, 3);
+    out.ok = true;
     return out;
   }
   for (int v = 0; v < n; ++v)

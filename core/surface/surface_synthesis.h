@@ -41,6 +41,9 @@ struct SurfaceSynthesisOptions {
   double exemplarBand = 3;     // exemplar: mapped faces around the hole up to this many times its area
   int maxCandidates = 30000;   // exemplar patches searched per level (a strided subset beyond)
   int pcaDimensions = 24;      // patches are compared in this many principal components
+  double rareChi2 = 11.34;     // exemplar patches whose mean colour lies this far (squared Mahalanobis) from
+                               // the common ones are features, not texture, and are never taken (chi-square,
+                               // 3 degrees of freedom, 99%); 0 takes every patch
   uint64_t seed = 1;           // the same seed gives the same texels
 };
 

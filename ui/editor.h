@@ -540,6 +540,7 @@ class Editor {
   std::map<int, Rect> canvasRects_;  // per photo, last frame
   std::map<std::string, Rect> buttonRects_;
   std::vector<char> featureVisible_;  // per feature point, from the 3D view's depth when it was last drawn
+  std::vector<int> drawnLabels_;       // the point ids labelled in the 3D view's last frame (script state)
   std::unique_ptr<OverlayGl> overlayGl_;
   int hoverVertex_ = -1;      // vertex under the cursor (3D view) or of the hovered photo point
   int hoverVertexNext_ = -1;  // being found this frame

@@ -289,6 +289,7 @@ void Editor::drawMarkers(const Mat4f& view, const Mat4f& projection) {
 
 void Editor::drawFeatureLabels(const Rect& r, const Camera& cam) {
   const Project& p = doc_.project();
+  drawnLabels_.clear();
   if (!showFeatures_ || !showIds_ || !input_.mesh) return;
   ImDrawList* draw = ImGui::GetWindowDrawList();
   std::vector<LabelCandidate> labels;
@@ -296,8 +297,10 @@ void Editor::drawFeatureLabels(const Rect& r, const Camera& cam) {
   std::vector<Vec2> anchor;
   for (size_t i = 0; i < p.points.size() && i < featureVisible_.size(); ++i) {
     const int v = p.points[i].vertex;
+    // The selected and the hovered point are labelled even where labels crowd, but like every label only
+    // where the point is in sight: a point behind the surface has no label drawn through it.
     const bool always = int(i) == selectedPoint_ || (v >= 0 && v == hoverVertex_);
-    if (!featureVisible_[i] && !always) continue;
+    if (!featureVisible_[i]) continue;
     if (v < 0 || v >= input_.mesh->numVertices()) continue;
     Vec2 px;
     if (!cam.project(input_.mesh->position(v), px)) continue;
@@ -314,6 +317,7 @@ void Editor::drawFeatureLabels(const Rect& r, const Camera& cam) {
   for (int k : placeLabels(labels)) {
     const int i = point[k];
     const std::string id = std::to_string(i);
+    drawnLabels_.push_back(i);
     const ImVec2 at(float(labels[k].lo.x()), float(labels[k].lo.y()));
     draw->AddText(ImVec2(at.x + 1, at.y + 1), IM_COL32(0, 0, 0, 200), id.c_str());
     draw->AddText(at,

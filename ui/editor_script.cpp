@@ -555,6 +555,7 @@ void Editor::writeState(const std::string& path) const {
   state["history"] = {{"steps", doc_.history().size()}, {"position", doc_.position()}};
   state["selected_vertex"] = selectedVertex_;
   state["selected_point"] = selectedPoint_;
+  state["labels"] = drawnLabels_;
   state["tool"] = kToolNames[static_cast<int>(tool_)];
   const WorkerStatus ws = worker_->status();
   std::vector<long> outcomeGenerations;

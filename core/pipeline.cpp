@@ -215,11 +215,16 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
   return fit;
 }
 
-nlohmann::json fitJson(const CameraFit& fit, int photo) {
+// Point `index` of `project` by the id the user sees (deleting a point renumbers no other).
+int reportedPointId(const Project* project, int index) {
+  return project && index >= 0 && index < static_cast<int>(project->points.size()) ? pointId(*project, index) : index;
+}
+
+nlohmann::json fitJson(const CameraFit& fit, int photo, const Project* project) {
   nlohmann::json outliers = nlohmann::json::array();
   for (size_t i = 0; i < fit.clicks.size(); ++i)
     if (fit.fits && i < fit.inlier.size() && !fit.inlier[i])
-      outliers.push_back({{"point", fit.clicks[i].point}, {"residual", fit.residual[i]}});
+      outliers.push_back({{"point", reportedPointId(project, fit.clicks[i].point)}, {"residual", fit.residual[i]}});
   nlohmann::json j = {{"photo", photo},
                       {"shows", fit.subject ? "another subject" : "the object itself"},
                       {"decision", fit.decision},
@@ -765,7 +770,8 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   }
   {
     nlohmann::json photos = nlohmann::json::array();
-    for (size_t p = 0; p < cameras->fits.size(); ++p) photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p)));
+    for (size_t p = 0; p < cameras->fits.size(); ++p)
+      photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p), &scene->project));
     const bool all = cameras->reused == static_cast<int>(cameras->fits.size());
     result.stages.push_back({StageId::Camera,
                              all,
@@ -1122,6 +1128,7 @@ nlohmann::json PipelineResult::report() const {
   j["stages"] = stagesJson;
   j["total_seconds"] = total;
   j["warnings"] = warnings;
+  const Project* project = scene ? &scene->project : nullptr;
   if (scene) {
     j["project"] = scene->project.file;
     j["mesh"] = {{"path", scene->meshReport.path},
@@ -1154,12 +1161,16 @@ nlohmann::json PipelineResult::report() const {
   if (cameras) {
     // Each photo's path (projection or the paper's) and its camera fit.
     nlohmann::json photos = nlohmann::json::array();
-    for (size_t p = 0; p < cameras->fits.size(); ++p) photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p)));
+    for (size_t p = 0; p < cameras->fits.size(); ++p)
+      photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p), project));
     j["cameras"] = photos;
     nlohmann::json proposed = nlohmann::json::array();
     for (const Proposal& pr : proposals)
-      proposed.push_back(
-          {{"point", pr.point}, {"vertex", pr.vertex}, {"photo", pr.photo}, {"x", pr.pixel.x()}, {"y", pr.pixel.y()}});
+      proposed.push_back({{"point", reportedPointId(project, pr.point)},
+                          {"vertex", pr.vertex},
+                          {"photo", pr.photo},
+                          {"x", pr.pixel.x()},
+                          {"y", pr.pixel.y()}});
     j["proposals"] = proposed;
   }
   if (mapping) {
@@ -1167,7 +1178,7 @@ nlohmann::json PipelineResult::report() const {
     nlohmann::json rejected = nlohmann::json::array();
     for (const RejectedPair& r : mapping->partition->rejected) {
       if (rejected.size() == 1000) break;
-      rejected.push_back({{"points", {r.fromPoint, r.toPoint}},
+      rejected.push_back({{"points", {reportedPointId(project, r.fromPoint), reportedPointId(project, r.toPoint)}},
                           {"photo", r.photo},
                           {"reason", kRejectReasonNames[static_cast<int>(r.reason)]},
                           {"detail", r.detail}});

@@ -199,7 +199,7 @@ TEST_F(ProjectTest, FileIsPrettyVersionedJson) {
   EXPECT_NE(text.find("\n  \"version\": 4,"), std::string::npos) << text;  // two-space indent
   const json j = json::parse(text);
   EXPECT_EQ(j["format"], "texturemontage-project");
-  EXPECT_EQ(j["version"], Project::kVersion);
+  EXPECT_EQ(j["version"], 4);
   EXPECT_EQ(j["photos"][1]["mirror"], true);
   EXPECT_EQ(j["photos"][1]["mode"], "subject");
   EXPECT_FALSE(j["photos"][0].contains("mode"));    // auto: no field
@@ -377,10 +377,10 @@ TEST_F(ProjectTest, SaveIntoReadOnlyFolderKeepsTheEarlierFile) {
 
 TEST_F(ProjectTest, RejectsUnknownVersion) {
   json j = sampleJson();
-  j["version"] = 5;
+  j["version"] = 6;
   const std::string message = loadError(j);
-  EXPECT_MESSAGE_HAS(message, "version: 5 is not supported");
-  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 4");
+  EXPECT_MESSAGE_HAS(message, "version: 6 is not supported");
+  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 5");
   EXPECT_MESSAGE_HAS(message, "written by a newer TextureMontage");
   j["version"] = 0;
   EXPECT_MESSAGE_HAS(loadError(j), "version: 0 is not supported");
@@ -802,4 +802,63 @@ TEST(ProjectOptions, SetFromTheCommandLine) {
   EXPECT_NE(message("atlasSize", "100").find("options.atlasSize"), std::string::npos);
   EXPECT_TRUE(o == before) << "a refused value leaves the options as they were";
   EXPECT_EQ(projectOptionNames().size(), 22u);
+}
+
+// Issue 35, finding 9: a deletion renumbered the points after it. Ids survive erasePoint, are written (version 5)
+// only where they are not the index, read back exactly; a version 4 file has no ids (each point's is its
+// index), an id two points share is refused, and the editor's camera goes with the file in any version.
+TEST_F(ProjectTest, PointIdsSurviveDeletionsAndTheViewRoundTrips) {
+  Project p = sample();
+  p.points.push_back({9, {{1, 3, 4}}});
+  erasePoint(p, 1);  // the chains' indices are the caller's (the editor's Document)
+  p.chains = {{0, {0, 1}, false}};
+  ASSERT_EQ(p.points.size(), 3u);
+  EXPECT_EQ(pointId(p, 0), 0);
+  EXPECT_EQ(pointId(p, 1), 2);
+  EXPECT_EQ(pointId(p, 2), 3);
+  EXPECT_EQ(pointIndex(p, 3), 2);
+  EXPECT_EQ(pointIndex(p, 1), -1);
+  EXPECT_EQ(nextPointId(p), 4);
+  EXPECT_EQ(requiredVersion(p), 5);
+  p.view = {true, Vec3(0.1, 1.0 / 3, -2), 12.25, 47.5, -10.125, 0.5};
+  saveProject(p, path("ids.json"));
+  const json j = json::parse(readFile(path("ids.json")));
+  EXPECT_EQ(j["version"], 5);
+  EXPECT_FALSE(j["points"][0].contains("id"));
+  EXPECT_EQ(j["points"][1]["id"], 2);
+  EXPECT_EQ(j["view"]["target"][1], 1.0 / 3);
+  EXPECT_EQ(j["view"]["fov"], 0.5);
+  const Project back = loadProject(path("ids.json"));
+  EXPECT_TRUE(back.sameDocument(p));
+  EXPECT_EQ(pointId(back, 1), 2);
+  EXPECT_TRUE(back.view == p.view);
+  EXPECT_TRUE(back.unknownFields.empty());
+  // Deleting the first point keeps every id; deleting up to the end gives ids back their index (no "id").
+  Project q = back;
+  erasePoint(q, 0);
+  EXPECT_EQ(pointId(q, 0), 2);
+  EXPECT_EQ(pointId(q, 1), 3);
+  q = back;
+  erasePoint(q, 2);
+  erasePoint(q, 1);
+  EXPECT_EQ(q.points[0].id, -1);
+  EXPECT_EQ(requiredVersion(q), 3);
+  // An older file: no ids (an "id" there is not read), its view read all the same.
+  json old = j;
+  old["version"] = 4;
+  writeText(path("old.json"), old.dump(2));
+  const Project four = loadProject(path("old.json"));
+  EXPECT_EQ(pointId(four, 1), 1);
+  EXPECT_TRUE(four.view.present);
+  // Two points with one id.
+  json twice = j;
+  twice["points"][2]["id"] = 2;
+  EXPECT_MESSAGE_HAS(loadError(twice), "points[2].id: 2 is the id of points[1] too");
+  twice["points"][2]["id"] = -1;
+  EXPECT_MESSAGE_HAS(loadError(twice), "points[2].id: -1 is out of range");
+  json badView = j;
+  badView["view"]["distance"] = 0;
+  EXPECT_MESSAGE_HAS(loadError(badView), "view.distance: 0 is not above 0");
+  badView["view"]["target"] = json::array({1, 2});
+  EXPECT_MESSAGE_HAS(loadError(badView), "view.target: must be [x, y, z]");
 }

@@ -167,7 +167,11 @@ int Document::setPosition(int vertex, int photo, double x, double y) {
             std::to_string(photo) + ")",
         [&](Project& p) {
           if (added) {
-            p.points.push_back(FeaturePoint{vertex, {}});
+            FeaturePoint point{vertex, {}};
+            // A new id, never one another point has (ids survive deletions); canonical when it is the index.
+            const int id = nextPointId(p);
+            point.id = id == static_cast<int>(p.points.size()) ? -1 : id;
+            p.points.push_back(point);
             index = static_cast<int>(p.points.size()) - 1;
           }
           p.points[index].at.push_back(PhotoPoint{photo, x, y});
@@ -178,7 +182,7 @@ int Document::setPosition(int vertex, int photo, double x, double y) {
 void Document::movePosition(int point, int photo, double x, double y) {
   checkIndex("move point", "point", point, current_->points.size());
   TM_CHECK(std::isfinite(x) && std::isfinite(y), "move point: the coordinates must be finite");
-  apply("Move point " + std::to_string(point), [&](Project& p) {
+  apply("Move point " + std::to_string(pointId(*current_, point)), [&](Project& p) {
     for (PhotoPoint& a : p.points[point].at)
       if (a.photo == photo) {
         a.x = x;
@@ -191,25 +195,27 @@ void Document::movePosition(int point, int photo, double x, double y) {
 
 void Document::removePosition(int point, int photo) {
   checkIndex("remove position", "point", point, current_->points.size());
-  apply("Remove point " + std::to_string(point) + " from photo " + std::to_string(photo), [&](Project& p) {
-    auto& at = p.points[point].at;
-    const auto it = std::find_if(at.begin(), at.end(), [&](const PhotoPoint& a) { return a.photo == photo; });
-    TM_CHECK(it != at.end(),
-             "remove position: point " + std::to_string(point) + " has no position in photo " + std::to_string(photo));
-    at.erase(it);
-    detachPointFromChains(p, point, photo, false);
-    if (at.empty()) {
-      // A feature point with no position says nothing: it goes, and chain indices shift down.
-      p.points.erase(p.points.begin() + point);
-      detachPointFromChains(p, point, -1, true);
-    }
-  });
+  apply("Remove point " + std::to_string(pointId(*current_, point)) + " from photo " + std::to_string(photo),
+        [&](Project& p) {
+          auto& at = p.points[point].at;
+          const auto it = std::find_if(at.begin(), at.end(), [&](const PhotoPoint& a) { return a.photo == photo; });
+          TM_CHECK(it != at.end(), "remove position: point " + std::to_string(point) + " has no position in photo " +
+                                       std::to_string(photo));
+          at.erase(it);
+          detachPointFromChains(p, point, photo, false);
+          if (at.empty()) {
+            // A feature point with no position says nothing: it goes, and chain indices shift down (the other
+            // points keep their ids).
+            erasePoint(p, point);
+            detachPointFromChains(p, point, -1, true);
+          }
+        });
 }
 
 void Document::removePoint(int point) {
   checkIndex("remove point", "point", point, current_->points.size());
-  apply("Remove point " + std::to_string(point), [&](Project& p) {
-    p.points.erase(p.points.begin() + point);
+  apply("Remove point " + std::to_string(pointId(*current_, point)), [&](Project& p) {
+    erasePoint(p, point);
     detachPointFromChains(p, point, -1, true);
   });
 }
@@ -328,7 +334,7 @@ void Document::removePhoto(int photo) {
       for (PhotoPoint& a : at)
         if (a.photo > photo) --a.photo;
       if (at.empty()) {
-        p.points.erase(p.points.begin() + i);
+        erasePoint(p, i);
         detachPointFromChains(p, i, -1, true);
       }
     }

@@ -106,9 +106,9 @@ void Editor::initWindow() {
   float xs = 1, ys = 1;
   glfwGetWindowContentScale(window_, &xs, &ys);
   applyScale(options_.scale > 0 ? static_cast<float>(options_.scale) : std::max({xs, ys, 1.0f}));
-  // Keys, characters, mouse buttons and pointer moves are queued in the order they come and handed to ImGui
-  // a step per frame (applyRealInput; input_queue.h says why); the ImGui backend takes the rest (focus, the
-  // pointer entering and leaving, the wheel).
+  // Keys, characters, mouse buttons, the wheel and pointer moves are queued in the order they come and handed
+  // to ImGui a step per frame (applyRealInput; input_queue.h says why); the ImGui backend takes the rest
+  // (focus, the pointer entering and leaving).
   glfwSetWindowUserPointer(window_, this);
   ImGui_ImplGlfw_InitForOpenGL(window_, false);
   static const auto queue = [](GLFWwindow* window) -> RealInputQueue& {
@@ -130,7 +130,9 @@ void Editor::initWindow() {
   });
   glfwSetWindowFocusCallback(window_, ImGui_ImplGlfw_WindowFocusCallback);
   glfwSetCursorEnterCallback(window_, ImGui_ImplGlfw_CursorEnterCallback);
-  glfwSetScrollCallback(window_, ImGui_ImplGlfw_ScrollCallback);
+  glfwSetScrollCallback(window_, [](GLFWwindow* window, double dx, double dy) {
+    queue(window).push({InputEvent::Kind::Scroll, 0, false, false, 0, dx, dy});
+  });
   // Files dropped on the window: kept for the next frame's UI (the only place the document changes).
   // The ImGui backend uses neither the window's user pointer nor the drop callback.
   glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
@@ -226,6 +228,8 @@ void Editor::applyRealInput(ImGuiIO& io) {
   std::copy(in.buttons.begin(), in.buttons.end(), std::begin(io.MouseDown));
   if (in.taken && in.hasPointer) io.MousePos = ImVec2(float(in.x), float(in.y));
   for (unsigned c : in.chars) io.AddInputCharacter(c);
+  io.MouseWheelH += float(in.wheelX);
+  io.MouseWheel += float(in.wheelY);
   auto held = [&in](int left, int right, int mod) { return in.keys[left] || in.keys[right] || (in.pressMods & mod); };
   io.KeyCtrl = held(GLFW_KEY_LEFT_CONTROL, GLFW_KEY_RIGHT_CONTROL, GLFW_MOD_CONTROL);
   io.KeyShift = held(GLFW_KEY_LEFT_SHIFT, GLFW_KEY_RIGHT_SHIFT, GLFW_MOD_SHIFT);
@@ -411,6 +415,19 @@ void Editor::syncInputs() {
       if (!listed) reportError(e.what());
     }
   }
+}
+
+std::string Editor::pointName(int point) const {
+  const Project& p = doc_.project();
+  return std::to_string(point >= 0 && point < static_cast<int>(p.points.size()) ? pointId(p, point) : point);
+}
+
+std::string Editor::resultPointName(int point) const {
+  if (result_ && result_->mapping && result_->mapping->partition) {
+    const std::vector<int>& ids = result_->mapping->partition->featureId;
+    if (point >= 0 && point < static_cast<int>(ids.size())) return std::to_string(ids[point]);
+  }
+  return pointName(point);
 }
 
 void Editor::validateSelection() {

@@ -216,6 +216,10 @@ class Editor {
   void autosaveTick();
   void syncInputs();  // load the mesh / photos the document names
   void validateSelection();
+  // A point as the user knows it: its id (pointId), which deleting another point does not change; of the
+  // document, or of the project the result was computed from (its rejected pairs and coverage).
+  std::string pointName(int point) const;
+  std::string resultPointName(int point) const;
   // ImGui::Button that scripts can click, by its label (without ##...) or by `scriptName` when given.
   bool button(const char* label, const ImVec2* size = nullptr, const std::string& scriptName = "");
   void scriptButton(const std::string& name);  // the last item is clickable by scripts as `name`
@@ -467,7 +471,7 @@ class Editor {
   std::map<long, long> generationRevision_;
   std::string lastError_;
   long lastErrorGeneration_ = 0;
-  std::vector<std::string> errors_;  // shown in the Errors window, newest last
+  std::vector<std::string> errors_;                          // shown in the Errors window, newest last
   std::multimap<std::string, std::string> operationErrors_;  // operation -> its errors still listed
   bool showErrors_ = false, showHelp_ = false;
   std::string status_;
@@ -511,11 +515,12 @@ class Editor {
   ClickDrag clickDrag_;
   Vec3 orbitPivot_ = Vec3::Zero();
   bool frameWhenShown_ = false;
-  bool orbitAtPick_ = true;                    // orbit about the surface point under the cursor at the press
-  bool reducedNavigation_ = true;              // the 3D view drawn at reduced resolution while the camera moves
-  NavigationMotion viewMotion_;                // camera changes frame by frame
-  std::string viewCameraKey_;                  // the camera the motion was last checked against
-  int viewDivisor_ = 1;                        // the view's framebuffer: viewRect_ divided by this per axis
+  ViewState pendingView_;          // the camera an opened project was saved with: applied once its mesh is shown
+  bool orbitAtPick_ = true;        // orbit about the surface point under the cursor at the press
+  bool reducedNavigation_ = true;  // the 3D view drawn at reduced resolution while the camera moves
+  NavigationMotion viewMotion_;    // camera changes frame by frame
+  std::string viewCameraKey_;      // the camera the motion was last checked against
+  int viewDivisor_ = 1;            // the view's framebuffer: viewRect_ divided by this per axis
   long reducedRedraws_ = 0, fullRedraws_ = 0;  // 3D-view redraws at reduced and at full size
   int reducedSize_[2] = {0, 0};                // the last reduced redraw's framebuffer size
   MouseBindings bindings_ = MouseBindings::MeshLab;
@@ -525,7 +530,7 @@ class Editor {
   bool textured_ = true, wireframe_ = false, showPaths_ = true, showFeatures_ = true, showIds_ = true;
   bool showMask_ = true, showCurves_ = true, showRejected_ = true, showPaneIds_ = true;
   bool showCamera_ = true;                // camera feedback in the panes
-  bool proposalsButton_ = false;  // the Accept proposals button is shown (a photo of the object fits a camera)
+  bool proposalsButton_ = false;          // the Accept proposals button is shown (a photo of the object fits a camera)
   int hoverProposal_ = -1;                // proposal under the mouse (index into result_->proposals)
   std::vector<CameraLines> cameraLines_;  // per photo, for the result cameraLinesFor_
   const void* cameraLinesFor_ = nullptr;
@@ -536,11 +541,11 @@ class Editor {
   long uploadCount_ = 0;  // buffers uploaded so far: part of the scene key
   std::string sceneKey_;  // what the 3D view's framebuffer shows; redraw when it changes
   Rect viewRect_, paneRect_, windowRect_;
-  Rect weakBannerRect_;  // the weak camera fit banner this frame (empty: none)
+  Rect weakBannerRect_;              // the weak camera fit banner this frame (empty: none)
   std::map<int, Rect> canvasRects_;  // per photo, last frame
   std::map<std::string, Rect> buttonRects_;
   std::vector<char> featureVisible_;  // per feature point, from the 3D view's depth when it was last drawn
-  std::vector<int> drawnLabels_;       // the point ids labelled in the 3D view's last frame (script state)
+  std::vector<int> drawnLabels_;      // the point ids labelled in the 3D view's last frame (script state)
   std::unique_ptr<OverlayGl> overlayGl_;
   int hoverVertex_ = -1;      // vertex under the cursor (3D view) or of the hovered photo point
   int hoverVertexNext_ = -1;  // being found this frame
@@ -582,10 +587,10 @@ class Editor {
   std::string exportFormat_ = ".glb";
   std::vector<MissingFile> missing_;  // what the opened project names but is not there (relink offered)
   bool missingPopup_ = false;
-  std::vector<std::string> dropped_;             // files dropped on the window, handled in the next frame
-  RealInputQueue realInput_;  // keys, characters, buttons and moves from GLFW, handed to ImGui a step per frame
+  std::vector<std::string> dropped_;  // files dropped on the window, handled in the next frame
+  RealInputQueue realInput_;          // keys, characters, buttons and moves from GLFW, handed to ImGui a step per frame
   bool realPresses_ = false;  // the last frame took a key, character or button: one more frame draws its outcome
-  std::string sessionId_;  // this editor process (pid, start time): its unsaved-mask folder's name
+  std::string sessionId_;     // this editor process (pid, start time): its unsaved-mask folder's name
 
   // Photos and the cut-out tool.
   CutoutSession cutout_;

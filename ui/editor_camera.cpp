@@ -10,9 +10,9 @@
 #include <filesystem>
 
 #include "editor.h"
-#include "plain_words.h"
 #include "mapping/camera.h"
 #include "mapping/projection.h"
+#include "plain_words.h"
 
 namespace montage {
 
@@ -185,7 +185,7 @@ void Editor::proposalMarkers(int photo, const PaneView& view, ImDrawList* draw, 
                   over ? 2.5f : 1.5f);
     if (over) {
       hoverProposal_ = k;
-      tooltip = "proposed: point #" + std::to_string(pr.point) + " (vertex " + std::to_string(pr.vertex) +
+      tooltip = "proposed: point #" + resultPointName(pr.point) + " (vertex " + std::to_string(pr.vertex) +
                 "), clicked in photo " + std::to_string(pr.from) + "\nclick: accept, shift+click: decline";
     }
   }

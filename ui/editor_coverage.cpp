@@ -103,7 +103,7 @@ void Editor::coverageTab() {
     ImGui::TextWrapped("%s: %s", cause->why.c_str(), cause->fix.c_str());
     std::string around;
     for (size_t i = 0; i < region.points.size() && i < 12; ++i)
-      around += (i ? ", " : "") + std::to_string(region.points[i]);
+      around += (i ? ", " : "") + resultPointName(region.points[i]);
     if (region.points.size() > 12) around += ", ...";
     ImGui::TextWrapped("features around it: %s", around.empty() ? "none" : around.c_str());
     if (button("Fly there")) flyToRegion(index);
@@ -148,7 +148,8 @@ void Editor::coverageTab() {
       ImGui::TextWrapped("%s", g.words.c_str());
       for (int k = 0; k < shown && k < 200; ++k) {
         const RejectedPair& r = rejected[g.pairs[k]];
-        ImGui::BulletText("%d-%d: %s", r.fromPoint, r.toPoint, rejectedWords(r).c_str());
+        ImGui::BulletText("%s-%s: %s", resultPointName(r.fromPoint).c_str(), resultPointName(r.toPoint).c_str(),
+                          rejectedWords(r).c_str());
       }
       if (shown == 0) ImGui::TextDisabled("none around an empty region");
       ImGui::TreePop();

@@ -127,6 +127,7 @@ bool Editor::openFile(const std::string& path) {
                located(abs, "not a project (.json) or a mesh (.obj .ply .off .stl .glb .gltf)"));
       project.mesh = abs;  // a new, unsaved project on this mesh
     }
+    pendingView_ = project.view;  // shown once the mesh is (Editor::view3d)
     doc_.reset(std::move(project));
     missing_ = std::move(missing);
     missingPopup_ = !missing_.empty();
@@ -173,6 +174,9 @@ bool Editor::saveTo(const std::string& path) {
     // Masks cut out before the first save move beside the project (editor_photos.cpp).
     const std::vector<std::string> movedMasks = moveUnsavedMasks(target);
     Project copy = doc_.project();
+    // The 3D view goes with the project, so that opening it again shows what the user last looked at.
+    if (input_.mesh)
+      copy.view = ViewState{true, camera_.target, camera_.distance, camera_.yawDeg, camera_.pitchDeg, camera_.fovYDeg};
     saveProject(copy, target);  // atomic: temporary file, fsync, rename
     for (const std::string& mask : movedMasks) {
       std::error_code ec;
@@ -250,8 +254,9 @@ bool Editor::exportTo(const std::string& path) {
                      exportObj(result_->exported ? *result_->exported : *result_->model, staging, stem);
                    });
     } else {
-      throw Error(located(abs, "export: the file type comes from the name's ending: choose a name ending in .glb "
-                               "(glTF binary) or .obj (OBJ + MTL + PNG)"));
+      throw Error(located(abs,
+                          "export: the file type comes from the name's ending: choose a name ending in .glb "
+                          "(glTF binary) or .obj (OBJ + MTL + PNG)"));
     }
     operationSucceeded("export");
     setStatus(stale ? "exported " + abs + " - the result of an earlier state: the document changed since"

@@ -304,7 +304,7 @@ void Editor::drawFeatureLabels(const Rect& r, const Camera& cam) {
     if (v < 0 || v >= input_.mesh->numVertices()) continue;
     Vec2 px;
     if (!cam.project(input_.mesh->position(v), px)) continue;
-    const std::string id = std::to_string(i);
+    const std::string id = pointName(int(i));
     const ImVec2 size = ImGui::CalcTextSize(id.c_str());
     LabelCandidate l;
     l.lo = Vec2(r.x + px.x() + this->px(5), r.y + px.y() - this->px(15));
@@ -316,8 +316,8 @@ void Editor::drawFeatureLabels(const Rect& r, const Camera& cam) {
   draw->PushClipRect(ImVec2(float(r.x), float(r.y)), ImVec2(float(r.x + r.w), float(r.y + r.h)), true);
   for (int k : placeLabels(labels)) {
     const int i = point[k];
-    const std::string id = std::to_string(i);
-    drawnLabels_.push_back(i);
+    const std::string id = pointName(i);
+    drawnLabels_.push_back(pointId(p, i));
     const ImVec2 at(float(labels[k].lo.x()), float(labels[k].lo.y()));
     draw->AddText(ImVec2(at.x + 1, at.y + 1), IM_COL32(0, 0, 0, 200), id.c_str());
     draw->AddText(at,

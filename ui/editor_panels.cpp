@@ -461,7 +461,7 @@ void Editor::toolsPanel() {
     ImGui::Text("selected: vertex %d", selectedVertex_);
     if (selectedPoint_ >= 0) {
       ImGui::SameLine();
-      ImGui::Text("(point #%d)", selectedPoint_);
+      ImGui::Text("(point #%s)", pointName(selectedPoint_).c_str());
     }
   } else {
     ImGui::TextDisabled("no vertex selected");
@@ -525,6 +525,9 @@ void Editor::listsPanel() {
   }
   ImGui::PopStyleVar();
   ImGui::Separator();
+  // The tab row stays in place: only the tab's content scrolls (issue 35, finding 5); each tab keeps its own
+  // buttons above its list the same way (a child window of its own for the list).
+  ImGui::BeginChild("##tab");
   switch (listsTab_) {
     case 0:
       featuresTab();
@@ -548,18 +551,22 @@ void Editor::listsPanel() {
       coverageTab();
       break;
   }
+  ImGui::EndChild();
 }
 
 void Editor::featuresTab() {
   const Project& p = doc_.project();
   ImGui::Text("%zu feature points", p.points.size());
   ImGui::SameLine();
-  if (selectedPoint_ < 0) ImGui::BeginDisabled();
+  // The button clears the selection: the disabled state is ended as it was begun (ImGui asserts otherwise;
+  // the editor aborted on every click of it).
+  const bool none = selectedPoint_ < 0;
+  if (none) ImGui::BeginDisabled();
   if (button("Delete point")) {
     edit([&] { doc_.removePoint(selectedPoint_); });
     selectedPoint_ = -1;
   }
-  if (selectedPoint_ < 0) ImGui::EndDisabled();
+  if (none) ImGui::EndDisabled();
   const ImGuiTableFlags flags = ImGuiTableFlags_RowBg | ImGuiTableFlags_ScrollY | ImGuiTableFlags_BordersInnerV;
   if (!ImGui::BeginTable("##points", 3, flags)) return;
   ImGui::TableSetupScrollFreeze(0, 1);
@@ -574,7 +581,7 @@ void Editor::featuresTab() {
       const FeaturePoint& pt = p.points[i];
       ImGui::TableNextRow();
       ImGui::TableNextColumn();
-      const std::string id = std::to_string(i) + "##pt" + std::to_string(i);
+      const std::string id = pointName(i) + "##pt" + std::to_string(i);
       if (ImGui::Selectable(id.c_str(), selectedPoint_ == i, ImGuiSelectableFlags_SpanAllColumns)) {
         selectedPoint_ = i;
         selectedVertex_ = pt.vertex;
@@ -593,6 +600,7 @@ void Editor::featuresTab() {
 void Editor::chainsTab() {
   const Project& p = doc_.project();
   ImGui::Text("%zu chains (feature lines and polygons)", p.chains.size());
+  ImGui::BeginChild("##list");
   int remove = -1;
   for (size_t i = 0; i < p.chains.size(); ++i) {
     const FeatureChain& c = p.chains[i];
@@ -600,16 +608,18 @@ void Editor::chainsTab() {
     if (ImGui::SmallButton("x")) remove = static_cast<int>(i);
     ImGui::SameLine();
     std::string pts;
-    for (int pt : c.points) pts += std::to_string(pt) + " ";
+    for (int pt : c.points) pts += pointName(pt) + " ";
     ImGui::Text("#%zu %s in photo %d: %s", i, c.closed ? "polygon" : "line", c.photo, pts.c_str());
     ImGui::PopID();
   }
+  ImGui::EndChild();
   if (remove >= 0) edit([&] { doc_.removeChain(remove); });
 }
 
 void Editor::strokesClonesTab() {
   const Project& p = doc_.project();
   ImGui::Text("%zu strokes", p.strokes.size());
+  ImGui::BeginChild("##list");
   int removeStroke = -1, removeClone = -1;
   for (size_t i = 0; i < p.strokes.size(); ++i) {
     ImGui::PushID(static_cast<int>(i));
@@ -629,6 +639,7 @@ void Editor::strokesClonesTab() {
                 p.clones[i].polygon.size(), p.clones[i].targetFaces.size(), p.clones[i].rotationDeg);
     ImGui::PopID();
   }
+  ImGui::EndChild();
   if (removeStroke >= 0) edit([&] { doc_.removeStroke(removeStroke); });
   if (removeClone >= 0) edit([&] { doc_.removeClone(removeClone); });
 }
@@ -706,16 +717,18 @@ void Editor::pipelineTab() {
       if (o.exportTopology == ExportTopology::Refined) o.bakeInto = BakeInto::Atlas;  // meshUVs needs the original
     }
     if (ImGui::IsItemHovered())
-      ImGui::SetTooltip("original: the mesh as loaded, its own vertices and faces; refined: the mesh the montage "
-                        "was made on (more faces)");
+      ImGui::SetTooltip(
+          "original: the mesh as loaded, its own vertices and faces; refined: the mesh the montage "
+          "was made on (more faces)");
     int into = static_cast<int>(o.bakeInto);
     if (ImGui::Combo("texture into", &into, kBakeIntoNames.data(), static_cast<int>(kBakeIntoNames.size()))) {
       o.bakeInto = BakeInto(into), commit = true;
       if (o.bakeInto == BakeInto::MeshUVs) o.exportTopology = ExportTopology::Original;
     }
     if (ImGui::IsItemHovered())
-      ImGui::SetTooltip("atlas: a new texture layout; meshUVs: baked into the mesh's own UVs, one texture per "
-                        "material and UDIM tile (model.1001.png ...)");
+      ImGui::SetTooltip(
+          "atlas: a new texture layout; meshUVs: baked into the mesh's own UVs, one texture per "
+          "material and UDIM tile (model.1001.png ...)");
     if (o.bakeInto == BakeInto::MeshUVs) {
       // Powers of two from 256 to kMaxBakeSize; the project file also takes the smaller ones.
       std::vector<std::string> sizes;
@@ -786,7 +799,7 @@ void Editor::pipelineTab() {
       while (clipper.Step())
         for (int i = clipper.DisplayStart; i < clipper.DisplayEnd; ++i) {
           const RejectedPair& r = rejected[i];
-          const std::string label = std::to_string(r.fromPoint) + "-" + std::to_string(r.toPoint) + " photo " +
+          const std::string label = resultPointName(r.fromPoint) + "-" + resultPointName(r.toPoint) + " photo " +
                                     std::to_string(r.photo) + ": " + kRejectReasonNames[int(r.reason)] + "##rj" +
                                     std::to_string(i);
           if (ImGui::Selectable(label.c_str()) && r.photo >= 0) activePhoto_ = r.photo;
@@ -873,8 +886,8 @@ void Editor::runControls() {
     // Weighted by the stages' seconds in the last run of this tier (typical shares before the first).
     const double done = progress_.overall(ws.tier, ws.stage, ws.fraction);
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - ws.started).count();
-    const std::string timeText = progress_.timeText(ws.tier, ws.stage, ws.fraction, elapsed,
-                                                    std::chrono::duration<double>(ws.started.time_since_epoch()).count());
+    const std::string timeText = progress_.timeText(
+        ws.tier, ws.stage, ws.fraction, elapsed, std::chrono::duration<double>(ws.started.time_since_epoch()).count());
     char overlay[16];
     std::snprintf(overlay, sizeof(overlay), "%.0f%%", 100 * done);
     ImGui::ProgressBar(static_cast<float>(done), ImVec2(px(90), 0), overlay);

@@ -225,7 +225,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
       }
       if (near) {
         draw->AddLine(im(ha), im(hb), IM_COL32(255, 90, 80, 255), 2.5f);
-        tooltip = "pair " + std::to_string(near->fromPoint) + "-" + std::to_string(near->toPoint) + " rejected" +
+        tooltip = "pair " + resultPointName(near->fromPoint) + "-" + resultPointName(near->toPoint) + " rejected" +
                   (near->photo >= 0 ? " in photo " + std::to_string(near->photo) : "") + ": " +
                   kRejectReasonNames[int(near->reason)] + (near->detail.empty() ? "" : "\n" + near->detail);
       }
@@ -279,7 +279,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     if (selected) draw->AddCircle(s, px(8.5f), IM_COL32(255, 140, 30, 255), 0, px(2.5f));
     if (hot) draw->AddCircle(s, px(7.0f), IM_COL32(255, 255, 255, 220), 0, px(2.0f));
     if (showPaneIds_ || selected || hot) {
-      const std::string id = std::to_string(k);
+      const std::string id = pointName(int(k));
       const ImVec2 size = ImGui::CalcTextSize(id.c_str());
       LabelCandidate l;
       l.lo = Vec2(s.x + px(5), s.y - px(16));
@@ -290,7 +290,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     }
   }
   for (int n : placeLabels(labels)) {
-    const std::string id = std::to_string(labelPoint[n]);
+    const std::string id = pointName(labelPoint[n]);
     const ImVec2 at(float(labels[n].lo.x()), float(labels[n].lo.y()));
     draw->AddText(ImVec2(at.x + 1, at.y + 1), IM_COL32(0, 0, 0, 200), id.c_str());
     draw->AddText(at, labels[n].always ? IM_COL32(255, 230, 120, 255) : IM_COL32(255, 255, 255, 230), id.c_str());
@@ -298,8 +298,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   if (hover >= 0) {
     std::string photos;
     for (const PhotoPoint& a : p.points[hover].at) photos += " " + std::to_string(a.photo);
-    tooltip =
-        "point #" + std::to_string(hover) + ": vertex " + std::to_string(p.points[hover].vertex) + ", photos" + photos;
+    tooltip = "point #" + pointName(hover) + ": vertex " + std::to_string(p.points[hover].vertex) + ", photos" + photos;
   }
   proposalMarkers(i, view, draw, mouse, hovered, tooltip);  // editor_camera.cpp
   // Where a click will put the selected vertex.
@@ -390,7 +389,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
         if (tool_ == Tool::Polygon && chain_.size() >= 3 && index == chain_.front()) {
           finishChain();
         } else if (std::find(chain_.begin(), chain_.end(), index) != chain_.end()) {
-          hint("point " + std::to_string(index) + " is already in the chain");
+          hint("point " + pointName(index) + " is already in the chain");
         } else {
           chain_.push_back(index);
         }
@@ -423,7 +422,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
   if (dragPhoto_ == i && dragPoint_ >= 0) {
     if (ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
       if (!dragging_ && std::hypot(mouse.x() - pressX_, mouse.y() - pressY_) > 2) {
-        doc_.beginGroup("Move point " + std::to_string(dragPoint_));
+        doc_.beginGroup("Move point " + pointName(dragPoint_));
         dragging_ = true;
       }
       if (dragging_ && dragPoint_ < static_cast<int>(doc_.project().points.size())) {

@@ -67,6 +67,8 @@ void Editor::photosTab() {
         "files (before)");
   const ColorBalance* balance = resultUsable() && result_->balanced ? &result_->balanced->balance : nullptr;
 
+  // The list scrolls under the buttons above, which stay in place (issue 35, finding 5).
+  ImGui::BeginChild("##list");
   int remove = -1, moveFrom = -1, moveTo = -1, cut = -1;
   for (int i = 0; i < static_cast<int>(p.photos.size()); ++i) {
     const PhotoRef& ref = p.photos[i];
@@ -150,6 +152,7 @@ void Editor::photosTab() {
     }
     ImGui::PopID();
   }
+  ImGui::EndChild();
   if (remove >= 0 && edit([&] { doc_.removePhoto(remove); })) setStatus("photo " + std::to_string(remove) + " removed");
   if (moveFrom >= 0) edit([&] { doc_.movePhoto(moveFrom, moveTo); });
   if (cut >= 0) {

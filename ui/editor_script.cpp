@@ -556,6 +556,9 @@ void Editor::writeState(const std::string& path) const {
   state["selected_vertex"] = selectedVertex_;
   state["selected_point"] = selectedPoint_;
   state["labels"] = drawnLabels_;
+  std::vector<int> ids;  // the Points list's ids, in its order
+  for (size_t i = 0; i < p.points.size(); ++i) ids.push_back(pointId(p, int(i)));
+  state["point_ids"] = ids;
   state["tool"] = kToolNames[static_cast<int>(tool_)];
   const WorkerStatus ws = worker_->status();
   std::vector<long> outcomeGenerations;
@@ -604,6 +607,11 @@ void Editor::writeState(const std::string& path) const {
   state["cancel_seconds"] = cancelSeconds_;
   state["scale"] = scale_;
   state["active_photo"] = activePhoto_;
+  // The active photo's pane zoom (tabs), and the buttons drawn on screen with the part of each not clipped.
+  state["pane_zoom"] = activePhoto_ < int(photos_.size()) ? photos_[activePhoto_].tabView.zoom : 0.0;
+  json buttons = json::object();
+  for (const auto& [name, r] : buttonRects_) buttons[name] = rect(r);
+  state["buttons"] = buttons;
   state["tab"] = listsTab_;
   json tabs = json::object();  // the Document panel's tab buttons, whole (not clipped to the panel)
   for (const auto& [name, r] : tabRects_) tabs[name] = rect(r);
@@ -641,13 +649,11 @@ void Editor::writeState(const std::string& path) const {
   json parts = json::object();
   for (const auto& [name, r] : statusParts_) parts[name] = rect(r);
   state["status_bar"] = parts;
-  state["dialog"] =
-      dialogs_.active()
-          ? json{{"purpose", dialogs_.purpose()},
-                 {"folder", dialogs_.folder()},
-                 {"filter", dialogs_.filterName()},
-                 {"listed", dialogs_.listed()}}
-          : json(nullptr);
+  state["dialog"] = dialogs_.active() ? json{{"purpose", dialogs_.purpose()},
+                                             {"folder", dialogs_.folder()},
+                                             {"filter", dialogs_.filterName()},
+                                             {"listed", dialogs_.listed()}}
+                                      : json(nullptr);
   json photos = json::array();
   for (size_t i = 0; i < p.photos.size(); ++i) {
     const PhotoSlot* slot = i < photos_.size() ? &photos_[i] : nullptr;
@@ -721,6 +727,7 @@ void Editor::writeState(const std::string& path) const {
                      {"distance", camera_.distance},
                      {"yaw", camera_.yawDeg},
                      {"pitch", camera_.pitchDeg},
+                     {"fov", camera_.fovYDeg},
                      {"orthographic", isOrthographic(camera_)}};
   state["hover_vertex"] = hoverVertex_;
   const Camera cam = viewCamera();

@@ -93,6 +93,15 @@ void Editor::view3d() {
     frameWhenShown_ = false;
     frameAll();
   }
+  if (pendingView_.present) {
+    // The camera the project was saved with, over the framing (the scene's sphere stays the mesh's).
+    camera_.target = pendingView_.target;
+    camera_.distance = pendingView_.distance;
+    camera_.yawDeg = pendingView_.yawDeg;
+    camera_.pitchDeg = pendingView_.pitchDeg;
+    camera_.fovYDeg = pendingView_.fovYDeg;
+    pendingView_ = ViewState{};
+  }
   view3dInput(viewRect_);
   drawViewLabels(viewRect_);
 }
@@ -190,7 +199,7 @@ void Editor::view3dInput(const Rect& r) {
     selectVertex(pick.vertex);
     if (pick.vertex >= 0) {
       setStatus("vertex " + std::to_string(pick.vertex) +
-                (selectedPoint_ >= 0 ? " (feature point #" + std::to_string(selectedPoint_) + ")"
+                (selectedPoint_ >= 0 ? " (feature point #" + pointName(selectedPoint_) + ")"
                                      : ": now click where it is in a photo"));
     }
   }

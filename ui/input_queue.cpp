@@ -11,6 +11,7 @@ InputFrame RealInputQueue::next() {
   s.chars.clear();
   s.pressMods = 0;
   s.taken = s.presses = false;
+  s.wheelX = s.wheelY = 0;
   std::array<bool, 512> keyChanged{};
   while (!events_.empty()) {
     const InputEvent e = events_.front();
@@ -35,6 +36,13 @@ InputFrame RealInputQueue::next() {
           s.pressMods = e.mods;
           last = true;
         }
+        break;
+      case InputEvent::Kind::Scroll:
+        // Turns in a row add up; the frame ends before whatever comes after them (a move away, a click).
+        s.wheelX += e.x;
+        s.wheelY += e.y;
+        s.presses = true;
+        last = events_.size() < 2 || events_[1].kind != InputEvent::Kind::Scroll;
         break;
       case InputEvent::Kind::Button:
         if (e.code < 0 || e.code >= static_cast<int>(s.buttons.size()) || s.buttons[e.code] == e.down) break;

@@ -345,9 +345,15 @@ class DocumentCheck {
 
   void checkPoints() const {
     std::map<std::pair<int, int>, std::string> seen;  // (vertex, photo) -> path of its position
+    std::map<int, size_t> ids;                        // id -> index of the point that has it
     for (size_t i = 0; i < p_.points.size(); ++i) {
       const FeaturePoint& point = p_.points[i];
       const std::string path = "points[" + std::to_string(i) + "]";
+      const int id = point.id >= 0 ? point.id : int(i);
+      const auto [same, freshId] = ids.emplace(id, i);
+      if (!freshId)
+        fail(path + ".id", std::to_string(id) + " is the id of points[" + std::to_string(same->second) +
+                               "] too (a point without \"id\" has its index as id)");
       index(path + ".vertex", point.vertex, vertices(), "vertices", "mesh");
       for (size_t j = 0; j < point.at.size(); ++j) {
         const PhotoPoint& at = point.at[j];
@@ -623,15 +629,39 @@ Project parseProjectText(const std::string& text, const std::string& path, std::
     project.photos.push_back(ref);
   }
   project.points = root["points"].as(project.points);
+  // Version 5: a point's id when it is not its index (points deleted before it kept the ids the user saw).
+  if (version >= 5)
+    for (size_t i = 0; i < project.points.size(); ++i) {
+      const Field id = root["points"][i]["id"];
+      if (!id.present()) continue;
+      project.points[i].id = int(integer(id, 0, INT_MAX));
+      if (project.points[i].id == int(i)) project.points[i].id = -1;  // canonical
+    }
   project.chains = root["chains"].as(project.chains);
   project.strokes = root["strokes"].as(project.strokes);
   project.clones = root["clones"].as(project.clones);
   project.holeModes = root["holeModes"].as(project.holeModes);
   if (version >= 2) project.declinedProposals = root["declinedProposals"].as(project.declinedProposals);
   if (root["options"].present()) project.options = root["options"].as<PipelineOptions>();
+  // The editor's camera, in any version: an older build lists it as an unknown field and goes on.
+  if (const Field view = root["view"]; view.present()) {
+    const Field target = view["target"];
+    if (target.size() != 3)
+      target.fail("must be [x, y, z], an array of 3 numbers, not " + std::to_string(target.size()));
+    ViewState& v = project.view;
+    v.target = Vec3(target[size_t(0)].as<double>(), target[size_t(1)].as<double>(), target[size_t(2)].as<double>());
+    v.distance = view["distance"].as<double>();
+    v.yawDeg = view["yaw"].as<double>();
+    v.pitchDeg = view["pitch"].as<double>();
+    v.fovYDeg = view["fov"].as<double>();
+    if (!(v.distance > 0)) view["distance"].fail(number(v.distance) + " is not above 0");
+    if (!(v.fovYDeg > 0 && v.fovYDeg < 180)) view["fov"].fail(number(v.fovYDeg) + " is out of range (0, 180) degrees");
+    v.present = true;
+    view.unknownKeys({"target", "distance", "yaw", "pitch", "fov"}, project.unknownFields);
+  }
   // Fields this build does not know are ignored (a newer build's additions, docs/project-format.md), and named.
   root.unknownKeys({"format", "version", "mesh", "photos", "points", "chains", "strokes", "clones", "holeModes",
-                    "declinedProposals", "options"},
+                    "declinedProposals", "options", "view"},
                    project.unknownFields);
   for (size_t i = 0, n = photos.present() ? photos.size() : 0; i < n; ++i)
     photos[i].unknownKeys({"path", "mask", "mirror", "colorLocked", "mode"}, project.unknownFields);
@@ -698,7 +728,34 @@ Project withMeshIds(const Project& project, const std::vector<int>& vertexOf, co
   return out;
 }
 
+int pointId(const Project& project, int index) {
+  const int id = project.points[size_t(index)].id;
+  return id >= 0 ? id : index;
+}
+
+int pointIndex(const Project& project, int id) {
+  for (size_t i = 0; i < project.points.size(); ++i)
+    if (pointId(project, int(i)) == id) return int(i);
+  return -1;
+}
+
+int nextPointId(const Project& project) {
+  int next = 0;
+  for (size_t i = 0; i < project.points.size(); ++i) next = std::max(next, pointId(project, int(i)) + 1);
+  return next;
+}
+
+void erasePoint(Project& project, int index) {
+  std::vector<FeaturePoint>& points = project.points;
+  for (size_t i = size_t(index) + 1; i < points.size(); ++i) points[i].id = pointId(project, int(i));
+  points.erase(points.begin() + index);
+  for (size_t i = 0; i < points.size(); ++i)
+    if (points[i].id == int(i)) points[i].id = -1;
+}
+
 int requiredVersion(const Project& project) {
+  for (const FeaturePoint& p : project.points)
+    if (p.id >= 0) return 5;
   bool photoFlags = false;
   for (const PhotoRef& p : project.photos)
     if (p.mode != PhotoMode::Auto) return 4;
@@ -770,7 +827,9 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
   for (const FeaturePoint& point : project.points) {
     ojson at = ojson::array();
     for (const PhotoPoint& a : point.at) at.push_back({{"photo", a.photo}, {"x", a.x}, {"y", a.y}});
-    j["points"].push_back({{"vertex", point.vertex}, {"at", at}});
+    ojson p = {{"vertex", point.vertex}, {"at", at}};
+    if (point.id >= 0) p["id"] = point.id;  // only where it is not the index (version 5)
+    j["points"].push_back(p);
   }
   j["chains"] = ojson::array();
   for (const FeatureChain& chain : project.chains)
@@ -796,6 +855,14 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
   for (const DeclinedProposal& d : project.declinedProposals)
     j["declinedProposals"].push_back({{"vertex", d.vertex}, {"photo", d.photo}});
   j["options"] = toJson(project.options);
+  if (project.view.present) {
+    const ViewState& v = project.view;
+    j["view"] = {{"target", {v.target.x(), v.target.y(), v.target.z()}},
+                 {"distance", v.distance},
+                 {"yaw", v.yawDeg},
+                 {"pitch", v.pitchDeg},
+                 {"fov", v.fovYDeg}};
+  }
   requireFinite(j, "");
   return j.dump(2) + "\n";
 }

@@ -27,7 +27,11 @@ struct PhotoPoint {
 struct FeaturePoint {
   int vertex = 0;
   std::vector<PhotoPoint> at;
-  bool operator==(const FeaturePoint& o) const { return vertex == o.vertex && at == o.at; }
+  // The id the user sees (lists, labels, messages, report.json), which a deletion of another point does not
+  // change; -1: the point's index in Project::points. Kept canonical (an id equal to the index is -1, see
+  // pointId and erasePoint), so documents with the same ids compare equal.
+  int id = -1;
+  bool operator==(const FeaturePoint& o) const { return vertex == o.vertex && at == o.at && id == o.id; }
 };
 
 // A feature line (open) or polygon (closed): a chain of feature points drawn in one photo. Every
@@ -89,8 +93,21 @@ struct PhotoRef {
   }
 };
 
+// The editor's 3D view as it was when the project was saved (an orbit camera: the point it turns about, its
+// distance, yaw and pitch in degrees, the vertical field of view; orthographic is a field of view under 2
+// degrees). Not part of the document: it is no undo step and no unsaved change, and runs ignore it.
+struct ViewState {
+  bool present = false;
+  Vec3 target = Vec3::Zero();
+  double distance = 1, yawDeg = 0, pitchDeg = 0, fovYDeg = 35;
+  bool operator==(const ViewState& o) const {
+    return present == o.present && (!present || (target == o.target && distance == o.distance && yawDeg == o.yawDeg &&
+                                                 pitchDeg == o.pitchDeg && fovYDeg == o.fovYDeg));
+  }
+};
+
 struct Project {
-  static constexpr int kVersion = 4;        // newest format version this build reads and writes
+  static constexpr int kVersion = 5;        // newest format version this build reads and writes
   static constexpr int kOldestVersion = 1;  // oldest version it reads
 
   std::string file;  // where it was loaded from / last saved to (absolute); empty for a new project
@@ -103,12 +120,13 @@ struct Project {
   std::vector<HoleMode> holeModes;
   std::vector<DeclinedProposal> declinedProposals;  // version 2
   PipelineOptions options;
+  ViewState view;  // the editor's camera when saved (any version; not compared by sameDocument)
   // Fields of the file this build does not know and ignored (a newer build's, or misspelt), each as its path with
   // the nearest known name when one is close ("options.atlasSise (did you mean "atlasSize"?)"); not part of the
   // document (a save drops them). projectWarnings names them.
   std::vector<std::string> unknownFields;
 
-  // Document equality (ignores `file` and `unknownFields`): what save + load must preserve.
+  // Document equality (ignores `file`, `view` and `unknownFields`): what save + load must preserve.
   bool sameDocument(const Project& o) const;
 };
 
@@ -135,8 +153,20 @@ struct MissingFile {
 // and offer to relink it. Every other check is the same.
 Project loadProjectAllowingMissing(const std::string& path, std::vector<MissingFile>& missing);
 
+// The id the user sees of point `index` (FeaturePoint::id, or the index), and the index of the point with id
+// `id` (-1 when none has it).
+int pointId(const Project& project, int index);
+int pointIndex(const Project& project, int id);
+// The id a new point takes: one more than the largest id (so the ids of points deleted last may come back,
+// never one a point has).
+int nextPointId(const Project& project);
+// Removes point `index` from the list, keeping every other point's id (the points after it keep theirs
+// explicitly) and the ids canonical. Chains index the list: the caller renumbers them.
+void erasePoint(Project& project, int index);
+
 // The lowest version that holds a document: 1, 2 when it has declined proposals, 3 when it has a mirrored
-// or colour-locked photo or colour balance on, 4 when a photo's mode is set (not auto), so that an older build refuses
+// or colour-locked photo or colour balance on, 4 when a photo's mode is set (not auto), 5 when a point's id
+// is not its index (a point was deleted before it), so that an older build refuses
 // the file instead of silently ignoring what it does not know, and reads it when nothing is lost. projectToJson writes
 // this version.
 int requiredVersion(const Project& project);

@@ -37,7 +37,11 @@ const Curve* curveIn(const MeshPath& path, int photo) {
 }
 
 std::string pointsText(const Partition& partition, const MeshPath& path) {
-  return std::to_string(path.fromPoint) + "-" + std::to_string(path.toPoint);
+  // The ids the user sees (deleting a point renumbers no other).
+  const auto id = [&](int point) {
+    return point >= 0 && point < int(partition.featureId.size()) ? partition.featureId[point] : point;
+  };
+  return std::to_string(id(path.fromPoint)) + "-" + std::to_string(id(path.toPoint));
 }
 
 // The cell's boundary: one loop of half-edges with the cell on their left, as vertex sequence.

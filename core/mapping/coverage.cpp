@@ -18,7 +18,7 @@ namespace montage {
 
 namespace {
 
-std::string listText(const std::vector<int>& items, size_t most = 6) {
+std::string joinList(const std::vector<int>& items, size_t most = 6) {
   std::string s;
   for (size_t i = 0; i < items.size() && i < most; ++i) {
     if (i > 0) s += i + 1 == items.size() ? " and " : ", ";
@@ -119,6 +119,11 @@ class Analysis {
                      [&](int a, int b) { return report.regions[a].gain > report.regions[b].gain; });
 
     groupRejected(report);
+    // The ids the user sees, for the words and report.json (deleting a point renumbers no other).
+    report.featureIds = in_.partition.featureId;
+    for (CoverageRegion& r : report.regions)
+      for (RegionCause& c : r.causes)
+        if (c.click.point >= 0) c.click.id = idOf(c.click.point);
     return report;
   }
 
@@ -147,7 +152,17 @@ class Analysis {
                : -1;
   }
   int vertexOf(int point) const { return in_.partition.featureVertex[point]; }
-  std::string name(int point) const { return "feature " + std::to_string(point); }
+  // A point as the user knows it: its id (Partition::featureId), not its index.
+  int idOf(int point) const {
+    const std::vector<int>& ids = in_.partition.featureId;
+    return point >= 0 && point < static_cast<int>(ids.size()) ? ids[point] : point;
+  }
+  std::string name(int point) const { return "feature " + std::to_string(idOf(point)); }
+  std::string listText(const std::vector<int>& points) const {
+    std::vector<int> ids;
+    for (int p : points) ids.push_back(idOf(p));
+    return joinList(ids);
+  }
 
   // The photo to click `vertex` in: one whose camera sees it when cameras say so, else (or among those)
   // the one holding most of `near` (features around the place), never one where `point` is clicked.
@@ -595,16 +610,24 @@ std::string rejectedWords(const RejectedPair& pair) {
 
 std::string clickWords(const CoverageClick& click) {
   if (!click.valid()) return "";
-  const std::string what =
-      click.point >= 0 ? "feature " + std::to_string(click.point) + " (vertex " + std::to_string(click.vertex) + ")"
-                       : "vertex " + std::to_string(click.vertex) + " (a new feature)";
+  const std::string what = click.point >= 0 ? "feature " + std::to_string(click.id >= 0 ? click.id : click.point) +
+                                                  " (vertex " + std::to_string(click.vertex) + ")"
+                                            : "vertex " + std::to_string(click.vertex) + " (a new feature)";
   return "click " + what + " in photo " + std::to_string(click.photo);
 }
 
 nlohmann::json coverageJson(const CoverageReport& report) {
-  auto clickJson = [](const CoverageClick& c) -> nlohmann::json {
+  // Points by the ids the user sees.
+  auto id = [&](int point) {
+    return point >= 0 && point < static_cast<int>(report.featureIds.size()) ? report.featureIds[point] : point;
+  };
+  auto ids = [&](std::vector<int> points) {
+    for (int& p : points) p = id(p);
+    return points;
+  };
+  auto clickJson = [&](const CoverageClick& c) -> nlohmann::json {
     if (!c.valid()) return nullptr;
-    return {{"point", c.point}, {"vertex", c.vertex}, {"photo", c.photo}};
+    return {{"point", id(c.point)}, {"vertex", c.vertex}, {"photo", c.photo}};
   };
   nlohmann::json regions = nlohmann::json::array();
   for (const CoverageRegion& r : report.regions) {
@@ -614,7 +637,7 @@ nlohmann::json coverageJson(const CoverageReport& report) {
                         {"area", c.area},
                         {"why", c.why},
                         {"fix", c.fix},
-                        {"points", c.points},
+                        {"points", ids(c.points)},
                         {"rejected_pair", c.rejected},
                         {"click", clickJson(c.click)}});
     regions.push_back({{"faces", r.faces.size()},
@@ -624,7 +647,7 @@ nlohmann::json coverageJson(const CoverageReport& report) {
                        {"radius", r.radius},
                        {"centre_vertex", r.centreVertex},
                        {"cells", r.cells},
-                       {"points", r.points},
+                       {"points", ids(r.points)},
                        {"why", r.causes.empty() ? "" : r.causes.front().why},
                        {"fix", r.causes.empty() ? "" : r.causes.front().fix},
                        {"causes", causes}});
@@ -635,7 +658,7 @@ nlohmann::json coverageJson(const CoverageReport& report) {
     const auto c = std::find_if(r.causes.begin(), r.causes.end(), [](const RegionCause& c) { return c.click.valid(); });
     next = {{"region", report.next.front()},
             {"gain_share", r.share > 0 ? r.gain / r.area * r.share : 0.0},
-            {"points", r.points},
+            {"points", ids(r.points)},
             {"click", clickJson(c->click)},
             {"words", clickWords(c->click)}};
   }

@@ -51,9 +51,10 @@ inline constexpr const char* kCoverageCauseNames[] = {
 // One click that would fix a cause: a vertex of Partition::mesh to click in a photo; `point` >= 0 when it
 // is an existing feature (click it in one more photo), -1 for a new feature.
 struct CoverageClick {
-  int point = -1;
+  int point = -1;  // Project::points index
   int vertex = -1;
   int photo = -1;
+  int id = -1;  // the point's id as the user knows it (pointId)
   bool valid() const { return vertex >= 0 && photo >= 0; }
 };
 
@@ -97,6 +98,7 @@ struct CoverageReport {
   std::vector<int> next;                // "where to click next": region indices with a click, best gain first
   std::vector<char> rejectedExpected;   // per Partition::rejected: bears on no listed empty region
   std::vector<RejectedGroup> rejected;  // by reason, largest group first
+  std::vector<int> featureIds;          // per Project::points index: the id the user sees (Partition::featureId)
 };
 
 struct CoverageOptions {

@@ -427,6 +427,7 @@ class Partitioner {
       TM_CHECK(v >= 0 && v < nv, where + ".vertex: " + std::to_string(v) + " is not a vertex of the mesh (" +
                                      std::to_string(nv) + " vertices)");
       out_.featureVertex.push_back(v);
+      out_.featureId.push_back(pointId(scene_.project, i));
       if (vertexPoint_[v] < 0) {
         vertexPoint_[v] = i;
         featureIndex_[i] = int(features_.size());
@@ -480,6 +481,8 @@ class Partitioner {
   bool hasPos(int point, int photo) const { return !std::isnan(pos_[size_t(point) * numPhotos_ + photo].x()); }
   const Vec2& pos(int point, int photo) const { return pos_[size_t(point) * numPhotos_ + photo]; }
   int vertexOf(int point) const { return scene_.project.points[point].vertex; }
+  // A point as the user knows it: its id, which deletions of other points do not change.
+  std::string pointName(int point) const { return std::to_string(pointId(scene_.project, point)); }
   static uint64_t pairKey(int a, int b) {
     return (uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b));
   }
@@ -569,7 +572,7 @@ class Partitioner {
         meets = segmentsMeet(pa, pb, c.pa, c.pb);
       }
       if (meets) {
-        detail = "crosses the curve of points " + std::to_string(c.a) + "-" + std::to_string(c.b);
+        detail = "crosses the curve of points " + pointName(c.a) + "-" + pointName(c.b);
         return false;
       }
     }
@@ -580,7 +583,7 @@ class Partitioner {
       if (!box.contains(q)) continue;  // onSegment, with the segment's box made once
       const int k = features[i];
       if (k != a && k != b && orient2(pa, pb, q) == 0) {
-        detail = "passes through point " + std::to_string(k);
+        detail = "passes through point " + pointName(k);
         return false;
       }
     }

@@ -66,6 +66,7 @@ struct Partition {
   Mesh mesh;
   std::vector<int> faceParent;     // #F of `mesh`: the input face each face lies in
   std::vector<int> featureVertex;  // per Project::points entry: its vertex id
+  std::vector<int> featureId;      // per Project::points entry: its id as the user knows it (pointId)
   std::vector<MeshPath> paths;     // accepted pairs, in acceptance order
   std::vector<RejectedPair> rejected;
   std::vector<int> faceCell;  // #F: cell id, a face-connected region bounded by paths/the border

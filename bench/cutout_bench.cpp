@@ -4,16 +4,22 @@
 // from a rectangle alone (the true bounding box grown by 8% a side, as a user draws it), and after two
 // strokes where that result is most wrong (as a user corrects it: a foreground stroke in the largest
 // missed region and a background stroke in the largest wrongly kept one, kept inside the true class).
-//   tm_cutout_bench [--working N] [--size S] STAMP... -- BACKGROUND...
+// --megapixels M scales each background up to M megapixels first (a camera's photo: the stamp and the
+// strokes scale with it, so the cases match the small ones); --runs R times the stroke update (the two
+// strokes, then the full-size mask the editor shows) R times from the rectangle's state and takes the
+// median. Times are wall and CPU (user + sys of the process); the load average is printed before and after.
+//   tm_cutout_bench [--working N] [--band B] [--size S] [--megapixels M] [--runs R] STAMP... -- BACKGROUND...
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <string>
+#include <sys/resource.h>
 #include <vector>
 
 #include "base/util.h"
+#include "image/codec.h"
 #include "image/cutout.h"
 #include "image/photo.h"
 
@@ -21,20 +27,41 @@ using namespace montage;
 
 namespace {
 
+double cpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+std::string loadAverage() {
+  double load[3] = {0, 0, 0};
+  if (getloadavg(load, 3) < 3) return "unknown";
+  char text[64];
+  std::snprintf(text, sizeof text, "%.2f %.2f %.2f", load[0], load[1], load[2]);
+  return text;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
 double iou(const cv::Mat& a, const cv::Mat& b) {
   const double inter = cv::countNonZero((a > 0) & (b > 0)), uni = cv::countNonZero((a > 0) | (b > 0));
   return uni > 0 ? inter / uni : 1.0;
 }
 
 // A stroke a careful user would draw in the largest connected region of `wrong`: through its innermost
-// point, along its long axis, over 60% of its length, no wider than the region, kept inside `allowed`.
-std::optional<CutoutStroke> strokeIn(const cv::Mat& wrong, bool foreground) {
+// point, along its long axis, over 60% of its length, no wider than the region nor than 8 px at the
+// photos' own size (`unit`: photo pixels per pixel of that size).
+std::optional<CutoutStroke> strokeIn(const cv::Mat& wrong, bool foreground, double unit) {
   cv::Mat labels, stats, centroids;
   const int n = cv::connectedComponentsWithStats(wrong, labels, stats, centroids, 8);
   int best = -1;
   for (int i = 1; i < n; ++i)
     if (best < 0 || stats.at<int>(i, cv::CC_STAT_AREA) > stats.at<int>(best, cv::CC_STAT_AREA)) best = i;
-  if (best < 0 || stats.at<int>(best, cv::CC_STAT_AREA) < 20) return std::nullopt;
+  if (best < 0 || stats.at<int>(best, cv::CC_STAT_AREA) < 20 * unit * unit) return std::nullopt;
   const cv::Mat region = labels == best;
   cv::Mat distance;
   cv::distanceTransform(region, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
@@ -48,12 +75,12 @@ std::optional<CutoutStroke> strokeIn(const cv::Mat& wrong, bool foreground) {
                       stats.at<int>(best, cv::CC_STAT_HEIGHT) * stats.at<int>(best, cv::CC_STAT_HEIGHT));
   CutoutStroke stroke;
   stroke.foreground = foreground;
-  stroke.radius = std::clamp(0.6 * maxDistance, 1.5, 8.0);
+  stroke.radius = std::clamp(0.6 * maxDistance, 1.5 * unit, 8.0 * unit);
   const Vec2 centre(inner.x + 0.5, inner.y + 0.5), dir(std::cos(angle), std::sin(angle));
   // Walk both ways from the innermost point while staying well inside the region.
   for (int side : {-1, 1}) {
     std::vector<Vec2> half;
-    for (double t = 0; t <= length / 2; t += 1.0) {
+    for (double t = 0; t <= length / 2; t += unit) {
       const Vec2 p = centre + side * t * dir;
       const int x = int(p.x()), y = int(p.y());
       if (x < 0 || y < 0 || x >= region.cols || y >= region.rows || distance.at<float>(y, x) < stroke.radius) break;
@@ -72,13 +99,24 @@ int main(int argc, char** argv) {
   std::vector<std::string> stamps, backgrounds;
   CutoutOptions options;
   double stampShare = 0.55;  // the stamp's longer side, as a share of the background's shorter side
+  double megapixels = 0;     // 0: the backgrounds at their own size
+  int runs = 1;
+  std::string dump;  // a folder: each case's composite with the cut's edge and the truth's, as PNGs
   bool afterDash = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--working" && i + 1 < argc) {
       options.workingSide = std::stoi(argv[++i]);
+    } else if (a == "--band" && i + 1 < argc) {
+      options.bandPx = std::stoi(argv[++i]);
     } else if (a == "--size" && i + 1 < argc) {
       stampShare = std::stod(argv[++i]);
+    } else if (a == "--megapixels" && i + 1 < argc) {
+      megapixels = std::stod(argv[++i]);
+    } else if (a == "--dump" && i + 1 < argc) {
+      dump = argv[++i];
+    } else if (a == "--runs" && i + 1 < argc) {
+      runs = std::max(1, std::stoi(argv[++i]));
     } else if (a == "--") {
       afterDash = true;
     } else {
@@ -86,16 +124,27 @@ int main(int argc, char** argv) {
     }
   }
   if (stamps.empty() || backgrounds.empty()) {
-    std::fprintf(stderr, "usage: tm_cutout_bench [--working N] [--size S] STAMP... -- BACKGROUND...\n");
+    std::fprintf(stderr, "usage: tm_cutout_bench [--working N] [--band B] [--size S] [--megapixels M] [--runs R] STAMP... -- "
+                 "BACKGROUND...\n");
     return 2;
   }
   try {
-    double sumRect = 0, sumStrokes = 0, minStrokes = 1, seconds = 0;
+    double sumRect = 0, sumStrokes = 0, minStrokes = 1;
     int cases = 0, reached = 0;
-    std::printf("%-24s %-22s %9s %9s %9s\n", "stamp", "background", "IoU rect", "+2 strokes", "GrabCut s");
+    std::vector<double> rectWall, rectCpu, updateWall, updateCpu;
+    std::printf("load average at the start: %s\n", loadAverage().c_str());
+    std::printf("%-22s %-20s %10s %8s %8s %8s %8s %8s %8s %8s\n", "stamp", "background", "size", "IoU rect",
+                "+2 strk", "rect s", "cpu s", "update s", "cpu s", "band s");
     for (const std::string& bgPath : backgrounds) {
       cv::Mat bgRgba = readImageRgba8(bgPath), bg;
       cv::cvtColor(bgRgba, bg, cv::COLOR_RGBA2RGB);
+      // Photo pixels per pixel of the background's own size: strokes and small regions scale with it.
+      double unit = 1;
+      if (megapixels > 0) {
+        unit = std::sqrt(megapixels * 1e6 / (double(bg.cols) * bg.rows));
+        cv::resize(bg, bg, cv::Size(int(std::lround(bg.cols * unit)), int(std::lround(bg.rows * unit))), 0, 0,
+                   cv::INTER_CUBIC);
+      }
       for (size_t k = 0; k < stamps.size(); ++k) {
         const cv::Mat stamp = readImageRgba8(stamps[k]);
         const double scale = stampShare * std::min(bg.cols, bg.rows) / std::max(stamp.cols, stamp.rows);
@@ -117,14 +166,18 @@ int main(int argc, char** argv) {
         const double gx = 0.08 * box.width, gy = 0.08 * box.height;
         const cv::Rect2d rect(box.x - gx, box.y - gy, box.width + 2 * gx, box.height + 2 * gy);
 
-        const auto start = Clock::now();
+        // The rectangle: the photo handed to the cut-out (its working image made once), then GrabCut.
+        auto start = Clock::now();
+        double cpu = cpuSeconds();
         Cutout cut(composite, options);
         cut.setRect(rect);
-        const double fromRect = iou(cut.binaryMask(), truth);
-        // Two corrections where the rectangle's result is most wrong: one of each kind when both exist.
         const cv::Mat mask = cut.binaryMask();
+        rectWall.push_back(secondsSince(start));
+        rectCpu.push_back(cpuSeconds() - cpu);
+        const double fromRect = iou(mask, truth);
+        // Two corrections where the rectangle's result is most wrong: one of each kind when both exist.
         std::vector<CutoutStroke> strokes;
-        const auto fg = strokeIn(truth & ~mask, true), bgStroke = strokeIn(mask & ~truth, false);
+        const auto fg = strokeIn(truth & ~mask, true, unit), bgStroke = strokeIn(mask & ~truth, false, unit);
         if (fg) strokes.push_back(*fg);
         if (bgStroke) strokes.push_back(*bgStroke);
         for (int extra = 0; strokes.size() < 2 && extra < 2; ++extra) {
@@ -133,26 +186,68 @@ int main(int argc, char** argv) {
           for (const auto& s : strokes)
             for (size_t i = 0; i < s.points.size(); ++i)
               cv::circle(wrong, cv::Point(int(s.points[i].x()), int(s.points[i].y())), int(s.radius * 4), 0, -1);
-          const auto next = strokeIn(wrong, strokes.empty() ? true : strokes[0].foreground);
+          const auto next = strokeIn(wrong, strokes.empty() ? true : strokes[0].foreground, unit);
           if (!next) break;
           strokes.push_back(*next);
         }
-        double afterStrokes = fromRect;
+        double afterStrokes = fromRect, wall = 0, cpuUpdate = 0, band = 0;
         if (!strokes.empty()) {
-          cut.addStrokes(strokes);
-          afterStrokes = iou(cut.binaryMask(), truth);
+          // The update a stroke costs in the editor: GrabCut again, then the mask at the photo's size.
+          std::vector<double> walls, cpus;
+          cv::Mat after;
+          for (int r = 0; r < runs; ++r) {
+            Cutout again = cut.copy();
+            start = Clock::now();
+            cpu = cpuSeconds();
+            again.addStrokes(strokes);
+            after = again.binaryMask();
+            walls.push_back(secondsSince(start));
+            cpus.push_back(cpuSeconds() - cpu);
+            band = again.lastBandSeconds();
+          }
+          afterStrokes = iou(after, truth);
+          wall = median(walls), cpuUpdate = median(cpus);
+          updateWall.push_back(wall), updateCpu.push_back(cpuUpdate);
         }
-        const double s = secondsSince(start);
         const std::string stampName = stamps[k].substr(stamps[k].find_last_of('/') + 1);
         const std::string bgName = bgPath.substr(bgPath.find_last_of('/') + 1);
-        std::printf("%-24s %-22s %9.3f %9.3f %9.2f\n", stampName.c_str(), bgName.c_str(), fromRect, afterStrokes, s);
-        sumRect += fromRect, sumStrokes += afterStrokes, seconds += s, ++cases;
+        const std::string size = std::to_string(bg.cols) + "x" + std::to_string(bg.rows);
+        if (!dump.empty()) {
+          // Truth's edge in green, the rectangle's cut in red, the cut after strokes in blue, strokes in white.
+          cv::Mat picture = composite.clone();
+          const auto edge = [&](const cv::Mat& m, const cv::Scalar& colour) {
+            std::vector<std::vector<cv::Point>> contours;
+            cv::findContours(m.clone(), contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
+            cv::drawContours(picture, contours, -1, colour, std::max(1, int(unit)));
+          };
+          edge(truth, {0, 255, 0});
+          edge(mask, {255, 0, 0});
+          Cutout again = cut.copy();
+          if (!strokes.empty()) again.addStrokes(strokes);
+          edge(again.binaryMask(), {0, 0, 255});
+          for (const auto& s : strokes)
+            for (size_t i = 0; i + 1 < s.points.size(); ++i)
+              cv::line(picture, cv::Point(int(s.points[i].x()), int(s.points[i].y())),
+                       cv::Point(int(s.points[i + 1].x()), int(s.points[i + 1].y())),
+                       s.foreground ? cv::Scalar(255, 255, 255) : cv::Scalar(0, 0, 0), int(2 * s.radius));
+          const std::string stem = stampName.substr(0, stampName.find('.')) + "_" + bgName.substr(0, bgName.find('.'));
+          writePng(dump + "/" + stem + ".png", picture, kPngFast, false);
+        }
+        std::printf("%-22s %-20s %10s %8.3f %8.3f %8.2f %8.2f %8.2f %8.2f %8.2f\n", stampName.c_str(), bgName.c_str(),
+                    size.c_str(), fromRect, afterStrokes, rectWall.back(), rectCpu.back(), wall, cpuUpdate, band);
+        std::fflush(stdout);
+        sumRect += fromRect, sumStrokes += afterStrokes, ++cases;
         minStrokes = std::min(minStrokes, afterStrokes);
-        reached += afterStrokes >= 0.9;
+        reached += afterStrokes >= 0.95;
       }
     }
-    std::printf("mean IoU: rectangle %.3f, rectangle + 2 strokes %.3f (min %.3f, %d of %d >= 0.9); %.2f s per case\n",
-                sumRect / cases, sumStrokes / cases, minStrokes, reached, cases, seconds / cases);
+    std::printf("mean IoU: rectangle %.3f, rectangle + 2 strokes %.3f (min %.3f, %d of %d >= 0.95)\n",
+                sumRect / cases, sumStrokes / cases, minStrokes, reached, cases);
+    std::printf("median over cases: rectangle %.2f s wall, %.2f s CPU; stroke update (median of %d runs each) "
+                "%.2f s wall, %.2f s CPU (slowest case %.2f s wall)\n",
+                median(rectWall), median(rectCpu), runs, median(updateWall), median(updateCpu),
+                updateWall.empty() ? 0.0 : *std::max_element(updateWall.begin(), updateWall.end()));
+    std::printf("load average at the end: %s\n", loadAverage().c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

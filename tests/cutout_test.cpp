@@ -22,27 +22,34 @@ double iou(const cv::Mat& a, const cv::Mat& b) {
 }
 
 // A 320x240 photo (CV_32FC3 sRGB): a textured background (green-blue noise with stripes) and a
-// reddish noisy disc of radius 60 around (150, 120); `truth` is the disc.
-cv::Mat discScene(cv::Mat& truth, unsigned seed = 3) {
+// reddish noisy disc of radius 60 around (150, 120); `truth` is the disc. `scale` > 1: the same scene
+// drawn that many times larger (the disc's edge sharp at every size, the noise per pixel).
+cv::Mat discScene(cv::Mat& truth, unsigned seed = 3, int scale = 1) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> noise(-0.12f, 0.12f);
-  cv::Mat rgb(240, 320, CV_32FC3);
-  truth = cv::Mat::zeros(240, 320, CV_8U);
+  cv::Mat rgb(240 * scale, 320 * scale, CV_32FC3);
+  truth = cv::Mat::zeros(rgb.size(), CV_8U);
+  const double cx = 150.0 * scale, cy = 120.0 * scale, r = 60.0 * scale;
   for (int y = 0; y < rgb.rows; ++y)
     for (int x = 0; x < rgb.cols; ++x) {
-      const bool disc = (x + 0.5 - 150) * (x + 0.5 - 150) + (y + 0.5 - 120) * (y + 0.5 - 120) <= 60 * 60;
+      const bool disc = (x + 0.5 - cx) * (x + 0.5 - cx) + (y + 0.5 - cy) * (y + 0.5 - cy) <= r * r;
       cv::Vec3f c;
       if (disc) {
         c = cv::Vec3f(0.8f, 0.35f, 0.25f);
         truth.at<uchar>(y, x) = 255;
       } else {
-        const float stripe = ((x / 12 + y / 17) % 2) ? 0.15f : -0.05f;
+        const float stripe = ((x / (12 * scale) + y / (17 * scale)) % 2) ? 0.15f : -0.05f;
         c = cv::Vec3f(0.2f, 0.5f + stripe, 0.45f - stripe);
       }
       for (int k = 0; k < 3; ++k) c[k] = std::clamp(c[k] + noise(rng), 0.0f, 1.0f);
       rgb.at<cv::Vec3f>(y, x) = c;
     }
   return rgb;
+}
+
+// Pixels where a mask and the truth differ.
+int wrongPixels(const cv::Mat& mask, const cv::Mat& truth) {
+  return cv::countNonZero((mask > 0) != (truth > 0));
 }
 
 }  // namespace
@@ -246,4 +253,118 @@ TEST(Cutout, MontageMaskWritesAMaskTheProjectCanUse) {
                              &out),
             0);
   EXPECT_NE(out.find("nothere.png: image file not found"), std::string::npos) << out;
+}
+
+// GrabCut runs at a working size 8 times smaller than the photo; the band around its edge is cut again at
+// the photo's own pixels, so the edge follows the disc to the pixel, not the working size's 8-pixel steps.
+TEST(Cutout, TheMaskEdgeIsAtThePhotosResolutionNotTheWorkingSizes) {
+  cv::Mat truth;
+  const cv::Mat rgb = discScene(truth, 3, 5);  // 1600x1200, the disc's radius 300
+  CutoutOptions options;
+  options.workingSide = 200;
+  Cutout cut(rgb, options);
+  cut.setRect(cv::Rect2d(400, 250, 700, 700));
+  const cv::Mat mask = cut.binaryMask();
+  ASSERT_EQ(mask.size(), rgb.size());
+  options.bandPx = 0;  // the working result scaled up (bilinear, cut at 1/2), no band
+  Cutout coarse(rgb, options);
+  coarse.setRect(cv::Rect2d(400, 250, 700, 700));
+  const double perimeter = 2 * M_PI * 300;
+  const int wrong = wrongPixels(mask, truth), wrongCoarse = wrongPixels(coarse.binaryMask(), truth);
+  std::printf("pixels off the disc: %d with the band (%.2f per edge pixel), %d scaled up from the working size\n",
+              wrong, wrong / perimeter, wrongCoarse);
+  // A working pixel is 8 photo pixels: its edge is off by about 2 pixels on average along the disc.
+  EXPECT_LT(wrong, 0.5 * perimeter);
+  EXPECT_LT(wrong, wrongCoarse / 2);
+  // The edge has steps of single pixels: edge pixels at every position modulo the working pixel's 8.
+  std::vector<int> columns(8, 0);
+  for (int y = 1; y < mask.rows; ++y)
+    for (int x = 1; x < mask.cols; ++x)
+      if (mask.at<uchar>(y, x) != mask.at<uchar>(y, x - 1)) ++columns[x % 8];
+  for (int k = 0; k < 8; ++k) EXPECT_GT(columns[k], 30) << "edge pixels in column " << k << " modulo 8";
+}
+
+// The finding: a background stroke barely moved the cut (36.8% -> 35.4% foreground). Here the
+// rectangle keeps a patch of the disc's colour beside it, and one background stroke across the patch
+// takes nearly all of it out, also at a reduced working size with the band.
+TEST(Cutout, ABackgroundStrokeTakesOutTheRegionItIsDrawnIn) {
+  cv::Mat truth;
+  cv::Mat rgb = discScene(truth, 3, 4);  // 1280x960
+  const cv::Rect patch(800, 400, 100, 160);
+  rgb(patch).setTo(cv::Scalar(0.8, 0.35, 0.25));
+  CutoutOptions options;
+  options.workingSide = 320;
+  Cutout cut(rgb, options);
+  cut.setRect(cv::Rect2d(320, 200, 600, 560));
+  const auto share = [&] { return cv::countNonZero(cut.binaryMask()) / double(rgb.total()); };
+  const double before = share();
+  const int keptBefore = cv::countNonZero(cut.binaryMask()(patch));
+  ASSERT_GT(keptBefore, patch.area() / 2) << "the test needs the rectangle to keep the patch";
+  CutoutStroke stroke;
+  stroke.points = {Vec2(850, 420), Vec2(850, 540)};
+  stroke.radius = 12;
+  stroke.foreground = false;
+  cut.addStroke(stroke);
+  const double after = share();
+  std::printf("foreground %.1f%% -> %.1f%% after one background stroke; patch kept %d -> %d pixels\n", 100 * before,
+              100 * after, keptBefore, cv::countNonZero(cut.binaryMask()(patch)));
+  // The patch is 1.3% of the photo, the stroke's pixels 0.2%: the share drops by at least half the patch.
+  EXPECT_LT(after, before - 0.5 * patch.area() / double(rgb.total()));
+  EXPECT_LT(cv::countNonZero(cut.binaryMask()(patch)), keptBefore / 2);
+}
+
+// A real stamp with real alpha (Debian tuxpaint-stamps-default) composited onto a real cluttered photo
+// (python3-skimage's data), cut out from a rectangle and two strokes, as bench/cutout_bench.cpp does.
+TEST(Cutout, RealStampOnAClutteredPhotoFromARectangleAndTwoStrokes) {
+  const std::string stampPath = "/usr/share/tuxpaint/stamps/animals/mammals/cats/tiger.png";
+  const std::string photoPath = "/usr/lib/python3/dist-packages/skimage/data/coffee.png";
+  if (!fs::exists(stampPath) || !fs::exists(photoPath))
+    GTEST_SKIP() << "needs Debian's tuxpaint-stamps-default (" << stampPath << ") and python3-skimage (" << photoPath
+                 << ")";
+  cv::Mat background;
+  cv::cvtColor(readImageRgba8(photoPath), background, cv::COLOR_RGBA2RGB);
+  const cv::Mat stamp = readImageRgba8(stampPath);
+  const double scale = 0.55 * std::min(background.cols, background.rows) / std::max(stamp.cols, stamp.rows);
+  cv::Mat big;
+  cv::resize(stamp, big, cv::Size(), scale, scale, cv::INTER_AREA);
+  const cv::Point at(int((background.cols - big.cols) * 0.3), int((background.rows - big.rows) * 0.3));
+  cv::Mat truth = cv::Mat::zeros(background.size(), CV_8U);
+  for (int y = 0; y < big.rows; ++y)
+    for (int x = 0; x < big.cols; ++x) {
+      const cv::Vec4b s = big.at<cv::Vec4b>(y, x);
+      cv::Vec3b& d = background.at<cv::Vec3b>(at.y + y, at.x + x);
+      for (int c = 0; c < 3; ++c) d[c] = cv::saturate_cast<uchar>((s[3] * s[c] + (255 - s[3]) * d[c]) / 255.0);
+      if (s[3] >= 128) truth.at<uchar>(at.y + y, at.x + x) = 255;
+    }
+  const cv::Rect box = cv::boundingRect(truth);
+  Cutout cut(background);
+  cut.setRect(cv::Rect2d(box.x - 0.08 * box.width, box.y - 0.08 * box.height, 1.16 * box.width, 1.16 * box.height));
+  const double fromRect = iou(cut.binaryMask(), truth);
+  // One stroke of each kind through the innermost point of the largest region still wrong.
+  std::vector<CutoutStroke> strokes;
+  for (bool foreground : {true, false}) {
+    const cv::Mat mask = cut.binaryMask();
+    const cv::Mat wrong = foreground ? truth & ~mask : mask & ~truth;
+    cv::Mat labels, stats, centroids;
+    const int n = cv::connectedComponentsWithStats(wrong, labels, stats, centroids, 8);
+    int best = 0;
+    for (int i = 1; i < n; ++i)
+      if (best == 0 || stats.at<int>(i, cv::CC_STAT_AREA) > stats.at<int>(best, cv::CC_STAT_AREA)) best = i;
+    if (best == 0 || stats.at<int>(best, cv::CC_STAT_AREA) < 20) continue;
+    cv::Mat distance;
+    cv::distanceTransform(labels == best, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    double inner = 0;
+    cv::Point p;
+    cv::minMaxLoc(distance, nullptr, &inner, nullptr, &p);
+    CutoutStroke stroke;
+    stroke.points = {Vec2(p.x + 0.5, p.y + 0.5)};
+    stroke.radius = std::clamp(0.6 * inner, 1.5, 8.0);
+    stroke.foreground = foreground;
+    strokes.push_back(stroke);
+  }
+  if (!strokes.empty()) cut.addStrokes(strokes);
+  const double afterStrokes = iou(cut.binaryMask(), truth);
+  std::printf("tiger on coffee: IoU %.3f from the rectangle, %.3f after %zu strokes\n", fromRect, afterStrokes,
+              strokes.size());
+  EXPECT_GE(afterStrokes, 0.95);
 }

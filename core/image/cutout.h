@@ -19,9 +19,12 @@ namespace montage {
 struct Photo;
 
 struct CutoutOptions {
-  int iterations = 5;      // GrabCut iterations per run (colour models re-learnt, then a graph cut)
-  int workingSide = 1024;  // GrabCut runs on the photo scaled down to at most this many pixels a side
-                           // (0 = full resolution); the mask is scaled back up with a smooth edge
+  int iterations = 5;        // GrabCut iterations from a rectangle (colour models re-learnt, then a graph cut)
+  int strokeIterations = 2;  // after strokes, from models that have converged already
+  int workingSide = 512;     // GrabCut runs on the photo scaled down to at most this many pixels a side
+                             // (0 = full resolution), on the part of it around the object
+  int bandPx = 1;            // then a graph cut at the photo's stored resolution decides the pixels within
+                             // this many working pixels of GrabCut's edge (0 = none: the edge scaled up)
   double featherPx = 0;    // width of the feathered edge in photo pixels: alpha ramps from 0 at the
                            // background to 1 this far inside the foreground (0 = a hard edge)
 };
@@ -52,6 +55,9 @@ class Cutout {
   // GrabCut's probable labels, without running it: strokes then refine it, the brush edits it.
   void startFrom(const cv::Mat& alpha);
   // Marks a stroke as certain foreground or background and runs GrabCut again from the current state.
+  // The region the stroke lies in that the cut gave to the other side, as far as its colour stays near
+  // the stroke's, goes over to the stroke's side before the colour models are re-learnt, so that a stroke
+  // moves the whole wrong region, not only the pixels under it.
   // Without a rectangle first, strokes alone initialise the models (both kinds are then needed).
   void addStroke(const CutoutStroke& stroke);
   // The same for several strokes at once (one GrabCut run).
@@ -75,22 +81,36 @@ class Cutout {
   cv::Mat mask() const;
   // The binary result (0 / 255) at the photo's size.
   cv::Mat binaryMask() const;
-  double lastSeconds() const { return lastSeconds_; }  // wall time of the last GrabCut run
+  double lastSeconds() const { return lastSeconds_; }          // wall time of the last run (GrabCut and the band)
+  double lastBandSeconds() const { return lastBandSeconds_; }  // of which the band's graph cut
 
  private:
-  void paint(const CutoutStroke& stroke, bool hard);
-  void runGrabCut(bool fromRect);
-  cv::Point2d toWorking(const Vec2& p) const;
+  void paint(cv::Mat& labels, double scale, const CutoutStroke& stroke, int value) const;
+  void spreadStroke(const CutoutStroke& stroke);
+  void runGrabCut();
+  void refine();
+  void applyMarks(cv::Mat& full) const;
 
   CutoutOptions options_;
   cv::Size size_;     // the photo's size
   double scale_ = 1;  // working pixels per photo pixel
+  cv::Mat stored_;    // CV_8UC3, the photo's pixels as given (the band's graph cut reads them)
   cv::Mat image_;     // CV_8UC3 at working resolution
   cv::Mat labels_;    // CV_8UC1 GrabCut labels (cv::GC_BGD, GC_FGD, GC_PR_BGD, GC_PR_FGD)
   cv::Mat bgdModel_, fgdModel_;
   cv::Rect rect_;  // working pixels
+  cv::Rect roi_;   // working pixels: where GrabCut runs (the rectangle or strokes and a margin of background)
+  // The result at stored_'s size, replaced (never written in place) by each run, so copies share it.
+  cv::Mat result_;
+  // Strokes, brush strokes and stroke images in the order given: painted again over each refined result
+  // at the stored resolution, so what the user marked stays exactly so (the working labels are coarser).
+  struct Mark {
+    CutoutStroke stroke;
+    cv::Mat image;  // a stroke image (CV_8UC1, non-zero = marked) instead of the stroke
+  };
+  std::vector<Mark> marks_;
   bool started_ = false, modelsReady_ = false;
-  double lastSeconds_ = 0;
+  double lastSeconds_ = 0, lastBandSeconds_ = 0;
 };
 
 // One-shot cut-out: GrabCut from `rect` (photo pixels) and optional stroke masks (CV_8U, non-zero =

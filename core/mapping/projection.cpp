@@ -4,9 +4,10 @@
 // - Visibility: the mesh is rasterised with the fitted pinhole camera (radial distortion moves pixels
 //   along rays from the centre and never changes what is in front). A vertex is seen when the
 //   z-buffer at its pixel shows one of its faces, lies within depthTolerance of its depth, or is empty
-//   (the vertex is on the silhouette). A face is seen when its three corners are, when four points
-//   inside it (centroid and three points near the corners) pass the same test, and when it faces the
-//   camera (cosine >= minCos).
+//   (the vertex is on the silhouette). A face is seen when its centroid passes the same test, at most
+//   maxHidden of its three corners and three points near them fail it (one, by default, and only for a
+//   face at least silhouetteMarginPx inside the silhouette: a face an ear hides a corner of is seen, and
+//   mapped, rather than inpainted; issue 34), and when it faces the camera (cosine >= minCos).
 // - Quality of a view of a face (the data term): its projected area in pixels squared (resolution,
 //   distance and obliqueness in one figure, as Allene et al. 2008 use it), times a factor falling
 //   linearly from 1 to 0.1 within silhouetteMarginPx of the silhouette (rendered from the mesh, and the
@@ -453,24 +454,32 @@ PhotoView viewPhoto(const Mesh& mesh, const std::vector<int>& faceParent, const 
         continue;
       }
       const auto c = mesh.faceVertices(f);
-      if (!view.vertexVisible[c[0]] || !view.vertexVisible[c[1]] || !view.vertexVisible[c[2]]) continue;
+      int hidden = 0;
+      for (int k = 0; k < 3; ++k) hidden += !view.vertexVisible[c[k]] || !pinhole[c[k]].allFinite();
+      if (hidden > o.maxHidden) continue;
       const auto q = mesh.facePositions(f);
       const Vec3 centroid = (q[0] + q[1] + q[2]) / 3;
       const Vec3 normal = mesh.faceNormal(f);
       if (normal.dot((eye - centroid).normalized()) < o.minCos) continue;
       bool seen = true;
       double silhouetteDistance = std::numeric_limits<double>::infinity();
-      for (const Vec3& b : samples) {
+      for (size_t s = 0; s < samples.size(); ++s) {
+        const Vec3& b = samples[s];
         const Vec3 point = b[0] * q[0] + b[1] * q[1] + b[2] * q[2];
         Vec2 px;
         double z = 0;
         if (!cam.project(point, px, &z) || !seenAt(px, z, f, -1)) {
-          seen = false;
-          break;
+          if (s == 0 || ++hidden > o.maxHidden) {
+            seen = false;
+            break;
+          }
+          continue;
         }
         silhouetteDistance = std::min<double>(silhouetteDistance, at(silhouette, px));
       }
-      if (!seen) continue;
+      if (!seen || !pinhole[c[0]].allFinite() || !pinhole[c[1]].allFinite() || !pinhole[c[2]].allFinite()) continue;
+      // A face partly hidden near the silhouette would take background colours there: inpainting does better.
+      if (hidden > 0 && silhouetteDistance < o.silhouetteMarginPx) continue;
       const std::array<Vec2, 3> uv = {view.vertexUV[c[0]], view.vertexUV[c[1]], view.vertexUV[c[2]]};
       const double projected = cross2(pinhole[c[1]] - pinhole[c[0]], pinhole[c[2]] - pinhole[c[0]]);
       const double mapped = cross2(uv[1] - uv[0], uv[2] - uv[0]);
@@ -713,7 +722,7 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
       h = hashMix(h, partition.faceParent[f]);
     }
     out.meshHash = h;
-    for (double x : {o.depthTolerance, o.minCos, o.silhouetteMarginPx, o.maxBackgroundPx})
+    for (double x : {o.depthTolerance, o.minCos, o.silhouetteMarginPx, o.maxBackgroundPx, double(o.maxHidden)})
       options = hashMix(options, x);
   }
   // A view made anew takes what it can from the last view of its photo and settings on another mesh

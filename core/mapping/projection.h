@@ -81,6 +81,9 @@ struct ProjectionOptions {
   double smoothness = 1.0;        // view selection: weight of a seam edge (Potts, per mean edge length) against
                                   // the data cost of a face (per mean face area); 0 = best view per face
   double minCos = 0.05;           // faces seen more obliquely than this (cosine) are not textured from a photo
+  int maxHidden = 1;              // a face is textured with at most this many of its corners and three off-centre
+                                  // samples hidden (its centroid seen, and none when it lies within
+                                  // silhouetteMarginPx of the silhouette); 0 = the whole face must be seen
   double silhouetteMarginPx = 4;  // view quality falls linearly within this distance of the silhouette
   double depthTolerance = 0.005;  // occlusion test tolerance, share of the bounding-box diagonal
   double maxBackgroundPx = 1.0;   // a face whose UVs lie farther than this from the foreground is refused

@@ -15,9 +15,9 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <string>
-#include <sys/resource.h>
 #include <vector>
 
+#include "base/cpu_time.h"
 #include "base/util.h"
 #include "image/codec.h"
 #include "image/cutout.h"
@@ -26,12 +26,6 @@
 using namespace montage;
 
 namespace {
-
-double cpuSeconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
 
 std::string loadAverage() {
   double load[3] = {0, 0, 0};

@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "base/cpu_time.h"
 #include "base/fileio.h"
 #include "base/process_tuning.h"
 #include "bench/synth.h"
@@ -44,12 +45,6 @@ namespace fs = std::filesystem;
 using namespace montage;
 
 namespace {
-
-double cpuSeconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_utime.tv_sec + u.ru_utime.tv_usec * 1e-6 + u.ru_stime.tv_sec + u.ru_stime.tv_usec * 1e-6;
-}
 
 double peakMiB() {
   rusage u{};

@@ -12,7 +12,6 @@
 // Usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...] [--modes=a,b]   (default: all three holes; one
 //        image per hole, OUT with the hole's name before .png; every mode but strokes and off, or those named)
 //        tm_inpaint_picture PHOTO OUT.png X Y R                  (a disc at (X, Y) of radius R, sheet units 0..1)
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <cctype>
@@ -23,6 +22,7 @@
 #include <random>
 #include <string>
 
+#include "base/cpu_time.h"
 #include "base/job.h"
 #include "geometry/raster.h"
 #include "geometry/shapes.h"
@@ -34,12 +34,6 @@
 using namespace montage;
 
 namespace {
-
-double cpuSeconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
 
 // A hole on the unit sheet: whether a point is in it, and the square of the sheet the pictures show.
 struct Hole {

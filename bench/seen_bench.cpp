@@ -8,7 +8,6 @@
 // no photo sees as "empty".
 //   tm_seen_bench SCENE_DIR --truth MESH [--truth-texture PNG] [--out DIR: refined.glb, seen.json]
 //                 [--before DIR] [--no-oracle]
-#include <sys/resource.h>
 
 #include <cstdio>
 #include <cstring>
@@ -16,6 +15,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "base/cpu_time.h"
 #include "base/util.h"
 #include "bench/eval.h"
 #include "bench/sight.h"
@@ -33,12 +33,6 @@ using namespace montage;
 namespace fs = std::filesystem;
 
 namespace {
-
-double cpuSeconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
 
 // Area share of the faces the bake inpainted or left empty.
 double inpaintedShare(const PipelineResult& r) {

@@ -6,7 +6,6 @@
 // or any click off the outline deleted.
 //   tm_subject_bench CASE [--data DIR (../shared/data)] [--out DIR: renders of both results, and the case as a
 //                    project, DIR/case.project.json, for tm_edit_bench and the editor] [--runs N (3)]
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,6 +14,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "base/cpu_time.h"
 #include "base/util.h"
 #include "bench/landmarks.h"
 #include "bench/render.h"
@@ -25,12 +25,6 @@ using namespace montage;
 namespace fs = std::filesystem;
 
 namespace {
-
-double cpuSeconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());

@@ -9,8 +9,12 @@
 //  - mean ΔE to the truth (not a measure of a synthesis: a right-looking random texture scores worse than its
 //    smooth mean), and the CPU time of the fill (user + sys, the whole inpainting) at final density and at the
 //    preview's (detail 0.25).
-// Usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...] [--modes=a,b]   (default: all three holes; one
-//        image per hole, OUT with the hole's name before .png; every mode but strokes and off, or those named)
+// Texture mode is measured twice on the same fill: as the bake shows it (the exemplar looked up between the
+// vertices, InpaintResult::colourAt) and as its vertices' colours interpolated ("texture, vertices"), side by side.
+// Usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...] [--modes=a,b] [--seed=N] [--detail=D]
+//        (default: all three holes; one image per hole, OUT with the hole's name before .png; every mode but
+//        strokes and off, or those named; N: the texture mode's seed; D: the refinement density the pictures
+//        and measures are taken at, 1 = final, 0.25 = the preview's)
 //        tm_inpaint_picture PHOTO OUT.png X Y R                  (a disc at (X, Y) of radius R, sheet units 0..1)
 
 #include <algorithm>
@@ -70,10 +74,24 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...]\n");
     return 2;
   }
-  // --modes=a,b,...: only these modes (default: harmonic, rbf, synthesis, structure, texture).
+  // Options after the holes: --modes=a,b,... (default: harmonic, rbf, synthesis, structure, texture), --seed=N,
+  // --detail=D.
   std::string onlyModes;
-  if (argc > 3 && std::string(argv[argc - 1]).rfind("--modes=", 0) == 0)
-    onlyModes = "," + std::string(argv[argc - 1]).substr(8) + ",", --argc;
+  uint64_t seed = 1;
+  double pictureDetail = 1;
+  for (; argc > 3 && std::string(argv[argc - 1]).rfind("--", 0) == 0; --argc) {
+    const std::string a = argv[argc - 1];
+    if (a.rfind("--modes=", 0) == 0)
+      onlyModes = "," + a.substr(8) + ",";
+    else if (a.rfind("--seed=", 0) == 0)
+      seed = std::strtoull(a.c_str() + 7, nullptr, 10);
+    else if (a.rfind("--detail=", 0) == 0 && std::atof(a.c_str() + 9) > 0)
+      pictureDetail = std::atof(a.c_str() + 9);
+    else {
+      std::fprintf(stderr, "unknown option %s (--modes=a,b, --seed=N, --detail=D with D > 0)\n", a.c_str());
+      return 2;
+    }
+  }
   std::vector<Hole> holes;
   if (argc == 6 && std::isdigit(static_cast<unsigned char>(argv[3][0]))) {  // a disc at x y with radius r
     holes.push_back(Hole{"disc", Vec2(std::atof(argv[3]), std::atof(argv[4])), 0, std::atof(argv[5])});
@@ -133,13 +151,21 @@ int main(int argc, char** argv) {
       return hole.contains(s) && hole.contains(s + Vec2(e, 0)) && hole.contains(s - Vec2(e, 0)) &&
              hole.contains(s + Vec2(0, e)) && hole.contains(s - Vec2(0, e)) && s.x() < 1 && s.y() < 1 && s.y() > 0;
     };
-    std::vector<std::pair<const char*, InpaintMode>> modes = {{"truth", InpaintMode::Off}};
+    struct Column {
+      const char* name;
+      InpaintMode mode;
+      bool verticesOnly;  // the texture mode's fill drawn from its vertices' colours alone
+    };
+    std::vector<Column> modes = {{"truth", InpaintMode::Off, false}};
     for (size_t i = 0; i < kInpaintModeNames.size(); ++i)
       if (i != size_t(InpaintMode::Off) && i != size_t(InpaintMode::Strokes) &&
-          (onlyModes.empty() || onlyModes.find("," + std::string(kInpaintModeNames[i]) + ",") != std::string::npos))
-        modes.emplace_back(kInpaintModeNames[i], InpaintMode(i));
+          (onlyModes.empty() || onlyModes.find("," + std::string(kInpaintModeNames[i]) + ",") != std::string::npos)) {
+        modes.push_back({kInpaintModeNames[i], InpaintMode(i), false});
+        if (InpaintMode(i) == InpaintMode::Texture) modes.push_back({"texture, vertices", InpaintMode::Texture, true});
+      }
     cv::Mat out(side, side * int(modes.size()), CV_32FC3, cv::Scalar(0, 0, 0));
     cv::Mat truthLuv;
+    InpaintResult res;  // the last column's fill (the vertices-only column draws it again)
     for (size_t m = 0; m < modes.size(); ++m) {
       cv::Mat panel = out(cv::Rect(int(m) * side, 0, side, side));
       for (int f = 0; f < mesh->numFaces(); ++f) {
@@ -154,33 +180,42 @@ int main(int argc, char** argv) {
       }
       std::string note;
       double cpuFinal = 0, cpuPreview = 0;
-      if (m > 0) {
+      if (m > 0 && modes[m].verticesOnly) {
+        // The previous column's fill, without the texture between its vertices (no new run, no new times).
+        res.detailPoint.clear();
+        note = "the texture column's fill, its vertices' colours interpolated";
+      } else if (m > 0) {
         InpaintInput in;
         in.mesh = mesh.get();
         in.map = &map;
         in.photos = {&photo};
-        in.options.mode = modes[m].second;
+        in.options.mode = modes[m].mode;
+        in.options.textureSeed = seed;
         in.options.detail = 0.25;
         double c0 = cpuSeconds();
-        inpaintSurface(in, {}, nullptr);
+        res = inpaintSurface(in, {}, nullptr);
         cpuPreview = cpuSeconds() - c0;
         in.options.detail = 1;
         c0 = cpuSeconds();
-        const InpaintResult res = inpaintSurface(in, {}, nullptr);
+        InpaintResult finalFill = inpaintSurface(in, {}, nullptr);
         cpuFinal = cpuSeconds() - c0;
+        if (pictureDetail != 0.25) {
+          if (pictureDetail != 1) in.options.detail = pictureDetail, finalFill = inpaintSurface(in, {}, nullptr);
+          res = std::move(finalFill);
+        }
         if (!res.regions.empty()) note = res.regions[0].note;
+      }
+      if (m > 0) {
         const RefinedSurface& rs = res.refined;
         for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
           if (rs.region[t] < 0) continue;
           std::array<Vec2, 3> q;
-          std::array<Vec3f, 3> c;
           for (int k = 0; k < 3; ++k) {
             const Vec3& p = rs.mesh.positions[rs.mesh.triangles[t][k]];
             q[k] = Vec2(p.x(), p.y()) * scale - origin;
-            c[k] = res.colors.row(rs.mesh.triangles[t][k]).transpose();
           }
           scanTriangle(q, side, side, [&](int x, int y, const Vec3& b) {
-            const Vec3f v = float(b[0]) * c[0] + float(b[1]) * c[1] + float(b[2]) * c[2];
+            const Vec3f v = res.colourAt(t, b).cwiseMax(0.f).cwiseMin(1.f);  // as the bake shows it
             panel.at<cv::Vec3f>(y, x) = cv::Vec3f(v[0], v[1], v[2]);
           });
         }
@@ -210,7 +245,7 @@ int main(int argc, char** argv) {
           if (x >= 3 && y >= 3 && x + 3 < side && y + 3 < side) centres.emplace_back(x, y);
         }
       if (fill.empty()) {
-        std::printf("| %s | %s | no pixel inside the hole (%d x %d picture) |\n", hole.name.c_str(), modes[m].first,
+        std::printf("| %s | %s | no pixel inside the hole (%d x %d picture) |\n", hole.name.c_str(), modes[m].name,
                     side, side);
         continue;
       }
@@ -240,7 +275,7 @@ int main(int argc, char** argv) {
         }
         patchSum += std::sqrt(best / 49);
       }
-      std::printf("| %s | %s | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %s |\n", hole.name.c_str(), modes[m].first,
+      std::printf("| %s | %s | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %s |\n", hole.name.c_str(), modes[m].name,
                   energy / std::max(truthEnergy, 1e-9), emd, patchSum / std::max<size_t>(probes.size(), 1),
                   sumDe / std::max<size_t>(fill.size(), 1), cpuFinal, cpuPreview, note.c_str());
       std::fflush(stdout);
@@ -252,7 +287,7 @@ int main(int argc, char** argv) {
     out.convertTo(rgb8, CV_8UC3, 255);
     montage::writePng(path, rgb8, kPngFast, false);
     std::string names = "truth";
-    for (size_t m = 1; m < modes.size(); ++m) names += std::string(", ") + modes[m].first;
+    for (size_t m = 1; m < modes.size(); ++m) names += std::string(", ") + modes[m].name;
     std::printf("(%d hole faces; picture %s: %s)\n", holeFaces, path.c_str(), names.c_str());
   }
   return 0;

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -23,6 +24,7 @@
 #include "base/job.h"
 #include "bench/synth.h"
 #include "geometry/mesh.h"
+#include "geometry/raster.h"
 #include "geometry/shapes.h"
 #include "image/color.h"
 #include "image/photo.h"
@@ -1312,4 +1314,102 @@ TEST(Texture, AHoleWithNoMappedNeighbourIsTexturedNotFlat) {
   ASSERT_FALSE(hole.empty());
   std::printf("L* deviation: hole %.2f, mapped part %.2f\n", deviation(hole), deviation(known));
   EXPECT_GT(deviation(hole), 0.25 * deviation(known));
+}
+
+// The bake shows the exemplar between the synthesised vertices (InpaintResult::colourAt), not only their
+// colours interpolated: drawn texel by texel at the photo's resolution, a disc's fill keeps more of the fur's
+// gradient energy than its vertices alone, by far at the preview's density (vertices 6 texels apart), and it is
+// continuous: on an edge two triangles share, both give the same colour, and a triangle whose corners are all
+// photo-coloured shows their interpolation, so the border stays the Poisson solve's.
+TEST(Texture, TheBakeShowsTheExemplarBetweenTheVertices) {
+  TM_REQUIRE_FUR(path);
+  const TextureCase c = furSheet(path);
+  TextureMap map = c.truth;
+  const Vec3 centre(0.55, 0.5, 0);
+  ASSERT_GT(cutWhere(*c.mesh, map, [&](const Vec3& p) { return (p - centre).norm() < 0.14; }), 0);
+  const double scale = 0.8 * std::min(c.photo.width, c.photo.height);  // texels per unit, as furSheet maps
+  const int side = int(std::ceil(0.3 * scale));
+  const Vec2 origin = Vec2(centre.x(), centre.y()) * scale - Vec2(side / 2.0, side / 2.0);
+  for (const double detail : {0.25, 1.0}) {
+    InpaintInput in = inputFor(*c.mesh, map, {&c.photo}, InpaintMode::Texture);
+    in.options.detail = detail;
+    const InpaintResult res = inpaintSurface(in, {}, nullptr);
+    const RefinedSurface& rs = res.refined;
+    ASSERT_FALSE(res.detailPoint.empty()) << detail;
+    // L* of the fill as baked, of its vertices interpolated, and of the truth, texel by texel.
+    cv::Mat baked(side, side, CV_32F, cv::Scalar(-1)), plain = baked.clone(), truth = baked.clone();
+    for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
+      if (rs.region[t] < 0) continue;
+      const auto& tri = rs.mesh.triangles[t];
+      std::array<Vec2, 3> q;
+      for (int k = 0; k < 3; ++k)
+        q[k] = Vec2(rs.mesh.positions[tri[k]].x(), rs.mesh.positions[tri[k]].y()) * scale - origin;
+      scanTriangle(q, side, side, [&](int x, int y, const Vec3& b) {
+        Vec3f interpolated = Vec3f::Zero();
+        Vec3 parent = Vec3::Zero();
+        for (int k = 0; k < 3; ++k)
+          interpolated += float(b[k]) * res.colors.row(tri[k]).transpose(), parent += b[k] * rs.parentBary[t][k];
+        baked.at<float>(y, x) = srgbToLab(res.colourAt(t, b).cwiseMax(0.f).cwiseMin(1.f))[0];
+        plain.at<float>(y, x) = srgbToLab(interpolated)[0];
+        truth.at<float>(y, x) = srgbToLab(mappedColor(c.truth, {&c.photo}, nullptr, rs.parentFace[t], parent))[0];
+      });
+    }
+    // Gradient energy (Sobel) over the texels whose 3 x 3 neighbourhood lies in the hole.
+    auto energy = [&](const cv::Mat& l) {
+      cv::Mat gx, gy;
+      cv::Sobel(l, gx, CV_32F, 1, 0), cv::Sobel(l, gy, CV_32F, 0, 1);
+      double e = 0;
+      for (int y = 1; y + 1 < side; ++y)
+        for (int x = 1; x + 1 < side; ++x) {
+          bool inside = true;
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) inside &= baked.at<float>(y + dy, x + dx) >= 0;
+          if (inside) e += gx.at<float>(y, x) * gx.at<float>(y, x) + gy.at<float>(y, x) * gy.at<float>(y, x);
+        }
+      return e;
+    };
+    const double truthEnergy = energy(truth), bakedRatio = energy(baked) / truthEnergy;
+    const double plainRatio = energy(plain) / truthEnergy;
+    std::printf("detail %.2f: gradient energy / truth's: baked %.2f, vertices interpolated %.2f\n", detail, bakedRatio,
+                plainRatio);
+    EXPECT_GT(bakedRatio, plainRatio) << detail;
+    if (detail < 1) {
+      EXPECT_GT(bakedRatio, 2 * plainRatio) << detail;
+      EXPECT_GT(bakedRatio, 0.35) << detail;
+    }
+    EXPECT_LT(bakedRatio, 1.5) << detail;
+    // Continuity: each interior edge's midpoint from both of its triangles; photo-cornered triangles.
+    std::map<std::pair<int, int>, std::pair<int, int>> edgeAt;  // edge -> (triangle, corner k of its start)
+    double worstEdge = 0, worstFixed = 0;
+    int shared = 0, fixedTriangles = 0;
+    for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
+      if (rs.region[t] < 0) continue;
+      const auto& tri = rs.mesh.triangles[t];
+      for (int k = 0; k < 3; ++k) {
+        const int a = tri[k], b = tri[(k + 1) % 3];
+        Vec3 w = Vec3::Zero();
+        w[k] = 0.3, w[(k + 1) % 3] = 0.7;
+        const auto it = edgeAt.find({b, a});
+        if (it == edgeAt.end()) {
+          edgeAt[{a, b}] = {t, k};
+          continue;
+        }
+        const auto [u, j] = it->second;  // u runs b -> a: b is its corner j, a its corner j + 1
+        Vec3 wu = Vec3::Zero();
+        wu[j] = 0.7, wu[(j + 1) % 3] = 0.3;
+        worstEdge = std::max(worstEdge, double((res.colourAt(t, w) - res.colourAt(u, wu)).cwiseAbs().maxCoeff()));
+        ++shared;
+      }
+      if (res.detailPoint[tri[0]] < 0 && res.detailPoint[tri[1]] < 0 && res.detailPoint[tri[2]] < 0) {
+        const Vec3 w(0.2, 0.3, 0.5);
+        Vec3f interpolated = Vec3f::Zero();
+        for (int k = 0; k < 3; ++k) interpolated += float(w[k]) * res.colors.row(tri[k]).transpose();
+        worstFixed = std::max(worstFixed, double((res.colourAt(t, w) - interpolated).cwiseAbs().maxCoeff()));
+        ++fixedTriangles;
+      }
+    }
+    EXPECT_GT(shared, 100) << detail;
+    EXPECT_LT(worstEdge, 1e-5) << detail;
+    EXPECT_LT(worstFixed, 1e-6) << detail << " over " << fixedTriangles << " photo-cornered triangles";
+  }
 }

@@ -892,6 +892,7 @@ namespace {
 struct BakeTriangle {
   std::array<Vec2, 3> p;
   std::array<Vec3f, 3> c;
+  int refined = -1;  // a refined triangle with synthesised texture between its vertices (InpaintResult::colourAt)
 };
 
 // An uninitialised image for the atlas's full-size buffers. On Linux, transparent huge pages are
@@ -1094,8 +1095,10 @@ AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std
           BakeTriangle bt;
           for (int k = 0; k < 3; ++k) {
             const Vec3& b = r.parentBary[t][k];
+            const int v = r.mesh.triangles[t][k];
             bt.p[k] = b[0] * a[0] + b[1] * a[1] + b[2] * a[2];
-            bt.c[k] = inpaint->colors.row(r.mesh.triangles[t][k]).transpose();
+            bt.c[k] = inpaint->colors.row(v).transpose();
+            if (!inpaint->detailPoint.empty() && inpaint->detailPoint[v] >= 0) bt.refined = t;
           }
           tris.push_back(bt);
         }
@@ -1113,13 +1116,15 @@ AtlasImage bakeAtlas(const Atlas& atlas, const Mesh& mesh, const std::vector<std
     const auto settled = [&](int x, int y) { return priority.ptr<unsigned char>(y)[x] == 0; };
     for (const Pass pass : {Pass::Inside, Pass::Band})
       for (const BakeTriangle& t : tris) {
-        const bool flat = !src && t.c[0] == t.c[1] && t.c[1] == t.c[2];
+        const bool flat = !src && t.refined < 0 && t.c[0] == t.c[1] && t.c[1] == t.c[2];
         footprintTexels(t.p, chart.x, chart.y, x1, y1, pass, settled, [&](int x, int y, double d, const Vec3& b) {
           unsigned char& prio = priority.ptr<unsigned char>(y)[x];
           const int mine = d == 0 ? 0 : 1 + std::min(253, static_cast<int>(d * 64));
           if (mine >= prio) return;
           prio = static_cast<unsigned char>(mine);
-          Vec3f c = flat ? t.c[0] : Vec3f(float(b[0]) * t.c[0] + float(b[1]) * t.c[1] + float(b[2]) * t.c[2]);
+          Vec3f c = flat             ? t.c[0]
+                    : t.refined >= 0 ? inpaint->colourAt(t.refined, b)
+                                     : Vec3f(float(b[0]) * t.c[0] + float(b[1]) * t.c[1] + float(b[2]) * t.c[2]);
           if (src) {
             const double px = chart.toPhoto(0, 0) * (x + 0.5) + chart.toPhoto(0, 1) * (y + 0.5) + chart.toPhoto(0, 2);
             const double py = chart.toPhoto(1, 0) * (x + 0.5) + chart.toPhoto(1, 1) * (y + 0.5) + chart.toPhoto(1, 2);

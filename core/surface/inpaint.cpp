@@ -674,6 +674,19 @@ CloneProjection projectClone(const Mesh& mesh, const std::vector<int>& faceParen
   return out;
 }
 
+Vec3f InpaintResult::colourAt(int t, const Vec3& w) const {
+  const auto& tri = refined.mesh.triangles[t];
+  Vec3f c = float(w[0]) * colors.row(tri[0]).transpose() + float(w[1]) * colors.row(tri[1]).transpose() +
+            float(w[2]) * colors.row(tri[2]).transpose();
+  if (detailPoint.empty()) return c;
+  const std::array<int, 3> index = {detailPoint[tri[0]], detailPoint[tri[1]], detailPoint[tri[2]]};
+  if (index[0] < 0 && index[1] < 0 && index[2] < 0) return c;
+  const int r = refined.region[t];
+  if (r < 0 || r >= int(regions.size()) || !regions[r].detail) return c;
+  const auto& p = refined.mesh.positions;
+  return c + regions[r].detail->residual(index, {&p[tri[0]], &p[tri[1]], &p[tri[2]]}, w);
+}
+
 InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std::vector<std::string>* warnings) {
   const auto start = Clock::now();
   TM_CHECK(in.mesh && in.map, "inpaintSurface: no mesh or texture map");
@@ -888,6 +901,9 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
   // silhouette can reach it) do not count: such a vertex on a hole's border is solved for instead of
   // bleeding the background into the fill.
   res.colors = VertexColors::Zero(rv, 3);
+  bool anyTexture = false;
+  for (const InpaintRegion& reg : res.regions) anyTexture |= reg.kind == InpaintRegion::Kind::Hole && reg.mode == InpaintMode::Texture;
+  if (anyTexture) res.detailPoint.assign(rv, -1);
   std::vector<int> known(rv, 0);
   std::vector<char> starKnown(rv, 1);  // every triangle around the vertex is mapped
   for (int t = 0; t < rt; ++t) {
@@ -1060,6 +1076,12 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       topt.rareChi2 = opt.textureRareChi2;
       textured = synthesiseOnSurface(tin, topt);
       reg.note = textured.note;
+      if (textured.ok && textured.detail) {
+        // Each hole writes only its own unknown vertices' entries (holes share none).
+        reg.detail = textured.detail;
+        for (int l = 0; l < n; ++l)
+          if (textured.detailPoint[l] >= 0) res.detailPoint[sub.vertex[l]] = textured.detailPoint[l];
+      }
       if (!textured.ok && numFixed > 0)
         warn("hole " + std::to_string(r) + ": " + textured.note + ": filled with \"rbf\" instead");
     }

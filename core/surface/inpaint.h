@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,7 @@ namespace montage {
 
 struct Mesh;
 struct Photo;
+struct TextureDetail;
 class JobControl;
 
 // The refined copy of the base mesh's faces that inpainting and cloning work on.
@@ -53,6 +55,7 @@ struct InpaintRegion {
   using Kept = SynthesisKept;
   Kept synthesisKept = Kept::No;
   std::string note;  // e.g. "no mapped neighbour: filled with the mean colour"
+  std::shared_ptr<const TextureDetail> detail;  // texture mode: the synthesised texture between the vertices
 };
 
 struct InpaintResult {
@@ -60,7 +63,11 @@ struct InpaintResult {
   VertexColors colors;          // #refined vertices x 3
   std::vector<int> faceRegion;  // per base face: region id (index into regions), or -1 (keeps its photo)
   std::vector<InpaintRegion> regions;
+  std::vector<int> detailPoint;  // per refined vertex: its point in its region's detail, -1 (empty: no detail)
   double seconds = 0;
+  // The colour at barycentrics w of refined triangle t: the vertices' colours interpolated, plus, in a
+  // texture-synthesised hole, the texture between them (TextureDetail). What the bake and the preview show.
+  Vec3f colourAt(int t, const Vec3& w) const;
 };
 
 // How a guided fill (any mode but harmonic) is kept inside the per-channel range of the colours on the

@@ -111,10 +111,7 @@ Vec3f PreviewSurface::color(int f, const Vec3& b) const {
   }
   if (!found) scan(triangles_.data() + firstTriangle_[f], triangles_.data() + firstTriangle_[f + 1]);
   if (best < 0) return map_.facePhoto[f] >= 0 ? mappedColor(map_, photos_, levelling_, f, b) : empty_;
-  const auto& tri = rs.mesh.triangles[best];
-  Vec3f c = Vec3f::Zero();
-  for (int k = 0; k < 3; ++k) c += float(bestW[k]) * inpaint_->colors.row(tri[k]).transpose();
-  return c;
+  return inpaint_->colourAt(best, bestW);
 }
 
 }  // namespace montage

@@ -124,6 +124,11 @@ struct Exemplar {
   cv::PCA pca;
 };
 
+Vec3f colourAt(const Exemplar& ex, const cv::Point& c) {
+  const cv::Vec3f& e = ex.lab.at<cv::Vec3f>(c);
+  return Vec3f(e[0], e[1], e[2]);
+}
+
 void patchOf(const cv::Mat& lab, int cx, int cy, float* out) {
   for (int j = -kHalf; j <= kHalf; ++j) {
     const auto* row = lab.ptr<cv::Vec3f>(cy + j);
@@ -236,6 +241,44 @@ std::vector<int> poissonDiskSubset(const std::vector<Vec3f>& points, int begin, 
 }
 
 }  // namespace
+
+Vec3f TextureDetail::sample(float x, float y) const {
+  // Bilinear, clamped to the exemplar's edge (it is at least one neighbourhood, 7 pixels, a side).
+  x = std::clamp(x, 0.f, float(rgb.cols - 1)), y = std::clamp(y, 0.f, float(rgb.rows - 1));
+  const int x0 = std::min(int(x), rgb.cols - 2), y0 = std::min(int(y), rgb.rows - 2), x1 = x0 + 1, y1 = y0 + 1;
+  const float fx = x - float(x0), fy = y - float(y0);
+  const cv::Vec3b *r0 = rgb.ptr<cv::Vec3b>(y0), *r1 = rgb.ptr<cv::Vec3b>(y1);
+  Vec3f c;
+  for (int k = 0; k < 3; ++k)
+    c[k] = ((1 - fy) * ((1 - fx) * r0[x0][k] + fx * r0[x1][k]) + fy * ((1 - fx) * r1[x0][k] + fx * r1[x1][k])) / 255.f;
+  return c;
+}
+
+Vec3f TextureDetail::residual(const std::array<int, 3>& index, const std::array<const Vec3*, 3>& corner,
+                              const Vec3& w) const {
+  // The exemplar at x as each synthesised corner places it (its coordinate plus x's offset in its frame),
+  // blended with weights that favour the nearest corner: where the corners agree (a coherent patch) this is
+  // the exemplar itself, texel for texel; where they do not, the seam between their patches stays narrow.
+  const Vec3f x = (w[0] * *corner[0] + w[1] * *corner[1] + w[2] * *corner[2]).cast<float>();
+  Vec3f looked = Vec3f::Zero();
+  float weightSum = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (index[k] < 0) continue;
+    const Point& p = points[index[k]];
+    const Vec3f d = x - corner[k]->cast<float>();
+    const float wk = float(w[k]), weight = wk * wk * wk * wk + 1e-12f;
+    looked += weight * sample(p.at.x() + p.du.dot(d), p.at.y() + p.dv.dot(d));
+    weightSum += weight;
+  }
+  if (!(weightSum > 0)) return Vec3f::Zero();
+  looked /= weightSum;
+  // Minus the exemplar's values at the corners, interpolated: the vertices' own share, which the Poisson fill
+  // already holds. A fixed corner contributes nothing, so the residual vanishes at the border.
+  Vec3f r = Vec3f::Zero();
+  for (int k = 0; k < 3; ++k)
+    if (index[k] >= 0) r += float(w[k]) * (looked - points[index[k]].colour);
+  return r;
+}
 
 SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, const SurfaceSynthesisOptions& options) {
   SurfaceSynthesisResult out;
@@ -628,103 +671,110 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     std::vector<Vec3f> colour(m);
     const int passes = std::max(1, level == 0 ? options.passes - 1 : options.passes);
     double energy = 0;
+    // Subpasses (Lefebvre & Hoppe 2005): the points in eight interleaved sets by the parity of their cell
+    // in a grid of one cell, each set corrected seeing the sets before it already corrected. Corrected all at
+    // once, every point answers its neighbours' old coordinates, and only flat regions stay consistent.
+    std::vector<std::vector<int>> subpass(8);
+    for (int i = 0; i < m; ++i) {
+      const Vec3f& x = levelPos[i];
+      const float c = float(h);
+      subpass[(cubeOf(x.x(), c) & 1) | (cubeOf(x.y(), c) & 1) << 1 | (cubeOf(x.z(), c) & 1) << 2].push_back(i);
+    }
+    for (int i = 0; i < m; ++i) colour[i] = colourAt(ex, coord[i]);
     for (int pass = 0; pass < passes; ++pass) {
       job.checkCancel();
-      for (int i = 0; i < m; ++i) {
-        const cv::Vec3f& e = ex.lab.at<cv::Vec3f>(coord[i]);
-        colour[i] = Vec3f(e[0], e[1], e[2]);
-      }
       std::vector<double> distance(m, 0);
-      tbb::parallel_for(tbb::blocked_range<int>(0, m, 64), [&](const tbb::blocked_range<int>& range) {
-        job.checkCancel();
-        cv::Mat query(1, kDims, CV_32F), projected;
-        std::array<Vec3f, kPatch * kPatch> cellSum;
-        std::array<int, kPatch * kPatch> cellCount;
-        std::vector<cv::Point> candidates;
-        for (int i = range.begin(); i != range.end(); ++i) {
-          const int q = pts[i];
-          const Vec3f& p = pos[q];
-          const Vec3f& nrm = normal[q];
-          cellSum.fill(Vec3f::Zero());
-          cellCount.fill(0);
-          candidates.clear();
-          candidates.push_back(coord[i]);
-          auto cellOf = [&](const Vec3f& x, const Vec3f& xn, float& u, float& v) {
-            const Vec3f d = x - p;
-            if (std::abs(d.dot(nrm)) > depth || xn.dot(nrm) < 0.3f) return -1;
-            u = d.dot(tangent[q]) / float(h), v = d.dot(bitangent[q]) / float(h);
-            const int ci = int(std::floor(u + 0.5f)) + kHalf, cj = int(std::floor(v + 0.5f)) + kHalf;
-            if (ci < 0 || cj < 0 || ci >= kPatch || cj >= kPatch) return -1;
-            return cj * kPatch + ci;
-          };
-          levelGrid.forEachNear(p, reachL, [&](int j) {
-            if (j == i) return;
-            float u, v;
-            const int k = cellOf(levelPos[j], normal[pts[j]], u, v);
-            if (k < 0) return;
-            cellSum[k] += colour[j], ++cellCount[k];
-            candidates.emplace_back(coord[j].x - int(std::floor(u + 0.5f)), coord[j].y - int(std::floor(v + 0.5f)));
-          });
-          knownGrid.forEachNear(p, reachL, [&](int j) {
-            float u, v;
-            const int k = cellOf(knownPos[j], knownNormal[j], u, v);
-            if (k >= 0) cellSum[k] += knownValue[j], ++cellCount[k];
-          });
-          Vec3f mean = Vec3f::Zero();
-          int filled = 0;
-          for (int k = 0; k < kPatch * kPatch; ++k)
-            if (cellCount[k]) cellSum[k] /= float(cellCount[k]), mean += cellSum[k], ++filled;
-          if (!filled) {
-            nextCoord[i] = coord[i];
-            continue;
-          }
-          mean /= float(filled);
-          float* x = query.ptr<float>();
-          for (int k = 0; k < kPatch * kPatch; ++k) {
-            const Vec3f& c = cellCount[k] ? cellSum[k] : mean;
-            x[3 * k] = c[0], x[3 * k + 1] = c[1], x[3 * k + 2] = c[2];
-          }
-          double bestD2 = std::numeric_limits<double>::max();
-          cv::Point best = coord[i];
-          auto consider = [&](const cv::Point& cand) {
-            if (!usable(cand)) return;
-            double d2 = 0;
-            for (int j = 0; j < kPatch && d2 < bestD2; ++j) {
-              const auto* row = ex.lab.ptr<cv::Vec3f>(cand.y + j - kHalf) + cand.x - kHalf;
-              for (int k = 0; k < kPatch; ++k) {
-                const int cell = j * kPatch + k;
-                if (cellCount[cell]) d2 += (cellSum[cell] - Vec3f(row[k][0], row[k][1], row[k][2])).squaredNorm();
-              }
+      for (const std::vector<int>& members : subpass) {
+        const tbb::blocked_range<int> all(0, static_cast<int>(members.size()), 64);
+        tbb::parallel_for(all, [&](const tbb::blocked_range<int>& range) {
+          job.checkCancel();
+          cv::Mat query(1, kDims, CV_32F), projected;
+          std::array<Vec3f, kPatch * kPatch> cellSum;
+          std::array<int, kPatch * kPatch> cellCount;
+          std::vector<cv::Point> candidates;
+          for (int slot = range.begin(); slot != range.end(); ++slot) {
+            const int i = members[slot];
+            const int q = pts[i];
+            const Vec3f& p = pos[q];
+            const Vec3f& nrm = normal[q];
+            cellSum.fill(Vec3f::Zero());
+            cellCount.fill(0);
+            candidates.clear();
+            candidates.push_back(coord[i]);
+            auto cellOf = [&](const Vec3f& x, const Vec3f& xn, float& u, float& v) {
+              const Vec3f d = x - p;
+              if (std::abs(d.dot(nrm)) > depth || xn.dot(nrm) < 0.3f) return -1;
+              u = d.dot(tangent[q]) / float(h), v = d.dot(bitangent[q]) / float(h);
+              const int ci = int(std::floor(u + 0.5f)) + kHalf, cj = int(std::floor(v + 0.5f)) + kHalf;
+              if (ci < 0 || cj < 0 || ci >= kPatch || cj >= kPatch) return -1;
+              return cj * kPatch + ci;
+            };
+            levelGrid.forEachNear(p, reachL, [&](int j) {
+              if (j == i) return;
+              float u, v;
+              const int k = cellOf(levelPos[j], normal[pts[j]], u, v);
+              if (k < 0) return;
+              cellSum[k] += colour[j], ++cellCount[k];
+              candidates.emplace_back(coord[j].x - int(std::floor(u + 0.5f)), coord[j].y - int(std::floor(v + 0.5f)));
+            });
+            knownGrid.forEachNear(p, reachL, [&](int j) {
+              float u, v;
+              const int k = cellOf(knownPos[j], knownNormal[j], u, v);
+              if (k >= 0) cellSum[k] += knownValue[j], ++cellCount[k];
+            });
+            Vec3f mean = Vec3f::Zero();
+            int filled = 0;
+            for (int k = 0; k < kPatch * kPatch; ++k)
+              if (cellCount[k]) cellSum[k] /= float(cellCount[k]), mean += cellSum[k], ++filled;
+            if (!filled) {
+              nextCoord[i] = coord[i];
+              continue;
             }
-            if (d2 < bestD2) bestD2 = d2, best = cand;
-          };
-          // Neighbours in step suggest the same patch: each candidate is measured once.
-          std::sort(candidates.begin(), candidates.end(),
-                    [](const cv::Point& a, const cv::Point& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
-          candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
-          for (const cv::Point& cand : candidates) consider(cand);
-          // The kd-tree's nearest patch: at the coarser levels always; at the finest, where the coarser levels
-          // have set the structure, only for a point its coherent candidates serve badly.
-          if (level > 0 || bestD2 > kCoherentEnough * kCoherentEnough * filled) {
-            ex.pca.project(query, projected);
-            uint32_t nearest = 0;
-            float nearestDistance = 0;
-            nanoflann::KNNResultSet<float, uint32_t> result(1);
-            result.init(&nearest, &nearestDistance);
-            ex.tree->findNeighbors(result, projected.ptr<float>(), nanoflann::SearchParams(0, kSearchEps));
-            consider(ex.at[std::min<size_t>(nearest, ex.at.size() - 1)]);
+            mean /= float(filled);
+            float* x = query.ptr<float>();
+            for (int k = 0; k < kPatch * kPatch; ++k) {
+              const Vec3f& c = cellCount[k] ? cellSum[k] : mean;
+              x[3 * k] = c[0], x[3 * k + 1] = c[1], x[3 * k + 2] = c[2];
+            }
+            double bestD2 = std::numeric_limits<double>::max();
+            cv::Point best = coord[i];
+            auto consider = [&](const cv::Point& cand) {
+              if (!usable(cand)) return;
+              double d2 = 0;
+              for (int j = 0; j < kPatch && d2 < bestD2; ++j) {
+                const auto* row = ex.lab.ptr<cv::Vec3f>(cand.y + j - kHalf) + cand.x - kHalf;
+                for (int k = 0; k < kPatch; ++k) {
+                  const int cell = j * kPatch + k;
+                  if (cellCount[cell]) d2 += (cellSum[cell] - Vec3f(row[k][0], row[k][1], row[k][2])).squaredNorm();
+                }
+              }
+              if (d2 < bestD2) bestD2 = d2, best = cand;
+            };
+            // Neighbours in step suggest the same patch: each candidate is measured once.
+            std::sort(candidates.begin(), candidates.end(),
+                      [](const cv::Point& a, const cv::Point& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
+            candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+            for (const cv::Point& cand : candidates) consider(cand);
+            // The kd-tree's nearest patch: at the coarser levels always; at the finest, where the coarser levels
+            // have set the structure, only for a point its coherent candidates serve badly.
+            if (level > 0 || bestD2 > kCoherentEnough * kCoherentEnough * filled) {
+              ex.pca.project(query, projected);
+              uint32_t nearest = 0;
+              float nearestDistance = 0;
+              nanoflann::KNNResultSet<float, uint32_t> result(1);
+              result.init(&nearest, &nearestDistance);
+              ex.tree->findNeighbors(result, projected.ptr<float>(), nanoflann::SearchParams(0, kSearchEps));
+              consider(ex.at[std::min<size_t>(nearest, ex.at.size() - 1)]);
+            }
+            nextCoord[i] = best;
+            distance[i] = std::sqrt(bestD2 / filled);
           }
-          nextCoord[i] = best;
-          distance[i] = std::sqrt(bestD2 / filled);
-        }
-      });
-      coord.swap(nextCoord);
+        });
+        for (int i : members) coord[i] = nextCoord[i], colour[i] = colourAt(ex, coord[i]);
+      }
       energy = m ? std::accumulate(distance.begin(), distance.end(), 0.0) / m : 0;
     }
-    for (int i = 0; i < m; ++i) {
-      const cv::Vec3f& e = ex.lab.at<cv::Vec3f>(coord[i]);
-      value[pts[i]] = Vec3f(e[0], e[1], e[2]);
-    }
+    for (int i = 0; i < m; ++i) value[pts[i]] = colour[i];
     coarse.points = pts;
     coarse.position = levelPos;
     coarse.coord = coord;
@@ -738,6 +788,29 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
 
   std::vector<Vec3f> synthesised(value.begin(), value.begin() + nu);
   const std::vector<Vec3f> rgbOut = convert(synthesised, cv::COLOR_Lab2RGB);
+
+  // The texture between the vertices: the finest level's coordinates in the exemplar at the photo's stored
+  // resolution (cell centres scaled back by the level's resampling), the frames in its pixels per unit.
+  {
+    auto detail = std::make_shared<TextureDetail>();
+    cv::Mat rgbMatched;
+    cv::cvtColor(lab0, rgbMatched, cv::COLOR_Lab2RGB);
+    rgbMatched.convertTo(detail->rgb, CV_8UC3, 255);
+    const double rx = double(lab0.cols) / coarse.size.width, ry = double(lab0.rows) / coarse.size.height;
+    detail->points.resize(nu);
+    out.detailPoint.assign(n, -1);
+    for (int i = 0; i < nu; ++i) {
+      TextureDetail::Point& p = detail->points[i];
+      p.at = Vec2f(float((coarse.coord[i].x + 0.5) * rx - 0.5), float((coarse.coord[i].y + 0.5) * ry - 0.5));
+      p.du = tangent[i] * float(rx / h0), p.dv = bitangent[i] * float(ry / h0);
+      out.detailPoint[unknownVertex[i]] = i;
+    }
+    tbb::parallel_for(0, nu, [&](int i) {
+      TextureDetail::Point& p = detail->points[i];
+      p.colour = detail->sample(p.at.x(), p.at.y());
+    });
+    out.detail = std::move(detail);
+  }
   out.colours = in.fixedValues ? *in.fixedValues : Eigen::MatrixXd::Zero(n, 3);
   if (out.colours.rows() != n) out.colours = Eigen::MatrixXd::Zero(n, 3);
   for (int i = 0; i < nu; ++i)

@@ -25,7 +25,10 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
+#include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -55,6 +58,27 @@ struct SurfaceSynthesisInput : HoleInput {
   const PoissonSolver* solver = nullptr;     // of `surface` with `fixed` (null when nothing is fixed)
 };
 
+// The synthesised texture between the vertices. The vertices sit about 1.5 texels apart (inpaint refines to
+// that), so their colours alone, interpolated, keep half the exemplar's gradient energy (tm_inpaint_picture);
+// each synthesised vertex also keeps its exemplar coordinate and frame, and the bake looks the exemplar up at
+// every texel: the texture at the photo's own resolution, as Lefebvre & Hoppe render a synthesis from its
+// coordinates. The colour at a point is the Poisson fill's (the vertices, interpolated) plus the residual
+// of the exemplar there against its values at the corners, so vertex colours, seams and border are the
+// Poisson solve's, and the residual fades to nothing at fixed (photo) corners.
+struct TextureDetail {
+  struct Point {
+    Vec2f at = Vec2f::Zero();                    // exemplar pixel (centre of pixel (0,0) at 0,0)
+    Vec3f du = Vec3f::Zero(), dv = Vec3f::Zero();  // exemplar pixels per model unit along its x and y
+    Vec3f colour = Vec3f::Zero();                // the exemplar at `at`
+  };
+  cv::Mat rgb;                // the exemplar at the photo's stored resolution, matched to the border, CV_8UC3 sRGB
+  std::vector<Point> points;  // per synthesised vertex
+  // The residual at x inside a triangle with corners at `corner` (model units), barycentrics w, whose corners
+  // are points[index[k]] (-1: a fixed corner, which has no exemplar coordinate).
+  Vec3f residual(const std::array<int, 3>& index, const std::array<const Vec3*, 3>& corner, const Vec3& w) const;
+  Vec3f sample(float x, float y) const;  // sRGB in [0,1], bilinear at exemplar pixel (x, y)
+};
+
 struct SurfaceSynthesisResult {
   bool ok = false;
   std::string note;            // what was done, or why it could not be (the caller then falls back)
@@ -64,6 +88,8 @@ struct SurfaceSynthesisResult {
   int levels = 0;              // levels synthesised
   int points = 0;              // points: the hole's and the known ones around it
   double energy = 0;           // mean per-texel distance (L*a*b*) of the neighbourhoods to their patches, last pass
+  std::shared_ptr<const TextureDetail> detail;  // ok: the texture between the vertices
+  std::vector<int> detailPoint;                 // per surface vertex: its detail->points index, -1 when fixed
 };
 
 // Synthesises the unknown vertices of input.surface (input.job: checked between and within the steps); never throws for a hole it cannot serve (ok = false

@@ -12,9 +12,11 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <sstream>
@@ -80,7 +82,7 @@ int runRealWalk(const std::string& dir, const std::string& file, const std::stri
                 const std::string& script = "") {
   if (!script.empty()) std::ofstream(dir + "/script.txt") << script;
   std::ofstream(dir + "/walk.sh")
-      << "'" << TM_EDITOR_EXE << "' '" << file << "' --size 1280x800 --scale 1"
+      << "'" << TM_EDITOR_EXE << "'" << (file.empty() ? "" : " '" + file + "'") << " --size 1280x800 --scale 1"
       << (script.empty() ? "" : " --script script.txt") << " &\n"
       << "pid=$!\n"
       << "idle() { prev=0; for i in $(seq 1 600); do sleep 1; t=$(awk '{print $14+$15}' /proc/$pid/stat); "
@@ -1156,4 +1158,101 @@ TEST(EditorInputQueue, AWheelTurnIsSeenWhereAndWhenItHappened) {
   EXPECT_EQ(f.x, 1040);
   EXPECT_FALSE(q.pending());
   EXPECT_EQ(q.next().wheelY, 0);  // a turn is not a level: it is not seen again
+}
+
+// A randomised walk of real menu and mouse actions from every state (issue 35's target: 0 crashes): the editor
+// started empty, on a mesh alone and on the demo project, each given `actions` actions drawn from a seeded
+// generator and sent through X (xdotool) as a person's hand would: clicks anywhere (the menu bar's menus, the
+// items their drop-downs show, the panels, the photos, the 3D view), drags, double clicks, right clicks, wheel
+// turns and keys (Escape, Enter, Tab, Delete, Ctrl+Z/Y, digits, letters), never Ctrl+Q. A quit through a menu the
+// walk happened to click is not a crash: the editor starts again on the same file and the walk goes on. After
+// every action the walk checks that the editor is alive; a death by a signal or a non-zero exit fails the
+// test with the actions that led to it (walk.log). TM_WALK_ACTIONS sets the count per state (default 170,
+// about 500 in all; 500 per state takes about ten minutes).
+namespace {
+std::string randomWalk(std::mt19937& rng, int actions, const std::string& restart) {
+  auto uniform = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+  const std::vector<std::string> keys = {"Escape", "Return", "Tab",    "Delete", "BackSpace", "ctrl+z", "ctrl+y",
+                                         "ctrl+shift+z", "1",  "2",     "3",      "n",         "p",      "space",
+                                         "Up",     "Down",   "Left",   "Right",  "ctrl+a",    "f",      "h"};
+  std::ostringstream walk;
+  // `act N WHAT`: logs the action, runs it, and checks that the editor lives (or quit cleanly: start again).
+  walk << "act() { n=$1; shift; echo \"$n $*\" >> walk.log; xdotool \"$@\" 2>/dev/null; sleep 0.04;\n"
+       << "  if ! kill -0 $pid 2>/dev/null; then wait $pid; s=$?;\n"
+       << "    if [ $s -ne 0 ]; then echo \"DIED after action $n with status $s\"; exit 4; fi;\n"
+       << "    echo \"quit at action $n; started again\" >> walk.log; " << restart << "\n"
+       << "  fi; }\n";
+  for (int i = 0; i < actions; ++i) {
+    const int kind = uniform(0, 99);
+    const int x = uniform(0, 1279), y = uniform(0, 799);
+    std::string a;
+    if (kind < 12) {  // a menu of the menu bar, then an item of what it opened
+      a = "mousemove " + std::to_string(uniform(5, 420)) + " 9 click 1 sleep 0.15 mousemove " +
+          std::to_string(uniform(5, 700)) + " " + std::to_string(uniform(20, 460)) + " click 1";
+    } else if (kind < 45) {
+      a = "mousemove " + std::to_string(x) + " " + std::to_string(y) + " click 1";
+    } else if (kind < 52) {
+      a = "mousemove " + std::to_string(x) + " " + std::to_string(y) + " click --repeat 2 --delay 60 1";
+    } else if (kind < 64) {  // a drag with the left, right or middle button, in three steps
+      const int b = uniform(0, 5) < 4 ? 1 : uniform(2, 3);
+      const int x1 = std::clamp(x + uniform(-300, 300), 0, 1279), y1 = std::clamp(y + uniform(-200, 200), 0, 799);
+      a = "mousemove " + std::to_string(x) + " " + std::to_string(y) + " mousedown " + std::to_string(b);
+      for (int s = 1; s <= 3; ++s)
+        a += " mousemove " + std::to_string(x + (x1 - x) * s / 3) + " " + std::to_string(y + (y1 - y) * s / 3) +
+             " sleep 0.02";
+      a += " mouseup " + std::to_string(b);
+    } else if (kind < 70) {
+      a = "mousemove " + std::to_string(x) + " " + std::to_string(y) + " click 3";
+    } else if (kind < 78) {
+      a = "mousemove " + std::to_string(x) + " " + std::to_string(y) + " click --repeat " +
+          std::to_string(uniform(1, 4)) + " " + std::to_string(uniform(4, 5));
+    } else {
+      a = "key --delay 0 " + keys[uniform(0, int(keys.size()) - 1)];
+    }
+    walk << "act " << i << " " << a << "\n";
+    if (i % 50 == 49) walk << "sleep 0.5\n";  // now and then, time for the worker's run to land
+  }
+  walk << "sleep 1\nact " << actions << " mousemove 640 400\n";
+  return walk.str();
+}
+}  // namespace
+
+TEST(EditorRealInput, ARandomWalkOfMenuAndMouseActionsFromEveryStateNeverCrashes) {
+  TM_REQUIRE_XVFB();
+  TM_REQUIRE_XDOTOOL();
+  const char* count = std::getenv("TM_WALK_ACTIONS");
+  const int actions = count ? std::max(1, std::atoi(count)) : 170;
+  const std::string dir = montage::test::tempDir("editor_random_walk");
+  const std::string project = dir + "/project.json";
+  std::ofstream(project) << montage::test::demoProjectAbsolute().dump(2);
+  fs::copy_file(montage::test::assetsDir() + "/demo/cat.obj", dir + "/cat.obj");
+  std::mt19937 rng(35);
+  int total = 0;
+  for (const auto& [name, file] : std::vector<std::pair<std::string, std::string>>{
+           {"empty", ""}, {"mesh", dir + "/cat.obj"}, {"project", project}}) {
+    SCOPED_TRACE(name);
+    fs::remove(dir + "/walk.log");
+    const std::string restart = "'" + std::string(TM_EDITOR_EXE) + "' " + (file.empty() ? "" : "'" + file + "' ") +
+                                "--size 1280x800 --scale 1 & pid=$!; xdotool search --sync --onlyvisible --name "
+                                "TextureMontage >/dev/null;";
+    std::string out;
+    const int status = runRealWalk(dir, file, randomWalk(rng, actions, restart), &out);
+    std::string log;
+    {
+      std::ifstream in(dir + "/walk.log");
+      std::vector<std::string> lines;
+      for (std::string line; std::getline(in, line);) lines.push_back(line);
+      const size_t from = lines.size() > 12 ? lines.size() - 12 : 0;
+      for (size_t i = from; i < lines.size(); ++i) log += lines[i] + "\n";
+      total += static_cast<int>(std::count_if(lines.begin(), lines.end(),
+                                              [](const std::string& l) { return l.find("quit at") == std::string::npos; }));
+    }
+    // Alive at the end: the walk kills it and reports STILL_RUNNING (status 3), which is what we want here.
+    EXPECT_EQ(status, 3) << "the editor did not live through the walk from the " << name << " state:\n"
+                         << out << "\nlast actions:\n" << log;
+    EXPECT_EQ(out.find("DIED"), std::string::npos) << out << "\nlast actions:\n" << log;
+    std::printf("%s: %d actions, %s", name.c_str(), actions,
+                log.find("quit at") != std::string::npos ? "a quit on the way\n" : "no quit\n");
+  }
+  std::printf("%d real actions in all\n", total);
 }

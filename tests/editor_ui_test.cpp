@@ -1168,7 +1168,7 @@ TEST(EditorInputQueue, AWheelTurnIsSeenWhereAndWhenItHappened) {
 // walk happened to click is not a crash: the editor starts again on the same file and the walk goes on. After
 // every action the walk checks that the editor is alive; a death by a signal or a non-zero exit fails the
 // test with the actions that led to it (walk.log). TM_WALK_ACTIONS sets the count per state (default 170,
-// about 500 in all; 500 per state takes about ten minutes).
+// about 500 in all, 1.5 minutes; 500 per state takes about five) and TM_WALK_SEED the seed (default 35).
 namespace {
 std::string randomWalk(std::mt19937& rng, int actions, const std::string& restart) {
   auto uniform = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
@@ -1226,7 +1226,8 @@ TEST(EditorRealInput, ARandomWalkOfMenuAndMouseActionsFromEveryStateNeverCrashes
   const std::string project = dir + "/project.json";
   std::ofstream(project) << montage::test::demoProjectAbsolute().dump(2);
   fs::copy_file(montage::test::assetsDir() + "/demo/cat.obj", dir + "/cat.obj");
-  std::mt19937 rng(35);
+  const char* seed = std::getenv("TM_WALK_SEED");
+  std::mt19937 rng(seed ? static_cast<unsigned>(std::strtoul(seed, nullptr, 10)) : 35u);
   int total = 0;
   for (const auto& [name, file] : std::vector<std::pair<std::string, std::string>>{
            {"empty", ""}, {"mesh", dir + "/cat.obj"}, {"project", project}}) {

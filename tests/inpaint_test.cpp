@@ -1413,3 +1413,64 @@ TEST(Texture, TheBakeShowsTheExemplarBetweenTheVertices) {
     EXPECT_LT(worstFixed, 1e-6) << detail << " over " << fixedTriangles << " photo-cornered triangles";
   }
 }
+
+// Issue 34: a stroke over a texture hole turns the texture's grain to run along it. Photographed stripes run
+// along x (a noisy sine in y, so that patches differ); a disc is cut out, and a stroke drawn through it along the
+// diagonal. The fill's grain near the stroke (the minor direction of the structure tensor of its lightness over
+// the refined triangles within 0.06 of the stroke) runs along x without the stroke and along the diagonal with
+// it; the note says so.
+TEST(Texture, AStrokeTurnsTheGrainToRunAlongIt) {
+  const auto mesh = unitSquare(31);
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0, 0.04f);
+  const Photo photo = makePhoto(500, 500, [&](double, double y) {
+    const float s = std::clamp(float(0.5 + 0.45 * std::sin(2 * M_PI * y / 24.0)) + noise(rng), 0.f, 1.f);
+    return Vec3f(0.9f * s + 0.05f, 0.7f * s + 0.1f, 0.4f * s + 0.2f);
+  });
+  TextureMap map = planarMap(*mesh, 400, 50);
+  ASSERT_GT(cutHole(*mesh, map, Vec3(0.5, 0.5, 0), 0.3), 0);
+  Stroke stroke;  // grid vertices (i, i), i = 8..22: the diagonal through the hole's centre
+  for (int i = 8; i <= 22; ++i) stroke.vertices.push_back(i * 31 + i);
+  double grainAngle[2];
+  for (int m = 0; m < 2; ++m) {
+    InpaintInput in = inputFor(*mesh, map, {&photo}, InpaintMode::Texture);
+    if (m) in.strokes = {stroke};
+    std::vector<std::string> warnings;
+    const InpaintResult res = inpaintSurface(in, {}, &warnings);
+    ASSERT_EQ(res.regions.size(), 1u);
+    EXPECT_EQ(res.regions[0].mode, InpaintMode::Texture);
+    EXPECT_EQ(res.regions[0].note.find("stroke vertices") != std::string::npos, m == 1) << res.regions[0].note;
+    const RefinedSurface& rs = res.refined;
+    const auto solved = solvedVertices(rs, map);
+    double xx = 0, xy = 0, yy = 0;
+    for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
+      const auto& tri = rs.mesh.triangles[t];
+      if (rs.region[t] < 0 || !solved[tri[0]] || !solved[tri[1]] || !solved[tri[2]]) continue;
+      const Vec3 c = (rs.mesh.positions[tri[0]] + rs.mesh.positions[tri[1]] + rs.mesh.positions[tri[2]]) / 3;
+      if (std::abs(c.x() - c.y()) / std::sqrt(2.0) > 0.06 || (c - Vec3(0.5, 0.5, 0)).norm() > 0.2) continue;
+      // The lightness gradient of the linear colours over the triangle (flat in z).
+      const Vec3 e1 = rs.mesh.positions[tri[1]] - rs.mesh.positions[tri[0]];
+      const Vec3 e2 = rs.mesh.positions[tri[2]] - rs.mesh.positions[tri[0]];
+      const double l0 = srgbToLab(res.colors.row(tri[0]).transpose())[0];
+      const double d1 = srgbToLab(res.colors.row(tri[1]).transpose())[0] - l0;
+      const double d2 = srgbToLab(res.colors.row(tri[2]).transpose())[0] - l0;
+      Eigen::Matrix2d a;
+      a << e1.x(), e1.y(), e2.x(), e2.y();
+      if (std::abs(a.determinant()) < 1e-12) continue;
+      const Vec2 g = a.inverse() * Vec2(d1, d2);
+      xx += g.x() * g.x(), xy += g.x() * g.y(), yy += g.y() * g.y();
+    }
+    ASSERT_GT(xx + yy, 0) << m;
+    // The grain: perpendicular to the major gradient direction, as an angle in [0, 180) degrees.
+    const double gradient = 0.5 * std::atan2(2 * xy, xx - yy) * 180 / M_PI;
+    grainAngle[m] = std::fmod(gradient + 90 + 360, 180.0);
+  }
+  auto off = [](double angle, double want) {
+    const double d = std::fmod(std::abs(angle - want), 180.0);
+    return std::min(d, 180 - d);
+  };
+  std::printf("grain near the diagonal: %.1f degrees without the stroke, %.1f with it\n", grainAngle[0],
+              grainAngle[1]);
+  EXPECT_LT(off(grainAngle[0], 0), 20);
+  EXPECT_LT(off(grainAngle[1], 45), 20);
+}

@@ -414,7 +414,9 @@ void Editor::toolsPanel() {
       }
       break;
     case Tool::Stroke:
-      ImGui::TextWrapped("Left-drag on the mesh to draw a guidance stroke (direction = direction of travel).");
+      ImGui::TextWrapped(
+          "Left-drag on the mesh to draw a guidance stroke: a texture-filled hole's grain runs along it (under other "
+          "fill modes the fill flows along it).");
       ImGui::Text("%zu stroke(s) in the project", p.strokes.size());
       break;
     case Tool::Cutout:

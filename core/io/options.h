@@ -113,7 +113,7 @@ struct PipelineOptions {
   double gradientWeight = 0.0;         // seams: 1 - alpha of paper eq. (4); 0 = colours only
   BalanceMode colorBalance = BalanceMode::GainOffset;  // colour balance between photos, before levelling
   LevelMode seamLevelling = LevelMode::Vertex;         // seam levelling between photos (paper end of 5)
-  InpaintMode inpaintMode = InpaintMode::Texture;      // inpainting: guidance of holes without strokes (chosen by
+  InpaintMode inpaintMode = InpaintMode::Texture;      // inpainting: guidance of holes (InpaintOptions::mode; chosen by
                                                        // measurement, docs/pipeline.md)
   int maxInpaintVertices = 2000000;                    // inpainting: cap on refined vertices (coarser beyond)
   int atlasSize = 0;  // atlas: 0 = the smallest size holding the photos at their own resolution, or a fixed

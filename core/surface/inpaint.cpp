@@ -728,8 +728,10 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     holeOf[f] = rootHole[r];
   }
 
-  // Strokes: per hole, the stroke vertices on it with their direction of travel.
+  // Strokes: per hole, the stroke vertices on it with their direction of travel, and the strokes' segments
+  // that touch it.
   std::vector<std::vector<std::pair<int, Vec3>>> holeStrokes(numHoles);
+  std::vector<std::vector<std::array<Vec3, 2>>> holeSegments(numHoles);
   {
     std::vector<int> vertexHole(nv, -1);
     for (int f = 0; f < nf; ++f)
@@ -746,16 +748,18 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
         const Vec3 dir = mesh.position(vs[std::min(i + 1, vs.size() - 1)]) - mesh.position(vs[i ? i - 1 : 0]);
         if (dir.norm() <= 0) continue;
         holeStrokes[vertexHole[vs[i]]].emplace_back(vs[i], dir.normalized());
+        if (i + 1 < vs.size()) holeSegments[vertexHole[vs[i]]].push_back({mesh.position(vs[i]), mesh.position(vs[i + 1])});
         used = true;
       }
       if (!used) warn("strokes[" + std::to_string(s) + "] crosses no hole: it guides nothing");
     }
   }
 
-  // Per-hole mode: HoleMode entry, else strokes when drawn there, else the option.
+  // Per-hole mode: HoleMode entry, else the option; strokes drawn on a hole make it "strokes" (flow lines),
+  // except under "texture", whose grain follows them.
   std::vector<InpaintMode> holeMode(numHoles, opt.mode == InpaintMode::Strokes ? InpaintMode::Rbf : opt.mode);
   for (int h = 0; h < numHoles; ++h)
-    if (!holeStrokes[h].empty()) holeMode[h] = InpaintMode::Strokes;
+    if (!holeStrokes[h].empty() && opt.mode != InpaintMode::Texture) holeMode[h] = InpaintMode::Strokes;
   for (size_t i = 0; i < in.holeModes.size(); ++i) {
     int hole = -1;
     for (int f = 0; f < nf && hole < 0; ++f)
@@ -1039,6 +1043,20 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     if (rs.region[t] >= 0) regionTris[rs.region[t]].push_back(t);
   std::vector<std::vector<std::string>> holeWarnings(numHoleRegions);
   tbb::enumerable_thread_specific<std::vector<int>> scratch([rv] { return std::vector<int>(rv, -1); });
+  // The strokes drawn over hole region r: its sub-mesh's vertices with their direction of travel.
+  auto strokesOn = [&](int r, const SubMesh& sub) {
+    std::vector<std::pair<int, Vec3>> on;
+    if (holeFaces[r].empty()) return on;
+    const auto& strokes = holeStrokes[holeOf[holeFaces[r][0]]];
+    if (strokes.empty()) return on;
+    std::unordered_map<int, int> local;
+    for (int l = 0; l < sub.mesh.numVertices(); ++l) local.emplace(sub.vertex[l], l);
+    for (const auto& [v, dir] : strokes) {
+      const auto it = local.find(baseVertex[v]);
+      if (it != local.end()) on.emplace_back(it->second, dir);
+    }
+    return on;
+  };
   std::atomic<int> started{0};
   tbb::parallel_for(0, numHoleRegions, [&](int r) {
     const auto warn = [&](const std::string& w) { holeWarnings[r].push_back(w); };
@@ -1074,8 +1092,11 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       SurfaceSynthesisOptions topt;
       topt.seed = opt.textureSeed;
       topt.rareChi2 = opt.textureRareChi2;
+      if (!holeFaces[r].empty()) tin.strokes = holeSegments[holeOf[holeFaces[r][0]]];
       textured = synthesiseOnSurface(tin, topt);
       reg.note = textured.note;
+      if (textured.strokeVertices > 0)
+        reg.note += "; its grain follows " + std::to_string(textured.strokeVertices) + " stroke vertices";
       if (textured.ok && textured.detail) {
         // Each hole writes only its own unknown vertices' entries (holes share none).
         reg.detail = textured.detail;
@@ -1147,14 +1168,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
         d = rbfGuidance(sub, subGraph, fixed, bd, opt.rbfCentres);
       } else {
         std::vector<StrokeSample> samples;
-        int hole = -1;
-        if (!holeFaces[r].empty()) hole = holeOf[holeFaces[r][0]];
-        std::unordered_map<int, int> local;
-        for (int l = 0; l < n; ++l) local.emplace(sub.vertex[l], l);
-        for (const auto& [v, dir] : holeStrokes[hole]) {
-          const auto it = local.find(baseVertex[v]);
-          if (it != local.end()) samples.push_back({it->second, dir});
-        }
+        for (const auto& [l, dir] : strokesOn(r, sub)) samples.push_back({l, dir});
         FlowStats stats;
         d = strokeGuidance(sub, subGraph, fixed, bd, samples, stats);
         reg.note = std::to_string(stats.traced) + " flow lines: " + std::to_string(stats.bothEnds) +

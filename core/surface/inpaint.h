@@ -78,7 +78,8 @@ enum class GuidanceBound { None, Clamp, Scale, Soft };
 inline constexpr std::array<const char*, 4> kGuidanceBoundNames = {"none", "clamp", "scale", "soft"};
 
 struct InpaintOptions {
-  InpaintMode mode = InpaintMode::Texture;  // holes without a HoleMode entry and without strokes
+  InpaintMode mode = InpaintMode::Texture;  // holes without a HoleMode entry (strokes steer "texture"; under
+                                            // any other mode a hole with strokes follows them: "strokes")
   GuidanceBound bound = GuidanceBound::Soft;  // keeps guided fills inside the border's colour range
   double structureBlur = 0.35;  // structure: blur of the synthesised texture, in hole radii (SynthesisOptions::blur)
   double structureBand = 1.5;   // structure: the band's area in hole areas (SynthesisOptions::bandAreaRatio; plain

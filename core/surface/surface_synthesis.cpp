@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 #include <numeric>
@@ -17,6 +18,7 @@
 
 #include "base/job.h"
 #include "geometry/mesh.h"
+#include "geometry/poisson.h"
 #include "image/photo.h"
 #include "surface/level.h"
 
@@ -238,6 +240,81 @@ std::vector<int> poissonDiskSubset(const std::vector<Vec3f>& points, int begin, 
   }
   std::sort(kept.begin(), kept.end());
   return kept;
+}
+
+// The exemplar's grain: the direction of least change of its lightness (the structure tensor's minor
+// eigenvector, over its foreground), as an angle from its x axis in its pixels (y down), and how marked it is
+// ((l1 - l2) / (l1 + l2): 0 isotropic, 1 all along one line).
+std::pair<double, double> grainOf(const cv::Mat& lab, const cv::Mat& valid) {
+  cv::Mat l, gx, gy;
+  cv::extractChannel(lab, l, 0);
+  cv::Sobel(l, gx, CV_32F, 1, 0), cv::Sobel(l, gy, CV_32F, 0, 1);
+  double xx = 0, xy = 0, yy = 0;
+  for (int y = 0; y < l.rows; ++y)
+    for (int x = 0; x < l.cols; ++x) {
+      if (!valid.at<uchar>(y, x)) continue;
+      const double a = gx.at<float>(y, x), b = gy.at<float>(y, x);
+      xx += a * a, xy += a * b, yy += b * b;
+    }
+  const double gradient = 0.5 * std::atan2(2 * xy, xx - yy);  // the major eigenvector's angle
+  const double spread = std::sqrt((xx - yy) * (xx - yy) + 4 * xy * xy);
+  return {gradient + M_PI / 2, xx + yy > 0 ? spread / (xx + yy) : 0};
+}
+
+// Strokes steer the direction field (issue 34): at the unknown vertices a stroke passes (within 0.75 of a cell
+// of its segments) the frame is turned so that the exemplar's grain runs along the stroke (an exemplar without a
+// marked grain: its x axis), signed to agree with the field the border alone gives there (grain has no sign;
+// opposite signs would cancel); then the field is harmonic again with the border's directions and the strokes'
+// fixed. Where that system cannot be solved (a part of the hole that neither touches), the border's field stays.
+std::vector<Vec3> steerByStrokes(const SurfaceSynthesisInput& in, const std::vector<Vec3>& vertexNormal,
+                                 const std::vector<Vec3f>& pos, const std::vector<int>& unknownVertex, double h0,
+                                 const cv::Mat& lab, const cv::Mat& valid, double flip, const std::vector<Vec3>& field,
+                                 int& steered) {
+  const TriangleMesh& surf = *in.surface;
+  const int n = surf.numVertices();
+  const auto [grain, marked] = grainOf(lab, valid);
+  const double phi = marked > 0.1 ? grain : 0;
+  const PointGrid unknowns(std::vector<Vec3f>(pos.begin(), pos.begin() + long(unknownVertex.size())), float(h0));
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(n, 3);
+  std::vector<char> passed(n, 0);
+  for (const auto& [from, to] : in.strokes) {
+    const Vec3 along = to - from;
+    const double length = along.norm();
+    if (!(length > 0)) continue;
+    const int steps = std::max(1, int(std::ceil(2 * length / h0)));
+    for (int k = 0; k <= steps; ++k) {
+      const Vec3f x = (from + along * (double(k) / steps)).cast<float>();
+      unknowns.forEachNear(x, float(0.75 * h0), [&](int i) {
+        if ((pos[i] - x).norm() > 0.75 * h0) return;
+        const int v = unknownVertex[i];
+        const Vec3& nrm = vertexNormal[v];
+        Vec3 s = along - along.dot(nrm) * nrm;
+        if (!(s.norm() > 1e-12)) return;
+        s.normalize();
+        Vec3 t = std::cos(phi) * s - std::sin(phi) * (flip * nrm.cross(s));
+        if (t.dot(field[v]) < 0) t = -t;
+        sum.row(v) += t.transpose(), passed[v] = 1;
+      });
+    }
+  }
+  std::vector<char> fixed = in.fixed;
+  Eigen::MatrixXd values = Eigen::MatrixXd::Zero(n, 3);
+  steered = 0;
+  for (int v = 0; v < n; ++v) {
+    if (fixed[v]) values.row(v) = field[v].transpose();
+    if (passed[v] && sum.row(v).norm() > 0) values.row(v) = sum.row(v).normalized(), fixed[v] = 1, ++steered;
+  }
+  if (steered == 0) return field;
+  try {
+    const PoissonSolver solver(surf, fixed);
+    const Eigen::MatrixXd solved = solver.solve(Eigen::MatrixXd::Zero(n, 3), values);
+    std::vector<Vec3> out(n);
+    for (int v = 0; v < n; ++v) out[v] = solved.row(v).transpose();
+    return out;
+  } catch (const Error&) {
+    steered = 0;
+    return field;
+  }
 }
 
 }  // namespace
@@ -552,6 +629,8 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
   } else {
     std::fill(field.begin(), field.end(), fallbackDx);
   }
+  if (!in.strokes.empty())
+    field = steerByStrokes(in, vertexNormal, pos, unknownVertex, h0, lab0, valid, flip, field, out.strokeVertices);
   std::vector<Vec3f> tangent(nu), bitangent(nu);
   for (int i = 0; i < nu; ++i) {
     const int v = unknownVertex[i];

@@ -56,6 +56,10 @@ struct SurfaceSynthesisInput : HoleInput {
   std::vector<char> fixed;                   // per surface vertex: its colour is known (from a photo)
   const Eigen::MatrixXd* fixedValues = nullptr;  // per surface vertex, sRGB in [0,1] (rows of fixed vertices)
   const PoissonSolver* solver = nullptr;     // of `surface` with `fixed` (null when nothing is fixed)
+  // The user's strokes over the hole, as segments in model space in their direction of travel. The exemplar's
+  // grain follows them at the vertices they pass, and the direction field turns smoothly between them and the
+  // border.
+  std::vector<std::array<Vec3, 2>> strokes;
 };
 
 // The synthesised texture between the vertices. The vertices sit about 1.5 texels apart (inpaint refines to
@@ -88,6 +92,7 @@ struct SurfaceSynthesisResult {
   int levels = 0;              // levels synthesised
   int points = 0;              // points: the hole's and the known ones around it
   double energy = 0;           // mean per-texel distance (L*a*b*) of the neighbourhoods to their patches, last pass
+  int strokeVertices = 0;      // stroke vertices that steered the direction field
   std::shared_ptr<const TextureDetail> detail;  // ok: the texture between the vertices
   std::vector<int> detailPoint;                 // per surface vertex: its detail->points index, -1 when fixed
 };

@@ -368,3 +368,29 @@ TEST(Cutout, RealStampOnAClutteredPhotoFromARectangleAndTwoStrokes) {
               strokes.size());
   EXPECT_GE(afterStrokes, 0.95);
 }
+
+// The cut-out's undo steps keep their masks run-length encoded (issue 35: 100 full-size copies of a 12-megapixel
+// mask were 1.2 GB). A real outline (tuxpaint's tiger stamp, its alpha scaled to 4000 x 3000 and feathered as
+// the cut-out does) comes back bit for bit and takes under 2% of its raw size; so do an empty mask, a mask of
+// noise (the worst case: longer than raw, still exact) and a one-pixel one.
+TEST(Cutout, UndoStepsKeepMasksPackedAndExact) {
+  const std::string stampPath = "/usr/share/tuxpaint/stamps/animals/mammals/cats/tiger.png";
+  if (!fs::exists(stampPath)) GTEST_SKIP() << "needs Debian's tuxpaint-stamps-default (" << stampPath << ")";
+  const cv::Mat stamp = readImageRgba8(stampPath);
+  cv::Mat alpha, big;
+  cv::extractChannel(stamp, alpha, 3);
+  cv::resize(alpha, big, cv::Size(4000, 3000), 0, 0, cv::INTER_LINEAR);
+  const cv::Mat mask = featherMask(big >= 128, CutoutOptions{}.featherPx);
+  const PackedMask packed(mask);
+  EXPECT_EQ(cv::norm(packed.unpack(), mask, cv::NORM_INF), 0);
+  std::printf("12 MP feathered mask: %zu bytes packed (%.2f%% of %zu)\n", packed.bytes(),
+              100.0 * double(packed.bytes()) / double(mask.total()), mask.total());
+  EXPECT_LT(packed.bytes(), mask.total() / 50);
+  EXPECT_TRUE(PackedMask(cv::Mat()).unpack().empty());
+  cv::Mat noise(97, 131, CV_8UC1);
+  cv::randu(noise, 0, 256);
+  EXPECT_EQ(cv::norm(PackedMask(noise).unpack(), noise, cv::NORM_INF), 0);
+  const cv::Mat one(1, 1, CV_8UC1, cv::Scalar(7));
+  EXPECT_EQ(PackedMask(one).unpack().at<uchar>(0, 0), 7);
+  EXPECT_THROW(PackedMask(cv::Mat(4, 4, CV_32F)), Error);
+}

@@ -521,6 +521,9 @@ TEST(EditorCutout, UndoAndRedoRestoreTheCutStepByStep) {
   EXPECT_NE(s2["mask_hash"], s3["mask_hash"]) << "the erase brush changed nothing";
   EXPECT_LT(s3["foreground_pixels"].get<int>(), s2["foreground_pixels"].get<int>());
   EXPECT_EQ(s3["undo_steps"], 3);
+  // Each step keeps its mask packed, not as a full-size copy: the three together under one mask's pixels.
+  EXPECT_GT(s3["undo_mask_bytes"].get<size_t>(), 0u);
+  EXPECT_LT(s3["undo_mask_bytes"].get<size_t>(), t.truth.total()) << s3.dump();
   // Each undo gives back the cut before that step, bit for bit.
   EXPECT_EQ(cut("u2.json")["mask_hash"], s2["mask_hash"]);
   EXPECT_EQ(cut("u2.json")["strokes"], 1);

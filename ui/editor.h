@@ -123,7 +123,7 @@ class Editor {
   // The cut-out as it stands after some steps: the tool's undo and redo put it back exactly.
   struct CutoutState {
     std::unique_ptr<Cutout> cut;
-    cv::Mat mask;
+    PackedMask mask;  // run-length encoded: a step costs kilobytes, not a full-size copy
     std::vector<CutoutStroke> strokes;
     std::optional<cv::Rect2d> rect;
     double seconds = 0;

@@ -397,7 +397,7 @@ void Editor::pollCutout() {
 void Editor::pushCutoutUndo(const std::string& label) {
   CutoutState before;
   before.cut = std::make_unique<Cutout>(cutout_.cut->copy());
-  before.mask = cutout_.mask.clone();
+  before.mask = PackedMask(cutout_.mask);
   before.strokes = cutout_.strokes;
   before.rect = cutout_.rect;
   before.seconds = cutout_.seconds;
@@ -405,14 +405,15 @@ void Editor::pushCutoutUndo(const std::string& label) {
   cutout_.undo.push_back(std::move(before));
   cutout_.redo.clear();
   cutout_.docPosition = doc_.position();
-  // Bounded: a session keeps its last 100 steps (each a copy of the working labels, about 1 MB).
+  // Bounded: a session keeps its last 100 steps (each a copy of the working labels, about 0.25 MB, and its
+  // mask run-length encoded).
   if (cutout_.undo.size() > 100) cutout_.undo.erase(cutout_.undo.begin());
 }
 
 Editor::CutoutState Editor::takeCutoutState(const std::string& label) {
   CutoutState now;
   now.cut = std::move(cutout_.cut);
-  now.mask = cutout_.mask;
+  now.mask = PackedMask(cutout_.mask);
   now.strokes = std::move(cutout_.strokes);
   now.rect = cutout_.rect;
   now.seconds = cutout_.seconds;
@@ -422,7 +423,7 @@ Editor::CutoutState Editor::takeCutoutState(const std::string& label) {
 
 void Editor::restoreCutoutState(CutoutState&& state) {
   cutout_.cut = std::move(state.cut);
-  cutout_.mask = state.mask;
+  cutout_.mask = state.mask.unpack();
   cutout_.strokes = std::move(state.strokes);
   cutout_.rect = state.rect;
   cutout_.seconds = state.seconds;

@@ -689,6 +689,9 @@ void Editor::writeState(const std::string& path) const {
     const cv::Mat m = cutout_.mask.isContinuous() ? cutout_.mask : cutout_.mask.clone();
     for (size_t k = 0; k < m.total() * m.elemSize(); ++k) maskHash = (maskHash ^ m.data[k]) * 1099511628211ull;
   }
+  size_t undoMaskBytes = 0;  // what the undo and redo steps' masks hold
+  for (const auto* stack : {&cutout_.undo, &cutout_.redo})
+    for (const CutoutState& step : *stack) undoMaskBytes += step.mask.bytes();
   state["cutout"] = {{"photo", cutout_.photo},
                      {"running", cutout_.job.valid()},
                      {"started", cutout_.cut && cutout_.cut->started()},
@@ -699,6 +702,7 @@ void Editor::writeState(const std::string& path) const {
                      {"rect", bool(cutout_.rect)},
                      {"undo_steps", cutout_.undo.size()},
                      {"redo_steps", cutout_.redo.size()},
+                     {"undo_mask_bytes", undoMaskBytes},
                      {"queued", cutout_.queue.size()},
                      {"steps_applied", cutout_.stepsApplied},
                      {"undo_label", cutoutOwnsUndo() ? cutoutUndoLabel() : ""},

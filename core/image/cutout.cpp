@@ -476,6 +476,29 @@ cv::Mat cutoutMask(const cv::Mat& rgb, const cv::Rect2d& rect, const cv::Mat& fg
   return cut.mask();
 }
 
+PackedMask::PackedMask(const cv::Mat& mask) {
+  if (mask.empty()) return;
+  TM_CHECK(mask.type() == CV_8UC1, "PackedMask: a CV_8UC1 mask is expected");
+  size_ = mask.size();
+  for (int y = 0; y < mask.rows; ++y) {
+    const uchar* row = mask.ptr<uchar>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      if (!values_.empty() && values_.back() == row[x] && lengths_.back() < UINT32_MAX)
+        ++lengths_.back();
+      else
+        values_.push_back(row[x]), lengths_.push_back(1);
+    }
+  }
+}
+
+cv::Mat PackedMask::unpack() const {
+  if (size_.empty()) return {};
+  cv::Mat mask(size_, CV_8UC1);
+  uchar* out = mask.data;  // freshly allocated: continuous
+  for (size_t i = 0; i < values_.size(); ++i) out = std::fill_n(out, lengths_[i], values_[i]);
+  return mask;
+}
+
 cv::Mat featherMask(const cv::Mat& binary, double featherPx) {
   TM_CHECK(!binary.empty() && binary.channels() == 1, "feather: expected a one-channel mask");
   const cv::Mat foreground = binary != 0;

@@ -135,7 +135,12 @@ class Editor {
     int photo = -1;
     std::string key;  // the photo slot's key when the session started: a reload ends the session
     std::unique_ptr<Cutout> cut;
-    std::future<std::pair<std::unique_ptr<Cutout>, std::string>> job;  // the Cutout back, and an error text
+    struct JobResult {
+      std::unique_ptr<Cutout> cut;  // the Cutout back
+      std::string error;            // why the step failed ("": it did not)
+      cv::Mat mask;                 // its feathered mask, made on the helper thread (12 MP: not on the UI's)
+    };
+    std::future<JobResult> job;
     cv::Mat mask;                      // last result, photo pixels as shown (CV_8UC1, 0..255)
     std::unique_ptr<Texture> overlay;  // `mask` as a tint
     bool overlayDirty = false;

@@ -348,37 +348,42 @@ bool Editor::startCutout(int photo, bool fromCurrentMask) {
 void Editor::runCutout(std::function<void(Cutout&)> step) {
   if (!cutout_.cut || cutout_.job.valid()) return;
   // The Cutout goes to the helper thread and comes back with the result (pollCutout).
-  cutout_.job = std::async(std::launch::async,
-                           [cut = std::move(cutout_.cut), step = std::move(step), delay = cutoutDelay_]() mutable {
-                             std::string error;
-                             try {
-                               if (delay > 0) std::this_thread::sleep_for(std::chrono::duration<double>(delay));
-                               step(*cut);
-                             } catch (const Error& e) {
-                               error = e.what();
-                             } catch (const std::exception& e) {
-                               error = std::string("cut-out: ") + e.what();
-                             }
-                             return std::make_pair(std::move(cut), error);
-                           });
+  cutout_.job = std::async(std::launch::async, [cut = std::move(cutout_.cut), step = std::move(step),
+                                                delay = cutoutDelay_, feather = cutoutFeather_]() mutable {
+    CutoutSession::JobResult r;
+    try {
+      if (delay > 0) std::this_thread::sleep_for(std::chrono::duration<double>(delay));
+      step(*cut);
+      cut->setFeather(feather);
+      r.mask = cut->mask();
+    } catch (const Error& e) {
+      r.error = e.what();
+    } catch (const std::exception& e) {
+      r.error = std::string("cut-out: ") + e.what();
+    }
+    r.cut = std::move(cut);
+    return r;
+  });
 }
 
 void Editor::pollCutout() {
   if (cutout_.job.valid() && cutout_.job.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
-    auto [cut, error] = cutout_.job.get();
-    cutout_.cut = std::move(cut);
+    CutoutSession::JobResult r = cutout_.job.get();
+    cutout_.cut = std::move(r.cut);
     cutout_.jobLabel.clear();
-    if (!error.empty()) {
+    if (!r.error.empty()) {
       // The step failed (a rectangle over the whole photo...): the cut goes back to the state before it.
-      setStatus(error);
-      reportError(error);
+      setStatus(r.error);
+      reportError(r.error);
       if (!cutout_.undo.empty()) {
         restoreCutoutState(std::move(cutout_.undo.back()));
         cutout_.undo.pop_back();
+      } else {
+        cutout_.mask = cutout_.cut->mask();
       }
+    } else {
+      cutout_.mask = std::move(r.mask);  // a feather changed meanwhile is applied by the slider's check
     }
-    cutout_.cut->setFeather(cutoutFeather_);
-    cutout_.mask = cutout_.cut->mask();
     cutout_.seconds = cutout_.cut->lastSeconds();
     cutout_.overlayDirty = true;
     // Undos asked for while it ran take back the newest steps first, then what was drawn meanwhile runs.

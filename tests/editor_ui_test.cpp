@@ -1245,8 +1245,8 @@ TEST(EditorRealInput, ARandomWalkOfMenuAndMouseActionsFromEveryStateNeverCrashes
       for (std::string line; std::getline(in, line);) lines.push_back(line);
       const size_t from = lines.size() > 12 ? lines.size() - 12 : 0;
       for (size_t i = from; i < lines.size(); ++i) log += lines[i] + "\n";
-      total += static_cast<int>(std::count_if(lines.begin(), lines.end(),
-                                              [](const std::string& l) { return l.find("quit at") == std::string::npos; }));
+      const auto isAction = [](const std::string& l) { return l.find("quit at") == std::string::npos; };
+      total += static_cast<int>(std::count_if(lines.begin(), lines.end(), isAction));
     }
     // Alive at the end: the walk kills it and reports STILL_RUNNING (status 3), which is what we want here.
     EXPECT_EQ(status, 3) << "the editor did not live through the walk from the " << name << " state:\n"

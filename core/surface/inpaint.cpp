@@ -748,7 +748,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
         const Vec3 dir = mesh.position(vs[std::min(i + 1, vs.size() - 1)]) - mesh.position(vs[i ? i - 1 : 0]);
         if (dir.norm() <= 0) continue;
         holeStrokes[vertexHole[vs[i]]].emplace_back(vs[i], dir.normalized());
-        if (i + 1 < vs.size()) holeSegments[vertexHole[vs[i]]].push_back({mesh.position(vs[i]), mesh.position(vs[i + 1])});
+        if (i + 1 < vs.size())
+          holeSegments[vertexHole[vs[i]]].push_back({mesh.position(vs[i]), mesh.position(vs[i + 1])});
         used = true;
       }
       if (!used) warn("strokes[" + std::to_string(s) + "] crosses no hole: it guides nothing");
@@ -906,7 +907,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
   // bleeding the background into the fill.
   res.colors = VertexColors::Zero(rv, 3);
   bool anyTexture = false;
-  for (const InpaintRegion& reg : res.regions) anyTexture |= reg.kind == InpaintRegion::Kind::Hole && reg.mode == InpaintMode::Texture;
+  for (const InpaintRegion& reg : res.regions)
+    anyTexture |= reg.kind == InpaintRegion::Kind::Hole && reg.mode == InpaintMode::Texture;
   if (anyTexture) res.detailPoint.assign(rv, -1);
   std::vector<int> known(rv, 0);
   std::vector<char> starKnown(rv, 1);  // every triangle around the vertex is mapped
@@ -1043,20 +1045,6 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
     if (rs.region[t] >= 0) regionTris[rs.region[t]].push_back(t);
   std::vector<std::vector<std::string>> holeWarnings(numHoleRegions);
   tbb::enumerable_thread_specific<std::vector<int>> scratch([rv] { return std::vector<int>(rv, -1); });
-  // The strokes drawn over hole region r: its sub-mesh's vertices with their direction of travel.
-  auto strokesOn = [&](int r, const SubMesh& sub) {
-    std::vector<std::pair<int, Vec3>> on;
-    if (holeFaces[r].empty()) return on;
-    const auto& strokes = holeStrokes[holeOf[holeFaces[r][0]]];
-    if (strokes.empty()) return on;
-    std::unordered_map<int, int> local;
-    for (int l = 0; l < sub.mesh.numVertices(); ++l) local.emplace(sub.vertex[l], l);
-    for (const auto& [v, dir] : strokes) {
-      const auto it = local.find(baseVertex[v]);
-      if (it != local.end()) on.emplace_back(it->second, dir);
-    }
-    return on;
-  };
   std::atomic<int> started{0};
   tbb::parallel_for(0, numHoleRegions, [&](int r) {
     const auto warn = [&](const std::string& w) { holeWarnings[r].push_back(w); };
@@ -1168,7 +1156,14 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
         d = rbfGuidance(sub, subGraph, fixed, bd, opt.rbfCentres);
       } else {
         std::vector<StrokeSample> samples;
-        for (const auto& [l, dir] : strokesOn(r, sub)) samples.push_back({l, dir});
+        int hole = -1;
+        if (!holeFaces[r].empty()) hole = holeOf[holeFaces[r][0]];
+        std::unordered_map<int, int> local;
+        for (int l = 0; l < n; ++l) local.emplace(sub.vertex[l], l);
+        for (const auto& [v, dir] : holeStrokes[hole]) {
+          const auto it = local.find(baseVertex[v]);
+          if (it != local.end()) samples.push_back({it->second, dir});
+        }
         FlowStats stats;
         d = strokeGuidance(sub, subGraph, fixed, bd, samples, stats);
         reg.note = std::to_string(stats.traced) + " flow lines: " + std::to_string(stats.bothEnds) +

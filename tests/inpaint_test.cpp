@@ -1474,3 +1474,34 @@ TEST(Texture, AStrokeTurnsTheGrainToRunAlongIt) {
   EXPECT_LT(off(grainAngle[0], 0), 20);
   EXPECT_LT(off(grainAngle[1], 45), 20);
 }
+
+// A texture hole whose synthesis cannot run (the photo's foreground is a diagonal line 5 pixels wide: no whole
+// 7 x 7 neighbourhood in its exemplar) falls back to its strokes' flow lines when it has strokes, to RBF when it
+// has none, and says which.
+TEST(Texture, AFailedSynthesisFallsBackToTheHolesStrokes) {
+  const auto mesh = unitSquare(31);
+  Photo photo = makePhoto(500, 500, [](double x, double y) {
+    const float s = float(0.5 + 0.4 * std::sin(2 * M_PI * (x + y) / 20.0));
+    return Vec3f(s, 0.5f, 1 - s);
+  });
+  photo.alpha = cv::Mat(photo.rgb.size(), CV_8UC1, cv::Scalar(0));
+  for (int y = 0; y < photo.alpha.rows; ++y)
+    for (int x = std::max(0, y - 2); x <= std::min(photo.alpha.cols - 1, y + 2); ++x) photo.alpha.at<uchar>(y, x) = 255;
+  photo.hasBackground = true;
+  TextureMap map = planarMap(*mesh, 400, 50);
+  ASSERT_GT(cutHole(*mesh, map, Vec3(0.5, 0.5, 0), 0.25), 0);
+  Stroke stroke;
+  for (int i = 10; i <= 20; ++i) stroke.vertices.push_back(15 * 31 + i);
+  for (int m = 0; m < 2; ++m) {
+    InpaintInput in = inputFor(*mesh, map, {&photo}, InpaintMode::Texture);
+    if (m) in.strokes = {stroke};
+    std::vector<std::string> warnings;
+    const InpaintResult res = inpaintSurface(in, {}, &warnings);
+    ASSERT_FALSE(res.regions.empty());
+    std::string all;
+    for (const std::string& w : warnings) all += w + "\n";
+    EXPECT_NE(all.find(m ? "filled with \"strokes\" instead" : "filled with \"rbf\" instead"), std::string::npos)
+        << res.regions[0].note << "\n" << all;
+    if (m) EXPECT_NE(res.regions[0].note.find("flow lines"), std::string::npos) << res.regions[0].note;
+  }
+}

@@ -748,8 +748,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
         const Vec3 dir = mesh.position(vs[std::min(i + 1, vs.size() - 1)]) - mesh.position(vs[i ? i - 1 : 0]);
         if (dir.norm() <= 0) continue;
         holeStrokes[vertexHole[vs[i]]].emplace_back(vs[i], dir.normalized());
-        if (i + 1 < vs.size())
-          holeSegments[vertexHole[vs[i]]].push_back({mesh.position(vs[i]), mesh.position(vs[i + 1])});
+        const size_t a = i + 1 < vs.size() ? i : i - 1;  // the segment from this vertex, or to it at the end
+        holeSegments[vertexHole[vs[i]]].push_back({mesh.position(vs[a]), mesh.position(vs[a + 1])});
         used = true;
       }
       if (!used) warn("strokes[" + std::to_string(s) + "] crosses no hole: it guides nothing");
@@ -1092,7 +1092,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
           if (textured.detailPoint[l] >= 0) res.detailPoint[sub.vertex[l]] = textured.detailPoint[l];
       }
       if (!textured.ok && numFixed > 0)
-        warn("hole " + std::to_string(r) + ": " + textured.note + ": filled with \"rbf\" instead");
+        warn("hole " + std::to_string(r) + ": " + textured.note + ": filled with \"" +
+             (tin.strokes.empty() ? "rbf" : "strokes") + "\" instead");
     }
     if (numFixed == 0 && textured.ok) {
       // Nothing to blend into: the synthesised texture is the fill.
@@ -1152,7 +1153,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       if (synthesisUsed) {
         // d is the synthesised texture's Laplacian (above)
       } else if (reg.mode == InpaintMode::Rbf || reg.mode == InpaintMode::Synthesis ||
-                 reg.mode == InpaintMode::Structure || reg.mode == InpaintMode::Texture) {
+                 reg.mode == InpaintMode::Structure ||
+                 (reg.mode == InpaintMode::Texture && holeSegments[holeOf[holeFaces[r][0]]].empty())) {
         d = rbfGuidance(sub, subGraph, fixed, bd, opt.rbfCentres);
       } else {
         std::vector<StrokeSample> samples;

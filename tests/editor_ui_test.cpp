@@ -1257,3 +1257,29 @@ TEST(EditorRealInput, ARandomWalkOfMenuAndMouseActionsFromEveryStateNeverCrashes
   }
   std::printf("%d real actions in all\n", total);
 }
+
+// Issue 34: harmonic and RBF stay choices per hole. The Coverage tab gives each empty region a "fill" choice;
+// picked with the mouse it becomes an undoable holeModes entry on one of the region's faces. On the demo at
+// 1280x800, scale 1: the Coverage tab (102, 398); region 0's fill combo (90, 633), whose list opens upwards,
+// "rbf" 115 px above the combo's top.
+TEST(EditorRealInput, AHolesFillIsChosenInTheCoverageTabAndUndone) {
+  TM_REQUIRE_XVFB();
+  TM_REQUIRE_XDOTOOL();
+  const std::vector<json> s = realInputStates(
+      "editor_real_fill", {"mousemove 102 398 sleep 0.3 click 1 sleep 0.8 mousemove 640 400 sleep 0.5",
+                           "mousemove 90 633 sleep 0.3 click 1 sleep 0.8 mousemove 40 508 sleep 0.3 click 1 sleep 3",
+                           "key --delay 0 ctrl+z sleep 3"});
+  ASSERT_EQ(s.size(), 3u);
+  ASSERT_TRUE(s[0]["buttons"].contains("fill 0")) << "no fill choice in the Coverage tab: " << s[0]["buttons"].dump();
+  const json& combo = s[0]["buttons"]["fill 0"];
+  const double x0 = combo["x"].get<double>(), y0 = combo["y"].get<double>();
+  ASSERT_TRUE(x0 <= 90 && 90 < x0 + combo["w"].get<double>() && y0 <= 633 && 633 < y0 + combo["h"].get<double>())
+      << "the fill combo moved; the walk clicks beside it: " << combo.dump();
+  ASSERT_TRUE(s[0]["coverage"].is_object() && !s[0]["coverage"]["regions"].empty()) << s[0]["coverage"].dump();
+  EXPECT_EQ(s[0]["coverage"]["regions"][0]["fill"], "default");
+  ASSERT_TRUE(s[1]["coverage"].is_object()) << "no coverage after the choice";
+  EXPECT_EQ(s[1]["coverage"]["regions"][0]["fill"], "rbf") << "choosing rbf in the list did not set region 0's fill";
+  EXPECT_EQ(s[1]["history"]["steps"].get<int>(), s[0]["history"]["steps"].get<int>() + 1) << s[1]["history"].dump();
+  ASSERT_TRUE(s[2]["coverage"].is_object());
+  EXPECT_EQ(s[2]["coverage"]["regions"][0]["fill"], "default") << "Ctrl+Z did not take the choice back";
+}

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_set>
 
 namespace montage {
 
@@ -293,6 +294,17 @@ void Document::removeClone(int clone) {
 
 void Document::setOptions(const PipelineOptions& options, const std::string& label) {
   apply(label, [&](Project& p) { p.options = options; });
+}
+
+void Document::setHoleFill(const std::vector<int>& holeFaces, int face, std::optional<InpaintMode> mode) {
+  const std::unordered_set<int> inHole(holeFaces.begin(), holeFaces.end());
+  apply(mode ? std::string("Fill a hole with ") + kInpaintModeNames[size_t(*mode)] : "Fill a hole by default",
+        [&](Project& p) {
+          auto& modes = p.holeModes;
+          modes.erase(std::remove_if(modes.begin(), modes.end(), [&](const HoleMode& h) { return inHole.count(h.face); }),
+                      modes.end());
+          if (mode) p.holeModes.push_back({face, *mode});
+        });
 }
 
 int Document::addPhotos(const std::vector<PhotoRef>& photos) {

@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -88,6 +89,9 @@ class Document {
   int addClone(const CloneOp& clone);
   void removeClone(int clone);
   void setOptions(const PipelineOptions& options, const std::string& label = "Change options");
+  // How one hole is filled: `mode` for the hole made of `holeFaces` (mesh face ids), recorded on `face` (one
+  // of them), replacing the entries on its faces; no mode: the project's inpainting option again.
+  void setHoleFill(const std::vector<int>& holeFaces, int face, std::optional<InpaintMode> mode);
   // Appends photos (absolute paths). Returns the index of the first one added.
   int addPhotos(const std::vector<PhotoRef>& photos);
   // Removes a photo with every position, chain and clone in it; later photo indices shift down.

@@ -371,7 +371,10 @@ class Editor {
   void coverageTab();
   void flyToRegion(int index);
   void appendCoverageLines(std::vector<float>& lines);  // the highlighted region's edges (uploadLines)
-  nlohmann::json coverageState() const;                 // for the script's `state`
+  nlohmann::json coverageState() const;
+  std::vector<int> regionMeshFaces(int region) const;         // coverage region -> mesh face ids
+  std::optional<InpaintMode> regionFill(int region) const;     // its own fill mode, if the project gives one
+  void holeFillCombo(int region);                 // for the script's `state`
 
   // Scripts, screenshots, benchmarks (editor_script.cpp).
   void applySyntheticInput(ImGuiIO& io);

@@ -9,6 +9,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <unordered_set>
 
 #include "editor.h"
 #include "navigation.h"
@@ -128,6 +129,7 @@ void Editor::coverageTab() {
     if (highlighted) ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0f, 0.45f, 1.0f, 1));
     ImGui::Text("%.1f%%, %zu faces", 100 * region.share, region.faces.size());
     if (highlighted) ImGui::PopStyleColor();
+    holeFillCombo(static_cast<int>(i));
     for (const RegionCause& c : region.causes) {
       ImGui::Bullet();
       ImGui::TextWrapped(
@@ -157,6 +159,47 @@ void Editor::coverageTab() {
   }
 }
 
+// How an empty region is filled (issue 34: harmonic and RBF stay choices per hole): the project's inpainting
+// option, or a mode of its own (Project::holeModes, on one of its faces; an undoable edit).
+std::vector<int> Editor::regionMeshFaces(int region) const {
+  const auto& parent = result_->mapping->partition->faceParent;
+  std::vector<int> faces;
+  for (int f : coverage_->regions[region].faces)
+    if (f < static_cast<int>(parent.size())) faces.push_back(parent[f]);
+  return faces;
+}
+
+std::optional<InpaintMode> Editor::regionFill(int region) const {
+  const std::vector<int> faces = regionMeshFaces(region);
+  const std::unordered_set<int> inRegion(faces.begin(), faces.end());
+  std::optional<InpaintMode> fill;
+  for (const HoleMode& h : doc_.project().holeModes)
+    if (inRegion.count(h.face)) fill = h.mode;  // the last entry wins, as in the pipeline
+  return fill;
+}
+
+void Editor::holeFillCombo(int region) {
+  const std::optional<InpaintMode> fill = regionFill(region);
+  const std::string byDefault =
+      std::string("default (") + kInpaintModeNames[size_t(doc_.project().options.inpaintMode)] + ")";
+  ImGui::SetNextItemWidth(ImGui::CalcTextSize("default (structure)").x + ImGui::GetFrameHeight() * 2);
+  if (ImGui::BeginCombo("fill", fill ? kInpaintModeNames[size_t(*fill)] : byDefault.c_str())) {
+    std::optional<std::optional<InpaintMode>> chosen;
+    if (ImGui::Selectable(byDefault.c_str(), !fill)) chosen = std::optional<InpaintMode>();
+    for (size_t m = 0; m < kInpaintModeNames.size(); ++m)
+      if (ImGui::Selectable(kInpaintModeNames[m], fill && size_t(*fill) == m)) chosen = InpaintMode(m);
+    ImGui::EndCombo();
+    if (chosen && *chosen != fill) {
+      const std::vector<int> faces = regionMeshFaces(region);
+      if (!faces.empty()) edit([&] { doc_.setHoleFill(faces, faces.front(), *chosen); });
+    }
+  }
+  scriptButton("fill " + std::to_string(region));
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("how this part is filled: texture continues the photos around it; harmonic and rbf blend "
+                      "their colours smoothly; off leaves it empty");
+}
+
 nlohmann::json Editor::coverageState() const {
   using nlohmann::json;
   if (!coverage_ || coverageFor_ != result_.get()) return nullptr;
@@ -181,7 +224,11 @@ nlohmann::json Editor::coverageState() const {
                        {"why", r.causes.empty() ? "" : r.causes[0].why},
                        {"fix", r.causes.empty() ? "" : r.causes[0].fix},
                        {"centre_pixel", front ? json{px.x(), px.y()} : json(nullptr)},
-                       {"at_view_centre", centred}});
+                       {"at_view_centre", centred},
+                       {"fill", [&]() -> json {
+                          const auto fill = regionFill(static_cast<int>(i));
+                          return fill ? json(kInpaintModeNames[size_t(*fill)]) : json("default");
+                        }()}});
   }
   return {{"mapped_share", coverage_->mappedShare},
           {"regions", regions},

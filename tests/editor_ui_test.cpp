@@ -97,6 +97,20 @@ int runRealWalk(const std::string& dir, const std::string& file, const std::stri
                                    out);
 }
 
+// The spread of the photo pane's colours in the screenshot `png` (the sum of the channels' standard deviations;
+// 0 for the empty panel's flat colour, or no screenshot), the pane where `state` says.
+double paneSpread(const std::string& png, const json& state) {
+  const cv::Mat shot = cv::imread(png);
+  const json& pane = state["layout"]["photos"];
+  const cv::Rect r = cv::Rect(int(pane["x"].get<double>()), int(pane["y"].get<double>()),
+                              int(pane["w"].get<double>()), int(pane["h"].get<double>())) &
+                     cv::Rect(0, 0, shot.cols, shot.rows);
+  if (r.area() < 10000) return 0;
+  cv::Scalar mean, sd;
+  cv::meanStdDev(shot(r), mean, sd);
+  return sd[0] + sd[1] + sd[2];
+}
+
 #define TM_REQUIRE_XDOTOOL()                                                \
   if (montage::test::runCommand("command -v xdotool >/dev/null 2>&1") != 0) \
   GTEST_SKIP() << "xdotool is absent (package xdotool, scripts/setup.sh --with-tools): the real-input test needs it"
@@ -643,15 +657,7 @@ TEST(EditorFiles, OpenRecentFromTheEmptyEditorShowsTheProjectsPhotos) {
   for (const auto& photo : opened["photos"]) EXPECT_TRUE(photo["loaded"].get<bool>()) << photo.dump();
   EXPECT_TRUE(opened["errors"].empty()) << opened["errors"].dump(1);
   // The photo pane shows the tiger: not the empty panel's flat colour.
-  const cv::Mat shot = cv::imread(dir + "/opened.png");
-  ASSERT_FALSE(shot.empty());
-  const json& pane = opened["layout"]["photos"];
-  const cv::Rect r(int(pane["x"].get<double>()), int(pane["y"].get<double>()), int(pane["w"].get<double>()),
-                   int(pane["h"].get<double>()));
-  ASSERT_GT(r.area(), 10000) << pane.dump();
-  cv::Scalar mean, sd;
-  cv::meanStdDev(shot(r & cv::Rect(0, 0, shot.cols, shot.rows)), mean, sd);
-  EXPECT_GT(sd[0] + sd[1] + sd[2], 30) << "the photo pane looks empty";
+  EXPECT_GT(paneSpread(dir + "/opened.png", opened), 30) << "the photo pane looks empty";
   EXPECT_TRUE(read(dir, "result.json")["result"]["matches_document"].get<bool>());
 }
 
@@ -1282,4 +1288,252 @@ TEST(EditorRealInput, AHolesFillIsChosenInTheCoverageTabAndUndone) {
   EXPECT_EQ(s[1]["history"]["steps"].get<int>(), s[0]["history"]["steps"].get<int>() + 1) << s[1]["history"].dump();
   ASSERT_TRUE(s[2]["coverage"].is_object());
   EXPECT_EQ(s[2]["coverage"]["regions"][0]["fill"], "default") << "Ctrl+Z did not take the choice back";
+}
+
+// Issue 35: a whole session by hand. Every step is real X input (xdotool: moves, clicks, drags, keys, typing) on
+// the editor running as a user's (frames on events); the script only writes the editor's state between steps
+// (`real_input goN`, then `state sN.json`) and never acts. The session: start empty; File > Open the cat mesh
+// by typing its path into the dialog's name field; File > Add photos folder (the demo's two photos, copied)
+// by typing the folder into the dialog's folder field; the cut-out tool on photo 0: a rectangle, a background
+// stroke, Ctrl+Z (the cut's mask comes back to the rectangle's, bit for bit); the point tool: four vertices
+// picked in the 3D view, each clicked at its place in photo 0; the polygon tool: the first three points
+// clicked and Enter; a drag of point 0 in the photo; point 3 selected and deleted (Delete), Ctrl+Z brings it
+// back, Ctrl+Y deletes it again; Ctrl+S (Save as for a new project) into a folder typed in the dialog; File >
+// Export result twice (GLB by the default filter, OBJ by the filter chosen with the mouse); File > Quit. Then
+// the editor started empty again opens the project by File > Open recent (its photos shown), and started on
+// the project from the command line shows the same document, quit by File > Quit each time.
+// Places (window pixels at 1280x800, scale 1, checked against the state's layout below): the menu bar's File
+// (21, 10) and its items (Open 36, Open recent 56, Add photos folder 101, Export 166, Quit 191); the tools
+// point (18, 60), polygon (186, 60), cutout (186, 86), the cut-out's background mode (18, 143); the file
+// dialog (720 x 525, centred: x0 280, y0 138): folder field, filter combo, name field, the OK button; photo 0
+// shown at 102% (453 x 198 px from (805, 331)); the cat in the 3D view framed as the editor frames a mesh.
+// About 88 s (three runs 87.6-89.4 s at load 1.4-2.2 on 2 cores). TM_WALK_SHOTS=1 with TM_KEEP_TEST_FILES=1
+// keeps a screenshot of every check for finding the places again.
+TEST(EditorRealInput, AWholeSessionByHand) {
+  TM_REQUIRE_XVFB();
+  TM_REQUIRE_XDOTOOL();
+  const std::string dir = montage::test::tempDir("editor_real_session");
+  fs::create_directories(dir + "/photos");
+  fs::create_directories(dir + "/saved");
+  for (const char* name : {"tiger_left.png", "tiger_right.png"})
+    fs::copy_file(montage::test::assetsDir() + "/demo/" + name, dir + "/photos/" + name);
+  fs::copy_file(montage::test::assetsDir() + "/demo/cat.obj", dir + "/cat.obj");
+  const std::string saved = dir + "/saved/session.json";
+  auto at = [](int x, int y) { return " mousemove " + std::to_string(x) + " " + std::to_string(y) + " sleep 0.2 "; };
+  auto menu = [&](int itemY) { return "xdotool" + at(21, 10) + "click 1 sleep 0.8" + at(60, itemY) + "click 1 sleep 1\n"; };
+  // A drag in a few steps, as a hand moves.
+  auto drag = [](int x0, int y0, int x1, int y1) {
+    std::string d = "xdotool mousemove " + std::to_string(x0) + " " + std::to_string(y0) + " sleep 0.2 mousedown 1";
+    for (int s = 1; s <= 4; ++s)
+      d += " sleep 0.1 mousemove " + std::to_string(x0 + (x1 - x0) * s / 4) + " " + std::to_string(y0 + (y1 - y0) * s / 4);
+    return d + " sleep 0.2 mouseup 1 sleep 1\n";
+  };
+  const int x0 = 280, y0 = 138;  // the file dialog's corner
+  const std::string folderField = at(x0 + 690, y0 + 63), nameField = at(x0 + 360, y0 + 450),
+                    filterCombo = at(x0 + 140, y0 + 63), objFilter = at(x0 + 140, y0 + 63 + 42),
+                    okButton = at(x0 + 68, y0 + 474);
+  // Four correspondences: a vertex picked in the 3D view, then its place in photo 0 (the body, the head, the
+  // tail, the chest).
+  const std::vector<std::array<int, 4>> clicks = {
+      {600, 480, 1000, 420}, {505, 462, 1235, 400}, {673, 325, 820, 480}, {560, 505, 1150, 445}};
+  // TM_WALK_SHOTS=1 (with TM_KEEP_TEST_FILES=1): a screenshot of the screen at every check, shotN.png.
+  const bool shots = std::getenv("TM_WALK_SHOTS") != nullptr;
+  int step = 0;
+  std::string script = "wait_frames 3\n";
+  std::ostringstream walk;
+  auto check = [&] {  // the script writes sN.json
+    ++step;
+    script += "real_input go" + std::to_string(step) + "\nstate s" + std::to_string(step) + ".json\n";
+    if (shots) walk << "import -window root shot" << step << ".png\n";
+    walk << "checkpoint go" << step << " s" << step << ".json\n";
+    return step;
+  };
+  walk << "sleep 1\n";
+  const int sEmpty = check();
+  // 2. File > Open project or mesh: the mesh's path typed into the name field, Enter.
+  walk << menu(36) << "xdotool" << nameField << "click 1 sleep 0.5 type --delay 20 '" << dir << "/cat.obj'\n"
+       << "xdotool sleep 0.3 key Return sleep 1\n";
+  const int sMesh = check();
+  // 3. File > Add photos folder: "/photos" typed at the end of the folder field (it shows the working folder),
+  // Enter goes there, Choose folder.
+  walk << menu(101) << "xdotool" << folderField << "click 1 sleep 0.5 key End type --delay 20 /photos\n"
+       << "xdotool sleep 0.3 key Return sleep 0.8" << okButton << "click 1 sleep 1\nidle\n";
+  const int sPhotos = check();
+  // 4. The cut-out tool: a rectangle around the tiger, then a background stroke on the grass, then Ctrl+Z.
+  walk << "xdotool" << at(186, 86) << "click 1 sleep 0.5\n" << drag(808, 333, 1266, 531) << "sleep 1\n";
+  const int sRect = check();
+  walk << "xdotool" << at(18, 143) << "click 1 sleep 0.5\n" << drag(850, 518, 910, 518) << "sleep 1\n";
+  const int sStroke = check();
+  walk << "xdotool" << at(640, 400) << "key ctrl+z sleep 1.5\n";
+  const int sCutUndone = check();
+  // 5. The point tool: each vertex picked in the 3D view, then clicked at its place in photo 0.
+  walk << "xdotool" << at(18, 60) << "click 1 sleep 0.5\n";
+  std::vector<int> sPicked, sClicked;
+  for (const auto& c : clicks) {
+    walk << "xdotool" << at(c[0], c[1]) << "click 1 sleep 0.5\n";
+    sPicked.push_back(check());
+    walk << "xdotool" << at(c[2], c[3]) << "click 1 sleep 0.5\n";
+    sClicked.push_back(check());
+  }
+  // 6. The polygon tool: points 0, 1 and 2 clicked in photo 0, Enter closes it; Escape twice clears the selection.
+  walk << "xdotool" << at(186, 60) << "click 1 sleep 0.5\n";
+  for (int k = 0; k < 3; ++k) walk << "xdotool" << at(clicks[k][2], clicks[k][3]) << "click 1 sleep 0.5\n";
+  walk << "xdotool key Return sleep 0.5 key Escape sleep 0.3 key Escape sleep 0.5\n";
+  const int sPolygon = check();
+  // 7. The point tool again: point 0 dragged by (10, 8) px; point 3 clicked (selected) and deleted; Ctrl+Z;
+  // Ctrl+Y.
+  walk << "xdotool" << at(18, 60) << "click 1 sleep 0.5\n" << drag(clicks[0][2], clicks[0][3], clicks[0][2] + 10, clicks[0][3] + 8);
+  const int sDragged = check();
+  walk << "xdotool" << at(clicks[3][2], clicks[3][3]) << "click 1 sleep 0.5\n";
+  const int sSelected = check();
+  walk << "xdotool key Delete sleep 0.8\n";
+  const int sDeleted = check();
+  walk << "xdotool key ctrl+z sleep 0.8\n";
+  const int sUndone = check();
+  walk << "xdotool key ctrl+y sleep 0.8\n";
+  const int sRedone = check();
+  // 8. Ctrl+S: a new project asks where (Save as): the folder typed over the folder field's text, Enter; the
+  // name typed, Enter.
+  walk << "xdotool" << at(640, 400) << "key ctrl+s sleep 1.5\n"
+       << "xdotool" << folderField << "click 1 sleep 0.5 key ctrl+a type --delay 20 '" << dir << "/saved'\n"
+       << "xdotool sleep 0.3 key Return sleep 0.8" << nameField << "click 1 sleep 0.5 type --delay 30 session\n"
+       << "xdotool sleep 0.3 key Return sleep 1.5\n";
+  const int sSaved = check();
+  // 9. File > Export result once the final bake is in: "model" typed at once (the glTF filter: model.glb),
+  // then the OBJ filter chosen with the mouse, "model2", the Save button.
+  walk << "idle\n" << menu(166) << "xdotool type --delay 30 model\nxdotool sleep 0.3 key Return sleep 1\nidle\n"
+       << menu(166) << "xdotool" << filterCombo << "click 1 sleep 0.8" << objFilter << "click 1 sleep 0.8\n"
+       << "xdotool" << nameField << "click 1 sleep 0.5 type --delay 30 model2\n"
+       << "xdotool" << okButton << "click 1 sleep 1\nidle\n";
+  const int sExported = check();
+  // 10. File > Quit.
+  walk << menu(191) << "i=0; while kill -0 $pid 2>/dev/null && [ $i -lt 100 ]; do sleep 0.1; i=$((i+1)); done\n";
+  script += "real_input never\n";
+  std::string out;
+  const int status = runRealWalk(dir, "", walk.str(), &out, script);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("EXIT=0"), std::string::npos) << "the editor did not quit by File > Quit:\n" << out;
+  EXPECT_EQ(out.find("texturemontage: "), std::string::npos) << "an error on the way:\n" << out;
+  std::vector<json> s(step + 1);
+  for (int i = 1; i <= step; ++i) {
+    ASSERT_TRUE(fs::exists(dir + "/s" + std::to_string(i) + ".json")) << "no state " << i << ":\n" << out;
+    s[i] = read(dir, "s" + std::to_string(i) + ".json");
+  }
+  // The places the walk used are where the editor draws them.
+  EXPECT_TRUE(s[sEmpty]["mesh"].get<std::string>().empty());
+  EXPECT_EQ(s[sPhotos]["layout"]["view3d"], json::parse(R"({"x": 307.0, "y": 42.0, "w": 486.0, "h": 729.0})"))
+      << "the 3D view moved";
+  EXPECT_EQ(s[sPhotos]["layout"]["photos"], json::parse(R"({"x": 797.0, "y": 46.0, "w": 479.0, "h": 721.0})"))
+      << "the photo pane moved";
+  EXPECT_NEAR(s[sPhotos]["pane_zoom"].get<double>(), 463.0 / 453, 0.01) << "photo 0 is not shown at 102%";
+  // 2 and 3: the mesh and both photos, loaded.
+  EXPECT_EQ(s[sMesh]["mesh"], dir + "/cat.obj");
+  ASSERT_EQ(s[sPhotos]["photos"].size(), 2u) << s[sPhotos]["photos"].dump(1);
+  for (const auto& photo : s[sPhotos]["photos"]) EXPECT_TRUE(photo["loaded"].get<bool>()) << photo.dump();
+  // 4. The cut: the rectangle cut photo 0; the stroke changed the mask; Ctrl+Z gave the rectangle's mask back.
+  const json rect = s[sRect]["cutout"], stroke = s[sStroke]["cutout"], undone = s[sCutUndone]["cutout"];
+  EXPECT_EQ(s[sRect]["tool"], "cutout");
+  EXPECT_EQ(rect["photo"], 0);
+  EXPECT_TRUE(rect["rect"].get<bool>());
+  EXPECT_GT(rect["foreground_pixels"].get<int>(), 10000) << rect.dump();
+  EXPECT_EQ(stroke["strokes"], 1) << stroke.dump();
+  EXPECT_NE(stroke["mask_hash"], rect["mask_hash"]) << "the background stroke did not change the cut";
+  EXPECT_EQ(undone["strokes"], 0) << "Ctrl+Z did not take the stroke back: " << undone.dump();
+  EXPECT_EQ(undone["mask_hash"], rect["mask_hash"]) << "Ctrl+Z did not give the rectangle's mask back";
+  EXPECT_EQ(undone["redo_steps"], 1);
+  // 5. Each click in the 3D view picked a vertex; each click in the photo made it a point.
+  std::vector<int> vertices;
+  for (size_t k = 0; k < clicks.size(); ++k) {
+    const int v = s[sPicked[k]]["selected_vertex"].get<int>();
+    EXPECT_GE(v, 0) << "click " << k << " in the 3D view picked no vertex";
+    vertices.push_back(v);
+    EXPECT_EQ(s[sClicked[k]]["counts"]["points"], int(k) + 1) << "click " << k << " in the photo added no point";
+  }
+  // 6. The polygon.
+  EXPECT_EQ(s[sPolygon]["counts"]["chains"], 1) << "the polygon was not made";
+  // 7. The drag is one undo step and keeps the count; Delete removes point 3; Ctrl+Z brings it back; Ctrl+Y.
+  EXPECT_EQ(s[sDragged]["counts"]["points"], 4);
+  EXPECT_EQ(s[sDragged]["history"]["position"].get<int>(), s[sPolygon]["history"]["position"].get<int>() + 1)
+      << "the drag is not one undo step";
+  EXPECT_EQ(s[sSelected]["selected_point"], 3) << "the click on point 3 did not select it";
+  EXPECT_EQ(s[sDeleted]["counts"]["points"], 3) << "Delete removed no point";
+  EXPECT_EQ(s[sUndone]["counts"]["points"], 4) << "Ctrl+Z did not bring the point back";
+  EXPECT_EQ(s[sRedone]["counts"]["points"], 3) << "Ctrl+Y did not delete it again";
+  EXPECT_EQ(s[sRedone]["point_ids"], json({0, 1, 2}));
+  // 8. Saved where typed, with the points, the polygon and the drag.
+  EXPECT_EQ(s[sSaved]["file"], saved);
+  EXPECT_FALSE(s[sSaved]["modified"].get<bool>());
+  ASSERT_TRUE(fs::exists(saved)) << "Ctrl+S and the dialog did not save " << saved << ":\n" << out;
+  const montage::Project project = montage::loadProject(saved);
+  ASSERT_EQ(project.points.size(), 3u);
+  EXPECT_EQ(project.chains.size(), 1u);
+  EXPECT_EQ(project.photos.size(), 2u);
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(project.points[k].vertex, vertices[k]);
+    ASSERT_EQ(project.points[k].at.size(), 1u);
+    EXPECT_EQ(project.points[k].at[0].photo, 0);
+  }
+  // Point 0 lies where it was dragged, against point 1 (not moved): screen offsets over the pane's zoom.
+  const double zoom = s[sPhotos]["pane_zoom"].get<double>();
+  EXPECT_NEAR(project.points[0].at[0].x - project.points[1].at[0].x, (clicks[0][2] + 10 - clicks[1][2]) / zoom, 1.5);
+  EXPECT_NEAR(project.points[0].at[0].y - project.points[1].at[0].y, (clicks[0][3] + 8 - clicks[1][3]) / zoom, 1.5);
+  // 9. The exports: a GLB, an OBJ with its MTL.
+  EXPECT_TRUE(s[sExported]["errors"].empty()) << s[sExported]["errors"].dump(1);
+  ASSERT_TRUE(fs::exists(dir + "/saved/model.glb")) << "no model.glb:\n" << out;
+  {
+    std::ifstream glb(dir + "/saved/model.glb", std::ios::binary);
+    char magic[4] = {};
+    glb.read(magic, 4);
+    EXPECT_EQ(std::string(magic, 4), "glTF");
+  }
+  ASSERT_TRUE(fs::exists(dir + "/saved/model2.obj")) << "no model2.obj:\n" << out;
+  EXPECT_TRUE(fs::exists(dir + "/saved/model2.mtl"));
+  {
+    const auto loaded = montage::loadMesh(dir + "/saved/model2.obj");
+    ASSERT_TRUE(loaded.mesh);
+    EXPECT_GT(loaded.mesh->numFaces(), 1000);
+    std::ifstream obj(dir + "/saved/model2.obj");
+    std::string text((std::istreambuf_iterator<char>(obj)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("mtllib model2.mtl"), std::string::npos);
+  }
+
+  // 11. Started empty again: File > Open recent > the saved project (the first entry of its submenu, to the
+  // right of the item); its photos are drawn. File > Quit.
+  const std::string quit = menu(191) + "i=0; while kill -0 $pid 2>/dev/null && [ $i -lt 100 ]; do sleep 0.1; i=$((i+1)); done\n";
+  std::ostringstream recentWalk;
+  recentWalk << "sleep 1\nxdotool" << at(21, 10) << "click 1 sleep 0.8" << at(50, 56) << at(200, 56) << at(360, 56)
+             << "click 1 sleep 1\ncheckpoint go_r1 r1.json\n" << quit;
+  const std::string recentScript =
+      "wait_frames 3\nstate r0.json\nreal_input go_r1\nwait_result\nwait_frames 2\nstate r1.json\n"
+      "screenshot recent.png\nreal_input never\n";
+  EXPECT_EQ(runRealWalk(dir, "", recentWalk.str(), &out, recentScript), 0) << out;
+  EXPECT_NE(out.find("EXIT=0"), std::string::npos) << "the editor did not quit by File > Quit after Open recent:\n" << out;
+  ASSERT_TRUE(fs::exists(dir + "/r1.json")) << out;
+  const json r0 = read(dir, "r0.json"), r1 = read(dir, "r1.json");
+  EXPECT_TRUE(r0["mesh"].get<std::string>().empty());
+  ASSERT_FALSE(r0["recent"].empty());
+  EXPECT_EQ(r0["recent"][0], saved) << "the saved project is not the first recent file: " << r0["recent"].dump();
+  EXPECT_EQ(r1["file"], saved) << "Open recent did not open the saved project";
+  EXPECT_EQ(r1["counts"]["points"], 3);
+  EXPECT_EQ(r1["counts"]["chains"], 1);
+  ASSERT_EQ(r1["photos"].size(), 2u);
+  for (const auto& photo : r1["photos"]) EXPECT_TRUE(photo["loaded"].get<bool>()) << photo.dump();
+  EXPECT_TRUE(r1["errors"].empty()) << r1["errors"].dump(1);
+  // The photo pane shows the tiger, not the empty panel's flat colour.
+  EXPECT_GT(paneSpread(dir + "/recent.png", r1), 30) << "the photo pane looks empty after Open recent";
+
+  // 12. The project from the command line: the same document. File > Quit.
+  const std::string lineScript = "real_input go_c1\nwait_result\nwait_frames 2\nstate c1.json\nreal_input never\n";
+  EXPECT_EQ(runRealWalk(dir, saved, "checkpoint go_c1 c1.json\n" + quit, &out, lineScript), 0) << out;
+  EXPECT_NE(out.find("EXIT=0"), std::string::npos) << "the editor on the saved project did not quit by File > Quit:\n"
+                                                    << out;
+  ASSERT_TRUE(fs::exists(dir + "/c1.json")) << out;
+  const json c1 = read(dir, "c1.json");
+  EXPECT_EQ(c1["file"], saved);
+  EXPECT_EQ(c1["counts"], r1["counts"]);
+  EXPECT_EQ(c1["point_ids"], json({0, 1, 2}));
+  ASSERT_EQ(c1["photos"].size(), 2u);
+  for (const auto& photo : c1["photos"]) EXPECT_TRUE(photo["loaded"].get<bool>()) << photo.dump();
+  EXPECT_TRUE(c1["errors"].empty()) << c1["errors"].dump(1);
+  EXPECT_EQ(out.find("texturemontage: "), std::string::npos) << "an error on the way:\n" << out;
 }

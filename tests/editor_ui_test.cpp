@@ -1179,9 +1179,9 @@ TEST(EditorInputQueue, AWheelTurnIsSeenWhereAndWhenItHappened) {
 namespace {
 std::string randomWalk(std::mt19937& rng, int actions, const std::string& restart) {
   auto uniform = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
-  const std::vector<std::string> keys = {"Escape", "Return", "Tab",    "Delete", "BackSpace", "ctrl+z", "ctrl+y",
-                                         "ctrl+shift+z", "1",  "2",     "3",      "n",         "p",      "space",
-                                         "Up",     "Down",   "Left",   "Right",  "ctrl+a",    "f",      "h"};
+  const std::vector<std::string> keys = {"Escape",       "Return", "Tab",  "Delete", "BackSpace", "ctrl+z", "ctrl+y",
+                                         "ctrl+shift+z", "1",      "2",    "3",      "n",         "p",      "space",
+                                         "Up",           "Down",   "Left", "Right",  "ctrl+a",    "f",      "h"};
   std::ostringstream walk;
   // `act N WHAT`: logs the action, runs it, and checks that the editor lives (or quit cleanly: start again).
   walk << "act() { n=$1; shift; echo \"$n $*\" >> walk.log; xdotool \"$@\" 2>/dev/null; sleep 0.04;\n"
@@ -1257,7 +1257,8 @@ TEST(EditorRealInput, ARandomWalkOfMenuAndMouseActionsFromEveryStateNeverCrashes
     }
     // Alive at the end: the walk kills it and reports STILL_RUNNING (status 3), which is what we want here.
     EXPECT_EQ(status, 3) << "the editor did not live through the walk from the " << name << " state:\n"
-                         << out << "\nlast actions:\n" << log;
+                         << out << "\nlast actions:\n"
+                         << log;
     EXPECT_EQ(out.find("DIED"), std::string::npos) << out << "\nlast actions:\n" << log;
     std::printf("%s: %d actions, %s", name.c_str(), actions,
                 log.find("quit at") != std::string::npos ? "a quit on the way\n" : "no quit\n");
@@ -1321,12 +1322,15 @@ TEST(EditorRealInput, AWholeSessionByHand) {
   fs::copy_file(montage::test::assetsDir() + "/demo/cat.obj", dir + "/cat.obj");
   const std::string saved = dir + "/saved/session.json";
   auto at = [](int x, int y) { return " mousemove " + std::to_string(x) + " " + std::to_string(y) + " sleep 0.2 "; };
-  auto menu = [&](int itemY) { return "xdotool" + at(21, 10) + "click 1 sleep 0.8" + at(60, itemY) + "click 1 sleep 1\n"; };
+  auto menu = [&](int itemY) {
+    return "xdotool" + at(21, 10) + "click 1 sleep 0.8" + at(60, itemY) + "click 1 sleep 1\n";
+  };
   // A drag in a few steps, as a hand moves.
   auto drag = [](int x0, int y0, int x1, int y1) {
     std::string d = "xdotool mousemove " + std::to_string(x0) + " " + std::to_string(y0) + " sleep 0.2 mousedown 1";
     for (int s = 1; s <= 4; ++s)
-      d += " sleep 0.1 mousemove " + std::to_string(x0 + (x1 - x0) * s / 4) + " " + std::to_string(y0 + (y1 - y0) * s / 4);
+      d += " sleep 0.1 mousemove " + std::to_string(x0 + (x1 - x0) * s / 4) + " " +
+           std::to_string(y0 + (y1 - y0) * s / 4);
     return d + " sleep 0.2 mouseup 1 sleep 1\n";
   };
   const int x0 = 280, y0 = 138;  // the file dialog's corner
@@ -1383,7 +1387,8 @@ TEST(EditorRealInput, AWholeSessionByHand) {
   const int sPolygon = check();
   // 7. The point tool again: point 0 dragged by (10, 8) px; point 3 clicked (selected) and deleted; Ctrl+Z;
   // Ctrl+Y.
-  walk << "xdotool" << at(18, 60) << "click 1 sleep 0.5\n" << drag(clicks[0][2], clicks[0][3], clicks[0][2] + 10, clicks[0][3] + 8);
+  walk << "xdotool" << at(18, 60) << "click 1 sleep 0.5\n"
+       << drag(clicks[0][2], clicks[0][3], clicks[0][2] + 10, clicks[0][3] + 8);
   const int sDragged = check();
   walk << "xdotool" << at(clicks[3][2], clicks[3][3]) << "click 1 sleep 0.5\n";
   const int sSelected = check();
@@ -1402,7 +1407,8 @@ TEST(EditorRealInput, AWholeSessionByHand) {
   const int sSaved = check();
   // 9. File > Export result once the final bake is in: "model" typed at once (the glTF filter: model.glb),
   // then the OBJ filter chosen with the mouse, "model2", the Save button.
-  walk << "idle\n" << menu(166) << "xdotool type --delay 30 model\nxdotool sleep 0.3 key Return sleep 1\nidle\n"
+  walk << "idle\n"
+       << menu(166) << "xdotool type --delay 30 model\nxdotool sleep 0.3 key Return sleep 1\nidle\n"
        << menu(166) << "xdotool" << filterCombo << "click 1 sleep 0.8" << objFilter << "click 1 sleep 0.8\n"
        << "xdotool" << nameField << "click 1 sleep 0.5 type --delay 30 model2\n"
        << "xdotool" << okButton << "click 1 sleep 1\nidle\n";
@@ -1500,15 +1506,18 @@ TEST(EditorRealInput, AWholeSessionByHand) {
 
   // 11. Started empty again: File > Open recent > the saved project (the first entry of its submenu, to the
   // right of the item); its photos are drawn. File > Quit.
-  const std::string quit = menu(191) + "i=0; while kill -0 $pid 2>/dev/null && [ $i -lt 100 ]; do sleep 0.1; i=$((i+1)); done\n";
+  const std::string quit =
+      menu(191) + "i=0; while kill -0 $pid 2>/dev/null && [ $i -lt 100 ]; do sleep 0.1; i=$((i+1)); done\n";
   std::ostringstream recentWalk;
   recentWalk << "sleep 1\nxdotool" << at(21, 10) << "click 1 sleep 0.8" << at(50, 56) << at(200, 56) << at(360, 56)
-             << "click 1 sleep 1\ncheckpoint go_r1 r1.json\n" << quit;
+             << "click 1 sleep 1\ncheckpoint go_r1 r1.json\n"
+             << quit;
   const std::string recentScript =
       "wait_frames 3\nstate r0.json\nreal_input go_r1\nwait_result\nwait_frames 2\nstate r1.json\n"
       "screenshot recent.png\nreal_input never\n";
   EXPECT_EQ(runRealWalk(dir, "", recentWalk.str(), &out, recentScript), 0) << out;
-  EXPECT_NE(out.find("EXIT=0"), std::string::npos) << "the editor did not quit by File > Quit after Open recent:\n" << out;
+  EXPECT_NE(out.find("EXIT=0"), std::string::npos) << "the editor did not quit by File > Quit after Open recent:\n"
+                                                   << out;
   ASSERT_TRUE(fs::exists(dir + "/r1.json")) << out;
   const json r0 = read(dir, "r0.json"), r1 = read(dir, "r1.json");
   EXPECT_TRUE(r0["mesh"].get<std::string>().empty());
@@ -1527,7 +1536,7 @@ TEST(EditorRealInput, AWholeSessionByHand) {
   const std::string lineScript = "real_input go_c1\nwait_result\nwait_frames 2\nstate c1.json\nreal_input never\n";
   EXPECT_EQ(runRealWalk(dir, saved, "checkpoint go_c1 c1.json\n" + quit, &out, lineScript), 0) << out;
   EXPECT_NE(out.find("EXIT=0"), std::string::npos) << "the editor on the saved project did not quit by File > Quit:\n"
-                                                    << out;
+                                                   << out;
   ASSERT_TRUE(fs::exists(dir + "/c1.json")) << out;
   const json c1 = read(dir, "c1.json");
   EXPECT_EQ(c1["file"], saved);

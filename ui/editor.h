@@ -372,7 +372,6 @@ class Editor {
   void flyToRegion(int index);
   void appendCoverageLines(std::vector<float>& lines);  // the highlighted region's edges (uploadLines)
   nlohmann::json coverageState() const;
-  std::vector<int> regionMeshFaces(int region) const;         // coverage region -> mesh face ids
   std::optional<InpaintMode> regionFill(int region) const;     // its own fill mode, if the project gives one
   void holeFillCombo(int region);                 // for the script's `state`
 
@@ -564,6 +563,7 @@ class Editor {
   // Coverage.
   std::shared_ptr<const CoverageReport> coverage_;
   const void* coverageFor_ = nullptr;     // the result coverage_ describes
+  std::vector<int> coverageRegionOf_;     // per mesh face (Project::holeModes ids): its coverage_ region, or -1
   int coverageRegion_ = -1;               // the highlighted region
   bool showExpectedRejected_ = false;     // list rejected pairs around no empty region too
   std::string requestedTab_;              // lists-panel tab to select next frame (script `tab`)

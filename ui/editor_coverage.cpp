@@ -9,7 +9,6 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
-#include <unordered_set>
 
 #include "editor.h"
 #include "navigation.h"
@@ -29,11 +28,18 @@ const CoverageReport* Editor::coverage() {
   if (!resultUsable() || !result_->mapping) {
     coverage_.reset();
     coverageFor_ = nullptr;
+    coverageRegionOf_.clear();
     return nullptr;
   }
   if (coverageFor_ != result_.get()) {
     coverage_ = std::make_shared<const CoverageReport>(coverageOf(*result_));
     coverageFor_ = result_.get();
+    // Mesh faces (the ids holeModes use: the partition's parents) to regions, once per result.
+    const auto& parent = result_->mapping->partition->faceParent;
+    coverageRegionOf_.assign(parent.empty() ? 0 : *std::max_element(parent.begin(), parent.end()) + 1, -1);
+    for (size_t r = 0; r < coverage_->regions.size(); ++r)
+      for (int f : coverage_->regions[r].faces)
+        if (f < static_cast<int>(parent.size())) coverageRegionOf_[parent[f]] = static_cast<int>(r);
     coverageRegion_ = -1;  // region indices are per result
     linesDirty_ = true;
   }
@@ -161,20 +167,11 @@ void Editor::coverageTab() {
 
 // How an empty region is filled (issue 34: harmonic and RBF stay choices per hole): the project's inpainting
 // option, or a mode of its own (Project::holeModes, on one of its faces; an undoable edit).
-std::vector<int> Editor::regionMeshFaces(int region) const {
-  const auto& parent = result_->mapping->partition->faceParent;
-  std::vector<int> faces;
-  for (int f : coverage_->regions[region].faces)
-    if (f < static_cast<int>(parent.size())) faces.push_back(parent[f]);
-  return faces;
-}
-
 std::optional<InpaintMode> Editor::regionFill(int region) const {
-  const std::vector<int> faces = regionMeshFaces(region);
-  const std::unordered_set<int> inRegion(faces.begin(), faces.end());
   std::optional<InpaintMode> fill;
   for (const HoleMode& h : doc_.project().holeModes)
-    if (inRegion.count(h.face)) fill = h.mode;  // the last entry wins, as in the pipeline
+    if (h.face >= 0 && h.face < static_cast<int>(coverageRegionOf_.size()) && coverageRegionOf_[h.face] == region)
+      fill = h.mode;  // the last entry wins, as in the pipeline
   return fill;
 }
 
@@ -190,7 +187,9 @@ void Editor::holeFillCombo(int region) {
       if (ImGui::Selectable(kInpaintModeNames[m], fill && size_t(*fill) == m)) chosen = InpaintMode(m);
     ImGui::EndCombo();
     if (chosen && *chosen != fill) {
-      const std::vector<int> faces = regionMeshFaces(region);
+      std::vector<int> faces;
+      for (int f = 0; f < static_cast<int>(coverageRegionOf_.size()); ++f)
+        if (coverageRegionOf_[f] == region) faces.push_back(f);
       if (!faces.empty()) edit([&] { doc_.setHoleFill(faces, faces.front(), *chosen); });
     }
   }

@@ -11,7 +11,10 @@
 //    preview's (detail 0.25).
 // Texture mode is measured twice on the same fill: as the bake shows it (the exemplar looked up between the
 // vertices, InpaintResult::colourAt) and as its vertices' colours interpolated ("texture, vertices"), side by side.
+// With --exemplar, texture mode is also run from a region of the photo the user would pick (Project::holeModes'
+// exemplar), a rectangle in sheet units, beside the fill from the photo around the hole ("texture, picked").
 // Usage: tm_inpaint_picture PHOTO OUT.png [disc|annulus|side ...] [--modes=a,b] [--seed=N] [--detail=D]
+//        [--exemplar=X0,Y0,X1,Y1]
 //        (default: all three holes; one image per hole, OUT with the hole's name before .png; every mode but
 //        strokes and off, or those named; N: the texture mode's seed; D: the refinement density the pictures
 //        and measures are taken at, 1 = final, 0.25 = the preview's)
@@ -79,6 +82,8 @@ int main(int argc, char** argv) {
   std::string onlyModes;
   uint64_t seed = 1;
   double pictureDetail = 1;
+  std::array<double, 4> picked = {0, 0, 0, 0};  // --exemplar: a rectangle in sheet units
+  bool hasPicked = false;
   for (; argc > 3 && std::string(argv[argc - 1]).rfind("--", 0) == 0; --argc) {
     const std::string a = argv[argc - 1];
     if (a.rfind("--modes=", 0) == 0)
@@ -87,8 +92,15 @@ int main(int argc, char** argv) {
       seed = std::strtoull(a.c_str() + 7, nullptr, 10);
     else if (a.rfind("--detail=", 0) == 0 && std::atof(a.c_str() + 9) > 0)
       pictureDetail = std::atof(a.c_str() + 9);
+    else if (a.rfind("--exemplar=", 0) == 0 &&
+             std::sscanf(a.c_str() + 11, "%lf,%lf,%lf,%lf", &picked[0], &picked[1], &picked[2], &picked[3]) == 4 &&
+             picked[2] > picked[0] && picked[3] > picked[1])
+      hasPicked = true;
     else {
-      std::fprintf(stderr, "unknown option %s (--modes=a,b, --seed=N, --detail=D with D > 0)\n", a.c_str());
+      std::fprintf(stderr,
+                   "unknown option %s (--modes=a,b, --seed=N, --detail=D with D > 0, --exemplar=X0,Y0,X1,Y1 with "
+                   "X1 > X0 and Y1 > Y0)\n",
+                   a.c_str());
       return 2;
     }
   }
@@ -155,13 +167,17 @@ int main(int argc, char** argv) {
       const char* name;
       InpaintMode mode;
       bool verticesOnly;  // the texture mode's fill drawn from its vertices' colours alone
+      bool picked = false;  // texture from the --exemplar region
     };
     std::vector<Column> modes = {{"truth", InpaintMode::Off, false}};
     for (size_t i = 0; i < kInpaintModeNames.size(); ++i)
       if (i != size_t(InpaintMode::Off) && i != size_t(InpaintMode::Strokes) &&
           (onlyModes.empty() || onlyModes.find("," + std::string(kInpaintModeNames[i]) + ",") != std::string::npos)) {
         modes.push_back({kInpaintModeNames[i], InpaintMode(i), false});
-        if (InpaintMode(i) == InpaintMode::Texture) modes.push_back({"texture, vertices", InpaintMode::Texture, true});
+        if (InpaintMode(i) == InpaintMode::Texture) {
+          modes.push_back({"texture, vertices", InpaintMode::Texture, true});
+          if (hasPicked) modes.push_back({"texture, picked", InpaintMode::Texture, false, true});
+        }
       }
     cv::Mat out(side, side * int(modes.size()), CV_32FC3, cv::Scalar(0, 0, 0));
     cv::Mat truthLuv;
@@ -191,6 +207,14 @@ int main(int argc, char** argv) {
         in.photos = {&photo};
         in.options.mode = modes[m].mode;
         in.options.textureSeed = seed;
+        if (modes[m].picked) {
+          HoleExemplar region{0, {}};
+          for (const Vec2& q : {Vec2(picked[0], picked[1]), Vec2(picked[2], picked[1]), Vec2(picked[2], picked[3]),
+                                Vec2(picked[0], picked[3])})
+            region.polygon.push_back(Vec2::Constant(offset) + scale * q);
+          for (int f = 0; f < mesh->numFaces() && in.holeModes.empty(); ++f)
+            if (map.facePhoto[f] < 0) in.holeModes.push_back({f, InpaintMode::Texture, region});
+        }
         in.options.detail = 0.25;
         double c0 = cpuSeconds();
         res = inpaintSurface(in, {}, nullptr);

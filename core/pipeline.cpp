@@ -656,14 +656,17 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
   for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
   for (const auto& w : scene->warnings) result.warnings.push_back("project: " + w);
   for (const auto& [i, reason] : scene->skippedPhotos) {
-    int positions = 0, chains = 0, clones = 0;
+    int positions = 0, chains = 0, clones = 0, textures = 0;
     for (const FeaturePoint& pt : project.points)
       for (const PhotoPoint& a : pt.at) positions += a.photo == i;
     for (const FeatureChain& c : project.chains) chains += c.photo == i;
     for (const CloneOp& c : project.clones) clones += c.photo == i;
+    for (const HoleMode& h : project.holeModes) textures += h.exemplar && h.exemplar->photo == i;
     result.warnings.push_back(photoName(project, i) + " skipped (" + reason + "): its " + std::to_string(positions) +
                               " positions, " + std::to_string(chains) + " chains and " + std::to_string(clones) +
-                              " clones are left out of this run; relink or remove it");
+                              " clones" +
+                              (textures ? " (and the texture of " + std::to_string(textures) + " holes)" : "") +
+                              " are left out of this run; relink or remove it");
   }
   for (size_t i = 0; i < scene->photos.size(); ++i)
     if (!scene->skippedPhotos.count(int(i)))

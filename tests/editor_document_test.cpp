@@ -535,3 +535,51 @@ TEST(EditorDocument, RenamedMasksAreRenamedInEveryUndoStep) {
   doc.jumpTo(0);
   EXPECT_TRUE(doc.project().sameDocument(p));
 }
+
+// The photo region a hole's texture comes from: one undoable edit that makes the hole's fill "texture"; it follows
+// its photo when photos are removed, moved or mirrored; choosing another fill drops it, texture keeps it.
+TEST(EditorDocument, AHolesPickedPhotoRegionFollowsItsPhotoAndItsFill) {
+  const Project p = fourPhotos();
+  Document doc(p);
+  const std::vector<int> hole = {5, 6, 7};
+  const HoleExemplar picked{2, {Vec2(10, 10), Vec2(90, 10), Vec2(90, 60)}};
+  doc.setHoleFill(hole, 6, InpaintMode::Rbf);
+  doc.setHoleExemplar(hole, 6, picked);
+  ASSERT_EQ(doc.project().holeModes.size(), 1u);
+  EXPECT_EQ(doc.project().holeModes[0].face, 6);
+  EXPECT_EQ(doc.project().holeModes[0].mode, InpaintMode::Texture);
+  EXPECT_EQ(doc.project().holeModes[0].exemplar, picked);
+  EXPECT_EQ(doc.history().back().label, "Texture a hole from photo 2");
+  doc.undo();
+  EXPECT_EQ(doc.project().holeModes[0].mode, InpaintMode::Rbf);
+  EXPECT_FALSE(doc.project().holeModes[0].exemplar);
+  doc.redo();
+
+  doc.setHoleFill(hole, 6, InpaintMode::Texture);  // texture again: the region stays
+  EXPECT_EQ(doc.project().holeModes[0].exemplar, picked);
+  doc.movePhoto(2, 0);
+  EXPECT_EQ(doc.project().holeModes[0].exemplar->photo, 0);
+  doc.setPhotoMirror(0, true, 1000);
+  EXPECT_EQ(doc.project().holeModes[0].exemplar->polygon[1], Vec2(910, 10));
+  doc.removePhoto(1);  // another photo: the region's index stays 0
+  EXPECT_EQ(doc.project().holeModes[0].exemplar->photo, 0);
+  doc.removePhoto(0);  // its own photo: the hole takes its texture from around it again
+  ASSERT_EQ(doc.project().holeModes.size(), 1u);
+  EXPECT_EQ(doc.project().holeModes[0].mode, InpaintMode::Texture);
+  EXPECT_FALSE(doc.project().holeModes[0].exemplar);
+  for (int i = 0; i < 3; ++i) doc.undo();
+  EXPECT_EQ(doc.project().holeModes[0].exemplar->photo, 0);
+
+  doc.setHoleFill(hole, 6, InpaintMode::Harmonic);  // another fill: the region goes
+  EXPECT_FALSE(doc.project().holeModes[0].exemplar);
+  doc.undo();
+  doc.setHoleExemplar(hole, 6, std::nullopt);  // cleared: the mode stays
+  EXPECT_EQ(doc.project().holeModes[0].mode, InpaintMode::Texture);
+  EXPECT_FALSE(doc.project().holeModes[0].exemplar);
+  EXPECT_EQ(doc.history().back().label, "Texture a hole from around it");
+  const size_t steps = doc.history().size();
+  doc.setHoleExemplar({1, 2}, 1, std::nullopt);  // a hole without an entry: nothing to clear, no step
+  EXPECT_EQ(doc.history().size(), steps);
+  EXPECT_NE(test::errorOf([&] { doc.setHoleExemplar(hole, 6, HoleExemplar{9, picked.polygon}); }).find("photo 9"),
+            std::string::npos);
+}

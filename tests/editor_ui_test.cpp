@@ -202,6 +202,12 @@ TEST(EditorWords, WarningsInPlainWordsAndCountsAsRows) {
   const std::vector<std::pair<std::string, std::string>> known = {
       {"inpaint: hole 3: synthesis: the hole and its band do not flatten without folds: filled with \"rbf\" instead",
        "Hole 3 (a part no photo covers) could not take texture copied from around it"},
+      {"inpaint: hole 0: texture: the photo region picked for the hole (55 x 18 texels) holds too few whole "
+       "neighbourhoods of foreground (draw a larger region, on the subject): filled with \"rbf\" instead",
+       "Hole 0 (a part no photo covers) cannot take its texture from the region drawn for it"},
+      {"inpaint: hole 2: texture: the photo region near the hole (30 x 20 texels) holds too few whole "
+       "neighbourhoods: filled with \"strokes\" instead",
+       "Hole 2 (a part no photo covers) is filled with smooth colours"},
       {"map: 2 regions are left empty: no common photo", "2 parts of the surface get no photo"},
       {"map: 1 region is left empty: touches the mesh border", "1 part of the surface gets no photo"},
       {"map: 12 mapped faces are flipped in their photo", "12 small triangles of the surface lie mirrored"},
@@ -1290,6 +1296,47 @@ TEST(EditorRealInput, AHolesFillIsChosenInTheCoverageTabAndUndone) {
   EXPECT_EQ(s[1]["history"]["steps"].get<int>(), s[0]["history"]["steps"].get<int>() + 1) << s[1]["history"].dump();
   ASSERT_TRUE(s[2]["coverage"].is_object());
   EXPECT_EQ(s[2]["coverage"]["regions"][0]["fill"], "default") << "Ctrl+Z did not take the choice back";
+}
+
+// Issue 34: a hole's texture from a photo region the user picks (the clone tool's source picker serves). In the
+// Coverage tab, region 0's "texture from a photo..." (84, 659 on the demo at 1280x800, scale 1) switches to the
+// clone tool; four corners clicked on the tiger's flank in photo 0 (shown at 102% from (805, 331)) and the first
+// again close the polygon, which becomes the hole's exemplar in one undoable step; the next run synthesises from
+// it. Ctrl+Z takes it back.
+TEST(EditorRealInput, AHolesTextureIsDrawnOnAPhotoAndUndone) {
+  TM_REQUIRE_XVFB();
+  TM_REQUIRE_XDOTOOL();
+  std::string corners;
+  for (const auto& [x, y] : std::vector<std::pair<int, int>>{{960, 450}, {1060, 450}, {1060, 500}, {960, 500}, {960, 450}})
+    corners += "mousemove " + std::to_string(x) + " " + std::to_string(y) + " sleep 0.3 click 1 sleep 0.3 ";
+  const std::vector<json> s = realInputStates(
+      "editor_real_exemplar", {"mousemove 102 398 sleep 0.3 click 1 sleep 0.8 mousemove 640 400 sleep 0.5",
+                               "mousemove 84 659 sleep 0.3 click 1 sleep 0.5 mousemove 640 400 sleep 0.3",
+                               corners + "mousemove 640 400 sleep 12", "key --delay 0 ctrl+z sleep 3"});
+  ASSERT_EQ(s.size(), 4u);
+  ASSERT_TRUE(s[0]["buttons"].contains("texture from 0")) << "no texture choice in the Coverage tab: "
+                                                          << s[0]["buttons"].dump();
+  const json& b = s[0]["buttons"]["texture from 0"];
+  ASSERT_TRUE(b["x"].get<double>() <= 84 && 84 < b["x"].get<double>() + b["w"].get<double>() &&
+              b["y"].get<double>() <= 659 && 659 < b["y"].get<double>() + b["h"].get<double>())
+      << "the button moved; the walk clicks beside it: " << b.dump();
+  EXPECT_EQ(s[0]["coverage"]["regions"][0]["exemplar_photo"], nullptr);
+  EXPECT_EQ(s[1]["tool"], "clone") << "the pick did not start";
+  const json& after = s[2];
+  ASSERT_TRUE(after["coverage"].is_object()) << "no coverage after the pick";
+  EXPECT_EQ(after["coverage"]["regions"][0]["exemplar_photo"], 0) << "the polygon did not become region 0's texture";
+  EXPECT_EQ(after["history"]["steps"].get<int>(), s[1]["history"]["steps"].get<int>() + 1) << after["history"].dump();
+  EXPECT_EQ(after["tool"], "point");
+  // The run that followed synthesised from it: its project holds the region, in photo 0's pixels.
+  EXPECT_TRUE(after["result"]["matches_document"].get<bool>()) << "the run after the pick did not finish in 12 s";
+  const json& modes = after["result"]["project"]["holeModes"];
+  ASSERT_EQ(modes.size(), 1u) << modes.dump();
+  EXPECT_EQ(modes[0]["mode"], "texture");
+  ASSERT_EQ(modes[0]["exemplar"]["polygon"].size(), 4u) << modes.dump();
+  const json& first = modes[0]["exemplar"]["polygon"][0];
+  EXPECT_NEAR(first[0].get<double>(), (960 - 805) / 1.022, 3) << modes.dump();
+  EXPECT_NEAR(first[1].get<double>(), (450 - 331) / 1.022, 3) << modes.dump();
+  EXPECT_EQ(s[3]["coverage"]["regions"][0]["exemplar_photo"], nullptr) << "Ctrl+Z did not take the region back";
 }
 
 // Issue 35: a whole session by hand. Every step is real X input (xdotool: moves, clicks, drags, keys, typing) on

@@ -1419,6 +1419,48 @@ TEST(Texture, TheBakeShowsTheExemplarBetweenTheVertices) {
 // diagonal. The fill's grain near the stroke (the minor direction of the structure tensor of its lightness over
 // the refined triangles within 0.06 of the stroke) runs along x without the stroke and along the diagonal with
 // it; the note says so.
+// The grain of a plane fill (in z = 0) over the solved triangles whose centroid passes `where`: the
+// lightness gradients' structure tensor, its minor direction as an angle in [0, 180) degrees, and its coherence
+// (lambda1 - lambda2) / (lambda1 + lambda2): 1 for stripes, 0 for a texture without a direction.
+struct Grain {
+  double angle = 0, coherence = 0, energy = 0;
+};
+template <class Where>
+Grain fillGrain(const InpaintResult& res, const TextureMap& map, Where where) {
+  const RefinedSurface& rs = res.refined;
+  const auto solved = solvedVertices(rs, map);
+  double xx = 0, xy = 0, yy = 0;
+  for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
+    const auto& tri = rs.mesh.triangles[t];
+    if (rs.region[t] < 0 || !solved[tri[0]] || !solved[tri[1]] || !solved[tri[2]]) continue;
+    const Vec3 c = (rs.mesh.positions[tri[0]] + rs.mesh.positions[tri[1]] + rs.mesh.positions[tri[2]]) / 3;
+    if (!where(c)) continue;
+    const Vec3 e1 = rs.mesh.positions[tri[1]] - rs.mesh.positions[tri[0]];
+    const Vec3 e2 = rs.mesh.positions[tri[2]] - rs.mesh.positions[tri[0]];
+    const double l0 = srgbToLab(res.colors.row(tri[0]).transpose())[0];
+    const double d1 = srgbToLab(res.colors.row(tri[1]).transpose())[0] - l0;
+    const double d2 = srgbToLab(res.colors.row(tri[2]).transpose())[0] - l0;
+    Eigen::Matrix2d a;
+    a << e1.x(), e1.y(), e2.x(), e2.y();
+    if (std::abs(a.determinant()) < 1e-12) continue;
+    const Vec2 g = a.inverse() * Vec2(d1, d2);
+    xx += g.x() * g.x(), xy += g.x() * g.y(), yy += g.y() * g.y();
+  }
+  Grain out;
+  out.energy = xx + yy;
+  if (!(out.energy > 0)) return out;
+  const double gradient = 0.5 * std::atan2(2 * xy, xx - yy) * 180 / M_PI;
+  out.angle = std::fmod(gradient + 90 + 360, 180.0);
+  out.coherence = std::sqrt((xx - yy) * (xx - yy) + 4 * xy * xy) / out.energy;
+  return out;
+}
+
+// Degrees between two grain angles (modulo 180).
+double angleOff(double angle, double want) {
+  const double d = std::fmod(std::abs(angle - want), 180.0);
+  return std::min(d, 180 - d);
+}
+
 TEST(Texture, AStrokeTurnsTheGrainToRunAlongIt) {
   const auto mesh = unitSquare(31);
   std::mt19937 rng(3);
@@ -1440,39 +1482,55 @@ TEST(Texture, AStrokeTurnsTheGrainToRunAlongIt) {
     ASSERT_EQ(res.regions.size(), 1u);
     EXPECT_EQ(res.regions[0].mode, InpaintMode::Texture);
     EXPECT_EQ(res.regions[0].note.find("stroke vertices") != std::string::npos, m == 1) << res.regions[0].note;
-    const RefinedSurface& rs = res.refined;
-    const auto solved = solvedVertices(rs, map);
-    double xx = 0, xy = 0, yy = 0;
-    for (int t = 0; t < rs.mesh.numTriangles(); ++t) {
-      const auto& tri = rs.mesh.triangles[t];
-      if (rs.region[t] < 0 || !solved[tri[0]] || !solved[tri[1]] || !solved[tri[2]]) continue;
-      const Vec3 c = (rs.mesh.positions[tri[0]] + rs.mesh.positions[tri[1]] + rs.mesh.positions[tri[2]]) / 3;
-      if (std::abs(c.x() - c.y()) / std::sqrt(2.0) > 0.06 || (c - Vec3(0.5, 0.5, 0)).norm() > 0.2) continue;
-      // The lightness gradient of the linear colours over the triangle (flat in z).
-      const Vec3 e1 = rs.mesh.positions[tri[1]] - rs.mesh.positions[tri[0]];
-      const Vec3 e2 = rs.mesh.positions[tri[2]] - rs.mesh.positions[tri[0]];
-      const double l0 = srgbToLab(res.colors.row(tri[0]).transpose())[0];
-      const double d1 = srgbToLab(res.colors.row(tri[1]).transpose())[0] - l0;
-      const double d2 = srgbToLab(res.colors.row(tri[2]).transpose())[0] - l0;
-      Eigen::Matrix2d a;
-      a << e1.x(), e1.y(), e2.x(), e2.y();
-      if (std::abs(a.determinant()) < 1e-12) continue;
-      const Vec2 g = a.inverse() * Vec2(d1, d2);
-      xx += g.x() * g.x(), xy += g.x() * g.y(), yy += g.y() * g.y();
-    }
-    ASSERT_GT(xx + yy, 0) << m;
-    // The grain: perpendicular to the major gradient direction, as an angle in [0, 180) degrees.
-    const double gradient = 0.5 * std::atan2(2 * xy, xx - yy) * 180 / M_PI;
-    grainAngle[m] = std::fmod(gradient + 90 + 360, 180.0);
+    const Grain grain = fillGrain(res, map, [](const Vec3& c) {
+      return std::abs(c.x() - c.y()) / std::sqrt(2.0) <= 0.06 && (c - Vec3(0.5, 0.5, 0)).norm() <= 0.2;
+    });
+    ASSERT_GT(grain.energy, 0) << m;
+    grainAngle[m] = grain.angle;
   }
-  auto off = [](double angle, double want) {
-    const double d = std::fmod(std::abs(angle - want), 180.0);
-    return std::min(d, 180 - d);
-  };
   std::printf("grain near the diagonal: %.1f degrees without the stroke, %.1f with it\n", grainAngle[0],
               grainAngle[1]);
-  EXPECT_LT(off(grainAngle[0], 0), 20);
-  EXPECT_LT(off(grainAngle[1], 45), 20);
+  EXPECT_LT(angleOff(grainAngle[0], 0), 20);
+  EXPECT_LT(angleOff(grainAngle[1], 45), 20);
+}
+
+// A hole takes its texture from the photo region the user picked (Project::holeModes' exemplar), not from the
+// photos around it: cat fur on the sheet, and a second photo, mapped nowhere, of stripes running along its
+// diagonal. The picked region fills the hole with stripes (a coherent grain), shown as the photo shows them
+// (not mirrored); without it the fill is fur (no marked grain).
+TEST(Texture, AHoleTakesItsTextureFromThePhotoRegionTheUserPicked) {
+  TM_REQUIRE_FUR(path);
+  const TextureCase c = furSheet(path);
+  const Photo stripes = makePhoto(320, 320, [](double x, double y) {
+    const float s = float(0.5 + 0.45 * std::sin(2 * M_PI * (x - y) / 24.0));  // lines along the image's (1, 1)
+    return Vec3f(0.9f * s + 0.05f, 0.75f * s + 0.1f, 0.5f * s + 0.15f);
+  });
+  TextureMap map = c.truth;
+  ASSERT_GT(cutHole(*c.mesh, map, Vec3(0.5, 0.5, 0), 0.22), 0);
+  int holeFace = -1;
+  for (int f = 0; f < c.mesh->numFaces() && holeFace < 0; ++f)
+    if (map.facePhoto[f] < 0) holeFace = f;
+  // Seen from the side its normal faces, the photo's x runs along +x and its y along n x (+x): lines along the
+  // image's (1, 1) lie at 135 degrees on a sheet facing +z, at 45 facing -z.
+  const double want = c.mesh->faceNormal(0).z() > 0 ? 135 : 45;
+  Grain grain[2];
+  for (int m = 0; m < 2; ++m) {
+    InpaintInput in = inputFor(*c.mesh, map, {&c.photo, &stripes}, InpaintMode::Texture);
+    if (m) in.holeModes = {{holeFace, InpaintMode::Texture, HoleExemplar{1, {{20, 20}, {300, 20}, {300, 300}, {20, 300}}}}};
+    const InpaintResult res = inpaintSurface(in, {}, nullptr);
+    ASSERT_EQ(res.regions.size(), 1u);
+    EXPECT_EQ(res.regions[0].mode, InpaintMode::Texture);
+    const std::string& note = res.regions[0].note;
+    EXPECT_NE(note.find(m ? "from photo 1" : "from photo 0"), std::string::npos) << note;
+    EXPECT_EQ(note.find("the region picked") != std::string::npos, m == 1) << note;
+    grain[m] = fillGrain(res, map, [](const Vec3& p) { return (p - Vec3(0.5, 0.5, 0)).norm() < 0.16; });
+  }
+  std::printf("grain of the fill: fur around it %.1f degrees, coherence %.2f; the picked stripes %.1f degrees "
+              "(want %.0f), coherence %.2f\n",
+              grain[0].angle, grain[0].coherence, grain[1].angle, want, grain[1].coherence);
+  EXPECT_GT(grain[1].coherence, 0.5);
+  EXPECT_GT(grain[1].coherence, grain[0].coherence + 0.25);
+  EXPECT_LT(angleOff(grain[1].angle, want), 15);
 }
 
 // A texture hole whose synthesis cannot run (the photo's foreground is a diagonal line 5 pixels wide: no whole

@@ -377,10 +377,10 @@ TEST_F(ProjectTest, SaveIntoReadOnlyFolderKeepsTheEarlierFile) {
 
 TEST_F(ProjectTest, RejectsUnknownVersion) {
   json j = sampleJson();
-  j["version"] = 6;
+  j["version"] = Project::kVersion + 1;
   const std::string message = loadError(j);
-  EXPECT_MESSAGE_HAS(message, "version: 6 is not supported");
-  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 5");
+  EXPECT_MESSAGE_HAS(message, "version: 7 is not supported");
+  EXPECT_MESSAGE_HAS(message, "reads versions 1 to 6");
   EXPECT_MESSAGE_HAS(message, "written by a newer TextureMontage");
   j["version"] = 0;
   EXPECT_MESSAGE_HAS(loadError(j), "version: 0 is not supported");
@@ -861,4 +861,53 @@ TEST_F(ProjectTest, PointIdsSurviveDeletionsAndTheViewRoundTrips) {
   EXPECT_MESSAGE_HAS(loadError(badView), "view.distance: 0 is not above 0");
   badView["view"]["target"] = json::array({1, 2});
   EXPECT_MESSAGE_HAS(loadError(badView), "view.target: must be [x, y, z]");
+}
+
+// A hole's exemplar (a photo region its texture comes from; version 6): saved and read back, checked like a
+// clone's polygon, texture mode only, and dropped with a photo that is left out of a run.
+TEST_F(ProjectTest, AHolesPickedPhotoRegionRoundTripsAndIsChecked) {
+  Project p = sample();
+  p.holeModes = {{3, InpaintMode::Texture, HoleExemplar{1, {Vec2(2, 3), Vec2(40, 3), Vec2(40, 30)}}},
+                 {4, InpaintMode::Harmonic, std::nullopt}};
+  EXPECT_EQ(requiredVersion(p), 6);  // an older build would ignore the region: it must refuse the file
+  saveProject(p, path("e.json"));
+  const json written = json::parse(readFile(path("e.json")));
+  EXPECT_EQ(written["version"], 6);
+  EXPECT_EQ(written["holeModes"][0]["exemplar"]["photo"], 1);
+  EXPECT_EQ(written["holeModes"][0]["exemplar"]["polygon"].size(), 3u);
+  EXPECT_FALSE(written["holeModes"][1].contains("exemplar"));
+  const Project loaded = loadProject(path("e.json"));
+  EXPECT_TRUE(loaded.sameDocument(p));
+  ASSERT_TRUE(loaded.holeModes[0].exemplar);
+  EXPECT_EQ(loaded.holeModes[0].exemplar->polygon[1], Vec2(40, 3));
+  validateProject(loaded, 20, 10, {{100, 80}, {50, 40}});
+  Project other = loaded;
+  other.holeModes[0].exemplar->polygon[0].x() = 3;
+  EXPECT_FALSE(other.sameDocument(loaded));
+
+  Project bad = p;
+  bad.holeModes[0].mode = InpaintMode::Rbf;
+  EXPECT_MESSAGE_HAS(validateError(bad), "holeModes[0].exemplar: only mode \"texture\" takes its texture from a photo "
+                                         "region; this hole's mode is \"rbf\"");
+  bad = p;
+  bad.holeModes[0].exemplar->photo = 2;
+  EXPECT_MESSAGE_HAS(validateError(bad), "holeModes[0].exemplar.photo: 2 is out of range");
+  bad = p;
+  bad.holeModes[0].exemplar->polygon[2] = Vec2(60, 30);  // photo 1 is 50 x 40
+  EXPECT_MESSAGE_HAS(validateError(bad), "holeModes[0].exemplar.polygon[2].x: 60 is outside");
+  bad = p;
+  bad.holeModes[0].exemplar->polygon.pop_back();
+  EXPECT_MESSAGE_HAS(validateError(bad), "holeModes[0].exemplar.polygon: needs at least 3 points, not 2");
+  bad = p;
+  bad.holeModes[0].exemplar->polygon[2] = Vec2(21, 3);
+  EXPECT_MESSAGE_HAS(validateError(bad), "holeModes[0].exemplar.polygon: has zero area");
+  json broken = json::parse(projectToJson(p, path("p.json")));
+  broken["holeModes"][0]["exemplar"]["polygon"] = "all of it";
+  EXPECT_MESSAGE_HAS(loadError(broken), "holeModes[0].exemplar.polygon");
+
+  // A photo left out of a run takes the region with it; the hole keeps its mode.
+  const Project without = withoutPhotoReferences(p, {1});
+  EXPECT_EQ(without.holeModes[0].mode, InpaintMode::Texture);
+  EXPECT_FALSE(without.holeModes[0].exemplar);
+  EXPECT_TRUE(withoutPhotoReferences(p, {0}).holeModes[0].exemplar);
 }

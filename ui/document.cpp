@@ -301,9 +301,33 @@ void Document::setHoleFill(const std::vector<int>& holeFaces, int face, std::opt
   apply(mode ? std::string("Fill a hole with ") + kInpaintModeNames[size_t(*mode)] : "Fill a hole by default",
         [&](Project& p) {
           auto& modes = p.holeModes;
+          std::optional<HoleExemplar> exemplar;  // a photo region the hole's texture came from stays with texture
+          for (const HoleMode& h : modes)
+            if (inHole.count(h.face)) exemplar = h.exemplar;
           modes.erase(std::remove_if(modes.begin(), modes.end(), [&](const HoleMode& h) { return inHole.count(h.face); }),
                       modes.end());
-          if (mode) p.holeModes.push_back({face, *mode});
+          if (mode) p.holeModes.push_back({face, *mode, *mode == InpaintMode::Texture ? exemplar : std::nullopt});
+        });
+}
+
+void Document::setHoleExemplar(const std::vector<int>& holeFaces, int face, std::optional<HoleExemplar> exemplar) {
+  if (exemplar) checkIndex("texture a hole from a photo", "photo", exemplar->photo, current_->photos.size());
+  const std::unordered_set<int> inHole(holeFaces.begin(), holeFaces.end());
+  apply(exemplar ? "Texture a hole from photo " + std::to_string(exemplar->photo) : "Texture a hole from around it",
+        [&](Project& p) {
+          // The hole's entry (the last one wins, as in the pipeline) keeps its face; its mode becomes texture, the
+          // only one that reads an exemplar.
+          auto& modes = p.holeModes;
+          std::optional<HoleMode> entry;
+          for (const HoleMode& h : modes)
+            if (inHole.count(h.face)) entry = h;
+          modes.erase(std::remove_if(modes.begin(), modes.end(), [&](const HoleMode& h) { return inHole.count(h.face); }),
+                      modes.end());
+          if (!entry && !exemplar) return;
+          if (!entry) entry = HoleMode{face, InpaintMode::Texture, std::nullopt};
+          entry->exemplar = exemplar;
+          if (exemplar) entry->mode = InpaintMode::Texture;
+          modes.push_back(*entry);
         });
 }
 
@@ -333,6 +357,11 @@ void Document::removePhoto(int photo) {
         clones.push_back(std::move(c));
       }
     p.clones = std::move(clones);
+    for (HoleMode& h : p.holeModes)  // a hole whose texture came from the photo takes it from around it again
+      if (h.exemplar && h.exemplar->photo == photo)
+        h.exemplar.reset();
+      else if (h.exemplar && h.exemplar->photo > photo)
+        --h.exemplar->photo;
     std::vector<DeclinedProposal> declined;
     for (DeclinedProposal d : p.declinedProposals)
       if (d.photo != photo) {
@@ -373,6 +402,8 @@ void Document::movePhoto(int from, int to) {
       for (PhotoPoint& a : pt.at) a.photo = newIndex[a.photo];
     for (FeatureChain& c : p.chains) c.photo = newIndex[c.photo];
     for (CloneOp& c : p.clones) c.photo = newIndex[c.photo];
+    for (HoleMode& h : p.holeModes)
+      if (h.exemplar) h.exemplar->photo = newIndex[h.exemplar->photo];
   });
 }
 
@@ -382,8 +413,9 @@ void Document::setPhotoMirror(int photo, bool mirror, int width) {
   bool used = false;
   for (const FeaturePoint& pt : current_->points) used = used || hasPosition(pt, photo);
   for (const CloneOp& c : current_->clones) used = used || c.photo == photo;
+  for (const HoleMode& h : current_->holeModes) used = used || (h.exemplar && h.exemplar->photo == photo);
   TM_CHECK(!used || width > 0, "mirror photo: photo " + std::to_string(photo) +
-                                   " has points or clones and its width is unknown (it did not load)");
+                                   " has points, clones or hole textures and its width is unknown (it did not load)");
   apply(std::string(mirror ? "Mirror photo " : "Unmirror photo ") + std::to_string(photo), [&](Project& p) {
     p.photos[photo].mirror = mirror;
     for (FeaturePoint& pt : p.points)
@@ -394,6 +426,9 @@ void Document::setPhotoMirror(int photo, bool mirror, int width) {
         for (Vec2& q : c.polygon) q.x() = width - q.x();
         c.anchor.x() = width - c.anchor.x();  // the same region (its clone is mirrored, as the photo is)
       }
+    for (HoleMode& h : p.holeModes)
+      if (h.exemplar && h.exemplar->photo == photo)
+        for (Vec2& q : h.exemplar->polygon) q.x() = width - q.x();
   });
 }
 

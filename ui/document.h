@@ -92,6 +92,9 @@ class Document {
   // How one hole is filled: `mode` for the hole made of `holeFaces` (mesh face ids), recorded on `face` (one
   // of them), replacing the entries on its faces; no mode: the project's inpainting option again.
   void setHoleFill(const std::vector<int>& holeFaces, int face, std::optional<InpaintMode> mode);
+  // The photo region the hole's texture is synthesised from (its mode becomes "texture"); none: the photos
+  // around it again (the mode stays).
+  void setHoleExemplar(const std::vector<int>& holeFaces, int face, std::optional<HoleExemplar> exemplar);
   // Appends photos (absolute paths). Returns the index of the first one added.
   int addPhotos(const std::vector<PhotoRef>& photos);
   // Removes a photo with every position, chain and clone in it; later photo indices shift down.

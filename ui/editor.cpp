@@ -558,8 +558,7 @@ void Editor::deleteSelection() {
 
 void Editor::finishChain() {
   if (tool_ == Tool::Clone && !clonePolygonClosed_ && clonePolygon_.size() >= 3) {
-    clonePolygonClosed_ = true;
-    setStatus("clone: now paint the target region on the mesh (left drag in the 3D view)");
+    closeClonePolygon();
     return;
   }
   if ((tool_ != Tool::Line && tool_ != Tool::Polygon) || chain_.empty()) return;
@@ -580,7 +579,27 @@ void Editor::finishChain() {
   }
 }
 
+void Editor::closeClonePolygon() {
+  if (exemplarHole_.empty()) {
+    clonePolygonClosed_ = true;
+    cloneDirty_ = true;
+    setStatus("clone: now paint the target region on the mesh (left drag in the 3D view)");
+    return;
+  }
+  const HoleExemplar exemplar{clonePhoto_, clonePolygon_};
+  const std::vector<int> hole = exemplarHole_;
+  const int region = exemplarRegion_;
+  if (edit([&] { doc_.setHoleExemplar(hole, hole.front(), exemplar); })) {
+    setStatus("region " + std::to_string(region) + " now takes its texture from photo " +
+              std::to_string(exemplar.photo) + ": the next run synthesises it");
+    cancelInProgress();
+    tool_ = Tool::Point;
+  }
+}
+
 void Editor::cancelInProgress() {
+  exemplarHole_.clear();
+  exemplarRegion_ = -1;
   chain_.clear();
   chainPhoto_ = -1;
   stroke_.clear();

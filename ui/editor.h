@@ -373,7 +373,13 @@ class Editor {
   void appendCoverageLines(std::vector<float>& lines);  // the highlighted region's edges (uploadLines)
   nlohmann::json coverageState() const;
   std::optional<InpaintMode> regionFill(int region) const;     // its own fill mode, if the project gives one
-  void holeFillCombo(int region);                 // for the script's `state`
+  const HoleExemplar* regionExemplar(int region) const;        // the photo region its texture comes from, if any
+  std::vector<int> regionFaces(int region) const;              // its faces (the mesh ids holeModes use)
+  void holeFillCombo(int region);                 // its fill, and the photo region its texture comes from
+  // The clone tool's polygon, once closed, becomes the texture source of a hole (exemplarHole_) instead of a
+  // clone's source.
+  void pickHoleTexture(int region);
+  void closeClonePolygon();
 
   // Scripts, screenshots, benchmarks (editor_script.cpp).
   void applySyntheticInput(ImGuiIO& io);
@@ -513,6 +519,8 @@ class Editor {
   double cloneRotationDeg_ = 0, clonePixelsPerUnit_ = 0;
   float cloneBrush_ = 0.06f;  // brush radius as a fraction of the mesh's bounding-box diagonal
   bool cloneDirty_ = false;
+  std::vector<int> exemplarHole_;  // the hole whose texture source the clone tool's polygon is (empty: a clone)
+  int exemplarRegion_ = -1;        // its coverage region when the pick began (for messages)
   int dragPoint_ = -1, dragPhoto_ = -1;
   bool dragging_ = false;
   double pressX_ = 0, pressY_ = 0;

@@ -166,13 +166,40 @@ void Editor::coverageTab() {
 }
 
 // How an empty region is filled (issue 34: harmonic and RBF stay choices per hole): the project's inpainting
-// option, or a mode of its own (Project::holeModes, on one of its faces; an undoable edit).
+// option, or a mode of its own (Project::holeModes, on one of its faces; an undoable edit), and for texture the
+// photo region its texture comes from, drawn with the clone tool's polygon.
 std::optional<InpaintMode> Editor::regionFill(int region) const {
   std::optional<InpaintMode> fill;
   for (const HoleMode& h : doc_.project().holeModes)
     if (h.face >= 0 && h.face < static_cast<int>(coverageRegionOf_.size()) && coverageRegionOf_[h.face] == region)
       fill = h.mode;  // the last entry wins, as in the pipeline
   return fill;
+}
+
+const HoleExemplar* Editor::regionExemplar(int region) const {
+  const HoleExemplar* exemplar = nullptr;
+  for (const HoleMode& h : doc_.project().holeModes)
+    if (h.face >= 0 && h.face < static_cast<int>(coverageRegionOf_.size()) && coverageRegionOf_[h.face] == region)
+      exemplar = h.exemplar ? &*h.exemplar : nullptr;
+  return exemplar;
+}
+
+std::vector<int> Editor::regionFaces(int region) const {
+  std::vector<int> faces;
+  for (int f = 0; f < static_cast<int>(coverageRegionOf_.size()); ++f)
+    if (coverageRegionOf_[f] == region) faces.push_back(f);
+  return faces;
+}
+
+void Editor::pickHoleTexture(int region) {
+  std::vector<int> faces = regionFaces(region);
+  if (faces.empty()) return;
+  cancelInProgress();
+  tool_ = Tool::Clone;
+  exemplarHole_ = std::move(faces);
+  exemplarRegion_ = region;
+  setStatus("texture for region " + std::to_string(region) +
+            ": click the corners of a photo region, then the first corner again (or Enter); Escape cancels");
 }
 
 void Editor::holeFillCombo(int region) {
@@ -187,9 +214,7 @@ void Editor::holeFillCombo(int region) {
       if (ImGui::Selectable(kInpaintModeNames[m], fill && size_t(*fill) == m)) chosen = InpaintMode(m);
     ImGui::EndCombo();
     if (chosen && *chosen != fill) {
-      std::vector<int> faces;
-      for (int f = 0; f < static_cast<int>(coverageRegionOf_.size()); ++f)
-        if (coverageRegionOf_[f] == region) faces.push_back(f);
+      const std::vector<int> faces = regionFaces(region);
       if (!faces.empty()) edit([&] { doc_.setHoleFill(faces, faces.front(), *chosen); });
     }
   }
@@ -197,6 +222,23 @@ void Editor::holeFillCombo(int region) {
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("how this part is filled: texture continues the photos around it; harmonic and rbf blend "
                       "their colours smoothly; off leaves it empty");
+  // Texture: from the photos around the hole, or from a photo region the user draws.
+  if ((fill ? *fill : doc_.project().options.inpaintMode) != InpaintMode::Texture) return;
+  const std::string id = std::to_string(region);
+  if (const HoleExemplar* exemplar = regionExemplar(region)) {
+    ImGui::TextWrapped("texture from a region of photo %d", exemplar->photo);
+    if (button(("draw again##" + id).c_str(), nullptr, "texture from " + id)) pickHoleTexture(region);
+    ImGui::SameLine();
+    if (button(("from around it##" + id).c_str(), nullptr, "texture around " + id)) {
+      const std::vector<int> faces = regionFaces(region);
+      if (!faces.empty()) edit([&] { doc_.setHoleExemplar(faces, faces.front(), std::nullopt); });
+    }
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("take the texture from the photos around the region again");
+  } else if (button(("texture from a photo...##" + id).c_str(), nullptr, "texture from " + id)) {
+    pickHoleTexture(region);
+  }
+  if (ImGui::IsItemHovered() && !regionExemplar(region))
+    ImGui::SetTooltip("draw a region of any photo (another subject's too) whose texture fills this part");
 }
 
 nlohmann::json Editor::coverageState() const {
@@ -227,6 +269,10 @@ nlohmann::json Editor::coverageState() const {
                        {"fill", [&]() -> json {
                           const auto fill = regionFill(static_cast<int>(i));
                           return fill ? json(kInpaintModeNames[size_t(*fill)]) : json("default");
+                        }()},
+                       {"exemplar_photo", [&]() -> json {
+                          const HoleExemplar* e = regionExemplar(static_cast<int>(i));
+                          return e ? json(e->photo) : json(nullptr);
                         }()}});
   }
   return {{"mapped_share", coverage_->mappedShare},

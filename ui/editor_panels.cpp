@@ -423,6 +423,15 @@ void Editor::toolsPanel() {
       cutoutPanel();
       break;
     case Tool::Clone: {
+      if (!exemplarHole_.empty()) {
+        ImGui::TextWrapped(
+            "Texture for empty region %d: click the corners of a photo region whose texture should fill it (close: "
+            "first point or Enter). Escape cancels.",
+            exemplarRegion_);
+        ImGui::Text("polygon: %zu point(s)", clonePolygon_.size());
+        if (button("Cancel##exemplar")) cancelInProgress();
+        break;
+      }
       ImGui::TextWrapped(
           "1. Click a polygon in a photo (close: first point or Enter). 2. Paint the target on the mesh (Ctrl "
           "erases). 3. Apply.");
@@ -1117,7 +1126,8 @@ void Editor::shortcuts() {
   if (pressed(GLFW_KEY_DELETE) || pressed(GLFW_KEY_BACKSPACE)) deleteSelection();
   if (pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)) finishChain();
   if (pressed(GLFW_KEY_ESCAPE)) {
-    if (!chain_.empty() || !stroke_.empty() || !clonePolygon_.empty() || !cloneFaces_.empty()) {
+    if (!chain_.empty() || !stroke_.empty() || !clonePolygon_.empty() || !cloneFaces_.empty() ||
+        !exemplarHole_.empty()) {
       cancelInProgress();
     } else {
       selectVertex(-1);

@@ -263,6 +263,20 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     }
     for (const Vec2& q : clonePolygon_) draw->AddCircleFilled(im(view.toScreen(q)), 3.5f, IM_COL32(80, 240, 230, 255));
   }
+  // Photo regions that holes take their texture from (the Coverage tab's "texture from a photo").
+  for (const HoleMode& h : p.holeModes) {
+    if (!h.exemplar || h.exemplar->photo != i || h.exemplar->polygon.size() < 3) continue;
+    const auto& poly = h.exemplar->polygon;
+    std::vector<ImVec2> screen;
+    for (const Vec2& q : poly) screen.push_back(im(view.toScreen(q)));
+    // Dashes over a dark line, the coverage highlight's colour: visible on any photo.
+    draw->AddPolyline(screen.data(), int(screen.size()), IM_COL32(20, 20, 30, 200), ImDrawFlags_Closed, 3.5f);
+    for (size_t k = 0; k < poly.size(); ++k)
+      dashedLine(draw, view.toScreen(poly[k]), view.toScreen(poly[(k + 1) % poly.size()]), IM_COL32(255, 115, 255, 255));
+    const ImVec2 at(screen.front().x + 4, screen.front().y + 2), size = ImGui::CalcTextSize("hole texture");
+    draw->AddRectFilled(at, ImVec2(at.x + size.x, at.y + size.y), IM_COL32(20, 20, 30, 170));
+    draw->AddText(at, IM_COL32(255, 115, 255, 255), "hole texture");
+  }
 
   // Feature points: rings for the selection and the hover (here or in the 3D view), ids for those and
   // for every other point whose label overlaps none already drawn.
@@ -404,9 +418,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
             clonePhoto_ = i;
           }
           if (clonePolygon_.size() >= 3 && (view.toScreen(clonePolygon_.front()) - mouse).norm() < 8) {
-            clonePolygonClosed_ = true;
-            cloneDirty_ = true;
-            setStatus("clone: now paint the target region on the mesh (left drag in the 3D view)");
+            closeClonePolygon();
           } else {
             clonePolygon_.push_back(clamped(mousePhoto));
           }

@@ -91,6 +91,15 @@ PlainWarning plainWarning(const std::string& warning) {
                " (a part no photo covers) could not take texture copied from around it: the surface around it does "
                "not lay flat. It is filled with smooth colours from its border instead. To give it texture, click "
                "it in a photo that shows it.";
+  } else if (is(R"re(inpaint: hole (\d+): texture: the photo region picked for the hole (.*): filled with "(\w+)" instead)re")) {
+    out.text = "Hole " + m[1].str() + " (a part no photo covers) cannot take its texture from the region drawn for it "
+               "in a photo: it holds too little of the subject. It is filled with smooth colours from its border "
+               "instead. Draw a larger region on the subject (Coverage tab, \"draw again\").";
+  } else if (is(R"re(inpaint: hole (\d+): texture: (.*): filled with "(\w+)" instead)re")) {
+    out.text = "Hole " + m[1].str() + " (a part no photo covers) is filled with smooth colours from its border "
+               "instead of texture continued from around it (" + m[2].str() +
+               "). To give it texture, click it in a photo that shows it, or draw a photo region for its texture "
+               "(Coverage tab).";
   } else if (is(R"re(inpaint: hole (\d+): synthesis: (.*): filled with "(\w+)" instead)re")) {
     out.text = "Hole " + m[1].str() + " (a part no photo covers) is filled with smooth colours from its border "
                "instead of texture copied from around it (" + m[2].str() +

@@ -220,6 +220,10 @@ void fromJson(const Field& f, DeclinedProposal& d) {
 void fromJson(const Field& f, HoleMode& h) {
   h.face = f["face"].as<int>();
   h.mode = f["mode"].as<InpaintMode>();
+  if (f["exemplar"].present()) {
+    const Field e = f["exemplar"];
+    h.exemplar = HoleExemplar{e["photo"].as<int>(), e["polygon"].as<std::vector<Vec2>>()};
+  }
 }
 
 // The options table: name, field and allowed range, shared by reading, writing and checking.
@@ -273,8 +277,7 @@ class DocumentCheck {
     checkChains();
     checkStrokes();
     checkClones();
-    for (size_t i = 0; i < p_.holeModes.size(); ++i)
-      index("holeModes[" + std::to_string(i) + "].face", p_.holeModes[i].face, faces(), "faces", "mesh");
+    checkHoleModes();
     for (size_t i = 0; i < p_.declinedProposals.size(); ++i) {
       const std::string path = "declinedProposals[" + std::to_string(i) + "]";
       index(path + ".vertex", p_.declinedProposals[i].vertex, vertices(), "vertices", "mesh");
@@ -417,17 +420,35 @@ class DocumentCheck {
       if (!std::isfinite(clone.rotationDeg)) fail(path + ".rotationDeg", "must be a finite number");
       if (!scene_) continue;
       if (clone.targetFaces.empty()) fail(path + ".targetFaces", "must name at least one face");
-      if (clone.polygon.size() < 3)
-        fail(path + ".polygon", "needs at least 3 points, not " + std::to_string(clone.polygon.size()));
-      double area2 = 0;
-      for (size_t k = 0; k < clone.polygon.size(); ++k) {
-        inside(path + ".polygon[" + std::to_string(k) + "].", clone.photo, clone.polygon[k]);
-        const Vec2& a = clone.polygon[k];
-        const Vec2& b = clone.polygon[(k + 1) % clone.polygon.size()];
-        area2 += a.x() * b.y() - a.y() * b.x();
-      }
-      if (std::abs(area2) / 2 < 1e-6) fail(path + ".polygon", "has zero area");
+      polygonIn(path + ".polygon", clone.photo, clone.polygon);
     }
+  }
+
+  void checkHoleModes() const {
+    for (size_t i = 0; i < p_.holeModes.size(); ++i) {
+      const HoleMode& h = p_.holeModes[i];
+      const std::string path = "holeModes[" + std::to_string(i) + "]";
+      index(path + ".face", h.face, faces(), "faces", "mesh");
+      if (!h.exemplar) continue;
+      if (h.mode != InpaintMode::Texture)
+        fail(path + ".exemplar", std::string("only mode \"texture\" takes its texture from a photo region; this "
+                                             "hole's mode is \"") + kInpaintModeNames[size_t(h.mode)] + "\"");
+      index(path + ".exemplar.photo", h.exemplar->photo, photos(), "photos", "project");
+      if (scene_) polygonIn(path + ".exemplar.polygon", h.exemplar->photo, h.exemplar->polygon);
+    }
+  }
+
+  // A region of a photo: at least 3 points, each inside the photo, a non-zero area.
+  void polygonIn(const std::string& path, int photo, const std::vector<Vec2>& polygon) const {
+    if (polygon.size() < 3) fail(path, "needs at least 3 points, not " + std::to_string(polygon.size()));
+    double area2 = 0;
+    for (size_t k = 0; k < polygon.size(); ++k) {
+      inside(path + "[" + std::to_string(k) + "].", photo, polygon[k]);
+      const Vec2& a = polygon[k];
+      const Vec2& b = polygon[(k + 1) % polygon.size()];
+      area2 += a.x() * b.y() - a.y() * b.x();
+    }
+    if (std::abs(area2) / 2 < 1e-6) fail(path, "has zero area");
   }
 
   const Project& p_;
@@ -692,6 +713,8 @@ Project withoutPhotoReferences(const Project& project, const std::set<int>& phot
   out.clones.erase(
       std::remove_if(out.clones.begin(), out.clones.end(), [&](const CloneOp& c) { return photos.count(c.photo) > 0; }),
       out.clones.end());
+  for (HoleMode& h : out.holeModes)  // the hole keeps its mode and takes its texture from around it
+    if (h.exemplar && photos.count(h.exemplar->photo)) h.exemplar.reset();
   return out;
 }
 
@@ -754,6 +777,8 @@ void erasePoint(Project& project, int index) {
 }
 
 int requiredVersion(const Project& project) {
+  for (const HoleMode& h : project.holeModes)
+    if (h.exemplar) return 6;
   for (const FeaturePoint& p : project.points)
     if (p.id >= 0) return 5;
   bool photoFlags = false;
@@ -849,8 +874,15 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
                            {"rotationDeg", clone.rotationDeg}});
   }
   j["holeModes"] = ojson::array();
-  for (const HoleMode& h : project.holeModes)
-    j["holeModes"].push_back({{"face", h.face}, {"mode", kInpaintModeNames.at(size_t(h.mode))}});
+  for (const HoleMode& h : project.holeModes) {
+    ojson entry = {{"face", h.face}, {"mode", kInpaintModeNames.at(size_t(h.mode))}};
+    if (h.exemplar) {
+      ojson polygon = ojson::array();
+      for (const Vec2& p : h.exemplar->polygon) polygon.push_back(toJson(p));
+      entry["exemplar"] = {{"photo", h.exemplar->photo}, {"polygon", polygon}};
+    }
+    j["holeModes"].push_back(entry);
+  }
   j["declinedProposals"] = ojson::array();
   for (const DeclinedProposal& d : project.declinedProposals)
     j["declinedProposals"].push_back({{"vertex", d.vertex}, {"photo", d.photo}});

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -65,12 +66,21 @@ struct CloneOp {
   }
 };
 
+// A photo region the user picked as the texture of a hole (version 6): "texture" synthesises the hole from
+// these pixels instead of the photos mapped around it (issue 34).
+struct HoleExemplar {
+  int photo = 0;
+  std::vector<Vec2> polygon;  // in the photo, pixel coordinates, >= 3 points
+  bool operator==(const HoleExemplar& o) const { return photo == o.photo && polygon == o.polygon; }
+};
+
 // The guidance chosen for one hole (a connected region no photo covers): the hole is the one that
 // contains `face` (a mesh face id); the others follow options.inpaintMode.
 struct HoleMode {
   int face = 0;
   InpaintMode mode = InpaintMode::Rbf;
-  bool operator==(const HoleMode& o) const { return face == o.face && mode == o.mode; }
+  std::optional<HoleExemplar> exemplar;  // mode "texture" only
+  bool operator==(const HoleMode& o) const { return face == o.face && mode == o.mode && exemplar == o.exemplar; }
 };
 
 // A correspondence the cameras proposed (a feature clicked in one photo that fits a camera, predicted
@@ -107,7 +117,7 @@ struct ViewState {
 };
 
 struct Project {
-  static constexpr int kVersion = 5;        // newest format version this build reads and writes
+  static constexpr int kVersion = 6;        // newest format version this build reads and writes
   static constexpr int kOldestVersion = 1;  // oldest version it reads
 
   std::string file;  // where it was loaded from / last saved to (absolute); empty for a new project

@@ -761,6 +761,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
   std::vector<InpaintMode> holeMode(numHoles, opt.mode == InpaintMode::Strokes ? InpaintMode::Rbf : opt.mode);
   for (int h = 0; h < numHoles; ++h)
     if (!holeStrokes[h].empty() && opt.mode != InpaintMode::Texture) holeMode[h] = InpaintMode::Strokes;
+  std::vector<const HoleExemplar*> holeExemplar(numHoles, nullptr);  // the user's photo region, texture only
   for (size_t i = 0; i < in.holeModes.size(); ++i) {
     int hole = -1;
     for (int f = 0; f < nf && hole < 0; ++f)
@@ -771,6 +772,7 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       continue;
     }
     holeMode[hole] = in.holeModes[i].mode;
+    holeExemplar[hole] = in.holeModes[i].exemplar ? &*in.holeModes[i].exemplar : nullptr;
     if (holeMode[hole] == InpaintMode::Strokes && holeStrokes[hole].empty()) {
       warn("holeModes[" + std::to_string(i) + "]: the hole has no strokes: using \"rbf\"");
       holeMode[hole] = InpaintMode::Rbf;
@@ -1080,7 +1082,10 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       SurfaceSynthesisOptions topt;
       topt.seed = opt.textureSeed;
       topt.rareChi2 = opt.textureRareChi2;
-      if (!holeFaces[r].empty()) tin.strokes = holeSegments[holeOf[holeFaces[r][0]]];
+      if (!holeFaces[r].empty()) {
+        tin.strokes = holeSegments[holeOf[holeFaces[r][0]]];
+        tin.exemplar = holeExemplar[holeOf[holeFaces[r][0]]];
+      }
       textured = synthesiseOnSurface(tin, topt);
       reg.note = textured.note;
       if (textured.strokeVertices > 0)

@@ -20,6 +20,7 @@
 #include "geometry/mesh.h"
 #include "geometry/poisson.h"
 #include "image/photo.h"
+#include "io/project.h"
 #include "surface/level.h"
 
 namespace montage {
@@ -437,60 +438,103 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     out.note = "texture: no photo is mapped anywhere to take texture from";
     return out;
   }
-  // The photo mapped on most of the band.
+  // The photo mapped on most of the band, or the one the user picked.
   std::unordered_map<int, double> photoArea;
   for (int f : band) photoArea[map.facePhoto[f]] += mesh.faceArea(f);
   int photoIndex = -1;
   double bestArea = -1;
   for (const auto& [p, a] : photoArea)
     if (a > bestArea || (a == bestArea && p < photoIndex)) photoIndex = p, bestArea = a;
-  const Photo& photo = *in.photos[photoIndex];
-  out.exemplarPhoto = photoIndex;
-
-  // Its faces in the band: the crop of stored pixels, the photo's density and orientation on the surface.
-  const double stored = photo.scale;
-  double area3 = 0, areaPx = 0, chirality = 0;
-  Vec3 meanDx = Vec3::Zero();
-  Vec2 lo = Vec2::Constant(1e300), hi = Vec2::Constant(-1e300);
-  std::vector<int> exemplarFaces;
-  for (int f : band) {
-    if (map.facePhoto[f] != photoIndex) continue;
-    exemplarFaces.push_back(f);
-    const auto& c = map.cornerUV[f];
-    const double a3 = mesh.faceArea(f);
-    const double ap = 0.5 * std::abs((c[1] - c[0]).x() * (c[2] - c[0]).y() - (c[1] - c[0]).y() * (c[2] - c[0]).x()) *
-                      stored * stored;
-    area3 += a3, areaPx += ap;
-    Vec3 dx, dy;
-    if (photoAxes(mesh, map, f, dx, dy)) {
-      chirality += a3 * mesh.faceNormal(f).cross(dx.normalized()).dot(dy.normalized());
-      meanDx += a3 * dx.normalized();
-    }
-    for (const Vec2& q : c) lo = lo.cwiseMin(q * stored), hi = hi.cwiseMax(q * stored);
-  }
-  if (!(area3 > 0) || !(areaPx > 0)) {
-    out.note = "texture: the photo region near the hole has no area";
+  const HoleExemplar* picked = in.exemplar;
+  if (picked && (picked->photo < 0 || picked->photo >= static_cast<int>(in.photos.size()) || !in.photos[picked->photo] ||
+                 picked->polygon.size() < 3)) {
+    out.note = "texture: the photo region picked for the hole is not in this run";
     return out;
   }
-  const double pixelsPerUnit = std::sqrt(areaPx / area3);  // stored pixels per model unit
-  const double flip = chirality < 0 ? -1 : 1;
-  const cv::Rect crop = cv::Rect(int(std::floor(lo.x())) - 2, int(std::floor(lo.y())) - 2,
-                                 int(std::ceil(hi.x() - lo.x())) + 5, int(std::ceil(hi.y() - lo.y())) + 5) &
+
+  // The photo's density and orientation on the surface, over `faces` mapped from photo p, and the bounding box
+  // of their stored pixels.
+  struct Footprint {
+    double area3 = 0, areaPx = 0, chirality = 0;
+    Vec3 meanDx = Vec3::Zero();
+    Vec2 lo = Vec2::Constant(1e300), hi = Vec2::Constant(-1e300);
+    std::vector<int> faces;
+  };
+  const auto footprint = [&](const std::vector<int>& faces, int p) {
+    Footprint fp;
+    const double stored = in.photos[p]->scale;
+    for (int f : faces) {
+      if (map.facePhoto[f] != p) continue;
+      fp.faces.push_back(f);
+      const auto& c = map.cornerUV[f];
+      const double a3 = mesh.faceArea(f);
+      fp.area3 += a3;
+      fp.areaPx += 0.5 * std::abs((c[1] - c[0]).x() * (c[2] - c[0]).y() - (c[1] - c[0]).y() * (c[2] - c[0]).x()) *
+                   stored * stored;
+      Vec3 dx, dy;
+      if (photoAxes(mesh, map, f, dx, dy)) {
+        fp.chirality += a3 * mesh.faceNormal(f).cross(dx.normalized()).dot(dy.normalized());
+        fp.meanDx += a3 * dx.normalized();
+      }
+      for (const Vec2& q : c) fp.lo = fp.lo.cwiseMin(q * stored), fp.hi = fp.hi.cwiseMax(q * stored);
+    }
+    return fp;
+  };
+  Footprint fp = footprint(band, photoIndex);
+  if (picked) {
+    // The picked photo's own scale and handedness on the surface where it is mapped; a photo mapped nowhere
+    // (another subject's, taken only for its texture) takes the band's scale and shows as it is, unmirrored
+    // (a photo projected onto the surface it faces has chirality -1).
+    std::vector<int> all(nf);
+    for (int f = 0; f < nf; ++f) all[f] = f;
+    Footprint own = footprint(all, picked->photo);
+    if (!(own.area3 > 0) || !(own.areaPx > 0)) {
+      const double density = fp.areaPx > 0 && fp.area3 > 0 ? fp.areaPx / fp.area3 : 0;
+      own.area3 = 1, own.areaPx = density, own.chirality = -1, own.meanDx = fp.meanDx;
+    }
+    photoIndex = picked->photo;
+    const double stored = in.photos[photoIndex]->scale;
+    own.lo = Vec2::Constant(1e300), own.hi = Vec2::Constant(-1e300);
+    for (const Vec2& q : picked->polygon) own.lo = own.lo.cwiseMin(q * stored), own.hi = own.hi.cwiseMax(q * stored);
+    fp = std::move(own);
+  }
+  const Photo& photo = *in.photos[photoIndex];
+  out.exemplarPhoto = photoIndex;
+  if (!(fp.area3 > 0) || !(fp.areaPx > 0)) {
+    out.note = picked ? "texture: the photo region picked for the hole has no scale on the surface (no photo is mapped "
+                        "around the hole)"
+                      : "texture: the photo region near the hole has no area";
+    return out;
+  }
+  const double stored = photo.scale;
+  const double pixelsPerUnit = std::sqrt(fp.areaPx / fp.area3);  // stored pixels per model unit
+  const double flip = fp.chirality < 0 ? -1 : 1;
+  const Vec3 meanDx = fp.meanDx;
+  const cv::Rect crop = cv::Rect(int(std::floor(fp.lo.x())) - 2, int(std::floor(fp.lo.y())) - 2,
+                                 int(std::ceil(fp.hi.x() - fp.lo.x())) + 5, int(std::ceil(fp.hi.y() - fp.lo.y())) + 5) &
                         cv::Rect(0, 0, photo.rgb.cols, photo.rgb.rows);
   if (crop.width < kPatch || crop.height < kPatch) {
-    out.note = "texture: the photo region near the hole is smaller than one neighbourhood";
+    out.note = picked ? "texture: the photo region picked for the hole is smaller than one neighbourhood"
+                      : "texture: the photo region near the hole is smaller than one neighbourhood";
     return out;
   }
   cv::Mat rgb;
   const double depthScale = photo.rgb.depth() == CV_8U ? 1 / 255.0 : photo.rgb.depth() == CV_16U ? 1 / 65535.0 : 1;
   photo.rgb(crop).convertTo(rgb, CV_32FC3, depthScale);
   cv::Mat valid(crop.size(), CV_8UC1, cv::Scalar(0));
-  for (int f : exemplarFaces) {
-    cv::Point pts[3];
-    for (int k = 0; k < 3; ++k)
-      pts[k] = cv::Point(int(std::lround((map.cornerUV[f][k].x() * stored - crop.x) * 16)),
-                         int(std::lround((map.cornerUV[f][k].y() * stored - crop.y) * 16)));
-    cv::fillConvexPoly(valid, pts, 3, cv::Scalar(255), cv::LINE_8, 4);
+  const auto toCrop = [&](const Vec2& q) {  // file pixels -> the crop's, 4 bits of subpixel
+    return cv::Point(int(std::lround((q.x() * stored - crop.x) * 16)), int(std::lround((q.y() * stored - crop.y) * 16)));
+  };
+  if (picked) {
+    std::vector<cv::Point> pts;
+    for (const Vec2& q : picked->polygon) pts.push_back(toCrop(q));
+    cv::fillPoly(valid, std::vector<std::vector<cv::Point>>{pts}, cv::Scalar(255), cv::LINE_8, 4);
+  } else {
+    for (int f : fp.faces) {
+      cv::Point pts[3];
+      for (int k = 0; k < 3; ++k) pts[k] = toCrop(map.cornerUV[f][k]);
+      cv::fillConvexPoly(valid, pts, 3, cv::Scalar(255), cv::LINE_8, 4);
+    }
   }
   if (photo.hasBackground && !photo.alpha.empty()) {
     cv::Mat alpha;
@@ -671,8 +715,11 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     job.checkCancel();
     if (!exemplarMade) {
       if (level > 0) continue;
-      out.note = "texture: the photo region near the hole (" + std::to_string(size.width) + " x " +
-                 std::to_string(size.height) + " texels) holds too few whole neighbourhoods";
+      out.note = std::string(picked ? "texture: the photo region picked for the hole (" : "texture: the photo region "
+                                                                                        "near the hole (") +
+                 std::to_string(size.width) + " x " + std::to_string(size.height) +
+                 " texels) holds too few whole neighbourhoods" +
+                 (picked ? " of foreground (draw a larger region, on the subject)" : "");
       return out;
     }
 
@@ -902,7 +949,8 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
                 "texture: %d vertices synthesised from photo %d (%d x %d texel exemplar%s), %d levels, "
                 "energy %.1f",
                 nu, photoIndex, out.exemplarWidth, out.exemplarHeight,
-                nearestInSpace ? ", the mapped region nearest in space" : "", levels, out.energy);
+                picked ? ", the region picked" : nearestInSpace ? ", the mapped region nearest in space" : "", levels,
+                out.energy);
   out.note = note;
   return out;
 }

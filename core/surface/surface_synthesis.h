@@ -37,6 +37,8 @@
 
 namespace montage {
 
+struct HoleExemplar;
+
 struct SurfaceSynthesisOptions {
   int levels = 5;              // coarse to fine: grid cells of 16 .. 1 refined edge lengths (fewer when the
                                // coarsest would leave the hole less than 8 cells across)
@@ -60,6 +62,10 @@ struct SurfaceSynthesisInput : HoleInput {
   // grain follows them at the vertices they pass, and the direction field turns smoothly between them and the
   // border.
   std::vector<std::array<Vec3, 2>> strokes;
+  // A photo region the user picked (Project::holeModes): the exemplar instead of the photos around the hole. Its
+  // scale is the photo's own on the surface where it is mapped, else the band's; its frame the photo's as mapped,
+  // else as the photo shows it.
+  const HoleExemplar* exemplar = nullptr;
 };
 
 // The synthesised texture between the vertices. The vertices sit about 1.5 texels apart (inpaint refines to

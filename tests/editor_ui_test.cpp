@@ -1339,6 +1339,37 @@ TEST(EditorRealInput, AHolesTextureIsDrawnOnAPhotoAndUndone) {
   EXPECT_EQ(s[3]["coverage"]["regions"][0]["exemplar_photo"], nullptr) << "Ctrl+Z did not take the region back";
 }
 
+// Issue 36: the preview follows a drag. Point 0 of the demo (photo 0 at 102% from (805, 331): the point at
+// (60, 48) is at (866, 380) on screen) pressed and moved 2 px every 0.15 s for 4.5 s, the state written twice while
+// the button is held, then released: previews of intermediate positions arrive during the drag (before, a
+// drag sent its final position only, at release), and the drag stays one undo step.
+TEST(EditorRealInput, ThePreviewFollowsADrag) {
+  TM_REQUIRE_XVFB();
+  TM_REQUIRE_XDOTOOL();
+  auto moves = [](int from, int to) {
+    std::string m;
+    for (int k = from; k < to; ++k)
+      m += "mousemove " + std::to_string(866 + 2 * k) + " " + std::to_string(380 + k) + " sleep 0.15 ";
+    return m;
+  };
+  const std::vector<json> s = realInputStates(
+      "editor_real_drag", {"mousemove 866 380 sleep 0.3 mousedown 1 sleep 0.2 " + moves(1, 11),
+                           moves(11, 31), "mouseup 1 sleep 0.3 mousemove 640 400 sleep 5"});
+  ASSERT_EQ(s.size(), 3u);
+  ASSERT_TRUE(s[0]["dragging_point"].get<bool>()) << "the press did not start a drag of point 0: the point moved?";
+  ASSERT_TRUE(s[1]["dragging_point"].get<bool>());
+  const long during = s[1]["worker"]["result_generation"].get<long>() - s[0]["worker"]["result_generation"].get<long>();
+  std::printf("results shown during 3 s of the drag: %ld\n", during);
+  EXPECT_GE(during, 2) << "no preview followed the drag: " << s[1]["worker"].dump();
+  // The shown result is of a position along the drag, not the start.
+  const json& shown = s[1]["result"]["project"]["points"][0]["at"][0];
+  EXPECT_GT(shown["x"].get<double>(), 60 + 5) << shown.dump();
+  // Released: one undo step, and the result is of the final position.
+  EXPECT_FALSE(s[2]["dragging_point"].get<bool>());
+  EXPECT_EQ(s[2]["history"]["steps"].get<int>(), s[0]["history"]["steps"].get<int>() + 1) << s[2]["history"].dump();
+  EXPECT_TRUE(s[2]["result"]["matches_document"].get<bool>());
+}
+
 // Issue 35: a whole session by hand. Every step is real X input (xdotool: moves, clicks, drags, keys, typing) on
 // the editor running as a user's (frames on events); the script only writes the editor's state between steps
 // (`real_input goN`, then `state sN.json`) and never acts. The session: start empty; File > Open the cat mesh

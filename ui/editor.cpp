@@ -294,9 +294,16 @@ void Editor::frame() {
   syncInputs();  // the dialogs, drops and shortcuts at the end of buildUi edit too; the 3D view draws next
   validateSelection();
   pollWorker();
-  // Each document change goes to the worker as an immutable snapshot; a drag (open group) sends
-  // its final state only, so the pipeline is not restarted at every mouse move.
-  if (!doc_.project().mesh.empty() && doc_.revision() != submittedRevision_ && !doc_.inGroup()) {
+  // Each document change goes to the worker as an immutable snapshot. During a drag (an open group) so does
+  // the newest position, whenever the worker is not computing a preview (issue 36): the preview follows the
+  // drag as fast as the pipeline delivers it, a running final of an earlier position is cancelled, and the
+  // pipeline is never restarted at every mouse move.
+  bool send = !doc_.project().mesh.empty() && doc_.revision() != submittedRevision_;
+  if (send && doc_.inGroup()) {
+    const WorkerStatus ws = worker_->status();
+    send = !(ws.busy && ws.tier == Tier::Preview);
+  }
+  if (send) {
     const auto at = std::chrono::steady_clock::now();  // before the worker may start
     submittedGeneration_ = worker_->submit(doc_.snapshot());
     submittedAt_[submittedGeneration_] = {at, frameNumber_};

@@ -145,6 +145,13 @@ nlohmann::json meshReportJson(const MeshReport& r) {
           {"findings", findings}};
 }
 
+// Holes whose texture comes from a photo region the user picked.
+size_t holeTextures(const Project& project) {
+  size_t n = 0;
+  for (const HoleMode& h : project.holeModes) n += h.exemplar.has_value();
+  return n;
+}
+
 // `montage info --json`: the same report as one JSON object on stdout ("kind", "file", "valid",
 // "warnings" and what the kind has); docs/command-line.md lists the fields.
 int cmdInfoJson(const std::string& file, const Common& common) {
@@ -176,8 +183,9 @@ int cmdInfoJson(const std::string& file, const Common& common) {
     j["kind"] = "project";
     j["mesh"] = meshReportJson(scene->meshReport);
     j["photos"] = photos;
-    j["counts"] = {{"points", project.points.size()},   {"chains", project.chains.size()},
-                   {"strokes", project.strokes.size()}, {"clones", project.clones.size()}};
+    j["counts"] = {{"points", project.points.size()},         {"chains", project.chains.size()},
+                   {"strokes", project.strokes.size()},       {"clones", project.clones.size()},
+                   {"hole_modes", project.holeModes.size()}, {"hole_textures", holeTextures(project)}};
     j["unknown_fields"] = project.unknownFields;
     warnings.insert(warnings.end(), scene->warnings.begin(), scene->warnings.end());
   } else if (isImageExtension(ext)) {
@@ -218,6 +226,8 @@ int cmdInfo(const std::string& file, const Common& common) {
         "  clones: %zu\n",
         file.c_str(), project.mesh.c_str(), project.photos.size(), project.points.size(), project.chains.size(),
         project.strokes.size(), project.clones.size());
+    if (!project.holeModes.empty())
+      say("  hole modes: %zu (%zu textured from a photo region)\n", project.holeModes.size(), holeTextures(project));
     auto scene = loadScene(project);  // the validation `run` does, too
     say("%s", scene->meshReport.summary().c_str());
     std::vector<std::string> warnings = scene->warnings;

@@ -117,6 +117,8 @@ TEST(CommandLine, InfoJson) {
   EXPECT_EQ(j["photos"].size(), 2u);
   EXPECT_EQ(j["photos"][0]["width"], 453);
   EXPECT_EQ(j["counts"]["points"], 216);
+  EXPECT_EQ(j["counts"]["hole_modes"], 0);
+  EXPECT_EQ(j["counts"]["hole_textures"], 0);
   EXPECT_EQ(j["mesh"]["vertices"], 7949);
   EXPECT_GT(j["warnings"].size(), 0u);  // the clicks on the background
   ASSERT_EQ(json(test::assetsDir() + "/demo/cat.obj"), 0) << text;

@@ -501,7 +501,7 @@ TEST(EditorCutout, UndoAndRedoRestoreTheCutStepByStep) {
          << "cutout_mode background 5\ndrag_photo 0 " << bg.x - 8 << " " << bg.y << " " << bg.x + 8 << " " << bg.y
          << "\nwait_cutout 120\nstate s2.json\ncutout_mode erase 6\ndrag_photo 0 " << fg.x - 10 << " " << fg.y << " "
          << fg.x + 10 << " " << fg.y
-         << "\nwait_frames 2\nstate s3.json\n"
+         << "\nwait_cutout 120\nwait_frames 2\nstate s3.json\n"
          // Back step by step, one step too far (the document keeps its photos), then forward again.
          << "key ctrl+z\nwait_cutout 120\nwait_frames 2\nstate u2.json\nkey ctrl+z\nwait_frames 2\nstate u1.json\n"
          << "key ctrl+z\nwait_frames 2\nstate u0.json\nkey ctrl+z\nwait_frames 2\nstate beyond.json\n"
@@ -550,6 +550,46 @@ TEST(EditorCutout, UndoAndRedoRestoreTheCutStepByStep) {
   EXPECT_EQ(cut("second_undone.json")["mask_hash"], s2["mask_hash"]);
   EXPECT_EQ(cut("second_undone.json")["strokes"], 1);
   EXPECT_EQ(test::readJson(dir + "/second_undone.json")["history"], s0["history"]);
+}
+
+// Issue 35: a brush step and a feather change make the full-size mask on the helper thread, as GrabCut's steps
+// do (137 ms at 12 MP, once per frame of a slider's drag, was on the UI thread): each job is held 2 s (script
+// `cutout_delay`), the editor draws frames meanwhile, the Edit menu's undo names the brush, not the feather
+// (no undo step), and the masks come out as before.
+TEST(EditorCutout, BrushStepsAndFeatherChangesRunOffTheUiThread) {
+  TM_REQUIRE_XVFB();
+  const std::string dir = test::tempDir("editor_cutout_brush_job");
+  const FlatTiger t = makeFlatTiger(dir);
+  const cv::Mat inRect = cv::Mat::zeros(t.truth.size(), CV_8U);
+  inRect(cv::Rect(t.x0 + 12, t.y0 + 12, t.x1 - t.x0 - 24, t.y1 - t.y0 - 24)).setTo(255);
+  const cv::Point fg = deepest(t.truth, inRect);
+  std::ostringstream script;
+  script << "wait_frames 2\ntool cutout\nphoto 0\ncutout_mode rect 4 0\ndrag_photo 0 " << t.x0 << " " << t.y0 << " "
+         << t.x1 << " " << t.y1 << "\nwait_cutout 120\nstate cut.json\ncutout_delay 2\ncutout_mode erase 6\n"
+         << "drag_photo 0 " << fg.x - 10 << " " << fg.y << " " << fg.x + 10 << " " << fg.y
+         << "\nwait_frames 5\nstate brushing.json\nwait_cutout 120\nstate brushed.json\n"
+         << "cutout_mode erase 6 3\nwait_frames 5\nstate feathering.json\nwait_cutout 120\nstate feathered.json\nquit\n";
+  writeText(dir + "/s.txt", script.str());
+  std::string out;
+  ASSERT_EQ(runEditor(dir, "cut.json --script s.txt", &out), 0) << out;
+  const json cut = test::readJson(dir + "/cut.json"), brushing = test::readJson(dir + "/brushing.json");
+  const json brushed = test::readJson(dir + "/brushed.json"), feathering = test::readJson(dir + "/feathering.json");
+  const json feathered = test::readJson(dir + "/feathered.json");
+  EXPECT_TRUE(brushing["cutout"]["running"].get<bool>()) << "the brush ran on the UI thread";
+  EXPECT_EQ(brushing["cutout"]["job"], "erase brush");
+  EXPECT_EQ(brushing["cutout"]["undo_label"], "cut-out erase brush");
+  EXPECT_GE(brushing["frame"].get<int>(), cut["frame"].get<int>() + 5) << "no frames while the brush's job ran";
+  EXPECT_FALSE(brushed["cutout"]["running"].get<bool>());
+  EXPECT_LT(brushed["cutout"]["foreground_pixels"].get<int>(), cut["cutout"]["foreground_pixels"].get<int>());
+  EXPECT_EQ(brushed["cutout"]["undo_steps"], 2);
+  EXPECT_TRUE(feathering["cutout"]["running"].get<bool>()) << "the feather was made on the UI thread";
+  EXPECT_EQ(feathering["cutout"]["job"], "feather");
+  EXPECT_EQ(feathering["cutout"]["undo_label"], "cut-out erase brush") << "a feather change is no undo step";
+  EXPECT_FALSE(feathered["cutout"]["running"].get<bool>());
+  EXPECT_NE(feathered["cutout"]["mask_hash"], brushed["cutout"]["mask_hash"]) << "the feather changed nothing";
+  EXPECT_EQ(feathered["cutout"]["undo_steps"], 2);
+  // Feathering softens the edge only: the foreground set stays (featherMask keeps alpha > 0 inside).
+  EXPECT_EQ(feathered["cutout"]["foreground_pixels"], brushed["cutout"]["foreground_pixels"]);
 }
 
 // Issue 35: strokes drawn while GrabCut runs are queued and applied after it, none dropped; the pane shows

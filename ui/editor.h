@@ -139,10 +139,12 @@ class Editor {
       std::unique_ptr<Cutout> cut;  // the Cutout back
       std::string error;            // why the step failed ("": it did not)
       cv::Mat mask;                 // its feathered mask, made on the helper thread (12 MP: not on the UI's)
+      cv::Mat overlay;              // and the tint's alpha (cutoutOverlay), made there too
     };
     std::future<JobResult> job;
     cv::Mat mask;                      // last result, photo pixels as shown (CV_8UC1, 0..255)
     std::unique_ptr<Texture> overlay;  // `mask` as a tint
+    cv::Mat overlayImage;              // the tint made on the helper thread, to upload (empty: made at upload)
     bool overlayDirty = false;
     std::vector<CutoutStroke> strokes;  // drawn so far (shown)
     std::vector<Vec2> path;             // being drawn
@@ -156,6 +158,8 @@ class Editor {
     std::deque<CutoutStep> queue;      // drawn while GrabCut runs: applied in order when it has finished
     std::vector<CutoutStep> unqueued;  // queued steps taken back by undo before they ran (redo queues them)
     std::string jobLabel;              // what the running job applies ("rectangle", "2 strokes")
+    bool jobGrabCut = true;            // it runs GrabCut (a brush step or a feather change only makes the mask)
+    bool jobStep = true;               // it is an undo step (a feather change is not)
     int undoAfterJob = 0;              // undos asked for while GrabCut ran with nothing queued
     int docPosition = 0;               // the document's history position at the tool's last step, undo or redo
     long stepsApplied = 0;             // steps applied so far (tests: no stroke is lost)
@@ -314,7 +318,9 @@ class Editor {
   void cutoutPanel();
   void cutoutCanvas(int photo, const PaneView& view, bool hovered);
   bool startCutout(int photo, bool fromCurrentMask);
-  void runCutout(std::function<void(Cutout&)> step);
+  // Runs `step` on the helper thread, then the feathered mask and its tint; `label` names it in the busy state and
+  // the Edit menu.
+  void runCutout(std::function<void(Cutout&)> step, const std::string& label, bool grabCut = true, bool undoStep = true);
   void pollCutout();
   // A drawn step: applied now, or queued while GrabCut runs (applyCutoutQueue takes it then).
   void cutoutStep(const CutoutStep& step);

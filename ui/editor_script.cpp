@@ -694,6 +694,7 @@ void Editor::writeState(const std::string& path) const {
     for (const CutoutState& step : *stack) undoMaskBytes += step.mask.bytes();
   state["cutout"] = {{"photo", cutout_.photo},
                      {"running", cutout_.job.valid()},
+                     {"job", cutout_.job.valid() ? cutout_.jobLabel : ""},
                      {"started", cutout_.cut && cutout_.cut->started()},
                      {"foreground_pixels", cutout_.mask.empty() ? 0 : cv::countNonZero(cutout_.mask)},
                      {"mask_hash", std::to_string(maskHash)},

@@ -48,12 +48,16 @@ class Texture {
   // Uploads a CV_8UC4 RGBA image (row 0 = top, stored as texture row 0 so v = 0 is the top of the
   // image) with mipmaps.
   void upload(const cv::Mat& rgba);
+  // Uploads a CV_8UC1 image as the alpha of white (RGB read as 1, swizzled): drawn with a tint colour, a tint
+  // whose opacity follows the image, at a quarter of an RGBA upload's bytes. With mipmaps.
+  void uploadAlpha(const cv::Mat& alpha);
   GLuint id() const { return id_; }
   int width() const { return width_; }
   int height() const { return height_; }
   bool valid() const { return id_ != 0; }
 
  private:
+  void finishUpload(const cv::Mat& image);  // mipmaps, filters, clamping, size
   GLuint id_ = 0;
   int width_ = 0, height_ = 0;
 };

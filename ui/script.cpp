@@ -57,7 +57,7 @@ const std::vector<ScriptVerb>& scriptVerbs() {
       {"photo_flag", 3, 3, "P mirror|lock on|off", "tick photo P's mirror or colour-lock box (Photos tab)"},
       {"cutout_mode", 1, 3, "rect|foreground|background|add|erase [RADIUS] [FEATHER]",
        "what a drag in a photo does with the cut-out tool; stroke radius and feather in photo pixels"},
-      {"cutout_delay", 1, 1, "SECONDS", "each GrabCut run of the cut-out tool waits this long first (tests)"},
+      {"cutout_delay", 1, 1, "SECONDS", "each job of the cut-out tool (GrabCut, a brush step, a feather change) waits this long first (tests)"},
       {"wait_cutout", 0, 1, "[SECONDS]",
        "wait until the cut-out's GrabCut has finished and no drawn step waits for it (default 120 s)"},
       {"save", 0, 1, "[PATH]", "save the project (to PATH: save as)"},

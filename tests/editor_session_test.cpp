@@ -288,6 +288,12 @@ void copyDemo(const std::string& dir) {
 struct FlatTiger {
   cv::Mat truth;
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  // The inside of the rectangle the tests draw, 12 px in from its edges (where their strokes go).
+  cv::Mat insideRect() const {
+    cv::Mat in = cv::Mat::zeros(truth.size(), CV_8U);
+    in(cv::Rect(x0 + 12, y0 + 12, x1 - x0 - 24, y1 - y0 - 24)).setTo(255);
+    return in;
+  }
 };
 FlatTiger makeFlatTiger(const std::string& dir) {
   copyDemo(dir);
@@ -492,8 +498,7 @@ TEST(EditorCutout, UndoAndRedoRestoreTheCutStepByStep) {
   TM_REQUIRE_XVFB();
   const std::string dir = test::tempDir("editor_cutout_undo");
   const FlatTiger t = makeFlatTiger(dir);
-  const cv::Mat inRect = cv::Mat::zeros(t.truth.size(), CV_8U);
-  inRect(cv::Rect(t.x0 + 12, t.y0 + 12, t.x1 - t.x0 - 24, t.y1 - t.y0 - 24)).setTo(255);
+  const cv::Mat inRect = t.insideRect();
   const cv::Point bg = deepest(255 - t.truth, inRect), fg = deepest(t.truth, inRect);
   std::ostringstream script;
   script << "wait_frames 2\ntool cutout\nphoto 0\nstate s0.json\ncutout_mode rect 4 0\ndrag_photo 0 " << t.x0 << " "
@@ -560,8 +565,7 @@ TEST(EditorCutout, BrushStepsAndFeatherChangesRunOffTheUiThread) {
   TM_REQUIRE_XVFB();
   const std::string dir = test::tempDir("editor_cutout_brush_job");
   const FlatTiger t = makeFlatTiger(dir);
-  const cv::Mat inRect = cv::Mat::zeros(t.truth.size(), CV_8U);
-  inRect(cv::Rect(t.x0 + 12, t.y0 + 12, t.x1 - t.x0 - 24, t.y1 - t.y0 - 24)).setTo(255);
+  const cv::Mat inRect = t.insideRect();
   const cv::Point fg = deepest(t.truth, inRect);
   std::ostringstream script;
   script << "wait_frames 2\ntool cutout\nphoto 0\ncutout_mode rect 4 0\ndrag_photo 0 " << t.x0 << " " << t.y0 << " "
@@ -599,8 +603,7 @@ TEST(EditorCutout, StrokesDrawnWhileGrabCutRunsAreAllApplied) {
   TM_REQUIRE_XVFB();
   const std::string dir = test::tempDir("editor_cutout_queue");
   const FlatTiger t = makeFlatTiger(dir);
-  const cv::Mat inRect = cv::Mat::zeros(t.truth.size(), CV_8U);
-  inRect(cv::Rect(t.x0 + 12, t.y0 + 12, t.x1 - t.x0 - 24, t.y1 - t.y0 - 24)).setTo(255);
+  const cv::Mat inRect = t.insideRect();
   // Where each stroke goes: a background stroke on background inside the rectangle, a foreground stroke deep in
   // the tiger, an erase brush elsewhere in the tiger (away from the foreground stroke).
   const cv::Point bg = deepest(255 - t.truth, inRect), fg = deepest(t.truth, inRect);

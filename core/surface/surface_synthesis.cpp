@@ -33,6 +33,7 @@ constexpr int kDims = kPatch * kPatch * 3;
 constexpr double kMinCellsAcross = 8;     // the coarsest level keeps the hole this many grid cells across
 constexpr float kSearchEps = 1;          // the kd-tree's patch is within (1 + eps) of the nearest's distance
 constexpr double kMinExemplarCells = 40;   // an exemplar is at least this many finest cells a side
+constexpr double kMinLevelExemplar = kPatch + 3;  // a level's exemplar, this many cells a side: 16 patches or more
 constexpr double kCoherentEnough = 6;     // finest level: a coherent patch this close (L*a*b* per cell) is kept
 
 // The key of cube (x, y, z) of a uniform grid (21 bits per coordinate).
@@ -548,10 +549,16 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
 
   // Points: the hole's unknown vertices first, then the known ones (the surface's fixed vertices and
   // samples of the mapped faces around the hole, as far as the coarsest neighbourhood reaches).
-  // Levels: as many as options.levels allows while the hole stays kMinCellsAcross cells across.
+  // Levels: as many as options.levels allows while the hole stays kMinCellsAcross cells across and the
+  // exemplar, at one pixel per cell, kMinLevelExemplar pixels (a coarser one holds too few whole
+  // neighbourhoods; each such level would be skipped, and the known points gathered for its reach be wasted: on
+  // the face onto the head, a 26 x 29 texel exemplar at the preview took 4 levels' reach for 2 levels' work).
   const double holeExtent = std::sqrt(holeArea);
+  const double exemplarCells = std::min(crop.width, crop.height) / (pixelsPerUnit * h0);
   int levels = 1;
-  while (levels < options.levels && holeExtent / (h0 * (1 << levels)) >= kMinCellsAcross) ++levels;
+  while (levels < options.levels && holeExtent / (h0 * (1 << levels)) >= kMinCellsAcross &&
+         exemplarCells / (1 << levels) >= kMinLevelExemplar)
+    ++levels;
   const double reach = (kHalf + 1) * std::sqrt(2.0) * h0 * (1 << (levels - 1));
   std::vector<Vec3f> pos, normal;
   std::vector<int> unknownVertex;

@@ -1299,7 +1299,7 @@ TEST(EditorRealInput, AHolesFillIsChosenInTheCoverageTabAndUndone) {
 }
 
 // Issue 34: a hole's texture from a photo region the user picks (the clone tool's source picker serves). In the
-// Coverage tab, region 0's "texture from a photo..." (84, 659 on the demo at 1280x800, scale 1) switches to the
+// Coverage tab, region 0's "photo..." beside its fill (225, 633 on the demo at 1280x800, scale 1) switches to the
 // clone tool; four corners clicked on the tiger's flank in photo 0 (shown at 102% from (805, 331)) and the first
 // again close the polygon, which becomes the hole's exemplar in one undoable step; the next run synthesises from
 // it. Ctrl+Z takes it back.
@@ -1311,14 +1311,14 @@ TEST(EditorRealInput, AHolesTextureIsDrawnOnAPhotoAndUndone) {
     corners += "mousemove " + std::to_string(x) + " " + std::to_string(y) + " sleep 0.3 click 1 sleep 0.3 ";
   const std::vector<json> s = realInputStates(
       "editor_real_exemplar", {"mousemove 102 398 sleep 0.3 click 1 sleep 0.8 mousemove 640 400 sleep 0.5",
-                               "mousemove 84 659 sleep 0.3 click 1 sleep 0.5 mousemove 640 400 sleep 0.3",
+                               "mousemove 225 633 sleep 0.3 click 1 sleep 0.5 mousemove 640 400 sleep 0.3",
                                corners + "mousemove 640 400 sleep 12", "key --delay 0 ctrl+z sleep 3"});
   ASSERT_EQ(s.size(), 4u);
   ASSERT_TRUE(s[0]["buttons"].contains("texture from 0")) << "no texture choice in the Coverage tab: "
                                                           << s[0]["buttons"].dump();
   const json& b = s[0]["buttons"]["texture from 0"];
-  ASSERT_TRUE(b["x"].get<double>() <= 84 && 84 < b["x"].get<double>() + b["w"].get<double>() &&
-              b["y"].get<double>() <= 659 && 659 < b["y"].get<double>() + b["h"].get<double>())
+  ASSERT_TRUE(b["x"].get<double>() <= 225 && 225 < b["x"].get<double>() + b["w"].get<double>() &&
+              b["y"].get<double>() <= 633 && 633 < b["y"].get<double>() + b["h"].get<double>())
       << "the button moved; the walk clicks beside it: " << b.dump();
   EXPECT_EQ(s[0]["coverage"]["regions"][0]["exemplar_photo"], nullptr);
   EXPECT_EQ(s[1]["tool"], "clone") << "the pick did not start";

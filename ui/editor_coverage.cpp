@@ -222,23 +222,33 @@ void Editor::holeFillCombo(int region) {
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("how this part is filled: texture continues the photos around it; harmonic and rbf blend "
                       "their colours smoothly; off leaves it empty");
-  // Texture: from the photos around the hole, or from a photo region the user draws.
+  // Texture: from the photos around the hole, or from a photo region the user draws; beside the fill when it
+  // fits (one row per region keeps the list short).
   if ((fill ? *fill : doc_.project().options.inpaintMode) != InpaintMode::Texture) return;
   const std::string id = std::to_string(region);
+  const auto buttonWidth = [](const std::string& label) {
+    return ImGui::CalcTextSize(label.c_str()).x + ImGui::GetStyle().FramePadding.x * 2;
+  };
   if (const HoleExemplar* exemplar = regionExemplar(region)) {
-    ImGui::TextWrapped("texture from a region of photo %d", exemplar->photo);
-    if (button(("draw again##" + id).c_str(), nullptr, "texture from " + id)) pickHoleTexture(region);
+    const std::string again = "photo " + std::to_string(exemplar->photo) + "...";
+    sameLineIfFits(buttonWidth(again) + ImGui::GetStyle().ItemSpacing.x + buttonWidth("x"));
+    if (button((again + "##" + id).c_str(), nullptr, "texture from " + id)) pickHoleTexture(region);
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("its texture comes from a region of photo %d (outlined there): click to draw another",
+                        exemplar->photo);
     ImGui::SameLine();
-    if (button(("from around it##" + id).c_str(), nullptr, "texture around " + id)) {
+    if (button(("x##around" + id).c_str(), nullptr, "texture around " + id)) {
       const std::vector<int> faces = regionFaces(region);
       if (!faces.empty()) edit([&] { doc_.setHoleExemplar(faces, faces.front(), std::nullopt); });
     }
-    if (ImGui::IsItemHovered()) ImGui::SetTooltip("take the texture from the photos around the region again");
-  } else if (button(("texture from a photo...##" + id).c_str(), nullptr, "texture from " + id)) {
-    pickHoleTexture(region);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("take its texture from the photos around it again");
+    return;
   }
-  if (ImGui::IsItemHovered() && !regionExemplar(region))
-    ImGui::SetTooltip("draw a region of any photo (another subject's too) whose texture fills this part");
+  sameLineIfFits(buttonWidth("photo..."));
+  if (button(("photo...##" + id).c_str(), nullptr, "texture from " + id)) pickHoleTexture(region);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("texture it from a region you draw in any photo (another subject's too), instead of the "
+                      "photos around it");
 }
 
 nlohmann::json Editor::coverageState() const {

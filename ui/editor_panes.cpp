@@ -263,7 +263,7 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     }
     for (const Vec2& q : clonePolygon_) draw->AddCircleFilled(im(view.toScreen(q)), 3.5f, IM_COL32(80, 240, 230, 255));
   }
-  // Photo regions that holes take their texture from (the Coverage tab's "texture from a photo").
+  // Photo regions that holes take their texture from (the Coverage tab's "photo..." beside a region's fill).
   for (const HoleMode& h : p.holeModes) {
     if (!h.exemplar || h.exemplar->photo != i || h.exemplar->polygon.size() < 3) continue;
     const auto& poly = h.exemplar->polygon;

@@ -94,7 +94,7 @@ PlainWarning plainWarning(const std::string& warning) {
   } else if (is(R"re(inpaint: hole (\d+): texture: the photo region picked for the hole (.*): filled with "(\w+)" instead)re")) {
     out.text = "Hole " + m[1].str() + " (a part no photo covers) cannot take its texture from the region drawn for it "
                "in a photo: it holds too little of the subject. It is filled with smooth colours from its border "
-               "instead. Draw a larger region on the subject (Coverage tab, \"draw again\").";
+               "instead. Draw a larger region on the subject (Coverage tab: the photo button beside its fill).";
   } else if (is(R"re(inpaint: hole (\d+): texture: (.*): filled with "(\w+)" instead)re")) {
     out.text = "Hole " + m[1].str() + " (a part no photo covers) is filled with smooth colours from its border "
                "instead of texture continued from around it (" + m[2].str() +

@@ -662,11 +662,11 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     for (const FeatureChain& c : project.chains) chains += c.photo == i;
     for (const CloneOp& c : project.clones) clones += c.photo == i;
     for (const HoleMode& h : project.holeModes) textures += h.exemplar && h.exemplar->photo == i;
+    const std::string holes =
+        textures ? " (and the texture of " + std::to_string(textures) + (textures == 1 ? " hole)" : " holes)") : "";
     result.warnings.push_back(photoName(project, i) + " skipped (" + reason + "): its " + std::to_string(positions) +
                               " positions, " + std::to_string(chains) + " chains and " + std::to_string(clones) +
-                              " clones" +
-                              (textures ? " (and the texture of " + std::to_string(textures) + " holes)" : "") +
-                              " are left out of this run; relink or remove it");
+                              " clones" + holes + " are left out of this run; relink or remove it");
   }
   for (size_t i = 0; i < scene->photos.size(); ++i)
     if (!scene->skippedPhotos.count(int(i)))

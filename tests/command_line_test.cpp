@@ -140,9 +140,17 @@ TEST(CommandLine, UnsupportedPhotoFormatNamesTheSupportedOnes) {
   // In a project: the photo is skipped with that reason, a warning (exit 3 under --strict).
   nlohmann::json project = test::readJson(demo + "/project.json");
   project["photos"][1]["path"] = "tiger.webp";
+  // A hole textured from a region of that photo: the run takes its texture from around it, and says so.
+  project["version"] = 6;
+  const nlohmann::json region = {{"photo", 1}, {"polygon", {{10, 10}, {60, 10}, {60, 40}}}};
+  project["holeModes"] = {{{"face", 299}, {"mode", "texture"}, {"exemplar", region}}};
   std::ofstream(demo + "/project.json") << project.dump(1);
   EXPECT_EQ(runMontage("--strict info " + demo + "/project.json", &text), 3) << text;
   EXPECT_NE(text.find(expected), std::string::npos) << text;
+  EXPECT_NE(text.find("hole modes: 1 (1 textured from a photo region)"), std::string::npos) << text;
+  EXPECT_EQ(runMontage("run " + demo + "/project.json --out " + demo + "/out", &text), 0) << text;
+  EXPECT_NE(text.find("chains and 0 clones (and the texture of 1 hole) are left out of this run"), std::string::npos)
+      << text;
 }
 
 TEST(CommandLine, SameBytesAcrossFoldersFileTimesAndThreads) {

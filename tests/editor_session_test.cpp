@@ -568,11 +568,12 @@ TEST(EditorCutout, BrushStepsAndFeatherChangesRunOffTheUiThread) {
   const cv::Mat inRect = t.insideRect();
   const cv::Point fg = deepest(t.truth, inRect);
   std::ostringstream script;
-  script << "wait_frames 2\ntool cutout\nphoto 0\ncutout_mode rect 4 0\ndrag_photo 0 " << t.x0 << " " << t.y0 << " "
-         << t.x1 << " " << t.y1 << "\nwait_cutout 120\nstate cut.json\ncutout_delay 2\ncutout_mode erase 6\n"
-         << "drag_photo 0 " << fg.x - 10 << " " << fg.y << " " << fg.x + 10 << " " << fg.y
-         << "\nwait_frames 5\nstate brushing.json\nwait_cutout 120\nstate brushed.json\n"
-         << "cutout_mode erase 6 3\nwait_frames 5\nstate feathering.json\nwait_cutout 120\nstate feathered.json\nquit\n";
+  script
+      << "wait_frames 2\ntool cutout\nphoto 0\ncutout_mode rect 4 0\ndrag_photo 0 " << t.x0 << " " << t.y0 << " "
+      << t.x1 << " " << t.y1 << "\nwait_cutout 120\nstate cut.json\ncutout_delay 2\ncutout_mode erase 6\n"
+      << "drag_photo 0 " << fg.x - 10 << " " << fg.y << " " << fg.x + 10 << " " << fg.y
+      << "\nwait_frames 5\nstate brushing.json\nwait_cutout 120\nstate brushed.json\n"
+      << "cutout_mode erase 6 3\nwait_frames 5\nstate feathering.json\nwait_cutout 120\nstate feathered.json\nquit\n";
   writeText(dir + "/s.txt", script.str());
   std::string out;
   ASSERT_EQ(runEditor(dir, "cut.json --script s.txt", &out), 0) << out;

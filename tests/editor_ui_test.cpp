@@ -1307,15 +1307,16 @@ TEST(EditorRealInput, AHolesTextureIsDrawnOnAPhotoAndUndone) {
   TM_REQUIRE_XVFB();
   TM_REQUIRE_XDOTOOL();
   std::string corners;
-  for (const auto& [x, y] : std::vector<std::pair<int, int>>{{960, 450}, {1060, 450}, {1060, 500}, {960, 500}, {960, 450}})
+  for (const auto& [x, y] :
+       std::vector<std::pair<int, int>>{{960, 450}, {1060, 450}, {1060, 500}, {960, 500}, {960, 450}})
     corners += "mousemove " + std::to_string(x) + " " + std::to_string(y) + " sleep 0.3 click 1 sleep 0.3 ";
   const std::vector<json> s = realInputStates(
       "editor_real_exemplar", {"mousemove 102 398 sleep 0.3 click 1 sleep 0.8 mousemove 640 400 sleep 0.5",
                                "mousemove 225 633 sleep 0.3 click 1 sleep 0.5 mousemove 640 400 sleep 0.3",
                                corners + "mousemove 640 400 sleep 12", "key --delay 0 ctrl+z sleep 3"});
   ASSERT_EQ(s.size(), 4u);
-  ASSERT_TRUE(s[0]["buttons"].contains("texture from 0")) << "no texture choice in the Coverage tab: "
-                                                          << s[0]["buttons"].dump();
+  ASSERT_TRUE(s[0]["buttons"].contains("texture from 0"))
+      << "no texture choice in the Coverage tab: " << s[0]["buttons"].dump();
   const json& b = s[0]["buttons"]["texture from 0"];
   ASSERT_TRUE(b["x"].get<double>() <= 225 && 225 < b["x"].get<double>() + b["w"].get<double>() &&
               b["y"].get<double>() <= 633 && 633 < b["y"].get<double>() + b["h"].get<double>())
@@ -1352,9 +1353,9 @@ TEST(EditorRealInput, ThePreviewFollowsADrag) {
       m += "mousemove " + std::to_string(866 + 2 * k) + " " + std::to_string(380 + k) + " sleep 0.15 ";
     return m;
   };
-  const std::vector<json> s = realInputStates(
-      "editor_real_drag", {"mousemove 866 380 sleep 0.3 mousedown 1 sleep 0.2 " + moves(1, 11),
-                           moves(11, 31), "mouseup 1 sleep 0.3 mousemove 640 400 sleep 5"});
+  const std::vector<json> s =
+      realInputStates("editor_real_drag", {"mousemove 866 380 sleep 0.3 mousedown 1 sleep 0.2 " + moves(1, 11),
+                                           moves(11, 31), "mouseup 1 sleep 0.3 mousemove 640 400 sleep 5"});
   ASSERT_EQ(s.size(), 3u);
   ASSERT_TRUE(s[0]["dragging_point"].get<bool>()) << "the press did not start a drag of point 0: the point moved?";
   ASSERT_TRUE(s[1]["dragging_point"].get<bool>());

@@ -247,8 +247,9 @@ void Editor::holeFillCombo(int region) {
   sameLineIfFits(buttonWidth("photo..."));
   if (button(("photo...##" + id).c_str(), nullptr, "texture from " + id)) pickHoleTexture(region);
   if (ImGui::IsItemHovered())
-    ImGui::SetTooltip("texture it from a region you draw in any photo (another subject's too), instead of the "
-                      "photos around it");
+    ImGui::SetTooltip(
+        "texture it from a region you draw in any photo (another subject's too), instead of the "
+        "photos around it");
 }
 
 nlohmann::json Editor::coverageState() const {
@@ -276,7 +277,8 @@ nlohmann::json Editor::coverageState() const {
                        {"fix", r.causes.empty() ? "" : r.causes[0].fix},
                        {"centre_pixel", front ? json{px.x(), px.y()} : json(nullptr)},
                        {"at_view_centre", centred},
-                       {"fill", [&]() -> json {
+                       {"fill",
+                        [&]() -> json {
                           const auto fill = regionFill(static_cast<int>(i));
                           return fill ? json(kInpaintModeNames[size_t(*fill)]) : json("default");
                         }()},

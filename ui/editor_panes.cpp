@@ -272,7 +272,8 @@ void Editor::photoCanvas(int i, const Rect& r, PaneView& view, bool showName) {
     // Dashes over a dark line, the coverage highlight's colour: visible on any photo.
     draw->AddPolyline(screen.data(), int(screen.size()), IM_COL32(20, 20, 30, 200), ImDrawFlags_Closed, 3.5f);
     for (size_t k = 0; k < poly.size(); ++k)
-      dashedLine(draw, view.toScreen(poly[k]), view.toScreen(poly[(k + 1) % poly.size()]), IM_COL32(255, 115, 255, 255));
+      dashedLine(draw, view.toScreen(poly[k]), view.toScreen(poly[(k + 1) % poly.size()]),
+                 IM_COL32(255, 115, 255, 255));
     const ImVec2 at(screen.front().x + 4, screen.front().y + 2), size = ImGui::CalcTextSize("hole texture");
     draw->AddRectFilled(at, ImVec2(at.x + size.x, at.y + size.y), IM_COL32(20, 20, 30, 170));
     draw->AddText(at, IM_COL32(255, 115, 255, 255), "hole texture");

@@ -6,12 +6,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <memory>
+#include <nanoflann.hpp>
 #include <numeric>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
-#include <limits>
-#include <nanoflann.hpp>
 #include <random>
 #include <unordered_map>
 #include <unordered_set>
@@ -447,8 +447,8 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
   for (const auto& [p, a] : photoArea)
     if (a > bestArea || (a == bestArea && p < photoIndex)) photoIndex = p, bestArea = a;
   const HoleExemplar* picked = in.exemplar;
-  if (picked && (picked->photo < 0 || picked->photo >= static_cast<int>(in.photos.size()) || !in.photos[picked->photo] ||
-                 picked->polygon.size() < 3)) {
+  if (picked && (picked->photo < 0 || picked->photo >= static_cast<int>(in.photos.size()) ||
+                 !in.photos[picked->photo] || picked->polygon.size() < 3)) {
     out.note = "texture: the photo region picked for the hole is not in this run";
     return out;
   }
@@ -524,7 +524,8 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
   photo.rgb(crop).convertTo(rgb, CV_32FC3, depthScale);
   cv::Mat valid(crop.size(), CV_8UC1, cv::Scalar(0));
   const auto toCrop = [&](const Vec2& q) {  // file pixels -> the crop's, 4 bits of subpixel
-    return cv::Point(int(std::lround((q.x() * stored - crop.x) * 16)), int(std::lround((q.y() * stored - crop.y) * 16)));
+    return cv::Point(int(std::lround((q.x() * stored - crop.x) * 16)),
+                     int(std::lround((q.y() * stored - crop.y) * 16)));
   };
   if (picked) {
     std::vector<cv::Point> pts;
@@ -722,8 +723,8 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
     job.checkCancel();
     if (!exemplarMade) {
       if (level > 0) continue;
-      out.note = std::string(picked ? "texture: the photo region picked for the hole (" : "texture: the photo region "
-                                                                                        "near the hole (") +
+      out.note = std::string(picked ? "texture: the photo region picked for the hole ("
+                                    : "texture: the photo region near the hole (") +
                  std::to_string(size.width) + " x " + std::to_string(size.height) +
                  " texels) holds too few whole neighbourhoods" +
                  (picked ? " of foreground (draw a larger region, on the subject)" : "");
@@ -956,8 +957,10 @@ SurfaceSynthesisResult synthesiseOnSurface(const SurfaceSynthesisInput& in, cons
                 "texture: %d vertices synthesised from photo %d (%d x %d texel exemplar%s), %d levels, "
                 "energy %.1f",
                 nu, photoIndex, out.exemplarWidth, out.exemplarHeight,
-                picked ? ", the region picked" : nearestInSpace ? ", the mapped region nearest in space" : "", levels,
-                out.energy);
+                picked           ? ", the region picked"
+                : nearestInSpace ? ", the mapped region nearest in space"
+                                 : "",
+                levels, out.energy);
   out.note = note;
   return out;
 }

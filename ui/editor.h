@@ -144,7 +144,7 @@ class Editor {
     std::future<JobResult> job;
     cv::Mat mask;                      // last result, photo pixels as shown (CV_8UC1, 0..255)
     std::unique_ptr<Texture> overlay;  // `mask` as a tint
-    cv::Mat overlayImage;              // the tint made on the helper thread, to upload (empty: made at upload)
+    cv::Mat overlayImage;              // the tint of `mask` to upload (setCutoutMask; empty: made at upload)
     bool overlayDirty = false;
     std::vector<CutoutStroke> strokes;  // drawn so far (shown)
     std::vector<Vec2> path;             // being drawn
@@ -328,6 +328,8 @@ class Editor {
   void pushCutoutUndo(const std::string& label);  // the state before a step, onto the tool's undo stack
   CutoutState takeCutoutState(const std::string& label);
   void restoreCutoutState(CutoutState&& state);
+  // The cut's mask, and its tint when made with it (cutoutOverlay; empty: made where it is drawn), to upload.
+  void setCutoutMask(cv::Mat mask, cv::Mat tint = {});
   // Whether Ctrl+Z / Ctrl+Y go to the cut-out tool's steps rather than to the document's history: the tool is
   // in use on a cut with steps, and no document edit came after its last step.
   bool cutoutOwnsUndo() const;
@@ -378,8 +380,8 @@ class Editor {
   void flyToRegion(int index);
   void appendCoverageLines(std::vector<float>& lines);  // the highlighted region's edges (uploadLines)
   nlohmann::json coverageState() const;
-  std::optional<InpaintMode> regionFill(int region) const;     // its own fill mode, if the project gives one
-  const HoleExemplar* regionExemplar(int region) const;        // the photo region its texture comes from, if any
+  // Its own holeModes entry (its fill mode, and the photo region its texture comes from), if the project gives one.
+  const HoleMode* regionHoleMode(int region) const;
   std::vector<int> regionFaces(int region) const;              // its faces (the mesh ids holeModes use)
   void holeFillCombo(int region);                 // its fill, and the photo region its texture comes from
   // The clone tool's polygon, once closed, becomes the texture source of a hole (exemplarHole_) instead of a

@@ -308,11 +308,10 @@ void Editor::cutoutPanel() {
         CutoutOptions options;
         options.featherPx = cutoutFeather_;
         cutout_.cut = std::make_unique<Cutout>(shown->rgb, options, cv::Size(shown->width, shown->height));
-        cutout_.mask = cutout_.cut->mask();
+        setCutoutMask(cutout_.cut->mask());
         cutout_.strokes.clear();
         cutout_.rect.reset();
         cutout_.seconds = 0;
-        cutout_.overlayDirty = true;
         cutoutMode_ = CutoutMode::Rect;
       }
     }
@@ -350,8 +349,7 @@ bool Editor::startCutout(int photo, bool fromCurrentMask) {
     cutout_ = CutoutSession{};
     return false;
   }
-  cutout_.mask = cutout_.cut->mask();
-  cutout_.overlayDirty = true;
+  setCutoutMask(cutout_.cut->mask());
   return true;
 }
 
@@ -393,14 +391,12 @@ void Editor::pollCutout() {
         restoreCutoutState(std::move(cutout_.undo.back()));
         cutout_.undo.pop_back();
       } else {
-        cutout_.mask = cutout_.cut->mask();
+        setCutoutMask(cutout_.cut->mask());
       }
     } else {
-      cutout_.mask = std::move(r.mask);  // a feather changed meanwhile is applied by the slider's check
-      cutout_.overlayImage = std::move(r.overlay);
+      setCutoutMask(std::move(r.mask), std::move(r.overlay));  // a feather changed meanwhile: the slider's check
     }
     cutout_.seconds = cutout_.cut->lastSeconds();
-    cutout_.overlayDirty = true;
     // Undos asked for while it ran take back the newest steps first, then what was drawn meanwhile runs.
     for (; cutout_.undoAfterJob > 0; --cutout_.undoAfterJob) cutoutUndo();
     applyCutoutQueue();
@@ -443,10 +439,15 @@ Editor::CutoutState Editor::takeCutoutState(const std::string& label) {
 
 void Editor::restoreCutoutState(CutoutState&& state) {
   cutout_.cut = std::move(state.cut);
-  cutout_.mask = state.mask.unpack();
+  setCutoutMask(state.mask.unpack());
   cutout_.strokes = std::move(state.strokes);
   cutout_.rect = state.rect;
   cutout_.seconds = state.seconds;
+}
+
+void Editor::setCutoutMask(cv::Mat mask, cv::Mat tint) {
+  cutout_.mask = std::move(mask);
+  cutout_.overlayImage = std::move(tint);
   cutout_.overlayDirty = true;
 }
 
@@ -648,7 +649,7 @@ void Editor::cutoutCanvas(int i, const PaneView& view, bool hovered) {
   if (mine && !cutout_.mask.empty()) {
     if (cutout_.overlayDirty) {
       // Made with the mask on the helper thread after a step; here after an undo, a redo or a new session.
-      if (cutout_.overlayImage.size() != cutout_.mask.size()) cutout_.overlayImage = cutoutOverlay(cutout_.mask);
+      if (cutout_.overlayImage.empty()) cutout_.overlayImage = cutoutOverlay(cutout_.mask);
       if (!cutout_.overlay) cutout_.overlay = std::make_unique<Texture>();
       cutout_.overlay->uploadAlpha(cutout_.overlayImage);
       cutout_.overlayImage.release();

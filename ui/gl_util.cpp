@@ -84,38 +84,31 @@ Texture& Texture::operator=(Texture&& o) noexcept {
 
 void Texture::upload(const cv::Mat& rgba) {
   TM_ASSERT(rgba.type() == CV_8UC4);
-  if (!id_) glGenTextures(1, &id_);
-  glBindTexture(GL_TEXTURE_2D, id_);
-  cv::Mat continuous = rgba.isContinuous() ? rgba : rgba.clone();
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, continuous.cols, continuous.rows, 0, GL_RGBA, GL_UNSIGNED_BYTE,
-               continuous.data);
   const GLint straight[4] = {GL_RED, GL_GREEN, GL_BLUE, GL_ALPHA};
-  glTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_SWIZZLE_RGBA, straight);
-  finishUpload(continuous);
+  uploadImage(rgba, GL_RGBA8, GL_RGBA, straight);
 }
 
 void Texture::uploadAlpha(const cv::Mat& alpha) {
   TM_ASSERT(alpha.type() == CV_8UC1);
-  if (!id_) glGenTextures(1, &id_);
-  glBindTexture(GL_TEXTURE_2D, id_);
-  cv::Mat continuous = alpha.isContinuous() ? alpha : alpha.clone();
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_R8, continuous.cols, continuous.rows, 0, GL_RED, GL_UNSIGNED_BYTE,
-               continuous.data);
   const GLint white[4] = {GL_ONE, GL_ONE, GL_ONE, GL_RED};
-  glTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_SWIZZLE_RGBA, white);
-  finishUpload(continuous);
+  uploadImage(alpha, GL_R8, GL_RED, white);
 }
 
-void Texture::finishUpload(const cv::Mat& image) {
+void Texture::uploadImage(const cv::Mat& image, GLint internalFormat, GLenum format, const GLint swizzle[4]) {
+  if (!id_) glGenTextures(1, &id_);
+  glBindTexture(GL_TEXTURE_2D, id_);
+  const cv::Mat continuous = image.isContinuous() ? image : image.clone();
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexImage2D(GL_TEXTURE_2D, 0, internalFormat, continuous.cols, continuous.rows, 0, format, GL_UNSIGNED_BYTE,
+               continuous.data);
+  glTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_SWIZZLE_RGBA, swizzle);
   glGenerateMipmap(GL_TEXTURE_2D);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  width_ = image.cols;
-  height_ = image.rows;
+  width_ = continuous.cols;
+  height_ = continuous.rows;
 }
 
 Framebuffer::~Framebuffer() {

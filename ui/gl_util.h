@@ -57,7 +57,8 @@ class Texture {
   bool valid() const { return id_ != 0; }
 
  private:
-  void finishUpload(const cv::Mat& image);  // mipmaps, filters, clamping, size
+  // `image` as the texture's level 0 in `internalFormat`, its channels read through `swizzle`, with mipmaps.
+  void uploadImage(const cv::Mat& image, GLint internalFormat, GLenum format, const GLint swizzle[4]);
   GLuint id_ = 0;
   int width_ = 0, height_ = 0;
 };

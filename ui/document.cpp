@@ -22,6 +22,18 @@ bool hasPosition(const FeaturePoint& point, int photo) {
   return std::any_of(point.at.begin(), point.at.end(), [&](const PhotoPoint& a) { return a.photo == photo; });
 }
 
+// Removes the holeModes entries on the faces of a hole; returns the one that ruled it (the last, as in the
+// pipeline), if any.
+std::optional<HoleMode> takeHoleMode(std::vector<HoleMode>& modes, const std::vector<int>& holeFaces) {
+  const std::unordered_set<int> inHole(holeFaces.begin(), holeFaces.end());
+  std::optional<HoleMode> entry;
+  for (const HoleMode& h : modes)
+    if (inHole.count(h.face)) entry = h;
+  modes.erase(std::remove_if(modes.begin(), modes.end(), [&](const HoleMode& h) { return inHole.count(h.face); }),
+              modes.end());
+  return entry;
+}
+
 }  // namespace
 
 void detachPointFromChains(Project& project, int point, int photo, bool erase) {
@@ -297,37 +309,27 @@ void Document::setOptions(const PipelineOptions& options, const std::string& lab
 }
 
 void Document::setHoleFill(const std::vector<int>& holeFaces, int face, std::optional<InpaintMode> mode) {
-  const std::unordered_set<int> inHole(holeFaces.begin(), holeFaces.end());
   apply(mode ? std::string("Fill a hole with ") + kInpaintModeNames[size_t(*mode)] : "Fill a hole by default",
         [&](Project& p) {
-          auto& modes = p.holeModes;
-          std::optional<HoleExemplar> exemplar;  // a photo region the hole's texture came from stays with texture
-          for (const HoleMode& h : modes)
-            if (inHole.count(h.face)) exemplar = h.exemplar;
-          modes.erase(std::remove_if(modes.begin(), modes.end(), [&](const HoleMode& h) { return inHole.count(h.face); }),
-                      modes.end());
-          if (mode) p.holeModes.push_back({face, *mode, *mode == InpaintMode::Texture ? exemplar : std::nullopt});
+          const std::optional<HoleMode> entry = takeHoleMode(p.holeModes, holeFaces);
+          // A photo region the hole's texture came from stays with texture.
+          if (mode)
+            p.holeModes.push_back(
+                {face, *mode, *mode == InpaintMode::Texture && entry ? entry->exemplar : std::nullopt});
         });
 }
 
 void Document::setHoleExemplar(const std::vector<int>& holeFaces, int face, std::optional<HoleExemplar> exemplar) {
   if (exemplar) checkIndex("texture a hole from a photo", "photo", exemplar->photo, current_->photos.size());
-  const std::unordered_set<int> inHole(holeFaces.begin(), holeFaces.end());
   apply(exemplar ? "Texture a hole from photo " + std::to_string(exemplar->photo) : "Texture a hole from around it",
         [&](Project& p) {
-          // The hole's entry (the last one wins, as in the pipeline) keeps its face; its mode becomes texture, the
-          // only one that reads an exemplar.
-          auto& modes = p.holeModes;
-          std::optional<HoleMode> entry;
-          for (const HoleMode& h : modes)
-            if (inHole.count(h.face)) entry = h;
-          modes.erase(std::remove_if(modes.begin(), modes.end(), [&](const HoleMode& h) { return inHole.count(h.face); }),
-                      modes.end());
+          // The hole's entry keeps its face; its mode becomes texture, the only one that reads an exemplar.
+          std::optional<HoleMode> entry = takeHoleMode(p.holeModes, holeFaces);
           if (!entry && !exemplar) return;
           if (!entry) entry = HoleMode{face, InpaintMode::Texture, std::nullopt};
           entry->exemplar = exemplar;
           if (exemplar) entry->mode = InpaintMode::Texture;
-          modes.push_back(*entry);
+          p.holeModes.push_back(*entry);
         });
 }
 

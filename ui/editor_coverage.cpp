@@ -168,20 +168,12 @@ void Editor::coverageTab() {
 // How an empty region is filled (issue 34: harmonic and RBF stay choices per hole): the project's inpainting
 // option, or a mode of its own (Project::holeModes, on one of its faces; an undoable edit), and for texture the
 // photo region its texture comes from, drawn with the clone tool's polygon.
-std::optional<InpaintMode> Editor::regionFill(int region) const {
-  std::optional<InpaintMode> fill;
+const HoleMode* Editor::regionHoleMode(int region) const {
+  const HoleMode* entry = nullptr;
   for (const HoleMode& h : doc_.project().holeModes)
     if (h.face >= 0 && h.face < static_cast<int>(coverageRegionOf_.size()) && coverageRegionOf_[h.face] == region)
-      fill = h.mode;  // the last entry wins, as in the pipeline
-  return fill;
-}
-
-const HoleExemplar* Editor::regionExemplar(int region) const {
-  const HoleExemplar* exemplar = nullptr;
-  for (const HoleMode& h : doc_.project().holeModes)
-    if (h.face >= 0 && h.face < static_cast<int>(coverageRegionOf_.size()) && coverageRegionOf_[h.face] == region)
-      exemplar = h.exemplar ? &*h.exemplar : nullptr;
-  return exemplar;
+      entry = &h;  // the last entry wins, as in the pipeline
+  return entry;
 }
 
 std::vector<int> Editor::regionFaces(int region) const {
@@ -203,7 +195,9 @@ void Editor::pickHoleTexture(int region) {
 }
 
 void Editor::holeFillCombo(int region) {
-  const std::optional<InpaintMode> fill = regionFill(region);
+  const HoleMode* entry = regionHoleMode(region);
+  std::optional<InpaintMode> fill;
+  if (entry) fill = entry->mode;
   const std::string byDefault =
       std::string("default (") + kInpaintModeNames[size_t(doc_.project().options.inpaintMode)] + ")";
   ImGui::SetNextItemWidth(ImGui::CalcTextSize("default (structure)").x + ImGui::GetFrameHeight() * 2);
@@ -223,13 +217,14 @@ void Editor::holeFillCombo(int region) {
     ImGui::SetTooltip("how this part is filled: texture continues the photos around it; harmonic and rbf blend "
                       "their colours smoothly; off leaves it empty");
   // Texture: from the photos around the hole, or from a photo region the user draws; beside the fill when it
-  // fits (one row per region keeps the list short).
-  if ((fill ? *fill : doc_.project().options.inpaintMode) != InpaintMode::Texture) return;
+  // fits (one row per region keeps the list short). The entry again: a choice above replaced the document.
+  entry = regionHoleMode(region);
+  if ((entry ? entry->mode : doc_.project().options.inpaintMode) != InpaintMode::Texture) return;
   const std::string id = std::to_string(region);
   const auto buttonWidth = [](const std::string& label) {
     return ImGui::CalcTextSize(label.c_str()).x + ImGui::GetStyle().FramePadding.x * 2;
   };
-  if (const HoleExemplar* exemplar = regionExemplar(region)) {
+  if (const HoleExemplar* exemplar = entry && entry->exemplar ? &*entry->exemplar : nullptr) {
     const std::string again = "photo " + std::to_string(exemplar->photo) + "...";
     sameLineIfFits(buttonWidth(again) + ImGui::GetStyle().ItemSpacing.x + buttonWidth("x"));
     if (button((again + "##" + id).c_str(), nullptr, "texture from " + id)) pickHoleTexture(region);
@@ -279,12 +274,12 @@ nlohmann::json Editor::coverageState() const {
                        {"at_view_centre", centred},
                        {"fill",
                         [&]() -> json {
-                          const auto fill = regionFill(static_cast<int>(i));
-                          return fill ? json(kInpaintModeNames[size_t(*fill)]) : json("default");
+                          const HoleMode* entry = regionHoleMode(static_cast<int>(i));
+                          return entry ? json(kInpaintModeNames[size_t(entry->mode)]) : json("default");
                         }()},
                        {"exemplar_photo", [&]() -> json {
-                          const HoleExemplar* e = regionExemplar(static_cast<int>(i));
-                          return e ? json(e->photo) : json(nullptr);
+                          const HoleMode* entry = regionHoleMode(static_cast<int>(i));
+                          return entry && entry->exemplar ? json(entry->exemplar->photo) : json(nullptr);
                         }()}});
   }
   return {{"mapped_share", coverage_->mappedShare},

@@ -781,12 +781,13 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
 
   // Regions: holes being filled, then clone targets on mapped faces.
   std::vector<int> faceLabel(nf, -2);
-  std::vector<int> regionOfHole(numHoles, -1);
+  std::vector<int> regionOfHole(numHoles, -1), holeOfRegion;
   for (int f = 0; f < nf; ++f) {
     const int h = holeOf[f];
     if (h < 0 || holeMode[h] == InpaintMode::Off) continue;
     if (regionOfHole[h] < 0) {
       regionOfHole[h] = static_cast<int>(res.regions.size());
+      holeOfRegion.push_back(h);
       InpaintRegion r;
       r.mode = holeMode[h];
       res.regions.push_back(r);
@@ -1082,10 +1083,8 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
       SurfaceSynthesisOptions topt;
       topt.seed = opt.textureSeed;
       topt.rareChi2 = opt.textureRareChi2;
-      if (!holeFaces[r].empty()) {
-        tin.strokes = holeSegments[holeOf[holeFaces[r][0]]];
-        tin.exemplar = holeExemplar[holeOf[holeFaces[r][0]]];
-      }
+      tin.strokes = holeSegments[holeOfRegion[r]];
+      tin.exemplar = holeExemplar[holeOfRegion[r]];
       textured = synthesiseOnSurface(tin, topt);
       reg.note = textured.note;
       if (textured.strokeVertices > 0)
@@ -1159,15 +1158,13 @@ InpaintResult inpaintSurface(const InpaintInput& in, const JobControl& job, std:
         // d is the synthesised texture's Laplacian (above)
       } else if (reg.mode == InpaintMode::Rbf || reg.mode == InpaintMode::Synthesis ||
                  reg.mode == InpaintMode::Structure ||
-                 (reg.mode == InpaintMode::Texture && holeSegments[holeOf[holeFaces[r][0]]].empty())) {
+                 (reg.mode == InpaintMode::Texture && holeSegments[holeOfRegion[r]].empty())) {
         d = rbfGuidance(sub, subGraph, fixed, bd, opt.rbfCentres);
       } else {
         std::vector<StrokeSample> samples;
-        int hole = -1;
-        if (!holeFaces[r].empty()) hole = holeOf[holeFaces[r][0]];
         std::unordered_map<int, int> local;
         for (int l = 0; l < n; ++l) local.emplace(sub.vertex[l], l);
-        for (const auto& [v, dir] : holeStrokes[hole]) {
+        for (const auto& [v, dir] : holeStrokes[holeOfRegion[r]]) {
           const auto it = local.find(baseVertex[v]);
           if (it != local.end()) samples.push_back({it->second, dir});
         }

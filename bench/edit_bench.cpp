@@ -11,7 +11,13 @@
 //   drags   with --drags K: after those, the dragged point moved K more times by 1 px each, preview
 //           tier, each from the last (a user dragging a point; the median of the K previews)
 //
-//   tm_edit_bench PROJECT... [--runs N] [--drags K] [--drag-px D] [--drag-point I] [--json FILE]
+// As the editor's worker runs them (issue 36), an edit's preview is the quick preview (every hole harmonic)
+// where it differs from the preview (quickDiffers): then "drag", "delete", "add" and "undo" are quick
+// previews, each followed by the preview that refines it ("drag_refine"...: its earlier stages kept), and the
+// drags of a series are quick previews (in the editor each newer position cancels the refinement). With
+// --preview-only every edit runs the preview tier alone, as before the quick tier.
+//
+//   tm_edit_bench PROJECT... [--runs N] [--drags K] [--drag-px D] [--drag-point I] [--preview-only] [--json FILE]
 //   tm_edit_bench --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]
 //
 // The second form first synthesises a scene (montage synth) from M, subdivided L times by midpoint
@@ -124,7 +130,8 @@ Project withoutPoint(Project p, int index) {
   return p;
 }
 
-nlohmann::json benchProject(const std::string& path, int runs, int drags, double dragPx, int dragPoint) {
+nlohmann::json benchProject(const std::string& path, int runs, int drags, double dragPx, int dragPoint,
+                            bool previewOnly) {
   const Project base = loadProject(path);
   auto [drag, del] = choosePoints(base);
   if (dragPoint >= 0) {
@@ -142,9 +149,15 @@ nlohmann::json benchProject(const std::string& path, int runs, int drags, double
   back.at[0].x += back.at[0].x > 10 ? -1 : 1;
   added.points.push_back(back);
 
-  const std::vector<std::pair<std::string, std::pair<const Project*, Tier>>> steps = {
-      {"cold", {&base, Tier::Final}},   {"drag", {&dragged, Tier::Preview}}, {"delete", {&deleted, Tier::Preview}},
-      {"add", {&added, Tier::Preview}}, {"undo", {&deleted, Tier::Preview}}, {"final", {&added, Tier::Final}}};
+  const bool quick = !previewOnly && quickDiffers(base);
+  std::vector<std::pair<std::string, std::pair<const Project*, Tier>>> steps = {{"cold", {&base, Tier::Final}}};
+  for (const auto& [name, project] : std::vector<std::pair<std::string, const Project*>>{
+           {"drag", &dragged}, {"delete", &deleted}, {"add", &added}, {"undo", &deleted}}) {
+    if (quick) steps.push_back({name, {project, Tier::Quick}});
+    steps.push_back({quick ? name + "_refine" : name, {project, Tier::Preview}});
+  }
+  steps.push_back({"final", {&added, Tier::Final}});
+  const Tier dragTier = quick ? Tier::Quick : Tier::Preview;
   std::vector<std::vector<Timed>> times(steps.size());
   std::vector<Timed> series;
   for (int r = 0; r < runs; ++r) {
@@ -154,7 +167,7 @@ nlohmann::json benchProject(const std::string& path, int runs, int drags, double
     Project step = added;
     for (int k = 0; k < drags; ++k) {
       step.points[drag].at[0].x += step.points[drag].at[0].x > 10 + drags ? -1 : 1;
-      series.push_back(timedRun(pipeline, step, Tier::Preview));
+      series.push_back(timedRun(pipeline, step, dragTier));
     }
   }
   nlohmann::json out;
@@ -183,12 +196,9 @@ nlohmann::json benchProject(const std::string& path, int runs, int drags, double
         if (f.is_object() && f.contains("cpu_seconds")) stages[stage] = f["cpu_seconds"];
       each.push_back({{"cpu_ms", t.cpuMs}, {"stages_cpu_seconds", stages}});
     }
-    out["steps"]["drags"] = {{"wall_ms", wall[wall.size() / 2]},
-                             {"cpu_ms", cpu[cpu.size() / 2]},
-                             {"each", each},
-                             {"tier", kTierNames[size_t(Tier::Preview)]},
-                             {"count", series.size()},
-                             {"last_run", series.back().figures}};
+    out["steps"]["drags"] = {
+        {"wall_ms", wall[wall.size() / 2]},     {"cpu_ms", cpu[cpu.size() / 2]}, {"each", each},
+        {"tier", kTierNames[size_t(dragTier)]}, {"count", series.size()},        {"last_run", series.back().figures}};
   }
   return out;
 }
@@ -200,6 +210,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> projects;
   std::string mesh, work, jsonPath;
   int runs = 3, subdivide = 0, drags = 0, dragPoint = -1;
+  bool previewOnly = false;
   double dragPx = 3;
   SynthOptions synth;
   synth.views = 9;
@@ -215,6 +226,8 @@ int main(int argc, char** argv) {
     };
     if (a == "--runs")
       runs = std::max(1, std::stoi(value()));
+    else if (a == "--preview-only")
+      previewOnly = true;
     else if (a == "--drags")
       drags = std::max(0, std::stoi(value()));
     else if (a == "--drag-px")
@@ -237,7 +250,8 @@ int main(int argc, char** argv) {
       work = value();
     else if (a.rfind("--", 0) == 0) {
       std::fprintf(stderr,
-                   "usage: %s PROJECT... [--runs N] [--drags K] [--drag-px D] [--drag-point I] [--json FILE]\n"
+                   "usage: %s PROJECT... [--runs N] [--drags K] [--drag-px D] [--drag-point I] [--preview-only] "
+                   "[--json FILE]\n"
                    "       %s --mesh M [--subdivide L] [--views K] [--features N] [--seed S] --work DIR [--runs N]\n",
                    argv[0], argv[0]);
       return 2;
@@ -264,7 +278,7 @@ int main(int argc, char** argv) {
     all["runs"] = runs;
     for (const std::string& p : projects) {
       std::fprintf(stderr, "benchmarking %s\n", p.c_str());
-      all["projects"].push_back(benchProject(p, runs, drags, dragPx, dragPoint));
+      all["projects"].push_back(benchProject(p, runs, drags, dragPx, dragPoint, previewOnly));
     }
     all["load_average_after"] = loadAverage();
     all["peak_mib"] = peakMiB();

@@ -328,12 +328,7 @@ Mapping mapPartition(const Scene& scene, std::shared_ptr<const Partition> partit
 }
 
 Mapping mapTexture(const Scene& scene, const JobControl& job, MapCaches* caches, const std::vector<char>* projected) {
-  const auto start = Clock::now();
-  std::shared_ptr<const Partition> partition = partitionScene(scene, job, caches);
-  const double partitionSeconds = secondsSince(start);
-  Mapping out = mapPartition(scene, std::move(partition), job, caches, projected);
-  out.partitionSeconds = partitionSeconds;
-  return out;
+  return mapPartition(scene, partitionScene(scene, job, caches), job, caches, projected);
 }
 
 BalancedScene balanceScene(const std::shared_ptr<const Scene>& scene, const Mapping& mapping, const JobControl& job,
@@ -416,29 +411,36 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
   return out;
 }
 
-SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job, Tier tier,
-                           PoissonCache* solvers, SynthesisMemo* synthesis) {
-  SurfaceColors out;
-  const PipelineOptions& o = scene.project.options;
+SeamLevelling levelMapping(const Scene& scene, const Mapping& mapping, const JobControl& job, PoissonCache* solvers) {
   std::vector<const Photo*> photos;
   for (const auto& p : scene.photos) photos.push_back(p.get());
-  job.progress(StageId::Level, 0.0);
-  out.levelling = levelSeams(mapping.partition->mesh, mapping.map, photos, o.seamLevelling, job, solvers);
+  return levelSeams(mapping.partition->mesh, mapping.map, photos, scene.project.options.seamLevelling, job, solvers);
+}
+
+SurfaceColors inpaintMapping(const Scene& scene, const Mapping& mapping, SeamLevelling levelling, const JobControl& job,
+                             Tier tier, PoissonCache* solvers, SynthesisMemo* synthesis) {
+  SurfaceColors out;
+  out.levelling = std::move(levelling);
+  const PipelineOptions& o = scene.project.options;
   InpaintInput in;
+  in.holeModes = scene.project.holeModes;
+  in.options.mode = o.inpaintMode;
+  if (tier == Tier::Quick) {  // every hole harmonic
+    in.options.mode = InpaintMode::Harmonic;
+    for (HoleMode& h : in.holeModes) h.mode = InpaintMode::Harmonic, h.exemplar.reset();
+  }
   in.mesh = &mapping.partition->mesh;
   in.map = &mapping.map;
-  in.photos = photos;
+  for (const auto& p : scene.photos) in.photos.push_back(p.get());
   in.levelling = &out.levelling;
   in.faceParent = mapping.partition->faceParent;
   in.strokes = scene.project.strokes;
   in.clones = scene.project.clones;
-  in.holeModes = scene.project.holeModes;
   in.where = scene.project.file;
   in.solvers = solvers;
   in.synthesis = synthesis;
-  in.options.synthesisReuseCharts = tier == Tier::Preview;
+  in.options.synthesisReuseCharts = isPreview(tier);
   in.photosKey = photosKeyOf(scene);
-  in.options.mode = o.inpaintMode;
   in.options.maxRefinedVertices = o.maxInpaintVertices;
   in.options.textureSeed = o.seed;
   // The preview inpaints harmonic and texture fills on a coarser refinement (harmonic: the same colours at
@@ -446,12 +448,18 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
   // refinement); the other guided fills (RBF, synthesis, structure, strokes) and clones depend on the
   // refinement's density, so they keep it.
   auto coarse = [](InpaintMode m) { return m == InpaintMode::Harmonic || m == InpaintMode::Texture; };
-  bool lowDetail = coarse(o.inpaintMode) && scene.project.strokes.empty() && scene.project.clones.empty();
-  for (const HoleMode& h : scene.project.holeModes) lowDetail = lowDetail && coarse(h.mode);
-  if (tier == Tier::Preview && lowDetail) in.options.detail = kPreviewDetail;
+  bool lowDetail = coarse(in.options.mode) && scene.project.strokes.empty() && scene.project.clones.empty();
+  for (const HoleMode& h : in.holeModes) lowDetail = lowDetail && coarse(h.mode);
+  if (isPreview(tier) && lowDetail) in.options.detail = kPreviewDetail;
   job.progress(StageId::Inpaint, 0.0);
   out.inpaint = inpaintSurface(in, job, &out.warnings);
   return out;
+}
+
+SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job, Tier tier,
+                           PoissonCache* solvers, SynthesisMemo* synthesis) {
+  job.progress(StageId::Level, 0.0);
+  return inpaintMapping(scene, mapping, levelMapping(scene, mapping, job, solvers), job, tier, solvers, synthesis);
 }
 
 BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors, const JobControl& job) {
@@ -622,40 +630,76 @@ std::string Pipeline::documentKey(const Project& project) const {
 
 std::shared_ptr<const PipelineResult> Pipeline::findResult(const Project& project, Tier tier) {
   const std::string key = documentKey(project);
-  for (const auto* list : {&finals_, tier == Tier::Preview ? &previews_ : nullptr}) {
-    if (!list) continue;
+  constexpr int kRank[] = {1, 2, 0};  // by Tier: preview, final, quick
+  std::shared_ptr<const PipelineResult> best;
+  for (const auto* list : {&finals_, &previews_})
     for (const auto& [k, result] : *list)
-      if (k == key) return result;
-  }
-  return nullptr;
+      if (k == key && tierServes(result->tier, tier) && (!best || kRank[int(result->tier)] > kRank[int(best->tier)]))
+        best = result;
+  return best;
 }
 
-PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier tier) {
-  // An identical document state (undo, redo, a repeated run): its result at once.
-  const auto lookupStart = Clock::now();
-  if (auto earlier = findResult(project, tier)) {
-    PipelineResult result = *earlier;
-    for (StageRecord& s : result.stages) s.cached = true, s.seconds = 0;
-    result.stages.front().seconds = secondsSince(lookupStart);
-    return result;
-  }
+bool quickDiffers(const Project& project) {
+  bool differs = project.options.inpaintMode != InpaintMode::Harmonic;
+  for (const HoleMode& h : project.holeModes) differs = differs || h.mode != InpaintMode::Harmonic;
+  return differs;
+}
 
-  PipelineResult result;
-  result.tier = tier;
-  auto start = Clock::now();
-  StageRecord load;
-  load.stage = StageId::Load;
-  std::shared_ptr<const Scene> scene = loadScene(project, job, load.cached);
-  load.seconds = secondsSince(start);
-  load.counts = {{"vertices", scene->mesh->numVertices()},
-                 {"faces", scene->mesh->numFaces()},
-                 {"photos", scene->photos.size()},
-                 {"features", project.points.size()},
-                 {"chains", project.chains.size()}};
-  result.stages.push_back(load);
-  for (const auto& finding : scene->meshReport.findings) result.warnings.push_back("mesh: " + finding.what);
-  for (const auto& w : scene->warnings) result.warnings.push_back("project: " + w);
-  for (const auto& [i, reason] : scene->skippedPhotos) {
+const StageGraph& pipelineStages() {
+  static const StageGraph graph = [] {
+    StageGraph g;
+    const auto add = [&](StageId id, std::initializer_list<StageId> reads, std::vector<std::string> fields,
+                         std::string also, double typicalShare, bool finalOnly = false) {
+      StageDecl d{stageName(id), {}, std::move(fields), std::move(also), typicalShare, finalOnly};
+      for (StageId r : reads) d.reads.push_back(static_cast<int>(r));
+      TM_CHECK(g.add(std::move(d)) == static_cast<int>(id), "pipelineStages: stages out of StageId order");
+    };
+    using S = StageId;
+    // Typical shares: the demo and the armadillo synth project spend most of a run in the mapping, the
+    // inpainting and the bake.
+    add(S::Load, {}, {},
+        "the mesh's and photos' contents (the files' bytes, weldIdenticalPositions, maxPhotoSide, each photo's "
+        "mask and mirror), never their paths or times",
+        0.04);
+    add(S::Camera, {S::Load}, {"/options/cameraMode", "/options/cameraThreshold", "/options/seed"},
+        "per photo: the photo, the mesh, its clicks (vertex and pixel, in point order) and its mode; the preview's "
+        "warm-started fits are their own",
+        0.06);
+    add(S::Partition, {S::Load},
+        {"/points", "/chains", "/options/backgroundThresholdPx", "/options/stretchSearches", "/options/seed"}, "",
+        0.16);
+    add(S::Map, {S::Partition}, {}, "which photos fit a camera (the projection maps them)", 0.18);
+    add(S::Projection, {S::Map, S::Camera}, {"/options/correction", "/options/viewSmoothness"},
+        "the preview's view selection, warm-started from the last run's", 0.02);
+    add(S::Balance, {S::Projection}, {"/options/colorBalance", "/photos/*/colorLocked"}, "", 0.03);
+    add(S::Seams, {S::Balance}, {"/options/seamLambda", "/options/seamRounds", "/options/gradientWeight"},
+        "the preview's sides, warm-started from the last run's", 0.08);
+    add(S::Level, {S::Seams}, {"/options/seamLevelling"}, "", 0.03);
+    add(S::Inpaint, {S::Level},
+        {"/strokes", "/clones", "/holeModes", "/options/inpaintMode", "/options/maxInpaintVertices"}, "the tier", 0.18);
+    add(S::Bake, {S::Inpaint},
+        {"/options/atlasSize", "/options/gutter", "/options/exportTopology", "/options/bakeInto", "/options/bakeSize"},
+        "", 0.16, true);
+    add(S::Export, {S::Bake}, {"/options/pngCompression"}, "run by writeRunOutputs into the output folder, never kept",
+        0.06, true);
+    return g;
+  }();
+  return graph;
+}
+
+namespace {
+
+constexpr int kLoad = int(StageId::Load), kCamera = int(StageId::Camera), kPartition = int(StageId::Partition),
+              kMap = int(StageId::Map), kProjection = int(StageId::Projection), kBalance = int(StageId::Balance),
+              kSeams = int(StageId::Seams), kLevel = int(StageId::Level), kInpaint = int(StageId::Inpaint),
+              kBake = int(StageId::Bake);
+
+// The run's warnings about the loaded scene: mesh findings, project warnings, skipped photos (with what of the
+// document they take out of the run) and foregrounds.
+void addLoadWarnings(const Project& project, const Scene& scene, std::vector<std::string>& warnings) {
+  for (const auto& finding : scene.meshReport.findings) warnings.push_back("mesh: " + finding.what);
+  for (const auto& w : scene.warnings) warnings.push_back("project: " + w);
+  for (const auto& [i, reason] : scene.skippedPhotos) {
     int positions = 0, chains = 0, clones = 0, textures = 0;
     for (const FeaturePoint& pt : project.points)
       for (const PhotoPoint& a : pt.at) positions += a.photo == i;
@@ -664,39 +708,247 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     for (const HoleMode& h : project.holeModes) textures += h.exemplar && h.exemplar->photo == i;
     const std::string holes =
         textures ? " (and the texture of " + std::to_string(textures) + (textures == 1 ? " hole)" : " holes)") : "";
-    result.warnings.push_back(photoName(project, i) + " skipped (" + reason + "): its " + std::to_string(positions) +
-                              " positions, " + std::to_string(chains) + " chains and " + std::to_string(clones) +
-                              " clones" + holes + " are left out of this run; relink or remove it");
+    warnings.push_back(photoName(project, i) + " skipped (" + reason + "): its " + std::to_string(positions) +
+                       " positions, " + std::to_string(chains) + " chains and " + std::to_string(clones) + " clones" +
+                       holes + " are left out of this run; relink or remove it");
   }
-  for (size_t i = 0; i < scene->photos.size(); ++i)
-    if (!scene->skippedPhotos.count(int(i)))
-      for (const std::string& w : foregroundWarnings(*scene->photos[i]))
-        result.warnings.push_back(photoName(project, int(i)) + ": " + w);
+  for (size_t i = 0; i < scene.photos.size(); ++i)
+    if (!scene.skippedPhotos.count(int(i)))
+      for (const std::string& w : foregroundWarnings(*scene.photos[i]))
+        warnings.push_back(photoName(project, int(i)) + ": " + w);
+}
 
-  // Camera: a fit per photo, reused while the photo's clicks, the photo, the mesh and the options stay.
-  // The preview refits a photo whose clicks changed from its last camera (fitCamera's warm start); its
-  // key says so, so that the final tier fits from scratch and matches a fresh run exactly.
-  const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
-  const nlohmann::json& opts = document["options"];
+// Each stage's figures for the report.
+nlohmann::json cameraCounts(const CameraStage& cameras, const Project& project) {
+  nlohmann::json photos = nlohmann::json::array();
+  for (size_t p = 0; p < cameras.fits.size(); ++p) photos.push_back(fitJson(cameras.fits[p], int(p), &project));
+  return {{"fitted", cameras.fitted}, {"subjects", cameras.subjects}, {"reused", cameras.reused}, {"photos", photos}};
+}
+
+nlohmann::json partitionCounts(const Partition& partition, bool kept) {
+  nlohmann::json rejected = nlohmann::json::object();
+  for (const RejectedPair& r : partition.rejected) {
+    const std::string reason = kRejectReasonNames[static_cast<int>(r.reason)];
+    rejected[reason] = rejected.value(reason, 0) + 1;
+  }
+  return {{"paths", partition.paths.size()},
+          {"rejected", rejected},
+          {"cells", partition.numCells},
+          {"steiner_vertices", partition.steinerVertices},
+          {"searches", partition.searches},
+          {"searches_reused", kept ? 0 : partition.searchesReused},
+          {"replayed", !kept && partition.replayed}};
+}
+
+nlohmann::json mapCounts(const Mapping& mapping, bool kept) {
+  nlohmann::json cellStatus = nlohmann::json::object();
+  for (const CellPlan& c : mapping.cells) {
+    const std::string status = kCellStatusNames[static_cast<int>(c.status)];
+    cellStatus[status] = cellStatus.value(status, 0) + 1;
+  }
+  return {{"faces", mapping.map.numFaces()},
+          {"mapped_faces", mapping.map.numMapped()},
+          {"cells", cellStatus},
+          {"cells_mapped", kept ? 0 : mapping.cellsMapped},
+          {"cells_reused", kept ? 0 : mapping.cellsReused},
+          {"cells_projected", mapping.cellsProjected},
+          {"splits", mapping.stats.splits},
+          {"base_inner_vertices", mapping.stats.baseInnerVertices},
+          {"centroid_fallbacks", mapping.stats.centroidFallbacks},
+          {"flipped_faces", mapping.stats.flippedFaces},
+          {"max_stretch", mapping.stats.maxStretch}};
+}
+
+nlohmann::json projectionCounts(const ProjectionResult& pr) {
+  nlohmann::json photos = nlohmann::json::array();
+  nlohmann::json subjects = nlohmann::json::array();
+  for (const SubjectChoice& c : pr.subjects)
+    subjects.push_back({{"photo", c.photo},
+                        {"map", c.warp ? "camera and warp" : "paper"},
+                        {"why", c.why},
+                        {"warp_faces", c.warpFaces},
+                        {"warp_share", c.warpArea},
+                        {"warp_folds", c.warpFolds},
+                        {"warp_stretch", c.warpStretch},
+                        {"paper_faces", c.paperFaces},
+                        {"paper_share", c.paperArea},
+                        {"paper_stretch", c.paperStretch},
+                        {"held_out_median_px", c.heldOutMedianPx},
+                        {"held_out_max_px", c.heldOutMaxPx}});
+  for (size_t p = 0; p < pr.photoFaces.size(); ++p)
+    photos.push_back({{"photo", p},
+                      {"path", pr.projected.size() > p && pr.projected[p] ? "projection" : "paper"},
+                      {"faces", pr.photoFaces[p]},
+                      {"projected_faces", pr.photoProjectedFaces[p]},
+                      {"refused_flipped", pr.photoRefusedFlipped[p]},
+                      {"refused_background", pr.photoRefusedBackground[p]}});
+  return {{"fitted_photos", pr.fittedPhotos},
+          {"seen_faces", pr.seenFaces},
+          {"filled_faces", pr.filledFaces},
+          {"relabelled_faces", pr.relabelledFaces},
+          {"dropped_faces", pr.droppedFaces},
+          {"empty_faces", pr.emptyFaces},
+          {"selection_sweeps", pr.selectionSweeps},
+          {"view_seconds", pr.viewSeconds},
+          {"frame_seconds", pr.frameSeconds},
+          {"frames_reused", pr.framesReused},
+          {"frames_near", pr.framesNear},
+          {"selection_kept", pr.selectionKept},
+          {"views_reused", pr.viewsReused},
+          {"views_carried", pr.viewsCarried},
+          {"carried_share", pr.carriedShare},
+          {"select_seconds", pr.selectSeconds},
+          {"photos", photos},
+          {"subjects", subjects}};
+}
+
+nlohmann::json balanceCounts(const BalancedScene& balanced, BalanceMode mode) {
+  const ColorBalance& bal = balanced.balance;
+  nlohmann::json gains = nlohmann::json::array(), offsets = nlohmann::json::array();
+  nlohmann::json references = nlohmann::json::array();
+  for (size_t i = 0; i < bal.transforms.size(); ++i) {
+    const ColorTransform& t = bal.transforms[i];
+    gains.push_back({t.gain[0], t.gain[1], t.gain[2]});
+    offsets.push_back({t.offset[0], t.offset[1], t.offset[2]});
+    if (bal.reference[i]) references.push_back(i);
+  }
+  return {{"mode", kBalanceModeNames[size_t(mode)]},
+          {"photos_kept", balanced.photosKept},
+          {"apply_seconds", balanced.applySeconds},
+          {"edges_kept", bal.edgesKept},
+          {"samples", bal.samples},
+          {"photo_pairs", bal.pairs},
+          {"references", references},
+          {"gain", gains},
+          {"offset", offsets},
+          {"iterations", bal.iterations},
+          {"outlier_share", bal.outlierShare},
+          {"mismatch_before", bal.mismatchBefore},
+          {"mismatch_after", bal.mismatchAfter}};
+}
+
+nlohmann::json seamCounts(const SeamResult& sr) {
+  return {{"seam_edges", sr.seamEdges},
+          {"seam_vertices", sr.seamVertices},
+          {"neighbour_vertices", sr.neighbourVertices},
+          {"moved_sides", sr.movedSides},
+          {"structure_kept", sr.structureKept},
+          {"sleeping_sides", sr.sleepingSides},
+          {"rounds", sr.rounds},
+          {"warm_sides", sr.warmSides},
+          {"warm_near_sides", sr.warmNearSides},
+          {"setup_seconds", sr.setupSeconds},
+          {"measure_seconds", sr.measureSeconds},
+          {"round_seconds", sr.roundSeconds},
+          {"delta_e_before", sr.deltaEBefore},
+          {"delta_e_after", sr.deltaEAfter},
+          {"gradient_before", sr.gradientBefore},
+          {"gradient_after", sr.gradientAfter},
+          {"max_stretch_before", sr.maxStretchBefore},
+          {"max_stretch_after", sr.maxStretchAfter}};
+}
+
+nlohmann::json levelCounts(const SeamLevelling& lev, LevelMode mode) {
+  return {{"mode", kLevelModeNames[size_t(mode)]},
+          {"seams", lev.seams},
+          {"mean_mismatch_before", lev.meanMismatchBefore},
+          {"mean_mismatch_after", lev.meanMismatchAfter}};
+}
+
+nlohmann::json inpaintCounts(const InpaintResult& inp, Tier tier) {
+  constexpr const char* kKeptNames[] = {"no", "exact", "chart"};
+  nlohmann::json regions = nlohmann::json::array();
+  for (const InpaintRegion& r : inp.regions)
+    regions.push_back({{"kind", r.kind == InpaintRegion::Kind::Hole ? "hole" : "clone"},
+                       {"mode", kInpaintModeNames[size_t(r.mode)]},
+                       {"clone", r.clone},
+                       {"base_faces", r.baseFaces},
+                       {"refined_vertices", r.refinedVertices},
+                       {"unknowns", r.unknowns},
+                       {"texels_per_unit", r.texelsPerUnit},
+                       {"guidance_seconds", r.guidanceSeconds},
+                       {"factor_seconds", r.factorSeconds},
+                       {"solve_seconds", r.solveSeconds},
+                       {"synthesis_kept", kKeptNames[size_t(r.synthesisKept)]},
+                       {"note", r.note}});
+  return {{"tier", kTierNames[size_t(tier)]},
+          {"regions", regions},
+          {"refined_vertices", inp.refined.mesh.numVertices()},
+          {"refined_triangles", inp.refined.mesh.numTriangles()}};
+}
+
+nlohmann::json bakeCounts(const BakeResult& baked, const PipelineOptions& options) {
+  nlohmann::json counts = baked.atlas.stats();
+  counts["bake_seconds"] = baked.image.seconds;
+  counts["export_topology"] = kExportTopologyNames[size_t(options.exportTopology)];
+  if (baked.original) {
+    const OriginalModel& o = baked.originalModel;
+    nlohmann::json original = o.atlas.stats();              // size, charts, packing attempts
+    original["atlas_parts_seconds"] = original["seconds"];  // charts, LSCM, packing; "seconds" is all of it
+    original.update({{"vertices", o.model.mesh.numVertices()},
+                     {"faces", o.model.mesh.numFaces()},
+                     {"seconds", baked.transferSeconds},
+                     {"atlas_seconds", o.atlasSeconds},
+                     {"bake_seconds", o.bakeSeconds},
+                     {"measure_seconds", o.measureSeconds},
+                     {"transfer_loss", o.loss.toJson()}});
+    counts["original"] = original;
+  }
+  if (baked.meshUVs) {
+    const MeshUVBake& u = baked.meshUVBake;
+    nlohmann::json tiles = nlohmann::json::array();
+    for (const MeshUVTile& t : u.tiles)
+      tiles.push_back(
+          {{"material", u.model.materials[&t - u.tiles.data()].name}, {"udim", t.udim}, {"faces", t.faces.size()}});
+    counts["mesh_uvs"] = {{"size", options.bakeSize},
+                          {"tiles", tiles},
+                          {"overlapping_faces", u.overlappingFaces},
+                          {"faces_across_tiles", u.crossingFaces},
+                          {"faces_out_of_range", u.outOfRangeFaces},
+                          {"psnr_vs_montage", u.psnr},
+                          {"psnr_covered_vs_montage", u.psnrCovered},
+                          {"samples", u.samples},
+                          {"covered_samples", u.coveredSamples},
+                          {"seconds", baked.transferSeconds},
+                          {"bake_seconds", u.bakeSeconds},
+                          {"measure_seconds", u.measureSeconds}};
+  }
+  return counts;
+}
+
+}  // namespace
+
+int Pipeline::addStage(StageDecl stage, ExtraStage run) {
+  TM_CHECK(run, "Pipeline::addStage: stage '" + stage.name + "' has nothing to run");
+  const int index = graph_.add(std::move(stage));
+  extras_.push_back({index, std::move(run), {}});
+  return index;
+}
+
+std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, const Project& project,
+                                                        const std::string& fieldsKey, Tier tier, const JobControl& job,
+                                                        std::string& key) {
+  // A fit per photo, reused while the photo's clicks, the photo, the mesh and the options stay. Keyed by what
+  // the fit reads: the clicks' vertices and pixels in point order, not the points' indices, so that deleting or
+  // adding another point keeps the fit (its click ids are renumbered). The preview refits a photo whose clicks
+  // changed from its last camera (fitCamera's warm start); its key says so, so that the final tier fits from
+  // scratch and matches a fresh run exactly.
   auto cameras = std::make_shared<CameraStage>();
-  const auto cameraStart = Clock::now();
-  // Keyed by what the fit reads: the clicks' vertices and pixels in point order, not the points'
-  // indices, so that deleting or adding another point keeps the fit (its click ids are renumbered).
-  const size_t np = scene->photos.size();
+  const auto start = Clock::now();
+  const size_t np = scene.photos.size();
   std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> fits(np);
   std::vector<std::vector<CameraClick>> photoClickLists(np);
   std::vector<size_t> toFit;
   std::vector<const PhotoCamera*> warmStart(np, nullptr);  // kept alive by cachedFits_ until the fits end
   for (size_t p = 0; p < np; ++p) {
-    photoClickLists[p] = photoClicks(scene->project, static_cast<int>(p));
+    photoClickLists[p] = photoClicks(scene.project, static_cast<int>(p));
     nlohmann::json clicks = nlohmann::json::array();
     for (const CameraClick& c : photoClickLists[p]) clicks.push_back({c.vertex, c.pixel.x(), c.pixel.y()});
     const std::string photoKey = meshKey_ + '#' + cachedPhotos_[p].key;
-    fits[p].first = photoKey + clicks.dump() + opts["cameraMode"].dump() + opts["cameraThreshold"].dump() +
-                    opts["seed"].dump() + "|mode:" + kPhotoModeNames[size_t(project.photos[p].mode)];
+    fits[p].first = photoKey + clicks.dump() + fieldsKey + "|mode:" + kPhotoModeNames[size_t(project.photos[p].mode)];
     std::string found;
     for (const auto& [k, f] : cachedFits_)
-      if (k == fits[p].first || (tier == Tier::Preview && k == fits[p].first + kWarm)) fits[p].second = f, found = k;
+      if (k == fits[p].first || (isPreview(tier) && k == fits[p].first + kWarm)) fits[p].second = f, found = k;
     if (fits[p].second) {
       fits[p].first = found;
       ++cameras->reused;
@@ -714,76 +966,79 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
       toFit.push_back(p);
       // The preview starts from the photo's last camera when it had one (same photo and mesh).
       const CameraFit* last = p < cachedFits_.size() ? cachedFits_[p].second.get() : nullptr;
-      if (tier == Tier::Preview && last && last->fits &&
-          cachedFits_[p].first.compare(0, photoKey.size(), photoKey) == 0)
+      if (isPreview(tier) && last && last->fits && cachedFits_[p].first.compare(0, photoKey.size(), photoKey) == 0)
         warmStart[p] = &last->camera;
     }
   }
-  // Reported before the fits and the partition start side by side, so that the stages are reported in order.
-  job.progress(StageId::Camera, 0.0, std::to_string(toFit.size()) + " photos");
-  const auto fitCameras = [&] {
-    // Photos are fitted in parallel (each fit seeds its own generator: the result does not depend on it).
-    tbb::parallel_for(size_t(0), toFit.size(), [&](size_t k) {
-      const size_t p = toFit[k];
-      fits[p].second =
-          std::make_shared<const CameraFit>(fitPhoto(*scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(),
-                                                     cachedPhotos_[p].contours.get(), warmStart[p]));
-      if (warmStart[p]) fits[p].first += kWarm;
-    });
-    job.checkCancel();
-    for (const auto& [key, fit] : fits) {
-      cameras->fits.push_back(*fit);
-      cameras->fitted += fit->fits && !fit->subject;
-      cameras->subjects += fit->subject;
-    }
-    cachedFits_ = std::move(fits);
-    cameras->seconds = secondsSince(cameraStart);
-  };
+  // Photos are fitted in parallel (each fit seeds its own generator: the result does not depend on it).
+  tbb::parallel_for(size_t(0), toFit.size(), [&](size_t k) {
+    const size_t p = toFit[k];
+    fits[p].second = std::make_shared<const CameraFit>(fitPhoto(
+        scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), cachedPhotos_[p].contours.get(), warmStart[p]));
+    if (warmStart[p]) fits[p].first += kWarm;
+  });
+  job.checkCancel();
+  key.clear();
+  for (const auto& [k, fit] : fits) {
+    cameras->fits.push_back(*fit);
+    cameras->fitted += fit->fits && !fit->subject;
+    cameras->subjects += fit->subject;
+    key += "#fit:" + k;
+  }
+  cachedFits_ = std::move(fits);
+  cameras->seconds = secondsSince(start);
+  return cameras;
+}
 
-  // Partition, Map: rerun when what they read (mesh, photos, correspondences, options) changed; the
-  // cells whose content, boundary and photo did not change are reused from the cell cache.
-  std::ostringstream key;
-  key << meshKey_;
-  for (const CachedPhoto& c : cachedPhotos_) key << '#' << c.key;
-  key << document["points"].dump() << document["chains"].dump() << opts["backgroundThresholdPx"].dump()
-      << opts["stretchSearches"].dump() << opts["seed"].dump();
-  const bool partitionCached = key.str() == mapKey_ && cachedMapping_;
+PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier tier) {
+  // An identical document state (undo, redo, a repeated run): its result at once.
+  const auto lookupStart = Clock::now();
+  if (auto earlier = findResult(project, tier)) {
+    PipelineResult result = *earlier;
+    for (StageRecord& s : result.stages) s.cached = true, s.seconds = 0;
+    result.stages.front().seconds = secondsSince(lookupStart);
+    return result;
+  }
+
+  PipelineResult result;
+  result.tier = tier;
+  const bool preview = isPreview(tier);
+  const nlohmann::json document = nlohmann::json::parse(projectToJson(project, ""));
+  StageRun run(graph_, document, job);
+
+  run.begin(kLoad);
+  bool loadKept = false;
+  const std::shared_ptr<const Scene> scene = loadScene(project, job, loadKept);
+  std::string loadKey = meshKey_;
+  for (const CachedPhoto& c : cachedPhotos_) loadKey += '#' + c.key;
+  run.setKey(kLoad, std::move(loadKey));
+  run.record(kLoad,
+             {{"vertices", scene->mesh->numVertices()},
+              {"faces", scene->mesh->numFaces()},
+              {"photos", scene->photos.size()},
+              {"features", project.points.size()},
+              {"chains", project.chains.size()}},
+             loadKept);
+  addLoadWarnings(project, *scene, result.warnings);
+
+  // The camera fits and the partition read different inputs and touch different caches: they run side by
+  // side, so that the fits use the core the partition's sequential queue leaves idle.
+  run.begin(kCamera);
+  run.begin(kPartition);
+  std::shared_ptr<const CameraStage> cameras;
+  std::string cameraKey;
   std::shared_ptr<const Partition> partition;
   double partitionSeconds = 0;
-  const auto partitionPhotos = [&] {
-    if (partitionCached) return;
-    const auto start = Clock::now();
-    partition = partitionScene(*scene, job, &mapCaches_);
-    partitionSeconds = secondsSince(start);
-  };
-  // The two read different inputs and touch different caches: they run side by side, so that the camera
-  // fits use the core the partition's sequential queue leaves idle.
-  tbb::parallel_invoke(fitCameras, partitionPhotos);
-  // Map: the cells of photos that fit no camera (the projection maps the others: mapCells).
-  const std::vector<char> projected = fittingPhotos(cameras->fits);
-  const bool mapCached = partitionCached && projected == mappedProjected_;
-  if (!mapCached) {
-    auto mapping = std::make_shared<Mapping>(mapPartition(
-        *scene, partition ? std::move(partition) : cachedMapping_->partition, job, &mapCaches_, &projected));
-    mapping->partitionSeconds = partitionSeconds;
-    cachedMapping_ = std::move(mapping);
-    mapCaches_.cells.endRun();
-    mapKey_ = key.str();
-    mappedProjected_ = projected;
-  }
-  {
-    nlohmann::json photos = nlohmann::json::array();
-    for (size_t p = 0; p < cameras->fits.size(); ++p)
-      photos.push_back(fitJson(cameras->fits[p], static_cast<int>(p), &scene->project));
-    const bool all = cameras->reused == static_cast<int>(cameras->fits.size());
-    result.stages.push_back({StageId::Camera,
-                             all,
-                             all ? 0 : cameras->seconds,
-                             {{"fitted", cameras->fitted},
-                              {"subjects", cameras->subjects},
-                              {"reused", cameras->reused},
-                              {"photos", photos}}});
-  }
+  tbb::parallel_invoke(
+      [&] { cameras = fitCameras(*scene, project, graph_.fieldsKey(kCamera, document), tier, job, cameraKey); },
+      [&] {
+        const auto start = Clock::now();
+        partition = run.get(kPartition, partition_, [&] { return partitionScene(*scene, job, &mapCaches_); });
+        partitionSeconds = secondsSince(start);
+      });
+  run.setKey(kCamera, cameraKey);
+  const bool camerasKept = cameras->reused == static_cast<int>(cameras->fits.size());
+  run.record(kCamera, cameraCounts(*cameras, scene->project), camerasKept, cameras->seconds);
   for (size_t p = 0; p < cameras->fits.size(); ++p) {
     const CameraFit& fit = cameras->fits[p];
     if (!fit.fits && !fit.clicks.empty() && project.options.cameraMode == CameraMode::Auto)
@@ -791,166 +1046,59 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
                                 " takes the paper's path: " + fit.reason);
   }
 
-  const Mapping& mapping = *cachedMapping_;
-  nlohmann::json rejected = nlohmann::json::object();
-  for (const RejectedPair& r : mapping.partition->rejected) {
-    const std::string reason = kRejectReasonNames[static_cast<int>(r.reason)];
-    rejected[reason] = rejected.value(reason, 0) + 1;
-  }
-  result.stages.push_back({StageId::Partition,
-                           partitionCached,
-                           partitionCached ? 0 : mapping.partitionSeconds,
-                           {{"paths", mapping.partition->paths.size()},
-                            {"rejected", rejected},
-                            {"cells", mapping.partition->numCells},
-                            {"steiner_vertices", mapping.partition->steinerVertices},
-                            {"searches", mapping.partition->searches},
-                            {"searches_reused", partitionCached ? 0 : mapping.partition->searchesReused},
-                            {"replayed", !partitionCached && mapping.partition->replayed}}});
-  nlohmann::json cellStatus = nlohmann::json::object();
-  for (const CellPlan& c : mapping.cells) {
-    const std::string status = kCellStatusNames[static_cast<int>(c.status)];
-    cellStatus[status] = cellStatus.value(status, 0) + 1;
-  }
-  result.stages.push_back({StageId::Map,
-                           mapCached,
-                           mapCached ? 0 : mapping.mapSeconds,
-                           {{"faces", mapping.map.numFaces()},
-                            {"mapped_faces", mapping.map.numMapped()},
-                            {"cells", cellStatus},
-                            {"cells_mapped", mapCached ? 0 : mapping.cellsMapped},
-                            {"cells_reused", mapCached ? 0 : mapping.cellsReused},
-                            {"cells_projected", mapping.cellsProjected},
-                            {"splits", mapping.stats.splits},
-                            {"base_inner_vertices", mapping.stats.baseInnerVertices},
-                            {"centroid_fallbacks", mapping.stats.centroidFallbacks},
-                            {"flipped_faces", mapping.stats.flippedFaces},
-                            {"max_stretch", mapping.stats.maxStretch}}});
-  for (const auto& note : mapping.map.notes) result.warnings.push_back("map: " + note);
+  // Map: the cells of photos that fit no camera (the projection maps the others: mapCells).
+  const std::vector<char> projected = fittingPhotos(cameras->fits);
+  std::string fitting = "fitting:";
+  for (char c : projected) fitting += c ? '1' : '0';
+  run.begin(kMap, fitting);
+  const auto mapping = run.get(kMap, mapping_, [&] {
+    auto m = std::make_shared<const Mapping>(mapPartition(*scene, partition, job, &mapCaches_, &projected));
+    mapCaches_.cells.endRun();
+    return m;
+  });
+  run.record(kPartition, partitionCounts(*partition, run.kept(kPartition)), {}, partitionSeconds);
+  run.record(kMap, mapCounts(*mapping, run.kept(kMap)), {}, mapping->mapSeconds);
+  for (const auto& note : mapping->map.notes) result.warnings.push_back("map: " + note);
 
-  // Projection: rerun when the paper's mapping, a fit or the projection options changed.
-  for (const auto& [k, f] : cachedFits_) key << "#fit:" << k;
-  key << opts["correction"].dump() << opts["viewSmoothness"].dump();
-  // The preview's view selection starts from the last run's choices (one sweep): its result is its own.
-  const bool warmSelection =
-      tier == Tier::Preview && cachedProjection_ && cachedProjection_->mapping->partition->faceParent.size() > 0;
-  if (warmSelection) key << "#warm-selection";
-  const bool projectionCached = mapCached && key.str() == projectionKey_ && cachedProjection_;
-  if (!projectionCached) {
+  // Projection. The preview's view selection starts from the last run's choices (one sweep): its result is its
+  // own.
+  const bool warmSelection = preview && projection_.value && projection_.value->mapping->partition->faceParent.size();
+  run.begin(kProjection, "", warmSelection ? "#warm-selection" : "");
+  const auto projection = run.get(kProjection, projection_, [&] {
     frames_.photoKeys.clear();
     for (const CachedPhoto& c : cachedPhotos_) frames_.photoKeys.push_back(meshKey_ + '#' + c.key);
-    cachedProjection_ = std::make_shared<const ProjectionStage>(projectMapping(
-        *scene, cachedMapping_, *cameras, job, &frames_, warmSelection ? cachedProjection_.get() : nullptr));
+    auto p = std::make_shared<const ProjectionStage>(
+        projectMapping(*scene, mapping, *cameras, job, &frames_, warmSelection ? projection_.value.get() : nullptr));
     frames_.endRun();
     if (keep_ == Keep::ThisRunOnly) frames_.clear();
-    projectionKey_ = key.str();
-  }
-  const ProjectionStage& projection = *cachedProjection_;
-  {
-    const ProjectionResult& pr = projection.result;
-    nlohmann::json photos = nlohmann::json::array();
-    nlohmann::json subjects = nlohmann::json::array();
-    for (const SubjectChoice& c : pr.subjects)
-      subjects.push_back({{"photo", c.photo},
-                          {"map", c.warp ? "camera and warp" : "paper"},
-                          {"why", c.why},
-                          {"warp_faces", c.warpFaces},
-                          {"warp_share", c.warpArea},
-                          {"warp_folds", c.warpFolds},
-                          {"warp_stretch", c.warpStretch},
-                          {"paper_faces", c.paperFaces},
-                          {"paper_share", c.paperArea},
-                          {"paper_stretch", c.paperStretch},
-                          {"held_out_median_px", c.heldOutMedianPx},
-                          {"held_out_max_px", c.heldOutMaxPx}});
-    for (size_t p = 0; p < pr.photoFaces.size(); ++p)
-      photos.push_back({{"photo", p},
-                        {"path", pr.projected.size() > p && pr.projected[p] ? "projection" : "paper"},
-                        {"faces", pr.photoFaces[p]},
-                        {"projected_faces", pr.photoProjectedFaces[p]},
-                        {"refused_flipped", pr.photoRefusedFlipped[p]},
-                        {"refused_background", pr.photoRefusedBackground[p]}});
-    result.stages.push_back({StageId::Projection,
-                             projectionCached,
-                             projectionCached ? 0 : pr.seconds,
-                             {{"fitted_photos", pr.fittedPhotos},
-                              {"seen_faces", pr.seenFaces},
-                              {"filled_faces", pr.filledFaces},
-                              {"relabelled_faces", pr.relabelledFaces},
-                              {"dropped_faces", pr.droppedFaces},
-                              {"empty_faces", pr.emptyFaces},
-                              {"selection_sweeps", pr.selectionSweeps},
-                              {"view_seconds", pr.viewSeconds},
-                              {"frame_seconds", pr.frameSeconds},
-                              {"frames_reused", pr.framesReused},
-                              {"frames_near", pr.framesNear},
-                              {"selection_kept", pr.selectionKept},
-                              {"views_reused", pr.viewsReused},
-                              {"views_carried", pr.viewsCarried},
-                              {"carried_share", pr.carriedShare},
-                              {"select_seconds", pr.selectSeconds},
-                              {"photos", photos},
-                              {"subjects", subjects}}});
-  }
-  for (const SubjectChoice& c : projection.result.subjects)
+    return p;
+  });
+  run.record(kProjection, projectionCounts(projection->result), {}, projection->result.seconds);
+  for (const SubjectChoice& c : projection->result.subjects)
     if (!c.warp)
       result.warnings.push_back("projection: photo " + std::to_string(c.photo) +
                                 " (another subject) takes the paper's path: " + c.why);
-  result.proposals = proposeCorrespondences(scene->project, projection.mapping->partition->mesh, cameras->fits,
-                                            projection.result.views);
+  result.proposals = proposeCorrespondences(scene->project, projection->mapping->partition->mesh, cameras->fits,
+                                            projection->result.views);
   for (Proposal& pr : result.proposals) pr.vertex = scene->documentVertex(pr.vertex);  // as the document names it
 
-  // Balance: rerun when the final mapping, the mode or the locks changed. It reads the seams between
-  // photos of the final mapping (which photo each face shows: seam optimisation moves UVs, never a face
-  // to another photo); seams, levelling, inpainting and bake read its balanced photos.
-  key << opts["colorBalance"].dump() << '|';
-  for (const PhotoRef& ref : project.photos) key << ref.colorLocked;
-  const bool balanceCached = projectionCached && key.str() == balanceKey_ && cachedBalance_;
-  if (!balanceCached) {
+  // Balance: reads the seams between photos of the final mapping (which photo each face shows: seam
+  // optimisation moves UVs, never a face to another photo); seams, levelling, inpainting and bake read its
+  // balanced photos.
+  run.begin(kBalance);
+  const auto balanced = run.get(kBalance, balance_, [&] {
     balanceSamples_.beginRun();
-    cachedBalance_ = std::make_shared<const BalancedScene>(
-        balanceScene(scene, *projection.mapping, job, cachedBalance_.get(),
-                     tier == Tier::Preview ? kPreviewBalanceLevels : 0.0, &balanceSamples_));
-    balanceKey_ = key.str();
-  }
-  const ColorBalance& bal = cachedBalance_->balance;
-  {
-    nlohmann::json gains = nlohmann::json::array(), offsets = nlohmann::json::array();
-    nlohmann::json references = nlohmann::json::array();
-    for (size_t i = 0; i < bal.transforms.size(); ++i) {
-      const ColorTransform& t = bal.transforms[i];
-      gains.push_back({t.gain[0], t.gain[1], t.gain[2]});
-      offsets.push_back({t.offset[0], t.offset[1], t.offset[2]});
-      if (bal.reference[i]) references.push_back(i);
-    }
-    result.stages.push_back({StageId::Balance,
-                             balanceCached,
-                             balanceCached ? 0 : bal.seconds,
-                             {{"mode", kBalanceModeNames[size_t(project.options.colorBalance)]},
-                              {"photos_kept", cachedBalance_->photosKept},
-                              {"apply_seconds", cachedBalance_->applySeconds},
-                              {"edges_kept", bal.edgesKept},
-                              {"samples", bal.samples},
-                              {"photo_pairs", bal.pairs},
-                              {"references", references},
-                              {"gain", gains},
-                              {"offset", offsets},
-                              {"iterations", bal.iterations},
-                              {"outlier_share", bal.outlierShare},
-                              {"mismatch_before", bal.mismatchBefore},
-                              {"mismatch_after", bal.mismatchAfter}}});
-    for (const auto& w : bal.warnings) result.warnings.push_back("balance: " + w);
-  }
-  const Scene& colorScene = *cachedBalance_->scene;
+    return std::make_shared<const BalancedScene>(balanceScene(scene, *projection->mapping, job, balance_.value.get(),
+                                                              preview ? kPreviewBalanceLevels : 0.0, &balanceSamples_));
+  });
+  run.record(kBalance, balanceCounts(*balanced, project.options.colorBalance), {}, balanced->balance.seconds);
+  for (const auto& w : balanced->balance.warnings) result.warnings.push_back("balance: " + w);
+  const Scene& colorScene = *balanced->scene;
 
-  // Seams: rerun when the mapping, the balance or the seam options changed. Later stages read the
-  // seamed mapping.
-  key << opts["seamLambda"].dump() << opts["seamRounds"].dump() << opts["gradientWeight"].dump();
-  // The preview starts from the last run's sides (SeamMemo): its result is its own.
-  const SeamMemo* warmSeams = tier == Tier::Preview && cachedSeams_ ? seamMemo_.get() : nullptr;
-  if (warmSeams) key << "#warm-seams";
-  const bool seamCached = balanceCached && key.str() == seamKey_ && cachedSeamed_ && cachedSeams_;
-  if (!seamCached) {
+  // Seams. The preview starts from the last run's sides (SeamMemo): its result is its own.
+  const SeamMemo* warmSeams = preview && seams_.value ? seamMemo_.get() : nullptr;
+  run.begin(kSeams, "", warmSeams ? "#warm-seams" : "");
+  const auto seamed = run.get(kSeams, seams_, [&] {
     auto seams = std::make_shared<SeamResult>();
     // The photos' L*u*v* tiles, kept with the photo objects they convert (a loaded photo, or a balanced
     // photo the balance kept): the tiles the last runs made are not made again.
@@ -966,154 +1114,69 @@ PipelineResult Pipeline::run(const Project& project, const JobControl& job, Tier
     }
     luvTiles_ = std::move(kept);
     if (keep_ == Keep::ThisRunOnly) luvTiles_.clear();  // `luv` holds them for this run's seams
-    cachedSeamed_ = optimiseMappingSeams(colorScene, projection.mapping, &projection.result.projected, *seams, job,
-                                         std::move(luv), warmSeams, projection.result.meshHash);
+    auto stage = std::make_shared<SeamStage>();
+    stage->mapping = optimiseMappingSeams(colorScene, projection->mapping, &projection->result.projected, *seams, job,
+                                          std::move(luv), warmSeams, projection->result.meshHash);
     seams->map = TextureMap();  // the seamed mapping holds it
     seamMemo_ = std::move(seams->memo);
     if (keep_ == Keep::ThisRunOnly) seamMemo_.reset();
-    cachedSeams_ = seams;
-    seamKey_ = key.str();
-  }
-  const SeamResult& sr = *cachedSeams_;
-  result.stages.push_back({StageId::Seams,
-                           seamCached,
-                           seamCached ? 0 : sr.seconds,
-                           {{"seam_edges", sr.seamEdges},
-                            {"seam_vertices", sr.seamVertices},
-                            {"neighbour_vertices", sr.neighbourVertices},
-                            {"moved_sides", sr.movedSides},
-                            {"structure_kept", sr.structureKept},
-                            {"sleeping_sides", sr.sleepingSides},
-                            {"rounds", sr.rounds},
-                            {"warm_sides", sr.warmSides},
-                            {"warm_near_sides", sr.warmNearSides},
+    stage->seams = seams;
+    return std::shared_ptr<const SeamStage>(std::move(stage));
+  });
+  run.record(kSeams, seamCounts(*seamed->seams), {}, seamed->seams->seconds);
 
-                            {"setup_seconds", sr.setupSeconds},
-                            {"measure_seconds", sr.measureSeconds},
-                            {"round_seconds", sr.roundSeconds},
-                            {"delta_e_before", sr.deltaEBefore},
-                            {"delta_e_after", sr.deltaEAfter},
-                            {"gradient_before", sr.gradientBefore},
-                            {"gradient_after", sr.gradientAfter},
-                            {"max_stretch_before", sr.maxStretchBefore},
-                            {"max_stretch_after", sr.maxStretchAfter}}});
+  run.begin(kLevel);
+  const auto levelling = run.get(kLevel, levelling_, [&] {
+    return std::make_shared<const SeamLevelling>(levelMapping(colorScene, *seamed->mapping, job, &solvers_));
+  });
+  run.record(kLevel, levelCounts(*levelling, project.options.seamLevelling), {}, levelling->seconds);
 
-  // Level + Inpaint: rerun when the mapping, the balance, the tier or what they read (strokes, clones,
-  // hole modes, their options) changed.
-  key << document["strokes"].dump() << document["clones"].dump() << document["holeModes"].dump()
-      << opts["seamLevelling"].dump() << opts["inpaintMode"].dump() << opts["maxInpaintVertices"].dump() << '|'
-      << kTierNames[size_t(tier)];
-  const bool colorCached = seamCached && key.str() == colorKey_ && cachedColors_;
-  if (!colorCached) {
-    cachedColors_ = std::make_shared<const SurfaceColors>(
-        colorSurface(colorScene, *cachedSeamed_, job, tier, &solvers_, &synthesis_));
+  run.begin(kInpaint, kTierNames[size_t(tier)]);
+  const auto colors = run.get(kInpaint, colors_, [&] {
+    auto c = std::make_shared<const SurfaceColors>(
+        inpaintMapping(colorScene, *seamed->mapping, *levelling, job, tier, &solvers_, &synthesis_));
     solvers_.endRun();
-    synthesis_.endRun();
-    colorKey_ = key.str();
-  }
-  const SurfaceColors& colors = *cachedColors_;
-  const SeamLevelling& lev = colors.levelling;
-  result.stages.push_back({StageId::Level,
-                           colorCached,
-                           colorCached ? 0 : lev.seconds,
-                           {{"mode", kLevelModeNames[size_t(project.options.seamLevelling)]},
-                            {"seams", lev.seams},
-                            {"mean_mismatch_before", lev.meanMismatchBefore},
-                            {"mean_mismatch_after", lev.meanMismatchAfter}}});
-  const InpaintResult& inp = colors.inpaint;
-  constexpr const char* kKeptNames[] = {"no", "exact", "chart"};
-  nlohmann::json regions = nlohmann::json::array();
-  for (const InpaintRegion& r : inp.regions)
-    regions.push_back({{"kind", r.kind == InpaintRegion::Kind::Hole ? "hole" : "clone"},
-                       {"mode", kInpaintModeNames[size_t(r.mode)]},
-                       {"clone", r.clone},
-                       {"base_faces", r.baseFaces},
-                       {"refined_vertices", r.refinedVertices},
-                       {"unknowns", r.unknowns},
-                       {"texels_per_unit", r.texelsPerUnit},
-                       {"guidance_seconds", r.guidanceSeconds},
-                       {"factor_seconds", r.factorSeconds},
-                       {"solve_seconds", r.solveSeconds},
-                       {"synthesis_kept", kKeptNames[size_t(r.synthesisKept)]},
-                       {"note", r.note}});
-  result.stages.push_back({StageId::Inpaint,
-                           colorCached,
-                           colorCached ? 0 : inp.seconds,
-                           {{"tier", kTierNames[size_t(tier)]},
-                            {"regions", regions},
-                            {"refined_vertices", inp.refined.mesh.numVertices()},
-                            {"refined_triangles", inp.refined.mesh.numTriangles()}}});
-  for (const auto& w : colors.warnings) result.warnings.push_back("inpaint: " + w);
+    if (tier != Tier::Quick) synthesis_.endRun();  // a quick preview synthesises nothing: the preview's charts stay
+    return c;
+  });
+  run.record(kInpaint, inpaintCounts(colors->inpaint, tier), {}, colors->inpaint.seconds);
+  for (const auto& w : colors->warnings) result.warnings.push_back("inpaint: " + w);
 
-  // Bake (final tier): rerun when the colours or the atlas and export options changed.
-  if (tier == Tier::Final) {
-    key << opts["atlasSize"].dump() << opts["gutter"].dump() << opts["exportTopology"].dump() << opts["bakeInto"].dump()
-        << opts["bakeSize"].dump();
-    const bool bakeCached = colorCached && key.str() == bakeKey_ && cachedBake_;
-    start = Clock::now();
-    if (!bakeCached) {
-      cachedBake_ = std::make_shared<const BakeResult>(bakeModel(colorScene, *cachedSeamed_, colors, job));
-      bakeKey_ = key.str();
-    }
-    const BakeResult& baked = *cachedBake_;
-    StageRecord bake;
-    bake.stage = StageId::Bake;
-    bake.cached = bakeCached;
-    bake.seconds = bakeCached ? 0 : secondsSince(start);
-    bake.counts = baked.atlas.stats();
-    bake.counts["bake_seconds"] = baked.image.seconds;
-    bake.counts["export_topology"] = kExportTopologyNames[size_t(project.options.exportTopology)];
-    if (baked.original) {
-      const OriginalModel& o = baked.originalModel;
-      nlohmann::json original = o.atlas.stats();              // size, charts, packing attempts
-      original["atlas_parts_seconds"] = original["seconds"];  // charts, LSCM, packing; "seconds" is all of it
-      original.update({{"vertices", o.model.mesh.numVertices()},
-                       {"faces", o.model.mesh.numFaces()},
-                       {"seconds", baked.transferSeconds},
-                       {"atlas_seconds", o.atlasSeconds},
-                       {"bake_seconds", o.bakeSeconds},
-                       {"measure_seconds", o.measureSeconds},
-                       {"transfer_loss", o.loss.toJson()}});
-      bake.counts["original"] = original;
-    }
-    if (baked.meshUVs) {
-      const MeshUVBake& u = baked.meshUVBake;
-      nlohmann::json tiles = nlohmann::json::array();
-      for (const MeshUVTile& t : u.tiles)
-        tiles.push_back(
-            {{"material", u.model.materials[&t - u.tiles.data()].name}, {"udim", t.udim}, {"faces", t.faces.size()}});
-      bake.counts["mesh_uvs"] = {{"size", project.options.bakeSize},
-                                 {"tiles", tiles},
-                                 {"overlapping_faces", u.overlappingFaces},
-                                 {"faces_across_tiles", u.crossingFaces},
-                                 {"faces_out_of_range", u.outOfRangeFaces},
-                                 {"psnr_vs_montage", u.psnr},
-                                 {"psnr_covered_vs_montage", u.psnrCovered},
-                                 {"samples", u.samples},
-                                 {"covered_samples", u.coveredSamples},
-                                 {"seconds", baked.transferSeconds},
-                                 {"bake_seconds", u.bakeSeconds},
-                                 {"measure_seconds", u.measureSeconds}};
-      for (const std::string& w : u.warnings) result.warnings.push_back("bake into the mesh's UVs: " + w);
-    }
-    result.stages.push_back(bake);
-    result.baked = cachedBake_;
-    result.model = std::shared_ptr<const TexturedModel>(cachedBake_, &baked.model);
-    result.exported = std::shared_ptr<const TexturedModel>(cachedBake_, &baked.exported());
+  if (!preview) {
+    run.begin(kBake);
+    const auto baked = run.get(kBake, bake_, [&] {
+      return std::make_shared<const BakeResult>(bakeModel(colorScene, *seamed->mapping, *colors, job));
+    });
+    run.record(kBake, bakeCounts(*baked, project.options));
+    if (baked->meshUVs)
+      for (const std::string& w : baked->meshUVBake.warnings)
+        result.warnings.push_back("bake into the mesh's UVs: " + w);
+    result.baked = baked;
+    result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
+    result.exported = std::shared_ptr<const TexturedModel>(baked, &baked->exported());
   }
 
   result.scene = scene;
   result.cameras = cameras;
-  result.projection = cachedProjection_;
-  result.mapping = cachedSeamed_;
-  result.balanced = cachedBalance_;
-  result.seams = cachedSeams_;
-  result.colors = cachedColors_;
+  result.projection = projection;
+  result.mapping = seamed->mapping;
+  result.balanced = balanced;
+  result.seams = seamed->seams;
+  result.colors = colors;
+  for (Extra& e : extras_) {
+    if (preview && graph_[e.index].finalOnly) continue;
+    run.begin(e.index);
+    result.stages = run.records();  // what the stage sees of the run so far
+    const auto counts =
+        run.get(e.index, e.memo, [&] { return std::make_shared<const nlohmann::json>(e.run(result, job)); });
+    run.record(e.index, *counts);
+  }
+  result.stages = run.records();
 
   // Keep the result for this document state (undo and redo find it at once).
-  auto& list = tier == Tier::Final ? finals_ : previews_;
+  auto& list = preview ? previews_ : finals_;
   list.emplace_back(documentKey(project), std::make_shared<const PipelineResult>(result));
-  const size_t keep = tier == Tier::Final ? kFinalStates : kPreviewStates;
+  const size_t keep = preview ? kPreviewStates : kFinalStates;
   if (list.size() > keep) list.erase(list.begin(), list.end() - keep);
   return result;
 }
@@ -1122,8 +1185,7 @@ nlohmann::json PipelineResult::report() const {
   nlohmann::json stagesJson = nlohmann::json::array();
   double total = 0;
   for (const auto& s : stages) {
-    stagesJson.push_back(
-        {{"stage", stageName(s.stage)}, {"seconds", s.seconds}, {"cached", s.cached}, {"counts", s.counts}});
+    stagesJson.push_back({{"stage", s.name}, {"seconds", s.seconds}, {"cached", s.cached}, {"counts", s.counts}});
     total += s.seconds;
   }
   nlohmann::json j;
@@ -1247,12 +1309,15 @@ PipelineResult projectionOracle(const Project& project, const std::vector<PhotoC
   bare.options.correction = CorrectionMode::Off;
   PipelineResult result;
   auto start = Clock::now();
+  const auto record = [&](StageId id, nlohmann::json counts = {}) {  // the stage since `start`, then a new start
+    result.stages.push_back({id, stageName(id), false, secondsSince(start), std::move(counts)});
+    start = Clock::now();
+  };
   Pipeline pipeline;
   bool cached = false;
   result.scene = pipeline.loadScene(bare, job, cached);
-  result.stages.push_back({StageId::Load, false, secondsSince(start), {}});
+  record(StageId::Load);
   const Scene& scene = *result.scene;
-  start = Clock::now();
   auto fits = std::make_shared<CameraStage>();
   for (size_t p = 0; p < cameras.size(); ++p) {
     const Photo& photo = *scene.photos[p];
@@ -1263,29 +1328,21 @@ PipelineResult projectionOracle(const Project& project, const std::vector<PhotoC
     ++fits->fitted;
   }
   result.cameras = fits;
-  result.stages.push_back({StageId::Camera, false, secondsSince(start), {{"fitted", fits->fitted}}});
-  start = Clock::now();
+  record(StageId::Camera, {{"fitted", fits->fitted}});
   const std::vector<char> projected = fittingPhotos(fits->fits);
   auto paper = std::make_shared<const Mapping>(mapTexture(scene, job, nullptr, &projected));
-  result.stages.push_back({StageId::Map, false, secondsSince(start), {}});
-  start = Clock::now();
+  record(StageId::Map);
   result.projection = std::make_shared<const ProjectionStage>(projectMapping(scene, paper, *fits, job));
   result.mapping = result.projection->mapping;
-  result.stages.push_back(
-      {StageId::Projection,
-       false,
-       secondsSince(start),
-       {{"seen_faces", result.projection->result.seenFaces}, {"empty_faces", result.projection->result.emptyFaces}}});
-  start = Clock::now();
+  record(StageId::Projection,
+         {{"seen_faces", result.projection->result.seenFaces}, {"empty_faces", result.projection->result.emptyFaces}});
   result.balanced = std::make_shared<const BalancedScene>(balanceScene(result.scene, *result.mapping, job));
   const Scene& colorScene = *result.balanced->scene;
-  result.stages.push_back({StageId::Balance, false, secondsSince(start), {}});
-  start = Clock::now();
+  record(StageId::Balance);
   result.colors = std::make_shared<const SurfaceColors>(colorSurface(colorScene, *result.mapping, job));
-  result.stages.push_back({StageId::Inpaint, false, secondsSince(start), {}});
-  start = Clock::now();
+  record(StageId::Inpaint);
   auto baked = std::make_shared<const BakeResult>(bakeModel(colorScene, *result.mapping, *result.colors, job));
-  result.stages.push_back({StageId::Bake, false, secondsSince(start), {}});
+  record(StageId::Bake);
   result.baked = baked;
   result.model = std::shared_ptr<const TexturedModel>(baked, &baked->model);
   return result;

@@ -30,18 +30,12 @@
 #include "mapping/proposals.h"
 #include "mapping/seams.h"
 #include "mapping/texture_map.h"
+#include "stage_graph.h"
 #include "surface/balance.h"
 #include "surface/inpaint.h"
 #include "surface/synthesis.h"
 
 namespace montage {
-
-struct StageRecord {
-  StageId stage = StageId::Load;
-  bool cached = false;    // output reused from the previous run
-  double seconds = 0;     // wall time of this run (0 when cached)
-  nlohmann::json counts;  // stage-specific figures (faces, photos, mapped faces...)
-};
 
 // What the mapping stages produce together: the partition (whose mesh, with its Steiner vertices,
 // is the mesh every later stage works on), the texture map over that mesh, the cells' plans (which
@@ -53,7 +47,7 @@ struct Mapping {
   FineMapStats stats;
   int cellsMapped = 0, cellsReused = 0;  // cells mapped in this run; taken from the cell cache
   int cellsProjected = 0;                // cells into photos mapped by projection (mapCells: not mapped)
-  double partitionSeconds = 0, mapSeconds = 0;
+  double mapSeconds = 0;
 };
 
 // The camera stage: a fit per photo (camera.h). A photo that fits is mapped by projection; the
@@ -114,9 +108,23 @@ struct BakeResult {
 // What a run produces. The preview is what the editor shows after each edit: the mapping, the
 // levelling offsets and a light inpainting (the photos are sampled directly through the mapping's
 // UVs); the final adds the full inpainting and the atlas bake, for export and `montage run`. Both
-// come from the same mapping.
-enum class Tier { Preview, Final };
-inline constexpr std::array<const char*, 2> kTierNames = {"preview", "final"};
+// come from the same mapping. The quick preview is the preview with every hole filled harmonically
+// (texture, structure, synthesis and RBF fills alike; strokes and clones as they are): the editor shows it
+// first after an edit and during a drag, so that its cost does not grow with textured holes, then
+// refines it with the preview when nothing newer waits (issue 36). Both previews warm-start alike.
+enum class Tier { Preview, Final, Quick };
+inline constexpr std::array<const char*, 3> kTierNames = {"preview", "final", "quick"};
+inline bool isPreview(Tier tier) {
+  return tier != Tier::Final;
+}
+// Whether a result of tier `have` serves a request for `want` in the same document state: a final serves
+// every request, a preview a preview or a quick one, a quick preview only a quick one.
+inline bool tierServes(Tier have, Tier want) {
+  return have == want || have == Tier::Final || (have == Tier::Preview && want == Tier::Quick);
+}
+// Whether a quick preview of `project` differs from its preview: some hole may take a fill other than
+// harmonic (the project's inpaint mode or a hole's own).
+bool quickDiffers(const Project& project);
 
 struct PipelineResult {
   Tier tier = Tier::Final;
@@ -202,12 +210,19 @@ std::shared_ptr<const Mapping> optimiseMappingSeams(const Scene& scene, const st
                                                     const JobControl& job = {},
                                                     std::vector<std::shared_ptr<const LuvTiles>> luv = {},
                                                     const SeamMemo* warm = nullptr, uint64_t meshHash = 0);
-// Level + Inpaint: seam levelling over the mapping, then holes, strokes and clones (inpaint.h). The
-// preview tier inpaints harmonic fills on a coarser refinement (kPreviewDetail of the photos' texel
-// density); guided fills keep the final density, since their colours depend on it.
+// Level: seam levelling over the mapping (level.h). `solvers` (may be null) keeps each photo's factorisation.
+SeamLevelling levelMapping(const Scene& scene, const Mapping& mapping, const JobControl& job = {},
+                           PoissonCache* solvers = nullptr);
+// Inpaint: holes, strokes and clones over the levelled mapping (inpaint.h). The preview tier inpaints harmonic
+// and texture fills on a coarser refinement (kPreviewDetail of the photos' texel density); guided fills keep
+// the final density, since their colours depend on it.
 // `synthesis` (may be null) keeps the synthesised holes' charts across runs: the final takes a kept one
 // for an identical canvas only, the preview also one that covers the hole (SynthesisMemo).
 inline constexpr double kPreviewDetail = 0.25;
+SurfaceColors inpaintMapping(const Scene& scene, const Mapping& mapping, SeamLevelling levelling,
+                             const JobControl& job = {}, Tier tier = Tier::Final, PoissonCache* solvers = nullptr,
+                             SynthesisMemo* synthesis = nullptr);
+// Level + Inpaint in one call.
 SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const JobControl& job = {},
                            Tier tier = Tier::Final, PoissonCache* solvers = nullptr,
                            SynthesisMemo* synthesis = nullptr);
@@ -218,6 +233,17 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
 // What the camera stage decides for photo `photo` of `scene` in auto mode (mapping/subject.h): the object itself or
 // another subject, and why; whatever the photo's mode and the camera option say.
 ModeDecision decideAutoMode(const Scene& scene, int photo);
+
+// The pipeline's stages as declared (stage_graph.h), in the order of StageId: load, camera, partition, map,
+// projection, balance, seams, level, inpaint, bake (the stages Pipeline::run runs) and export (writeRunOutputs).
+// Each stage's key, reuse, cancellation point, progress weight (ui/progress.h) and report record come from it.
+const StageGraph& pipelineStages();
+
+// The seam stage's outputs: the seamed mapping and the seams' figures (its memo kept apart: Pipeline::seamMemo_).
+struct SeamStage {
+  std::shared_ptr<const Mapping> mapping;
+  std::shared_ptr<const SeamResult> seams;
+};
 
 class Pipeline {
  public:
@@ -233,11 +259,19 @@ class Pipeline {
   PipelineResult run(const Project& project, const JobControl& job = {}, Tier tier = Tier::Final);
   // The Load stage with this pipeline's cache; `cached` tells whether nothing had to be read.
   std::shared_ptr<const Scene> loadScene(const Project& project, const JobControl& job, bool& cached);
-  // The result of an earlier run of the same document state and tier (a final result also serves a
-  // preview request), or null.
+  // The best result of an earlier run of the same document state that serves a request for `tier`
+  // (tierServes: a final, then a preview, then a quick preview), or null.
   std::shared_ptr<const PipelineResult> findResult(const Project& project, Tier tier);
 
-  static constexpr int kPreviewStates = 24;  // document states whose preview results are kept
+  // Appends a stage run after the pipeline's own, in the tiers its declaration says: `stage.reads` names the
+  // stages whose outputs it reads (their keys are in its key), `run` gets the result so far and returns the
+  // stage's figures for the report. Like the pipeline's stages it is rerun only when its key changed, starts
+  // with a cancellation point, and reports its progress through the job it gets. Returns its index (its
+  // StageRecord::stage). For measurements and checks that belong to a run (tests, benches).
+  using ExtraStage = std::function<nlohmann::json(const PipelineResult& soFar, const JobControl& job)>;
+  int addStage(StageDecl stage, ExtraStage run);
+
+  static constexpr int kPreviewStates = 24;  // preview and quick results kept (document states, tiers)
   static constexpr int kFinalStates = 2;     // document states whose final results (atlases) are kept
 
  private:
@@ -272,25 +306,33 @@ class Pipeline {
   ViewFrameCache frames_;              // projection: each fitted photo's frame, by camera
   PoissonCache solvers_;               // inpaint: the factorisations of the last two runs' regions
   SynthesisMemo synthesis_;            // inpaint: the synthesised holes' shift-map results of the last two runs
-  std::string mapKey_;                 // the partition's inputs
-  std::vector<char> mappedProjected_;  // the photos that fitted a camera when the cells were mapped
-  std::shared_ptr<const Mapping> cachedMapping_;
-  MapCaches mapCaches_;
-  std::string seamKey_;
-  std::shared_ptr<const Mapping> cachedSeamed_;
-  std::shared_ptr<const SeamResult> cachedSeams_;  // without its memo (results kept for undo share it)
-  std::shared_ptr<const SeamMemo> seamMemo_;       // its memo: the next preview's warm start
-  std::string balanceKey_;
-  std::shared_ptr<const BalancedScene> cachedBalance_;
-  std::string colorKey_;
-  std::shared_ptr<const SurfaceColors> cachedColors_;
-  std::string bakeKey_;
-  std::shared_ptr<const BakeResult> cachedBake_;
+  // The stages' kept outputs (StageMemo: output and key), as pipelineStages() declares them.
+  StageGraph graph_ = pipelineStages();  // and the stages addStage appended
+  StageMemo<Partition> partition_;
+  MapCaches mapCaches_;  // partition and map: the searches and each cell's map of the last runs
+  StageMemo<Mapping> mapping_;
+  StageMemo<ProjectionStage> projection_;
+  StageMemo<BalancedScene> balance_;
+  StageMemo<SeamStage> seams_;
+  std::shared_ptr<const SeamMemo> seamMemo_;  // the seams' memo: the next preview's warm start
+  StageMemo<SeamLevelling> levelling_;
+  StageMemo<SurfaceColors> colors_;
+  StageMemo<BakeResult> bake_;
+  struct Extra {  // a stage addStage appended
+    int index;
+    ExtraStage run;
+    StageMemo<nlohmann::json> memo;
+  };
+  std::vector<Extra> extras_;
   // Results by document state, most recent last.
   std::vector<std::pair<std::string, std::shared_ptr<const PipelineResult>>> previews_, finals_;
   std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> cachedFits_;  // key -> fit, per photo
-  std::string projectionKey_;
-  std::shared_ptr<const ProjectionStage> cachedProjection_;
+  // The camera stage: each photo's fit, reused from cachedFits_ while its key (the photo, the mesh, its clicks,
+  // `fieldsKey`: the camera's declared fields) stays; the preview refits from the last camera. Sets `key` to
+  // the fits' keys.
+  std::shared_ptr<const CameraStage> fitCameras(const Scene& scene, const Project& project,
+                                                const std::string& fieldsKey, Tier tier, const JobControl& job,
+                                                std::string& key);
 };
 
 // The projection oracle of a synthetic scene (`montage eval --oracle`): the project's mesh and photos

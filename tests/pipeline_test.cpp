@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <set>
 
 #include "atlas/preview_model.h"
 #include "bench/eval.h"
@@ -103,6 +104,187 @@ TEST(Pipeline, CancelStopsTheRun) {
   EXPECT_THROW(pipeline.run(project, JobControl(&cancel, {})), Cancelled);
   cancel = false;
   EXPECT_NO_THROW(pipeline.run(project, JobControl(&cancel, {})));
+}
+
+// Issue 36: the pipeline declared once. Keys, reuse and cancellation come from the declaration.
+TEST(StageGraph, KeysFollowTheDeclaredReadsAndFields) {
+  StageGraph graph;
+  const int a = graph.add({"a", {}, {"/options/x"}, "", 0.5});
+  const int b = graph.add({"b", {a}, {"/options/y"}, "", 0.25});
+  const int c = graph.add({"c", {}, {"/photos/*/locked"}, "", 0.25, true});
+  EXPECT_THROW(graph.add({"d", {7}, {}, "", 0}), Error);            // reads a stage not declared before it
+  EXPECT_THROW(graph.add({"e", {}, {"options/x"}, "", 0}), Error);  // not a JSON pointer
+  const std::vector<double> preview = graph.typicalShares(true);
+  EXPECT_NEAR(preview[a], 2.0 / 3, 1e-12);
+  EXPECT_EQ(preview[c], 0);  // final only
+
+  nlohmann::json doc = {{"options", {{"x", 1}, {"y", 2}}}, {"photos", {{{"locked", false}}, {{"path", "p"}}}}};
+  const auto keys = [&](const nlohmann::json& d) {
+    StageRun run(graph, d, {});
+    std::vector<std::string> k;
+    for (int i : {a, b, c}) k.push_back(run.begin(i));
+    return k;
+  };
+  const std::vector<std::string> k0 = keys(doc);
+  nlohmann::json changed = doc;
+  changed["options"]["y"] = 3;  // b reads it; a does not
+  std::vector<std::string> k1 = keys(changed);
+  EXPECT_EQ(k1[0], k0[0]);
+  EXPECT_NE(k1[1], k0[1]);
+  EXPECT_EQ(k1[2], k0[2]);
+  changed = doc;
+  changed["options"]["x"] = 5;  // a reads it, and b reads a
+  k1 = keys(changed);
+  EXPECT_NE(k1[0], k0[0]);
+  EXPECT_NE(k1[1], k0[1]);
+  changed = doc;
+  changed["photos"][1]["locked"] = true;  // "*": every photo's, a missing one reads as null
+  EXPECT_NE(keys(changed)[2], k0[2]);
+
+  // A memo serves its key; a stage cancelled while it makes its output leaves the memo as it was.
+  StageMemo<int> memo;
+  int made = 0;
+  const auto make = [&] { return std::make_shared<const int>(++made); };
+  {
+    StageRun run(graph, doc, {});
+    run.begin(a);
+    EXPECT_EQ(*run.get(a, memo, make), 1);
+    run.record(a, {{"n", 1}});
+    EXPECT_FALSE(run.kept(a));
+    ASSERT_EQ(run.records().size(), 1u);
+    EXPECT_EQ(run.records()[0].name, "a");
+  }
+  {
+    StageRun run(graph, doc, {});
+    run.begin(a);
+    EXPECT_EQ(*run.get(a, memo, make), 1);
+    EXPECT_TRUE(run.kept(a));
+    run.record(a, {});
+    EXPECT_TRUE(run.records()[0].cached);
+    EXPECT_EQ(run.records()[0].seconds, 0);
+  }
+  {
+    StageRun run(graph, changed, {});
+    run.begin(a);
+    // Same x: the memo serves although photos changed (a does not read them).
+    EXPECT_TRUE(run.get(a, memo, make) && run.kept(a));
+  }
+  nlohmann::json other = doc;
+  other["options"]["x"] = 9;
+  {
+    StageRun run(graph, other, {});
+    run.begin(a);
+    EXPECT_THROW(run.get(a, memo, [&]() -> std::shared_ptr<const int> { throw Cancelled(); }), Cancelled);
+  }
+  StageRun again(graph, doc, {});
+  again.begin(a);
+  EXPECT_EQ(*again.get(a, memo, make), 1);  // the memo still holds the first output and its key
+  EXPECT_EQ(made, 1);
+}
+
+// Every option the project format has is read by a declared stage (a field of its declaration), or by the
+// load stage through the files' contents: an option no stage declares would leave stale outputs in place.
+TEST(StageGraph, EveryProjectOptionIsDeclaredByTheStageThatReadsIt) {
+  const StageGraph& graph = pipelineStages();
+  ASSERT_EQ(graph.size(), int(kStageNames.size()));
+  std::set<std::string> declared;
+  for (int i = 0; i < graph.size(); ++i) {
+    EXPECT_EQ(graph[i].name, kStageNames[size_t(i)]);
+    for (const std::string& f : graph[i].fields) declared.insert(f);
+  }
+  const nlohmann::json document = nlohmann::json::parse(projectToJson(loadProject(demoProject()), ""));
+  for (const auto& [name, value] : document["options"].items()) {
+    if (name == "maxPhotoSide" || name == "weldIdenticalPositions") continue;  // load: in the contents' key
+    EXPECT_TRUE(declared.count("/options/" + name)) << "option '" << name << "' is read by no declared stage";
+  }
+  for (const std::string& f : declared) {
+    const std::string top = f.substr(0, f.find('/', 1));
+    EXPECT_TRUE(document.contains(top.substr(1))) << f;
+    if (top == "/options") EXPECT_TRUE(document["options"].contains(f.substr(9))) << f << " is not an option";
+  }
+}
+
+// The issue's check: a stage added to the declaration is run, keyed, reported and cancellable like the
+// pipeline's own.
+TEST(Pipeline, AnAddedStageIsKeyedReportedAndCancellable) {
+  Project project = loadProject(demoProject());
+  Pipeline pipeline;
+  int calls = 0;
+  std::atomic<bool> cancel{false};
+  bool cancelInside = false;
+  std::vector<std::string> seenStages;
+  int lintIndex = -1;
+  const int lint =
+      pipeline.addStage({"lint", {int(StageId::Inpaint)}, {"/options/atlasSize"}, "", 0.05, true},
+                        [&](const PipelineResult& soFar, const JobControl& job) {
+                          ++calls;
+                          EXPECT_TRUE(soFar.colors);
+                          EXPECT_EQ(soFar.stages.back().name, "bake");
+                          if (cancelInside) cancel = true;
+                          job.progress(static_cast<StageId>(lintIndex), 0.5);
+                          return nlohmann::json{{"inpainted_regions", soFar.colors->inpaint.regions.size()}};
+                        });
+  EXPECT_EQ(lint, int(kStageNames.size()));
+  lintIndex = lint;
+  const JobControl job(&cancel, [&](StageId s, double, const std::string&) {
+    if (int(s) == lint && (seenStages.empty() || seenStages.back() != "lint")) seenStages.push_back("lint");
+  });
+
+  PipelineResult first = pipeline.run(project, job);
+  EXPECT_EQ(calls, 1);
+  EXPECT_EQ(seenStages.size(), 1u);  // its start and its own progress, reported as its index
+  nlohmann::json report = first.report();
+  ASSERT_EQ(report["stages"].size(), 11u);
+  EXPECT_EQ(report["stages"][9]["stage"], "bake");
+  EXPECT_EQ(report["stages"][10]["stage"], "lint");
+  EXPECT_EQ(report["stages"][10]["counts"]["inpainted_regions"], first.colors->inpaint.regions.size());
+  EXPECT_FALSE(report["stages"][10]["cached"].get<bool>());
+
+  // What it reads changed (atlasSize): the bake and it rerun, the inpainting is kept.
+  project.options.atlasSize = 512;
+  PipelineResult second = pipeline.run(project, job);
+  EXPECT_EQ(calls, 2);
+  EXPECT_TRUE(second.stages[int(StageId::Inpaint)].cached);
+  EXPECT_FALSE(second.stages[int(StageId::Bake)].cached);
+  EXPECT_FALSE(second.stages.back().cached);
+  // What it does not read (the gutter): the bake reruns, it is kept.
+  project.options.gutter = 3;
+  PipelineResult third = pipeline.run(project, job);
+  EXPECT_EQ(calls, 2);
+  EXPECT_FALSE(third.stages[int(StageId::Bake)].cached);
+  EXPECT_TRUE(third.stages.back().cached);
+  EXPECT_EQ(third.stages.back().name, "lint");
+  EXPECT_EQ(third.stages.back().counts, second.stages.back().counts);
+  // Final only: the preview stops before it (another document state: a final result serves a preview request).
+  project.options.gutter = 5;
+  PipelineResult preview = pipeline.run(project, job, Tier::Preview);
+  EXPECT_EQ(preview.stages.back().name, "inpaint");
+  EXPECT_EQ(calls, 2);
+
+  // Cancelled inside it: the run throws, and the next run makes it again (nothing half-made is kept); the
+  // stages before it are kept.
+  project.options.atlasSize = 256;
+  cancelInside = true;
+  EXPECT_THROW(pipeline.run(project, job), Cancelled);
+  EXPECT_EQ(calls, 3);
+  cancelInside = false;
+  cancel = false;
+  PipelineResult resumed = pipeline.run(project, job);
+  EXPECT_EQ(calls, 4);
+  EXPECT_TRUE(resumed.stages[int(StageId::Bake)].cached);
+  EXPECT_FALSE(resumed.stages.back().cached);
+  // Cancelled between the bake's last progress report and its start: its start is a cancellation point, so it
+  // never runs; the next run keeps the bake and makes it.
+  project.options.atlasSize = 1024;
+  const JobControl cancelAfterBake(&cancel, [&](StageId s, double f, const std::string&) {
+    if (s == StageId::Bake && f == 1.0) cancel = true;
+  });
+  EXPECT_THROW(pipeline.run(project, cancelAfterBake), Cancelled);
+  EXPECT_EQ(calls, 4);
+  cancel = false;
+  PipelineResult after = pipeline.run(project, job);
+  EXPECT_EQ(calls, 5);
+  EXPECT_TRUE(after.stages[int(StageId::Bake)].cached);
 }
 
 TEST(Pipeline, NoFeaturesGivesOneEmptyPatchWithAReason) {
@@ -341,12 +523,14 @@ TEST(PipelineIncremental, RandomEditsEqualRunsFromScratch) {
       ++moves;
     }
     if (what != "undo") history.push_back(doc);
-    // As the editor does: the preview after each edit (it may start from the last run: camera, view
-    // selection, seams), the final every third step; the final equals a fresh run's (whose preview
-    // starts from nothing, so its mapping is the final's).
+    // As the editor does: the quick preview and the preview after each edit (they may start from the last
+    // run: camera, view selection, seams), the final every third step; the final equals a fresh run's (whose
+    // preview starts from nothing, so its mapping is the final's).
+    const PipelineResult quick = incremental.run(doc, {}, Tier::Quick);
     const PipelineResult preview = incremental.run(doc, {}, Tier::Preview);
-    for (const StageRecord& s : preview.stages)
-      if (s.stage == StageId::Map && !s.cached) reusedCells += s.counts["cells_reused"].get<int>();
+    for (const PipelineResult* r : {&quick, &preview})
+      for (const StageRecord& s : r->stages)
+        if (s.stage == StageId::Map && !s.cached) reusedCells += s.counts["cells_reused"].get<int>();
     if (step % 3 != 2) continue;
     const PipelineResult inc = incremental.run(doc, {}, Tier::Final);
     const PipelineResult fresh = Pipeline().run(doc, {}, Tier::Preview);
@@ -361,6 +545,44 @@ TEST(PipelineIncremental, RandomEditsEqualRunsFromScratch) {
   EXPECT_GT(undos, 0);
   EXPECT_GT(reusedCells, 0);  // the incremental runs did reuse cells
   EXPECT_GE(finals, 6);
+}
+
+// Issue 36: the editor shows a quick preview first (every hole harmonic), then the preview refines it; the
+// refinement reruns only the inpainting.
+TEST(PipelineTiers, AQuickPreviewFillsHolesHarmonicallyAndThePreviewRedoesOnlyTheInpainting) {
+  Project project = loadProject(demoProject());
+  ASSERT_EQ(project.options.inpaintMode, InpaintMode::Texture);  // the default
+  EXPECT_TRUE(quickDiffers(project));
+  Pipeline pipeline;
+  const PipelineResult quick = pipeline.run(project, {}, Tier::Quick);
+  EXPECT_EQ(quick.tier, Tier::Quick);
+  ASSERT_FALSE(quick.colors->inpaint.regions.empty());
+  for (const InpaintRegion& r : quick.colors->inpaint.regions)
+    if (r.kind == InpaintRegion::Kind::Hole) EXPECT_EQ(r.mode, InpaintMode::Harmonic) << r.note;
+  EXPECT_EQ(quick.stages[int(StageId::Inpaint)].counts["tier"], "quick");
+
+  const PipelineResult preview = pipeline.run(project, {}, Tier::Preview);
+  for (const StageRecord& s : preview.stages)
+    EXPECT_EQ(s.cached, s.stage < StageId::Inpaint) << s.name;  // the same mapping, levelling included
+  int textured = 0;
+  for (const InpaintRegion& r : preview.colors->inpaint.regions) textured += r.mode == InpaintMode::Texture;
+  EXPECT_GT(textured, 0);
+  EXPECT_EQ(preview.mapping.get(), quick.mapping.get());
+  // A request for the quick preview of this state now gets the preview (the better result); a preview
+  // request never gets a quick one.
+  const PipelineResult again = pipeline.run(project, {}, Tier::Quick);
+  EXPECT_EQ(again.tier, Tier::Preview);
+  EXPECT_EQ(again.colors.get(), preview.colors.get());
+  project.points[3].at[0].x += 2;
+  const PipelineResult quick2 = pipeline.run(project, {}, Tier::Quick);
+  EXPECT_EQ(pipeline.run(project, {}, Tier::Preview).tier, Tier::Preview);
+  EXPECT_EQ(quick2.tier, Tier::Quick);
+
+  // Harmonic everywhere: the quick preview would be the preview.
+  project.options.inpaintMode = InpaintMode::Harmonic;
+  EXPECT_FALSE(quickDiffers(project));
+  project.holeModes.push_back({0, InpaintMode::Rbf, {}});
+  EXPECT_TRUE(quickDiffers(project));
 }
 
 TEST(PipelineIncremental, UndoReturnsTheIdenticalResult) {

@@ -1,4 +1,5 @@
-// The editor's background worker: a preview first, then the final bake of the same snapshot; newest
+// The editor's background worker: a quick preview (where it differs) and a preview first, then the final bake of
+// the same snapshot; newest
 // snapshot wins, errors come back as messages, the worker survives them.
 #include "worker.h"
 
@@ -38,7 +39,7 @@ TEST(Worker, ThePreviewComesFirstWithAModelThatSamplesThePhotos) {
     if (auto o = worker.take()) {
       if (o->tier == Tier::Preview)
         preview = std::move(o);
-      else
+      else if (o->tier == Tier::Final)
         break;  // the final came first: the preview was replaced before this loop saw it
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -79,6 +80,36 @@ TEST(Worker, ThePreviewComesFirstWithAModelThatSamplesThePhotos) {
   EXPECT_EQ(final->tier, Tier::Final);
   EXPECT_EQ(final->generation, g);
   ASSERT_TRUE(final->result && final->result->model) << final->error;
+}
+
+// Issue 36: where the quick preview differs (the demo's holes are textured), it comes first, then the preview
+// that refines it, then the final; the status says which tier is the snapshot's first.
+TEST(Worker, TheQuickPreviewComesFirstThenThePreviewThenTheFinal) {
+  PipelineWorker worker;
+  const long g = worker.submit(demo());
+  std::vector<Tier> tiers;
+  bool firstSeen = false, laterSeen = false;
+  for (int i = 0; i < 120000 && (tiers.empty() || tiers.back() != Tier::Final); ++i) {
+    const WorkerStatus s = worker.status();
+    if (s.busy && s.generation == g) {
+      (s.first ? firstSeen : laterSeen) = true;
+      EXPECT_EQ(s.first, s.tier == Tier::Quick);
+    }
+    if (auto o = worker.take()) {
+      ASSERT_TRUE(o->result) << o->error;
+      EXPECT_EQ(o->generation, g);
+      tiers.push_back(o->tier);
+      if (o->tier == Tier::Quick) {
+        ASSERT_TRUE(o->preview);  // shown like a preview
+        for (const InpaintRegion& r : o->result->colors->inpaint.regions)
+          if (r.kind == InpaintRegion::Kind::Hole) EXPECT_EQ(r.mode, InpaintMode::Harmonic);
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_EQ(tiers, (std::vector<Tier>{Tier::Quick, Tier::Preview, Tier::Final}));
+  EXPECT_TRUE(firstSeen);
+  EXPECT_TRUE(laterSeen);
 }
 
 TEST(Worker, NewestSnapshotWins) {

@@ -295,13 +295,14 @@ void Editor::frame() {
   validateSelection();
   pollWorker();
   // Each document change goes to the worker as an immutable snapshot. During a drag (an open group) so does
-  // the newest position, whenever the worker is not computing a preview (issue 36): the preview follows the
-  // drag as fast as the pipeline delivers it, a running final of an earlier position is cancelled, and the
-  // pipeline is never restarted at every mouse move.
+  // the newest position, whenever the worker is not computing the first tier of a snapshot (the quick
+  // preview, or the preview where they are the same; issue 36): the preview follows the drag as fast as the
+  // pipeline delivers it, a running refinement or final of an earlier position is cancelled, and the pipeline
+  // is never restarted at every mouse move.
   bool send = !doc_.project().mesh.empty() && doc_.revision() != submittedRevision_;
   if (send && doc_.inGroup()) {
     const WorkerStatus ws = worker_->status();
-    send = !(ws.busy && ws.tier == Tier::Preview);
+    send = !(ws.busy && ws.first);
   }
   if (send) {
     const auto at = std::chrono::steady_clock::now();  // before the worker may start
@@ -318,7 +319,7 @@ void Editor::frame() {
     if (auto it = submittedAt_.find(shownGeneration_); it != submittedAt_.end()) {
       const auto drawn = std::chrono::steady_clock::now();
       const auto seconds = [](auto from, auto to) { return std::chrono::duration<double>(to - from).count(); };
-      const int tier = result_->tier == Tier::Final ? 1 : 0;
+      const int tier = static_cast<int>(result_->tier);
       shownLatency_[tier] = seconds(it->second.at, drawn);
       const OutcomeTimes& t = shownTimes_;
       shownParts_[tier] = {

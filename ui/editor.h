@@ -474,7 +474,7 @@ class Editor {
   };
   std::map<long, Submitted> submittedAt_;
   long shownGeneration_ = -1;  // generation taken this frame, measured after it is drawn
-  std::array<double, 2> shownLatency_ = {-1, -1};
+  std::array<double, kTierNames.size()> shownLatency_ = {-1, -1, -1};  // by Tier
   // The last latency per tier split into its parts, in seconds: submit -> worker start (waiting for a
   // cancelled run to stop), the pipeline run, the preview model, published -> taken by the UI, taken ->
   // drawn (mesh upload, frame); and the UI frames drawn meanwhile (they share the cores with the worker).
@@ -482,7 +482,7 @@ class Editor {
     double queue = -1, pipeline = -1, model = -1, take = -1, draw = -1;
     long frames = -1;
   };
-  std::array<LatencyParts, 2> shownParts_;
+  std::array<LatencyParts, kTierNames.size()> shownParts_;
   OutcomeTimes shownTimes_;  // of the outcome taken this frame
   std::chrono::steady_clock::time_point takenAt_;
   std::shared_ptr<const PipelineResult> result_;

@@ -217,7 +217,7 @@ void Editor::runAction(const ScriptAction& a) {
     int tier = -1;  // any
     if (a.args.size() > 1) {
       const auto it = std::find(kTierNames.begin(), kTierNames.end(), a.text(1));
-      TM_CHECK(it != kTierNames.end(), where + ": unknown tier '" + a.text(1) + "' (preview, final)");
+      TM_CHECK(it != kTierNames.end(), where + ": unknown tier '" + a.text(1) + "' (preview, final, quick)");
       tier = static_cast<int>(it - kTierNames.begin());
     }
     waitFor(where + " (the worker never started)", a.args.empty() ? 60 : timeout, [this, tier] {
@@ -576,7 +576,9 @@ void Editor::writeState(const std::string& path) const {
                      {"outcome_tiers", outcomeTiers},
                      {"preview_latency_seconds", shownLatency_[0]},  // last edit -> preview drawn
                      {"final_latency_seconds", shownLatency_[1]},    // last edit -> final drawn
-                     {"latency_parts", json::array({latencyParts(shownParts_[0]), latencyParts(shownParts_[1])})},
+                     {"quick_latency_seconds", shownLatency_[2]},    // last edit -> quick preview drawn
+                     {"latency_parts", json::array({latencyParts(shownParts_[0]), latencyParts(shownParts_[1]),
+                                                    latencyParts(shownParts_[2])})},
                      {"last_error", lastError_}};
   if (result_) {
     json stages = json::array();

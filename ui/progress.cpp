@@ -7,30 +7,29 @@
 
 namespace montage {
 
-const std::array<double, RunProgress::kStages>& RunProgress::typicalShares() {
-  // load, camera, partition, map, projection, balance, seams, level, inpaint, bake, export: the demo and
-  // the armadillo synth project spend most of a run in the mapping, the inpainting and the bake.
-  static const std::array<double, kStages> shares = {0.04, 0.06, 0.16, 0.18, 0.02, 0.03, 0.08, 0.03, 0.18, 0.16, 0.06};
+std::array<double, RunProgress::kStages> RunProgress::typicalShares(Tier tier) {
+  // As pipelineStages() declares them (the preview stops before the bake and the export).
+  const std::vector<double> declared = pipelineStages().typicalShares(isPreview(tier));
+  std::array<double, kStages> shares{};
+  std::copy_n(declared.begin(), std::min(declared.size(), kStages), shares.begin());
   return shares;
 }
 
 void RunProgress::record(Tier tier, const std::vector<StageRecord>& stages) {
   auto& s = seconds_[int(tier)];
   s.fill(0);
-  for (const StageRecord& r : stages) s[static_cast<int>(r.stage)] += r.cached ? 0 : r.seconds;
+  for (const StageRecord& r : stages)
+    if (static_cast<size_t>(r.stage) < kStages) s[static_cast<size_t>(r.stage)] += r.cached ? 0 : r.seconds;
   // A run that took no measurable time (everything cached) says nothing about the next one.
   measured_[int(tier)] = std::accumulate(s.begin(), s.end(), 0.0) > 0.05;
 }
 
 std::array<double, RunProgress::kStages> RunProgress::weights(Tier tier) const {
   std::array<double, kStages> w{};
-  if (measured_[int(tier)]) {
+  if (measured_[int(tier)])
     w = seconds_[int(tier)];
-  } else {
-    w = typicalShares();
-    // The preview tier stops after the inpainting; the bake and export belong to the final tier.
-    if (tier == Tier::Preview) w[int(StageId::Bake)] = w[int(StageId::Export)] = 0;
-  }
+  else
+    w = typicalShares(tier);
   const double total = std::accumulate(w.begin(), w.end(), 0.0);
   for (double& x : w) x = total > 0 ? x / total : 1.0 / kStages;
   return w;

@@ -16,8 +16,9 @@ namespace montage {
 class RunProgress {
  public:
   static constexpr size_t kStages = kStageNames.size();
-  // Typical share of a run per stage (the first run, before any measurement), summing to 1.
-  static const std::array<double, kStages>& typicalShares();
+  // Typical share of a run of `tier` per stage (the first run, before any measurement), summing to 1: the
+  // stages' declaration (pipelineStages()).
+  static std::array<double, kStages> typicalShares(Tier tier);
 
   // Records the stage times of a finished run of `tier` (cached stages count 0 s).
   void record(Tier tier, const std::vector<StageRecord>& stages);
@@ -38,8 +39,8 @@ class RunProgress {
 
  private:
   std::array<double, kStages> weights(Tier tier) const;  // per stage, summing to 1
-  std::array<std::array<double, kStages>, 2> seconds_{};
-  std::array<bool, 2> measured_{false, false};
+  std::array<std::array<double, kStages>, kTierNames.size()> seconds_{};  // by Tier
+  std::array<bool, kTierNames.size()> measured_{};
   double estimatedRun_ = -1;    // the run whose end was estimated (timeText's runId)
   double estimatedTotal_ = -1;  // its first estimate of its whole length, seconds
 };

@@ -114,8 +114,13 @@ void PipelineWorker::loop() {
     pending_.reset();
     const long generation = pendingGeneration_;
     cancel_ = false;
-    for (Tier tier : {Tier::Preview, Tier::Final}) {
-      status_ = WorkerStatus{true, tier, StageId::Load, 0, "", generation, std::chrono::steady_clock::now()};
+    // The quick preview first where it differs from the preview (issue 36): the edit shows at once, and the
+    // preview's fills follow.
+    std::vector<Tier> tiers = {Tier::Preview, Tier::Final};
+    if (quickDiffers(*project)) tiers.insert(tiers.begin(), Tier::Quick);
+    for (Tier tier : tiers) {
+      status_ = WorkerStatus{true, tier,       tier == tiers.front(),           StageId::Load, 0,
+                             "",   generation, std::chrono::steady_clock::now()};
       lock.unlock();
       WorkerOutcome outcome;
       outcome.generation = generation;
@@ -129,7 +134,7 @@ void PipelineWorker::loop() {
       if (!overtaken) finished_ = std::move(outcome);
       wake_.notify_all();
       if (!overtaken && notify_) notify_();
-      // The final tier follows only when the preview succeeded and nothing newer is waiting.
+      // The next tier follows only when this one succeeded and nothing newer is waiting.
       if (overtaken || !succeeded) break;
     }
   }

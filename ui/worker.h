@@ -1,7 +1,8 @@
 // The background worker of the editor: one thread owns a core Pipeline and runs it on immutable
-// project snapshots, in two tiers: first the preview (the mapping, levelling and a light inpainting,
-// shown through a preview model whose faces sample the photos on the GPU), then, when no newer snapshot
-// is waiting, the final bake of the same snapshot, which replaces the preview. Submitting a new
+// project snapshots, in tiers: first the preview (the mapping, levelling and a light inpainting,
+// shown through a preview model whose faces sample the photos on the GPU), preceded by the quick preview
+// (every hole harmonic) where the two differ, then, when no newer snapshot is waiting, the final bake of
+// the same snapshot, which replaces the preview. Submitting a new
 // snapshot cancels the running job; the newest snapshot wins. Finished results wait in a mutex-guarded
 // slot until the UI thread takes them. The worker never touches ImGui, GL or the live document.
 #pragma once
@@ -24,6 +25,7 @@ namespace montage {
 struct WorkerStatus {
   bool busy = false;
   Tier tier = Tier::Preview;  // of the run in progress (or the last one)
+  bool first = true;          // the snapshot's first tier: what the user waits for after an edit
   StageId stage = StageId::Load;
   double fraction = 0;                            // of the current stage
   std::string what;                               // what the stage is doing

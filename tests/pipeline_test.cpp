@@ -578,6 +578,44 @@ TEST(PipelineTiers, AQuickPreviewFillsHolesHarmonicallyAndThePreviewRedoesOnlyTh
   EXPECT_EQ(pipeline.run(project, {}, Tier::Preview).tier, Tier::Preview);
   EXPECT_EQ(quick2.tier, Tier::Quick);
 
+  // Its model (ui/worker.cpp: smoothInpaint) shows the inpainted faces by their corners' colours, no atlas:
+  // rendered as the shader draws it, it is the atlas model of the same result within what a smooth fill
+  // varies inside a face.
+  std::vector<cv::Mat> textures;
+  for (const auto& p : quick2.balanced->sources) textures.push_back(previewTexture(*p));
+  const Mesh& mesh = quick2.mapping->partition->mesh;
+  const auto model = [&](bool smooth) {
+    return previewModel(mesh, quick2.mapping->map, quick2.balanced->scene->photos, textures,
+                        &quick2.colors->levelling, &quick2.colors->inpaint, quick2.balanced->balance.transforms, {},
+                        smooth);
+  };
+  const TexturedModel smooth = model(true), atlas = model(false);
+  EXPECT_EQ(smooth.materials[textures.size()].texture.total(), 1u);  // no atlas
+  EXPECT_GT(atlas.materials[textures.size()].texture.total(), 1u);
+  const auto drawn = [](const TexturedModel& m) {
+    return [&m](int f, const Vec3& b) {
+      Vec3f c = m.colorAt(f, b);
+      for (int k = 0; k < 3; ++k) c += float(b[k]) * m.cornerColor[f][k];
+      return Vec3f(c.cwiseMax(0.f).cwiseMin(1.f));
+    };
+  };
+  RenderOptions view;
+  view.size = 384;
+  const cv::Mat a = renderSurface(mesh, drawn(smooth), view), b = renderSurface(mesh, drawn(atlas), view);
+  double sum = 0;
+  long n = 0;  // over the surface's pixels (the background is exact grey)
+  for (int y = 0; y < a.rows; ++y)
+    for (int x = 0; x < a.cols; ++x) {
+      const cv::Vec4b pa = a.at<cv::Vec4b>(y, x), pb = b.at<cv::Vec4b>(y, x);
+      if (pb[0] == 235 && pb[1] == 235 && pb[2] == 235) continue;
+      for (int c = 0; c < 3; ++c) sum += (pa[c] - pb[c]) * (pa[c] - pb[c]) / (255.0 * 255.0);
+      ++n;
+    }
+  ASSERT_GT(n, 1000);
+  const double psnr = 10 * std::log10(3.0 * n / std::max(sum, 1e-12));
+  std::printf("quick preview model, corner colours against its atlas: %.1f dB\n", psnr);
+  EXPECT_GT(psnr, 35);
+
   // Harmonic everywhere: the quick preview would be the preview.
   project.options.inpaintMode = InpaintMode::Harmonic;
   EXPECT_FALSE(quickDiffers(project));

@@ -568,13 +568,18 @@ void Editor::drawViewLabels(const Rect& r) {
   }
   draw->PopClipRect();
   // What the view shows, so the user knows whether the preview is current.
-  const char* what = !resultUsable()
-                         ? (worker_->status().busy ? "input mesh - pipeline running" : "input mesh - no result")
-                     : resultCurrent()        ? (result_->model           ? "result - up to date"
-                                                 : worker_->status().busy ? "preview - up to date, final bake running"
-                                                                          : "preview - up to date")
-                     : worker_->status().busy ? "result of an earlier edit - updating"
-                                              : "result of an earlier edit";
+  const bool busy = worker_->status().busy;
+  const char* what = nullptr;
+  if (!resultUsable())
+    what = busy ? "input mesh - pipeline running" : "input mesh - no result";
+  else if (!resultCurrent())
+    what = busy ? "result of an earlier edit - updating" : "result of an earlier edit";
+  else if (result_->model)
+    what = "result - up to date";
+  else if (result_->tier == Tier::Quick)  // holes filled smoothly; the preview with their own fills follows
+    what = busy ? "quick preview - holes smooth, their texture coming" : "quick preview - holes smooth";
+  else
+    what = busy ? "preview - up to date, final bake running" : "preview - up to date";
   // Wrapped within the view when it is narrow.
   const float wrap = std::max(40.0f, float(r.w) - px(16));
   const ImVec2 size = ImGui::CalcTextSize(what, nullptr, false, wrap);

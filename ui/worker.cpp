@@ -90,7 +90,7 @@ bool PipelineWorker::runTier(const Project& project, Tier tier, WorkerOutcome& o
       photoTextures_ = std::move(kept);
       outcome.preview = std::make_shared<const TexturedModel>(
           previewModel(r.mapping->partition->mesh, r.mapping->map, colorScene.photos, textures, &r.colors->levelling,
-                       &r.colors->inpaint, transforms));
+                       &r.colors->inpaint, transforms, {}, tier == Tier::Quick));
     }
     return true;
   } catch (const Cancelled&) {

@@ -16,7 +16,7 @@ TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
                            const std::vector<std::shared_ptr<const Photo>>& photos,
                            const std::vector<cv::Mat>& photoTextures, const SeamLevelling* levelling,
                            const InpaintResult* inpaint, const std::vector<ColorTransform>& photoTransforms,
-                           const AtlasOptions& options) {
+                           const AtlasOptions& options, bool smoothInpaint) {
   const int nf = mesh.numFaces();
   const int np = static_cast<int>(photos.size());
   TM_CHECK(map.numFaces() == nf, "preview model: the texture map has " + std::to_string(map.numFaces()) +
@@ -68,6 +68,18 @@ TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
     }
   }
   if (inpaintedFaces.empty()) return model;
+  std::vector<const Photo*> photoPointers;
+  for (const auto& p : photos) photoPointers.push_back(p.get());
+  const PreviewSurface surface(map, photoPointers, levelling, inpaint, options.emptyColor);
+  if (smoothInpaint) {  // the corners' colours over black, shaded as the textured faces are
+    model.materials[inpaintedMaterial].texture = cv::Mat(1, 1, CV_8UC4, cv::Scalar(0, 0, 0, 255));
+    for (int f : inpaintedFaces) {
+      model.faceMaterial[f] = inpaintedMaterial;
+      model.faceSource[f] = kSourceInpainted;
+      for (int k = 0; k < 3; ++k) model.cornerColor[f][k] = surface.color(f, Vec3::Unit(k));
+    }
+    return model;
+  }
 
   // The inpainted faces' own atlas: their sub-mesh, its charts at the regions' densities, baked from
   // the inpainted colours (PreviewSurface: the refined triangles' colours, as the final bake has them).
@@ -110,9 +122,6 @@ TexturedModel previewModel(const Mesh& mesh, const TextureMap& map,
         if (q[k] == mesh.position(c[j])) cornerOf[g][k] = j;
   }
   const Atlas atlas = buildAtlas(*sub, in, options);
-  std::vector<const Photo*> photoPointers;
-  for (const auto& p : photos) photoPointers.push_back(p.get());
-  const PreviewSurface surface(map, photoPointers, levelling, inpaint, options.emptyColor);
   const AtlasImage image = bakeAtlasSurface(
       atlas,
       [&](int g, const Vec3& b, unsigned char&) {

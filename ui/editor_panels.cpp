@@ -770,9 +770,23 @@ void Editor::pipelineTab() {
       ImGui::TableNextRow();
       ImGui::TableNextColumn();
       const auto rows = countRows(s.counts);
-      const std::string id = std::string(stageName(s.stage)) + "##stage" + std::to_string(int(s.stage));
+      const std::string id = s.name + "##stage" + std::to_string(int(s.stage));
       const bool open = !rows.empty() && ImGui::TreeNodeEx(id.c_str(), ImGuiTreeNodeFlags_SpanFullWidth);
-      if (rows.empty()) ImGui::TextUnformatted(stageName(s.stage));
+      if (rows.empty()) ImGui::TextUnformatted(s.name.c_str());
+      if (ImGui::IsItemHovered() && int(s.stage) < pipelineStages().size()) {
+        // What the stage reads, as declared (pipelineStages): why an edit ran it again or kept it.
+        const StageDecl& d = pipelineStages()[int(s.stage)];
+        std::string reads;
+        for (int r : d.reads) reads += (reads.empty() ? "" : ", ") + pipelineStages()[r].name;
+        for (const std::string& f : d.fields) reads += (reads.empty() ? "" : ", ") + f.substr(1);
+        if (!d.also.empty()) reads += (reads.empty() ? "" : "; ") + d.also;
+        const std::string text = s.name + " runs again when what it reads changes: " + reads;
+        ImGui::BeginTooltip();
+        ImGui::PushTextWrapPos(ImGui::GetFontSize() * 32);
+        ImGui::TextUnformatted(text.c_str());
+        ImGui::PopTextWrapPos();
+        ImGui::EndTooltip();
+      }
       ImGui::TableNextColumn();
       ImGui::Text(s.cached ? "cached" : "%.3f s", s.seconds);
       if (!open) continue;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <functional>
 #include <limits>
+#include <map>
 #include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
@@ -168,13 +169,14 @@ CameraFitOptions cameraFitOptions(const PipelineOptions& o) {
   return options;
 }
 
-constexpr const char* kWarm = "#warm";  // camera keys of the preview's warm-started fits
+constexpr const char* kWarm = "#warm";      // camera keys of the preview's warm-started fits
+constexpr const char* kPooled = "#pooled";  // camera keys of fits whose lens terms the photos of a camera pay for
 
 // One photo's fit (or the reason there is none) under the project's options. `start`: the preview's
 // warm start (see fitCamera), with one silhouette round instead of the final's four, on kept contours
 // within kPreviewContourPx (`contours`, the photo's memo), stopping at a coarser step.
 CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silhouette, ContourMemo* contours,
-                   const PhotoCamera* start = nullptr) {
+                   const PhotoCamera* start = nullptr, bool keepRadial = false) {
   const Photo& p = *scene.photos[photo];
   std::vector<CameraClick> clicks = photoClicks(scene.project, photo);
   if (scene.project.options.cameraMode == CameraMode::Off) {
@@ -187,6 +189,7 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
     return fit;
   }
   CameraFitOptions options = cameraFitOptions(scene.project.options);
+  options.keepRadial = keepRadial;
   // A step of 1e-6 moves a point by well under 0.01 px: half the LM iterations of the final's 1e-10.
   if (start)
     options.silhouetteRounds = 1, options.contourReusePx = kPreviewContourPx, options.silhouetteStep = 1e-6,
@@ -209,7 +212,7 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
     s.decision = decision;
     return s;
   }
-  if (start && !fit.fits) return fitPhoto(scene, photo, silhouette, contours);  // too far from the start
+  if (start && !fit.fits) return fitPhoto(scene, photo, silhouette, contours, nullptr, keepRadial);  // too far
   refineOnSilhouette(*scene.mesh, p, fit, options, silhouette, contours);
   fit.decision = decision;
   return fit;
@@ -244,6 +247,8 @@ nlohmann::json fitJson(const CameraFit& fit, int photo, const Project* project) 
     j["residual_median_px"] = fit.medianResidual;
     j["residual_max_px"] = fit.maxResidual;
     j["residual_rms_px"] = fit.rmsResidual;
+    j["click_noise_px"] = fit.noisePx;
+    j["radial_pooled"] = fit.radialPooled;
     j["silhouette_points"] = fit.silhouettePoints;
     j["silhouette_residual_px"] = fit.silhouetteResidualPx;
     j["outliers"] = outliers;
@@ -722,7 +727,11 @@ void addLoadWarnings(const Project& project, const Scene& scene, std::vector<std
 nlohmann::json cameraCounts(const CameraStage& cameras, const Project& project) {
   nlohmann::json photos = nlohmann::json::array();
   for (size_t p = 0; p < cameras.fits.size(); ++p) photos.push_back(fitJson(cameras.fits[p], int(p), &project));
-  return {{"fitted", cameras.fitted}, {"subjects", cameras.subjects}, {"reused", cameras.reused}, {"photos", photos}};
+  return {{"fitted", cameras.fitted},
+          {"subjects", cameras.subjects},
+          {"reused", cameras.reused},
+          {"pooled_radial_f", cameras.pooledRadialF},
+          {"photos", photos}};
 }
 
 nlohmann::json partitionCounts(const Partition& partition, bool kept) {
@@ -940,15 +949,18 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   std::vector<std::vector<CameraClick>> photoClickLists(np);
   std::vector<size_t> toFit;
   std::vector<const PhotoCamera*> warmStart(np, nullptr);  // kept alive by cachedFits_ until the fits end
+  std::vector<std::string> baseKeys(np);                   // without kPooled or kWarm
   for (size_t p = 0; p < np; ++p) {
     photoClickLists[p] = photoClicks(scene.project, static_cast<int>(p));
     nlohmann::json clicks = nlohmann::json::array();
     for (const CameraClick& c : photoClickLists[p]) clicks.push_back({c.vertex, c.pixel.x(), c.pixel.y()});
     const std::string photoKey = meshKey_ + '#' + cachedPhotos_[p].key;
     fits[p].first = photoKey + clicks.dump() + fieldsKey + "|mode:" + kPhotoModeNames[size_t(project.photos[p].mode)];
+    baseKeys[p] = fits[p].first;
     std::string found;
-    for (const auto& [k, f] : cachedFits_)
-      if (k == fits[p].first || (isPreview(tier) && k == fits[p].first + kWarm)) fits[p].second = f, found = k;
+    for (const auto& [k, f] : cachedFits_)  // a pooled fit stands for the photo's own: its trial is the same
+      for (const std::string& kept : {fits[p].first, fits[p].first + kPooled})
+        if (k == kept || (isPreview(tier) && k == kept + kWarm)) fits[p].second = f, found = k;
     if (fits[p].second) {
       fits[p].first = found;
       ++cameras->reused;
@@ -976,6 +988,39 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
     fits[p].second = std::make_shared<const CameraFit>(fitPhoto(
         scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), cachedPhotos_[p].contours.get(), warmStart[p]));
     if (warmStart[p]) fits[p].first += kWarm;
+  });
+  job.checkCancel();
+  // Lens terms pooled over the photos of one camera (issue 37): noisy clicks drop k1 in one photo by its own F test
+  // and keep it in another, and a photo without it lands the texture pixels off. Photos of one size (one camera)
+  // that fit as the object itself pool their trials' F test (pooledRadialF); when the pool pays for the terms by
+  // Akaike's criterion, every photo that tried them keeps them. A photo whose pooled state changes is refitted (warm
+  // in the preview).
+  std::map<std::pair<int, int>, std::vector<size_t>> sameCamera;
+  for (size_t p = 0; p < np; ++p)
+    if (fits[p].second->fits && !fits[p].second->subject)
+      sameCamera[{scene.photos[p]->width, scene.photos[p]->height}].push_back(p);
+  const double distortionF = cameraFitOptions(project.options).pooledDistortionF;
+  std::vector<size_t> toRefit;
+  std::vector<char> pool(np, 0);
+  for (const auto& [size, photos] : sameCamera) {
+    std::vector<const CameraFit*> group;
+    for (size_t p : photos) group.push_back(fits[p].second.get());
+    const double f = pooledRadialF(group);
+    cameras->pooledRadialF = std::max(cameras->pooledRadialF, f);
+    for (size_t p : photos) {
+      const CameraFit::RadialTrial& t = fits[p].second->radialTrial;
+      pool[p] = f > distortionF && t.terms > 0 && t.agrees && !t.kept;
+      if (bool(pool[p]) == fits[p].second->radialPooled) continue;
+      toRefit.push_back(p);
+      if (std::find(toFit.begin(), toFit.end(), p) == toFit.end()) --cameras->reused;
+    }
+  }
+  tbb::parallel_for(size_t(0), toRefit.size(), [&](size_t k) {
+    const size_t p = toRefit[k];
+    fits[p].second =
+        std::make_shared<const CameraFit>(fitPhoto(scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(),
+                                                   cachedPhotos_[p].contours.get(), warmStart[p], pool[p]));
+    fits[p].first = baseKeys[p] + (pool[p] ? kPooled : "") + (warmStart[p] ? kWarm : "");
   });
   job.checkCancel();
   key.clear();

@@ -57,6 +57,7 @@ struct CameraStage {
   int fitted = 0;               // photos that fit a camera as the object itself
   int subjects = 0;             // photos taken for another subject (mapping/subject.h)
   int reused = 0;               // fits reused from the previous run (same clicks, photo, mesh, options)
+  double pooledRadialF = 0;     // the largest pooled F of the lens terms over the photos of one camera
   double seconds = 0;
 };
 

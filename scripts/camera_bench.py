@@ -10,7 +10,10 @@ the faces the photos textured.
 
 Usage: scripts/camera_bench.py [--montage build/bin/montage] [--data ../shared/data] [--out /tmp/tm_camera_bench]
        [--meshes spot,bob] [--views 2,4] [--features 50,150,300] [--noise 0,1] [--k1 0] [--size 1024] [--lock]
+       [--set KEY=VALUE ...]
 --k1 lists lens distortions (synth --k1, every view; the fit's k1 and k2 per photo are in results.json).
+--set passes project options to every `montage run` (e.g. --set correction=off); the seen column is the PSNR over
+what the oracle's photos see (eval's psnr_seen), the issue-37 measure.
 --lock runs each command under the machine-wide build lock (flock /tmp/tm-build.lock), as HELPERS.md asks.
 """
 import argparse
@@ -53,11 +56,12 @@ def main():
     ap.add_argument("--k1", default="0")
     ap.add_argument("--size", default="1024")
     ap.add_argument("--lock", action="store_true")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     a = ap.parse_args()
     rows = []
     print("| mesh | views | features | noise px | k1 (fitted, median) | fitted | PSNR (oracle, gap) dB | ΔE (oracle) "
-          "| inpainted % (no photo sees) | flips | run s wall / CPU |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+          "| seen PSNR (oracle, gap) dB | inpainted % (no photo sees) | flips | run s wall / CPU |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for mesh in a.meshes.split(","):
         obj, tex = (os.path.join(a.data, p) for p in MESHES[mesh])
         if not os.path.exists(obj):
@@ -69,7 +73,8 @@ def main():
                         d = os.path.join(a.out, f"{mesh}_{views}_{features}_{noise}" + (f"_k{k1}" if float(k1) else ""))
                         run([a.montage, "synth", "--mesh", obj, "--texture", tex, "--views", views, "--features", features,
                              "--seed", "1", "--size", a.size, "--click-noise", noise, "--k1", k1, "--out", d], a.lock)
-                        wall, cpu = run([a.montage, "run", d + "/project.json", "--out", d + "/out"], a.lock)
+                        sets = [x for kv in a.set for x in ("--set", kv)]
+                        wall, cpu = run([a.montage, "run", d + "/project.json", "--out", d + "/out"] + sets, a.lock)
                         run([a.montage, "eval", "--result", d + "/out/model.obj", "--truth", obj, "--truth-texture", tex,
                              "--oracle", d, "--json", d + "/eval.json"], a.lock)
                         e = json.load(open(d + "/eval.json"))
@@ -77,14 +82,15 @@ def main():
                         fits = [c for c in report.get("cameras", []) if c["fits"]]
                         fittedK1 = sorted(c.get("k1", 0.0) for c in fits)
                         r, o = e["result"], e["oracle"]
-                        row = dict(mesh=mesh, views=int(views), features=int(features), noise=float(noise), k1=float(k1),
+                        row = dict(sets=a.set, mesh=mesh, views=int(views), features=int(features), noise=float(noise), k1=float(k1),
                                    fitted=len(fits), fitted_k1=fittedK1, wall=wall, cpu=cpu, result=r, oracle=o,
-                                   unseen=e["unseen_share"], inpainted=report["surface"]["inpainted_share"])
+                                   unseen=e["unseen_share"], seen=e["psnr_seen"], seen_gap=e["psnr_seen_gap"], inpainted=report["surface"]["inpainted_share"])
                         rows.append(row)
                         medianK1 = fittedK1[len(fittedK1) // 2] if fittedK1 else float("nan")
                         print(f"| {mesh} | {views} | {features} | {noise} | {k1} ({medianK1:+.3f}) | {len(fits)}/{views} "
                               f"| {r['psnr_all']:.2f} ({o['psnr_all']:.2f}, {r['psnr_all'] - o['psnr_all']:+.2f}) "
                               f"| {r['delta_e_all']:.3f} ({o['delta_e_all']:.3f}) "
+                              f"| {e['psnr_seen']:.2f} ({o['psnr_seen']:.2f}, {e['psnr_seen_gap']:+.2f}) "
                               f"| {100 * row['inpainted']:.1f} ({100 * row['unseen']:.1f}) "
                               f"| {r['flipped_triangles']} | {wall:.1f} / {cpu:.1f} |", flush=True)
     with open(os.path.join(a.out, "results.json"), "w") as f:

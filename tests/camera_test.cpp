@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <numeric>
 #include <random>
@@ -45,7 +46,7 @@ struct DemoScene {
   std::string dir;
 };
 
-DemoScene demoScene(const std::string& tag, int views, int features, double noise = 0, int size = 512) {
+DemoScene demoScene(const std::string& tag, int views, int features, double noise = 0, int size = 512, double k1 = 0) {
   DemoScene d;
   d.mesh = requireUsable(loadMesh(demoMeshPath()));
   SynthOptions o;
@@ -53,6 +54,7 @@ DemoScene demoScene(const std::string& tag, int views, int features, double nois
   o.features = features;
   o.size = size;
   o.clickNoisePx = noise;
+  o.k1 = k1;
   d.scene = synthesize(*d.mesh, demoMeshPath(), patternOf(*d.mesh), o);
   d.dir = test::tempDir(tag);
   writeSynthScene(d.scene, d.dir);
@@ -204,6 +206,60 @@ TEST(CameraFit, RadialDistortionIsFittedWhenThePhotoHasIt) {
   const CameraFit exact = fitCamera(*d.mesh, photoClicks(d.scene.project, k), 512, 512);
   EXPECT_EQ(exact.camera.k1, 0);
   EXPECT_EQ(exact.camera.k2, 0);
+}
+
+TEST(CameraFit, PooledRadialFSumsTheTrialsOfOneCamera) {
+  auto trial = [](int terms, double drop, double rss, int dof, bool agrees = true) {
+    CameraFit f;
+    f.radialTrial = {terms, drop, rss, dof, agrees, false};
+    return f;
+  };
+  const CameraFit a = trial(1, 4, 100, 100), b = trial(2, 8, 200, 100), none = trial(0, 0, 0, 0),
+                  disagrees = trial(2, 1000, 1, 100, false);
+  EXPECT_NEAR(pooledRadialF({&a, &b}), (12.0 / 3) / (300.0 / 200), 1e-12);
+  EXPECT_EQ(pooledRadialF({&a}), 0);                     // one photo: its own test decides
+  EXPECT_EQ(pooledRadialF({&a, &none, &disagrees}), 0);  // untried and disagreeing trials do not count
+  EXPECT_NEAR(pooledRadialF({&a, &b, &none}), pooledRadialF({&a, &b}), 1e-12);
+}
+
+TEST(CameraPipeline, TheLensTermsOfOneCameraArePaidForByAllItsPhotosTogether) {
+  // Issue 37: four photos through one lens (k1 = -0.5) with noisy clicks. Alone, some photos' F test drops k1 (their
+  // clicks do not pay for it); pooled over the camera's photos the terms pay, and every photo keeps them.
+  constexpr double k1 = -0.5;  // the turtle spans a normalised radius under 0.3: a strong lens moves its clicks 1-4 px
+  const DemoScene d = demoScene("camera_pipeline_pooled_lens", 4, 150, 1.0, 512, k1);
+  const Mesh& mesh = *d.mesh;
+  const Project project = loadProject(d.dir + "/project.json");
+  std::vector<CameraFit> alone;
+  int dropsAlone = 0;
+  for (int k = 0; k < 4; ++k) {
+    alone.push_back(fitCamera(mesh, photoClicks(project, k), 512, 512));
+    dropsAlone += alone.back().camera.k1 == 0;
+  }
+  ASSERT_GT(dropsAlone, 0) << "the scene no longer tests the pool: every photo keeps k1 alone";
+  Pipeline pipeline;
+  const PipelineResult r = pipeline.run(project);
+  ASSERT_EQ(r.cameras->fitted, 4);
+  int pooled = 0;
+  for (int k = 0; k < 4; ++k) {
+    const CameraFit& fit = r.cameras->fits[k];
+    PhotoCamera truth = trueCamera(d.scene, k);
+    truth.k1 = k1;
+    EXPECT_NE(fit.camera.k1, 0) << describeFit(fit);
+    if (alone[k].camera.k1 != 0) continue;
+    ++pooled;
+    EXPECT_TRUE(fit.radialPooled);
+    // The texture lands nearer where the lens puts it (the largest gap over the visible vertices).
+    std::printf("photo %d: largest gap to the true projection %.2f px pooled, %.2f px alone\n", k,
+                projectionGap(mesh, truth, fit.camera), projectionGap(mesh, truth, alone[k].camera));
+    EXPECT_LT(projectionGap(mesh, truth, fit.camera), 0.7 * projectionGap(mesh, truth, alone[k].camera))
+        << "photo " << k << ": " << describeFit(fit) << " / alone: " << describeFit(alone[k]);
+  }
+  EXPECT_EQ(pooled, dropsAlone);
+  for (const StageRecord& s : r.stages)
+    if (s.stage == StageId::Camera) {
+      std::printf("pooled F of the lens terms: %.2f\n", s.counts["pooled_radial_f"].get<double>());
+      EXPECT_GT(s.counts["pooled_radial_f"].get<double>(), 2) << s.counts;
+    }
 }
 
 TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
@@ -434,9 +490,26 @@ TEST(ViewSelect, SmoothnessRemovesIsolatedLabels) {
 
 // ---- Pipeline: projection path, paper path, mixed projects, proposals ----
 
+// Calls fn(corner UV, click, its point) for every corner of a mapped face at a vertex clicked in the face's photo.
+template <class Fn>
+void forEachMappedClick(const Mapping& m, const Project& project, Fn fn) {
+  const Mesh& mesh = m.partition->mesh;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    const int p = m.map.facePhoto[f];
+    if (p < 0) continue;
+    const auto c = mesh.faceVertices(f);
+    for (int k = 0; k < 3; ++k)
+      for (const FeaturePoint& point : project.points)
+        if (point.vertex == c[k])
+          for (const PhotoPoint& at : point.at)
+            if (at.photo == p) fn(m.map.cornerUV[f][k], at, point);
+  }
+}
+
 TEST(CameraPipeline, PhotosOfTheObjectAreMappedByProjectionWithClicksExact) {
   DemoScene d = demoScene("camera_pipeline_projection", 4, 150, 1.0);
-  const Project project = loadProject(d.dir + "/project.json");
+  Project project = loadProject(d.dir + "/project.json");
+  project.options.correction = CorrectionMode::All;  // the paper's hard constraints (the default shrinks noise away)
   Pipeline pipeline;
   const PipelineResult r = pipeline.run(project);
   ASSERT_TRUE(r.cameras);
@@ -453,19 +526,10 @@ TEST(CameraPipeline, PhotosOfTheObjectAreMappedByProjectionWithClicksExact) {
   const Mapping& m = *r.mapping;
   const Mesh& mesh = m.partition->mesh;
   int checked = 0;
-  for (int f = 0; f < mesh.numFaces(); ++f) {
-    const int p = m.map.facePhoto[f];
-    if (p < 0) continue;
-    const auto c = mesh.faceVertices(f);
-    for (int k = 0; k < 3; ++k)
-      for (const FeaturePoint& point : project.points)
-        if (point.vertex == c[k])
-          for (const PhotoPoint& at : point.at)
-            if (at.photo == p) {
-              EXPECT_LT((m.map.cornerUV[f][k] - Vec2(at.x, at.y)).norm(), 1e-6);
-              ++checked;
-            }
-  }
+  forEachMappedClick(m, project, [&](const Vec2& uv, const PhotoPoint& at, const FeaturePoint&) {
+    EXPECT_LT((uv - Vec2(at.x, at.y)).norm(), 1e-6);
+    ++checked;
+  });
   EXPECT_GT(checked, 100);
   // The stages and their order.
   std::vector<StageId> order;
@@ -482,6 +546,71 @@ TEST(CameraPipeline, PhotosOfTheObjectAreMappedByProjectionWithClicksExact) {
   // Most of what the photos see is mapped; no flip.
   EXPECT_GT(r.projection->result.seenFaces, mesh.numFaces() / 2);
   EXPECT_EQ(r.projection->result.emptyFaces, mesh.numFaces() - m.map.numMapped());
+}
+
+// Mean distance, photo pixels, from each mapped face corner's UV to its true projection (no correction).
+double meanDistanceToTruth(const PipelineResult& r, const SynthScene& scene) {
+  const Mesh& mesh = r.mapping->partition->mesh;
+  double sum = 0;
+  int n = 0;
+  for (int f = 0; f < mesh.numFaces(); ++f) {
+    const int p = r.mapping->map.facePhoto[f];
+    if (p < 0) continue;
+    const auto c = mesh.faceVertices(f);
+    for (int k = 0; k < 3; ++k) {
+      Vec2 truth;
+      if (!trueCamera(scene, p).project(mesh.position(c[k]), truth)) continue;
+      sum += (r.mapping->map.cornerUV[f][k] - truth).norm();
+      ++n;
+    }
+  }
+  EXPECT_GT(n, 1000);
+  return sum / std::max(n, 1);
+}
+
+TEST(CameraPipeline, NoisyClicksMoveTheTextureOnlyBeyondTheirNoiseAndExactClicksStayExact) {
+  // Issue 37: with many clicks of 1 px noise, the paper's hard constraints pull the texture onto each noisy
+  // click; the default `noise` mode moves it only by what the noise does not explain, and lands it near the camera's
+  // projection, as `off` does. The fit tells the noise (per axis) within 25%.
+  DemoScene noisy = demoScene("camera_pipeline_noise", 4, 200, 1.0);
+  Project project = loadProject(noisy.dir + "/project.json");
+  ASSERT_EQ(project.options.correction, CorrectionMode::Noise);  // the default
+  std::map<CorrectionMode, double> error;
+  for (CorrectionMode mode : {CorrectionMode::Noise, CorrectionMode::All, CorrectionMode::Off}) {
+    project.options.correction = mode;
+    Pipeline pipeline;
+    const PipelineResult r = pipeline.run(project);
+    ASSERT_EQ(r.cameras->fitted, 4);
+    error[mode] = meanDistanceToTruth(r, noisy.scene);
+    if (mode == CorrectionMode::Noise)
+      for (const auto& c : r.report()["cameras"]) EXPECT_NEAR(c["click_noise_px"].get<double>(), 1.0, 0.25) << c;
+  }
+  std::printf("mean distance of the mapped corners to their true projection: noise %.3f px, all %.3f px, off %.3f px\n",
+              error[CorrectionMode::Noise], error[CorrectionMode::All], error[CorrectionMode::Off]);
+  EXPECT_LT(error[CorrectionMode::Noise], 0.8 * error[CorrectionMode::All])
+      << "noise " << error[CorrectionMode::Noise] << " px, all " << error[CorrectionMode::All] << " px";
+  EXPECT_LT(error[CorrectionMode::Noise], error[CorrectionMode::Off] + 0.1)
+      << "noise " << error[CorrectionMode::Noise] << " px, off " << error[CorrectionMode::Off] << " px";
+
+  // Exact clicks, one of them moved 3 px: the fit sees no noise, so every click is kept exactly, the moved one too.
+  DemoScene exact = demoScene("camera_pipeline_exact", 4, 200, 0);
+  project = loadProject(exact.dir + "/project.json");
+  FeaturePoint* moved = nullptr;
+  for (FeaturePoint& point : project.points)
+    if (!moved && point.at.size() == 1 && point.at[0].photo == 0) moved = &point;
+  ASSERT_TRUE(moved);
+  moved->at[0].x += 3;
+  Pipeline pipeline;
+  const PipelineResult r = pipeline.run(project);
+  for (const auto& c : r.report()["cameras"]) EXPECT_LT(c["click_noise_px"].get<double>(), 0.05) << c;
+  int checked = 0, movedChecked = 0;
+  forEachMappedClick(*r.mapping, project, [&](const Vec2& uv, const PhotoPoint& at, const FeaturePoint& point) {
+    EXPECT_LT((uv - Vec2(at.x, at.y)).norm(), 0.05);
+    ++checked;
+    movedChecked += &point == moved;
+  });
+  EXPECT_GT(checked, 100);
+  EXPECT_GT(movedChecked, 0);
 }
 
 TEST(CameraPipeline, ARunThatKeepsNothingForTheNextGivesTheSameResult) {
@@ -877,6 +1006,14 @@ TEST(PhotoMode, TheAutoDecisionHasAMarginAndHysteresis) {
   EXPECT_EQ(decidePhotoMode(subjectFirst, evidence(16, 0.95, 0.5), o).mode, PhotoMode::Subject);
   // ...and another subject becomes the object itself only when all its clicks clearly fit.
   EXPECT_EQ(decidePhotoMode(subjectFirst, evidence(16, 1, 0.2), o).mode, PhotoMode::Object);
+  // First clicks of 3 px noise that missed the spread by a hair: a handful more keeps the decision, dozens that
+  // agree with the camera and show its silhouette make it the object itself; a similar face's dozens do not.
+  const CameraEvidence noisyFirst = evidence(8, 1, 0.76, 0.99);
+  EXPECT_EQ(decidePhotoMode(noisyFirst, evidence(16, 1, 0.62, 0.99), o).mode, PhotoMode::Subject);
+  EXPECT_EQ(decidePhotoMode(noisyFirst, evidence(o.joinClicks, 1, 0.62, 0.99), o).mode, PhotoMode::Object);
+  EXPECT_EQ(decidePhotoMode(noisyFirst, evidence(o.joinClicks, 0.95, 0.62, 0.99), o).mode, PhotoMode::Subject);
+  EXPECT_EQ(decidePhotoMode(evidence(8, 1, 0.6, 0.43), evidence(60, 1, 0.6, 0.43), o).mode, PhotoMode::Subject);
+  EXPECT_EQ(decidePhotoMode(subjectFirst, evidence(60, 1, 0.6), o).mode, PhotoMode::Subject);  // no silhouette
 }
 
 TEST(PhotoMode, OneClickMoreMovedOrFewerLeavesTheModeOfTheFaceAndTigerCasesUnchanged) {

@@ -273,7 +273,13 @@ std::string Editor::cameraCaption(int photo) const {
   if (!fit->fits) return "  paper's path";
   std::snprintf(text, sizeof text, "  projection: f %.0f px, %d/%zu agree, median %.2f px, max %.2f px",
                 fit->camera.focal(), fit->inliers, fit->clicks.size(), fit->medianResidual, fit->maxResidual);
-  return text;
+  std::string caption = text;
+  // The noise the correction's `noise` mode leaves to the camera (a click moves the texture beyond 3x it).
+  if (doc_.project().options.correction == CorrectionMode::Noise && fit->noisePx > 0.005) {
+    std::snprintf(text, sizeof text, ", clicks' noise %.2f px", fit->noisePx);
+    caption += text;
+  }
+  return caption;
 }
 
 }  // namespace montage

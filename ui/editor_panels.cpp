@@ -715,6 +715,15 @@ void Editor::pipelineTab() {
     int mode = static_cast<int>(o.inpaintMode);
     if (ImGui::Combo("inpainting", &mode, kInpaintModeNames.data(), static_cast<int>(kInpaintModeNames.size())))
       o.inpaintMode = InpaintMode(mode), commit = true;
+    int correction = static_cast<int>(o.correction);
+    if (ImGui::Combo("click correction", &correction, kCorrectionModeNames.data(),
+                     static_cast<int>(kCorrectionModeNames.size())))
+      o.correction = CorrectionMode(correction), commit = true;
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "photos of the object itself: how far the texture follows each click beyond the fitted camera. noise: "
+          "as far as a click is off by more than the clicks' noise (exact clicks stay exact); all: every click "
+          "exactly; inliers: the clicks that agree with the camera; off: the camera alone");
     if (ImGui::Checkbox("weld seams of the mesh", &o.weldIdenticalPositions)) commit = true;
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip(

@@ -52,10 +52,11 @@ enum class PhotoMode { Auto, Object, Subject };
 inline constexpr std::array<const char*, 3> kPhotoModeNames = {"auto", "object", "subject"};
 
 // Which clicks the correction field of projection mapping keeps exact (mapping/projection.h): none
-// (the camera alone), those that agree with the camera, or every click (the paper: clicks are hard
-// constraints).
-enum class CorrectionMode { Off, Inliers, All };
-inline constexpr std::array<const char*, 3> kCorrectionModeNames = {"off", "inliers", "all"};
+// (the camera alone), those that agree with the camera, every click (the paper: clicks are hard
+// constraints), or every click as far as its residual exceeds what the clicks' noise explains (exact clicks stay
+// exact, noisy ones no longer pull the texture off the camera's projection).
+enum class CorrectionMode { Off, Inliers, All, Noise };
+inline constexpr std::array<const char*, 4> kCorrectionModeNames = {"off", "inliers", "all", "noise"};
 
 // Name tables by enum type, for the project reader and writer and the editor's combo boxes.
 template <class E>
@@ -129,7 +130,7 @@ struct PipelineOptions {
                            // slower; 9 smallest, 25x slower)
   CameraMode cameraMode = CameraMode::Auto;  // camera fit per photo; off = every photo takes the paper's path
   double cameraThreshold = 0.006;            // camera fit: a click agrees within this share of the image diagonal
-  CorrectionMode correction = CorrectionMode::All;  // projection: clicks the correction field keeps exact
+  CorrectionMode correction = CorrectionMode::Noise;  // projection: clicks the correction field keeps exact
   double viewSmoothness = 1.0;                      // projection: seam cost of view selection (0 = best view per face)
   int maxPhotoSide = 0;  // load: working resolution, photos kept at most this many pixels a side (0 = full;
                          // else 256..16384); coordinates stay the files' pixels; less memory, coarser texture

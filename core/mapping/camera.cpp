@@ -255,6 +255,43 @@ std::vector<CameraClick> photoClicks(const Project& project, int photo) {
 
 namespace {
 
+// The clicks' noise, pixels per axis (CameraFit::noisePx). Two estimates, each an upper bound, the smaller kept:
+// the agreeing clicks' residuals (their median square over chi-square(2)'s median, 2 ln 2, scaled by the degrees of
+// freedom the camera's parameters take), which a misfit the camera cannot explain (a lens term it dropped, a mesh
+// that differs from the photo) inflates; and the differences between each agreeing click's residual and its nearest
+// agreeing neighbour's on the surface (a variogram's nugget), which a smooth misfit barely enters. 0 with too few
+// clicks to tell.
+double clickNoise(const Mesh& mesh, const CameraFit& fit) {
+  std::vector<int> in;
+  for (size_t i = 0; i < fit.clicks.size(); ++i)
+    if (fit.inlier[i] && std::isfinite(fit.residual[i])) in.push_back(static_cast<int>(i));
+  const int n = static_cast<int>(in.size());
+  const int parameters = 7 + (fit.camera.k1 != 0) + (fit.camera.k2 != 0);
+  const int dof = 2 * n - parameters;
+  if (n < 6 || dof < 8) return 0;
+  constexpr double kChi2Median = 1.3862943611198906;  // 2 ln 2
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  std::vector<double> own(n), pair(n);
+  for (int a = 0; a < n; ++a) {
+    const int i = in[a];
+    const Vec2 r = fit.clicks[i].pixel - fit.reprojected[i];
+    own[a] = r.squaredNorm();
+    const Vec3 p = mesh.position(fit.clicks[i].vertex);
+    double nearest = kInf;
+    for (int b = 0; b < n; ++b) {
+      const int j = in[b];
+      const double d = b == a ? kInf : (mesh.position(fit.clicks[j].vertex) - p).squaredNorm();
+      if (d < nearest) nearest = d, pair[a] = (r - (fit.clicks[j].pixel - fit.reprojected[j])).squaredNorm();
+    }
+  }
+  const double global = median(own) / kChi2Median * (2.0 * n / dof);
+  const double nugget = median(pair) / (2 * kChi2Median);
+  return std::sqrt(std::min(global, nugget));
+}
+
 // Fills the per-click figures of `fit` from its camera.
 void measureClicks(const Mesh& mesh, CameraFit& fit) {
   const size_t n = fit.clicks.size();
@@ -280,6 +317,7 @@ void measureClicks(const Mesh& mesh, CameraFit& fit) {
     for (double r : in) s += r * r;
     fit.rmsResidual = std::sqrt(s / in.size());
   }
+  fit.noisePx = clickNoise(mesh, fit);
 }
 
 // The camera in world coordinates from LM's parameters on points centred on `centre`:
@@ -437,7 +475,11 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
       const double rss1 = std::pow(rmsOf(rq, in), 2) * count;
       const int dof = 2 * count - 7 - radial;
       const double f = dof > 0 && rss1 > 0 ? ((rss0 - rss1) / radial) / (rss1 / dof) : 0;
-      if (countOf(inq) >= count && f > o.distortionF) p = q;
+      CameraFit::RadialTrial& trial = fit.radialTrial;
+      trial = {radial, rss0 - rss1, rss1, dof, countOf(inq) >= count, false};
+      trial.kept = trial.agrees && f > o.distortionF;
+      fit.radialPooled = trial.agrees && !trial.kept && o.keepRadial;
+      if (trial.kept || fit.radialPooled) p = q;
     }
   }
 
@@ -871,8 +913,23 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
   measureClicks(mesh, refined);
   int count = 0;
   const double after = meanDistance(refined.camera.pinhole, refined.camera, &count);
-  // Kept when the silhouette agrees better and the clicks still agree within their noise.
-  if (!(after < before) || refined.inliers < fit.inliers || refined.rmsResidual > 1.5 * fit.rmsResidual + 0.05) return;
+  // Kept when the silhouette agrees better and the clicks still agree within their noise: as many agree and their
+  // RMS rises by at most half, or, by a likelihood-ratio test, the rise of their (truncated) sum of squares stays
+  // within chi-square's 99.9% quantile with the camera's degrees of freedom, in units of the clicks' variance per
+  // axis (the clicks' own fit minimises that sum, so the true camera costs more on them too). The first alone refused
+  // most refinements at 3 px of noise, where a click or two cross the agreement threshold either way; the second
+  // alone refused some where the camera lacks a lens term the photo has, and the silhouette's camera was better.
+  const auto clickCost = [&](const CameraFit& f) {
+    double cost = 0;
+    for (double r : f.residual) cost += std::min(r * r, fit.thresholdPx * fit.thresholdPx);
+    return cost;
+  };
+  const int parameters = 7 + radial;
+  const double variance = fit.rmsResidual * fit.rmsResidual * fit.inliers / std::max(1, 2 * fit.inliers - parameters);
+  constexpr double kChi2Quantile999[] = {24.32, 26.12, 27.88};  // 7, 8 and 9 degrees of freedom
+  const bool asManyAgree = refined.inliers >= fit.inliers && refined.rmsResidual <= 1.5 * fit.rmsResidual + 0.05;
+  const bool withinNoise = clickCost(refined) - clickCost(fit) <= kChi2Quantile999[radial] * variance;
+  if (!(after < before) || !(asManyAgree || withinNoise)) return;
   refined.silhouettePoints = count;
   refined.silhouetteResidualPx = after;
   refined.seconds = fit.seconds + secondsSince(start);
@@ -892,12 +949,24 @@ CameraFit fitFromCamera(const Mesh& mesh, const PhotoCamera& camera, const std::
   return fit;
 }
 
+double pooledRadialF(const std::vector<const CameraFit*>& fits) {
+  double drop = 0, rss = 0;
+  int terms = 0, dof = 0, photos = 0;
+  for (const CameraFit* f : fits) {
+    const CameraFit::RadialTrial& t = f->radialTrial;
+    if (t.terms == 0 || !t.agrees || t.dof <= 0) continue;
+    drop += t.drop, rss += t.rss, terms += t.terms, dof += t.dof, ++photos;
+  }
+  return photos >= 2 && rss > 0 ? (drop / terms) / (rss / dof) : 0;
+}
+
 std::string describeFit(const CameraFit& fit) {
   std::string s = fit.fits ? "fits: " : "does not fit: ";
   if (!fit.fits) return s + fit.reason;
   s += "focal " + fixed(fit.camera.focal(), 1) + " px (fov " + fixed(fit.camera.fovYDeg(), 1) + " deg";
   if (fit.camera.k1 != 0 || fit.camera.k2 != 0)
-    s += ", k1 " + fixed(fit.camera.k1, 4) + ", k2 " + fixed(fit.camera.k2, 4);
+    s += ", k1 " + fixed(fit.camera.k1, 4) + ", k2 " + fixed(fit.camera.k2, 4) +
+         (fit.radialPooled ? " (paid for by the photos of its camera together)" : "");
   s += "), " + std::to_string(fit.inliers) + "/" + std::to_string(fit.clicks.size()) + " clicks agree, median " +
        fixed(fit.medianResidual, 2) + " px, max " + fixed(fit.maxResidual, 2) + " px";
   if (fit.silhouettePoints > 0)

@@ -64,6 +64,11 @@ struct CameraFitOptions {
   double minDistortionRmsPx = 0.02;  // the pinhole fit's RMS residual must exceed this for radial terms to be tried
   double distortionF = 10;           // keep the radial terms only when their F statistic (residual drop per term
                                      // over the residual variance) exceeds this: p < 0.005, not a fit to noise
+  bool keepRadial = false;           // keep them whenever tried and as many clicks agree: the camera stage's
+                                     // pooled decision for the photos of one camera (pooledRadialF)...
+  double pooledDistortionF = 2;      // ...taken when their pooled F exceeds this: Akaike's criterion (the terms
+                                     // predict the texture's place better), not a significance test; dropping a
+                                     // real k1 costs up to 12 dB, keeping a needless one 0.1-0.3 dB (pipeline.md)
   double minFovDeg = 2, maxFovDeg = 150;  // focal lengths outside this field of view are implausible
   int focalSamples = 16;                  // focal lengths tried for the RANSAC start (log-spaced over the fov range)
   // RANSAC iterations per focal length; 0: enough to draw, with 99.9% confidence, one sample of five
@@ -105,6 +110,19 @@ struct CameraFit {
   int inliers = 0;
   double medianResidual = 0, maxResidual = 0;  // over the inliers, pixels
   double rmsResidual = 0;                      // over the inliers, pixels
+  // The radial terms' trial of fitCamera (terms 0: not tried): the F test's parts on the agreeing clicks, whether
+  // as many clicks agree with them, and whether they were kept. The camera stage pools the trials of the photos of
+  // one camera (pooledRadialF), so that noise does not drop the terms in one photo and keep them in another.
+  struct RadialTrial {
+    int terms = 0;
+    double drop = 0, rss = 0;  // sum of squared residuals: its drop with the terms, and what is left
+    int dof = 0;               // 2 x agreeing clicks - camera parameters
+    bool agrees = false, kept = false;
+  } radialTrial;
+  bool radialPooled = false;  // the terms are kept although this photo alone does not pay for them: the photos of
+                              // its camera together do (CameraFitOptions::keepRadial)
+  double noisePx = 0;    // the clicks' noise, pixels per axis, as the agreeing clicks' residuals tell it (0: too few
+                         // to tell); the correction field's `noise` mode moves the texture only beyond it
   bool subject = false;  // a photo of another subject (fitCameraToEveryClick): a camera fitted to every click, which a
                          // warp then keeps exact (mapping/subject.h); every click is an inlier
   std::string
@@ -167,6 +185,10 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
 // A fit made from a known camera (the synthetic scenes' true cameras: the projection oracle), with
 // the residuals of `clicks` against it. Always `fits`.
 CameraFit fitFromCamera(const Mesh& mesh, const PhotoCamera& camera, const std::vector<CameraClick>& clicks);
+
+// The pooled F statistic of the radial terms over `fits` (the object photos of one camera whose trial agrees): their
+// residual drops per term over their residual variance, summed. 0 when fewer than two photos tried them.
+double pooledRadialF(const std::vector<const CameraFit*>& fits);
 
 // A one-line summary: "fits: focal 1123 px (fov 49.1 deg), 42/43 clicks agree, median 0.21 px, max 0.80 px".
 std::string describeFit(const CameraFit& fit);

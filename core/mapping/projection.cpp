@@ -89,7 +89,8 @@ Vec2 CorrectionField::at(const Vec3& p) const {
   return d;
 }
 
-CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode, double localRadiusPx) {
+CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode, double localRadiusPx,
+                                double noiseThreshold) {
   CorrectionField field;
   if (mode == CorrectionMode::Off) return field;
   std::vector<Vec2> residual;
@@ -99,7 +100,12 @@ CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, Correcti
     if (mode == CorrectionMode::Inliers && !fit.inlier[i]) continue;
     const Vec3 p = mesh.position(fit.clicks[i].vertex);
     field.centres.push_back(p);
-    residual.push_back(fit.clicks[i].pixel - fit.reprojected[i]);
+    Vec2 r = fit.clicks[i].pixel - fit.reprojected[i];
+    if (mode == CorrectionMode::Noise) {  // soft threshold; a click inside it still pins its vertex where the camera
+      const double tau = noiseThreshold * fit.noisePx, length = r.norm();  // puts it
+      r *= length > tau ? 1 - tau / length : 0.0;
+    }
+    residual.push_back(r);
     pixelSize.push_back(fit.camera.pinhole.toCamera(p).z() / fit.camera.focal());
   }
   const int n = static_cast<int>(field.centres.size());
@@ -745,7 +751,7 @@ ProjectionResult projectionFill(const Scene& scene, const Partition& partition, 
   tbb::parallel_for(size_t(0), fitted.size(), [&](size_t k) {
     const int p = fitted[k];
     out.fields[p] = fits[p].subject ? subjectField(scene.project, fits[p], p)
-                                    : correctionField(mesh, fits[p], o.correction, o.localRadiusPx);
+                                    : correctionField(mesh, fits[p], o.correction, o.localRadiusPx, o.noiseThreshold);
     if (!out.fields[p].outlines.empty()) out.fields[p].walls = outlineWalls(scene.project, partition, p);
     if (cache) {
       const PhotoCamera& c = fits[p].camera;

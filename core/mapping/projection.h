@@ -62,7 +62,10 @@ struct CorrectionField {
 
 // The field of one photo's clicks (mode decides which), over the positions of `mesh`.
 // `localRadiusPx`: the smallest reach of a click's bump, photo pixels.
-CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode, double localRadiusPx = 8);
+// `noiseThreshold`: mode `noise` moves the texture at a click by its residual shrunk by this many times
+// fit.noisePx (soft thresholding: a residual the noise explains moves nothing, exact clicks stay exact).
+CorrectionField correctionField(const Mesh& mesh, const CameraFit& fit, CorrectionMode mode, double localRadiusPx = 8,
+                                double noiseThreshold = 3);
 
 // The field of a photo of another subject (fit.subject): the warp of its clicks (from their projections to the
 // clicks), and its outline: the project's closed feature polygons in that photo.
@@ -76,8 +79,10 @@ std::vector<std::pair<int, int>> outlineWalls(const Project& project, const Part
 bool predictPixel(const CameraFit& fit, const CorrectionField& field, const Vec3& p, Vec2& pixel);
 
 struct ProjectionOptions {
-  CorrectionMode correction = CorrectionMode::All;  // clicks kept exact by the correction field
+  CorrectionMode correction = CorrectionMode::Noise;  // clicks kept exact by the correction field
   double localRadiusPx = 8;       // correction: a click's own bump reaches at least this far (photo pixels)
+  double noiseThreshold = 3;      // correction `noise`: a click moves the texture by its residual less this many
+                                  // times the clicks' noise (CameraFit::noisePx; 3: 99% of pure-noise residuals)
   double smoothness = 1.0;        // view selection: weight of a seam edge (Potts, per mean edge length) against
                                   // the data cost of a face (per mean face area); 0 = best view per face
   double minCos = 0.05;           // faces seen more obliquely than this (cosine) are not textured from a photo

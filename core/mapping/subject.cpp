@@ -111,7 +111,9 @@ ModeDecision decidePhotoMode(const CameraEvidence& first, const CameraEvidence& 
                   : "the object itself: " + firstWords + ", and " + evidenceWords(all);
   } else {
     const bool join = objectLike(all, o.toObjectShare, o.toObjectSpread,
-                                 std::min(o.toObjectSpread, o.objectSpreadAlone), o.toObjectSilhouette);
+                                 std::min(o.toObjectSpread, o.objectSpreadAlone), o.toObjectSilhouette) ||
+                      (all.clicks >= o.joinClicks &&
+                       objectLike(all, o.toObjectShare, o.objectSpread, o.objectSpreadAlone, o.toObjectSilhouette));
     d.mode = join ? PhotoMode::Object : PhotoMode::Subject;
     d.why = join ? firstWords + ", but all clearly do (" + evidenceWords(all) + "): the object itself"
                  : "another subject: " + firstWords + " (" + evidenceWords(first) + ")";

@@ -46,6 +46,10 @@ struct SubjectOptions {
   double toObjectShare = 0.97;        // a photo of another subject becomes the object itself above this share...
   double toObjectSpread = 0.35;       // ...and below this spread
   double toObjectSilhouette = 0.92;   // ...and above this silhouette agreement
+  // ...or, once it has this many clicks, when all of them pass the first decision's spread with the flip's share and
+  // silhouette: the first clicks' spread is a noisy figure (8 clicks of 3 px noise at 1024 px reach 0.76), while
+  // dozens of clicks that agree with one camera and show its silhouette are the object itself.
+  int joinClicks = 32;
   // Warp (moving least squares): weights 1 / distance^(2 alpha); affine (non-uniform scale and shear: proportions
   // that differ) or similarity (docs/pipeline.md compares them).
   double warpAlpha = 1.0;

@@ -401,7 +401,8 @@ TEST(EditorSession, PhotosAreDroppedRemovedAndReorderedAndEveryStepUndoes) {
   copyDemo(dir);
   writeText(dir + "/s.txt",
             "wait_frames 2\ndrop tiger_left.png tiger_right.png tiger_sumatran_stamp.png\nwait_frames 3\n"
-            "state dropped.json\nopen project.json\ntab photos\nclick_button \"remove photo 1\"\nwait_frames 2\n"
+            "state dropped.json\nopen project.json\nwait_worker 900\ntab photos\nclick_button \"remove photo "
+            "1\"\nwait_frames 2\n"
             "state removed.json\nsave removed.json\nkey ctrl+z\nsave undone.json\nclick_button \"photo down 0\"\n"
             "wait_frames 2\nsave moved.json\nkey ctrl+z\nsave moved_undone.json\nphoto_flag 1 mirror on\n"
             "save mirrored.json\nkey ctrl+z\nsave mirror_undone.json\ndrop cat.obj\nwait_frames 3\n"

@@ -74,6 +74,40 @@ void Editor::queueClick(double x, double y, int button) {
   inputQueue_.push_back(move);  // one more frame so the release is handled before the next action
 }
 
+void Editor::queueButtonClick(const std::string& label, const std::string& where, int attempts) {
+  // A panel may still be laying out (a photo loading, the worker's bar appearing): aim, and press only when the
+  // button is still under the pointer in the frame after the move, as a user's eye would check.
+  InputStep aim;
+  aim.call = [this, label, where, attempts] {
+    TM_CHECK(attempts > 0, where + ": button '" + label + "' kept moving");
+    TM_CHECK(buttonRects_.count(label), where + ": button '" + label + "' left the screen");
+    const Rect r = buttonRects_.at(label);
+    const double x = r.x + r.w / 2, y = r.y + r.h / 2;
+    std::deque<InputStep> rest;
+    rest.swap(inputQueue_);
+    InputStep move;
+    move.hasPointer = true;
+    move.x = x;
+    move.y = y;
+    inputQueue_.push_back(move);
+    InputStep check;
+    check.call = [this, label, where, attempts, x, y] {
+      const auto it = buttonRects_.find(label);
+      std::deque<InputStep> later;
+      later.swap(inputQueue_);
+      if (it != buttonRects_.end() && it->second.contains(x, y)) {
+        queueClick(x, y);
+      } else {
+        queueButtonClick(label, where, attempts - 1);
+      }
+      inputQueue_.insert(inputQueue_.end(), later.begin(), later.end());
+    };
+    inputQueue_.push_back(std::move(check));
+    inputQueue_.insert(inputQueue_.end(), rest.begin(), rest.end());
+  };
+  inputQueue_.push_back(std::move(aim));
+}
+
 void Editor::queueDrag(double x0, double y0, double x1, double y1, int button, int steps) {
   InputStep s;
   s.hasPointer = true;
@@ -400,15 +434,7 @@ void Editor::runAction(const ScriptAction& a) {
     const std::string label = a.text(0);
     waitFor(where + " (no button '" + label + "' on screen)", 10,
             [this, label] { return buttonRects_.count(label) > 0; });
-    InputStep call;
-    call.call = [this, label] {
-      const Rect r = buttonRects_.at(label);
-      std::deque<InputStep> rest;
-      rest.swap(inputQueue_);
-      queueClick(r.x + r.w / 2, r.y + r.h / 2);
-      inputQueue_.insert(inputQueue_.end(), rest.begin(), rest.end());
-    };
-    inputQueue_.push_back(std::move(call));
+    queueButtonClick(label, where, 20);
   } else if (a.verb == "select_vertex") {
     const int v = a.integer(0);
     requireVertex(v);

@@ -635,8 +635,8 @@ int main(int argc, char** argv) {
   bool infoJson = false;
   auto* info = app.add_subcommand("info", "Validation report of a mesh, photo, model or project");
   info->add_option("FILE", infoFile,
-                   "mesh (.obj .ply .off .stl .glb .gltf), photo (.png .jpg .jpeg .tif .tiff .bmp), model (.glb "
-                   ".gltf) or project (.json)")
+                   "mesh (" + montage::meshExtensionList() +
+                       "), photo (.png .jpg .jpeg .tif .tiff .bmp), model (.glb .gltf) or project (.json)")
       ->required();
   info->add_flag("--json", infoJson, "print the report as one JSON object (docs/command-line.md)");
 

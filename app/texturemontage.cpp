@@ -8,6 +8,7 @@
 
 #include "base/process_tuning.h"
 #include "editor.h"
+#include "io/mesh_io.h"
 
 using namespace montage;
 
@@ -17,7 +18,7 @@ int main(int argc, char** argv) {
   EditorOptions options;
   std::string size = "1280x800";
   bool noWait = false, noVsync = false;
-  app.add_option("FILE", options.file, "project (.json) or mesh (.obj .ply .off .stl .glb .gltf) to open");
+  app.add_option("FILE", options.file, "project (.json) or mesh (" + montage::meshExtensionList() + ") to open");
   app.add_option("--script", options.script, "run a script of UI actions (docs/editor.md)");
   app.add_option("--screenshot", options.screenshot,
                  "render, save the window as this PNG and exit (waits for the worker's result first)");

@@ -9,7 +9,7 @@ BUILD_PKGS=(
   build-essential cmake pkg-config
   libglfw3-dev libimgui-dev libglm-dev libopenmesh-dev libeigen3-dev libstb-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-photo-dev libopencv-calib3d-dev libnanoflann-dev
-  nlohmann-json3-dev libcli11-dev libtinygltf-dev libgtest-dev
+  nlohmann-json3-dev libcli11-dev libtinygltf-dev libassimp-dev libgtest-dev
   libsuitesparse-dev libopenblas-dev libtbb-dev libpng-dev libjpeg-dev libtiff-dev liblcms2-dev
   libgl-dev
 )

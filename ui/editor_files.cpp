@@ -123,8 +123,7 @@ bool Editor::openFile(const std::string& path) {
     } else {
       std::error_code ec;
       TM_CHECK(fs::is_regular_file(abs, ec), located(abs, "file not found"));
-      TM_CHECK(ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl" || ext == ".glb" || ext == ".gltf",
-               located(abs, "not a project (.json) or a mesh (.obj .ply .off .stl .glb .gltf)"));
+      TM_CHECK(isMeshExtension(ext), located(abs, "not a project (.json) or a mesh (" + meshExtensionList() + ")"));
       project.mesh = abs;  // a new, unsaved project on this mesh
     }
     pendingView_ = project.view;  // shown once the mesh is (Editor::view3d)
@@ -157,10 +156,12 @@ bool Editor::openFile(const std::string& path) {
 
 void Editor::requestOpen() {
   guardUnsaved([this] {
+    std::vector<std::string> projectAndMesh = meshExtensions();
+    projectAndMesh.insert(projectAndMesh.begin(), ".json");
     dialogs_.request(DialogKind::OpenFile, "Open a project or a mesh",
-                     {{"Projects and meshes", {"*.json", "*.obj", "*.ply", "*.off", "*.stl", "*.glb", "*.gltf"}},
+                     {{"Projects and meshes", patternsOf(projectAndMesh)},
                       {"Projects", {"*.json"}},
-                      {"Meshes", {"*.obj", "*.ply", "*.off", "*.stl", "*.glb", "*.gltf"}},
+                      {"Meshes", patternsOf(meshExtensions())},
                       {"All files", {"*"}}},
                      "open", projectFolder());
   });
@@ -308,8 +309,7 @@ void Editor::handleDrop(const std::vector<std::string>& paths) {
   std::vector<std::string> images;
   for (const std::string& p : paths) {
     const std::string ext = lowerExtension(p);
-    const bool openable = ext == ".json" || ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl" ||
-                          ext == ".glb" || ext == ".gltf";
+    const bool openable = ext == ".json" || isMeshExtension(ext);
     if (openable && open.empty())
       open = p;
     else if (openable)

@@ -15,6 +15,7 @@
 #include "gl.h"
 #include "gl_util.h"
 #include "image/photo.h"
+#include "io/mesh_io.h"
 
 namespace fs = std::filesystem;
 
@@ -213,8 +214,7 @@ void Editor::missingFilesWindow() {
       if (m.field == "mesh") {
         if (button("Relink...", nullptr, "relink mesh"))
           dialogs_.request(DialogKind::OpenFile, "Relink the mesh",
-                           {{"Meshes", {"*.obj", "*.ply", "*.off", "*.stl", "*.glb", "*.gltf"}}, {"All files", {"*"}}},
-                           "relink_mesh", start);
+                           {{"Meshes", patternsOf(meshExtensions())}, {"All files", {"*"}}}, "relink_mesh", start);
       } else if (photo >= 0 && !mask) {
         if (button("Relink...", nullptr, "relink photo " + std::to_string(photo)))
           dialogs_.request(DialogKind::OpenFile, "Relink photo " + std::to_string(photo),

@@ -64,6 +64,12 @@ std::string soleExtension(const FileFilter& filter) {
 
 }  // namespace
 
+std::vector<std::string> patternsOf(const std::vector<std::string>& extensions) {
+  std::vector<std::string> out;
+  for (const std::string& e : extensions) out.push_back("*" + e);
+  return out;
+}
+
 FileDialogs::FileDialogs() {
   const char* no = std::getenv("TM_NO_ZENITY");
   zenity_ = !(no && *no && std::string(no) != "0") && onPath("zenity");

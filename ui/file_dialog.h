@@ -15,6 +15,8 @@ struct FileFilter {
   std::string name;                   // "Projects"
   std::vector<std::string> patterns;  // {"*.json"}
 };
+// A filter's patterns for extensions as lowerExtension gives them: {".obj", ".ply"} -> {"*.obj", "*.ply"}.
+std::vector<std::string> patternsOf(const std::vector<std::string>& extensions);
 
 struct DialogResult {
   std::string purpose;             // what the caller asked the dialog for ("open", "save_as", ...)

@@ -2,7 +2,11 @@
 // and the OBJ writer.
 #include "io/mesh_io.h"
 
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
 #include <algorithm>
+#include <assimp/Importer.hpp>
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -16,6 +20,7 @@
 #include <unordered_map>
 
 #include "base/fileio.h"
+#include "base/isolate.h"
 #include "io/model.h"
 
 namespace montage {
@@ -740,6 +745,150 @@ void readStl(const std::string& data, Soup& soup) {
              " bytes) but the file has " + std::to_string(data.size()) + " bytes");
 }
 
+// ---- FBX, Collada, 3DS and 3MF, through Assimp --------------------------------------------------------
+
+// Every mesh of the scene in world space (its nodes' transforms applied), polygons kept as polygons and fanned
+// as OBJ's are, the first UV set, faces labelled by their material's and their mesh's names. Assimp gives each
+// corner its own vertex where attributes differ; the caller welds identical positions, as for STL. Points and
+// lines are skipped, skins and morph targets are not carried, each with a warning.
+void readAssimpHere(const std::string& data, Soup& soup, const char* format, const char* name) {
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFileFromMemory(
+      data.data(), data.size(), aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure, format);
+  if (!scene) {
+    // Assimp names a file read from memory "$$$___magic___$$$.<format>": name the user's instead.
+    std::string why = importer.GetErrorString();
+    const std::string magic = std::string("$$$___magic___$$$.") + format;
+    for (size_t at; (at = why.find(magic)) != std::string::npos;)
+      why.replace(at, magic.size(), std::filesystem::path(soup.file).filename().string());
+    if (why == "std::bad_alloc") why = "it asks for more memory than a mesh of its size needs (damaged?)";
+    failAt(soup.file, 0,
+           "cannot read as " + std::string(name) + (why.empty() ? std::string(" (no reason given)") : ": " + why));
+  }
+  if (!scene->HasMeshes()) failAt(soup.file, 0, "the " + std::string(name) + " file holds no mesh");
+  soup.binary = true;  // messages name the polygon, counted over the whole scene
+  int points = 0, rigged = 0, morphed = 0, polygon = 0;
+  for (unsigned i = 0; i < scene->mNumMeshes; ++i) {
+    const aiMesh& m = *scene->mMeshes[i];
+    const int base = static_cast<int>(soup.positions.size()), uvBase = static_cast<int>(soup.texcoords.size());
+    for (unsigned v = 0; v < m.mNumVertices; ++v)
+      soup.positions.emplace_back(m.mVertices[v].x, m.mVertices[v].y, m.mVertices[v].z);
+    const bool uv = m.HasTextureCoords(0);
+    if (uv)
+      for (unsigned v = 0; v < m.mNumVertices; ++v)
+        soup.texcoords.emplace_back(m.mTextureCoords[0][v].x, m.mTextureCoords[0][v].y);
+    const aiMaterial* material =
+        m.mMaterialIndex < scene->mNumMaterials ? scene->mMaterials[m.mMaterialIndex] : nullptr;
+    soup.material.set(material ? material->GetName().C_Str() : "default", soup.triangles.size(), "default");
+    soup.group.set(m.mName.length ? m.mName.C_Str() : ("mesh " + std::to_string(i)).c_str(), soup.triangles.size(),
+                   "default");
+    rigged += m.HasBones(), morphed += m.mNumAnimMeshes > 0;
+    std::vector<int> corner, corneruv;
+    for (unsigned f = 0; f < m.mNumFaces; ++f) {
+      const aiFace& face = m.mFaces[f];
+      ++polygon;
+      if (face.mNumIndices < 3) {
+        ++points;
+        continue;
+      }
+      corner.resize(face.mNumIndices), corneruv.resize(face.mNumIndices);
+      for (unsigned k = 0; k < face.mNumIndices; ++k)
+        corner[k] = base + int(face.mIndices[k]), corneruv[k] = uvBase + int(face.mIndices[k]);
+      soup.addPolygon(corner.data(), uv ? corneruv.data() : nullptr, int(corner.size()), polygon);
+    }
+  }
+  auto note = [&](int count, const std::string& what) {
+    if (count) soup.notes.push_back({MeshFinding::Severity::Warning, what, {}, count});
+  };
+  note(points, std::to_string(points) + " points and lines skipped (only faces are textured)");
+  note(rigged, std::to_string(rigged) + " meshes have a skin: the export carries no bones or weights");
+  note(morphed, std::to_string(morphed) + " meshes have morph targets: the export carries none");
+}
+
+// The soup's fields as bytes, to come back from the reader's process.
+class Packer {
+ public:
+  std::string bytes;
+  template <class T>
+  void put(const std::vector<T>& v) {
+    put(uint64_t(v.size()));
+    bytes.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  void put(uint64_t n) { bytes.append(reinterpret_cast<const char*>(&n), sizeof n); }
+  void put(const std::string& s) {
+    put(uint64_t(s.size()));
+    bytes += s;
+  }
+  void put(const std::vector<std::string>& v) {
+    put(uint64_t(v.size()));
+    for (const std::string& s : v) put(s);
+  }
+};
+
+class Unpacker {
+ public:
+  explicit Unpacker(const std::string& b) : bytes_(b) {}
+  uint64_t count() {
+    uint64_t n = 0;
+    take(&n, sizeof n);
+    return n;
+  }
+  template <class T>
+  void get(std::vector<T>& v) {
+    v.resize(count());
+    take(v.data(), v.size() * sizeof(T));
+  }
+  void get(std::string& s) {
+    s.resize(count());
+    take(s.data(), s.size());
+  }
+  void get(std::vector<std::string>& v) {
+    v.resize(count());
+    for (std::string& s : v) get(s);
+  }
+
+ private:
+  void take(void* to, size_t n) {
+    TM_CHECK(n <= bytes_.size() - at_, "mesh reader: a short answer from the reader's process");
+    std::memcpy(to, bytes_.data() + at_, n);
+    at_ += n;
+  }
+  const std::string& bytes_;
+  size_t at_ = 0;
+};
+
+// Assimp's parsers are not ours: a damaged file can make them abort on an assert (3MF's zip reader) or ask for
+// tens of gigabytes (a flipped array length). They run in a child process (base/isolate.h) with a memory budget
+// of 2 GB plus 64 bytes for every byte of the file, and 10 minutes; the soup comes back as bytes.
+void readAssimp(const std::string& data, Soup& soup, const char* format, const char* name) {
+  const size_t budget = (size_t(2) << 30) + 64 * data.size();
+  const std::string packed = runIsolated(
+      [&] {
+        Soup s;
+        s.file = soup.file;
+        readAssimpHere(data, s, format, name);
+        Packer p;
+        p.put(s.positions), p.put(s.texcoords), p.put(s.triangles), p.put(uint64_t(s.hasUV)), p.put(s.uvIndex);
+        p.put(s.source), p.put(s.material.names), p.put(s.material.ids), p.put(s.group.names), p.put(s.group.ids);
+        p.put(uint64_t(s.notes.size()));
+        for (const MeshFinding& n : s.notes) p.put(n.what), p.put(uint64_t(n.count));
+        return p.bytes;
+      },
+      budget, 600, soup.file + ": reading it as " + name);
+  Unpacker u(packed);
+  u.get(soup.positions), u.get(soup.texcoords), u.get(soup.triangles);
+  soup.hasUV = u.count() != 0;
+  u.get(soup.uvIndex), u.get(soup.source), u.get(soup.material.names), u.get(soup.material.ids);
+  u.get(soup.group.names), u.get(soup.group.ids);
+  soup.binary = true;
+  for (uint64_t i = 0, n = u.count(); i < n; ++i) {
+    MeshFinding f;
+    u.get(f.what);
+    f.count = int(u.count());
+    soup.notes.push_back(f);
+  }
+}
+
 // ---- Files -----------------------------------------------------------------------------------------------
 
 void appendNumber(std::string& out, double x) {
@@ -752,14 +901,38 @@ using Reader = void (*)(const std::string&, Soup&);
 // The reader of a format ("obj"...); throws naming `path` when there is none.
 Reader meshReader(const std::string& ext, const std::string& path) {
   static const std::pair<const char*, Reader> readers[] = {
-      {"obj", readObj}, {"off", readOff}, {"ply", readPly}, {"stl", readStl}};
+      {"obj", readObj},
+      {"off", readOff},
+      {"ply", readPly},
+      {"stl", readStl},
+      {"fbx", [](const std::string& d, Soup& s) { readAssimp(d, s, "fbx", "FBX"); }},
+      {"dae", [](const std::string& d, Soup& s) { readAssimp(d, s, "dae", "Collada"); }},
+      {"3ds", [](const std::string& d, Soup& s) { readAssimp(d, s, "3ds", "3DS"); }},
+      {"3mf", [](const std::string& d, Soup& s) { readAssimp(d, s, "3mf", "3MF"); }}};
   const auto reader = std::find_if(std::begin(readers), std::end(readers), [&](auto& r) { return ext == r.first; });
   if (reader == std::end(readers))
-    failAt(path, 0, "unsupported mesh format " + quote(ext) + " (expected .obj, .ply, .off, .stl, .glb or .gltf)");
+    failAt(path, 0, "unsupported mesh format " + quote(ext) + " (expected " + meshExtensionList() + ")");
   return reader->second;
 }
 
 }  // namespace
+
+const std::vector<std::string>& meshExtensions() {
+  static const std::vector<std::string> all = {".obj",  ".ply", ".off", ".stl", ".glb",
+                                               ".gltf", ".fbx", ".dae", ".3ds", ".3mf"};
+  return all;
+}
+
+bool isMeshExtension(const std::string& ext) {
+  const auto& all = meshExtensions();
+  return std::find(all.begin(), all.end(), ext) != all.end();
+}
+
+std::string meshExtensionList(const char* separator) {
+  std::string out;
+  for (const std::string& e : meshExtensions()) out += (out.empty() ? "" : separator) + e;
+  return out;
+}
 
 LoadedMesh loadMesh(const std::string& path, const MeshLoadOptions& options) {
   std::string ext = lowerExtension(path);
@@ -778,7 +951,8 @@ LoadedMesh parseMesh(const std::string& bytes, const std::string& ext, const std
   const std::vector<std::array<Vec2, 3>> uv = soup.finish();
 
   MeshLoadOptions opts = options;
-  opts.weldIdenticalPositions |= ext == "stl";  // STL shares no vertices
+  // STL shares no vertices; Assimp splits them where a corner's attributes differ.
+  opts.weldIdenticalPositions |= ext == "stl" || ext == "fbx" || ext == "dae" || ext == "3ds" || ext == "3mf";
   LoadedMesh loaded = buildMesh(soup.positions, soup.triangles, uv, opts, path);
   loaded.report.format = ext;
   loaded.report.findings.insert(loaded.report.findings.end(), soup.notes.begin(), soup.notes.end());

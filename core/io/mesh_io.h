@@ -1,22 +1,30 @@
-// Mesh files: our own OBJ, PLY, OFF and STL parsers into a triangle soup, then buildMesh
-// (geometry/mesh.h) with its validation report; and a plain OBJ writer.
+// Mesh files: our own OBJ, PLY, OFF and STL parsers (Assimp's for FBX, Collada, 3DS, 3MF) into a triangle soup, then
+// buildMesh (geometry/mesh.h) with its validation report; and a plain OBJ writer.
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "geometry/mesh.h"
 #include "io/mesh_io.h"
 
 namespace montage {
 
-// Reads OBJ, PLY (ascii, binary), OFF or STL (ascii, binary), by extension; glTF (.glb, .gltf) through
-// loadGltfMesh (io/model.h). Polygons are fan
+// The mesh formats loadMesh reads, as lowerExtension gives them (".obj"...), and as a list for messages
+// (".obj .ply ... .3mf" with the default separator).
+const std::vector<std::string>& meshExtensions();
+bool isMeshExtension(const std::string& ext);
+std::string meshExtensionList(const char* separator = " ");
+
+// Reads OBJ, PLY (ascii, binary), OFF or STL (ascii, binary) with our own parsers, FBX, Collada (.dae), 3DS and
+// 3MF through Assimp, by extension; glTF (.glb, .gltf) through loadGltfMesh (io/model.h). Polygons are fan
 // triangulated. Faces that cannot enter a manifold half-edge mesh are dropped and reported one by
 // one. Throws montage::Error naming the file, line and reason when the file cannot be read or parsed.
 // A mesh that parses but cannot be processed (no faces, non-finite coordinates) comes back with
 // Error findings; use requireUsable() where processing must not go on.
 LoadedMesh loadMesh(const std::string& path, const MeshLoadOptions& options = {});
-// The same from the bytes of a file already in memory: `format` is "obj", "ply", "off" or "stl",
+// The same from the bytes of a file already in memory: `format` is "obj", "ply", "off", "stl", "fbx", "dae",
+// "3ds" or "3mf",
 // `name` names the source in messages (the fuzz targets use it).
 LoadedMesh parseMesh(const std::string& bytes, const std::string& format, const std::string& name,
                      const MeshLoadOptions& options = {});

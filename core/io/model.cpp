@@ -1042,10 +1042,9 @@ Vec3f TexturedModel::colorAt(int f, const Vec3& b) const {
 
 TexturedModel loadModel(const std::string& path) {
   const std::string ext = lowerExtension(path);
-  const bool known =
-      ext == ".obj" || ext == ".glb" || ext == ".gltf" || ext == ".ply" || ext == ".off" || ext == ".stl";
-  TM_CHECK(known, located(path, "unsupported model format " + quote(ext.empty() ? "(no extension)" : ext) +
-                                    " (expected .obj, .glb, .gltf, .ply, .off or .stl)"));
+  TM_CHECK(isMeshExtension(ext),
+           located(path, "unsupported model format " + quote(ext.empty() ? "(no extension)" : ext) + " (expected " +
+                             meshExtensionList() + ")"));
   std::error_code ec;
   TM_CHECK(fs::is_regular_file(path, ec), located(path, "file not found"));
   if (ext == ".obj") return loadObjModel(path);

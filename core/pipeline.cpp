@@ -19,6 +19,7 @@
 #include "bench/deform.h"
 #include "geometry/predicates.h"
 #include "image/cutout.h"
+#include "io/mesh_anchors.h"
 #include "io/mesh_io.h"
 #include "io/project_warnings.h"
 #include "mapping/simplify.h"
@@ -517,10 +518,10 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
   return out;
 }
 
-std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const JobControl& job, bool& cached) {
+std::shared_ptr<const Scene> Pipeline::loadScene(const Project& given, const JobControl& job, bool& cached) {
   // The mesh and each photo are reloaded only when their files changed.
   auto scene = std::make_shared<Scene>();
-  scene->project = project;
+  Project project = given;
   const std::string meshFile = fileKey(project.mesh);
   cached = meshFile == meshFile_ && cachedMesh_;
   if (!cached) {
@@ -535,13 +536,18 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
            located(project.mesh,
                    "options.bakeInto \"meshUVs\": the mesh has no texture coordinates (OBJ vt, glTF "
                    "TEXCOORD) to bake into; use bakeInto \"atlas\" for a new layout"));
+  // A mesh file that changed since the project was saved (another vertex order, a retopology): the project's ids
+  // are carried to it by their saved positions, and what moved is said (io/mesh_anchors.h).
+  const MeshCarry carry = carryToMesh(project, *cachedMesh_);
+  scene->project = project;
   // A mesh split at UV seams: the stages work on it welded (once per mesh file).
   const bool weld = project.options.weldIdenticalPositions;
   if (!cached || weld != weldTried_) {
     weldTried_ = weld;
     cachedWelded_ = {};
     if (weld) {
-      WeldedMesh w = weldIdenticalPositions(*cachedMesh_);
+      // In canonical order: the same surface listed in another order (a re-export) is the same mesh to the stages.
+      WeldedMesh w = weldIdenticalPositions(*cachedMesh_, true);
       if (w.mesh) {
         cachedWelded_.mesh = std::move(w.mesh);
         cachedWelded_.report = std::move(w.report);
@@ -565,14 +571,15 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
     scene->meshReport.format = cachedMeshReport_.format;
     scene->meshReport.inputVertices = cachedMeshReport_.inputVertices;
     scene->meshReport.inputFaces = cachedMeshReport_.inputFaces;
-    scene->meshReport.findings.insert(
-        scene->meshReport.findings.begin(),
-        {MeshFinding::Severity::Warning,
-         std::to_string(cachedWelded_.merged) +
-             " vertices share their position with another (the mesh is split at UV seams): they are welded for "
-             "mapping, and the export keeps the mesh's own vertices",
-         {},
-         cachedWelded_.merged});
+    if (cachedWelded_.merged > 0)
+      scene->meshReport.findings.insert(
+          scene->meshReport.findings.begin(),
+          {MeshFinding::Severity::Warning,
+           std::to_string(cachedWelded_.merged) +
+               " vertices share their position with another (the mesh is split at UV seams): they are welded for "
+               "mapping, and the export keeps the mesh's own vertices",
+           {},
+           cachedWelded_.merged});
   }
   std::vector<CachedPhoto> photos;
   for (size_t i = 0; i < project.photos.size(); ++i) {
@@ -622,6 +629,7 @@ std::shared_ptr<const Scene> Pipeline::loadScene(const Project& project, const J
   std::vector<const Photo*> photoPointers;
   for (const auto& p : scene->photos) photoPointers.push_back(p.get());
   scene->warnings = projectWarnings(scene->project, photoPointers);
+  if (carry.changed) scene->warnings.insert(scene->warnings.begin(), carry.message);
   return scene;
 }
 

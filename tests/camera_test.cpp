@@ -491,8 +491,10 @@ TEST(ViewSelect, SmoothnessRemovesIsolatedLabels) {
 // ---- Pipeline: projection path, paper path, mixed projects, proposals ----
 
 // Calls fn(corner UV, click, its point) for every corner of a mapped face at a vertex clicked in the face's photo.
+// `project`'s ids are the document's: the stages' mesh names them through the scene (Scene::meshVertex).
 template <class Fn>
-void forEachMappedClick(const Mapping& m, const Project& project, Fn fn) {
+void forEachMappedClick(const PipelineResult& r, const Project& project, Fn fn) {
+  const Mapping& m = *r.mapping;
   const Mesh& mesh = m.partition->mesh;
   for (int f = 0; f < mesh.numFaces(); ++f) {
     const int p = m.map.facePhoto[f];
@@ -500,7 +502,7 @@ void forEachMappedClick(const Mapping& m, const Project& project, Fn fn) {
     const auto c = mesh.faceVertices(f);
     for (int k = 0; k < 3; ++k)
       for (const FeaturePoint& point : project.points)
-        if (point.vertex == c[k])
+        if (r.scene->meshVertex(point.vertex) == c[k])
           for (const PhotoPoint& at : point.at)
             if (at.photo == p) fn(m.map.cornerUV[f][k], at, point);
   }
@@ -526,7 +528,7 @@ TEST(CameraPipeline, PhotosOfTheObjectAreMappedByProjectionWithClicksExact) {
   const Mapping& m = *r.mapping;
   const Mesh& mesh = m.partition->mesh;
   int checked = 0;
-  forEachMappedClick(m, project, [&](const Vec2& uv, const PhotoPoint& at, const FeaturePoint&) {
+  forEachMappedClick(r, project, [&](const Vec2& uv, const PhotoPoint& at, const FeaturePoint&) {
     EXPECT_LT((uv - Vec2(at.x, at.y)).norm(), 1e-6);
     ++checked;
   });
@@ -604,7 +606,7 @@ TEST(CameraPipeline, NoisyClicksMoveTheTextureOnlyBeyondTheirNoiseAndExactClicks
   const PipelineResult r = pipeline.run(project);
   for (const auto& c : r.report()["cameras"]) EXPECT_LT(c["click_noise_px"].get<double>(), 0.05) << c;
   int checked = 0, movedChecked = 0;
-  forEachMappedClick(*r.mapping, project, [&](const Vec2& uv, const PhotoPoint& at, const FeaturePoint& point) {
+  forEachMappedClick(r, project, [&](const Vec2& uv, const PhotoPoint& at, const FeaturePoint& point) {
     EXPECT_LT((uv - Vec2(at.x, at.y)).norm(), 0.05);
     ++checked;
     movedChecked += &point == moved;

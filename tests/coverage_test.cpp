@@ -69,14 +69,15 @@ bool followNext(Project& project, const CoverageReport& report, const PipelineRe
   for (int index : report.next)
     for (const RegionCause& c : report.regions[index].causes) {
       if (!c.click.valid()) continue;
-      if (!views[c.click.photo]->vertexVisible[c.click.vertex]) {
+      const int v = r.scene->meshVertex(c.click.vertex);  // the click names the document's vertex
+      if (!views[c.click.photo]->vertexVisible[v]) {
         ++*infeasible;
         continue;
       }
       PhotoCamera camera;
       camera.pinhole = synth.cameras[c.click.photo];
       Vec2 px;
-      if (!camera.project(r.mapping->partition->mesh.position(c.click.vertex), px)) continue;
+      if (!camera.project(r.mapping->partition->mesh.position(v), px)) continue;
       const PhotoPoint at{c.click.photo, px.x(), px.y()};
       if (c.click.point >= 0) {
         for (const PhotoPoint& q : project.points[c.click.point].at)

@@ -566,11 +566,16 @@ TEST(LoadModelHostile, DeepNestingLongNodeChainsAndHugeCounts) {
 
 TEST(LoadModel, ErrorUnsupportedExtensionAndMissingFile) {
   const std::string dir = test::tempDir("model_err_ext");
-  writeText(dir + "/model.fbx", "whatever");
-  const std::string msg = errorOf([&] { loadModel(dir + "/model.fbx"); });
-  EXPECT_NE(msg.find("model.fbx"), std::string::npos) << msg;
+  writeText(dir + "/model.blend", "whatever");
+  const std::string msg = errorOf([&] { loadModel(dir + "/model.blend"); });
+  EXPECT_NE(msg.find("model.blend"), std::string::npos) << msg;
   EXPECT_NE(msg.find("unsupported"), std::string::npos) << msg;
-  EXPECT_NE(msg.find(".fbx"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(".blend"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(".fbx"), std::string::npos) << msg;  // the formats it does read are listed
+  // A supported format that does not parse names the format's reader.
+  writeText(dir + "/model.fbx", "whatever");
+  const std::string fbx = errorOf([&] { loadModel(dir + "/model.fbx"); });
+  EXPECT_NE(fbx.find("model.fbx: cannot read as FBX"), std::string::npos) << fbx;
   const std::string missing = errorOf([&] { loadModel(dir + "/none.glb"); });
   EXPECT_NE(missing.find("none.glb"), std::string::npos) << missing;
 }

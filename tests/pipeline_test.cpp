@@ -965,7 +965,7 @@ TEST(PipelineSubject, HeldOutClicksOfADeformedTwinLandWhereThePapersMapAloneMiss
     std::vector<double> e;
     for (const FeaturePoint& p : heldOut)
       for (const PhotoPoint& q : p.at) {
-        const Vec2 uv = mappedAt(*r.mapping, p.vertex, q.photo);
+        const Vec2 uv = mappedAt(*r.mapping, r.scene->meshVertex(p.vertex), q.photo);  // the document's id
         const double size = extent[q.photo].diagonal().norm();
         e.push_back(uv.allFinite() ? (uv - Vec2(q.x, q.y)).norm() / size : 1.0);
       }

@@ -304,17 +304,21 @@ TEST(OriginalTopologySpot, RoundTripMatchesTheGroundTruth) {
   const PipelineResult result = Pipeline().run(loadProject(dir + "/project.json"));
   const Partition& partition = *result.mapping->partition;
   ASSERT_GT(partition.steinerVertices, 0);
+  // Each refined face's parent among the faces as loaded (the stages work on the loaded mesh in canonical order).
+  std::vector<int> parent = partition.faceParent;
+  if (result.scene->welded())
+    for (int& f : parent) f = result.scene->mesh->faceOrigin[f];
 
   // The truth on the refined mesh: every refined face shows spot's texture (photo 0) at the UVs its
   // corners have in their input face (the UV map is linear over each input face, so this is exact).
   const auto photo = std::make_shared<const Photo>(loadPhoto(texturePath));
-  const RefinedLocator locator(*mesh, partition.mesh, partition.faceParent);
+  const RefinedLocator locator(*mesh, partition.mesh, parent);
   AtlasInput in;
   in.photoSizes = {cv::Size(photo->width, photo->height)};
   in.faceSource.assign(partition.mesh.numFaces(), 0);
   in.cornerUV.resize(partition.mesh.numFaces());
   for (int r = 0; r < partition.mesh.numFaces(); ++r) {
-    const int f = partition.faceParent[r];
+    const int f = parent[r];
     const auto q = partition.mesh.facePositions(r);
     const auto p = mesh->facePositions(f);
     for (int k = 0; k < 3; ++k) {
@@ -332,7 +336,7 @@ TEST(OriginalTopologySpot, RoundTripMatchesTheGroundTruth) {
   const Atlas refinedAtlas = buildAtlas(partition.mesh, in, atlasOptions);
   const AtlasImage refinedImage = bakeAtlas(refinedAtlas, partition.mesh, {photo}, nullptr, nullptr, atlasOptions);
   const OriginalModel original =
-      bakeOriginalTopology(*mesh, partition.mesh, partition.faceParent, refinedAtlas, refinedImage, atlasOptions);
+      bakeOriginalTopology(*mesh, partition.mesh, parent, refinedAtlas, refinedImage, atlasOptions);
   exportObj(original.model, dir + "/truth_original", "model");
   std::string log;
   const std::string eval = test::montageExe() + " eval --truth " + meshPath + " --truth-texture " + texturePath +

@@ -495,6 +495,13 @@ void Document::relinkPhoto(int photo, const std::string& path) {
   apply("Relink photo " + std::to_string(photo), [&](Project& p) { p.photos[photo].path = path; });
 }
 
+MeshCarry Document::carryToMesh(const Mesh& mesh) {
+  if (!meshChanged(*current_, mesh)) return {};
+  MeshCarry report;
+  apply("Carry the clicks to the changed mesh", [&](Project& p) { report = montage::carryToMesh(p, mesh); });
+  return report;
+}
+
 void Document::relinkMesh(const std::string& path) {
   TM_CHECK(!path.empty(), "relink mesh: the new path is empty");
   apply("Relink mesh", [&](Project& p) { p.mesh = path; });

@@ -19,6 +19,7 @@
 #include "gl.h"
 #include "gl_util.h"
 #include "image/photo.h"
+#include "io/mesh_anchors.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
 #include "overlay_gl.h"
@@ -374,6 +375,15 @@ void Editor::syncInputs() {
         for (int f = 0; f < input_.mesh->numFaces(); ++f) {
           const auto q = input_.mesh->facePositions(f);
           input_.faceCentroids[f] = (q[0] + q[1] + q[2]) / 3.0;
+        }
+        input_.fingerprint = meshFingerprint(*input_.mesh);
+        // A mesh re-exported or retopologised since the project was saved: the clicks follow their positions.
+        try {
+          const MeshCarry carry = doc_.carryToMesh(*input_.mesh);
+          if (carry.changed)
+            reportError(located(doc_.project().file, carry.message + " (Edit > Undo puts the ids back)"));
+        } catch (const Error& e) {
+          reportError(e.what());  // the runs refuse the project with the same words
         }
         camera_.frame(input_.lo, input_.hi);
         frameWhenShown_ = true;  // again with the view's width and height, once it is laid out

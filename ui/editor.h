@@ -169,6 +169,7 @@ class Editor {
     std::shared_ptr<const Mesh> mesh;
     std::unique_ptr<TriangleBvh> bvh;
     std::vector<Vec3> faceCentroids;
+    std::string fingerprint;  // meshFingerprint, for the anchors a save writes
     Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();
     std::string error;
   };

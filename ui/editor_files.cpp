@@ -12,6 +12,7 @@
 #include "gl.h"
 #include "gl_util.h"
 #include "image/photo.h"
+#include "io/mesh_anchors.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
 
@@ -47,7 +48,13 @@ void Editor::autosaveTick() {
   autosaveJobRevision_ = doc_.revision();
   lastAutosavePath_ = autosavePath();
   // Written on a helper thread from the immutable snapshot: the fsync never stalls a frame.
-  autosaveJob_ = std::async(std::launch::async, [snapshot = doc_.snapshot(), path = lastAutosavePath_]() {
+  std::shared_ptr<const Project> snapshot = doc_.snapshot();
+  if (input_.mesh && input_.path == snapshot->mesh) {  // the anchors a save writes, so a recovery keeps them too
+    auto anchored = std::make_shared<Project>(*snapshot);
+    anchored->anchors = anchorsOf(*anchored, *input_.mesh, input_.fingerprint);
+    snapshot = std::move(anchored);
+  }
+  autosaveJob_ = std::async(std::launch::async, [snapshot, path = lastAutosavePath_]() {
     try {
       writeAutosave(*snapshot, path);
       return std::string();
@@ -176,8 +183,10 @@ bool Editor::saveTo(const std::string& path) {
     const std::vector<std::string> movedMasks = moveUnsavedMasks(target);
     Project copy = doc_.project();
     // The 3D view goes with the project, so that opening it again shows what the user last looked at.
-    if (input_.mesh)
+    if (input_.mesh) {
       copy.view = ViewState{true, camera_.target, camera_.distance, camera_.yawDeg, camera_.pitchDeg, camera_.fovYDeg};
+      copy.anchors = anchorsOf(copy, *input_.mesh, input_.fingerprint);  // where the ids lie (io/mesh_anchors.h)
+    }
     saveProject(copy, target);  // atomic: temporary file, fsync, rename
     for (const std::string& mask : movedMasks) {
       std::error_code ec;

@@ -543,25 +543,57 @@ LoadedMesh buildMesh(const std::vector<Vec3>& vertices, const std::vector<std::a
   return out;
 }
 
-WeldedMesh weldIdenticalPositions(const Mesh& loaded) {
+WeldedMesh weldIdenticalPositions(const Mesh& loaded, bool canonicalOrder) {
   WeldedMesh out;
   const int nv = loaded.numVertices(), nf = loaded.numFaces();
   std::vector<Vec3> positions(nv);
   for (int v = 0; v < nv; ++v) positions[v] = loaded.position(v);
   const std::vector<int> first = firstWithSamePosition(positions);
   for (int v = 0; v < nv; ++v) out.mergedVertices += first[v] != v;
-  if (out.mergedVertices == 0) return out;
+  if (out.mergedVertices == 0 && !canonicalOrder) return out;
 
-  // The loaded faces as a soup (vertex ids of the loaded mesh), built again with welding: the welded mesh's
-  // faceOrigin and vertexOrigin then index the loaded mesh.
+  // The loaded faces as a soup, built again with welding; in canonical order, the vertices sorted by position
+  // (then id) and the faces by their corners' ranks, each face rotated to start at its smallest (orientation
+  // kept). `vertexAt` and `faceAt` give the loaded id of a soup vertex and face, so that the welded mesh's
+  // vertexOrigin and faceOrigin index the loaded mesh.
+  std::vector<int> vertexAt(nv), faceAt(nf);
+  std::iota(vertexAt.begin(), vertexAt.end(), 0);
+  std::iota(faceAt.begin(), faceAt.end(), 0);
+  std::vector<std::array<int, 3>> corners(nf);
+  std::vector<std::array<Vec2, 3>> uv = loaded.cornerUV;
+  for (int f = 0; f < nf; ++f) corners[f] = loaded.faceVertices(f);
+  if (canonicalOrder) {
+    std::stable_sort(vertexAt.begin(), vertexAt.end(), [&](int a, int b) {
+      return std::lexicographical_compare(positions[a].data(), positions[a].data() + 3, positions[b].data(),
+                                          positions[b].data() + 3);
+    });
+    std::vector<int> rank(nv);
+    for (int i = 0; i < nv; ++i) rank[vertexAt[i]] = i;
+    for (int f = 0; f < nf; ++f) {
+      std::array<int, 3> c = {rank[corners[f][0]], rank[corners[f][1]], rank[corners[f][2]]};
+      const int r = int(std::min_element(c.begin(), c.end()) - c.begin());
+      corners[f] = {c[r], c[(r + 1) % 3], c[(r + 2) % 3]};
+      if (!uv.empty())
+        uv[f] = {loaded.cornerUV[f][r], loaded.cornerUV[f][(r + 1) % 3], loaded.cornerUV[f][(r + 2) % 3]};
+    }
+    std::stable_sort(faceAt.begin(), faceAt.end(), [&](int a, int b) { return corners[a] < corners[b]; });
+  }
+  std::vector<Vec3> soupPositions(nv);
   std::vector<std::array<int, 3>> triangles(nf);
-  for (int f = 0; f < nf; ++f) triangles[f] = loaded.faceVertices(f);
+  std::vector<std::array<Vec2, 3>> soupUV(uv.empty() ? 0 : nf);
+  for (int i = 0; i < nv; ++i) soupPositions[i] = positions[vertexAt[i]];
+  for (int j = 0; j < nf; ++j) {
+    triangles[j] = canonicalOrder ? corners[faceAt[j]] : corners[j];
+    if (!uv.empty()) soupUV[j] = uv[faceAt[j]];
+  }
   MeshLoadOptions options;
   options.weldIdenticalPositions = true;
-  LoadedMesh built = buildMesh(positions, triangles, loaded.cornerUV, options, "welded mesh");
+  LoadedMesh built = buildMesh(soupPositions, triangles, soupUV, options, "welded mesh");
   out.report = std::move(built.report);
   out.mesh = std::move(built.mesh);
   Mesh& mesh = *out.mesh;
+  for (int& v : mesh.vertexOrigin) v = vertexAt[v];
+  for (int& f : mesh.faceOrigin) f = faceAt[f];
   auto labels = [&](const std::vector<int>& from, std::vector<int>& ids) {
     if (from.empty()) return;
     ids.resize(mesh.numFaces());

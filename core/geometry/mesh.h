@@ -138,13 +138,16 @@ struct MeshLoadOptions {
 // from the ids of the mesh as loaded (which project files name and the export writes) to its own. The way
 // back: the welded mesh's vertexOrigin and faceOrigin, which index the loaded mesh.
 struct WeldedMesh {
-  std::unique_ptr<Mesh> mesh;  // null when no two vertices of the loaded mesh share a position
+  std::unique_ptr<Mesh> mesh;  // null when no two vertices of the loaded mesh share a position (and not canonical)
   MeshReport report;           // the welded mesh's validation (components, borders, genus as the stages see them)
   std::vector<int> vertexOf;   // #V(loaded): its welded vertex (-1 for a vertex used by no face)
   std::vector<int> faceOf;     // #F(loaded): its welded face (-1 for a face that welding makes degenerate)
   int mergedVertices = 0;      // loaded vertices merged into another one
 };
-WeldedMesh weldIdenticalPositions(const Mesh& loaded);
+// With `canonicalOrder`, the welded mesh is built even when nothing merges, its vertices sorted by position and
+// its faces by their sorted corners (each starting at its smallest): a file listing the same surface in another
+// order (a re-export) gives the same mesh, id for id, so every stage gives the same result.
+WeldedMesh weldIdenticalPositions(const Mesh& loaded, bool canonicalOrder = false);
 
 // Throws montage::Error with the report's errors when the mesh is unusable; returns the mesh otherwise.
 std::unique_ptr<Mesh> requireUsable(LoadedMesh loaded);

@@ -680,9 +680,32 @@ Project parseProjectText(const std::string& text, const std::string& path, std::
     v.present = true;
     view.unknownKeys({"target", "distance", "yaw", "pitch", "fov"}, project.unknownFields);
   }
+  // Where the ids lay on the mesh the project was saved with (io/mesh_anchors.h), in any version.
+  if (const Field anchors = root["anchors"]; anchors.present()) {
+    MeshAnchors& a = project.anchors;
+    a.fingerprint = anchors["fingerprint"].as<std::string>();
+    if (a.fingerprint.size() != 16 || a.fingerprint.find_first_not_of("0123456789abcdef") != std::string::npos)
+      anchors["fingerprint"].fail(inQuotes(a.fingerprint) + " is not 16 hexadecimal digits");
+    a.vertices = int(integer(anchors["vertices"], 0, INT_MAX));
+    a.faces = int(integer(anchors["faces"], 0, INT_MAX));
+    auto positions = [](const Field& list, int count, std::map<int, Vec3>& out) {
+      for (size_t i = 0, n = list.present() ? list.size() : 0; i < n; ++i) {
+        const Field e = list[i];
+        if (e.size() != 4) e.fail("must be [id, x, y, z], an array of 4 numbers, not " + std::to_string(e.size()));
+        const int id = int(integer(e[size_t(0)], 0, std::max(0, count - 1)));
+        const Vec3 p(e[size_t(1)].as<double>(), e[size_t(2)].as<double>(), e[size_t(3)].as<double>());
+        if (!p.allFinite()) e.fail("the position must be finite");
+        out[id] = p;
+      }
+    };
+    positions(anchors["vertex"], a.vertices, a.vertex);
+    positions(anchors["face"], a.faces, a.face);
+    a.present = true;
+    anchors.unknownKeys({"fingerprint", "vertices", "faces", "vertex", "face"}, project.unknownFields);
+  }
   // Fields this build does not know are ignored (a newer build's additions, docs/project-format.md), and named.
   root.unknownKeys({"format", "version", "mesh", "photos", "points", "chains", "strokes", "clones", "holeModes",
-                    "declinedProposals", "options", "view"},
+                    "declinedProposals", "options", "view", "anchors"},
                    project.unknownFields);
   for (size_t i = 0, n = photos.present() ? photos.size() : 0; i < n; ++i)
     photos[i].unknownKeys({"path", "mask", "mirror", "colorLocked", "mode"}, project.unknownFields);
@@ -894,6 +917,19 @@ std::string projectToJson(const Project& project, const std::string& relativeTo)
                  {"yaw", v.yawDeg},
                  {"pitch", v.pitchDeg},
                  {"fov", v.fovYDeg}};
+  }
+  if (project.anchors.present) {
+    const MeshAnchors& a = project.anchors;
+    auto list = [](const std::map<int, Vec3>& m) {
+      ojson out = ojson::array();
+      for (const auto& [id, p] : m) out.push_back({id, p.x(), p.y(), p.z()});
+      return out;
+    };
+    j["anchors"] = {{"fingerprint", a.fingerprint},
+                    {"vertices", a.vertices},
+                    {"faces", a.faces},
+                    {"vertex", list(a.vertex)},
+                    {"face", list(a.face)}};
   }
   requireFinite(j, "");
   return j.dump(2) + "\n";

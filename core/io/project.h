@@ -116,6 +116,21 @@ struct ViewState {
   }
 };
 
+// Where a project's ids lay on the mesh it was saved with (io/mesh_anchors.h): the mesh's fingerprint and sizes,
+// the position of every vertex and the centroid of every face the project names. Not part of the document (no
+// undo step, not compared by sameDocument); written by the editor's saves, read in any version.
+struct MeshAnchors {
+  bool present = false;
+  std::string fingerprint;  // meshFingerprint: 16 hexadecimal digits
+  int vertices = 0, faces = 0;
+  std::map<int, Vec3> vertex;  // vertex id -> position
+  std::map<int, Vec3> face;    // face id -> centroid
+  bool operator==(const MeshAnchors& o) const {
+    return present == o.present && fingerprint == o.fingerprint && vertices == o.vertices && faces == o.faces &&
+           vertex == o.vertex && face == o.face;
+  }
+};
+
 struct Project {
   static constexpr int kVersion = 6;        // newest format version this build reads and writes
   static constexpr int kOldestVersion = 1;  // oldest version it reads
@@ -131,12 +146,13 @@ struct Project {
   std::vector<DeclinedProposal> declinedProposals;  // version 2
   PipelineOptions options;
   ViewState view;  // the editor's camera when saved (any version; not compared by sameDocument)
+  MeshAnchors anchors;  // the mesh the ids were saved against (any version; not compared by sameDocument)
   // Fields of the file this build does not know and ignored (a newer build's, or misspelt), each as its path with
   // the nearest known name when one is close ("options.atlasSise (did you mean "atlasSize"?)"); not part of the
   // document (a save drops them). projectWarnings names them.
   std::vector<std::string> unknownFields;
 
-  // Document equality (ignores `file`, `view` and `unknownFields`): what save + load must preserve.
+  // Document equality (ignores `file`, `view`, `anchors` and `unknownFields`): what save + load must preserve.
   bool sameDocument(const Project& o) const;
 };
 

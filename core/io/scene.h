@@ -31,6 +31,12 @@ struct Scene {
     if (v < 0 || v >= mesh->numVertices()) return -1;
     return welded() ? mesh->vertexOrigin[v] : v;
   }
+  // The other way: the vertex of `mesh` a document's vertex id names (-1 for one outside the loaded mesh or used
+  // by no face).
+  int meshVertex(int v) const {
+    if (v < 0 || v >= loaded->numVertices()) return -1;
+    return welded() ? (*vertexOf)[v] : v;
+  }
   std::vector<std::shared_ptr<const Photo>> photos;
   // Per photo: what identifies its content (file, size, time, mask), so that results computed from it
   // can be reused; empty when unknown (such results are never cached).

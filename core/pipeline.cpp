@@ -521,24 +521,30 @@ BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceCo
 std::shared_ptr<const Scene> Pipeline::loadScene(const Project& given, const JobControl& job, bool& cached) {
   // The mesh and each photo are reloaded only when their files changed.
   auto scene = std::make_shared<Scene>();
-  Project project = given;
-  const std::string meshFile = fileKey(project.mesh);
+  const std::string meshFile = fileKey(given.mesh);
   cached = meshFile == meshFile_ && cachedMesh_;
   if (!cached) {
-    job.progress(StageId::Load, 0.0, "mesh " + fs::path(project.mesh).filename().string());
-    LoadedMesh loaded = loadMesh(project.mesh);
+    job.progress(StageId::Load, 0.0, "mesh " + fs::path(given.mesh).filename().string());
+    LoadedMesh loaded = loadMesh(given.mesh);
     cachedMeshReport_ = loaded.report;
     cachedMesh_ = requireUsable(std::move(loaded));
     meshFile_ = meshFile;
   }
   // Refused before any stage runs rather than at the bake.
-  TM_CHECK(project.options.bakeInto != BakeInto::MeshUVs || cachedMesh_->hasUV(),
-           located(project.mesh,
+  TM_CHECK(given.options.bakeInto != BakeInto::MeshUVs || cachedMesh_->hasUV(),
+           located(given.mesh,
                    "options.bakeInto \"meshUVs\": the mesh has no texture coordinates (OBJ vt, glTF "
                    "TEXCOORD) to bake into; use bakeInto \"atlas\" for a new layout"));
   // A mesh file that changed since the project was saved (another vertex order, a retopology): the project's ids
   // are carried to it by their saved positions, and what moved is said (io/mesh_anchors.h).
-  const MeshCarry carry = carryToMesh(project, *cachedMesh_);
+  // (A project without anchors has nothing to compare: the mesh's fingerprint is not even computed.)
+  Project carried;
+  MeshCarry carry;
+  if (given.anchors.present) {
+    carried = given;
+    carry = carryToMesh(carried, *cachedMesh_);
+  }
+  const Project& project = carry.changed ? carried : given;
   scene->project = project;
   // A mesh split at UV seams: the stages work on it welded (once per mesh file).
   const bool weld = project.options.weldIdenticalPositions;

@@ -27,8 +27,20 @@ std::string demoProject() {
   return test::assetsDir() + "/demo/project.json";
 }
 
+// Positions and faces (0-based) as OBJ, positions with 17 digits, so that each reads back to the same bits.
+void writeObj(const std::string& path, const std::vector<Vec3>& positions,
+              const std::vector<std::array<int, 3>>& faces) {
+  std::ofstream out(path);
+  char line[128];
+  for (const Vec3& p : positions) {
+    std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p.x(), p.y(), p.z());
+    out << line;
+  }
+  for (const auto& c : faces) out << "f " << c[0] + 1 << ' ' << c[1] + 1 << ' ' << c[2] + 1 << '\n';
+}
+
 // `mesh` written as OBJ with its vertices in a random order, its faces shuffled and each face's corners rotated
-// (what a re-export does); positions with 17 digits, so each reads back to the same bits.
+// (what a re-export does).
 void writeReordered(const Mesh& mesh, const std::string& path, unsigned seed) {
   std::mt19937 rng(seed);
   std::vector<int> order(mesh.numVertices()), faces(mesh.numFaces());
@@ -37,20 +49,15 @@ void writeReordered(const Mesh& mesh, const std::string& path, unsigned seed) {
   std::shuffle(order.begin(), order.end(), rng);
   std::shuffle(faces.begin(), faces.end(), rng);
   std::vector<int> newIndex(mesh.numVertices());
-  for (int i = 0; i < mesh.numVertices(); ++i) newIndex[order[i]] = i;
-  std::ofstream out(path);
-  char line[128];
-  for (int v : order) {
-    const Vec3 p = mesh.position(v);
-    std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p.x(), p.y(), p.z());
-    out << line;
-  }
+  std::vector<Vec3> positions;
+  for (int i = 0; i < mesh.numVertices(); ++i) newIndex[order[i]] = i, positions.push_back(mesh.position(order[i]));
+  std::vector<std::array<int, 3>> corners;
   for (int f : faces) {
     const auto c = mesh.faceVertices(f);
     const int r = int(rng() % 3);
-    out << "f " << newIndex[c[r]] + 1 << ' ' << newIndex[c[(r + 1) % 3]] + 1 << ' ' << newIndex[c[(r + 2) % 3]] + 1
-        << '\n';
+    corners.push_back({newIndex[c[r]], newIndex[c[(r + 1) % 3]], newIndex[c[(r + 2) % 3]]});
   }
+  writeObj(path, positions, corners);
 }
 
 Vec3 centroid(const Mesh& m, int f) {
@@ -138,19 +145,12 @@ TEST(MeshAnchors, ClicksWhoseVertexMovedAreNamed) {
   // The mesh as OBJ with points 2 and 5's vertices pushed out along the x axis.
   const int a = project.points[2].vertex, b = project.points[5].vertex;
   const std::string dir = test::tempDir("anchors_moved");
-  {
-    std::ofstream out(dir + "/cat.obj");
-    char line[128];
-    for (int v = 0; v < cat->numVertices(); ++v) {
-      const Vec3 p = cat->position(v) + Vec3(v == a || v == b ? 3 * edge : 0, 0, 0);
-      std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p.x(), p.y(), p.z());
-      out << line;
-    }
-    for (int f = 0; f < cat->numFaces(); ++f) {
-      const auto c = cat->faceVertices(f);
-      out << "f " << c[0] + 1 << ' ' << c[1] + 1 << ' ' << c[2] + 1 << '\n';
-    }
-  }
+  std::vector<Vec3> positions;
+  for (int v = 0; v < cat->numVertices(); ++v)
+    positions.push_back(cat->position(v) + Vec3(v == a || v == b ? 3 * edge : 0, 0, 0));
+  std::vector<std::array<int, 3>> faces;
+  for (int f = 0; f < cat->numFaces(); ++f) faces.push_back(cat->faceVertices(f));
+  writeObj(dir + "/cat.obj", positions, faces);
   const auto moved = requireUsable(loadMesh(dir + "/cat.obj"));
   const MeshCarry carry = carryToMesh(project, *moved);
   ASSERT_TRUE(carry.changed);

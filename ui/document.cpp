@@ -495,10 +495,11 @@ void Document::relinkPhoto(int photo, const std::string& path) {
   apply("Relink photo " + std::to_string(photo), [&](Project& p) { p.photos[photo].path = path; });
 }
 
-MeshCarry Document::carryToMesh(const Mesh& mesh) {
-  if (!meshChanged(*current_, mesh)) return {};
+MeshCarry Document::carryToMesh(const Mesh& mesh, const std::string& fingerprint) {
+  if (!meshChanged(*current_, fingerprint)) return {};
   MeshCarry report;
-  apply("Carry the clicks to the changed mesh", [&](Project& p) { report = montage::carryToMesh(p, mesh); });
+  apply("Carry the clicks to the changed mesh",
+        [&](Project& p) { report = montage::carryToMesh(p, mesh, fingerprint); });
   return report;
 }
 

@@ -117,9 +117,9 @@ class Document {
   void relinkPhoto(int photo, const std::string& path);
   void relinkMesh(const std::string& path);
   // The mesh file changed since the project was saved (its anchors name another mesh): every vertex and face id
-  // moves to `mesh`'s nearest (io/mesh_anchors.h), as one undo step. Returns what moved (`changed` false when
-  // `mesh` is the one the project was saved with, or it has no anchors); throws when an id has no anchor.
-  MeshCarry carryToMesh(const Mesh& mesh);
+  // moves to `mesh`'s (of `fingerprint`) nearest (io/mesh_anchors.h), as one undo step. Returns what moved (`changed`
+  // false when `mesh` is the one the project was saved with, or it has no anchors); throws when an id has no anchor.
+  MeshCarry carryToMesh(const Mesh& mesh, const std::string& fingerprint);
 
   // Files the document names that moved (a mask written beside an unsaved project, moved beside it when it
   // is first saved): every photo mask named as a key of `moved` is renamed to its value, in the current

@@ -379,7 +379,7 @@ void Editor::syncInputs() {
         input_.fingerprint = meshFingerprint(*input_.mesh);
         // A mesh re-exported or retopologised since the project was saved: the clicks follow their positions.
         try {
-          const MeshCarry carry = doc_.carryToMesh(*input_.mesh);
+          const MeshCarry carry = doc_.carryToMesh(*input_.mesh, input_.fingerprint);
           if (carry.changed)
             reportError(located(doc_.project().file, carry.message + " (Edit > Undo puts the ids back)"));
         } catch (const Error& e) {

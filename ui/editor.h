@@ -398,6 +398,8 @@ class Editor {
   // running back to back.
   void waitFor(const std::string& what, double seconds, std::function<bool()> condition, bool onEvents = false);
   void queueClick(double x, double y, int button = 0);
+  // Runs `queue` on an empty input queue and puts what it queued before the steps already waiting.
+  void queueFirst(const std::function<void()>& queue);
   // Clicks the script button `label` once its place has held for a frame (retries up to `attempts` times).
   void queueButtonClick(const std::string& label, const std::string& where, int attempts);
   void queueDrag(double x0, double y0, double x1, double y1, int button, int steps = 8);

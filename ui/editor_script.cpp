@@ -74,6 +74,13 @@ void Editor::queueClick(double x, double y, int button) {
   inputQueue_.push_back(move);  // one more frame so the release is handled before the next action
 }
 
+void Editor::queueFirst(const std::function<void()>& queue) {
+  std::deque<InputStep> rest;
+  rest.swap(inputQueue_);
+  queue();
+  inputQueue_.insert(inputQueue_.end(), rest.begin(), rest.end());
+}
+
 void Editor::queueButtonClick(const std::string& label, const std::string& where, int attempts) {
   // A panel may still be laying out (a photo loading, the worker's bar appearing): aim, and press only when the
   // button is still under the pointer in the frame after the move, as a user's eye would check.
@@ -83,27 +90,17 @@ void Editor::queueButtonClick(const std::string& label, const std::string& where
     TM_CHECK(buttonRects_.count(label), where + ": button '" + label + "' left the screen");
     const Rect r = buttonRects_.at(label);
     const double x = r.x + r.w / 2, y = r.y + r.h / 2;
-    std::deque<InputStep> rest;
-    rest.swap(inputQueue_);
     InputStep move;
     move.hasPointer = true;
     move.x = x;
     move.y = y;
-    inputQueue_.push_back(move);
     InputStep check;
     check.call = [this, label, where, attempts, x, y] {
       const auto it = buttonRects_.find(label);
-      std::deque<InputStep> later;
-      later.swap(inputQueue_);
-      if (it != buttonRects_.end() && it->second.contains(x, y)) {
-        queueClick(x, y);
-      } else {
-        queueButtonClick(label, where, attempts - 1);
-      }
-      inputQueue_.insert(inputQueue_.end(), later.begin(), later.end());
+      const bool stayed = it != buttonRects_.end() && it->second.contains(x, y);
+      queueFirst([&] { stayed ? queueClick(x, y) : queueButtonClick(label, where, attempts - 1); });
     };
-    inputQueue_.push_back(std::move(check));
-    inputQueue_.insert(inputQueue_.end(), rest.begin(), rest.end());
+    queueFirst([&] { inputQueue_.push_back(move), inputQueue_.push_back(std::move(check)); });
   };
   inputQueue_.push_back(std::move(aim));
 }
@@ -417,15 +414,11 @@ void Editor::runAction(const ScriptAction& a) {
                                                                        ", " + std::to_string(xy[k + 1]) +
                                                                        ") is not visible in the pane");
       }
-      // Insert the clicks right here in the queue, before whatever follows.
-      std::deque<InputStep> rest;
-      rest.swap(inputQueue_);
-      if (drag) {
-        queueDrag(screen[0].x(), screen[0].y(), screen[1].x(), screen[1].y(), 0);
-      } else {
-        queueClick(screen[0].x(), screen[0].y());
-      }
-      inputQueue_.insert(inputQueue_.end(), rest.begin(), rest.end());
+      // The clicks right here in the queue, before whatever follows.
+      queueFirst([&] {
+        drag ? queueDrag(screen[0].x(), screen[0].y(), screen[1].x(), screen[1].y(), 0)
+             : queueClick(screen[0].x(), screen[0].y());
+      });
     };
     inputQueue_.push_back(std::move(call));
   } else if (a.verb == "key") {

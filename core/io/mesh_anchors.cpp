@@ -81,13 +81,15 @@ MeshAnchors anchorsOf(const Project& project, const Mesh& mesh, const std::strin
   return a;
 }
 
-bool meshChanged(const Project& project, const Mesh& mesh) {
-  return project.anchors.present && project.anchors.fingerprint != meshFingerprint(mesh);
+bool meshChanged(const Project& project, const std::string& fingerprint) {
+  return project.anchors.present && project.anchors.fingerprint != fingerprint;
 }
 
-MeshCarry carryToMesh(Project& project, const Mesh& mesh) {
+MeshCarry carryToMesh(Project& project, const Mesh& mesh, const std::string& fingerprint) {
   MeshCarry out;
-  if (!meshChanged(project, mesh)) return out;
+  if (!project.anchors.present) return out;
+  const std::string current = fingerprint.empty() ? meshFingerprint(mesh) : fingerprint;
+  if (!meshChanged(project, current)) return out;
   const MeshAnchors& a = project.anchors;
   const std::string file = project.file.empty() ? "project" : project.file;
   const std::string then = sizes(a.vertices, a.faces), now = sizes(mesh.numVertices(), mesh.numFaces());
@@ -152,7 +154,7 @@ MeshCarry carryToMesh(Project& project, const Mesh& mesh) {
   }
   for (DeclinedProposal& d : project.declinedProposals) d.vertex = vertexTo.at(d.vertex);
   for (HoleMode& h : project.holeModes) h.face = faceTo.at(h.face);
-  project.anchors = anchorsOf(project, mesh);
+  project.anchors = anchorsOf(project, mesh, current);
   out.changed = true;
 
   char farthest[32];

@@ -23,8 +23,8 @@ std::string meshFingerprint(const Mesh& mesh);
 // `fingerprint`: the mesh's, when the caller keeps it (else computed).
 MeshAnchors anchorsOf(const Project& project, const Mesh& mesh, const std::string& fingerprint = "");
 
-// Whether `project` was anchored to a mesh other than `mesh` (false without anchors).
-bool meshChanged(const Project& project, const Mesh& mesh);
+// Whether `project` was anchored to a mesh other than the one of `fingerprint` (false without anchors).
+bool meshChanged(const Project& project, const std::string& fingerprint);
 
 struct MeshCarry {
   bool changed = false;            // the project's anchors name another mesh: its ids were carried
@@ -39,6 +39,7 @@ struct MeshCarry {
 // to its anchored position, every face id to the face whose centroid is nearest; consecutive repeats in strokes
 // and repeated faces of a clone region are dropped; the anchors become `mesh`'s. Throws montage::Error naming the
 // project file when the mesh changed and an id the project uses has no anchor (nothing can say where it went).
-MeshCarry carryToMesh(Project& project, const Mesh& mesh);
+// `fingerprint`: the mesh's, when the caller keeps it (else computed, once).
+MeshCarry carryToMesh(Project& project, const Mesh& mesh, const std::string& fingerprint = "");
 
 }  // namespace montage

@@ -898,28 +898,42 @@ void appendNumber(std::string& out, double x) {
 
 using Reader = void (*)(const std::string&, Soup&);
 
-// The reader of a format ("obj"...); throws naming `path` when there is none.
-Reader meshReader(const std::string& ext, const std::string& path) {
-  static const std::pair<const char*, Reader> readers[] = {
-      {"obj", readObj},
-      {"off", readOff},
-      {"ply", readPly},
-      {"stl", readStl},
-      {"fbx", [](const std::string& d, Soup& s) { readAssimp(d, s, "fbx", "FBX"); }},
-      {"dae", [](const std::string& d, Soup& s) { readAssimp(d, s, "dae", "Collada"); }},
-      {"3ds", [](const std::string& d, Soup& s) { readAssimp(d, s, "3ds", "3DS"); }},
-      {"3mf", [](const std::string& d, Soup& s) { readAssimp(d, s, "3mf", "3MF"); }}};
-  const auto reader = std::find_if(std::begin(readers), std::end(readers), [&](auto& r) { return ext == r.first; });
-  if (reader == std::end(readers))
+// The formats parseMesh reads (glTF has its own loader, io/model.h). `welds`: identical positions are welded,
+// as the format shares no vertex between faces (STL) or the reader gives each corner its own vertex where its
+// attributes differ (Assimp).
+struct MeshFormat {
+  const char* ext;
+  Reader read;
+  bool welds;
+};
+const MeshFormat kMeshFormats[] = {
+    {"obj", readObj, false},
+    {"ply", readPly, false},
+    {"off", readOff, false},
+    {"stl", readStl, true},
+    {"fbx", [](const std::string& d, Soup& s) { readAssimp(d, s, "fbx", "FBX"); }, true},
+    {"dae", [](const std::string& d, Soup& s) { readAssimp(d, s, "dae", "Collada"); }, true},
+    {"3ds", [](const std::string& d, Soup& s) { readAssimp(d, s, "3ds", "3DS"); }, true},
+    {"3mf", [](const std::string& d, Soup& s) { readAssimp(d, s, "3mf", "3MF"); }, true}};
+
+// The format of an extension ("obj"...); throws naming `path` when there is none.
+const MeshFormat& meshFormat(const std::string& ext, const std::string& path) {
+  const auto format =
+      std::find_if(std::begin(kMeshFormats), std::end(kMeshFormats), [&](auto& f) { return ext == f.ext; });
+  if (format == std::end(kMeshFormats))
     failAt(path, 0, "unsupported mesh format " + quote(ext) + " (expected " + meshExtensionList() + ")");
-  return reader->second;
+  return *format;
 }
 
 }  // namespace
 
 const std::vector<std::string>& meshExtensions() {
-  static const std::vector<std::string> all = {".obj",  ".ply", ".off", ".stl", ".glb",
-                                               ".gltf", ".fbx", ".dae", ".3ds", ".3mf"};
+  static const std::vector<std::string> all = [] {
+    std::vector<std::string> out;
+    for (const MeshFormat& f : kMeshFormats) out.push_back(std::string(".") + f.ext);
+    out.insert(out.end(), {".glb", ".gltf"});  // loadGltfMesh
+    return out;
+  }();
   return all;
 }
 
@@ -938,21 +952,20 @@ LoadedMesh loadMesh(const std::string& path, const MeshLoadOptions& options) {
   std::string ext = lowerExtension(path);
   if (!ext.empty()) ext.erase(0, 1);
   if (ext == "glb" || ext == "gltf") return loadGltfMesh(path, options);  // io/model.h: the model reader's
-  meshReader(ext, path);  // an unknown format is refused before the file is read
+  meshFormat(ext, path);  // an unknown format is refused before the file is read
   return parseMesh(readFileBytes(path, "mesh file"), ext, path, options);
 }
 
 LoadedMesh parseMesh(const std::string& bytes, const std::string& ext, const std::string& path,
                      const MeshLoadOptions& options) {
-  const Reader reader = meshReader(ext, path);
+  const MeshFormat& format = meshFormat(ext, path);
   Soup soup;
   soup.file = path;
-  reader(bytes, soup);
+  format.read(bytes, soup);
   const std::vector<std::array<Vec2, 3>> uv = soup.finish();
 
   MeshLoadOptions opts = options;
-  // STL shares no vertices; Assimp splits them where a corner's attributes differ.
-  opts.weldIdenticalPositions |= ext == "stl" || ext == "fbx" || ext == "dae" || ext == "3ds" || ext == "3mf";
+  opts.weldIdenticalPositions |= format.welds;
   LoadedMesh loaded = buildMesh(soup.positions, soup.triangles, uv, opts, path);
   loaded.report.format = ext;
   loaded.report.findings.insert(loaded.report.findings.end(), soup.notes.begin(), soup.notes.end());

@@ -405,6 +405,35 @@ TEST(Projection, ViewOptionsChangeTheViewAsDocumented) {
   for (size_t i = 0; i < narrow.localSupport.size(); ++i) EXPECT_GE(wide.localSupport[i], narrow.localSupport[i]);
   EXPECT_GT(std::accumulate(wide.localSupport.begin(), wide.localSupport.end(), 0.0),
             std::accumulate(narrow.localSupport.begin(), narrow.localSupport.end(), 0.0));
+  // A face may keep at most maxHidden hidden corners and samples: none hidden textures fewer faces, more more.
+  o = {};
+  o.maxHidden = 0;
+  EXPECT_LT(seen(view(o)), seen(base));
+  o.maxHidden = 3;
+  EXPECT_GT(seen(view(o)), seen(base));
+  // Mode `noise` (1 px clicks here): a larger noiseThreshold moves the texture at the clicks less (at 1 noise
+  // deviation some residuals still move it), a huge one not at all, none as much as every residual.
+  ASSERT_GT(fit.noisePx, 0);
+  auto moved = [&](double threshold) {
+    const CorrectionField f = correctionField(*d.mesh, fit, CorrectionMode::Noise, 8, threshold);
+    double sum = 0;
+    for (const Vec3& c : f.centres) sum += f.at(c).norm();
+    return sum;
+  };
+  EXPECT_GT(moved(0), moved(1));
+  EXPECT_GT(moved(1), 0);
+  EXPECT_EQ(moved(1e9), 0);
+  // Another subject's warp: its weights' falloff (warpAlpha) and its affine part (affineWarp) each move it away
+  // from the handles.
+  SubjectOptions subject;
+  const CorrectionField warp = subjectField(d.scene.project, fit, 0, subject);
+  ASSERT_FALSE(warp.warp.empty());
+  const Vec2 away = warp.warp.from[0] + Vec2(37, -23);
+  subject.warpAlpha = 2;
+  EXPECT_GT((subjectField(d.scene.project, fit, 0, subject).warp.apply(away) - warp.warp.apply(away)).norm(), 1e-6);
+  subject = {};
+  subject.affineWarp = false;
+  EXPECT_GT((subjectField(d.scene.project, fit, 0, subject).warp.apply(away) - warp.warp.apply(away)).norm(), 1e-6);
 }
 
 // ---- Synthetic click noise ----

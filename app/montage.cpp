@@ -154,6 +154,24 @@ size_t holeTextures(const Project& project) {
 
 // `montage info --json`: the same report as one JSON object on stdout ("kind", "file", "valid",
 // "warnings" and what the kind has); docs/command-line.md lists the fields.
+
+// A photo's EXIF camera for `montage info`: "Canon EOS 80D, 18 mm (29 mm on 35 mm film), focal length 2345 px".
+std::string cameraText(const ExifCamera& camera, cv::Size size) {
+  const double focal = camera.focalPx(size);
+  char px[64] = "";
+  if (focal > 0) std::snprintf(px, sizeof px, ", focal length %.0f px (a prior of the camera fit)", focal);
+  return camera.describe() + px;
+}
+
+nlohmann::json exifJson(const ExifCamera& camera, cv::Size size) {
+  if (camera.empty()) return nullptr;
+  return {{"make", camera.make},
+          {"model", camera.model},
+          {"focal_mm", camera.focalMm},
+          {"focal_35mm", camera.focal35mm},
+          {"focal_px", camera.focalPx(size)}};
+}
+
 int cmdInfoJson(const std::string& file, const Common& common) {
   const std::string ext = lowerExtension(file);
   nlohmann::json j = {{"file", file}};
@@ -178,7 +196,8 @@ int cmdInfoJson(const std::string& file, const Common& common) {
                         {"height", photo.height},
                         {"background_mask", photo.hasBackground},
                         {"working_width", photo.rgb.cols},
-                        {"working_height", photo.rgb.rows}});
+                        {"working_height", photo.rgb.rows},
+                        {"camera", exifJson(photo.exif, cv::Size(photo.width, photo.height))}});
     }
     j["kind"] = "project";
     j["mesh"] = meshReportJson(scene->meshReport);
@@ -190,8 +209,11 @@ int cmdInfoJson(const std::string& file, const Common& common) {
     warnings.insert(warnings.end(), scene->warnings.begin(), scene->warnings.end());
   } else if (isImageExtension(ext)) {
     const PhotoStats stats = photoStats(file);
+    const ImageHeader header = readImageFileHeader(file);
     j["kind"] = "photo";
     j["width"] = stats.width, j["height"] = stats.height;
+    j["exif_orientation"] = header.orientation, j["icc_profile"] = header.iccProfile;
+    j["camera"] = exifJson(header.camera, cv::Size(stats.width, stats.height));
     j["channels"] = stats.channels, j["bits_per_channel"] = stats.bitsPerChannel;
     j["foreground"] = stats.foreground, j["alpha"] = stats.hasBackground;
     j["max_distance_px"] = stats.maxDistance, j["max_distance_error_px"] = stats.maxDistanceError;
@@ -241,6 +263,7 @@ int cmdInfo(const std::string& file, const Common& common) {
       say("  photo %zu: %s (%dx%d%s", i, photo.path.c_str(), photo.width, photo.height,
           photo.hasBackground ? ", with background mask" : "");
       if (photo.scale != 1) say(", kept at %dx%d (working resolution)", photo.rgb.cols, photo.rgb.rows);
+      if (!photo.exif.empty()) say(", %s", cameraText(photo.exif, cv::Size(photo.width, photo.height)).c_str());
       say(")\n");
     }
     for (const std::string& w : scene->warnings) say("  warning: %s\n", w.c_str());
@@ -257,6 +280,13 @@ int cmdInfo(const std::string& file, const Common& common) {
     if (stats.maxDistanceError > 0)
       say(" (within %.1f px: measured at 1/%d resolution)", stats.maxDistanceError, stats.distanceScale);
     say("\n");
+    const ImageHeader header = readImageFileHeader(file);
+    if (header.orientation != 1)
+      say("  EXIF orientation %d: turned as photo apps show it (clicks and masks are in the shown frame)\n",
+          header.orientation);
+    if (header.iccProfile) say("  colour profile: embedded, converted to sRGB\n");
+    if (!header.camera.empty())
+      say("  camera: %s\n", cameraText(header.camera, cv::Size(stats.width, stats.height)).c_str());
     const std::vector<std::string> warnings = foregroundWarnings(stats.hasBackground, stats.borderForeground);
     for (const std::string& w : warnings) say("  warning: %s\n", w.c_str());
     return doneWith(common, warnings.size());

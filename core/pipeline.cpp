@@ -173,11 +173,22 @@ CameraFitOptions cameraFitOptions(const PipelineOptions& o) {
 constexpr const char* kWarm = "#warm";      // camera keys of the preview's warm-started fits
 constexpr const char* kPooled = "#pooled";  // camera keys of fits whose lens terms the photos of a camera pay for
 
+// The fit's options; `warm`: the preview's warm start, with one silhouette round instead of the final's four, on
+// kept contours within kPreviewContourPx, stopping at a coarser step (1e-6 moves a point by well under 0.01 px:
+// half the LM iterations of the final's 1e-10).
+CameraFitOptions photoFitOptions(const PipelineOptions& o, bool warm) {
+  CameraFitOptions options = cameraFitOptions(o);
+  if (warm)
+    options.silhouetteRounds = 1, options.contourReusePx = kPreviewContourPx, options.silhouetteStep = 1e-6,
+    options.silhouetteSampleStride = 2;
+  return options;
+}
+
 // One photo's fit (or the reason there is none) under the project's options. `start`: the preview's
-// warm start (see fitCamera), with one silhouette round instead of the final's four, on kept contours
-// within kPreviewContourPx (`contours`, the photo's memo), stopping at a coarser step.
+// warm start (see fitCamera and photoFitOptions; `contours`, the photo's memo). `refine`: refined on the photo's
+// silhouette (else the caller does it, after the bundle adjustment of its camera's photos).
 CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silhouette, ContourMemo* contours,
-                   const PhotoCamera* start = nullptr, bool keepRadial = false) {
+                   const PhotoCamera* start = nullptr, bool keepRadial = false, bool refine = true) {
   const Photo& p = *scene.photos[photo];
   std::vector<CameraClick> clicks = photoClicks(scene.project, photo);
   if (scene.project.options.cameraMode == CameraMode::Off) {
@@ -189,12 +200,9 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
     fit.reason = "camera fit is off (options.cameraMode)";
     return fit;
   }
-  CameraFitOptions options = cameraFitOptions(scene.project.options);
+  CameraFitOptions options = photoFitOptions(scene.project.options, start != nullptr);
   options.keepRadial = keepRadial;
-  // A step of 1e-6 moves a point by well under 0.01 px: half the LM iterations of the final's 1e-10.
-  if (start)
-    options.silhouetteRounds = 1, options.contourReusePx = kPreviewContourPx, options.silhouetteStep = 1e-6,
-    options.silhouetteSampleStride = 2;
+  options.focalPriorPx = p.exif.focalPx(cv::Size(p.width, p.height));
   CameraFit fit = fitCamera(*scene.mesh, clicks, p.width, p.height, options, start);
   // What the photo shows: the user's word, or decided from the clicks (subject.h).
   const PhotoMode mode = scene.project.photos[photo].mode;
@@ -213,8 +221,8 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
     s.decision = decision;
     return s;
   }
-  if (start && !fit.fits) return fitPhoto(scene, photo, silhouette, contours, nullptr, keepRadial);  // too far
-  refineOnSilhouette(*scene.mesh, p, fit, options, silhouette, contours);
+  if (start && !fit.fits) return fitPhoto(scene, photo, silhouette, contours, nullptr, keepRadial, refine);  // too far
+  if (refine) refineOnSilhouette(*scene.mesh, p, fit, options, silhouette, contours);
   fit.decision = decision;
   return fit;
 }
@@ -250,6 +258,8 @@ nlohmann::json fitJson(const CameraFit& fit, int photo, const Project* project) 
     j["residual_rms_px"] = fit.rmsResidual;
     j["click_noise_px"] = fit.noisePx;
     j["radial_pooled"] = fit.radialPooled;
+    j["shared_intrinsics"] = fit.sharedIntrinsics;
+    j["exif_focal_prior"] = fit.focalPrior > 0 ? "taken" : fit.focalPrior < 0 ? "refused by the clicks" : "none";
     j["silhouette_points"] = fit.silhouettePoints;
     j["silhouette_residual_px"] = fit.silhouetteResidualPx;
     j["outliers"] = outliers;
@@ -680,7 +690,8 @@ const StageGraph& pipelineStages() {
         "the mesh's and photos' contents (the files' bytes, weldIdenticalPositions, maxPhotoSide, each photo's "
         "mask and mirror), never their paths or times",
         0.04);
-    add(S::Camera, {S::Load}, {"/options/cameraMode", "/options/cameraThreshold", "/options/seed"},
+    add(S::Camera, {S::Load},
+        {"/options/cameraMode", "/options/cameraThreshold", "/options/sharedIntrinsics", "/options/seed"},
         "per photo: the photo, the mesh, its clicks (vertex and pixel, in point order) and its mode; the preview's "
         "warm-started fits are their own",
         0.06);
@@ -741,11 +752,23 @@ void addLoadWarnings(const Project& project, const Scene& scene, std::vector<std
 nlohmann::json cameraCounts(const CameraStage& cameras, const Project& project) {
   nlohmann::json photos = nlohmann::json::array();
   for (size_t p = 0; p < cameras.fits.size(); ++p) photos.push_back(fitJson(cameras.fits[p], int(p), &project));
-  return {{"fitted", cameras.fitted},
-          {"subjects", cameras.subjects},
-          {"reused", cameras.reused},
-          {"pooled_radial_f", cameras.pooledRadialF},
-          {"photos", photos}};
+  nlohmann::json shared = nlohmann::json::array();
+  for (const SharedIntrinsics& s : cameras.shared)
+    shared.push_back({{"photos", s.photos},
+                      {"shared", s.shared},
+                      {"focal_px", s.focal},
+                      {"k1", s.k1},
+                      {"k2", s.k2},
+                      {"radial_terms", s.terms},
+                      {"radial_f", s.radialF},
+                      {"exif_focal_prior", s.focalPrior},
+                      {"aic_shared", s.aicShared},
+                      {"aic_separate", s.aicSeparate},
+                      {"why", s.why},
+                      {"seconds", s.seconds}});
+  return {{"fitted", cameras.fitted},    {"subjects", cameras.subjects},
+          {"reused", cameras.reused},    {"pooled_radial_f", cameras.pooledRadialF},
+          {"shared_intrinsics", shared}, {"photos", photos}};
 }
 
 nlohmann::json partitionCounts(const Partition& partition, bool kept) {
@@ -959,6 +982,22 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   auto cameras = std::make_shared<CameraStage>();
   const auto start = Clock::now();
   const size_t np = scene.photos.size();
+  // One camera: photos of one size, and of one camera model and focal length where their EXIF says. A photo that may
+  // share its camera with another (not set to show another subject) is refined on its silhouette after the bundle
+  // adjustment, from the camera it gives (once, not before and after).
+  const auto cameraOf = [&](size_t p) {
+    const Photo& photo = *scene.photos[p];
+    return std::make_tuple(photo.width, photo.height,
+                           photo.exif.make + '\n' + photo.exif.model + '\n' + std::to_string(photo.exif.focalMm) +
+                               '\n' + std::to_string(photo.exif.focal35mm));
+  };
+  std::vector<char> deferSilhouette(np, 0);
+  if (project.options.sharedIntrinsics) {
+    std::map<std::tuple<int, int, std::string>, int> mayShare;
+    for (size_t p = 0; p < np; ++p) mayShare[cameraOf(p)] += project.photos[p].mode != PhotoMode::Subject;
+    for (size_t p = 0; p < np; ++p)
+      deferSilhouette[p] = project.photos[p].mode != PhotoMode::Subject && mayShare[cameraOf(p)] >= 2;
+  }
   std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> fits(np);
   std::vector<std::vector<CameraClick>> photoClickLists(np);
   std::vector<size_t> toFit;
@@ -969,7 +1008,8 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
     nlohmann::json clicks = nlohmann::json::array();
     for (const CameraClick& c : photoClickLists[p]) clicks.push_back({c.vertex, c.pixel.x(), c.pixel.y()});
     const std::string photoKey = meshKey_ + '#' + cachedPhotos_[p].key;
-    fits[p].first = photoKey + clicks.dump() + fieldsKey + "|mode:" + kPhotoModeNames[size_t(project.photos[p].mode)];
+    fits[p].first = photoKey + clicks.dump() + fieldsKey + "|mode:" + kPhotoModeNames[size_t(project.photos[p].mode)] +
+                    (deferSilhouette[p] ? "#silhouette after sharing" : "");
     baseKeys[p] = fits[p].first;
     std::string found;
     for (const auto& [k, f] : cachedFits_)  // a pooled fit stands for the photo's own: its trial is the same
@@ -999,8 +1039,9 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   // Photos are fitted in parallel (each fit seeds its own generator: the result does not depend on it).
   tbb::parallel_for(size_t(0), toFit.size(), [&](size_t k) {
     const size_t p = toFit[k];
-    fits[p].second = std::make_shared<const CameraFit>(fitPhoto(
-        scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), cachedPhotos_[p].contours.get(), warmStart[p]));
+    fits[p].second = std::make_shared<const CameraFit>(
+        fitPhoto(scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), cachedPhotos_[p].contours.get(),
+                 warmStart[p], false, !deferSilhouette[p]));
     if (warmStart[p]) fits[p].first += kWarm;
   });
   job.checkCancel();
@@ -1009,14 +1050,17 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   // that fit as the object itself pool their trials' F test (pooledRadialF); when the pool pays for the terms by
   // Akaike's criterion, every photo that tried them keeps them. A photo whose pooled state changes is refitted (warm
   // in the preview).
-  std::map<std::pair<int, int>, std::vector<size_t>> sameCamera;
-  for (size_t p = 0; p < np; ++p)
-    if (fits[p].second->fits && !fits[p].second->subject)
-      sameCamera[{scene.photos[p]->width, scene.photos[p]->height}].push_back(p);
+  std::map<std::tuple<int, int, std::string>, std::vector<size_t>> sameCamera;  // the object photos of each camera
+  const auto groupByCamera = [&] {
+    sameCamera.clear();
+    for (size_t p = 0; p < np; ++p)
+      if (fits[p].second->fits && !fits[p].second->subject) sameCamera[cameraOf(p)].push_back(p);
+  };
+  groupByCamera();
   const double distortionF = cameraFitOptions(project.options).pooledDistortionF;
   std::vector<size_t> toRefit;
   std::vector<char> pool(np, 0);
-  for (const auto& [size, photos] : sameCamera) {
+  for (const auto& [camera, photos] : sameCamera) {
     std::vector<const CameraFit*> group;
     for (size_t p : photos) group.push_back(fits[p].second.get());
     const double f = pooledRadialF(group);
@@ -1031,18 +1075,82 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   }
   tbb::parallel_for(size_t(0), toRefit.size(), [&](size_t k) {
     const size_t p = toRefit[k];
-    fits[p].second =
-        std::make_shared<const CameraFit>(fitPhoto(scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(),
-                                                   cachedPhotos_[p].contours.get(), warmStart[p], pool[p]));
+    fits[p].second = std::make_shared<const CameraFit>(
+        fitPhoto(scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), cachedPhotos_[p].contours.get(),
+                 warmStart[p], pool[p], !deferSilhouette[p]));
     fits[p].first = baseKeys[p] + (pool[p] ? kPooled : "") + (warmStart[p] ? kWarm : "");
   });
   job.checkCancel();
+  // One camera, many photos (issue 37): the object photos of one camera share their intrinsics when Akaike's
+  // criterion says so (fitSharedIntrinsics); then each photo whose silhouette refinement waited is refined, from the
+  // shared camera or its own. Cached by the group's fit keys; a photo's refinement on its own camera is reused
+  // whenever its own fit is the same. A click moved in one photo moves the shared camera, and with it every photo's
+  // (by 0.3-0.8 px before their silhouettes pull them back to within 0.03 px on the preview test's scene): the
+  // preview keeps the last camera of a photo whose own clicks stayed, as it does without sharing, and the final
+  // tier takes every camera as a fresh run does.
+  decltype(cachedShared_) shared;
+  std::vector<std::string> sharedKey(np);
+  std::vector<std::shared_ptr<const CameraFit>> given(np);  // the fits the stage gives; cachedFits_ keeps each own
+  for (size_t p = 0; p < np; ++p) given[p] = fits[p].second;
+  groupByCamera();
+  for (const auto& [camera, photos] : sameCamera) {
+    if (!deferSilhouette[photos[0]]) continue;  // a camera of its own: refined in fitPhoto
+    // A group the preview makes may keep some photos' last fits: its own key, which the final tier never looks up.
+    std::string groupKey = isPreview(tier) ? "preview|" : "";
+    for (size_t p : photos) groupKey += std::to_string(p) + ':' + fits[p].first + '|';
+    auto it = cachedShared_.find(isPreview(tier) ? groupKey.substr(8) : groupKey);  // a final's serves the preview
+    if (it == cachedShared_.end()) it = cachedShared_.find(groupKey);
+    std::shared_ptr<const SharedCameraGroup> group;
+    if (it != cachedShared_.end()) {
+      group = it->second;
+      groupKey = it->first;
+    } else {
+      auto made = std::make_shared<SharedCameraGroup>();
+      for (size_t p : photos) made->joint.push_back(*fits[p].second), made->photoKeys.push_back(fits[p].first);
+      made->photos = photos;
+      CameraFitOptions options = cameraFitOptions(project.options);
+      const Photo& first = *scene.photos[photos[0]];
+      options.focalPriorPx = first.exif.focalPx(cv::Size(first.width, first.height));
+      std::vector<CameraFit*> members;
+      for (CameraFit& f : made->joint) members.push_back(&f);
+      made->summary = fitSharedIntrinsics(*scene.mesh, members, options);
+      const bool sharedNow = made->summary.shared;
+      made->fits.resize(photos.size());
+      tbb::parallel_for(size_t(0), photos.size(), [&](size_t k) {
+        const size_t p = photos[k];
+        // The last run's refinement of this photo: the same when it was on the same fit of its own, and in the
+        // preview good enough when it was on a shared camera of the same clicks.
+        for (const auto& [lastKey, last] : cachedShared_)
+          for (size_t j = 0; j < last->photos.size(); ++j)
+            if (last->photos[j] == p && last->photoKeys[j] == made->photoKeys[k] && last->summary.shared == sharedNow &&
+                (!sharedNow || isPreview(tier))) {
+              made->fits[k] = last->fits[j];
+              return;
+            }
+        CameraFit fit = made->joint[k];  // the shared camera, or the photo's own fit as it was
+        refineOnSilhouette(*scene.mesh, *scene.photos[p], fit,
+                           photoFitOptions(project.options, warmStart[p] != nullptr), cachedPhotos_[p].silhouette.get(),
+                           cachedPhotos_[p].contours.get());
+        made->fits[k] = std::make_shared<const CameraFit>(std::move(fit));
+      });
+      group = made;
+    }
+    shared[groupKey] = group;
+    if (photos.size() >= 2) cameras->shared.push_back(group->summary);
+    for (size_t k = 0; k < photos.size(); ++k) {
+      given[photos[k]] = group->fits[k];
+      if (group->summary.shared) sharedKey[photos[k]] = "#shared:" + groupKey;
+    }
+  }
+  cachedShared_ = std::move(shared);
+  job.checkCancel();
   key.clear();
-  for (const auto& [k, fit] : fits) {
-    cameras->fits.push_back(*fit);
-    cameras->fitted += fit->fits && !fit->subject;
-    cameras->subjects += fit->subject;
-    key += "#fit:" + k;
+  for (size_t p = 0; p < np; ++p) {
+    const CameraFit& fit = *given[p];
+    cameras->fits.push_back(fit);
+    cameras->fitted += fit.fits && !fit.subject;
+    cameras->subjects += fit.subject;
+    key += "#fit:" + fits[p].first + sharedKey[p];
   }
   cachedFits_ = std::move(fits);
   cameras->seconds = secondsSince(start);

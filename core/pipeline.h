@@ -58,6 +58,7 @@ struct CameraStage {
   int subjects = 0;             // photos taken for another subject (mapping/subject.h)
   int reused = 0;               // fits reused from the previous run (same clicks, photo, mesh, options)
   double pooledRadialF = 0;     // the largest pooled F of the lens terms over the photos of one camera
+  std::vector<SharedIntrinsics> shared;  // per group of object photos of one image size: the joint fit's verdict
   double seconds = 0;
 };
 
@@ -328,6 +329,14 @@ class Pipeline {
   // Results by document state, most recent last.
   std::vector<std::pair<std::string, std::shared_ptr<const PipelineResult>>> previews_, finals_;
   std::vector<std::pair<std::string, std::shared_ptr<const CameraFit>>> cachedFits_;  // key -> fit, per photo
+  struct SharedCameraGroup {  // the photos of one camera after fitSharedIntrinsics (and their silhouettes)
+    SharedIntrinsics summary;
+    std::vector<size_t> photos;                          // the members, by photo index
+    std::vector<std::string> photoKeys;                  // per member: its own fit's key (its clicks, photo, ...)
+    std::vector<CameraFit> joint;                        // per member: the bundle adjustment's fit
+    std::vector<std::shared_ptr<const CameraFit>> fits;  // per member: the fit given (refined on its silhouette)
+  };
+  std::map<std::string, std::shared_ptr<const SharedCameraGroup>> cachedShared_;  // the group's fit keys -> group
   // The camera stage: each photo's fit, reused from cachedFits_ while its key (the photo, the mesh, its clicks,
   // `fieldsKey`: the camera's declared fields) stays; the preview refits from the last camera. Sets `key` to
   // the fits' keys.

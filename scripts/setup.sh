@@ -10,7 +10,7 @@ BUILD_PKGS=(
   libglfw3-dev libimgui-dev libglm-dev libopenmesh-dev libeigen3-dev libstb-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-photo-dev libopencv-calib3d-dev libnanoflann-dev
   nlohmann-json3-dev libcli11-dev libtinygltf-dev libassimp-dev libgtest-dev
-  libsuitesparse-dev libopenblas-dev libtbb-dev libpng-dev libjpeg-dev libtiff-dev liblcms2-dev
+  libsuitesparse-dev libopenblas-dev libtbb-dev libpng-dev libjpeg-dev libtiff-dev liblcms2-dev libexif-dev
   libgl-dev
 )
 TOOL_PKGS=(xvfb xauth xdotool assimp-utils libcgal-demo nodejs python3-opencv python3-scipy python3-skimage tuxpaint-stamps-default parallel)  # parallel: scripts/batch.sh and the batch test; python3-opencv, -scipy: scripts/make_demo.py; xdotool: editor_ui_test (real keys); python3-skimage, tuxpaint-stamps-default: the face and tiger cases' photos (tests, tm_subject_bench)

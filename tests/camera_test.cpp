@@ -9,6 +9,8 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numeric>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <set>
 
@@ -17,6 +19,7 @@
 #include "bench/sight.h"
 #include "bench/synth.h"
 #include "geometry/mesh.h"
+#include "image/codec.h"
 #include "image/photo.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
@@ -222,9 +225,161 @@ TEST(CameraFit, PooledRadialFSumsTheTrialsOfOneCamera) {
   EXPECT_NEAR(pooledRadialF({&a, &b, &none}), pooledRadialF({&a, &b}), 1e-12);
 }
 
+namespace {
+
+// The clicks of every photo of `d` moved to where `lens` (each photo's true pose and focal times `focalScale[k]`, with
+// the given radial terms) puts their vertices, plus seeded Gaussian noise of `noise` px per axis.
+std::vector<std::vector<CameraClick>> clicksThroughLens(const DemoScene& d, double k1, double noise,
+                                                        const std::vector<double>& focalScale,
+                                                        std::vector<PhotoCamera>& lens) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> gauss(0, noise);
+  std::vector<std::vector<CameraClick>> out;
+  lens.clear();
+  for (int k = 0; k < static_cast<int>(d.scene.cameras.size()); ++k) {
+    PhotoCamera c = trueCamera(d.scene, k);
+    c.pinhole.fx *= focalScale[k], c.pinhole.fy *= focalScale[k];
+    c.k1 = k1;
+    lens.push_back(c);
+    std::vector<CameraClick> clicks = photoClicks(d.scene.project, k);
+    for (CameraClick& click : clicks) {
+      EXPECT_TRUE(c.project(d.mesh->position(click.vertex), click.pixel));
+      if (noise > 0) click.pixel += Vec2(gauss(rng), gauss(rng));
+    }
+    out.push_back(std::move(clicks));
+  }
+  return out;
+}
+
+// Each photo's own fit (every one must fit), and the fits as fitSharedIntrinsics takes them.
+std::vector<CameraFit> fitEach(const DemoScene& d, const std::vector<std::vector<CameraClick>>& clicks) {
+  std::vector<CameraFit> fits;
+  for (const auto& c : clicks) {
+    fits.push_back(fitCamera(*d.mesh, c, 512, 512));
+    EXPECT_TRUE(fits.back().fits) << fits.back().reason;
+  }
+  return fits;
+}
+std::vector<CameraFit*> pointersTo(std::vector<CameraFit>& fits) {
+  std::vector<CameraFit*> out;
+  for (CameraFit& f : fits) out.push_back(&f);
+  return out;
+}
+
+}  // namespace
+
+TEST(CameraFit, PhotosOfOneCameraShareItsIntrinsicsAndPayForItsLensTogether) {
+  // Issue 37: four photos through one mild lens (k1 = +0.1 moves the turtle's clicks by up to about 1.5 px) with
+  // 0.5 px of click noise. Alone, photos drop k1 or fit their own focal length; the bundle adjustment over all their
+  // clicks finds one focal length and one k1, and lands the texture nearer the truth.
+  const DemoScene d = demoScene("camera_fit_shared", 4, 250);
+  std::vector<PhotoCamera> lens;
+  const auto clicks = clicksThroughLens(d, 0.1, 0.5, {1, 1, 1, 1}, lens);
+  std::vector<CameraFit> fits = fitEach(d, clicks);
+  const std::vector<CameraFit> alone = fits;
+  const std::vector<CameraFit*> members = pointersTo(fits);
+  const SharedIntrinsics shared = fitSharedIntrinsics(*d.mesh, members);
+  ASSERT_TRUE(shared.shared) << shared.why;
+  EXPECT_EQ(shared.photos, 4);
+  EXPECT_GE(shared.terms, 1) << shared.why;
+  EXPECT_NEAR(shared.k1, 0.1, 0.04) << shared.why;
+  EXPECT_NEAR(shared.focal / lens[0].focal(), 1.0, 0.01) << shared.why;
+  double gapShared = 0, gapAlone = 0;
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_EQ(fits[k].sharedIntrinsics, 4);
+    EXPECT_EQ(fits[k].camera.focal(), shared.focal);
+    EXPECT_EQ(fits[k].camera.k1, shared.k1);
+    EXPECT_EQ(fits[k].inliers, static_cast<int>(clicks[k].size())) << describeFit(fits[k]);
+    gapShared += projectionGap(*d.mesh, lens[k], fits[k].camera);
+    gapAlone += projectionGap(*d.mesh, lens[k], alone[k].camera);
+  }
+  std::printf("largest gap to the true projection, mean of 4 photos: %.2f px shared, %.2f px alone (%s)\n",
+              gapShared / 4, gapAlone / 4, shared.why.c_str());
+  EXPECT_LT(gapShared, 0.7 * gapAlone);
+}
+
+TEST(CameraFit, PhotosOfOneSizeWithDifferentFocalLengthsKeepTheirOwn) {
+  // A zoom between shots (or two cameras of one image size): two photos at the scene's focal length, two at 1.4
+  // times it. Shared intrinsics cannot explain them; Akaike's criterion keeps each photo's own, unchanged.
+  const DemoScene d = demoScene("camera_fit_zoom", 4, 150);
+  std::vector<PhotoCamera> lens;
+  const auto clicks = clicksThroughLens(d, 0, 0.5, {1, 1, 1.4, 1.4}, lens);
+  std::vector<CameraFit> fits = fitEach(d, clicks);
+  const std::vector<CameraFit> alone = fits;
+  const std::vector<CameraFit*> members = pointersTo(fits);
+  const SharedIntrinsics shared = fitSharedIntrinsics(*d.mesh, members);
+  EXPECT_FALSE(shared.shared) << shared.why;
+  EXPECT_GT(shared.aicShared, shared.aicSeparate);
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_EQ(fits[k].sharedIntrinsics, 0);
+    EXPECT_EQ(fits[k].camera.focal(), alone[k].camera.focal());
+    EXPECT_NEAR(fits[k].camera.focal() / lens[k].focal(), 1.0, 0.02) << describeFit(fits[k]);
+  }
+  // The two photos at one focal length do share it.
+  std::vector<CameraFit*> pair = {&fits[2], &fits[3]};
+  const SharedIntrinsics zoomed = fitSharedIntrinsics(*d.mesh, pair);
+  EXPECT_TRUE(zoomed.shared) << zoomed.why;
+  EXPECT_NEAR(zoomed.focal / lens[2].focal(), 1.0, 0.02) << zoomed.why;
+}
+
+TEST(CameraFit, TheExifFocalLengthIsAPriorTheClicksMayRefuse) {
+  // Issue 37: eight clicks of 1 px noise leave the focal length loose (it trades with the distance); the EXIF's,
+  // within 2% (a 35 mm equivalent is rounded), pins it. A photo cropped after the shot keeps its EXIF, whose focal
+  // length no longer fits its frame: the clicks refuse that prior and the fit is the one without it.
+  const DemoScene d = demoScene("camera_fit_exif_prior", 2, 150);
+  std::vector<PhotoCamera> lens;
+  const auto clicks = clicksThroughLens(d, 0, 1.0, {1, 1}, lens);
+  const double truth = lens[0].focal();
+  const std::vector<CameraClick> few(clicks[0].begin(), clicks[0].begin() + 8);
+  const CameraFit alone = fitCamera(*d.mesh, few, 512, 512);
+  CameraFitOptions exif;
+  exif.focalPriorPx = 1.02 * truth;
+  const CameraFit withPrior = fitCamera(*d.mesh, few, 512, 512, exif);
+  ASSERT_TRUE(alone.fits) << alone.reason;
+  ASSERT_TRUE(withPrior.fits) << withPrior.reason;
+  std::printf("8 clicks: focal %.1f px alone, %.1f px with the EXIF's %.1f, truth %.1f\n", alone.camera.focal(),
+              withPrior.camera.focal(), exif.focalPriorPx, truth);
+  EXPECT_EQ(alone.focalPrior, 0);
+  EXPECT_EQ(withPrior.focalPrior, 1) << describeFit(withPrior);
+  EXPECT_LT(std::abs(withPrior.camera.focal() / truth - 1), 0.04);
+  EXPECT_LT(std::abs(withPrior.camera.focal() - truth), 0.5 * std::abs(alone.camera.focal() - truth));
+  EXPECT_LT(projectionGap(*d.mesh, lens[0], withPrior.camera), projectionGap(*d.mesh, lens[0], alone.camera));
+
+  CameraFitOptions cropped;
+  cropped.focalPriorPx = 1.6 * truth;
+  const CameraFit all = fitCamera(*d.mesh, clicks[0], 512, 512);
+  const CameraFit refused = fitCamera(*d.mesh, clicks[0], 512, 512, cropped);
+  ASSERT_GE(clicks[0].size(), 20u);
+  EXPECT_EQ(refused.focalPrior, -1) << describeFit(refused);
+  EXPECT_EQ(refused.camera.focal(), all.camera.focal());
+  EXPECT_NE(describeFit(refused).find("EXIF's focal length refused"), std::string::npos);
+}
+
+TEST(CameraFit, ExactClicksThroughOnePinholeShareItExactly) {
+  const DemoScene d = demoScene("camera_fit_shared_exact", 3, 120);
+  std::vector<PhotoCamera> lens;
+  const auto clicks = clicksThroughLens(d, 0, 0, {1, 1, 1}, lens);
+  std::vector<CameraFit> fits = fitEach(d, clicks);
+  const std::vector<CameraFit*> members = pointersTo(fits);
+  const SharedIntrinsics shared = fitSharedIntrinsics(*d.mesh, members);
+  ASSERT_TRUE(shared.shared) << shared.why;
+  EXPECT_EQ(shared.terms, 0) << shared.why;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_LT(fits[k].maxResidual, 1e-4) << describeFit(fits[k]);
+    EXPECT_LT(projectionGap(*d.mesh, lens[k], fits[k].camera), 1e-3);
+  }
+  // One photo alone, or a photo that does not fit, leaves the fits as they are.
+  std::vector<CameraFit*> one = {&fits[0]};
+  EXPECT_FALSE(fitSharedIntrinsics(*d.mesh, one).shared);
+  CameraFit none;
+  std::vector<CameraFit*> withNone = {&fits[0], &none};
+  EXPECT_FALSE(fitSharedIntrinsics(*d.mesh, withNone).shared);
+}
+
 TEST(CameraPipeline, TheLensTermsOfOneCameraArePaidForByAllItsPhotosTogether) {
   // Issue 37: four photos through one lens (k1 = -0.5) with noisy clicks. Alone, some photos' F test drops k1 (their
-  // clicks do not pay for it); pooled over the camera's photos the terms pay, and every photo keeps them.
+  // clicks do not pay for it); the camera's photos pay for it together (their pooled trials, then one focal length
+  // and one k1 in the bundle adjustment over all their clicks), and every photo keeps it.
   constexpr double k1 = -0.5;  // the turtle spans a normalised radius under 0.3: a strong lens moves its clicks 1-4 px
   const DemoScene d = demoScene("camera_pipeline_pooled_lens", 4, 150, 1.0, 512, k1);
   const Mesh& mesh = *d.mesh;
@@ -245,9 +400,9 @@ TEST(CameraPipeline, TheLensTermsOfOneCameraArePaidForByAllItsPhotosTogether) {
     PhotoCamera truth = trueCamera(d.scene, k);
     truth.k1 = k1;
     EXPECT_NE(fit.camera.k1, 0) << describeFit(fit);
+    EXPECT_EQ(fit.sharedIntrinsics, 4) << describeFit(fit);  // one focal length and one k1 for the four
     if (alone[k].camera.k1 != 0) continue;
     ++pooled;
-    EXPECT_TRUE(fit.radialPooled);
     // The texture lands nearer where the lens puts it (the largest gap over the visible vertices).
     std::printf("photo %d: largest gap to the true projection %.2f px pooled, %.2f px alone\n", k,
                 projectionGap(mesh, truth, fit.camera), projectionGap(mesh, truth, alone[k].camera));
@@ -260,6 +415,50 @@ TEST(CameraPipeline, TheLensTermsOfOneCameraArePaidForByAllItsPhotosTogether) {
       std::printf("pooled F of the lens terms: %.2f\n", s.counts["pooled_radial_f"].get<double>());
       EXPECT_GT(s.counts["pooled_radial_f"].get<double>(), 2) << s.counts;
     }
+}
+
+TEST(CameraPipeline, TheExifSaysWhichPhotosShareACameraAndGivesItsFocalLength) {
+  // Issue 37: four JPEGs of one size whose EXIF names two cameras (two photos each) and their focal length (the
+  // 35 mm equivalent, whole millimetres as cameras write it). The photos of each camera share their intrinsics, with
+  // the EXIF's focal length a prior; the cameras are not mixed although all four photos have one size.
+  const DemoScene d = demoScene("camera_pipeline_exif", 4, 150, 1.0);
+  Project project = loadProject(d.dir + "/project.json");
+  for (int k = 0; k < 4; ++k) {
+    const cv::Mat stored = readImageFile(project.photos[k].path);  // B,G,R,A
+    ASSERT_EQ(stored.channels(), 4);
+    cv::Mat bgr, alpha;
+    cv::cvtColor(stored, bgr, cv::COLOR_BGRA2BGR);
+    cv::extractChannel(stored, alpha, 3);
+    std::vector<unsigned char> jpeg;
+    ASSERT_TRUE(cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, 95}));
+    const int f35 = int(std::lround(d.scene.cameras[k].fx * std::hypot(36.0, 24.0) / std::hypot(512.0, 512.0)));
+    const std::string model = k < 2 ? "Alpha" : "Beta";
+    const std::vector<unsigned char> modelText(model.c_str(), model.c_str() + model.size() + 1);
+    const std::vector<unsigned char> exif =
+        test::exifPayload(false, {{271, 2, 5, {'T', 'e', 's', 't', 0}}, {272, 2, int(modelText.size()), modelText}},
+                          {{41989, 3, 1, test::exif16(false, uint32_t(f35))}});
+    const std::string path = d.dir + "/photo" + std::to_string(k) + ".jpg",
+                      mask = d.dir + "/mask" + std::to_string(k) + ".png";
+    const std::vector<unsigned char> bytes = test::withApp1(jpeg, exif);
+    writeFileAtomic(path, std::string(bytes.begin(), bytes.end()));
+    writePng(mask, alpha);
+    project.photos[k].path = path, project.photos[k].mask = mask;
+  }
+  Pipeline pipeline;
+  const PipelineResult r = pipeline.run(project);
+  ASSERT_EQ(r.cameras->fitted, 4);
+  ASSERT_EQ(r.cameras->shared.size(), 2u);
+  for (const SharedIntrinsics& s : r.cameras->shared) {
+    EXPECT_TRUE(s.shared) << s.why;
+    EXPECT_EQ(s.photos, 2);
+    EXPECT_TRUE(s.focalPrior);
+  }
+  for (int k = 0; k < 4; ++k) {
+    const CameraFit& fit = r.cameras->fits[k];
+    EXPECT_EQ(fit.sharedIntrinsics, 2) << describeFit(fit);
+    EXPECT_EQ(fit.focalPrior, 1) << describeFit(fit);
+    EXPECT_NEAR(fit.camera.focal() / d.scene.cameras[k].fx, 1.0, 0.02) << describeFit(fit);
+  }
 }
 
 TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
@@ -907,15 +1106,21 @@ TEST(CameraPipeline, ThePreviewStartsFromTheLastRunAndTheFinalMatchesAFreshRun) 
       EXPECT_GT(pr.selectionKept, 0);
       EXPECT_LT(pr.selectionKept, preview.mapping->map.numFaces());
     }
-    // The warm camera lands within a fraction of a pixel of the fit from scratch.
+    // The warm camera lands within a fraction of a pixel of the fit from scratch. The photos share their camera's
+    // intrinsics, so a changed click moves every photo's fit a little: in the preview a photo whose clicks did not
+    // change keeps its last camera.
     for (int k = 0; k < 4; ++k) {
-      const double gap = projectionGap(*d.mesh, preview.cameras->fits[k].camera, fresh.cameras->fits[k].camera);
+      const CameraFit& warm = preview.cameras->fits[k];
+      EXPECT_EQ(warm.sharedIntrinsics, 4) << describeFit(warm);
+      const double gap = projectionGap(*d.mesh, warm.camera, fresh.cameras->fits[k].camera);
       EXPECT_LT(gap, 0.5) << "photo " << k;
       if (changed.count(k)) std::printf("photo %d: the warm camera is %.3f px from the fit from scratch\n", k, gap);
-      if (changed.count(k))
+      if (changed.count(k)) {
         EXPECT_GT(gap, 0) << "photo " << k << " was refitted from scratch";
-      else
-        EXPECT_EQ(gap, 0) << "photo " << k << ", whose clicks did not change, was refitted";
+      } else {
+        EXPECT_EQ(projectionGap(*d.mesh, warm.camera, last.cameras->fits[k].camera), 0)
+            << "photo " << k << ", whose clicks did not change, was refitted";
+      }
     }
     // It shows nearly the same photo choices and UVs as the final.
     const TextureMap& a = preview.mapping->map;
@@ -952,6 +1157,9 @@ TEST(CameraPipeline, ThePreviewStartsFromTheLastRunAndTheFinalMatchesAFreshRun) 
 TEST(CameraPipeline, AViewCarriedOverToANewRefinementEqualsAFreshOne) {
   DemoScene d = demoScene("camera_pipeline_carry", 4, 150, 1.0);
   Project doc = loadProject(d.dir + "/project.json");
+  // Each photo keeps its own camera: photos that share their intrinsics all move when any click does, and no view
+  // would be carried (the final tier takes every camera as a fresh run does).
+  doc.options.sharedIntrinsics = false;
   Pipeline pipeline;
   const PipelineResult first = pipeline.run(doc);
   ASSERT_EQ(first.cameras->fitted, 4);

@@ -214,26 +214,8 @@ TEST(Codec, JpegExifOrientationIsApplied) {
   for (bool bigEndian : {false, true})
     for (int orientation = 1; orientation <= 8; ++orientation) {
       SCOPED_TRACE("orientation " + std::to_string(orientation) + (bigEndian ? " MM" : " II"));
-      // APP1: "Exif\0\0", a TIFF header, IFD0 with one entry: tag 274, SHORT, count 1, the value.
-      std::vector<unsigned char> exif = {'E', 'x', 'i', 'f', 0, 0};
-      const auto put16 = [&](int v) {
-        bigEndian ? exif.insert(exif.end(), {uchar(v >> 8), uchar(v)})
-                  : exif.insert(exif.end(), {uchar(v), uchar(v >> 8)});
-      };
-      const auto put32 = [&](int v) {
-        if (bigEndian)
-          put16(v >> 16), put16(v & 0xFFFF);
-        else
-          put16(v & 0xFFFF), put16(v >> 16);
-      };
-      exif.insert(exif.end(),
-                  bigEndian ? std::initializer_list<uchar>{'M', 'M'} : std::initializer_list<uchar>{'I', 'I'});
-      put16(42), put32(8), put16(1), put16(274), put16(3), put32(1), put16(orientation), put16(0), put32(0);
-      std::vector<unsigned char> bytes(plain.begin(), plain.begin() + 2);  // SOI
-      const size_t length = exif.size() + 2;
-      bytes.insert(bytes.end(), {0xFF, 0xE1, uchar(length >> 8), uchar(length & 0xFF)});
-      bytes.insert(bytes.end(), exif.begin(), exif.end());
-      bytes.insert(bytes.end(), plain.begin() + 2, plain.end());
+      const std::vector<unsigned char> bytes = test::withApp1(
+          plain, test::exifPayload(bigEndian, {{274, 3, 1, test::exif16(bigEndian, uint32_t(orientation))}}, {}));
       const cv::Mat shown = ours(bytes, "portrait.jpg");
       EXPECT_EQ(maxDifference(shown, cv::imdecode(bytes, cv::IMREAD_COLOR)), 0);
       EXPECT_EQ(shown.size(), orientation >= 5 ? cv::Size(48, 80) : cv::Size(80, 48));
@@ -242,6 +224,68 @@ TEST(Codec, JpegExifOrientationIsApplied) {
       ASSERT_TRUE(header.size);
       EXPECT_EQ(*header.size, shown.size());
     }
+}
+
+// A photo's EXIF names its camera and focal length (issue 37: photos of one camera are fitted together, its focal
+// length a prior), in either byte order, with the orientation beside them; from the focal length in pixels follow
+// the field of view. Cameras write the 35 mm equivalent or the focal plane's resolution; a crop after the shot
+// leaves the latter unusable, and the EXIF says nothing then.
+TEST(Codec, JpegExifNamesTheCameraAndItsFocalLength) {
+  const cv::Mat image = testImage(48, 80, CV_8U, 3, 9u);  // 80 x 48 as stored
+  const std::vector<unsigned char> plain = cvEncode(".jpg", image, {cv::IMWRITE_JPEG_QUALITY, 95});
+  for (bool big : {false, true}) {
+    SCOPED_TRACE(big ? "MM" : "II");
+    const auto u16 = [&](uint32_t v) { return test::exif16(big, v); };
+    const auto u32 = [&](uint32_t v) { return test::exif32(big, v); };
+    const auto rational = [&](uint32_t n, uint32_t d) {
+      std::vector<unsigned char> out = u32(n), b = u32(d);
+      out.insert(out.end(), b.begin(), b.end());
+      return out;
+    };
+    const auto ascii = [](const std::string& text) {
+      std::vector<unsigned char> out(text.begin(), text.end());
+      out.push_back(0);
+      return out;
+    };
+    const std::vector<test::ExifEntryBytes> ifd0 = {{271, 2, 6, ascii("Canon")},
+                                                    {272, 2, 14, ascii("Canon EOS 80D")},
+                                                    {274, 3, 1, u16(6)}};  // stored turned: shown 48 x 80
+    std::vector<test::ExifEntryBytes> exif = {
+        {37386, 5, 1, rational(180, 10)},  // 18 mm
+        {40962, 4, 1, u32(6000)},          // written 6000 x 3600 (5:3, as 80 x 48)
+        {40963, 4, 1, u32(3600)},
+        {41486, 5, 1, rational(6000 * 25400, 22320)},  // 6000 px on 22.32 mm, per inch
+        {41488, 3, 1, u16(2)},
+        {41989, 3, 1, u16(29)}};
+    const std::vector<unsigned char> bytes = test::withApp1(plain, test::exifPayload(big, ifd0, exif));
+    const ImageHeader header = readImageHeader(bytes.data(), bytes.size());
+    EXPECT_EQ(header.orientation, 6);
+    ASSERT_TRUE(header.size);
+    EXPECT_EQ(*header.size, cv::Size(48, 80));
+    const ExifCamera& camera = header.camera;
+    EXPECT_EQ(camera.make, "Canon");
+    EXPECT_EQ(camera.model, "Canon EOS 80D");
+    EXPECT_DOUBLE_EQ(camera.focalMm, 18);
+    EXPECT_DOUBLE_EQ(camera.focal35mm, 29);
+    EXPECT_NEAR(camera.focalPlanePxPerMm, 6000 / 22.32, 1e-9);
+    EXPECT_EQ(camera.describe(), "Canon EOS 80D, 18 mm (29 mm on 35 mm film)");
+    // From the 35 mm equivalent: 29 mm on the frame's 43.27 mm diagonal, as a share of this image's diagonal.
+    EXPECT_NEAR(camera.focalPx(*header.size), 29 * std::hypot(48, 80) / std::hypot(36, 24), 1e-9);
+    // Without it, from the focal plane: 18 mm x 268.8 px/mm at 6000 px wide, scaled to this image's 80.
+    exif.pop_back();
+    const std::vector<unsigned char> noEquivalent = test::withApp1(plain, test::exifPayload(big, ifd0, exif));
+    const ExifCamera plane = readImageHeader(noEquivalent.data(), noEquivalent.size()).camera;
+    EXPECT_EQ(plane.focal35mm, 0);
+    EXPECT_NEAR(plane.focalPx(cv::Size(48, 80)), 18 * (6000 / 22.32) * 80 / 6000, 1e-9);
+    EXPECT_EQ(plane.focalPx(cv::Size(48, 60)), 0);  // cropped to another aspect: unknown
+    // The decoder applies the same orientation.
+    EXPECT_EQ(ours(bytes, "canon.jpg").size(), cv::Size(48, 80));
+  }
+  // No EXIF, or an APP1 that is not EXIF: nothing.
+  EXPECT_TRUE(readImageHeader(plain.data(), plain.size()).camera.empty());
+  const std::vector<unsigned char> xmp = test::withApp1(plain, {'h', 't', 't', 'p', ':', '/', '/', 'n', 's', 0});
+  EXPECT_TRUE(readImageHeader(xmp.data(), xmp.size()).camera.empty());
+  EXPECT_EQ(readImageHeader(xmp.data(), xmp.size()).orientation, 1);
 }
 
 // A photo with an embedded colour profile (Adobe RGB, as many cameras can store) comes in sRGB: its colours as the
@@ -290,6 +334,10 @@ TEST(Codec, EmbeddedColourProfilesComeInSrgb) {
               worstStored);
   EXPECT_LE(worstConverted, 3);
   EXPECT_GE(worstStored, 20);
+  // The header says a profile is embedded (montage info reports it), and not for the same JPEG without one.
+  EXPECT_TRUE(readImageHeader(bytes.data(), bytes.size()).iccProfile);
+  const std::vector<unsigned char> noProfile = libjpegEncode(image, JCS_EXT_BGR, 100, {});
+  EXPECT_FALSE(readImageHeader(noProfile.data(), noProfile.size()).iccProfile);
   // The same pixels without a profile are taken as sRGB, as stored.
   const cv::Mat plain = ours(cvEncode(".jpg", image, {cv::IMWRITE_JPEG_QUALITY, 100}), "plain.jpg");
   EXPECT_LE(cv::norm(plain.at<cv::Vec3b>(8, 8), colours[0], cv::NORM_INF), 2);

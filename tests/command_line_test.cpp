@@ -6,7 +6,11 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include "base/fileio.h"
+#include "image/codec.h"
 #include "image/photo.h"
 #include "test_support.h"
 
@@ -123,6 +127,33 @@ TEST(CommandLine, InfoJson) {
   EXPECT_GT(j["warnings"].size(), 0u);  // the clicks on the background
   ASSERT_EQ(json(test::assetsDir() + "/demo/cat.obj"), 0) << text;
   EXPECT_EQ(nlohmann::json::parse(text)["kind"], "mesh");
+  // A photo: its EXIF orientation, colour profile and camera (a PNG has none; a JPEG's EXIF names them).
+  ASSERT_EQ(json(test::assetsDir() + "/demo/tiger_left.png"), 0) << text;
+  const nlohmann::json png = nlohmann::json::parse(text);
+  EXPECT_EQ(png["exif_orientation"], 1);
+  EXPECT_EQ(png["icc_profile"], false);
+  EXPECT_TRUE(png["camera"].is_null());
+  cv::Mat bgr;
+  cv::cvtColor(readImageFile(test::assetsDir() + "/demo/tiger_left.png"), bgr, cv::COLOR_BGRA2BGR);
+  std::vector<unsigned char> jpeg;
+  ASSERT_TRUE(cv::imencode(".jpg", bgr, jpeg));
+  const std::vector<unsigned char> exif = test::exifPayload(
+      false, {{271, 2, 5, {'A', 'c', 'm', 'e', 0}}, {272, 2, 3, {'X', '1', 0}}, {274, 3, 1, test::exif16(false, 6)}},
+      {{41989, 3, 1, test::exif16(false, 35)}});
+  const std::string photo = test::tempDir("cli_info_exif") + "/shot.jpg";
+  const std::vector<unsigned char> bytes = test::withApp1(jpeg, exif);
+  writeFileAtomic(photo, std::string(bytes.begin(), bytes.end()));
+  ASSERT_EQ(json(photo), 0) << text;
+  const nlohmann::json jpg = nlohmann::json::parse(text);
+  EXPECT_EQ(jpg["exif_orientation"], 6);
+  EXPECT_EQ(jpg["width"], bgr.rows);  // shown turned
+  EXPECT_EQ(jpg["camera"]["make"], "Acme");
+  EXPECT_EQ(jpg["camera"]["model"], "X1");
+  EXPECT_EQ(jpg["camera"]["focal_35mm"], 35.0);
+  EXPECT_NEAR(jpg["camera"]["focal_px"].get<double>(), 35 * std::hypot(bgr.cols, bgr.rows) / std::hypot(36, 24), 1e-6);
+  ASSERT_EQ(test::runCommand(test::montageExe() + " info " + photo + " 2>&1", &text), 0) << text;
+  EXPECT_NE(text.find("camera: Acme X1, 35 mm on 35 mm film, focal length"), std::string::npos) << text;
+  EXPECT_NE(text.find("EXIF orientation 6"), std::string::npos) << text;
   // An error still answers in JSON on stdout (the message also goes to stderr).
   ASSERT_EQ(json("/nonexistent/a.obj"), 1) << text;
   const nlohmann::json error = nlohmann::json::parse(text);

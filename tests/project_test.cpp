@@ -92,6 +92,7 @@ class ProjectTest : public ::testing::Test {
     p.options.seed = 4000000000u;
     p.options.cameraMode = CameraMode::Off;
     p.options.cameraThreshold = 0.01;
+    p.options.sharedIntrinsics = false;
     p.options.correction = CorrectionMode::Inliers;
     p.options.viewSmoothness = 2.5;
     p.declinedProposals = {{12, 1}, {7, 0}};
@@ -786,6 +787,8 @@ TEST(ProjectOptions, SetFromTheCommandLine) {
   setProjectOption(o, "inpaintMode", "synthesis", "--set inpaintMode=synthesis");  // a bare word: a name
   setProjectOption(o, "weldIdenticalPositions", "false", "--set weldIdenticalPositions=false");
   setProjectOption(o, "seamLambda", "0.25", "--set seamLambda=0.25");
+  setProjectOption(o, "sharedIntrinsics", "false", "--set sharedIntrinsics=false");
+  EXPECT_FALSE(o.sharedIntrinsics);
   EXPECT_EQ(o.atlasSize, 2048);
   EXPECT_EQ(o.inpaintMode, InpaintMode::Synthesis);
   EXPECT_FALSE(o.weldIdenticalPositions);
@@ -801,7 +804,7 @@ TEST(ProjectOptions, SetFromTheCommandLine) {
   EXPECT_NE(message("inpaintMode", "paint").find("'paint' is not an inpainting mode"), std::string::npos);
   EXPECT_NE(message("atlasSize", "100").find("options.atlasSize"), std::string::npos);
   EXPECT_TRUE(o == before) << "a refused value leaves the options as they were";
-  EXPECT_EQ(projectOptionNames().size(), 22u);
+  EXPECT_EQ(projectOptionNames().size(), 23u);
 }
 
 // Issue 35, finding 9: a deletion renumbered the points after it. Ids survive erasePoint, are written (version 5)

@@ -115,4 +115,71 @@ void expectSameMapping(const Mapping& a, const Mapping& b, const std::string& wh
   EXPECT_LE(worst, 1e-9) << what;
 }
 
+// ---- EXIF segments (codec and camera tests) ----
+
+using Byte = unsigned char;
+
+std::vector<unsigned char> exif16(bool big, uint32_t v) {
+  return big ? std::vector<unsigned char>{Byte(v >> 8), Byte(v)} : std::vector<unsigned char>{Byte(v), Byte(v >> 8)};
+}
+std::vector<unsigned char> exif32(bool big, uint32_t v) {
+  std::vector<unsigned char> out = exif16(big, big ? v >> 16 : v & 0xFFFF),
+                             second = exif16(big, big ? v & 0xFFFF : v >> 16);
+  out.insert(out.end(), second.begin(), second.end());
+  return out;
+}
+
+std::vector<unsigned char> exifPayload(bool big, std::vector<ExifEntryBytes> ifd0,
+                                       const std::vector<ExifEntryBytes>& exif) {
+  std::vector<unsigned char> t;  // the TIFF structure
+  const auto put16 = [&](std::vector<unsigned char>& out, uint32_t v) {
+    const std::vector<unsigned char> b = exif16(big, v);
+    out.insert(out.end(), b.begin(), b.end());
+  };
+  const auto put32 = [&](std::vector<unsigned char>& out, uint32_t v) {
+    const std::vector<unsigned char> b = exif32(big, v);
+    out.insert(out.end(), b.begin(), b.end());
+  };
+  const size_t ifd0Size = 2 + 12 * (ifd0.size() + !exif.empty()) + 4,
+               exifSize = exif.empty() ? 0 : 2 + 12 * exif.size() + 4;
+  if (!exif.empty()) ifd0.push_back({34665, 4, 1, {}});  // the Exif IFD's offset, filled below
+  std::vector<unsigned char> data;                       // values over 4 bytes
+  const size_t dataAt = 8 + ifd0Size + exifSize;
+  const auto writeIfd = [&](const std::vector<ExifEntryBytes>& entries) {
+    put16(t, uint32_t(entries.size()));
+    for (const ExifEntryBytes& e : entries) {
+      put16(t, e.tag), put16(t, e.type), put32(t, e.count);
+      if (e.tag == 34665) {
+        put32(t, uint32_t(8 + ifd0Size));
+      } else if (e.value.size() <= 4) {
+        std::vector<unsigned char> v = e.value;
+        v.resize(4, 0);
+        t.insert(t.end(), v.begin(), v.end());
+      } else {
+        put32(t, uint32_t(dataAt + data.size()));
+        data.insert(data.end(), e.value.begin(), e.value.end());
+      }
+    }
+    put32(t, 0);
+  };
+  t.insert(t.end(),
+           big ? std::initializer_list<unsigned char>{'M', 'M'} : std::initializer_list<unsigned char>{'I', 'I'});
+  put16(t, 42), put32(t, 8);
+  writeIfd(ifd0);
+  if (!exif.empty()) writeIfd(exif);
+  t.insert(t.end(), data.begin(), data.end());
+  std::vector<unsigned char> payload = {'E', 'x', 'i', 'f', 0, 0};
+  payload.insert(payload.end(), t.begin(), t.end());
+  return payload;
+}
+
+std::vector<unsigned char> withApp1(const std::vector<unsigned char>& jpeg, const std::vector<unsigned char>& payload) {
+  std::vector<unsigned char> bytes(jpeg.begin(), jpeg.begin() + 2);
+  const size_t length = payload.size() + 2;
+  bytes.insert(bytes.end(), {0xFF, 0xE1, Byte(length >> 8), Byte(length & 0xFF)});
+  bytes.insert(bytes.end(), payload.begin(), payload.end());
+  bytes.insert(bytes.end(), jpeg.begin() + 2, jpeg.end());
+  return bytes;
+}
+
 }  // namespace montage::test

@@ -3,8 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "base/common.h"
 
@@ -40,6 +42,22 @@ nlohmann::json demoProjectAbsolute();
 #define TM_REQUIRE_XVFB()           \
   if (!::montage::test::haveXvfb()) \
   GTEST_SKIP() << "xvfb-run is absent (package xvfb): the editor tests need a virtual display"
+
+// EXIF APP1 segments for JPEG tests (codec, the camera fit's EXIF prior).
+// Values in EXIF's byte order (`big`: Motorola's).
+std::vector<unsigned char> exif16(bool big, uint32_t v);
+std::vector<unsigned char> exif32(bool big, uint32_t v);
+// An entry: tag, type (2 ASCII, 3 SHORT, 4 LONG, 5 RATIONAL), count, and its value's bytes in the payload's byte order.
+struct ExifEntryBytes {
+  int tag, type, count;
+  std::vector<unsigned char> value;
+};
+// An EXIF APP1 payload ("Exif\0\0" and a TIFF structure): IFD0 with `ifd0` and, when `exif` is not empty, a pointer
+// to an Exif IFD with `exif`; values over 4 bytes go after the IFDs.
+std::vector<unsigned char> exifPayload(bool big, std::vector<ExifEntryBytes> ifd0,
+                                       const std::vector<ExifEntryBytes>& exif);
+// `jpeg` with an APP1 segment holding `payload` after its SOI.
+std::vector<unsigned char> withApp1(const std::vector<unsigned char>& jpeg, const std::vector<unsigned char>& payload);
 
 // Test failures (labelled `what`) unless a and b map the same faces to the same photos with corner UVs
 // within 1e-9 px: the incremental-equals-from-scratch invariant.

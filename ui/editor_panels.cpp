@@ -724,6 +724,11 @@ void Editor::pipelineTab() {
           "photos of the object itself: how far the texture follows each click beyond the fitted camera. noise: "
           "as far as a click is off by more than the clicks' noise (exact clicks stay exact); all: every click "
           "exactly; inliers: the clicks that agree with the camera; off: the camera alone");
+    if (ImGui::Checkbox("photos of one camera share it", &o.sharedIntrinsics)) commit = true;
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "photos of the object itself from one camera (one size; one model and focal length where their EXIF "
+          "says) are fitted together, with one focal length and one lens, when their clicks agree with that");
     if (ImGui::Checkbox("weld seams of the mesh", &o.weldIdenticalPositions)) commit = true;
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip(

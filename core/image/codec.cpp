@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <jpeglib.h>
 #include <lcms2.h>
+#include <libexif/exif-data.h>
 #include <jerror.h>
 // clang-format on
 #include <png.h>
@@ -13,6 +14,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <csetjmp>
 #include <cstdint>
 #include <cstring>
@@ -89,26 +91,70 @@ std::optional<cv::Size> pngSize(ByteReader& in) {
   return cv::Size(int(std::min<uint32_t>(*w, INT32_MAX)), int(std::min<uint32_t>(*h, INT32_MAX)));
 }
 
-// The orientation (TIFF tag 274, 1..8) an APP1 segment's EXIF data gives (the segment's payload, from "Exif\0\0"
-// on); 1 when it has none or the data is not EXIF. Every offset is checked against the payload.
-int exifOrientation(const uint8_t* p, size_t n) {
-  if (n < 14 || std::memcmp(p, "Exif\0\0", 6) != 0) return 1;
-  const uint8_t* t = p + 6;  // the TIFF header
-  const size_t tn = n - 6;
-  const bool big = t[0] == 'M' && t[1] == 'M';
-  if (!big && !(t[0] == 'I' && t[1] == 'I')) return 1;
-  const auto u16 = [&](size_t at) { return big ? uint32_t(t[at]) << 8 | t[at + 1] : uint32_t(t[at + 1]) << 8 | t[at]; };
-  const auto u32 = [&](size_t at) { return big ? u16(at) << 16 | u16(at + 2) : u16(at + 2) << 16 | u16(at); };
-  const size_t ifd = u32(4);
-  if (ifd + 2 > tn) return 1;
-  const size_t entries = u16(ifd);
-  for (size_t i = 0; i < entries && ifd + 2 + 12 * (i + 1) <= tn; ++i) {
-    const size_t e = ifd + 2 + 12 * i;
-    if (u16(e) != 274) continue;
-    const uint32_t value = u16(e) == 274 && u16(e + 2) == 3 ? u16(e + 8) : 1;  // SHORT, stored in the entry
-    return value >= 1 && value <= 8 ? int(value) : 1;
-  }
-  return 1;
+// What an APP1 segment's EXIF data says (the segment's payload, from "Exif\0\0" on), read by libexif: the
+// orientation (TIFF tag 274, 1..8; 1 when absent) and the camera. Data that is not EXIF says nothing. libexif's
+// "follow the specification" option is off: it would add the mandatory tags a file lacks, with made-up values.
+struct ExifRead {
+  int orientation = 1;
+  ExifCamera camera;
+};
+ExifRead readExif(const uint8_t* p, size_t n) {
+  ExifRead out;
+  if (n < 14 || std::memcmp(p, "Exif\0\0", 6) != 0) return out;
+  ExifData* data = exif_data_new();
+  if (!data) return out;
+  exif_data_unset_option(data, EXIF_DATA_OPTION_FOLLOW_SPECIFICATION);
+  exif_data_load_data(data, p, static_cast<unsigned int>(n));
+  const ExifByteOrder order = exif_data_get_byte_order(data);
+  const auto entry = [&](ExifIfd ifd, ExifTag tag, ExifFormat format) -> ExifEntry* {
+    ExifEntry* e = exif_content_get_entry(data->ifd[ifd], tag);
+    return e && e->format == format && e->components >= 1 && e->data && e->size >= exif_format_get_size(format)
+               ? e
+               : nullptr;
+  };
+  const auto shortOf = [&](ExifIfd ifd, ExifTag tag) {
+    const ExifEntry* e = entry(ifd, tag, EXIF_FORMAT_SHORT);
+    return e ? int(exif_get_short(e->data, order)) : 0;
+  };
+  const auto longOf = [&](ExifIfd ifd, ExifTag tag) {  // SHORT or LONG, as the pixel dimensions may be stored
+    if (const ExifEntry* e = entry(ifd, tag, EXIF_FORMAT_LONG)) return double(exif_get_long(e->data, order));
+    return double(shortOf(ifd, tag));
+  };
+  const auto rationalOf = [&](ExifIfd ifd, ExifTag tag) {
+    const ExifEntry* e = entry(ifd, tag, EXIF_FORMAT_RATIONAL);
+    if (!e) return 0.0;
+    const ExifRational r = exif_get_rational(e->data, order);
+    return r.denominator ? double(r.numerator) / r.denominator : 0.0;
+  };
+  const auto textOf = [&](ExifIfd ifd, ExifTag tag) {
+    const ExifEntry* e = entry(ifd, tag, EXIF_FORMAT_ASCII);
+    if (!e) return std::string();
+    std::string t(reinterpret_cast<const char*>(e->data), strnlen(reinterpret_cast<const char*>(e->data), e->size));
+    while (!t.empty() && (t.back() == ' ' || t.back() == '\0')) t.pop_back();
+    for (char& c : t)
+      if (static_cast<unsigned char>(c) < 32) c = ' ';
+    return t;
+  };
+  const int orientation = shortOf(EXIF_IFD_0, EXIF_TAG_ORIENTATION);
+  out.orientation = orientation >= 1 && orientation <= 8 ? orientation : 1;
+  ExifCamera& c = out.camera;
+  c.make = textOf(EXIF_IFD_0, EXIF_TAG_MAKE);
+  c.model = textOf(EXIF_IFD_0, EXIF_TAG_MODEL);
+  c.focalMm = rationalOf(EXIF_IFD_EXIF, EXIF_TAG_FOCAL_LENGTH);
+  c.focal35mm = shortOf(EXIF_IFD_EXIF, EXIF_TAG_FOCAL_LENGTH_IN_35MM_FILM);
+  // FocalPlaneXResolution in its unit (2: inch, 3: cm, 4: mm, 5: um; 2 when absent), of the image the camera wrote
+  // (PixelXDimension wide): pixels per mm of this image's width.
+  const double resolution = rationalOf(EXIF_IFD_EXIF, EXIF_TAG_FOCAL_PLANE_X_RESOLUTION);
+  const int unit = shortOf(EXIF_IFD_EXIF, EXIF_TAG_FOCAL_PLANE_RESOLUTION_UNIT);
+  const double mmPerUnit = unit == 3 ? 10 : unit == 4 ? 1 : unit == 5 ? 1e-3 : 25.4;
+  c.focalPlanePxPerMm = resolution > 0 ? resolution / mmPerUnit : 0;
+  c.writtenWidth = longOf(EXIF_IFD_EXIF, EXIF_TAG_PIXEL_X_DIMENSION);
+  c.writtenHeight = longOf(EXIF_IFD_EXIF, EXIF_TAG_PIXEL_Y_DIMENSION);
+  const auto plausible = [](double v, double hi) { return std::isfinite(v) && v > 0 && v < hi ? v : 0.0; };
+  c.focalMm = plausible(c.focalMm, 5000), c.focal35mm = plausible(c.focal35mm, 5000);
+  c.focalPlanePxPerMm = plausible(c.focalPlanePxPerMm, 1e6);
+  exif_data_unref(data);
+  return out;
 }
 
 // Turns an image decoded as stored into the image as shown, by its EXIF orientation.
@@ -142,9 +188,12 @@ cv::Mat orient(const cv::Mat& stored, int orientation) {
   return shown;
 }
 
-// JPEG: walk the marker segments to the first start-of-frame (SOFn) segment; an EXIF APP1 segment on the way gives
-// the orientation, and the size is the shown image's.
-std::optional<cv::Size> jpegSize(ByteReader& in, int& orientation) {
+// JPEG: walk the marker segments to the first start-of-frame (SOFn) segment; the first EXIF APP1 segment on the way
+// gives the orientation and the camera, an APP2 segment says a colour profile is embedded; the size is the shown
+// image's.
+std::optional<cv::Size> jpegSize(ByteReader& in, ImageHeader& header) {
+  int& orientation = header.orientation;
+  bool exifSeen = false;
   in.seek(2);
   for (;;) {
     auto marker = in.u8();
@@ -160,10 +209,17 @@ std::optional<cv::Size> jpegSize(ByteReader& in, int& orientation) {
       if (!precision || !h || !w) return std::nullopt;
       return orientation >= 5 ? cv::Size(int(*h), int(*w)) : cv::Size(int(*w), int(*h));
     }
-    if (*marker == 0xE1 && orientation == 1) {  // APP1: EXIF (or XMP, which has no orientation here)
+    if (*marker == 0xE1 && !exifSeen) {  // APP1: EXIF (or XMP, which says nothing here)
       std::vector<uint8_t> payload(*length - 2);
       if (!in.read(payload.data(), payload.size())) return std::nullopt;
-      orientation = exifOrientation(payload.data(), payload.size());
+      const ExifRead exif = readExif(payload.data(), payload.size());
+      exifSeen = std::memcmp(payload.data(), "Exif\0\0", std::min<size_t>(6, payload.size())) == 0;
+      orientation = exif.orientation, header.camera = exif.camera;
+    } else if (*marker == 0xE2 && *length - 2 >= 12) {  // APP2: "ICC_PROFILE\0" and a chunk of the profile
+      uint8_t tag[12];
+      if (!in.read(tag, 12)) return std::nullopt;
+      header.iccProfile = header.iccProfile || std::memcmp(tag, "ICC_PROFILE\0", 12) == 0;
+      if (!in.skip(*length - 2 - 12)) return std::nullopt;
     } else if (!in.skip(*length - 2)) {
       return std::nullopt;
     }
@@ -240,7 +296,7 @@ ImageHeader readImageHeader(std::istream& stream) {
       header.size = pngSize(in);
       break;
     case ImageFormat::Jpeg:
-      header.size = jpegSize(in, header.orientation);
+      header.size = jpegSize(in, header);
       break;
     case ImageFormat::Bmp:
       bmpHeader(in, header);
@@ -264,6 +320,34 @@ ImageHeader readImageHeader(const unsigned char* bytes, size_t size) {
 ImageHeader readImageFileHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return readImageHeader(in);
+}
+
+double ExifCamera::focalPx(cv::Size shown) const {
+  if (shown.width <= 0 || shown.height <= 0) return 0;
+  if (focal35mm > 0) return focal35mm * std::hypot(shown.width, shown.height) / std::hypot(36.0, 24.0);
+  if (focalMm > 0 && focalPlanePxPerMm > 0 && writtenWidth > 0 && writtenHeight > 0) {
+    // The written image may be shown turned (EXIF orientation 5..8): match its longer side to the shown one's.
+    const double written = std::max(writtenWidth, writtenHeight), side = std::max(shown.width, shown.height);
+    const double aspect = std::min(writtenWidth, writtenHeight) / written;
+    if (std::abs(aspect - std::min(shown.width, shown.height) / side) > 0.01) return 0;  // cropped: unknown
+    return focalMm * focalPlanePxPerMm * side / written;
+  }
+  return 0;
+}
+
+std::string ExifCamera::describe() const {
+  if (empty()) return "";
+  // Many cameras repeat the make in the model ("Canon", "Canon EOS 80D").
+  std::string s = make.empty() || model.rfind(make, 0) == 0 ? model : model.empty() ? make : make + " " + model;
+  char focal[96] = "";
+  if (focalMm > 0 && focal35mm > 0)
+    std::snprintf(focal, sizeof focal, "%.3g mm (%.0f mm on 35 mm film)", focalMm, focal35mm);
+  else if (focalMm > 0)
+    std::snprintf(focal, sizeof focal, "%.3g mm", focalMm);
+  else if (focal35mm > 0)
+    std::snprintf(focal, sizeof focal, "%.0f mm on 35 mm film", focal35mm);
+  if (*focal) s += (s.empty() ? "" : ", ") + std::string(focal);
+  return s;
 }
 
 namespace {
@@ -450,7 +534,7 @@ bool jpegPixels(JpegReader& r, cv::Mat& out) {
 int jpegOrientation(const jpeg_decompress_struct& info) {
   for (jpeg_saved_marker_ptr m = info.marker_list; m; m = m->next)
     if (m->marker == JPEG_APP0 + 1) {
-      const int o = exifOrientation(m->data, m->data_length);
+      const int o = readExif(m->data, m->data_length).orientation;
       if (o != 1) return o;
     }
   return 1;

@@ -15,6 +15,23 @@ namespace montage {
 
 enum class ImageFormat { Unknown, Png, Jpeg, Bmp, TiffLittle, TiffBig };
 
+// What a JPEG's EXIF says of the camera that took it (empty fields when absent): the camera stage fits the photos
+// of one camera together and takes the focal length as a prior (mapping/camera.h, issue 37).
+struct ExifCamera {
+  std::string make, model;       // tags 271, 272
+  double focalMm = 0;            // FocalLength (37386), mm
+  double focal35mm = 0;          // FocalLengthIn35mmFilm (41989): the lens's on a 36 x 24 mm frame, mm
+  double focalPlanePxPerMm = 0;  // FocalPlaneXResolution (41486) in its unit (41488), pixels per mm of the sensor...
+  double writtenWidth = 0, writtenHeight = 0;  // ...at the size the camera wrote (PixelX/YDimension; 0: unknown)
+  bool empty() const { return make.empty() && model.empty() && focalMm == 0 && focal35mm == 0; }
+  // The focal length in pixels of the image as shown, `shown` pixels: from the 35 mm equivalent (its diagonal
+  // against the frame's 43.27 mm), else FocalLength on the focal plane's resolution (scaled from the written
+  // size, which must then be known and of the same aspect); 0 when the EXIF cannot tell.
+  double focalPx(cv::Size shown) const;
+  // "Canon EOS 80D, 18 mm (29 mm on 35 mm film)", or "" when empty.
+  std::string describe() const;
+};
+
 // The format (from the file signature) and, when the header can be read, the size of an image, without
 // decoding it. Only PNG, JPEG, BMP and TIFF are recognised.
 struct ImageHeader {
@@ -24,6 +41,8 @@ struct ImageHeader {
   // 1 when absent). Decoding applies it: the pixels and `size` are the shown image's, which project coordinates,
   // masks and the editor use.
   int orientation = 1;
+  ExifCamera camera;        // a JPEG's EXIF (the first APP1 segment)
+  bool iccProfile = false;  // a JPEG with an embedded colour profile (APP2), which decoding converts to sRGB
   uint64_t minBytes = 0;  // the data a complete file holds at least, when its header says (uncompressed BMP)
 };
 ImageHeader readImageHeader(std::istream& in);

@@ -150,6 +150,7 @@ Photo loadPhoto(const std::string& path, const std::string& maskPath, const Phot
   photo.path = path;
   photo.maskPath = maskPath;
   photo.mirrored = options.mirror;
+  photo.exif = readImageFileHeader(path).camera;
   cv::Mat alpha;
   {
     // Memory: the decoded image is the largest buffer; colour and foreground are taken out of it at the

@@ -13,6 +13,7 @@
 #include <string>
 
 #include "base/common.h"
+#include "image/codec.h"
 
 namespace montage {
 
@@ -47,6 +48,7 @@ struct Photo {
                                // no background
   bool hasBackground = false;  // false when every pixel is foreground (no alpha, no mask)
   bool mirrored = false;       // loaded mirrored left to right (every map above is of the mirrored photo)
+  ExifCamera exif;             // what the file's EXIF says of its camera (a JPEG's; empty otherwise)
 
   bool inside(double x, double y) const { return x >= 0 && y >= 0 && x <= width && y <= height; }
   // Foreground test at a point, by the stored pixel containing it (true everywhere inside without background).

@@ -106,37 +106,51 @@ CentredClicks centredClicks(const Mesh& mesh, const std::vector<CameraClick>& cl
   return c;
 }
 
+// A prior on the focal length (the EXIF's): one more residual, weight x (focal - focal0), in the clicks' units: weight
+// = the clicks' noise per axis over the prior's deviation in pixels. weight 0: none.
+struct FocalPrior {
+  double focal = 0, weight = 0;
+  // The prior of options (focalPriorPx, focalPriorSigma) against clicks of `clickNoisePx` per axis.
+  static FocalPrior of(const CameraFitOptions& o, double clickNoisePx) {
+    if (!(o.focalPriorPx > 0) || !(o.focalPriorSigma > 0)) return {};
+    return {o.focalPriorPx, std::max(clickNoisePx, 0.1) / (o.focalPriorSigma * o.focalPriorPx)};
+  }
+};
+
 // LM callback: residuals (projection - click) of the selected clicks, with the chosen free parameters.
 class Reprojection : public cv::LMSolver::Callback {
  public:
   // `weights` (may be empty: all 1): per click, the weight of its squared residual.
-  // `fixedFocal` > 0: the focal length is held at it (pose only; no radial terms).
+  // `fixed` (may be null): the intrinsics (focal and radial terms) are held at its (pose only).
   Reprojection(const std::vector<cv::Point3d>& obj, const std::vector<cv::Point2d>& img, double cx, double cy,
-               int radialTerms, std::vector<double> weights = {}, double fixedFocal = 0)
+               int radialTerms, std::vector<double> weights = {}, const Params* fixed = nullptr)
       : obj_(obj),
         img_(img),
         cx_(cx),
         cy_(cy),
-        radial_(fixedFocal > 0 ? 0 : radialTerms),
+        radial_(fixed ? 0 : radialTerms),
         sqrtWeight_(std::move(weights)),
-        fixedFocal_(fixedFocal) {
+        poseOnly_(fixed != nullptr) {
     for (double& w : sqrtWeight_) w = std::sqrt(std::max(0.0, w));
+    if (fixed) held_ = *fixed;
   }
+  void setPrior(const FocalPrior& prior) { prior_ = poseOnly_ ? FocalPrior{} : prior; }
 
-  int numParams() const { return fixedFocal_ > 0 ? 6 : 7 + radial_; }
+  int numParams() const { return poseOnly_ ? 6 : 7 + radial_; }
   cv::Mat pack(const Params& p) const {
     cv::Mat x(numParams(), 1, CV_64F);
     for (int i = 0; i < 3; ++i) x.at<double>(i) = p.rvec[i], x.at<double>(3 + i) = p.tvec[i];
-    if (fixedFocal_ > 0) return x;
+    if (poseOnly_) return x;
     x.at<double>(6) = p.focal;
     if (radial_ >= 1) x.at<double>(7) = p.k1;
     if (radial_ >= 2) x.at<double>(8) = p.k2;
     return x;
   }
   Params unpack(const cv::Mat& x) const {
-    Params p;
+    Params p = held_;
     for (int i = 0; i < 3; ++i) p.rvec[i] = x.at<double>(i), p.tvec[i] = x.at<double>(3 + i);
-    p.focal = fixedFocal_ > 0 ? fixedFocal_ : x.at<double>(6);
+    if (poseOnly_) return p;
+    p.focal = x.at<double>(6);
     p.k1 = radial_ >= 1 ? x.at<double>(7) : 0;
     p.k2 = radial_ >= 2 ? x.at<double>(8) : 0;
     return p;
@@ -148,20 +162,23 @@ class Reprojection : public cv::LMSolver::Callback {
     std::vector<cv::Point2d> proj;
     cv::Mat full;
     projectAll(obj_, p, cx_, cy_, proj, J.needed() ? &full : nullptr);
-    err.create(2 * n, 1, CV_64F);
+    const int rows = 2 * n + (prior_.weight > 0);
+    err.create(rows, 1, CV_64F);
     cv::Mat e = err.getMat();
+    if (prior_.weight > 0) e.at<double>(2 * n) = prior_.weight * (p.focal - prior_.focal);
     auto weight = [&](int row) { return sqrtWeight_.empty() ? 1.0 : sqrtWeight_[row / 2]; };
     for (int i = 0; i < n; ++i) {
       e.at<double>(2 * i) = weight(2 * i) * (proj[i].x - img_[i].x);
       e.at<double>(2 * i + 1) = weight(2 * i) * (proj[i].y - img_[i].y);
     }
     if (J.needed()) {
-      J.create(2 * n, numParams(), CV_64F);
+      J.create(rows, numParams(), CV_64F);
       cv::Mat j = J.getMat();
+      if (prior_.weight > 0) j.row(2 * n).setTo(0), j.at<double>(2 * n, 6) = prior_.weight;
       for (int r = 0; r < 2 * n; ++r) {
         const double w = weight(r);
         for (int c = 0; c < 6; ++c) j.at<double>(r, c) = w * full.at<double>(r, c);
-        if (fixedFocal_ > 0) continue;
+        if (poseOnly_) continue;
         j.at<double>(r, 6) = w * (full.at<double>(r, 6) + full.at<double>(r, 7));  // fx = fy = focal
         if (radial_ >= 1) j.at<double>(r, 7) = w * full.at<double>(r, 10);
         if (radial_ >= 2) j.at<double>(r, 8) = w * full.at<double>(r, 11);
@@ -176,20 +193,23 @@ class Reprojection : public cv::LMSolver::Callback {
   double cx_, cy_;
   int radial_;
   std::vector<double> sqrtWeight_;
-  double fixedFocal_;
+  bool poseOnly_;
+  Params held_;
+  FocalPrior prior_;
 };
 
 // LM from `start` on the clicks `use` selects (weighted by `weights` when given: one per click).
 Params refine(const std::vector<cv::Point3d>& obj, const std::vector<cv::Point2d>& img, const std::vector<char>& use,
               const Params& start, double cx, double cy, int radialTerms, const std::vector<double>& weights = {},
-              bool fixFocal = false) {
+              bool fixIntrinsics = false, const FocalPrior& prior = {}) {
   std::vector<cv::Point3d> o;
   std::vector<cv::Point2d> m;
   std::vector<double> w;
   for (size_t i = 0; i < obj.size(); ++i)
     if (use[i]) o.push_back(obj[i]), m.push_back(img[i]), w.push_back(weights.empty() ? 1.0 : weights[i]);
   auto callback = cv::makePtr<Reprojection>(o, m, cx, cy, radialTerms, weights.empty() ? std::vector<double>() : w,
-                                            fixFocal ? start.focal : 0.0);
+                                            fixIntrinsics ? &start : nullptr);
+  callback->setPrior(prior);
   cv::Mat x = callback->pack(start);
   cv::Ptr<cv::LMSolver> solver = cv::LMSolver::create(callback, 200, 1e-12);
   try {
@@ -426,9 +446,12 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
           ? o.ransacIterations
           : static_cast<int>(std::min(1000.0, std::ceil(std::log(1 - kConfidence) / std::log1p(-allAgree))));
   cv::theRNG().state = 0x9E3779B97F4A7C15ull ^ o.seed;
-  for (int s = 0; s < samples; ++s) {
+  std::vector<double> focals;
+  for (int s = 0; s < samples; ++s) focals.push_back(fLo * std::pow(fHi / fLo, double(s) / (samples - 1)));
+  if (samples > 0 && o.focalPriorPx > 0) focals.push_back(o.focalPriorPx);  // the EXIF's, when it tells
+  for (double focal : focals) {
     Params p;
-    p.focal = fLo * std::pow(fHi / fLo, double(s) / (samples - 1));
+    p.focal = focal;
     cv::Mat rvec, tvec;
     std::vector<int> inl;
     try {
@@ -449,11 +472,11 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   }
 
   // Refinement on the agreeing clicks, re-classified until stable.
-  auto refineLoop = [&](Params p, int radial) {
+  auto refineLoop = [&](Params p, int radial, const FocalPrior& prior = {}) {
     std::vector<char> in = agreeing(residuals(obj, img, p, cx, cy), tau);
     for (int round = 0; round < 8; ++round) {
       if (countOf(in) < 4) break;
-      p = refine(obj, img, in, p, cx, cy, radial);
+      p = refine(obj, img, in, p, cx, cy, radial, {}, false, prior);
       std::vector<char> next = agreeing(residuals(obj, img, p, cx, cy), tau);
       if (next == in) break;
       in.swap(next);
@@ -480,6 +503,26 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
       trial.kept = trial.agrees && f > o.distortionF;
       fit.radialPooled = trial.agrees && !trial.kept && o.keepRadial;
       if (trial.kept || fit.radialPooled) p = q;
+    }
+  }
+  // The EXIF's focal length as a prior (of focalPriorSigma), kept when the clicks agree with it: their sum of squares
+  // rises by no more than chi-square's 99% quantile with one degree of freedom times their variance. A photo cropped
+  // after it was taken keeps its EXIF, whose focal length then no longer fits its frame: the clicks refuse it.
+  if (o.focalPriorPx > 0) {
+    const std::vector<char> in = agreeing(residuals(obj, img, p, cx, cy), tau);
+    const int count = countOf(in);
+    const int radial = p.k2 != 0 ? 2 : p.k1 != 0 ? 1 : 0;
+    const int dof = 2 * count - 7 - radial;
+    if (count >= 4 && dof > 0) {
+      const double rss = std::pow(rmsOf(residuals(obj, img, p, cx, cy), in), 2) * count;
+      const FocalPrior prior = FocalPrior::of(o, std::sqrt(rss / dof));
+      const Params q = refineLoop(p, radial, prior);
+      const std::vector<double> rq = residuals(obj, img, q, cx, cy);
+      const double rssQ = std::pow(rmsOf(rq, in), 2) * count;
+      constexpr double kChi2Quantile99 = 6.635;  // one degree of freedom
+      const bool agrees = countOf(agreeing(rq, tau)) >= count && rssQ - rss <= kChi2Quantile99 * rss / dof;
+      fit.focalPrior = agrees ? 1 : -1;
+      if (agrees) p = q;
     }
   }
 
@@ -960,6 +1003,250 @@ double pooledRadialF(const std::vector<const CameraFit*>& fits) {
   return photos >= 2 && rss > 0 ? (drop / terms) / (rss / dof) : 0;
 }
 
+namespace {
+
+// One photo's agreeing clicks in a joint fit, about their centroid.
+struct JointView {
+  CentredClicks clicks;
+  double cx = 0, cy = 0;
+};
+
+// LM over the photos of one camera: a pose per photo (6 parameters each), then the focal length and `radial`
+// radial terms they share. Residuals: projection - click, every view's clicks in turn.
+class SharedReprojection : public cv::LMSolver::Callback {
+ public:
+  SharedReprojection(const std::vector<JointView>& views, int radial, const FocalPrior& prior)
+      : views_(views), radial_(radial), prior_(prior) {}
+  int numParams() const { return 6 * static_cast<int>(views_.size()) + 1 + radial_; }
+  cv::Mat pack(const std::vector<Params>& p) const {
+    cv::Mat x(numParams(), 1, CV_64F);
+    const int s = 6 * static_cast<int>(views_.size());
+    for (size_t v = 0; v < views_.size(); ++v)
+      for (int i = 0; i < 3; ++i)
+        x.at<double>(6 * int(v) + i) = p[v].rvec[i], x.at<double>(6 * int(v) + 3 + i) = p[v].tvec[i];
+    x.at<double>(s) = p[0].focal;
+    if (radial_ >= 1) x.at<double>(s + 1) = p[0].k1;
+    if (radial_ >= 2) x.at<double>(s + 2) = p[0].k2;
+    return x;
+  }
+  std::vector<Params> unpack(const cv::Mat& x) const {
+    std::vector<Params> p(views_.size());
+    const int s = 6 * static_cast<int>(views_.size());
+    for (size_t v = 0; v < views_.size(); ++v) {
+      for (int i = 0; i < 3; ++i)
+        p[v].rvec[i] = x.at<double>(6 * int(v) + i), p[v].tvec[i] = x.at<double>(6 * int(v) + 3 + i);
+      p[v].focal = x.at<double>(s);
+      p[v].k1 = radial_ >= 1 ? x.at<double>(s + 1) : 0;
+      p[v].k2 = radial_ >= 2 ? x.at<double>(s + 2) : 0;
+    }
+    return p;
+  }
+  bool compute(cv::InputArray param, cv::OutputArray err, cv::OutputArray J) const override {
+    const std::vector<Params> p = unpack(param.getMat());
+    int rows = prior_.weight > 0;  // the prior's row first
+    for (const JointView& v : views_) rows += 2 * static_cast<int>(v.clicks.object.size());
+    err.create(rows, 1, CV_64F);
+    cv::Mat e = err.getMat();
+    cv::Mat j;
+    if (J.needed()) {
+      J.create(rows, numParams(), CV_64F);
+      j = J.getMat();
+      j.setTo(0);
+    }
+    const int s = 6 * static_cast<int>(views_.size());
+    int row = 0;
+    if (prior_.weight > 0) {
+      e.at<double>(row) = prior_.weight * (p[0].focal - prior_.focal);
+      if (J.needed()) j.at<double>(row, s) = prior_.weight;
+      ++row;
+    }
+    for (size_t v = 0; v < views_.size(); ++v) {
+      const JointView& view = views_[v];
+      std::vector<cv::Point2d> proj;
+      cv::Mat full;
+      projectAll(view.clicks.object, p[v], view.cx, view.cy, proj, J.needed() ? &full : nullptr);
+      for (size_t i = 0; i < proj.size(); ++i, row += 2) {
+        e.at<double>(row) = proj[i].x - view.clicks.image[i].x;
+        e.at<double>(row + 1) = proj[i].y - view.clicks.image[i].y;
+        if (!J.needed()) continue;
+        for (int a = 0; a < 2; ++a) {
+          const int r = 2 * static_cast<int>(i) + a;
+          for (int c = 0; c < 6; ++c) j.at<double>(row + a, 6 * int(v) + c) = full.at<double>(r, c);
+          j.at<double>(row + a, s) = full.at<double>(r, 6) + full.at<double>(r, 7);  // fx = fy = focal
+          if (radial_ >= 1) j.at<double>(row + a, s + 1) = full.at<double>(r, 10);
+          if (radial_ >= 2) j.at<double>(row + a, s + 2) = full.at<double>(r, 11);
+        }
+      }
+    }
+    return true;
+  }
+
+ private:
+  const std::vector<JointView>& views_;
+  int radial_;
+  FocalPrior prior_;
+};
+
+double sumOfSquares(const std::vector<double>& r) {
+  double s = 0;
+  for (double x : r) s += x * x;
+  return s;
+}
+
+}  // namespace
+
+SharedIntrinsics fitSharedIntrinsics(const Mesh& mesh, const std::vector<CameraFit*>& fits, const CameraFitOptions& o) {
+  const auto start = Clock::now();
+  SharedIntrinsics out;
+  out.photos = static_cast<int>(fits.size());
+  auto finish = [&](std::string why) {
+    out.why = std::move(why);
+    out.seconds = secondsSince(start);
+    return out;
+  };
+  if (fits.size() < 2) return finish("one photo");
+  for (const CameraFit* f : fits)
+    if (!f->fits || f->subject) return finish("a photo that does not fit as the object itself");
+  // The views: each photo's agreeing clicks, re-collected after each joint fit until they are stable.
+  const auto viewsOf = [&](const std::vector<CameraFit>& state) {
+    std::vector<JointView> views(state.size());
+    for (size_t v = 0; v < state.size(); ++v) {
+      std::vector<CameraClick> in;
+      for (size_t i = 0; i < state[v].clicks.size(); ++i)
+        if (state[v].inlier[i]) in.push_back(state[v].clicks[i]);
+      views[v].clicks = centredClicks(mesh, in);
+      views[v].cx = state[v].camera.pinhole.cx, views[v].cy = state[v].camera.pinhole.cy;
+    }
+    return views;
+  };
+  const auto rssOf = [](const std::vector<JointView>& views, const std::vector<Params>& p) {
+    double rss = 0;
+    for (size_t v = 0; v < views.size(); ++v)
+      rss += sumOfSquares(residuals(views[v].clicks.object, views[v].clicks.image, p[v], views[v].cx, views[v].cy));
+    return rss;
+  };
+  // The EXIF's focal length (options.focalPriorPx: the group's, one camera model and lens setting) as a prior,
+  // unless a photo's clicks refused it; in the clicks' units of their noise (their residuals' RMS per axis).
+  FocalPrior prior;
+  if (o.focalPriorPx > 0 &&
+      std::none_of(fits.begin(), fits.end(), [](const CameraFit* f) { return f->focalPrior < 0; })) {
+    double sum = 0;
+    int count = 0;
+    for (const CameraFit* f : fits) sum += f->rmsResidual * f->rmsResidual * f->inliers, count += f->inliers;
+    prior = FocalPrior::of(o, std::sqrt(sum / std::max(1, 2 * count)));
+    out.focalPrior = prior.weight > 0;
+  }
+  const auto joint = [&](const std::vector<JointView>& views, std::vector<Params> p, int radial) {
+    auto callback = cv::makePtr<SharedReprojection>(views, radial, prior);
+    cv::Mat x = callback->pack(p);
+    try {
+      cv::LMSolver::create(callback, 200, 1e-12)->run(x);
+    } catch (const cv::Exception&) {
+      return p;
+    }
+    std::vector<Params> q = callback->unpack(x);
+    return std::isfinite(q[0].focal) && q[0].focal > 0 ? q : p;
+  };
+  std::vector<CameraFit> state;
+  for (const CameraFit* f : fits) state.push_back(*f);
+  std::vector<JointView> views = viewsOf(state);
+  std::vector<Params> p;
+  std::vector<double> focals;
+  for (size_t v = 0; v < state.size(); ++v) {
+    p.push_back(paramsOf(state[v].camera, views[v].clicks.centre));
+    focals.push_back(p.back().focal);
+  }
+  std::nth_element(focals.begin(), focals.begin() + focals.size() / 2, focals.end());
+  int clicks = 0, radial = 0;
+  double rss = 0;
+  for (int round = 0; round < 4; ++round) {
+    clicks = 0;
+    for (const JointView& v : views) clicks += static_cast<int>(v.clicks.object.size());
+    // Shared focal, no radial terms; then the terms one at a time while each pays by Akaike's criterion (its F
+    // above pooledDistortionF, as for the pooled trials): one k1 for every photo, measured on all their clicks.
+    if (round == 0)
+      for (Params& q : p) q.focal = focals[focals.size() / 2], q.k1 = q.k2 = 0;
+    p = joint(views, p, 0);
+    rss = rssOf(views, p);
+    radial = 0;
+    out.radialF = 0;
+    // As for one photo: below minDistortionRmsPx there is nothing left for radial terms to explain.
+    const bool lensMayPay = o.radialDistortion && clicks >= o.minInliersForDistortion &&
+                            std::sqrt(rss / std::max(1, clicks)) > o.minDistortionRmsPx;
+    const int maxTerms = !lensMayPay ? 0 : clicks >= 20 ? 2 : 1;
+    for (int terms = 1; terms <= maxTerms; ++terms) {
+      const std::vector<Params> q = joint(views, p, terms);
+      const double rssQ = rssOf(views, q);
+      const int dof = 2 * clicks - (6 * static_cast<int>(views.size()) + 1 + terms);
+      const double f = dof > 0 && rssQ > 0 ? (rss - rssQ) / (rssQ / dof) : 0;
+      if (terms == 1) out.radialF = f;
+      if (!(f > o.pooledDistortionF)) break;
+      p = q, rss = rssQ, radial = terms;
+    }
+    // The agreeing clicks under the shared camera; stable: done.
+    bool stable = true;
+    for (size_t v = 0; v < state.size(); ++v) {
+      setCamera(state[v].camera, p[v], views[v].clicks.centre);
+      const std::vector<char> before = state[v].inlier;
+      measureClicks(mesh, state[v]);
+      stable = stable && state[v].inlier == before;
+    }
+    if (stable) break;
+    const std::vector<JointView> next = viewsOf(state);
+    for (size_t v = 0; v < state.size(); ++v)  // the same cameras about the new centroids
+      p[v] = paramsOf(state[v].camera, next[v].clicks.centre);
+    views = next;
+  }
+  // The clicks as they now agree (after four rounds they may have changed once more).
+  clicks = 0;
+  for (const JointView& v : views) clicks += static_cast<int>(v.clicks.object.size());
+  rss = rssOf(views, p);
+  out.focal = p[0].focal, out.k1 = p[0].k1, out.k2 = p[0].k2, out.terms = radial;
+
+  // Separate intrinsics (the fits as they are: each photo's focal and terms, its pose refitted on the same clicks,
+  // since the silhouette refinement moved it off the clicks' optimum) against shared ones, by Akaike's criterion
+  // (Gaussian residuals: N ln(RSS / N) + 2k over the N = 2 x clicks residuals).
+  double rssSeparate = 0;
+  int kSeparate = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    const CameraFit& f = *fits[v];
+    const int terms = f.camera.k2 != 0 ? 2 : f.camera.k1 != 0 ? 1 : 0;
+    const Params own =
+        refine(views[v].clicks.object, views[v].clicks.image, std::vector<char>(views[v].clicks.object.size(), 1),
+               paramsOf(f.camera, views[v].clicks.centre), views[v].cx, views[v].cy, terms, {}, false,
+               f.focalPrior > 0 ? prior : FocalPrior{});
+    rssSeparate +=
+        sumOfSquares(residuals(views[v].clicks.object, views[v].clicks.image, own, views[v].cx, views[v].cy));
+    kSeparate += 7 + terms;
+  }
+  const int kShared = 6 * static_cast<int>(views.size()) + 1 + radial;
+  const double n = 2.0 * clicks, floor = 1e-12 * n;  // exact clicks: equal fits, the fewer parameters win
+  out.aicSeparate = n * std::log(std::max(rssSeparate, floor) / n) + 2 * kSeparate;
+  out.aicShared = n * std::log(std::max(rss, floor) / n) + 2 * kShared;
+  if (!(out.aicShared <= out.aicSeparate))
+    return finish("separate intrinsics explain the clicks better (Akaike " + fixed(out.aicSeparate, 1) + " against " +
+                  fixed(out.aicShared, 1) + " shared)");
+  for (const CameraFit& f : state) {
+    const double fov = f.camera.fovYDeg();
+    if (f.inliers < o.minInliers || f.inliers < o.minInlierRatio * double(f.clicks.size()) ||
+        !(fov >= o.minFovDeg && fov <= o.maxFovDeg))
+      return finish("a photo's clicks do not agree with the shared intrinsics");
+  }
+  for (size_t v = 0; v < fits.size(); ++v) {
+    CameraFit& f = state[v];
+    f.sharedIntrinsics = out.photos;
+    f.radialPooled = false;
+    f.silhouettePoints = 0, f.silhouetteResidualPx = 0;
+    f.reason = describeFit(f);
+    *fits[v] = std::move(f);
+  }
+  out.shared = true;
+  return finish("focal " + fixed(out.focal, 1) + " px" +
+                (radial ? ", k1 " + fixed(out.k1, 4) + (radial > 1 ? ", k2 " + fixed(out.k2, 4) : "") : "") +
+                " shared by " + std::to_string(out.photos) + " photos (Akaike " + fixed(out.aicShared, 1) +
+                " against " + fixed(out.aicSeparate, 1) + " separate)");
+}
+
 std::string describeFit(const CameraFit& fit) {
   std::string s = fit.fits ? "fits: " : "does not fit: ";
   if (!fit.fits) return s + fit.reason;
@@ -967,6 +1254,9 @@ std::string describeFit(const CameraFit& fit) {
   if (fit.camera.k1 != 0 || fit.camera.k2 != 0)
     s += ", k1 " + fixed(fit.camera.k1, 4) + ", k2 " + fixed(fit.camera.k2, 4) +
          (fit.radialPooled ? " (paid for by the photos of its camera together)" : "");
+  if (fit.sharedIntrinsics) s += ", shared by " + std::to_string(fit.sharedIntrinsics) + " photos";
+  if (fit.focalPrior)
+    s += fit.focalPrior > 0 ? ", the EXIF's focal length a prior" : ", the EXIF's focal length refused";
   s += "), " + std::to_string(fit.inliers) + "/" + std::to_string(fit.clicks.size()) + " clicks agree, median " +
        fixed(fit.medianResidual, 2) + " px, max " + fixed(fit.maxResidual, 2) + " px";
   if (fit.silhouettePoints > 0)

@@ -69,6 +69,9 @@ struct CameraFitOptions {
   double pooledDistortionF = 2;      // ...taken when their pooled F exceeds this: Akaike's criterion (the terms
                                      // predict the texture's place better), not a significance test; dropping a
                                      // real k1 costs up to 12 dB, keeping a needless one 0.1-0.3 dB (pipeline.md)
+  double focalPriorPx = 0;        // > 0: the focal length the photo's EXIF gives (ExifCamera::focalPx), a prior of...
+  double focalPriorSigma = 0.05;  // ...this relative deviation (EXIF rounds to a millimetre; a zoom's 35 mm
+                                  // equivalent is approximate), kept only when the clicks agree with it
   double minFovDeg = 2, maxFovDeg = 150;  // focal lengths outside this field of view are implausible
   int focalSamples = 16;                  // focal lengths tried for the RANSAC start (log-spaced over the fov range)
   // RANSAC iterations per focal length; 0: enough to draw, with 99.9% confidence, one sample of five
@@ -123,6 +126,9 @@ struct CameraFit {
                               // its camera together do (CameraFitOptions::keepRadial)
   double noisePx = 0;    // the clicks' noise, pixels per axis, as the agreeing clicks' residuals tell it (0: too few
                          // to tell); the correction field's `noise` mode moves the texture only beyond it
+  int focalPrior = 0;    // the EXIF's focal length as a prior: 1 taken, -1 refused (the clicks disagree), 0 none
+  int sharedIntrinsics = 0;  // > 0: its focal length and lens terms are those this many photos of one camera share
+                             // (fitSharedIntrinsics), then refined on its own silhouette where it has one
   bool subject = false;  // a photo of another subject (fitCameraToEveryClick): a camera fitted to every click, which a
                          // warp then keeps exact (mapping/subject.h); every click is an inlier
   std::string
@@ -189,6 +195,28 @@ CameraFit fitFromCamera(const Mesh& mesh, const PhotoCamera& camera, const std::
 // The pooled F statistic of the radial terms over `fits` (the object photos of one camera whose trial agrees): their
 // residual drops per term over their residual variance, summed. 0 when fewer than two photos tried them.
 double pooledRadialF(const std::vector<const CameraFit*>& fits);
+
+// Photos from one camera share its intrinsics (issue 37): a bundle adjustment over the agreeing clicks of
+// every photo in `fits` (a pose each, one focal length and one set of radial terms; the mesh's vertices are the
+// known points), the terms added one at a time while they pay by Akaike's criterion (F above
+// options.pooledDistortionF) on all the photos' clicks together. Kept only when Akaike's criterion prefers the
+// shared intrinsics to the fits' own (a zoom lens between shots, or two cameras of one image size, keep theirs)
+// and every photo still fits; then each fit takes its camera from the joint one, re-measured, with
+// sharedIntrinsics set and any silhouette refinement undone (the camera stage refines each on its silhouette after,
+// from the shared camera: few clicks leave the shared focal length a few percent off, which a silhouette pins down
+// better, docs/pipeline.md). Otherwise the fits are left as they are.
+struct SharedIntrinsics {
+  bool shared = false;
+  int photos = 0, terms = 0;
+  double focal = 0, k1 = 0, k2 = 0;
+  double radialF = 0;                     // the F statistic of a shared k1 on the shared focal's fit
+  bool focalPrior = false;                // the EXIF's focal length was a prior (options.focalPriorPx)
+  double aicShared = 0, aicSeparate = 0;  // Akaike's criterion of both models on the same clicks
+  std::string why;
+  double seconds = 0;
+};
+SharedIntrinsics fitSharedIntrinsics(const Mesh& mesh, const std::vector<CameraFit*>& fits,
+                                     const CameraFitOptions& options = {});
 
 // A one-line summary: "fits: focal 1123 px (fov 49.1 deg), 42/43 clicks agree, median 0.21 px, max 0.80 px".
 std::string describeFit(const CameraFit& fit);

@@ -985,7 +985,8 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   // One camera: photos of one size, and of one camera model and focal length where their EXIF says. A photo that may
   // share its camera with another (not set to show another subject) is refined on its silhouette after the bundle
   // adjustment, from the camera it gives (once, not before and after).
-  const auto cameraOf = [&](size_t p) {
+  using CameraKey = std::tuple<int, int, std::string>;
+  const auto cameraOf = [&](size_t p) -> CameraKey {
     const Photo& photo = *scene.photos[p];
     return std::make_tuple(photo.width, photo.height,
                            photo.exif.make + '\n' + photo.exif.model + '\n' + std::to_string(photo.exif.focalMm) +
@@ -993,7 +994,7 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   };
   std::vector<char> deferSilhouette(np, 0);
   if (project.options.sharedIntrinsics) {
-    std::map<std::tuple<int, int, std::string>, int> mayShare;
+    std::map<CameraKey, int> mayShare;
     for (size_t p = 0; p < np; ++p) mayShare[cameraOf(p)] += project.photos[p].mode != PhotoMode::Subject;
     for (size_t p = 0; p < np; ++p)
       deferSilhouette[p] = project.photos[p].mode != PhotoMode::Subject && mayShare[cameraOf(p)] >= 2;
@@ -1050,7 +1051,7 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   // that fit as the object itself pool their trials' F test (pooledRadialF); when the pool pays for the terms by
   // Akaike's criterion, every photo that tried them keeps them. A photo whose pooled state changes is refitted (warm
   // in the preview).
-  std::map<std::tuple<int, int, std::string>, std::vector<size_t>> sameCamera;  // the object photos of each camera
+  std::map<CameraKey, std::vector<size_t>> sameCamera;  // the object photos of each camera
   const auto groupByCamera = [&] {
     sameCamera.clear();
     for (size_t p = 0; p < np; ++p)
@@ -1095,11 +1096,15 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   groupByCamera();
   for (const auto& [camera, photos] : sameCamera) {
     if (!deferSilhouette[photos[0]]) continue;  // a camera of its own: refined in fitPhoto
-    // A group the preview makes may keep some photos' last fits: its own key, which the final tier never looks up.
-    std::string groupKey = isPreview(tier) ? "preview|" : "";
+    std::string groupKey;
     for (size_t p : photos) groupKey += std::to_string(p) + ':' + fits[p].first + '|';
-    auto it = cachedShared_.find(isPreview(tier) ? groupKey.substr(8) : groupKey);  // a final's serves the preview
-    if (it == cachedShared_.end()) it = cachedShared_.find(groupKey);
+    // A group the preview makes may keep some photos' last fits: its own key, which the final tier never looks up;
+    // a final's serves the preview.
+    auto it = cachedShared_.find(groupKey);
+    if (isPreview(tier)) {
+      groupKey = "preview|" + groupKey;
+      if (it == cachedShared_.end()) it = cachedShared_.find(groupKey);
+    }
     std::shared_ptr<const SharedCameraGroup> group;
     if (it != cachedShared_.end()) {
       group = it->second;

@@ -115,42 +115,41 @@ struct FocalPrior {
     if (!(o.focalPriorPx > 0) || !(o.focalPriorSigma > 0)) return {};
     return {o.focalPriorPx, std::max(clickNoisePx, 0.1) / (o.focalPriorSigma * o.focalPriorPx)};
   }
+  double residual(double f) const { return weight * (f - focal); }  // its derivative in f is `weight`
 };
 
 // LM callback: residuals (projection - click) of the selected clicks, with the chosen free parameters.
 class Reprojection : public cv::LMSolver::Callback {
  public:
   // `weights` (may be empty: all 1): per click, the weight of its squared residual.
-  // `fixed` (may be null): the intrinsics (focal and radial terms) are held at its (pose only).
+  // `fixedFocal` > 0: the focal length is held at it (pose only; no radial terms).
   Reprojection(const std::vector<cv::Point3d>& obj, const std::vector<cv::Point2d>& img, double cx, double cy,
-               int radialTerms, std::vector<double> weights = {}, const Params* fixed = nullptr)
+               int radialTerms, std::vector<double> weights = {}, double fixedFocal = 0)
       : obj_(obj),
         img_(img),
         cx_(cx),
         cy_(cy),
-        radial_(fixed ? 0 : radialTerms),
+        radial_(fixedFocal > 0 ? 0 : radialTerms),
         sqrtWeight_(std::move(weights)),
-        poseOnly_(fixed != nullptr) {
+        fixedFocal_(fixedFocal) {
     for (double& w : sqrtWeight_) w = std::sqrt(std::max(0.0, w));
-    if (fixed) held_ = *fixed;
   }
-  void setPrior(const FocalPrior& prior) { prior_ = poseOnly_ ? FocalPrior{} : prior; }
+  void setPrior(const FocalPrior& prior) { prior_ = fixedFocal_ > 0 ? FocalPrior{} : prior; }
 
-  int numParams() const { return poseOnly_ ? 6 : 7 + radial_; }
+  int numParams() const { return fixedFocal_ > 0 ? 6 : 7 + radial_; }
   cv::Mat pack(const Params& p) const {
     cv::Mat x(numParams(), 1, CV_64F);
     for (int i = 0; i < 3; ++i) x.at<double>(i) = p.rvec[i], x.at<double>(3 + i) = p.tvec[i];
-    if (poseOnly_) return x;
+    if (fixedFocal_ > 0) return x;
     x.at<double>(6) = p.focal;
     if (radial_ >= 1) x.at<double>(7) = p.k1;
     if (radial_ >= 2) x.at<double>(8) = p.k2;
     return x;
   }
   Params unpack(const cv::Mat& x) const {
-    Params p = held_;
+    Params p;
     for (int i = 0; i < 3; ++i) p.rvec[i] = x.at<double>(i), p.tvec[i] = x.at<double>(3 + i);
-    if (poseOnly_) return p;
-    p.focal = x.at<double>(6);
+    p.focal = fixedFocal_ > 0 ? fixedFocal_ : x.at<double>(6);
     p.k1 = radial_ >= 1 ? x.at<double>(7) : 0;
     p.k2 = radial_ >= 2 ? x.at<double>(8) : 0;
     return p;
@@ -165,7 +164,7 @@ class Reprojection : public cv::LMSolver::Callback {
     const int rows = 2 * n + (prior_.weight > 0);
     err.create(rows, 1, CV_64F);
     cv::Mat e = err.getMat();
-    if (prior_.weight > 0) e.at<double>(2 * n) = prior_.weight * (p.focal - prior_.focal);
+    if (prior_.weight > 0) e.at<double>(2 * n) = prior_.residual(p.focal);
     auto weight = [&](int row) { return sqrtWeight_.empty() ? 1.0 : sqrtWeight_[row / 2]; };
     for (int i = 0; i < n; ++i) {
       e.at<double>(2 * i) = weight(2 * i) * (proj[i].x - img_[i].x);
@@ -178,7 +177,7 @@ class Reprojection : public cv::LMSolver::Callback {
       for (int r = 0; r < 2 * n; ++r) {
         const double w = weight(r);
         for (int c = 0; c < 6; ++c) j.at<double>(r, c) = w * full.at<double>(r, c);
-        if (poseOnly_) continue;
+        if (fixedFocal_ > 0) continue;
         j.at<double>(r, 6) = w * (full.at<double>(r, 6) + full.at<double>(r, 7));  // fx = fy = focal
         if (radial_ >= 1) j.at<double>(r, 7) = w * full.at<double>(r, 10);
         if (radial_ >= 2) j.at<double>(r, 8) = w * full.at<double>(r, 11);
@@ -193,22 +192,21 @@ class Reprojection : public cv::LMSolver::Callback {
   double cx_, cy_;
   int radial_;
   std::vector<double> sqrtWeight_;
-  bool poseOnly_;
-  Params held_;
+  double fixedFocal_;
   FocalPrior prior_;
 };
 
 // LM from `start` on the clicks `use` selects (weighted by `weights` when given: one per click).
 Params refine(const std::vector<cv::Point3d>& obj, const std::vector<cv::Point2d>& img, const std::vector<char>& use,
               const Params& start, double cx, double cy, int radialTerms, const std::vector<double>& weights = {},
-              bool fixIntrinsics = false, const FocalPrior& prior = {}) {
+              bool fixFocal = false, const FocalPrior& prior = {}) {
   std::vector<cv::Point3d> o;
   std::vector<cv::Point2d> m;
   std::vector<double> w;
   for (size_t i = 0; i < obj.size(); ++i)
     if (use[i]) o.push_back(obj[i]), m.push_back(img[i]), w.push_back(weights.empty() ? 1.0 : weights[i]);
   auto callback = cv::makePtr<Reprojection>(o, m, cx, cy, radialTerms, weights.empty() ? std::vector<double>() : w,
-                                            fixIntrinsics ? &start : nullptr);
+                                            fixFocal ? start.focal : 0.0);
   callback->setPrior(prior);
   cv::Mat x = callback->pack(start);
   cv::Ptr<cv::LMSolver> solver = cv::LMSolver::create(callback, 200, 1e-12);
@@ -1056,7 +1054,7 @@ class SharedReprojection : public cv::LMSolver::Callback {
     const int s = 6 * static_cast<int>(views_.size());
     int row = 0;
     if (prior_.weight > 0) {
-      e.at<double>(row) = prior_.weight * (p[0].focal - prior_.focal);
+      e.at<double>(row) = prior_.residual(p[0].focal);
       if (J.needed()) j.at<double>(row, s) = prior_.weight;
       ++row;
     }

@@ -259,6 +259,7 @@ nlohmann::json fitJson(const CameraFit& fit, int photo, const Project* project) 
     j["click_noise_px"] = fit.noisePx;
     j["radial_pooled"] = fit.radialPooled;
     j["shared_intrinsics"] = fit.sharedIntrinsics;
+    j["photometric_shift_px"] = fit.photometricShiftPx;
     j["exif_focal_prior"] = fit.focalPrior > 0 ? "taken" : fit.focalPrior < 0 ? "refused by the clicks" : "none";
     j["silhouette_points"] = fit.silhouettePoints;
     j["silhouette_residual_px"] = fit.silhouetteResidualPx;
@@ -691,7 +692,8 @@ const StageGraph& pipelineStages() {
         "mask and mirror), never their paths or times",
         0.04);
     add(S::Camera, {S::Load},
-        {"/options/cameraMode", "/options/cameraThreshold", "/options/sharedIntrinsics", "/options/seed"},
+        {"/options/cameraMode", "/options/cameraThreshold", "/options/sharedIntrinsics", "/options/photometric",
+         "/options/seed"},
         "per photo: the photo, the mesh, its clicks (vertex and pixel, in point order) and its mode; the preview's "
         "warm-started fits are their own",
         0.06);
@@ -766,9 +768,23 @@ nlohmann::json cameraCounts(const CameraStage& cameras, const Project& project) 
                       {"aic_separate", s.aicSeparate},
                       {"why", s.why},
                       {"seconds", s.seconds}});
-  return {{"fitted", cameras.fitted},    {"subjects", cameras.subjects},
-          {"reused", cameras.reused},    {"pooled_radial_f", cameras.pooledRadialF},
-          {"shared_intrinsics", shared}, {"photos", photos}};
+  const PhotometricRefinement& ph = cameras.photometric;
+  nlohmann::json photometric = {{"tried", ph.tried},
+                                {"kept", ph.kept},
+                                {"why", ph.why},
+                                {"photos", ph.photos},
+                                {"samples", ph.samples},
+                                {"held_out_error_before", ph.heldOutBefore},
+                                {"held_out_error_after", ph.heldOutAfter},
+                                {"shift_px", ph.shiftPx},
+                                {"seconds", ph.seconds}};
+  return {{"fitted", cameras.fitted},
+          {"subjects", cameras.subjects},
+          {"reused", cameras.reused},
+          {"pooled_radial_f", cameras.pooledRadialF},
+          {"shared_intrinsics", shared},
+          {"photometric", photometric},
+          {"photos", photos}};
 }
 
 nlohmann::json partitionCounts(const Partition& partition, bool kept) {
@@ -1150,12 +1166,45 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   cachedShared_ = std::move(shared);
   job.checkCancel();
   key.clear();
+  for (size_t p = 0; p < np; ++p) key += "#fit:" + fits[p].first + sharedKey[p];
+  // The object photos' poses refined on what they show where they overlap (issue 37; refineCamerasPhotometric), kept
+  // when held-out photos are re-rendered better. Cached by the fits' keys. The final tier runs it; the preview takes
+  // the last verdict while its fits are the same, and the clicks' cameras otherwise (a second or more per run).
+  if (project.options.photometric) {
+    std::shared_ptr<const PhotometricCameras> verdict;
+    if (cachedPhotometric_.second && cachedPhotometric_.first == key) {
+      verdict = cachedPhotometric_.second;
+    } else if (!isPreview(tier)) {
+      auto made = std::make_shared<PhotometricCameras>();
+      std::vector<CameraFit> refined;
+      for (size_t p = 0; p < np; ++p) refined.push_back(*given[p]);
+      std::vector<CameraFit*> members;
+      std::vector<const Photo*> photos;
+      std::vector<const SilhouetteDistance*> silhouettes;
+      for (size_t p = 0; p < np; ++p) {
+        members.push_back(&refined[p]);
+        photos.push_back(scene.photos[p].get());
+        silhouettes.push_back(cachedPhotos_[p].silhouette.get());
+      }
+      made->summary = refineCamerasPhotometric(*scene.mesh, photos, members, PhotometricOptions{}, &job, silhouettes);
+      for (size_t p = 0; p < np; ++p)
+        made->fits.push_back(made->summary.kept ? std::make_shared<const CameraFit>(std::move(refined[p])) : given[p]);
+      verdict = made;
+      cachedPhotometric_ = {key, verdict};
+    }
+    if (verdict) {
+      cameras->photometric = verdict->summary;
+      if (verdict->summary.kept) {
+        given = verdict->fits;
+        key += "#photometric";
+      }
+    }
+  }
   for (size_t p = 0; p < np; ++p) {
     const CameraFit& fit = *given[p];
     cameras->fits.push_back(fit);
     cameras->fitted += fit.fits && !fit.subject;
     cameras->subjects += fit.subject;
-    key += "#fit:" + fits[p].first + sharedKey[p];
   }
   cachedFits_ = std::move(fits);
   cameras->seconds = secondsSince(start);

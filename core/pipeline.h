@@ -26,6 +26,7 @@
 #include "mapping/coverage.h"
 #include "mapping/fine_map.h"
 #include "mapping/partition.h"
+#include "mapping/photometric.h"
 #include "mapping/projection.h"
 #include "mapping/proposals.h"
 #include "mapping/seams.h"
@@ -59,6 +60,7 @@ struct CameraStage {
   int reused = 0;               // fits reused from the previous run (same clicks, photo, mesh, options)
   double pooledRadialF = 0;     // the largest pooled F of the lens terms over the photos of one camera
   std::vector<SharedIntrinsics> shared;  // per group of object photos of one image size: the joint fit's verdict
+  PhotometricRefinement photometric;     // the object photos' poses refined on their overlaps (option photometric)
   double seconds = 0;
 };
 
@@ -337,6 +339,11 @@ class Pipeline {
     std::vector<std::shared_ptr<const CameraFit>> fits;  // per member: the fit given (refined on its silhouette)
   };
   std::map<std::string, std::shared_ptr<const SharedCameraGroup>> cachedShared_;  // the group's fit keys -> group
+  struct PhotometricCameras {  // refineCamerasPhotometric's verdict on the fits given, and the fits it gives
+    PhotometricRefinement summary;
+    std::vector<std::shared_ptr<const CameraFit>> fits;  // per photo
+  };
+  std::pair<std::string, std::shared_ptr<const PhotometricCameras>> cachedPhotometric_;  // the fits' keys -> verdict
   // The camera stage: each photo's fit, reused from cachedFits_ while its key (the photo, the mesh, its clicks,
   // `fieldsKey`: the camera's declared fields) stays; the preview refits from the last camera. Sets `key` to
   // the fits' keys.

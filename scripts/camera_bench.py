@@ -14,6 +14,8 @@ Usage: scripts/camera_bench.py [--montage build/bin/montage] [--data ../shared/d
 --k1 lists lens distortions (synth --k1, every view; the fit's k1 and k2 per photo are in results.json).
 --set passes project options to every `montage run` (e.g. --set correction=off); the seen column is the PSNR over
 what the oracle's photos see (eval's psnr_seen), the issue-37 measure.
+--flatten lays each photo over white and drops its alpha before the run (photos without a cut-out: no silhouette to
+refine a camera on; the oracle reads the same photos).
 --lock runs each command under the machine-wide build lock (flock /tmp/tm-build.lock), as HELPERS.md asks.
 """
 import argparse
@@ -44,6 +46,15 @@ def run(cmd, lock):
     return wall, cpu
 
 
+def flatten(d, views):
+    import cv2  # python3-opencv (scripts/setup.sh --with-tools)
+    for k in range(views):
+        path = os.path.join(d, f"photo_{k}.png")
+        rgba = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+        alpha = rgba[:, :, 3:4].astype("float32") / 255
+        cv2.imwrite(path, (rgba[:, :, :3] * alpha + 255 * (1 - alpha) + 0.5).astype("uint8"))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--montage", default="build/bin/montage")
@@ -56,6 +67,7 @@ def main():
     ap.add_argument("--k1", default="0")
     ap.add_argument("--size", default="1024")
     ap.add_argument("--lock", action="store_true")
+    ap.add_argument("--flatten", action="store_true")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     a = ap.parse_args()
     rows = []
@@ -73,6 +85,8 @@ def main():
                         d = os.path.join(a.out, f"{mesh}_{views}_{features}_{noise}" + (f"_k{k1}" if float(k1) else ""))
                         run([a.montage, "synth", "--mesh", obj, "--texture", tex, "--views", views, "--features", features,
                              "--seed", "1", "--size", a.size, "--click-noise", noise, "--k1", k1, "--out", d], a.lock)
+                        if a.flatten:
+                            flatten(d, int(views))
                         sets = [x for kv in a.set for x in ("--set", kv)]
                         wall, cpu = run([a.montage, "run", d + "/project.json", "--out", d + "/out"] + sets, a.lock)
                         run([a.montage, "eval", "--result", d + "/out/model.obj", "--truth", obj, "--truth-texture", tex,

@@ -23,6 +23,7 @@
 #include "image/photo.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
+#include "mapping/photometric.h"
 #include "mapping/projection.h"
 #include "mapping/proposals.h"
 #include "mapping/view_select.h"
@@ -563,6 +564,215 @@ TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
   refineOnSilhouette(*exact.mesh, photo, fit);
   EXPECT_EQ(fit.silhouettePoints, 0);
   EXPECT_EQ(fit.camera.focal(), focal);
+}
+
+// ---- Photometric refinement (issue 37) ----
+
+namespace {
+
+// The clicks' fits of a demo scene's photos (no silhouette refinement: the clicks alone), their photos, and the mean
+// over the photos of the largest gap to the true camera.
+struct ClickFits {
+  std::vector<Photo> photos;
+  std::vector<CameraFit> fits;
+  std::vector<const Photo*> photoPtrs() const {
+    std::vector<const Photo*> out;
+    for (const Photo& p : photos) out.push_back(&p);
+    return out;
+  }
+  std::vector<CameraFit*> fitPtrs() {
+    std::vector<CameraFit*> out;
+    for (CameraFit& f : fits) out.push_back(&f);
+    return out;
+  }
+};
+
+// Lays a photo over white and drops its background: a photo without a cut-out.
+void flatten(Photo& photo) {
+  cv::Mat a, rgb;
+  photo.alpha.convertTo(a, CV_32F, 1.0 / 255);
+  cv::cvtColor(a, a, cv::COLOR_GRAY2RGB);
+  photo.rgb.convertTo(rgb, CV_32FC3);
+  rgb = rgb.mul(a) + (cv::Scalar::all(1) - a) * 255;
+  rgb.convertTo(photo.rgb, CV_8UC3);
+  photo.alpha.release();
+  photo.distance.release();
+  photo.hasBackground = false;
+}
+
+// `silhouette`: each fit refined on its photo's silhouette, as the camera stage gives them; `flat`: the photos
+// without their background (flatten).
+ClickFits clickFits(const DemoScene& d, bool silhouette = false, bool flat = false) {
+  ClickFits c;
+  const int size = d.scene.options.size;
+  for (size_t k = 0; k < d.scene.cameras.size(); ++k) {
+    c.photos.push_back(loadPhoto(d.dir + "/photo_" + std::to_string(k) + ".png"));
+    if (flat) flatten(c.photos.back());
+    c.fits.push_back(fitCamera(*d.mesh, photoClicks(d.scene.project, static_cast<int>(k)), size, size));
+    EXPECT_TRUE(c.fits.back().fits) << c.fits.back().reason;
+    if (silhouette) refineOnSilhouette(*d.mesh, c.photos.back(), c.fits.back());
+  }
+  return c;
+}
+
+double meanGap(const DemoScene& d, const std::vector<CameraFit>& fits) {
+  double sum = 0;
+  for (size_t k = 0; k < fits.size(); ++k) sum += projectionGap(*d.mesh, trueCamera(d.scene, int(k)), fits[k].camera);
+  return sum / fits.size();
+}
+
+}  // namespace
+
+// Noisy clicks leave each camera pixels off; in photos without a cut-out (no silhouette to refine on) what the photos
+// show where they overlap pulls the cameras together, and the held-out samples say so.
+TEST(Photometric, OverlapsBringNoisyCamerasCloserToTheTruth) {
+  DemoScene d = demoScene("photometric_noisy", 4, 60, 2.0, 640);
+  ClickFits c = clickFits(d, false, true);
+  const double before = meanGap(d, c.fits);
+  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), c.fitPtrs());
+  const double after = meanGap(d, c.fits);
+  std::printf("photometric: %s; held out: %.4f -> %.4f; largest gap to the truth %.3f -> %.3f px, %.2f s\n",
+              r.why.c_str(), r.heldOutBefore, r.heldOutAfter, before, after, r.seconds);
+  ASSERT_TRUE(r.tried) << r.why;
+  EXPECT_EQ(r.photos.size(), 4u);
+  EXPECT_GT(r.samples, 5000);
+  ASSERT_TRUE(r.kept) << r.why;
+  EXPECT_LT(r.heldOutAfter, r.heldOutBefore);
+  EXPECT_GT(before, 1.0);  // the clicks' noise shows
+  EXPECT_LT(after, 0.5 * before);
+  for (size_t k = 0; k < c.fits.size(); ++k) {  // re-measured: the clicks agree as well as with the true camera
+    CameraFit truth = fitFromCamera(*d.mesh, trueCamera(d.scene, int(k)), c.fits[k].clicks);
+    truth.thresholdPx = c.fits[k].thresholdPx;
+    measureClicks(*d.mesh, truth);
+    EXPECT_GT(c.fits[k].photometricShiftPx, 0);
+    EXPECT_GE(c.fits[k].inliers, truth.inliers) << "photo " << k;
+  }
+  // Photos with a background: their silhouettes already bring the cameras within a tenth of a pixel; the overlaps
+  // are refused (the held-out samples are predicted no better) or change them by hundredths.
+  ClickFits s = clickFits(d, true);
+  const double silhouette = meanGap(d, s.fits);
+  const PhotometricRefinement t = refineCamerasPhotometric(*d.mesh, s.photoPtrs(), s.fitPtrs());
+  const double aligned = meanGap(d, s.fits);
+  std::printf("from the silhouettes' cameras: %s; gap %.3f -> %.3f px\n", t.why.c_str(), silhouette, aligned);
+  EXPECT_LT(silhouette, 0.2);
+  EXPECT_LT(aligned, silhouette + 0.03);
+}
+
+// Photos at different exposures: the gains take the exposure, the poses still come together.
+TEST(Photometric, ExposuresAreGainsNotMisregistration) {
+  DemoScene d;
+  d.mesh = requireUsable(loadMesh(demoMeshPath()));
+  SynthOptions o;
+  o.views = 4, o.features = 60, o.size = 640, o.clickNoisePx = 2.0;
+  o.exposures = {1.0, 0.6, 1.3, 0.8};
+  d.scene = synthesize(*d.mesh, demoMeshPath(), patternOf(*d.mesh), o);
+  d.dir = test::tempDir("photometric_exposures");
+  writeSynthScene(d.scene, d.dir);
+  ClickFits c = clickFits(d, false, true);
+  const double before = meanGap(d, c.fits);
+  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), c.fitPtrs());
+  const double after = meanGap(d, c.fits);
+  std::printf("photometric with exposures: %s; gap %.3f -> %.3f px; gains", r.why.c_str(), before, after);
+  for (const Vec3& g : r.gain) std::printf(" %.2f", g.y());
+  std::printf("\n");
+  ASSERT_TRUE(r.kept) << r.why;
+  EXPECT_LT(after, 0.6 * before);
+  ASSERT_EQ(r.gain.size(), 4u);
+  EXPECT_GT(r.gain[1].y(), r.gain[2].y() * 1.3);  // the darkest photo takes the largest gain (green, unclipped)
+}
+
+// Exact clicks stay where they are; photos that do not show one surface (each replaced by noise) are not aligned.
+TEST(Photometric, ExactClicksStayAndUnrelatedPhotosAreNotAligned) {
+  DemoScene d = demoScene("photometric_exact", 4, 60, 0.0, 512);
+  ClickFits c = clickFits(d);
+  const std::vector<CameraFit> exact = c.fits;
+  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), c.fitPtrs());
+  ASSERT_TRUE(r.tried) << r.why;
+  for (size_t k = 0; k < exact.size(); ++k)
+    EXPECT_LT(projectionGap(*d.mesh, exact[k].camera, c.fits[k].camera), 0.05) << "photo " << k << ": " << r.why;
+
+  DemoScene noisy = demoScene("photometric_unrelated", 4, 60, 2.0, 512);
+  ClickFits u = clickFits(noisy, false, true);
+  const std::vector<CameraFit> clicked = u.fits;
+  cv::RNG rng(7);
+  for (Photo& p : u.photos) {
+    cv::Mat noise(p.rgb.size(), CV_8UC3);
+    rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+    cv::GaussianBlur(noise, noise, cv::Size(0, 0), 2.0);
+    p.rgb = noise;
+  }
+  const PhotometricRefinement v = refineCamerasPhotometric(*noisy.mesh, u.photoPtrs(), u.fitPtrs());
+  std::printf("unrelated photos: %s\n", v.why.c_str());
+  EXPECT_TRUE(v.tried);
+  EXPECT_FALSE(v.kept);
+  for (size_t k = 0; k < clicked.size(); ++k)
+    EXPECT_EQ(projectionGap(*noisy.mesh, clicked[k].camera, u.fits[k].camera), 0);
+}
+
+// Two photos (two of three views 120 degrees apart) come together too.
+TEST(Photometric, TwoPhotosComeTogether) {
+  DemoScene d = demoScene("photometric_two", 3, 90, 2.0, 640);
+  ClickFits c = clickFits(d, false, true);
+  c.photos.pop_back();
+  c.fits.pop_back();
+  const double before = meanGap(d, c.fits);
+  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), c.fitPtrs());
+  const double after = meanGap(d, c.fits);
+  std::printf("two photos: %s; %d samples; held out %.4f -> %.4f; gap %.3f -> %.3f px\n", r.why.c_str(), r.samples,
+              r.heldOutBefore, r.heldOutAfter, before, after);
+  ASSERT_TRUE(r.tried) << r.why;
+  ASSERT_TRUE(r.kept) << r.why;
+  EXPECT_LT(after, 0.7 * before);
+}
+
+// Through the pipeline: photos without a cut-out are aligned on their overlaps in the final result (and the preview
+// that follows takes that verdict), and closer to the true cameras than with the option off.
+TEST(CameraPipeline, PhotosWithoutACutOutAreAlignedOnTheirOverlaps) {
+  DemoScene d = demoScene("camera_pipeline_photometric", 4, 60, 2.0, 640);
+  for (int k = 0; k < 4; ++k) {  // the photos' files laid over white, without alpha
+    const std::string path = d.dir + "/photo_" + std::to_string(k) + ".png";
+    cv::Mat bgra = cv::imread(path, cv::IMREAD_UNCHANGED), bgr, alpha;
+    ASSERT_EQ(bgra.channels(), 4);
+    cv::extractChannel(bgra, alpha, 3);
+    cv::cvtColor(bgra, bgr, cv::COLOR_BGRA2BGR);
+    bgr.setTo(cv::Scalar::all(255), alpha == 0);
+    cv::imwrite(path, bgr);
+  }
+  Project project = loadProject(d.dir + "/project.json");
+  // 15 clicks a photo with 2 px noise: auto takes one photo for another subject (a camera fitted to all 18 clicks,
+  // median residual 1.8 px, max 4.4 px); the user says what they show.
+  for (PhotoRef& photo : project.photos) photo.mode = PhotoMode::Object;
+  const auto gaps = [&](const PipelineResult& r) {
+    double sum = 0;
+    for (int k = 0; k < 4; ++k) sum += projectionGap(*d.mesh, trueCamera(d.scene, k), r.cameras->fits[k].camera);
+    return sum / 4;
+  };
+  Pipeline pipeline;
+  const PipelineResult on = pipeline.run(project);
+  ASSERT_TRUE(on.cameras);
+  const PhotometricRefinement& ph = on.cameras->photometric;
+  ASSERT_TRUE(ph.kept) << ph.why;
+  EXPECT_EQ(ph.photos.size(), 4u);
+  for (const CameraFit& f : on.cameras->fits) {
+    EXPECT_GT(f.photometricShiftPx, 0);
+    EXPECT_NE(f.reason.find("aligned with the other photos"), std::string::npos) << f.reason;
+  }
+  nlohmann::json camera;
+  const nlohmann::json report = on.report();
+  for (const auto& s : report["stages"])
+    if (s["stage"] == "camera") camera = s["counts"]["photometric"];
+  EXPECT_EQ(camera["kept"], true);
+  EXPECT_LT(camera["held_out_error_after"].get<double>(), camera["held_out_error_before"].get<double>());
+  const PipelineResult preview = pipeline.run(project, JobControl(), Tier::Preview);
+  for (int k = 0; k < 4; ++k)
+    EXPECT_EQ(projectionGap(*d.mesh, preview.cameras->fits[k].camera, on.cameras->fits[k].camera), 0);
+  project.options.photometric = false;
+  Pipeline without;
+  const PipelineResult off = without.run(project);
+  EXPECT_FALSE(off.cameras->photometric.tried);
+  std::printf("pipeline, photos without a cut-out: gap to the truth %.3f px with the overlaps, %.3f without\n",
+              gaps(on), gaps(off));
+  EXPECT_LT(gaps(on), 0.5 * gaps(off));
 }
 
 // Each view option moves the view the way its doc says (true cameras, photos with a background).

@@ -230,33 +230,43 @@ TEST(Codec, JpegExifOrientationIsApplied) {
 // length a prior), in either byte order, with the orientation beside them; from the focal length in pixels follow
 // the field of view. Cameras write the 35 mm equivalent or the focal plane's resolution; a crop after the shot
 // leaves the latter unusable, and the EXIF says nothing then.
+namespace {
+
+// EXIF values' bytes in one byte order, for the EXIF and TIFF tests.
+struct ExifValues {
+  bool big;
+  std::vector<unsigned char> u16(uint32_t v) const { return test::exif16(big, v); }
+  std::vector<unsigned char> u32(uint32_t v) const { return test::exif32(big, v); }
+  std::vector<unsigned char> rational(uint32_t n, uint32_t d) const {
+    std::vector<unsigned char> out = u32(n), b = u32(d);
+    out.insert(out.end(), b.begin(), b.end());
+    return out;
+  }
+  static std::vector<unsigned char> ascii(const std::string& text) {
+    std::vector<unsigned char> out(text.begin(), text.end());
+    out.push_back(0);
+    return out;
+  }
+};
+
+}  // namespace
+
 TEST(Codec, JpegExifNamesTheCameraAndItsFocalLength) {
   const cv::Mat image = testImage(48, 80, CV_8U, 3, 9u);  // 80 x 48 as stored
   const std::vector<unsigned char> plain = cvEncode(".jpg", image, {cv::IMWRITE_JPEG_QUALITY, 95});
   for (bool big : {false, true}) {
     SCOPED_TRACE(big ? "MM" : "II");
-    const auto u16 = [&](uint32_t v) { return test::exif16(big, v); };
-    const auto u32 = [&](uint32_t v) { return test::exif32(big, v); };
-    const auto rational = [&](uint32_t n, uint32_t d) {
-      std::vector<unsigned char> out = u32(n), b = u32(d);
-      out.insert(out.end(), b.begin(), b.end());
-      return out;
-    };
-    const auto ascii = [](const std::string& text) {
-      std::vector<unsigned char> out(text.begin(), text.end());
-      out.push_back(0);
-      return out;
-    };
-    const std::vector<test::ExifEntryBytes> ifd0 = {{271, 2, 6, ascii("Canon")},
-                                                    {272, 2, 14, ascii("Canon EOS 80D")},
-                                                    {274, 3, 1, u16(6)}};  // stored turned: shown 48 x 80
+    const ExifValues v{big};
+    const std::vector<test::ExifEntryBytes> ifd0 = {{271, 2, 6, ExifValues::ascii("Canon")},
+                                                    {272, 2, 14, ExifValues::ascii("Canon EOS 80D")},
+                                                    {274, 3, 1, v.u16(6)}};  // stored turned: shown 48 x 80
     std::vector<test::ExifEntryBytes> exif = {
-        {37386, 5, 1, rational(180, 10)},  // 18 mm
-        {40962, 4, 1, u32(6000)},          // written 6000 x 3600 (5:3, as 80 x 48)
-        {40963, 4, 1, u32(3600)},
-        {41486, 5, 1, rational(6000 * 25400, 22320)},  // 6000 px on 22.32 mm, per inch
-        {41488, 3, 1, u16(2)},
-        {41989, 3, 1, u16(29)}};
+        {37386, 5, 1, v.rational(180, 10)},  // 18 mm
+        {40962, 4, 1, v.u32(6000)},          // written 6000 x 3600 (5:3, as 80 x 48)
+        {40963, 4, 1, v.u32(3600)},
+        {41486, 5, 1, v.rational(6000 * 25400, 22320)},  // 6000 px on 22.32 mm, per inch
+        {41488, 3, 1, v.u16(2)},
+        {41989, 3, 1, v.u16(29)}};
     const std::vector<unsigned char> bytes = test::withApp1(plain, test::exifPayload(big, ifd0, exif));
     const ImageHeader header = readImageHeader(bytes.data(), bytes.size());
     EXPECT_EQ(header.orientation, 6);
@@ -286,6 +296,45 @@ TEST(Codec, JpegExifNamesTheCameraAndItsFocalLength) {
   const std::vector<unsigned char> xmp = test::withApp1(plain, {'h', 't', 't', 'p', ':', '/', '/', 'n', 's', 0});
   EXPECT_TRUE(readImageHeader(xmp.data(), xmp.size()).camera.empty());
   EXPECT_EQ(readImageHeader(xmp.data(), xmp.size()).orientation, 1);
+}
+
+// A TIFF (a raw converter's, a scanner's) names its camera in its first directory and its EXIF directory, read by
+// libtiff: the same camera as a JPEG's EXIF.
+TEST(Codec, TiffExifNamesTheCameraAndItsFocalLength) {
+  for (bool big : {false, true}) {
+    SCOPED_TRACE(big ? "MM" : "II");
+    const ExifValues v{big};
+    // A 4 x 4 grey image whose 16 bytes of pixels are the file's first 16 (any bytes are grey levels).
+    const std::vector<test::ExifEntryBytes> ifd0 = {{256, 3, 1, v.u16(4)},
+                                                    {257, 3, 1, v.u16(4)},
+                                                    {258, 3, 1, v.u16(8)},
+                                                    {259, 3, 1, v.u16(1)},
+                                                    {262, 3, 1, v.u16(1)},
+                                                    {271, 2, 7, ExifValues::ascii("NIKON ")},
+                                                    {272, 2, 10, ExifValues::ascii("NIKON Z 6")},
+                                                    {273, 4, 1, v.u32(0)},
+                                                    {277, 3, 1, v.u16(1)},
+                                                    {278, 3, 1, v.u16(4)},
+                                                    {279, 4, 1, v.u32(16)}};
+    const std::vector<test::ExifEntryBytes> exif = {{37386, 5, 1, v.rational(50, 1)},  // 50 mm
+                                                    {41989, 3, 1, v.u16(50)}};         // on a full frame
+    std::vector<unsigned char> bytes = test::exifPayload(big, ifd0, exif);
+    bytes.erase(bytes.begin(), bytes.begin() + 6);  // "Exif\0\0": the rest is a TIFF file
+    const ImageHeader header = readImageHeader(bytes.data(), bytes.size());
+    ASSERT_TRUE(header.size);
+    EXPECT_EQ(*header.size, cv::Size(4, 4));
+    EXPECT_EQ(header.camera.make, "NIKON");
+    EXPECT_EQ(header.camera.model, "NIKON Z 6");
+    EXPECT_NEAR(header.camera.focalMm, 50, 1e-6);
+    EXPECT_DOUBLE_EQ(header.camera.focal35mm, 50);
+    EXPECT_EQ(header.camera.describe(), "NIKON Z 6, 50 mm (50 mm on 35 mm film)");
+    EXPECT_EQ(ours(bytes, "nikon.tif").size(), cv::Size(4, 4));  // and it decodes
+  }
+  // A TIFF without a camera (OpenCV's): nothing.
+  const std::vector<unsigned char> plain = cvEncode(".tif", testImage(8, 8, CV_8U, 3, 3u), {});
+  const ImageHeader header = readImageHeader(plain.data(), plain.size());
+  ASSERT_TRUE(header.size);
+  EXPECT_TRUE(header.camera.empty());
 }
 
 // A photo with an embedded colour profile (Adobe RGB, as many cameras can store) comes in sRGB: its colours as the

@@ -729,6 +729,12 @@ void Editor::pipelineTab() {
       ImGui::SetTooltip(
           "photos of the object itself from one camera (one size; one model and focal length where their EXIF "
           "says) are fitted together, with one focal length and one lens, when their clicks agree with that");
+    if (ImGui::Checkbox("align photos on their overlaps", &o.photometric)) commit = true;
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "photos of the object itself: their cameras are refined so that where two photos see the same surface "
+          "they show it alike, kept only when that predicts a held-out photo better (final result; a second or "
+          "more)");
     if (ImGui::Checkbox("weld seams of the mesh", &o.weldIdenticalPositions)) commit = true;
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip(

@@ -91,6 +91,28 @@ std::optional<cv::Size> pngSize(ByteReader& in) {
   return cv::Size(int(std::min<uint32_t>(*w, INT32_MAX)), int(std::min<uint32_t>(*h, INT32_MAX)));
 }
 
+// An EXIF text field (at most `size` bytes): trailing spaces and NULs dropped, control characters made spaces.
+std::string exifText(const char* text, size_t size) {
+  std::string t(text, strnlen(text, size));
+  while (!t.empty() && (t.back() == ' ' || t.back() == '\0')) t.pop_back();
+  for (char& c : t)
+    if (static_cast<unsigned char>(c) < 32) c = ' ';
+  return t;
+}
+
+// Focal lengths and resolutions outside what a camera writes are taken for absent.
+void keepPlausible(ExifCamera& c) {
+  const auto plausible = [](double v, double hi) { return std::isfinite(v) && v > 0 && v < hi ? v : 0.0; };
+  c.focalMm = plausible(c.focalMm, 5000), c.focal35mm = plausible(c.focal35mm, 5000);
+  c.focalPlanePxPerMm = plausible(c.focalPlanePxPerMm, 1e6);
+  c.writtenWidth = plausible(c.writtenWidth, 1e6), c.writtenHeight = plausible(c.writtenHeight, 1e6);
+}
+
+// The focal plane resolution's unit (EXIF 41488: 2 inch, 3 cm, 4 mm, 5 um; inch when absent) in millimetres.
+double focalPlaneUnitMm(int unit) {
+  return unit == 3 ? 10 : unit == 4 ? 1 : unit == 5 ? 1e-3 : 25.4;
+}
+
 // What an APP1 segment's EXIF data says (the segment's payload, from "Exif\0\0" on), read by libexif: the
 // orientation (TIFF tag 274, 1..8; 1 when absent) and the camera. Data that is not EXIF says nothing. libexif's
 // "follow the specification" option is off: it would add the mandatory tags a file lacks, with made-up values.
@@ -128,12 +150,7 @@ ExifRead readExif(const uint8_t* p, size_t n) {
   };
   const auto textOf = [&](ExifIfd ifd, ExifTag tag) {
     const ExifEntry* e = entry(ifd, tag, EXIF_FORMAT_ASCII);
-    if (!e) return std::string();
-    std::string t(reinterpret_cast<const char*>(e->data), strnlen(reinterpret_cast<const char*>(e->data), e->size));
-    while (!t.empty() && (t.back() == ' ' || t.back() == '\0')) t.pop_back();
-    for (char& c : t)
-      if (static_cast<unsigned char>(c) < 32) c = ' ';
-    return t;
+    return e ? exifText(reinterpret_cast<const char*>(e->data), e->size) : std::string();
   };
   const int orientation = shortOf(EXIF_IFD_0, EXIF_TAG_ORIENTATION);
   out.orientation = orientation >= 1 && orientation <= 8 ? orientation : 1;
@@ -146,13 +163,10 @@ ExifRead readExif(const uint8_t* p, size_t n) {
   // (PixelXDimension wide): pixels per mm of this image's width.
   const double resolution = rationalOf(EXIF_IFD_EXIF, EXIF_TAG_FOCAL_PLANE_X_RESOLUTION);
   const int unit = shortOf(EXIF_IFD_EXIF, EXIF_TAG_FOCAL_PLANE_RESOLUTION_UNIT);
-  const double mmPerUnit = unit == 3 ? 10 : unit == 4 ? 1 : unit == 5 ? 1e-3 : 25.4;
-  c.focalPlanePxPerMm = resolution > 0 ? resolution / mmPerUnit : 0;
+  c.focalPlanePxPerMm = resolution > 0 ? resolution / focalPlaneUnitMm(unit) : 0;
   c.writtenWidth = longOf(EXIF_IFD_EXIF, EXIF_TAG_PIXEL_X_DIMENSION);
   c.writtenHeight = longOf(EXIF_IFD_EXIF, EXIF_TAG_PIXEL_Y_DIMENSION);
-  const auto plausible = [](double v, double hi) { return std::isfinite(v) && v > 0 && v < hi ? v : 0.0; };
-  c.focalMm = plausible(c.focalMm, 5000), c.focal35mm = plausible(c.focal35mm, 5000);
-  c.focalPlanePxPerMm = plausible(c.focalPlanePxPerMm, 1e6);
+  keepPlausible(c);
   exif_data_unref(data);
   return out;
 }
@@ -273,6 +287,99 @@ std::optional<cv::Size> tiffSize(ByteReader& in, bool bigEndian) {
   return cv::Size(width, height);
 }
 
+// TIFF: the camera its first directory (Make, Model) and its EXIF directory (FocalLength, FocalLengthIn35mmFilm, the
+// focal plane's resolution, PixelX/YDimension) name, read by libtiff from the stream: only the directories are
+// read. Nothing when the file is not a TIFF libtiff opens (its messages are not shown: the decoder reports damage).
+struct TiffStream {
+  std::istream& in;
+  uint64_t size;
+};
+tmsize_t tiffStreamRead(thandle_t handle, void* out, tmsize_t n) {
+  auto* s = static_cast<TiffStream*>(handle);
+  s->in.clear();
+  s->in.read(static_cast<char*>(out), std::streamsize(std::max<tmsize_t>(n, 0)));
+  return tmsize_t(s->in.gcount());
+}
+tmsize_t tiffStreamWrite(thandle_t, void*, tmsize_t) {
+  return -1;
+}
+toff_t tiffStreamSeek(thandle_t handle, toff_t offset, int whence) {
+  auto* s = static_cast<TiffStream*>(handle);
+  s->in.clear();
+  const auto dir = whence == SEEK_CUR ? std::ios::cur : whence == SEEK_END ? std::ios::end : std::ios::beg;
+  s->in.seekg(std::streamoff(offset), dir);
+  const auto at = s->in.tellg();
+  return at < 0 ? toff_t(-1) : toff_t(at);
+}
+int tiffStreamClose(thandle_t) {
+  return 0;
+}
+toff_t tiffStreamSize(thandle_t handle) {
+  return toff_t(static_cast<TiffStream*>(handle)->size);
+}
+int tiffQuiet(TIFF*, void*, const char*, const char*, va_list) {
+  return 1;
+}
+
+ExifCamera tiffCamera(std::istream& stream) {
+  ExifCamera c;
+  stream.clear();
+  stream.seekg(0, std::ios::end);
+  const auto size = stream.tellg();
+  if (size <= 0 || !stream.seekg(0)) return c;  // libtiff reads its header from where the stream stands
+  TiffStream source{stream, uint64_t(size)};
+  TIFFOpenOptions* options = TIFFOpenOptionsAlloc();
+  TIFFOpenOptionsSetErrorHandlerExtR(options, tiffQuiet, nullptr);
+  TIFFOpenOptionsSetWarningHandlerExtR(options, tiffQuiet, nullptr);
+  TIFF* tif = TIFFClientOpenExt("header", "rm", &source, tiffStreamRead, tiffStreamWrite, tiffStreamSeek,
+                                tiffStreamClose, tiffStreamSize, nullptr, nullptr, options);
+  TIFFOpenOptionsFree(options);
+  if (!tif) return c;
+  const auto text = [&](uint32_t tag) {
+    const char* t = nullptr;
+    return TIFFGetField(tif, tag, &t) && t ? exifText(t, 256) : std::string();
+  };
+  c.make = text(TIFFTAG_MAKE);
+  c.model = text(TIFFTAG_MODEL);
+  toff_t exif = 0;
+  if (TIFFGetField(tif, TIFFTAG_EXIFIFD, &exif) && exif && TIFFReadEXIFDirectory(tif, exif)) {
+    // A field as libtiff stores it: a rational as a float or a double (TIFFFieldSetGetSize), a SHORT or a LONG.
+    const auto number = [&](uint32_t tag) -> double {
+      const TIFFField* f = TIFFFieldWithTag(tif, tag);
+      if (!f) return 0;
+      const TIFFDataType type = TIFFFieldDataType(f);
+      const int bytes = TIFFFieldSetGetSize(f);
+      if (type == TIFF_RATIONAL && bytes == 4) {
+        float v = 0;
+        return TIFFGetField(tif, tag, &v) ? v : 0;
+      }
+      if (type == TIFF_RATIONAL && bytes == 8) {
+        double v = 0;
+        return TIFFGetField(tif, tag, &v) ? v : 0;
+      }
+      if (bytes == 2) {
+        uint16_t v = 0;
+        return TIFFGetField(tif, tag, &v) ? v : 0;
+      }
+      if (bytes == 4) {
+        uint32_t v = 0;
+        return TIFFGetField(tif, tag, &v) ? v : 0;
+      }
+      return 0;
+    };
+    c.focalMm = number(EXIFTAG_FOCALLENGTH);
+    c.focal35mm = number(EXIFTAG_FOCALLENGTHIN35MMFILM);
+    const double resolution = number(EXIFTAG_FOCALPLANEXRESOLUTION);
+    c.focalPlanePxPerMm =
+        resolution > 0 ? resolution / focalPlaneUnitMm(int(number(EXIFTAG_FOCALPLANERESOLUTIONUNIT))) : 0;
+    c.writtenWidth = number(EXIFTAG_PIXELXDIMENSION);
+    c.writtenHeight = number(EXIFTAG_PIXELYDIMENSION);
+    keepPlausible(c);
+  }
+  TIFFClose(tif);
+  return c;
+}
+
 ImageFormat formatOf(const uint8_t (&magic)[8]) {
   static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
   if (std::equal(magic, magic + 8, kPng)) return ImageFormat::Png;
@@ -304,6 +411,7 @@ ImageHeader readImageHeader(std::istream& stream) {
     case ImageFormat::TiffLittle:
     case ImageFormat::TiffBig:
       header.size = tiffSize(in, header.format == ImageFormat::TiffBig);
+      if (header.size) header.camera = tiffCamera(stream);
       break;
     case ImageFormat::Unknown:
       break;

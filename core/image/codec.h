@@ -41,7 +41,7 @@ struct ImageHeader {
   // 1 when absent). Decoding applies it: the pixels and `size` are the shown image's, which project coordinates,
   // masks and the editor use.
   int orientation = 1;
-  ExifCamera camera;        // a JPEG's EXIF (the first APP1 segment)
+  ExifCamera camera;        // a JPEG's EXIF (the first APP1 segment), or a TIFF's (its first and EXIF directories)
   bool iccProfile = false;  // a JPEG with an embedded colour profile (APP2), which decoding converts to sRGB
   uint64_t minBytes = 0;  // the data a complete file holds at least, when its header says (uncompressed BMP)
 };

@@ -133,6 +133,8 @@ struct PipelineOptions {
   bool sharedIntrinsics = true;  // camera fit: the object photos of one camera (one size; one model and focal length
                                  // where their EXIF says) share focal length and lens terms when Akaike's criterion
                                  // prefers it (a bundle adjustment over all their clicks)
+  bool photometric = true;       // camera fit: the object photos' poses refined on what they show where they overlap,
+                                 // kept when held-out photos are re-rendered better (mapping/photometric.h)
   CorrectionMode correction = CorrectionMode::Noise;  // projection: clicks the correction field keeps exact
   double viewSmoothness = 1.0;                      // projection: seam cost of view selection (0 = best view per face)
   int maxPhotoSide = 0;  // load: working resolution, photos kept at most this many pixels a side (0 = full;
@@ -147,8 +149,9 @@ struct PipelineOptions {
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
            seed == o.seed && exportTopology == o.exportTopology && bakeInto == o.bakeInto && bakeSize == o.bakeSize &&
            pngCompression == o.pngCompression && cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold &&
-           sharedIntrinsics == o.sharedIntrinsics && correction == o.correction && viewSmoothness == o.viewSmoothness &&
-           maxPhotoSide == o.maxPhotoSide && weldIdenticalPositions == o.weldIdenticalPositions;
+           sharedIntrinsics == o.sharedIntrinsics && photometric == o.photometric && correction == o.correction &&
+           viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide &&
+           weldIdenticalPositions == o.weldIdenticalPositions;
   }
 };
 

@@ -248,6 +248,7 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("cameraMode", o.cameraMode, CameraMode::Auto, CameraMode::Off);
   visit("cameraThreshold", o.cameraThreshold, 0.0005, 0.2);
   visit("sharedIntrinsics", o.sharedIntrinsics, false, true);
+  visit("photometric", o.photometric, false, true);
   visit("correction", o.correction, CorrectionMode::Off, CorrectionMode::Noise);
   visit("viewSmoothness", o.viewSmoothness, 0.0, 100.0);
   visit("maxPhotoSide", o.maxPhotoSide, 0, 16384);

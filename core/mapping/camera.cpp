@@ -310,34 +310,6 @@ double clickNoise(const Mesh& mesh, const CameraFit& fit) {
   return std::sqrt(std::min(global, nugget));
 }
 
-// Fills the per-click figures of `fit` from its camera.
-void measureClicks(const Mesh& mesh, CameraFit& fit) {
-  const size_t n = fit.clicks.size();
-  fit.reprojected.assign(n, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
-  fit.residual.assign(n, kInf);
-  fit.inlier.assign(n, 0);
-  std::vector<double> in;
-  for (size_t i = 0; i < n; ++i) {
-    Vec2 px;
-    if (!fit.camera.project(mesh.position(fit.clicks[i].vertex), px)) continue;
-    fit.reprojected[i] = px;
-    fit.residual[i] = (px - fit.clicks[i].pixel).norm();
-    fit.inlier[i] = fit.residual[i] < fit.thresholdPx;
-    if (fit.inlier[i]) in.push_back(fit.residual[i]);
-  }
-  fit.inliers = static_cast<int>(in.size());
-  fit.medianResidual = fit.maxResidual = fit.rmsResidual = 0;
-  if (!in.empty()) {
-    std::sort(in.begin(), in.end());
-    fit.medianResidual = in.size() % 2 ? in[in.size() / 2] : 0.5 * (in[in.size() / 2 - 1] + in[in.size() / 2]);
-    fit.maxResidual = in.back();
-    double s = 0;
-    for (double r : in) s += r * r;
-    fit.rmsResidual = std::sqrt(s / in.size());
-  }
-  fit.noisePx = clickNoise(mesh, fit);
-}
-
 // The camera in world coordinates from LM's parameters on points centred on `centre`:
 // p_cam = R (x - centre) + t = R x + (t - R centre).
 void setCamera(PhotoCamera& camera, const Params& p, const Vec3& centre) {
@@ -380,6 +352,33 @@ void checkInputs(const Mesh& mesh, const std::vector<CameraClick>& clicks, int w
 }
 
 }  // namespace
+
+void measureClicks(const Mesh& mesh, CameraFit& fit) {
+  const size_t n = fit.clicks.size();
+  fit.reprojected.assign(n, Vec2::Constant(std::numeric_limits<double>::quiet_NaN()));
+  fit.residual.assign(n, kInf);
+  fit.inlier.assign(n, 0);
+  std::vector<double> in;
+  for (size_t i = 0; i < n; ++i) {
+    Vec2 px;
+    if (!fit.camera.project(mesh.position(fit.clicks[i].vertex), px)) continue;
+    fit.reprojected[i] = px;
+    fit.residual[i] = (px - fit.clicks[i].pixel).norm();
+    fit.inlier[i] = fit.residual[i] < fit.thresholdPx;
+    if (fit.inlier[i]) in.push_back(fit.residual[i]);
+  }
+  fit.inliers = static_cast<int>(in.size());
+  fit.medianResidual = fit.maxResidual = fit.rmsResidual = 0;
+  if (!in.empty()) {
+    std::sort(in.begin(), in.end());
+    fit.medianResidual = in.size() % 2 ? in[in.size() / 2] : 0.5 * (in[in.size() / 2 - 1] + in[in.size() / 2]);
+    fit.maxResidual = in.back();
+    double s = 0;
+    for (double r : in) s += r * r;
+    fit.rmsResidual = std::sqrt(s / in.size());
+  }
+  fit.noisePx = clickNoise(mesh, fit);
+}
 
 std::vector<char> fittingPhotos(const std::vector<CameraFit>& fits) {
   std::vector<char> out;
@@ -717,10 +716,6 @@ Vec2 SilhouetteDistance::gradient(const Vec2& p) const {
   return Vec2(at(p + Vec2(h, 0)) - at(p - Vec2(h, 0)), at(p + Vec2(0, h)) - at(p - Vec2(0, h))) / (2 * h);
 }
 
-namespace {
-
-// Samples of the mesh's outer contour as `camera` sees it: on edges between a front- and a back-facing
-// face (or on the border), shown by the z-buffer, within a pixel and a half of the rendered outline.
 std::vector<Vec3> outerContour(const Mesh& mesh, const Camera& camera, double spacingPx) {
   RasterOptions depthOnly;
   depthOnly.barycentrics = false;
@@ -775,6 +770,8 @@ std::vector<Vec3> outerContour(const Mesh& mesh, const Camera& camera, double sp
   for (const auto& found : chunks) out.insert(out.end(), found.begin(), found.end());
   return out;
 }
+
+namespace {
 
 // LM residuals: the agreeing clicks (pixels) and the contour samples' signed distances to the photo's
 // silhouette, weighted.
@@ -1260,6 +1257,8 @@ std::string describeFit(const CameraFit& fit) {
   if (fit.silhouettePoints > 0)
     s += ", on the silhouette: " + std::to_string(fit.silhouettePoints) + " contour samples, mean " +
          fixed(fit.silhouetteResidualPx, 2) + " px";
+  if (fit.photometricShiftPx > 0)
+    s += ", aligned with the other photos on their overlaps (moved " + fixed(fit.photometricShiftPx, 2) + " px)";
   return s;
 }
 

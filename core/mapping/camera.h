@@ -135,6 +135,8 @@ struct CameraFit {
       decision;  // why the photo is taken for the object itself or another subject (its mode, or auto's evidence)
   int silhouettePoints = 0;         // contour samples of the silhouette refinement (0: not refined)
   double silhouetteResidualPx = 0;  // their mean distance to the photo's silhouette, pixels
+  double photometricShiftPx = 0;    // > 0: refined on its overlaps with the other photos (refineCamerasPhotometric),
+                                    // which moved its view of the surface by this much (median, pixels)
   double seconds = 0;               // time of the fit
 };
 
@@ -158,6 +160,10 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
 // options.minInliers clicks, or when no camera of a plausible field of view has every click in front.
 CameraFit fitCameraToEveryClick(const Mesh& mesh, const std::vector<CameraClick>& clicks, int width, int height,
                                 const CameraFitOptions& options, const CameraFit& start);
+
+// Samples of the mesh's outer contour as `camera` sees it, about spacingPx apart: on edges between a front- and a
+// back-facing face (or on the border), shown by the z-buffer, within a pixel and a half of the rendered outline.
+std::vector<Vec3> outerContour(const Mesh& mesh, const Camera& camera, double spacingPx);
 
 // Refines a fitted camera on the photo's silhouette, after Lensch, Heidrich and Seidel 2001: the mesh's
 // outer contour (edges between front- and back-facing faces that the z-buffer shows on the rendered
@@ -217,6 +223,10 @@ struct SharedIntrinsics {
 };
 SharedIntrinsics fitSharedIntrinsics(const Mesh& mesh, const std::vector<CameraFit*>& fits,
                                      const CameraFitOptions& options = {});
+
+// Fills the per-click figures of `fit` (reprojected, residual, inlier against fit.thresholdPx, their counts and
+// statistics, noisePx) from its camera.
+void measureClicks(const Mesh& mesh, CameraFit& fit);
 
 // A one-line summary: "fits: focal 1123 px (fov 49.1 deg), 42/43 clicks agree, median 0.21 px, max 0.80 px".
 std::string describeFit(const CameraFit& fit);

@@ -12,8 +12,9 @@
 // Acceptance by held-out re-rendering: the cameras are refined on a spatial half of the surface samples (cells of a
 // tenth of the bounding box, in a checkerboard), and each photo is then predicted from the others on the other half;
 // the refinement is kept only when those predictions come closer to the photos than with the clicks' cameras. Then
-// the cameras are refined on all samples. (Holding out whole photos, as virtual rephotography does, judges nothing
-// here: the held-out photo's own camera comes from the same noisy clicks and its error dominates, docs/pipeline.md.)
+// the cameras are refined on all samples at the finest level, from where the test left them. (Holding out whole photos,
+// as virtual rephotography does, judges nothing here: the held-out photo's own camera comes from the same noisy clicks
+// and its error dominates, docs/pipeline.md.)
 #pragma once
 
 #include <string>

@@ -1167,9 +1167,10 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   job.checkCancel();
   key.clear();
   for (size_t p = 0; p < np; ++p) key += "#fit:" + fits[p].first + sharedKey[p];
-  // The object photos' poses refined on what they show where they overlap (issue 37; refineCamerasPhotometric), kept
-  // when held-out photos are re-rendered better. Cached by the fits' keys. The final tier runs it; the preview takes
-  // the last verdict while its fits are the same, and the clicks' cameras otherwise (a second or more per run).
+  // The object photos' cameras refined on what they show where they overlap (issue 37; refineCamerasPhotometric),
+  // kept when the photos predict each other better on held-out samples. Cached by the fits' keys. The final tier runs
+  // it; the preview takes the last verdict while its fits are the same, and the clicks' cameras otherwise (a second or
+  // more per run).
   if (project.options.photometric) {
     std::shared_ptr<const PhotometricCameras> verdict;
     if (cachedPhotometric_.second && cachedPhotometric_.first == key) {

@@ -20,10 +20,10 @@ namespace montage {
 namespace {
 
 constexpr int kParams = 7;  // rotation, translation (camera coordinates), focal length
-using Mat6 = Eigen::Matrix<double, kParams, kParams>;
-using Vec6 = Eigen::Matrix<double, kParams, 1>;
-using Row6 = Eigen::Matrix<double, 1, kParams>;
-using Jac6 = Eigen::Matrix<double, 2, kParams>;
+using MatP = Eigen::Matrix<double, kParams, kParams>;
+using VecP = Eigen::Matrix<double, kParams, 1>;
+using RowP = Eigen::Matrix<double, 1, kParams>;
+using JacP = Eigen::Matrix<double, 2, kParams>;
 
 struct Sample {
   Vec3 p, n;
@@ -131,12 +131,16 @@ Eigen::Matrix<double, 2, 3> projectionJacobian(const PhotoCamera& camera, const 
   return dq * dn;
 }
 
-Eigen::Matrix3d skew(const Vec3& v);
+Eigen::Matrix3d skew(const Vec3& v) {
+  Eigen::Matrix3d s;
+  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return s;
+}
 
 // d(pixel)/d(step) at camera point c.
-Jac6 stepJacobian(const PhotoCamera& camera, const Vec3& c) {
+JacP stepJacobian(const PhotoCamera& camera, const Vec3& c) {
   const Eigen::Matrix<double, 2, 3> P = projectionJacobian(camera, c);
-  Jac6 J;
+  JacP J;
   J.leftCols<3>() = -P * skew(c);
   J.middleCols<3>(3) = P;
   const double x = c.x() / c.z(), y = c.y() / c.z(), r2 = x * x + y * y;
@@ -145,14 +149,8 @@ Jac6 stepJacobian(const PhotoCamera& camera, const Vec3& c) {
   return J;
 }
 
-Eigen::Matrix3d skew(const Vec3& v) {
-  Eigen::Matrix3d s;
-  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return s;
-}
-
-// A pose step in camera coordinates: c' = exp(w) c + d.
-PhotoCamera moved(const PhotoCamera& camera, const Vec6& step) {
+// A step: a rotation w and a translation d in camera coordinates (c' = exp(w) c + d), and the focal length's change.
+PhotoCamera moved(const PhotoCamera& camera, const VecP& step) {
   PhotoCamera out = camera;
   const Vec3 w = step.head<3>();
   const double angle = w.norm();
@@ -292,8 +290,8 @@ struct Problem {
 
   // Photo i's cost (Huber on the colour residuals over `scale`, divided by the correlation; the clicks' squared
   // residuals over their noise) with `camera`, and optionally its Gauss-Newton system.
-  double cost(size_t i, const PhotoCamera& camera, const std::vector<Vec3>& target, double scale, Mat6* H,
-              Vec6* b) const {
+  double cost(size_t i, const PhotoCamera& camera, const std::vector<Vec3>& target, double scale, MatP* H,
+              VecP* b) const {
     const double k = options->huber, wPhoto = 1 / correlation[i];
     const double s = photos[i]->scale;
     double total = 0;
@@ -306,7 +304,7 @@ struct Problem {
       const Vec3f c = sampleBilinear3(images[i], q.x() * s, q.y() * s);
       if (clipped(c)) continue;
       const Vec3 e = (gain[i].cwiseProduct(c.cast<double>()) + offset[i] - target[j]) / scale;
-      Jac6 dq;
+      JacP dq;
       if (H) dq = stepJacobian(camera, camera.pinhole.toCamera(p));
       Vec3f gx, gy;
       if (H) sampleGradient3(images[i], q.x() * s, q.y() * s, gx, gy);
@@ -315,7 +313,7 @@ struct Problem {
         total += wPhoto * (a <= k ? 0.5 * a * a : k * a - 0.5 * k * k);
         if (!H) continue;
         const double w = wPhoto * (a <= k ? 1 : k / a);
-        const Row6 J = gain[i][ch] / scale * s * (Eigen::RowVector2d(gx[ch], gy[ch]) * dq);
+        const RowP J = gain[i][ch] / scale * s * (Eigen::RowVector2d(gx[ch], gy[ch]) * dq);
         *H += w * J.transpose() * J;
         *b += w * J.transpose() * e[ch];
       }
@@ -330,7 +328,7 @@ struct Problem {
         total += ws * (a <= ks ? 0.5 * a * a : ks * a - 0.5 * ks * ks);
         if (!H) continue;
         const double w = ws * (a <= ks ? 1 : ks / a);
-        const Row6 J = silhouettes[i]->gradient(q).transpose() * stepJacobian(camera, camera.pinhole.toCamera(x));
+        const RowP J = silhouettes[i]->gradient(q).transpose() * stepJacobian(camera, camera.pinhole.toCamera(x));
         *H += w * J.transpose() * J;
         *b += w * J.transpose() * d;
       }
@@ -342,7 +340,7 @@ struct Problem {
       const Vec2 e = q - cl.pixels[j];
       total += 0.5 * cl.weight * e.squaredNorm();
       if (!H) continue;
-      const Jac6 J = stepJacobian(camera, camera.pinhole.toCamera(cl.points[j]));
+      const JacP J = stepJacobian(camera, camera.pinhole.toCamera(cl.points[j]));
       *H += cl.weight * J.transpose() * J;
       *b += cl.weight * J.transpose() * e;
     }
@@ -352,18 +350,19 @@ struct Problem {
   // Levenberg-Marquardt on photo i's pose with the targets fixed.
   void stepPose(size_t i, const std::vector<Vec3>& target, double scale) {
     double lambda = 1e-4;
-    Mat6 H;
-    Vec6 b;
+    MatP H;
+    VecP b;
     double current = cost(i, cameras[i], target, scale, &H, &b);
     for (int it = 0; it < options->iterations; ++it) {
       bool improved = false;
       for (int tries = 0; tries < 6 && !improved; ++tries) {
-        Mat6 A = H;
+        MatP A = H;
         A.diagonal() += lambda * H.diagonal().cwiseMax(1e-9);
-        const Vec6 step = A.ldlt().solve(-b);
+        const VecP step = A.ldlt().solve(-b);
         if (!step.allFinite()) return;
         const PhotoCamera next = moved(cameras[i], step);
-        const double c = cost(i, next, target, scale, nullptr, nullptr);
+        const double c =
+            next.focal() > 0 ? cost(i, next, target, scale, nullptr, nullptr) : std::numeric_limits<double>::infinity();
         if (c < current) {
           cameras[i] = next;
           lambda = std::max(lambda / 4, 1e-7);

@@ -580,11 +580,6 @@ struct ClickFits {
     for (const Photo& p : photos) out.push_back(&p);
     return out;
   }
-  std::vector<CameraFit*> fitPtrs() {
-    std::vector<CameraFit*> out;
-    for (CameraFit& f : fits) out.push_back(&f);
-    return out;
-  }
 };
 
 // Lays a photo over white and drops its background: a photo without a cut-out.
@@ -629,7 +624,7 @@ TEST(Photometric, OverlapsBringNoisyCamerasCloserToTheTruth) {
   DemoScene d = demoScene("photometric_noisy", 4, 60, 2.0, 640);
   ClickFits c = clickFits(d, false, true);
   const double before = meanGap(d, c.fits);
-  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), c.fitPtrs());
+  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), pointersTo(c.fits));
   const double after = meanGap(d, c.fits);
   std::printf("photometric: %s; held out: %.4f -> %.4f; largest gap to the truth %.3f -> %.3f px, %.2f s\n",
               r.why.c_str(), r.heldOutBefore, r.heldOutAfter, before, after, r.seconds);
@@ -651,7 +646,7 @@ TEST(Photometric, OverlapsBringNoisyCamerasCloserToTheTruth) {
   // are refused (the held-out samples are predicted no better) or change them by hundredths.
   ClickFits s = clickFits(d, true);
   const double silhouette = meanGap(d, s.fits);
-  const PhotometricRefinement t = refineCamerasPhotometric(*d.mesh, s.photoPtrs(), s.fitPtrs());
+  const PhotometricRefinement t = refineCamerasPhotometric(*d.mesh, s.photoPtrs(), pointersTo(s.fits));
   const double aligned = meanGap(d, s.fits);
   std::printf("from the silhouettes' cameras: %s; gap %.3f -> %.3f px\n", t.why.c_str(), silhouette, aligned);
   EXPECT_LT(silhouette, 0.2);
@@ -670,7 +665,7 @@ TEST(Photometric, ExposuresAreGainsNotMisregistration) {
   writeSynthScene(d.scene, d.dir);
   ClickFits c = clickFits(d, false, true);
   const double before = meanGap(d, c.fits);
-  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), c.fitPtrs());
+  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), pointersTo(c.fits));
   const double after = meanGap(d, c.fits);
   std::printf("photometric with exposures: %s; gap %.3f -> %.3f px; gains", r.why.c_str(), before, after);
   for (const Vec3& g : r.gain) std::printf(" %.2f", g.y());
@@ -686,7 +681,7 @@ TEST(Photometric, ExactClicksStayAndUnrelatedPhotosAreNotAligned) {
   DemoScene d = demoScene("photometric_exact", 4, 60, 0.0, 512);
   ClickFits c = clickFits(d);
   const std::vector<CameraFit> exact = c.fits;
-  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), c.fitPtrs());
+  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), pointersTo(c.fits));
   ASSERT_TRUE(r.tried) << r.why;
   for (size_t k = 0; k < exact.size(); ++k)
     EXPECT_LT(projectionGap(*d.mesh, exact[k].camera, c.fits[k].camera), 0.05) << "photo " << k << ": " << r.why;
@@ -701,7 +696,7 @@ TEST(Photometric, ExactClicksStayAndUnrelatedPhotosAreNotAligned) {
     cv::GaussianBlur(noise, noise, cv::Size(0, 0), 2.0);
     p.rgb = noise;
   }
-  const PhotometricRefinement v = refineCamerasPhotometric(*noisy.mesh, u.photoPtrs(), u.fitPtrs());
+  const PhotometricRefinement v = refineCamerasPhotometric(*noisy.mesh, u.photoPtrs(), pointersTo(u.fits));
   std::printf("unrelated photos: %s\n", v.why.c_str());
   EXPECT_TRUE(v.tried);
   EXPECT_FALSE(v.kept);
@@ -716,7 +711,7 @@ TEST(Photometric, TwoPhotosComeTogether) {
   c.photos.pop_back();
   c.fits.pop_back();
   const double before = meanGap(d, c.fits);
-  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), c.fitPtrs());
+  const PhotometricRefinement r = refineCamerasPhotometric(*d.mesh, c.photoPtrs(), pointersTo(c.fits));
   const double after = meanGap(d, c.fits);
   std::printf("two photos: %s; %d samples; held out %.4f -> %.4f; gap %.3f -> %.3f px\n", r.why.c_str(), r.samples,
               r.heldOutBefore, r.heldOutAfter, before, after);

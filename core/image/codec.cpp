@@ -287,6 +287,32 @@ std::optional<cv::Size> tiffSize(ByteReader& in, bool bigEndian) {
   return cv::Size(width, height);
 }
 
+// libtiff reading through a client's callbacks, never writing; its warnings (unknown tags...) are silent, its
+// errors go to `error` with `user`. Null when the data is not a TIFF it opens.
+tmsize_t tiffWrite(thandle_t, void*, tmsize_t) {
+  return -1;
+}
+int tiffClose(thandle_t) {
+  return 0;
+}
+int tiffSilent(TIFF*, void*, const char*, const char*, va_list) {
+  return 1;
+}
+struct TiffCloser {
+  void operator()(TIFF* t) const { TIFFClose(t); }
+};
+std::unique_ptr<TIFF, TiffCloser> openTiffClient(const std::string& name, thandle_t handle, TIFFReadWriteProc read,
+                                                 TIFFSeekProc seek, TIFFSizeProc size, TIFFErrorHandlerExtR error,
+                                                 void* user) {
+  TIFFOpenOptions* options = TIFFOpenOptionsAlloc();
+  TIFFOpenOptionsSetErrorHandlerExtR(options, error, user);
+  TIFFOpenOptionsSetWarningHandlerExtR(options, tiffSilent, nullptr);
+  TIFF* tif =
+      TIFFClientOpenExt(name.c_str(), "rm", handle, read, tiffWrite, seek, tiffClose, size, nullptr, nullptr, options);
+  TIFFOpenOptionsFree(options);
+  return std::unique_ptr<TIFF, TiffCloser>(tif);
+}
+
 // TIFF: the camera its first directory (Make, Model) and its EXIF directory (FocalLength, FocalLengthIn35mmFilm, the
 // focal plane's resolution, PixelX/YDimension) name, read by libtiff from the stream: only the directories are
 // read. Nothing when the file is not a TIFF libtiff opens (its messages are not shown: the decoder reports damage).
@@ -300,9 +326,6 @@ tmsize_t tiffStreamRead(thandle_t handle, void* out, tmsize_t n) {
   s->in.read(static_cast<char*>(out), std::streamsize(std::max<tmsize_t>(n, 0)));
   return tmsize_t(s->in.gcount());
 }
-tmsize_t tiffStreamWrite(thandle_t, void*, tmsize_t) {
-  return -1;
-}
 toff_t tiffStreamSeek(thandle_t handle, toff_t offset, int whence) {
   auto* s = static_cast<TiffStream*>(handle);
   s->in.clear();
@@ -311,14 +334,8 @@ toff_t tiffStreamSeek(thandle_t handle, toff_t offset, int whence) {
   const auto at = s->in.tellg();
   return at < 0 ? toff_t(-1) : toff_t(at);
 }
-int tiffStreamClose(thandle_t) {
-  return 0;
-}
 toff_t tiffStreamSize(thandle_t handle) {
   return toff_t(static_cast<TiffStream*>(handle)->size);
-}
-int tiffQuiet(TIFF*, void*, const char*, const char*, va_list) {
-  return 1;
 }
 
 ExifCamera tiffCamera(std::istream& stream) {
@@ -328,12 +345,9 @@ ExifCamera tiffCamera(std::istream& stream) {
   const auto size = stream.tellg();
   if (size <= 0 || !stream.seekg(0)) return c;  // libtiff reads its header from where the stream stands
   TiffStream source{stream, uint64_t(size)};
-  TIFFOpenOptions* options = TIFFOpenOptionsAlloc();
-  TIFFOpenOptionsSetErrorHandlerExtR(options, tiffQuiet, nullptr);
-  TIFFOpenOptionsSetWarningHandlerExtR(options, tiffQuiet, nullptr);
-  TIFF* tif = TIFFClientOpenExt("header", "rm", &source, tiffStreamRead, tiffStreamWrite, tiffStreamSeek,
-                                tiffStreamClose, tiffStreamSize, nullptr, nullptr, options);
-  TIFFOpenOptionsFree(options);
+  const auto opened =
+      openTiffClient("header", &source, tiffStreamRead, tiffStreamSeek, tiffStreamSize, tiffSilent, nullptr);
+  TIFF* tif = opened.get();
   if (!tif) return c;
   const auto text = [&](uint32_t tag) {
     const char* t = nullptr;
@@ -376,7 +390,6 @@ ExifCamera tiffCamera(std::istream& stream) {
     c.writtenHeight = number(EXIFTAG_PIXELYDIMENSION);
     keepPlausible(c);
   }
-  TIFFClose(tif);
   return c;
 }
 
@@ -726,17 +739,11 @@ tmsize_t tiffRead(thandle_t handle, void* out, tmsize_t n) {
   s->at += count;
   return tmsize_t(count);
 }
-tmsize_t tiffWrite(thandle_t, void*, tmsize_t) {
-  return -1;
-}
 toff_t tiffSeek(thandle_t handle, toff_t offset, int whence) {
   auto* s = static_cast<TiffSource*>(handle);
   const toff_t base = whence == SEEK_CUR ? s->at : whence == SEEK_END ? toff_t(s->in.size) : 0;
   s->at = base + offset;
   return s->at;
-}
-int tiffClose(thandle_t) {
-  return 0;
 }
 toff_t tiffSize(thandle_t handle) {
   return toff_t(static_cast<TiffSource*>(handle)->in.size);
@@ -750,22 +757,10 @@ int tiffError(TIFF*, void* user, const char* module, const char* format, va_list
   }
   return 1;
 }
-int tiffWarning(TIFF*, void*, const char*, const char*, va_list) {
-  return 1;  // silent: warnings (unknown tags...) do not stop decoding
-}
-
-struct TiffCloser {
-  void operator()(TIFF* t) const { TIFFClose(t); }
-};
 
 cv::Mat decodeTiff(const Encoded& in, const std::string& where, std::vector<uint8_t>& icc) {
   TiffSource source{in, 0, ""};
-  TIFFOpenOptions* options = TIFFOpenOptionsAlloc();
-  TIFFOpenOptionsSetErrorHandlerExtR(options, tiffError, &source);
-  TIFFOpenOptionsSetWarningHandlerExtR(options, tiffWarning, &source);
-  std::unique_ptr<TIFF, TiffCloser> tif(TIFFClientOpenExt(where.c_str(), "rm", &source, tiffRead, tiffWrite, tiffSeek,
-                                                          tiffClose, tiffSize, nullptr, nullptr, options));
-  TIFFOpenOptionsFree(options);
+  const auto tif = openTiffClient(where, &source, tiffRead, tiffSeek, tiffSize, tiffError, &source);
   const auto fail = [&](const std::string& why) {
     return Error(located(where, "cannot decode TIFF image: " + (source.error.empty() ? why : source.error)));
   };

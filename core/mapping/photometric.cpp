@@ -180,24 +180,26 @@ struct Problem {
   std::vector<PhotoCamera> cameras;
   std::vector<Vec3> gain, offset;
   // Per level, filled by prepare():
-  std::vector<cv::Mat> images;
+  std::vector<cv::Mat> images;  // the photos blurred by `blurred`, kept while the level stays
+  double blurred = -1;
   std::vector<std::vector<char>> seen;
   std::vector<double> correlation;  // per photo: samples per independent blur cell (>= 1)
-  double sigma = 1;
 
-  void prepare(double blur, const std::vector<char>& active) {
+  // The active photos' images, visibility and correlation at `blur` through their cameras, and their contours when
+  // the poses are to move (only the pose steps' cost reads them).
+  void prepare(double blur, const std::vector<char>& active, bool poses) {
     const size_t n = photos.size();
-    images.assign(n, cv::Mat());
+    if (blur != blurred) images.assign(n, cv::Mat());
+    blurred = blur;
     seen.assign(n, {});
     contours.assign(n, {});
     correlation.assign(n, 1.0);
-    sigma = blur;
     tbb::parallel_for(size_t(0), n, [&](size_t i) {
       if (!active[i]) return;
-      images[i] = blurredPhoto(*photos[i], blur);
+      if (images[i].empty()) images[i] = blurredPhoto(*photos[i], blur);
       int covered = 0;
       seen[i] = visibility(*mesh, *samples, *photos[i], cameras[i], *options, covered);
-      if (silhouettes[i]) contours[i] = outerContour(*mesh, cameras[i].pinhole, options->silhouetteSpacingPx);
+      if (poses && silhouettes[i]) contours[i] = outerContour(*mesh, cameras[i].pinhole, options->silhouetteSpacingPx);
       const double count = std::count(seen[i].begin(), seen[i].end(), 1);
       correlation[i] = std::max(1.0, count * 4 * blur * blur / std::max(covered, 1));
     });
@@ -381,7 +383,7 @@ struct Problem {
   void refine(const std::vector<char>& active, const std::vector<char>& use, bool poses, const JobControl* job,
               const std::vector<double>& blurs) {
     for (double blur : blurs) {
-      prepare(blur, active);
+      prepare(blur, active, poses);
       for (int round = 0; round < options->rounds; ++round) {
         if (job) job->checkCancel();
         std::vector<Vec3> target = targets(active, use);
@@ -470,7 +472,7 @@ PhotometricRefinement refineCamerasPhotometric(const Mesh& mesh, const std::vect
   }
   // Who shares samples with whom, at the finest level through the clicks' cameras.
   const std::vector<char> all(n, 1), everySample(samples.size(), 1);
-  problem.prepare(o.blurPx.back(), all);
+  problem.prepare(o.blurPx.back(), all, false);
   std::vector<int> seenBy(samples.size(), 0), shared(n, 0);
   for (size_t i = 0; i < n; ++i)
     for (size_t k = 0; k < samples.size(); ++k) seenBy[k] += problem.seen[i][k];

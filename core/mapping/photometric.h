@@ -38,7 +38,6 @@ struct PhotometricOptions {
   double marginPx = 3;           // ...at least this far from the photo's silhouette and from a depth edge (file pixels)
   int minSharedSamples = 200;    // a photo takes part when it sees this many samples that another photo sees
   double minImprovement = 0.01;  // kept when the held-out error drops by at least this share
-  int maxHeldOutPhotos = 4;      // photos held out in turn to judge (those sharing the most samples)
   double minClickSigmaPx = 0.05;   // the clicks' prior never weighs more than clicks of this noise (pixels)
   double huber = 1.345;            // Huber's threshold in robust standard deviations of the colour residuals
   double silhouetteSigmaPx = 0.5;  // photos with a background: their silhouette as a term of its own (the camera's

@@ -1590,6 +1590,27 @@ PipelineResult deformedProjectionOracle(const Project& project, const std::vecto
   return result;
 }
 
+nlohmann::json exportResultGlb(const PipelineResult& result, const std::string& path, PngCache* pngs) {
+  const std::shared_ptr<const TexturedModel>& model = result.exported ? result.exported : result.model;
+  TM_CHECK(model, "exportResultGlb: no model to write");
+  nlohmann::json glb = {{"written_into_source", false}};
+  const std::string meshExt = result.scene ? lowerExtension(result.scene->project.mesh) : "";
+  if ((meshExt == ".glb" || meshExt == ".gltf") && result.baked && (result.baked->original || result.baked->meshUVs)) {
+    try {
+      const GltfWriteBack w = exportGlbInto(*model, result.scene->project.mesh, path, pngs);
+      glb = {{"written_into_source", true},
+             {"triangles", w.triangles},
+             {"primitives", w.primitives},
+             {"copied_meshes", w.copiedMeshes},
+             {"left_out_triangles", w.leftOutTriangles}};
+    } catch (const Error& e) {
+      glb["why"] = e.what();
+    }
+  }
+  if (!glb["written_into_source"].get<bool>()) exportGlb(*model, path, pngs);
+  return glb;
+}
+
 void writeRunOutputs(const PipelineResult& result, const std::string& dir) {
   TM_CHECK(result.model, "writeRunOutputs: no model to write");
   OutputFolder out(dir);
@@ -1603,7 +1624,7 @@ void writeRunOutputs(const PipelineResult& result, OutputFolder& out) {
   const auto start = Clock::now();
   PngCache pngs(result.scene ? result.scene->project.options.pngCompression : PipelineOptions{}.pngCompression);
   exportObj(*model, dir, "model", &pngs);
-  exportGlb(*model, (fs::path(dir) / "model.glb").string(), &pngs);
+  const nlohmann::json glb = exportResultGlb(result, (fs::path(dir) / "model.glb").string(), &pngs);
   std::vector<std::string> files = {"model.obj", "model.mtl", "model.glb"};
   for (const Material& m : model->materials)
     if (!m.texture.empty()) {
@@ -1623,7 +1644,7 @@ void writeRunOutputs(const PipelineResult& result, OutputFolder& out) {
       {{"stage", stageName(StageId::Export)},
        {"seconds", seconds},
        {"cached", false},
-       {"counts", {{"files", files}, {"png_encodes", pngs.encodes()}, {"png_seconds", pngs.seconds()}}}});
+       {"counts", {{"files", files}, {"png_encodes", pngs.encodes()}, {"png_seconds", pngs.seconds()}, {"glb", glb}}}});
   report["total_seconds"] = report["total_seconds"].get<double>() + seconds;
   writeFileAtomic((fs::path(dir) / "report.json").string(), report.dump(2) + "\n");
   out.commit();

@@ -370,6 +370,11 @@ PipelineResult deformedProjectionOracle(const Project& project, const std::vecto
 // an empty report (mapped share 0, no regions) when the result has no mapping.
 CoverageReport coverageOf(const PipelineResult& result, const CoverageOptions& options = {});
 
+// Writes the result's GLB: a glTF mesh exported in its own topology goes back into its own file (exportGlbInto:
+// skins, morph targets and every attribute kept); otherwise, or when that cannot be (the file changed, its geometry
+// is compressed), a new GLB (exportGlb). Returns what happened: {"written_into_source", and its counts or "why"}.
+nlohmann::json exportResultGlb(const PipelineResult& result, const std::string& path, PngCache* pngs = nullptr);
+
 // Writes DIR/model.obj + model.mtl + model_atlas.png, DIR/model.glb, the atlas layers
 // DIR/model_atlas_source.png and DIR/model_atlas_holes.png (when the result has an atlas) and
 // DIR/report.json. The atlas PNG is encoded once (options.pngCompression) and the GLB embeds the same

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages TextureMontage needs, and only those that are missing.
 # Safe to run twice: it asks dpkg first and calls apt-get only when something is absent.
-# Usage: scripts/setup.sh [--with-tools]   (--with-tools adds xvfb, assimp-utils and the armadillo data
-#                                           used by tests and benchmarks)
+# Usage: scripts/setup.sh [--with-tools] [--with-blender]
+#   --with-tools    adds xvfb, assimp-utils and the armadillo data used by tests and benchmarks
+#   --with-blender  adds Blender (87 MB installed), for the test that imports the exports into it
 set -euo pipefail
 
 BUILD_PKGS=(
@@ -16,7 +17,13 @@ BUILD_PKGS=(
 TOOL_PKGS=(xvfb xauth xdotool assimp-utils libcgal-demo nodejs python3-opencv python3-scipy python3-skimage tuxpaint-stamps-default parallel)  # parallel: scripts/batch.sh and the batch test; python3-opencv, -scipy: scripts/make_demo.py; xdotool: editor_ui_test (real keys); python3-skimage, tuxpaint-stamps-default: the face and tiger cases' photos (tests, tm_subject_bench)
 
 want=("${BUILD_PKGS[@]}")
-if [[ "${1:-}" == "--with-tools" ]]; then want+=("${TOOL_PKGS[@]}"); fi
+for arg in "$@"; do
+  case "$arg" in
+    --with-tools) want+=("${TOOL_PKGS[@]}") ;;
+    --with-blender) want+=(blender) ;;
+    *) echo "setup: unknown option $arg (expected --with-tools, --with-blender)" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${want[@]}"; do

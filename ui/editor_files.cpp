@@ -253,7 +253,7 @@ bool Editor::exportTo(const std::string& path) {
     const std::string abs = fs::absolute(path).lexically_normal().string();
     const std::string ext = lowerExtension(abs);
     if (ext == ".glb") {
-      exportGlb(result_->exported ? *result_->exported : *result_->model, abs);
+      exportResultGlb(*result_, abs);
     } else if (ext == ".obj") {
       // The OBJ, its MTL and textures are written beside the user's other files: staged in a hidden
       // folder, then renamed in place textures first and the OBJ last, so a kill never leaves an OBJ

@@ -27,6 +27,7 @@
 #include "image/codec.h"
 #include "image/color.h"
 #include "image/photo.h"
+#include "io/gltf_document.h"
 #include "io/mesh_io.h"
 
 namespace fs = std::filesystem;
@@ -347,19 +348,69 @@ TexturedModel loadObjModel(const std::string& path) {
   return model;
 }
 
-// ---------------------------------------------------------------------------------------------
-// glTF reading
+}  // namespace
 
-// The elements of an accessor as doubles (count x components), normalised integers decoded,
-// sparse substitution applied. `where` names the accessor for messages.
-std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std::string& where, int& components) {
+// ---------------------------------------------------------------------------------------------
+// glTF reading (io/gltf_document.h)
+
+namespace gltf {
+
+double decodeComponent(const unsigned char* p, int componentType, bool normalized) {
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+      float v;
+      std::memcpy(&v, p, 4);
+      return v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      const double v = static_cast<int8_t>(*p);
+      return normalized ? std::max(v / 127.0, -1.0) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+      const double v = *p;
+      return normalized ? v / 255.0 : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      int16_t v;
+      std::memcpy(&v, p, 2);
+      return normalized ? std::max(v / 32767.0, -1.0) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      uint16_t v;
+      std::memcpy(&v, p, 2);
+      return normalized ? v / 65535.0 : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+      uint32_t v;
+      std::memcpy(&v, p, 4);
+      return v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: {
+      double v;
+      std::memcpy(&v, p, 8);
+      return v;
+    }
+    default:
+      return std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
+AccessorBytes accessorBytes(const tinygltf::Model& gm, int index, const std::string& where) {
   TM_CHECK(index >= 0 && index < static_cast<int>(gm.accessors.size()),
            located(where, "accessor " + std::to_string(index) + " does not exist"));
   const tinygltf::Accessor& acc = gm.accessors[index];
   const std::string at = where + " (accessor " + std::to_string(index) + ")";
-  components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(acc.type));
+  AccessorBytes out;
+  out.componentType = acc.componentType;
+  out.normalized = acc.normalized;
+  const int components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(acc.type));
   const int csize = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(acc.componentType));
   TM_CHECK(components > 0 && csize > 0, located(at, "invalid type or component type"));
+  const std::array<unsigned char, 8> zero{};
+  TM_CHECK(!std::isnan(decodeComponent(zero.data(), acc.componentType, false)),
+           located(at, "unsupported component type " + std::to_string(acc.componentType)));
+  out.components = components;
+  out.componentSize = csize;
   const size_t count = acc.count;
   // A declared count is bounded by the bytes that could hold it (an accessor without a bufferView is
   // all zeros, but still no larger than the buffers), before anything is allocated.
@@ -368,47 +419,10 @@ std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std
   TM_CHECK(count <= bufferBytes / size_t(components * csize) + 1,
            located(at, "count " + std::to_string(count) + " is larger than the buffers could hold (" +
                            std::to_string(bufferBytes) + " bytes)"));
-  std::vector<double> out(count * components, 0.0);
+  const size_t elementSize = static_cast<size_t>(components) * csize;
+  out.count = count;
+  out.bytes.assign(count * elementSize, 0);
 
-  const auto decode = [&](const unsigned char* p, int componentType, bool normalized) -> double {
-    switch (componentType) {
-      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
-        float v;
-        std::memcpy(&v, p, 4);
-        return v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_BYTE: {
-        const double v = static_cast<int8_t>(*p);
-        return normalized ? std::max(v / 127.0, -1.0) : v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
-        const double v = *p;
-        return normalized ? v / 255.0 : v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_SHORT: {
-        int16_t v;
-        std::memcpy(&v, p, 2);
-        return normalized ? std::max(v / 32767.0, -1.0) : v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-        uint16_t v;
-        std::memcpy(&v, p, 2);
-        return normalized ? v / 65535.0 : v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-        uint32_t v;
-        std::memcpy(&v, p, 4);
-        return v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_DOUBLE: {
-        double v;
-        std::memcpy(&v, p, 8);
-        return v;
-      }
-      default:
-        throw Error(located(at, "unsupported component type " + std::to_string(componentType)));
-    }
-  };
   // Bytes of a buffer view with bounds checks.
   const auto viewBytes = [&](int viewIndex, size_t offset, size_t stride, size_t n,
                              size_t elementSize) -> const unsigned char* {
@@ -427,16 +441,13 @@ std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std
     return buffer.data.data() + view.byteOffset + offset;
   };
 
-  const size_t elementSize = static_cast<size_t>(components) * csize;
   if (acc.bufferView >= 0) {
     TM_CHECK(acc.bufferView < static_cast<int>(gm.bufferViews.size()),
              located(at, "bufferView " + std::to_string(acc.bufferView) + " does not exist"));
     const tinygltf::BufferView& view = gm.bufferViews[acc.bufferView];
     const size_t stride = view.byteStride ? view.byteStride : elementSize;
     const unsigned char* base = viewBytes(acc.bufferView, acc.byteOffset, stride, count, elementSize);
-    for (size_t i = 0; i < count; ++i)
-      for (int c = 0; c < components; ++c)
-        out[i * components + c] = decode(base + i * stride + c * csize, acc.componentType, acc.normalized);
+    for (size_t i = 0; i < count; ++i) std::memcpy(&out.bytes[i * elementSize], base + i * stride, elementSize);
   }
   if (acc.sparse.isSparse && acc.sparse.count > 0) {
     const size_t n = static_cast<size_t>(acc.sparse.count);
@@ -447,13 +458,20 @@ std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std
     const unsigned char* val = viewBytes(
         acc.sparse.values.bufferView, static_cast<size_t>(acc.sparse.values.byteOffset), elementSize, n, elementSize);
     for (size_t i = 0; i < n; ++i) {
-      const double target = decode(idx + i * isize, acc.sparse.indices.componentType, false);
+      const double target = decodeComponent(idx + i * isize, acc.sparse.indices.componentType, false);
       TM_CHECK(target >= 0 && target < static_cast<double>(count), located(at, "sparse index out of range"));
-      const size_t t = static_cast<size_t>(target);
-      for (int c = 0; c < components; ++c)
-        out[t * components + c] = decode(val + i * elementSize + c * csize, acc.componentType, acc.normalized);
+      std::memcpy(&out.bytes[static_cast<size_t>(target) * elementSize], val + i * elementSize, elementSize);
     }
   }
+  return out;
+}
+
+std::vector<double> readAccessor(const tinygltf::Model& gm, int index, const std::string& where, int& components) {
+  const AccessorBytes data = accessorBytes(gm, index, where);
+  components = data.components;
+  std::vector<double> out(data.count * components);
+  for (size_t i = 0; i < out.size(); ++i)
+    out[i] = decodeComponent(&data.bytes[i * data.componentSize], data.componentType, data.normalized);
   return out;
 }
 
@@ -472,16 +490,9 @@ Eigen::Matrix4d nodeMatrix(const tinygltf::Node& node) {
   return a.matrix();
 }
 
-// One mesh instance of a glTF scene: a node that shows a mesh, and its world matrix.
-struct GltfInstance {
-  int node = -1;  // -1: a mesh no node shows (a file without nodes), placed at the origin
-  int mesh = 0;
-  Eigen::Matrix4d world = Eigen::Matrix4d::Identity();
-};
-
 // Every node that shows a mesh, depth first from the default scene's roots (every root node when the
 // file has no scene), children in order; each mesh once at the origin when no node shows any.
-std::vector<GltfInstance> meshInstances(const tinygltf::Model& gm) {
+std::vector<Instance> meshInstances(const tinygltf::Model& gm) {
   std::vector<int> roots;
   const int scene = gm.defaultScene >= 0 ? gm.defaultScene : 0;
   if (scene < static_cast<int>(gm.scenes.size())) {
@@ -495,7 +506,7 @@ std::vector<GltfInstance> meshInstances(const tinygltf::Model& gm) {
       if (!isChild[i]) roots.push_back(static_cast<int>(i));
   }
   // Depth first with an explicit stack (a file may chain millions of nodes), children in order.
-  std::vector<GltfInstance> out;
+  std::vector<Instance> out;
   std::vector<bool> visited(gm.nodes.size(), false);
   std::vector<std::pair<int, Eigen::Matrix4d>> stack;
   for (auto r = roots.rbegin(); r != roots.rend(); ++r) stack.emplace_back(*r, Eigen::Matrix4d::Identity());
@@ -723,25 +734,13 @@ struct GltfFiles {
   }
 };
 
-// A glTF file's triangles: every mesh instance of the scene (meshInstances) with its node's transform
-// applied, as one soup for buildMesh. Primitives of one instance that share their vertex accessors share
-// their vertices; instances never share vertices.
-struct GltfSoup {
-  std::vector<Vec3> vertices;
-  std::vector<std::array<int, 3>> triangles;
-  std::vector<std::array<Vec2, 3>> uv;  // per triangle, OBJ convention (v up)
-  std::vector<int> triMaterial;         // per triangle, index into materials
-  std::vector<int> triSource;           // per triangle, extras.tm_source (kSourceEmpty when absent)
-  std::vector<Material> materials;      // in order of first use (textures only when asked for)
-  bool anyUV = false, anySource = false;
-  std::vector<MeshFinding> notes;  // skins and morph targets read in rest pose
-};
-
-GltfSoup readGltf(const std::string& path, bool binary, bool withTextures) {
+tinygltf::Model loadDocument(const std::string& path, bool decodeImages) {
+  const std::string ext = lowerExtension(path);
+  const bool binary = ext == ".glb";
   tinygltf::TinyGLTF loader;
   tinygltf::Model gm;
   std::string err, warn;
-  GltfFiles files{fs::absolute(path).lexically_normal().parent_path(), path, withTextures};
+  GltfFiles files{fs::absolute(path).lexically_normal().parent_path(), path, decodeImages};
   loader.SetFsCallbacks({&GltfFiles::exists, &GltfFiles::expand, &GltfFiles::read, &GltfFiles::write, &files});
   loader.SetImageLoader(&GltfFiles::image, &files);
   const std::string bytes = readFileBytes(path, "glTF file", uint64_t(UINT32_MAX));
@@ -757,11 +756,16 @@ GltfSoup readGltf(const std::string& path, bool binary, bool withTextures) {
   }
   TM_CHECK(ok, located(path, "cannot read glTF: " + trim(err.empty() ? warn : err)));
   TM_CHECK(!gm.meshes.empty(), located(path, "the file contains no mesh"));
+  return gm;
+}
 
-  GltfSoup soup;
+Soup readSoup(const tinygltf::Model& gm, const std::string& path, bool withTextures) {
+  Soup soup;
+  soup.instances = meshInstances(gm);
   std::map<int, int> materialIndex;  // glTF material -> ours
   std::set<int> skinned, morphed;    // nodes with a skin, meshes with morph targets (noted once each)
-  for (const GltfInstance& instance : meshInstances(gm)) {
+  for (size_t n = 0; n < soup.instances.size(); ++n) {
+    const Instance& instance = soup.instances[n];
     const std::string nodeName =
         instance.node < 0 ? "" : "nodes[" + std::to_string(instance.node) + "] " + quote(gm.nodes[instance.node].name);
     TM_CHECK(instance.mesh < static_cast<int>(gm.meshes.size()),
@@ -772,8 +776,8 @@ GltfSoup readGltf(const std::string& path, bool binary, bool withTextures) {
     if (instance.node >= 0 && gm.nodes[instance.node].skin >= 0 && skinned.insert(instance.node).second)
       soup.notes.push_back({MeshFinding::Severity::Warning,
                             nodeName + " (" + meshName +
-                                ") has a skin: read in its rest pose, joints and weights are "
-                                "not applied",
+                                ") has a skin: textured in its rest pose (the GLB export keeps its joints and "
+                                "weights)",
                             {},
                             1});
     const Eigen::Matrix3d linear = instance.world.topLeftCorner<3, 3>();
@@ -789,7 +793,7 @@ GltfSoup readGltf(const std::string& path, bool binary, bool withTextures) {
       if (!prim.targets.empty() && morphed.insert(instance.mesh).second)
         soup.notes.push_back({MeshFinding::Severity::Warning,
                               meshName + " has " + std::to_string(prim.targets.size()) +
-                                  " morph targets: read in its rest pose, the targets' weights are not applied",
+                                  " morph targets: textured in its rest pose (the GLB export keeps the targets)",
                               {},
                               static_cast<int>(prim.targets.size())});
       const auto pos = prim.attributes.find("POSITION");
@@ -840,6 +844,7 @@ GltfSoup readGltf(const std::string& path, bool binary, bool withTextures) {
           const Eigen::Vector4d h =
               instance.world * Eigen::Vector4d(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], 1);
           soup.vertices.emplace_back(h.head<3>());
+          soup.vertexElement.push_back(static_cast<int>(i));
         }
       }
       auto mit = materialIndex.find(prim.material);
@@ -858,6 +863,10 @@ GltfSoup readGltf(const std::string& path, bool binary, bool withTextures) {
       }
       for (size_t t = 0; t + 2 < indices.size(); t += 3) {
         std::array<size_t, 3> c = {indices[t], indices[t + 1], indices[t + 2]};
+        soup.triangleOrigin.push_back(
+            {static_cast<int>(n),
+             static_cast<int>(p),
+             {base + static_cast<int>(c[0]), base + static_cast<int>(c[1]), base + static_cast<int>(c[2])}});
         if (mirrored) std::swap(c[1], c[2]);
         soup.triangles.push_back(
             {base + static_cast<int>(c[0]), base + static_cast<int>(c[1]), base + static_cast<int>(c[2])});
@@ -875,8 +884,45 @@ GltfSoup readGltf(const std::string& path, bool binary, bool withTextures) {
   return soup;
 }
 
-TexturedModel loadGltfModel(const std::string& path, bool binary) {
-  GltfSoup soup = readGltf(path, binary, true);
+int addTexture(tinygltf::Model& gm, const Material& mat, const std::string& name, int bufferView, int& sampler) {
+  if (sampler < 0) {
+    tinygltf::Sampler s;
+    s.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+    s.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+    s.wrapS = s.wrapT = TINYGLTF_TEXTURE_WRAP_REPEAT;
+    gm.samplers.push_back(s);
+    sampler = static_cast<int>(gm.samplers.size()) - 1;
+  }
+  tinygltf::Image image;
+  image.name = mat.textureName.empty() ? name : mat.textureName;
+  if (image.name.size() > 1 && image.name[0] == '.') image.name.erase(0, 1);  // a UDIM tile: ".1001"
+  image.mimeType = "image/png";
+  image.bufferView = bufferView;
+  gm.images.push_back(image);
+  tinygltf::Texture t;
+  t.sampler = sampler;
+  t.source = static_cast<int>(gm.images.size()) - 1;
+  gm.textures.push_back(t);
+  return static_cast<int>(gm.textures.size()) - 1;
+}
+
+void writeGlb(tinygltf::Model& gm, const std::string& path) {
+  std::ostringstream out(std::ios::binary);
+  tinygltf::TinyGLTF writer;
+  TM_CHECK(writer.WriteGltfSceneToStream(&gm, out, false, true) && out,
+           located(path, "cannot serialise the glTF model"));
+  std::error_code ec;
+  const fs::path parent = fs::path(path).parent_path();
+  if (!parent.empty()) fs::create_directories(parent, ec);
+  writeFileAtomic(path, out.str());
+}
+
+}  // namespace gltf
+
+namespace {
+
+TexturedModel loadGltfModel(const std::string& path) {
+  gltf::Soup soup = gltf::readSoup(gltf::loadDocument(path, true), path, true);
   MeshLoadOptions options;
   options.weldIdenticalPositions = true;  // glTF splits vertices at UV seams; the surface is connected
   std::unique_ptr<Mesh> mesh = requireUsable(buildMesh(soup.vertices, soup.triangles, soup.uv, options, path));
@@ -969,7 +1015,7 @@ std::vector<Vec3> vertexNormals(const Mesh& mesh) {
 LoadedMesh loadGltfMesh(const std::string& path, const MeshLoadOptions& options) {
   const std::string ext = lowerExtension(path);
   TM_CHECK(ext == ".glb" || ext == ".gltf", located(path, "not a glTF file (expected .glb or .gltf)"));
-  GltfSoup soup = readGltf(path, ext == ".glb", false);
+  const gltf::Soup soup = gltf::readSoup(gltf::loadDocument(path, false), path, false);
   LoadedMesh loaded = buildMesh(soup.vertices, soup.triangles, soup.uv, options, path);
   loaded.report.format = ext.substr(1);
   loaded.report.findings.insert(loaded.report.findings.end(), soup.notes.begin(), soup.notes.end());
@@ -1048,7 +1094,7 @@ TexturedModel loadModel(const std::string& path) {
   std::error_code ec;
   TM_CHECK(fs::is_regular_file(path, ec), located(path, "file not found"));
   if (ext == ".obj") return loadObjModel(path);
-  if (ext == ".glb" || ext == ".gltf") return loadGltfModel(path, ext == ".glb");
+  if (ext == ".glb" || ext == ".gltf") return loadGltfModel(path);
   // Plain mesh formats: untextured, one default material.
   std::unique_ptr<Mesh> mesh = requireUsable(loadMesh(path));
   TexturedModel model;
@@ -1145,6 +1191,9 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
     const Vec3 p = mesh.position(v);
     obj += "v " + number(p.x()) + " " + number(p.y()) + " " + number(p.z()) + "\n";
   }
+  // Smooth shading: a normal per vertex, area-weighted as the GLB's (without them viewers shade every face flat).
+  for (const Vec3& n : vertexNormals(mesh))
+    obj += "vn " + number(n.x()) + " " + number(n.y()) + " " + number(n.z()) + "\n";
   // One vt per distinct corner UV, in order of first use.
   std::vector<std::array<int, 3>> vt;
   if (model.textured()) {
@@ -1194,8 +1243,8 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
     const auto fv = mesh.faceVertices(f);
     obj += "f";
     for (int k = 0; k < 3; ++k) {
-      obj += " " + std::to_string(fv[k] + 1);
-      if (!vt.empty()) obj += "/" + std::to_string(vt[f][k]);
+      const std::string v = std::to_string(fv[k] + 1);
+      obj += " " + v + "/" + (vt.empty() ? "" : std::to_string(vt[f][k])) + "/" + v;
     }
     obj += "\n";
   }
@@ -1231,30 +1280,12 @@ void exportGlb(const TexturedModel& model, const std::string& path, PngCache* pn
     out.pbrMetallicRoughness.roughnessFactor = 1;
     out.doubleSided = false;
     if (mat && hasTexture(model, m)) {
-      if (sampler < 0) {
-        tinygltf::Sampler s;
-        s.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
-        s.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
-        s.wrapS = s.wrapT = TINYGLTF_TEXTURE_WRAP_REPEAT;
-        gm.samplers.push_back(s);
-        sampler = static_cast<int>(gm.samplers.size()) - 1;
-      }
       int texture = -1;
       for (const auto& [data, t] : textures)
         if (data == mat->texture.data) texture = t;
       if (texture < 0) {
         const std::vector<unsigned char>& png = cache.encode(mat->texture, path + ": texture " + quote(out.name));
-        tinygltf::Image image;
-        image.name = mat->textureName.empty() ? out.name : mat->textureName;
-        if (image.name.size() > 1 && image.name[0] == '.') image.name.erase(0, 1);  // a UDIM tile: ".1001"
-        image.mimeType = "image/png";
-        image.bufferView = b.addView(png.data(), png.size(), 0);
-        gm.images.push_back(image);
-        tinygltf::Texture t;
-        t.sampler = sampler;
-        t.source = static_cast<int>(gm.images.size()) - 1;
-        gm.textures.push_back(t);
-        texture = static_cast<int>(gm.textures.size()) - 1;
+        texture = gltf::addTexture(gm, *mat, out.name, b.addView(png.data(), png.size(), 0), sampler);
         textures.emplace_back(mat->texture.data, texture);
       }
       out.pbrMetallicRoughness.baseColorTexture.index = texture;
@@ -1343,15 +1374,7 @@ void exportGlb(const TexturedModel& model, const std::string& path, PngCache* pn
   scene.nodes.push_back(0);
   gm.scenes.push_back(scene);
   gm.defaultScene = 0;
-
-  std::ostringstream out(std::ios::binary);
-  tinygltf::TinyGLTF writer;
-  TM_CHECK(writer.WriteGltfSceneToStream(&gm, out, false, true) && out,
-           located(path, "cannot serialise the glTF model"));
-  std::error_code ec;
-  const fs::path parent = fs::path(path).parent_path();
-  if (!parent.empty()) fs::create_directories(parent, ec);
-  writeFileAtomic(path, out.str());
+  gltf::writeGlb(gm, path);
 }
 
 }  // namespace montage

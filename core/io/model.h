@@ -115,4 +115,24 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
 // failure.
 void exportGlb(const TexturedModel& model, const std::string& path, PngCache* pngs = nullptr);
 
+// What exportGlbInto wrote.
+struct GltfWriteBack {
+  int triangles = 0;         // triangles written, as many as the file has in its scene
+  int primitives = 0;        // primitives of the scene's meshes after the write (one per file primitive and material)
+  int copiedMeshes = 0;      // meshes shown by several nodes, copied so that each instance has its own texture
+  int leftOutTriangles = 0;  // triangles the mesh left out on loading (complex edges, repeated vertices): UV (0, 0)
+};
+
+// Writes the model into the glTF file its mesh was read from (`source`, .glb or .gltf; model.mesh as loadGltfMesh
+// read it, unwelded, so that its vertexOrigin and faceOrigin name the file's vertices and triangles), as a GLB at
+// `path`: everything the file holds is kept (nodes, skins and joint weights, morph targets, normals and tangents,
+// every texture coordinate set, vertex colours, animations, materials with their other textures, extras), and the
+// scene's primitives show the montage: split per model material, their vertices split where the model's texture
+// coordinates differ (every attribute and morph target copied along), the model's coordinates added as the next free
+// set TEXCOORD_n, and each material a copy of the file's with the model's texture as its base colour on that set.
+// A mesh shown by several nodes is copied per node. Throws montage::Error when the file no longer holds the model's
+// mesh, or keeps its geometry in an extension (Draco, meshopt, GPU instancing).
+GltfWriteBack exportGlbInto(const TexturedModel& model, const std::string& source, const std::string& path,
+                            PngCache* pngs = nullptr);
+
 }  // namespace montage

@@ -1,6 +1,5 @@
 // Tests of textured models: colour lookup, OBJ/MTL and glTF loading and export, round trips, error
 // messages, and the exported files checked by the Khronos glTF validator and assimp.
-#include "io/mesh_io.h"
 #include "io/model.h"
 
 #include <tiny_gltf.h>
@@ -13,10 +12,12 @@
 #include <random>
 #include <regex>
 #include <set>
+#include <sstream>
 
 #include "geometry/bvh.h"
 #include "geometry/mesh.h"
 #include "image/photo.h"
+#include "io/mesh_io.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -598,7 +599,19 @@ TEST(ExportModel, RejectsInconsistentModel) {
 #define TM_GLTF_VALIDATE_JS ""
 #endif
 
-// Exported GLBs: spot (when the shared data is there) and an untextured cube.
+// An artist's cube as an OBJ: six quads, a UV square on each, one normal per side (hard edges).
+std::string quadCubeObj(const std::string& dir) {
+  const std::string path = dir + "/quads.obj";
+  std::ofstream out(path);
+  out << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+         "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+         "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 1 0 0\nvn 0 1 0\nvn -1 0 0\n"
+         "f 1/1/1 4/2/1 3/3/1 2/4/1\nf 5/1/2 6/2/2 7/3/2 8/4/2\nf 1/1/3 2/2/3 6/3/3 5/4/3\n"
+         "f 2/1/4 3/2/4 7/3/4 6/4/4\nf 3/1/5 4/2/5 8/3/5 7/4/5\nf 4/1/6 1/2/6 5/3/6 8/4/6\n";
+  return path;
+}
+
+// Exported GLBs: spot (when the shared data is there), an untextured cube, and the quad cube with its hard normals.
 std::vector<std::string> exportedGlbs(const std::string& dir) {
   std::vector<std::string> files;
   const std::string spot = test::sharedFile("meshes/spot/spot_triangulated.obj");
@@ -608,7 +621,102 @@ std::vector<std::string> exportedGlbs(const std::string& dir) {
   }
   files.push_back(dir + "/cube.glb");
   exportGlb(cubeModel(), files.back());
+  files.push_back(dir + "/quads.glb");
+  exportGlb(modelFromMesh(*requireUsable(loadMesh(quadCubeObj(dir))), cv::Mat(4, 4, CV_8UC4, cv::Scalar(9, 9, 9, 255))),
+            files.back());
   return files;
+}
+
+// Lines of `file` starting with `prefix` (with `corners` words after it, when given).
+int countLines(const std::string& file, const std::string& prefix, int corners = -1) {
+  std::ifstream in(file);
+  int n = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind(prefix, 0) != 0) continue;
+    std::istringstream words(line);
+    int w = -1;
+    for (std::string word; words >> word;) ++w;
+    n += corners < 0 || w == corners;
+  }
+  return n;
+}
+
+// The OBJ export writes the quad cube's quads back as quads with the file's normals; a quad whose two triangles the
+// texture splits apart (a chart border on its diagonal) comes out as its two triangles; the GLB keeps the hard edges
+// (three normals at each corner of the cube).
+TEST(ExportModel, ObjKeepsTheFilesQuadsAndNormalsGlbItsHardEdges) {
+  const std::string dir = test::tempDir("model_quads");
+  const LoadedMesh loaded = loadMesh(quadCubeObj(dir));
+  ASSERT_TRUE(loaded.mesh) << loaded.report.summary();
+  const Mesh& mesh = *loaded.mesh;
+  ASSERT_EQ(mesh.numFaces(), 12);
+  ASSERT_EQ(mesh.cornerNormal.size(), 12u);
+  ASSERT_EQ(mesh.facePolygon.size(), 12u);
+  for (int f = 0; f < 12; ++f)
+    for (int k = 0; k < 3; ++k) EXPECT_GT(mesh.cornerNormal[f][k].cast<double>().dot(mesh.faceNormal(f)), 0.999);
+
+  TexturedModel model = modelFromMesh(mesh, cv::Mat(8, 8, CV_8UC4, cv::Scalar(10, 200, 30, 255)));
+  exportObj(model, dir, "out");
+  const std::string obj = dir + "/out.obj";
+  EXPECT_EQ(countLines(obj, "f "), 6);
+  EXPECT_EQ(countLines(obj, "f ", 4), 6);
+  EXPECT_EQ(countLines(obj, "vn "), 6);
+  // Read back: the same surface, UVs and normals.
+  const LoadedMesh again = loadMesh(obj);
+  ASSERT_TRUE(again.mesh);
+  ASSERT_EQ(again.mesh->numFaces(), 12);
+  for (int f = 0; f < 12; ++f)
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(again.mesh->cornerNormal[f][k], mesh.cornerNormal[f][k]) << f;
+      EXPECT_NEAR((again.mesh->cornerUV[f][k] - mesh.cornerUV[f][k]).norm(), 0, 1e-6) << f;
+    }
+
+  // A chart border on the first quad's diagonal: its second triangle's texture moves; that quad is two triangles.
+  for (int k = 0; k < 3; ++k) model.uv[1][k] += Vec2f(0.5f, 0);
+  exportObj(model, dir, "split");
+  EXPECT_EQ(countLines(dir + "/split.obj", "f ", 4), 5);
+  EXPECT_EQ(countLines(dir + "/split.obj", "f ", 3), 2);
+
+  // The GLB: every corner of the cube with its side's normal (8 corners x 3 sides), all axis-aligned.
+  exportGlb(modelFromMesh(mesh, cv::Mat(8, 8, CV_8UC4, cv::Scalar(10, 200, 30, 255))), dir + "/out.glb");
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model gm;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromFile(&gm, &err, &warn, dir + "/out.glb")) << err;
+  const tinygltf::Accessor& normals = gm.accessors.at(gm.meshes[0].primitives[0].attributes.at("NORMAL"));
+  EXPECT_EQ(normals.count, 24u);
+  const tinygltf::BufferView& view = gm.bufferViews.at(normals.bufferView);
+  const auto* n = reinterpret_cast<const float*>(gm.buffers[0].data.data() + view.byteOffset + normals.byteOffset);
+  for (size_t i = 0; i < normals.count; ++i)
+    EXPECT_NEAR(std::max({std::abs(n[3 * i]), std::abs(n[3 * i + 1]), std::abs(n[3 * i + 2])}), 1.0, 1e-6) << i;
+  // And loaded back, the GLB's normals are the mesh's.
+  const LoadedMesh glb = loadMesh(dir + "/out.glb");
+  ASSERT_TRUE(glb.mesh);
+  ASSERT_EQ(glb.mesh->cornerNormal.size(), 12u);
+  for (int f = 0; f < 12; ++f)
+    EXPECT_GT(glb.mesh->cornerNormal[f][0].cast<double>().dot(glb.mesh->faceNormal(f)), 0.999) << f;
+}
+
+// A PLY's vertex normals (nx ny nz) come in as the corners' normals, unit length.
+TEST(ExportModel, PlyVertexNormalsAreTheCornersNormals) {
+  const std::string dir = test::tempDir("model_ply_normals");
+  const std::string path = dir + "/tet.ply";
+  std::ofstream(path) << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                         "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+                         "element face 4\nproperty list uchar int vertex_indices\nend_header\n"
+                         "0 0 0 -1 -1 -1\n1 0 0 2 0 0\n0 1 0 0 3 0\n0 0 1 0 0 4\n"
+                         "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  const LoadedMesh loaded = loadMesh(path);
+  ASSERT_TRUE(loaded.mesh) << loaded.report.summary();
+  const Mesh& mesh = *loaded.mesh;
+  ASSERT_EQ(mesh.cornerNormal.size(), 4u);
+  EXPECT_TRUE(mesh.facePolygon.empty());  // triangles only
+  for (int f = 0; f < 4; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int v = mesh.faceVertices(f)[k];
+      const Vec3 expected = v == 0 ? Vec3(-1, -1, -1).normalized() : Vec3::Unit(v - 1);
+      EXPECT_NEAR((mesh.cornerNormal[f][k].cast<double>() - expected).norm(), 0, 1e-6) << f << " " << k;
+    }
 }
 
 TEST(GltfValidator, ExportedGlbsHaveNoErrors) {

@@ -361,7 +361,12 @@ SynthScene synthesize(const Mesh& restMesh, const std::string& meshPath, const S
   const double borderSq = options.borderPx * options.borderPx;
 
   const std::vector<Vec3> normals = vertexNormals(mesh);
-  scene.featureVertices = farthestPointSamples(restMesh, options.features, options.seed);
+  // Sampled on the surface made whole: a mesh split at UV seams (a glTF) has a vertex on each side of a seam at one
+  // place, and sampling it split could click one place twice. Each is named by the file's first vertex there.
+  const WeldedMesh whole = weldIdenticalPositions(restMesh);
+  scene.featureVertices = farthestPointSamples(whole.mesh ? *whole.mesh : restMesh, options.features, options.seed);
+  if (whole.mesh)
+    for (int& v : scene.featureVertices) v = whole.mesh->vertexOrigin[v];
   std::vector<std::vector<PhotoPoint>> seen(scene.featureVertices.size());
 
   const std::vector<Vec3> dirs = viewDirections(options.views, options.seed);

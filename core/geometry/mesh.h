@@ -36,6 +36,12 @@ struct Mesh {
   // Optional per-face OBJ group index (`g` name; `o` when no `g`) into `groupNames`; empty when absent.
   std::vector<int> faceGroup;
   std::vector<std::string> groupNames;
+  // Optional per-corner normals read from the file (OBJ vn, PLY nx ny nz, Assimp's; unit length, faceVertices order),
+  // which the export writes so that hard edges stay hard. Empty when the file has none.
+  std::vector<std::array<Vec3f, 3>> cornerNormal;
+  // Optional per-face index of the file's polygon the face was cut from (fan triangulation), so that the OBJ export
+  // writes quads and n-gons back as they came. Empty when the file had triangles only.
+  std::vector<int> facePolygon;
   std::vector<int> faceOrigin;    // #F: index of the input face (after fan triangulation) of each face
   std::vector<int> vertexOrigin;  // #V: index of the input vertex each vertex was made from (the first of those at
                                   // its position when welded; a vertex split at a non-manifold fan: the same)

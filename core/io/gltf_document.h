@@ -48,6 +48,8 @@ struct Soup {
   std::vector<Instance> instances;
   std::vector<Vec3> vertices;
   std::vector<int> vertexElement;  // per vertex: its element in the accessors of the primitive(s) it came from
+  std::vector<Vec3> normals;       // per vertex, world space, unit length (when allNormals)
+  bool allNormals = true;          // every primitive has NORMAL
   std::vector<std::array<int, 3>> triangles;  // counter-clockwise in world space (mirrored instances turned over)
   struct TriangleOrigin {
     int instance = 0, primitive = 0;  // index into `instances`, and into its mesh's primitives

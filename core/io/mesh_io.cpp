@@ -222,18 +222,26 @@ struct Soup {
   bool hasUV = false;                       // some face has texture coordinates
   std::vector<std::array<int, 3>> uvIndex;  // per triangle, when hasUV
   std::vector<int> source;                  // per triangle: line (text) or polygon number (binary)
+  std::vector<Vec3> normals;
+  bool hasNormals = false;                      // some face has normals
+  std::vector<std::array<int, 3>> normalIndex;  // per triangle, when hasNormals (-1: none)
   FaceLabels material, group, object;
   std::string mtllib;
   std::vector<MeshFinding> notes;  // reader warnings, appended to the report
 
-  // Adds a polygon of n corners as a fan of n-2 triangles; `uv` may be null.
-  void addPolygon(const int* v, const int* uv, int n, int where) {
+  // Adds a polygon of n corners as a fan of n-2 triangles; `uv` and `normal` (indices per corner) may be null.
+  void addPolygon(const int* v, const int* uv, int n, int where, const int* normal = nullptr) {
     if (n < 3) fail(where, "a face needs at least 3 vertices, this one has " + std::to_string(n));
     if (uv && !hasUV) uvIndex.assign(triangles.size(), {-1, -1, -1});
     hasUV |= uv != nullptr;
+    if (normal && !hasNormals) normalIndex.assign(triangles.size(), {-1, -1, -1});
+    hasNormals |= normal != nullptr;
     for (int k = 1; k + 1 < n; ++k) {
       triangles.push_back({v[0], v[k], v[k + 1]});
       if (hasUV) uvIndex.push_back(uv ? std::array<int, 3>{uv[0], uv[k], uv[k + 1]} : std::array<int, 3>{-1, -1, -1});
+      if (hasNormals)
+        normalIndex.push_back(normal ? std::array<int, 3>{normal[0], normal[k], normal[k + 1]}
+                                     : std::array<int, 3>{-1, -1, -1});
       source.push_back(where);
     }
     material.tag(n - 2);
@@ -268,6 +276,34 @@ struct Soup {
     return uv;
   }
 
+  // The corner normals (unit length; empty when the file has none, or when some face has none: the export then
+  // computes them all). Checks every normal index.
+  std::vector<std::array<Vec3, 3>> cornerNormals() const {
+    if (!hasNormals) return {};
+    const int nn = static_cast<int>(normals.size());
+    std::vector<std::array<Vec3, 3>> out(triangles.size());
+    for (size_t t = 0; t < triangles.size(); ++t)
+      for (int k = 0; k < 3; ++k) {
+        const int i = normalIndex[t][k];
+        if (i < 0) return {};
+        if (i >= nn)
+          fail(source[t],
+               "normal index " + std::to_string(i + indexBase) + " out of range (" + std::to_string(nn) + " normals)");
+        const double len = normals[i].norm();
+        out[t][k] = len > 0 && std::isfinite(len) ? Vec3(normals[i] / len) : Vec3::Zero();
+      }
+    return out;
+  }
+
+  // Per triangle, the index of the polygon it was cut from (consecutive triangles from one face of the file);
+  // empty when every face was a triangle.
+  std::vector<int> polygons() const {
+    std::vector<int> out(triangles.size());
+    int p = -1;
+    for (size_t t = 0; t < triangles.size(); ++t) out[t] = t == 0 || source[t] != source[t - 1] ? ++p : p;
+    return p + 1 == static_cast<int>(triangles.size()) ? std::vector<int>{} : out;
+  }
+
  private:
   [[noreturn]] void fail(int where, const std::string& why) const {
     if (binary) failAt(file, 0, "face " + std::to_string(where) + ": " + why);
@@ -280,7 +316,7 @@ struct Soup {
 void readObj(const std::string& data, Soup& soup) {
   Tokens in(data, soup.file, true, true);
   soup.indexBase = 1;
-  std::vector<int> v, vt;
+  std::vector<int> v, vt, vn;
   std::string_view keyword, token;
   int unknown = 0;
   std::string firstUnknown;
@@ -302,6 +338,9 @@ void readObj(const std::string& data, Soup& soup) {
     if (keyword == "v") {
       const double x = in.number("x coordinate"), y = in.number("y coordinate"), z = in.number("z coordinate");
       soup.positions.emplace_back(x, y, z);
+    } else if (keyword == "vn") {
+      const double x = in.number("normal x"), y = in.number("normal y"), z = in.number("normal z");
+      soup.normals.emplace_back(x, y, z);
     } else if (keyword == "vt") {
       const double u = in.number("u coordinate");
       double w = 0;
@@ -311,15 +350,21 @@ void readObj(const std::string& data, Soup& soup) {
     } else if (keyword == "f") {
       v.clear();
       vt.clear();
+      vn.clear();
       while (in.onLine(token)) {
         const size_t s1 = token.find('/');
         v.push_back(index(token.substr(0, s1), soup.positions.size(), "face"));
         if (s1 == std::string_view::npos) continue;
-        const std::string_view t = token.substr(s1 + 1, token.find('/', s1 + 1) - s1 - 1);
+        const size_t s2 = token.find('/', s1 + 1);
+        const std::string_view t = token.substr(s1 + 1, s2 - s1 - 1);
         if (!t.empty()) vt.push_back(index(t, soup.texcoords.size(), "texture coordinate"));
+        if (s2 != std::string_view::npos && s2 + 1 < token.size())
+          vn.push_back(index(token.substr(s2 + 1), soup.normals.size(), "normal"));
       }
       if (!vt.empty() && vt.size() != v.size()) in.fail("face gives texture coordinates for some corners only");
-      soup.addPolygon(v.data(), vt.empty() ? nullptr : vt.data(), static_cast<int>(v.size()), in.line());
+      const bool normals = !vn.empty() && vn.size() == v.size();  // normals on some corners only: none
+      soup.addPolygon(v.data(), vt.empty() ? nullptr : vt.data(), static_cast<int>(v.size()), in.line(),
+                      normals ? vn.data() : nullptr);
     } else if (keyword == "usemtl") {
       soup.material.set(in.restOfLine(), soup.triangles.size(), "");
     } else if (keyword == "g" || keyword == "o") {
@@ -331,11 +376,11 @@ void readObj(const std::string& data, Soup& soup) {
     } else if (std::any_of(keyword.begin(), keyword.end(), [](char c) { return c < 0x20 || c > 0x7e; })) {
       in.fail("unexpected binary data (not an OBJ text file?)");
     } else {
-      static const char* known[] = {"vn",    "vp",    "s",          "l",        "p",        "cstype", "deg",
-                                    "bmat",  "step",  "curv",       "curv2",    "surf",     "parm",   "trim",
-                                    "hole",  "scrv",  "sp",         "end",      "con",      "mg",     "bevel",
-                                    "lod",   "call",  "csh",        "c_interp", "d_interp", "usemap", "maplib",
-                                    "ctech", "stech", "shadow_obj", "trace_obj"};
+      static const char* known[] = {"vp",    "s",          "l",        "p",        "cstype", "deg",    "bmat",
+                                    "step",  "curv",       "curv2",    "surf",     "parm",   "trim",   "hole",
+                                    "scrv",  "sp",         "end",      "con",      "mg",     "bevel",  "lod",
+                                    "call",  "csh",        "c_interp", "d_interp", "usemap", "maplib", "ctech",
+                                    "stech", "shadow_obj", "trace_obj"};
       const bool isKnown = std::any_of(std::begin(known), std::end(known), [&](const char* k) { return keyword == k; });
       if (!isKnown && unknown++ == 0) firstUnknown = "line " + std::to_string(in.line()) + ": " + quote(keyword);
     }
@@ -445,7 +490,7 @@ size_t plySize(PlyType type) {
 }
 
 // Properties the reader keeps; everything else is read and skipped.
-enum class PlyRole { Skip, X, Y, Z, U, V, Indices, TexCoords };
+enum class PlyRole { Skip, X, Y, Z, U, V, NX, NY, NZ, Indices, TexCoords };
 
 struct PlyProperty {
   std::string name;
@@ -523,7 +568,8 @@ struct PlyBinaryReader : PlyCursor {
 };
 
 template <class Reader>
-void readPlyBody(Reader& in, const std::vector<PlyElement>& elements, bool vertexUV, bool faceUV, Soup& soup) {
+void readPlyBody(Reader& in, const std::vector<PlyElement>& elements, bool vertexUV, bool faceUV, bool vertexNormals,
+                 Soup& soup) {
   std::vector<int> poly, uvIndex;
   std::vector<double> values;
   for (const PlyElement& el : elements) {
@@ -532,13 +578,13 @@ void readPlyBody(Reader& in, const std::vector<PlyElement>& elements, bool verte
     for (long long i = 0; i < el.count; ++i) {
       in.element = &el.name;
       in.index = i;
-      double coord[5] = {0, 0, 0, 0, 0};  // x y z u v
+      double coord[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // x y z u v nx ny nz
       poly.clear();
       values.clear();
       for (const PlyProperty& p : el.properties) {
         if (!p.list) {
           const double v = in.value(p.type, p.name.c_str());
-          if (p.role >= PlyRole::X && p.role <= PlyRole::V) coord[static_cast<int>(p.role) - 1] = v;
+          if (p.role >= PlyRole::X && p.role <= PlyRole::NZ) coord[static_cast<int>(p.role) - 1] = v;
           continue;
         }
         const double n = in.value(p.countType, "list count");
@@ -556,6 +602,7 @@ void readPlyBody(Reader& in, const std::vector<PlyElement>& elements, bool verte
       if (isVertex) {
         soup.positions.emplace_back(coord[0], coord[1], coord[2]);
         if (vertexUV) soup.texcoords.emplace_back(coord[3], coord[4]);
+        if (vertexNormals) soup.normals.emplace_back(coord[5], coord[6], coord[7]);
       } else if (isFace) {
         const int source = in.line() > 0 ? in.line() : static_cast<int>(i);
         const bool cornerUV = faceUV && !values.empty();  // an empty texcoord list: no UVs on this face
@@ -570,7 +617,7 @@ void readPlyBody(Reader& in, const std::vector<PlyElement>& elements, bool verte
           }
         }
         const int* uv = cornerUV ? uvIndex.data() : vertexUV ? poly.data() : nullptr;
-        soup.addPolygon(poly.data(), uv, static_cast<int>(poly.size()), source);
+        soup.addPolygon(poly.data(), uv, static_cast<int>(poly.size()), source, vertexNormals ? poly.data() : nullptr);
       }
     }
   }
@@ -611,9 +658,10 @@ void readPly(const std::string& data, Soup& soup) {
       p.name = in.need("property name");
       if (el.name == "vertex" && !p.list) {
         static const std::pair<const char*, PlyRole> roles[] = {
-            {"x", PlyRole::X},         {"y", PlyRole::Y},         {"z", PlyRole::Z},        {"u", PlyRole::U},
-            {"v", PlyRole::V},         {"s", PlyRole::U},         {"t", PlyRole::V},        {"texture_u", PlyRole::U},
-            {"texture_v", PlyRole::V}, {"texture_s", PlyRole::U}, {"texture_t", PlyRole::V}};
+            {"x", PlyRole::X},         {"y", PlyRole::Y},         {"z", PlyRole::Z},         {"u", PlyRole::U},
+            {"v", PlyRole::V},         {"s", PlyRole::U},         {"t", PlyRole::V},         {"texture_u", PlyRole::U},
+            {"texture_v", PlyRole::V}, {"texture_s", PlyRole::U}, {"texture_t", PlyRole::V}, {"nx", PlyRole::NX},
+            {"ny", PlyRole::NY},       {"nz", PlyRole::NZ}};
         for (const auto& [n, r] : roles)
           if (p.name == n) p.role = r;
       } else if (el.name == "face" && p.list) {
@@ -638,6 +686,9 @@ void readPly(const std::string& data, Soup& soup) {
     if (el.name == "vertex" && !(has(PlyRole::U) && has(PlyRole::V)))
       for (auto& p : el.properties)
         if (p.role == PlyRole::U || p.role == PlyRole::V) p.role = PlyRole::Skip;
+    if (el.name == "vertex" && !(has(PlyRole::NX) && has(PlyRole::NY) && has(PlyRole::NZ)))
+      for (auto& p : el.properties)
+        if (p.role >= PlyRole::NX && p.role <= PlyRole::NZ) p.role = PlyRole::Skip;
   }
   // Texture coordinates: the face texcoord lists, else the vertex u and v.
   auto anyRole = [&](PlyRole r) {
@@ -645,7 +696,8 @@ void readPly(const std::string& data, Soup& soup) {
       return std::any_of(el.properties.begin(), el.properties.end(), [&](const PlyProperty& p) { return p.role == r; });
     });
   };
-  const bool faceUV = anyRole(PlyRole::TexCoords), vertexUV = !faceUV && anyRole(PlyRole::U);
+  const bool faceUV = anyRole(PlyRole::TexCoords), vertexUV = !faceUV && anyRole(PlyRole::U),
+             vertexNormals = anyRole(PlyRole::NX);
   for (PlyElement& el : elements)
     for (auto& p : el.properties)
       if (faceUV && (p.role == PlyRole::U || p.role == PlyRole::V)) p.role = PlyRole::Skip;
@@ -667,7 +719,7 @@ void readPly(const std::string& data, Soup& soup) {
 
   if (format == "ascii") {
     PlyAsciiReader reader(in);
-    readPlyBody(reader, elements, vertexUV, faceUV, soup);
+    readPlyBody(reader, elements, vertexUV, faceUV, vertexNormals, soup);
   } else {
     soup.binary = true;
     const size_t offset = in.consumed(data);
@@ -679,7 +731,7 @@ void readPly(const std::string& data, Soup& soup) {
     }();
     PlyBinaryReader reader(data.data() + offset, data.data() + data.size(),
                            (format == "binary_big_endian") != bigEndianHost, soup.file);
-    readPlyBody(reader, elements, vertexUV, faceUV, soup);
+    readPlyBody(reader, elements, vertexUV, faceUV, vertexNormals, soup);
   }
 }
 
@@ -770,20 +822,25 @@ void readAssimpHere(const std::string& data, Soup& soup, const char* format, con
   int points = 0, rigged = 0, morphed = 0, polygon = 0;
   for (unsigned i = 0; i < scene->mNumMeshes; ++i) {
     const aiMesh& m = *scene->mMeshes[i];
-    const int base = static_cast<int>(soup.positions.size()), uvBase = static_cast<int>(soup.texcoords.size());
+    const int base = static_cast<int>(soup.positions.size()), uvBase = static_cast<int>(soup.texcoords.size()),
+              normalBase = static_cast<int>(soup.normals.size());
     for (unsigned v = 0; v < m.mNumVertices; ++v)
       soup.positions.emplace_back(m.mVertices[v].x, m.mVertices[v].y, m.mVertices[v].z);
     const bool uv = m.HasTextureCoords(0);
     if (uv)
       for (unsigned v = 0; v < m.mNumVertices; ++v)
         soup.texcoords.emplace_back(m.mTextureCoords[0][v].x, m.mTextureCoords[0][v].y);
+    const bool normals = m.HasNormals();
+    if (normals)
+      for (unsigned v = 0; v < m.mNumVertices; ++v)
+        soup.normals.emplace_back(m.mNormals[v].x, m.mNormals[v].y, m.mNormals[v].z);
     const aiMaterial* material =
         m.mMaterialIndex < scene->mNumMaterials ? scene->mMaterials[m.mMaterialIndex] : nullptr;
     soup.material.set(material ? material->GetName().C_Str() : "default", soup.triangles.size(), "default");
     soup.group.set(m.mName.length ? m.mName.C_Str() : ("mesh " + std::to_string(i)).c_str(), soup.triangles.size(),
                    "default");
     rigged += m.HasBones(), morphed += m.mNumAnimMeshes > 0;
-    std::vector<int> corner, corneruv;
+    std::vector<int> corner, corneruv, cornerNormal;
     for (unsigned f = 0; f < m.mNumFaces; ++f) {
       const aiFace& face = m.mFaces[f];
       ++polygon;
@@ -791,10 +848,13 @@ void readAssimpHere(const std::string& data, Soup& soup, const char* format, con
         ++points;
         continue;
       }
-      corner.resize(face.mNumIndices), corneruv.resize(face.mNumIndices);
-      for (unsigned k = 0; k < face.mNumIndices; ++k)
+      corner.resize(face.mNumIndices), corneruv.resize(face.mNumIndices), cornerNormal.resize(face.mNumIndices);
+      for (unsigned k = 0; k < face.mNumIndices; ++k) {
         corner[k] = base + int(face.mIndices[k]), corneruv[k] = uvBase + int(face.mIndices[k]);
-      soup.addPolygon(corner.data(), uv ? corneruv.data() : nullptr, int(corner.size()), polygon);
+        cornerNormal[k] = normalBase + int(face.mIndices[k]);
+      }
+      soup.addPolygon(corner.data(), uv ? corneruv.data() : nullptr, int(corner.size()), polygon,
+                      normals ? cornerNormal.data() : nullptr);
     }
   }
   auto note = [&](int count, const std::string& what) {
@@ -870,6 +930,7 @@ void readAssimp(const std::string& data, Soup& soup, const char* format, const c
         Packer p;
         p.put(s.positions), p.put(s.texcoords), p.put(s.triangles), p.put(uint64_t(s.hasUV)), p.put(s.uvIndex);
         p.put(s.source), p.put(s.material.names), p.put(s.material.ids), p.put(s.group.names), p.put(s.group.ids);
+        p.put(s.normals), p.put(uint64_t(s.hasNormals)), p.put(s.normalIndex);
         p.put(uint64_t(s.notes.size()));
         for (const MeshFinding& n : s.notes) p.put(n.what), p.put(uint64_t(n.count));
         return p.bytes;
@@ -880,6 +941,9 @@ void readAssimp(const std::string& data, Soup& soup, const char* format, const c
   soup.hasUV = u.count() != 0;
   u.get(soup.uvIndex), u.get(soup.source), u.get(soup.material.names), u.get(soup.material.ids);
   u.get(soup.group.names), u.get(soup.group.ids);
+  u.get(soup.normals);
+  soup.hasNormals = u.count() != 0;
+  u.get(soup.normalIndex);
   soup.binary = true;
   for (uint64_t i = 0, n = u.count(); i < n; ++i) {
     MeshFinding f;
@@ -980,6 +1044,25 @@ LoadedMesh parseMesh(const std::string& bytes, const std::string& ext, const std
   };
   labels(soup.material, mesh.faceMaterial, mesh.materialNames);
   labels(soup.group, mesh.faceGroup, mesh.groupNames);
+  // The file's normals per corner, in faceVertices order: a mesh corner is the triangle's corner at its position
+  // (welding may have merged the file's vertex into another at the same place).
+  if (const std::vector<std::array<Vec3, 3>> normals = soup.cornerNormals(); !normals.empty()) {
+    mesh.cornerNormal.resize(mesh.numFaces());
+    for (int f = 0; f < mesh.numFaces(); ++f) {
+      const int t = mesh.faceOrigin[f];
+      const auto fv = mesh.faceVertices(f);
+      for (int k = 0; k < 3; ++k) {
+        int j = 0;
+        while (j < 2 && soup.positions[soup.triangles[t][j]] != mesh.position(fv[k])) ++j;
+        const Vec3 n = normals[t][j].squaredNorm() > 0 ? normals[t][j] : mesh.faceNormal(f);  // none: the face's
+        mesh.cornerNormal[f][k] = n.squaredNorm() > 0 ? n.cast<float>() : Vec3f(0, 0, 1);
+      }
+    }
+  }
+  if (const std::vector<int> polygons = soup.polygons(); !polygons.empty()) {
+    mesh.facePolygon.resize(mesh.numFaces());
+    for (int f = 0; f < mesh.numFaces(); ++f) mesh.facePolygon[f] = polygons[mesh.faceOrigin[f]];
+  }
   return loaded;
 }
 

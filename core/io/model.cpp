@@ -840,6 +840,20 @@ Soup readSoup(const tinygltf::Model& gm, const std::string& path, bool withTextu
       const int base = shared != vertexBase.end() ? shared->second : static_cast<int>(soup.vertices.size());
       if (shared == vertexBase.end()) {
         vertexBase.emplace(std::make_pair(pos->second, tcAccessor), base);
+        // Normals, turned by the inverse transpose of the node's matrix (none: the mesh has no normals of its own).
+        std::vector<double> normals;
+        if (const auto n = prim.attributes.find("NORMAL"); n != prim.attributes.end()) {
+          normals = readAccessor(gm, n->second, where + ".NORMAL", comps);
+          TM_CHECK(comps == 3 && normals.size() == nv * 3,
+                   located(where + ".NORMAL (accessor " + std::to_string(n->second) + ")",
+                           "must be a VEC3 with one element per vertex (" + std::to_string(nv) + ")"));
+        }
+        soup.allNormals &= !normals.empty();
+        const Eigen::Matrix3d normalMatrix = linear.inverse().transpose();
+        for (size_t i = 0; i < nv && !normals.empty(); ++i) {
+          const Vec3 n = normalMatrix * Vec3(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]);
+          soup.normals.push_back(n.squaredNorm() > 0 ? Vec3(n.normalized()) : Vec3::Zero());
+        }
         for (size_t i = 0; i < nv; ++i) {
           const Eigen::Vector4d h =
               instance.world * Eigen::Vector4d(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2], 1);
@@ -1023,6 +1037,16 @@ LoadedMesh loadGltfMesh(const std::string& path, const MeshLoadOptions& options)
     Mesh& mesh = *loaded.mesh;
     mesh.faceMaterial = perMeshFace(mesh, soup.triMaterial);
     for (const Material& m : soup.materials) mesh.materialNames.push_back(m.name);
+    if (soup.allNormals && soup.normals.size() == soup.vertices.size()) {  // every primitive has its normals
+      mesh.cornerNormal.resize(mesh.numFaces());
+      for (int f = 0; f < mesh.numFaces(); ++f) {
+        const auto fv = mesh.faceVertices(f);
+        for (int k = 0; k < 3; ++k) {
+          const Vec3& n = soup.normals[mesh.vertexOrigin[fv[k]]];
+          mesh.cornerNormal[f][k] = n.squaredNorm() > 0 ? n.cast<float>() : mesh.faceNormal(f).cast<float>();
+        }
+      }
+    }
   }
   return loaded;
 }
@@ -1191,9 +1215,26 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
     const Vec3 p = mesh.position(v);
     obj += "v " + number(p.x()) + " " + number(p.y()) + " " + number(p.z()) + "\n";
   }
-  // Smooth shading: a normal per vertex, area-weighted as the GLB's (without them viewers shade every face flat).
-  for (const Vec3& n : vertexNormals(mesh))
-    obj += "vn " + number(n.x()) + " " + number(n.y()) + " " + number(n.z()) + "\n";
+  // Normals: the mesh's own per corner (the file's, hard edges kept), one vn per distinct normal; else one per
+  // vertex, area-weighted as the GLB's (without normals viewers shade every face flat).
+  std::vector<std::array<int, 3>> vn(nf);
+  if (mesh.cornerNormal.size() == static_cast<size_t>(nf)) {
+    std::map<std::array<float, 3>, int> index;
+    for (int f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const Vec3f& n = mesh.cornerNormal[f][k];
+        const auto [it, inserted] = index.emplace(std::array<float, 3>{n.x(), n.y(), n.z()}, int(index.size()) + 1);
+        if (inserted) obj += "vn " + number(n.x()) + " " + number(n.y()) + " " + number(n.z()) + "\n";
+        vn[f][k] = it->second;
+      }
+  } else {
+    for (const Vec3& n : vertexNormals(mesh))
+      obj += "vn " + number(n.x()) + " " + number(n.y()) + " " + number(n.z()) + "\n";
+    for (int f = 0; f < nf; ++f) {
+      const auto fv = mesh.faceVertices(f);
+      for (int k = 0; k < 3; ++k) vn[f][k] = fv[k] + 1;
+    }
+  }
   // One vt per distinct corner UV, in order of first use.
   std::vector<std::array<int, 3>> vt;
   if (model.textured()) {
@@ -1222,10 +1263,48 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
       return sa != sb ? sa < sb : materialOf(model, a) < materialOf(model, b);
     });
   const std::vector<int> meshGroup = bySource ? std::vector<int>{} : meshFaceValues(mesh, mesh.faceGroup);
+  const auto groupOf = [&](int f) { return bySource ? model.faceSource[f] : meshGroup.empty() ? -1 : meshGroup[f]; };
+  // A face corner as the OBJ names it: vertex, texture coordinate (0: none), normal.
+  using Corner = std::array<int, 3>;
+  const auto corner = [&](int f, int k) {
+    return Corner{mesh.faceVertices(f)[k] + 1, vt.empty() ? 0 : vt[f][k], vn[f][k]};
+  };
+  // The file's polygon that faces order[i..j) were cut from, as one face: they fan around one corner, every corner
+  // they share has one texture coordinate and one normal, and they share group and material. Empty otherwise (its
+  // triangles are written, e.g. where a chart border crosses the polygon).
+  const auto polygonOf = [&](size_t i, size_t j) -> std::vector<Corner> {
+    for (size_t q = i + 1; q < j; ++q)
+      if (groupOf(order[q]) != groupOf(order[i]) || materialOf(model, order[q]) != materialOf(model, order[i]))
+        return {};
+    for (int c = 0; c < 3; ++c) {
+      const Corner center = corner(order[i], c);
+      std::vector<Corner> out = {center};
+      for (size_t q = i; q < j && !out.empty(); ++q) {
+        int k = 0;
+        while (k < 3 && corner(order[q], k) != center) ++k;
+        if (k == 3 || (q > i && corner(order[q], (k + 1) % 3) != out.back())) {
+          out.clear();
+          break;
+        }
+        if (q == i) out.push_back(corner(order[q], (k + 1) % 3));
+        out.push_back(corner(order[q], (k + 2) % 3));
+      }
+      if (!out.empty() && out.back() != out[1]) return out;
+    }
+    return {};
+  };
+  const auto writeFace = [&](const std::vector<Corner>& corners) {
+    obj += "f";
+    for (const Corner& c : corners)
+      obj += " " + std::to_string(c[0]) + "/" + (c[1] ? std::to_string(c[1]) : "") + "/" + std::to_string(c[2]);
+    obj += "\n";
+  };
+  const bool polygons = !bySource && mesh.facePolygon.size() == static_cast<size_t>(nf);
   bool firstGroup = true;
   int group = 0, material = -1;
-  for (int f : order) {
-    const int g = bySource ? model.faceSource[f] : meshGroup.empty() ? -1 : meshGroup[f];
+  for (size_t i = 0; i < order.size();) {
+    const int f = order[i];
+    const int g = groupOf(f);
     if ((bySource || !meshGroup.empty()) && (firstGroup || g != group)) {
       group = g;
       firstGroup = false;
@@ -1240,13 +1319,16 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
       obj += "usemtl " + materialNames[std::min<size_t>(m, materialNames.size() - 1)] + "\n";
       material = m;
     }
-    const auto fv = mesh.faceVertices(f);
-    obj += "f";
-    for (int k = 0; k < 3; ++k) {
-      const std::string v = std::to_string(fv[k] + 1);
-      obj += " " + v + "/" + (vt.empty() ? "" : std::to_string(vt[f][k])) + "/" + v;
+    size_t j = i + 1;
+    while (polygons && j < order.size() && mesh.facePolygon[order[j]] == mesh.facePolygon[f]) ++j;
+    const std::vector<Corner> polygon = j > i + 1 ? polygonOf(i, j) : std::vector<Corner>{};
+    if (!polygon.empty()) {
+      writeFace(polygon);
+      i = j;
+    } else {
+      writeFace({corner(f, 0), corner(f, 1), corner(f, 2)});
+      ++i;
     }
-    obj += "\n";
   }
   writeFileAtomic(objPath, obj);
 }
@@ -1297,9 +1379,10 @@ void exportGlb(const TexturedModel& model, const std::string& path, PngCache* pn
     index = static_cast<int>(gm.materials.size()) - 1;
   }
 
-  // One vertex list for all primitives: the mesh's vertices in order (each with the texture
-  // coordinate of its first use), then a copy per further (vertex, texture coordinate) pair.
-  const bool withUV = model.textured();
+  // One vertex list for all primitives: the mesh's vertices in order (each with the texture coordinate and normal
+  // of its first use), then a copy per further (vertex, texture coordinate, normal). Normals: the mesh's own per
+  // corner (the file's, hard edges kept), else area-weighted per vertex.
+  const bool withUV = model.textured(), ownNormals = mesh.cornerNormal.size() == static_cast<size_t>(nf);
   const int nv = mesh.numVertices();
   std::vector<Vec3f> positions(nv), vnormals(nv);
   std::vector<Vec2f> texcoords(withUV ? nv : 0, Vec2f::Zero());
@@ -1308,30 +1391,32 @@ void exportGlb(const TexturedModel& model, const std::string& path, PngCache* pn
     positions[v] = mesh.position(v).cast<float>();
     vnormals[v] = normals[v].cast<float>().normalized();
   }
-  std::map<std::tuple<int, uint32_t, uint32_t>, uint32_t> copies;
+  std::map<std::array<uint32_t, 6>, uint32_t> copies;  // vertex, texture coordinate, normal (bits) -> its copy
   std::vector<std::array<uint32_t, 3>> corner(nf);
   for (int f = 0; f < nf; ++f) {
     const auto fv = mesh.faceVertices(f);
     for (int k = 0; k < 3; ++k) {
       const int v = fv[k];
-      if (!withUV) {
+      const Vec2f t = withUV ? Vec2f(model.uv[f][k].x(), 1.0f - model.uv[f][k].y())  // glTF: origin at the top-left
+                             : Vec2f::Zero();
+      const Vec3f n = ownNormals ? mesh.cornerNormal[f][k] : vnormals[v];
+      if (!assigned[v]) {
+        assigned[v] = 1;
+        if (withUV) texcoords[v] = t;
+        vnormals[v] = n;
+      }
+      if ((!withUV || texcoords[v] == t) && vnormals[v] == n) {
         corner[f][k] = static_cast<uint32_t>(v);
         continue;
       }
-      const Vec2f t(model.uv[f][k].x(), 1.0f - model.uv[f][k].y());  // glTF: origin at the top-left
-      if (!assigned[v]) assigned[v] = 1, texcoords[v] = t;
-      if (texcoords[v] == t) {
-        corner[f][k] = static_cast<uint32_t>(v);
-        continue;
-      }
-      uint32_t bu, bv;
-      std::memcpy(&bu, &t.x(), 4);
-      std::memcpy(&bv, &t.y(), 4);
-      const auto [it, inserted] = copies.emplace(std::make_tuple(v, bu, bv), static_cast<uint32_t>(positions.size()));
+      std::array<uint32_t, 6> key{static_cast<uint32_t>(v)};
+      std::memcpy(&key[1], t.data(), 8);
+      std::memcpy(&key[3], n.data(), 12);
+      const auto [it, inserted] = copies.emplace(key, static_cast<uint32_t>(positions.size()));
       if (inserted) {
         positions.push_back(positions[v]);
-        vnormals.push_back(vnormals[v]);
-        texcoords.push_back(t);
+        vnormals.push_back(n);
+        if (withUV) texcoords.push_back(t);
       }
       corner[f][k] = it->second;
     }

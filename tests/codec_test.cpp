@@ -55,7 +55,8 @@ double maxDifference(const cv::Mat& a, const cv::Mat& b) {
 }
 
 // A TIFF written with libtiff directly: the layouts OpenCV does not write (tiles, palette).
-std::vector<unsigned char> libtiffFile(const std::string& path, const cv::Mat& rgb8, bool tiled, bool palette) {
+std::vector<unsigned char> libtiffFile(const std::string& path, const cv::Mat& rgb8, bool tiled, bool palette,
+                                       int orientation = 0) {
   TIFF* t = TIFFOpen(path.c_str(), "w");
   if (!t) throw std::runtime_error("cannot write " + path);
   const uint32_t w = uint32_t(rgb8.cols), h = uint32_t(rgb8.rows);
@@ -66,6 +67,7 @@ std::vector<unsigned char> libtiffFile(const std::string& path, const cv::Mat& r
   TIFFSetField(t, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
   TIFFSetField(t, TIFFTAG_COMPRESSION, COMPRESSION_LZW);
   TIFFSetField(t, TIFFTAG_PHOTOMETRIC, palette ? PHOTOMETRIC_PALETTE : PHOTOMETRIC_RGB);
+  if (orientation) TIFFSetField(t, TIFFTAG_ORIENTATION, orientation);
   cv::Mat samples = rgb8;
   if (palette) {  // 256 entries: index i is grey i; the samples are the red channel
     std::vector<uint16_t> map(256);
@@ -223,6 +225,55 @@ TEST(Codec, JpegExifOrientationIsApplied) {
       EXPECT_EQ(header.orientation, orientation);
       ASSERT_TRUE(header.size);
       EXPECT_EQ(*header.size, shown.size());
+    }
+}
+
+// A TIFF's orientation (tag 274: a camera's or raw converter's portrait stored sideways) is applied as a JPEG's is,
+// whichever way libtiff decodes it (contiguous RGB read row by row; a palette through libtiff's RGBA reader, which
+// applies only the flips itself); the header gives the shown size.
+TEST(Codec, TiffOrientationIsApplied) {
+  const std::string dir = test::tempDir("codec_tiff_orientation");
+  const cv::Mat stored = testImage(24, 40, CV_8U, 3, 7u);  // 40 wide, 24 high as stored (R,G,B)
+  for (bool palette : {false, true})
+    for (int orientation = 1; orientation <= 8; ++orientation) {
+      SCOPED_TRACE("orientation " + std::to_string(orientation) + (palette ? ", palette" : ", RGB"));
+      const std::vector<unsigned char> bytes = libtiffFile(dir + "/o.tif", stored, false, palette, orientation);
+      // What the orientation means (EXIF 2.32, tag 274), on the stored pixels as our decoder gives them.
+      const cv::Mat asStored = ours(libtiffFile(dir + "/plain.tif", stored, false, palette));
+      cv::Mat expected;
+      switch (orientation) {
+        case 1:
+          expected = asStored;
+          break;
+        case 2:
+          cv::flip(asStored, expected, 1);
+          break;
+        case 3:
+          cv::flip(asStored, expected, -1);
+          break;
+        case 4:
+          cv::flip(asStored, expected, 0);
+          break;
+        case 5:
+          cv::transpose(asStored, expected);
+          break;
+        case 6:
+          cv::transpose(asStored, expected), cv::flip(expected, expected, 1);
+          break;
+        case 7:
+          cv::transpose(asStored, expected), cv::flip(expected, expected, -1);
+          break;
+        case 8:
+          cv::transpose(asStored, expected), cv::flip(expected, expected, 0);
+          break;
+      }
+      const cv::Mat shown = ours(bytes, "portrait.tif");
+      EXPECT_EQ(maxDifference(shown, expected), 0);
+      const ImageHeader header = readImageHeader(bytes.data(), bytes.size());
+      EXPECT_EQ(header.orientation, orientation);
+      ASSERT_TRUE(header.size);
+      EXPECT_EQ(*header.size, shown.size());
+      EXPECT_EQ(shown.size(), orientation >= 5 ? cv::Size(24, 40) : cv::Size(40, 24));
     }
 }
 

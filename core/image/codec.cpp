@@ -338,8 +338,11 @@ toff_t tiffStreamSize(thandle_t handle) {
   return toff_t(static_cast<TiffStream*>(handle)->size);
 }
 
-ExifCamera tiffCamera(std::istream& stream) {
+// A TIFF's camera (its first directory's make and model, its EXIF directory's focal lengths) and its orientation
+// (tag 274, 1..8; 1 when absent or out of range).
+ExifCamera tiffCamera(std::istream& stream, int& orientation) {
   ExifCamera c;
+  orientation = 1;
   stream.clear();
   stream.seekg(0, std::ios::end);
   const auto size = stream.tellg();
@@ -355,6 +358,8 @@ ExifCamera tiffCamera(std::istream& stream) {
   };
   c.make = text(TIFFTAG_MAKE);
   c.model = text(TIFFTAG_MODEL);
+  uint16_t o = 1;
+  if (TIFFGetField(tif, TIFFTAG_ORIENTATION, &o) && o >= 1 && o <= 8) orientation = o;
   toff_t exif = 0;
   if (TIFFGetField(tif, TIFFTAG_EXIFIFD, &exif) && exif && TIFFReadEXIFDirectory(tif, exif)) {
     // A field as libtiff stores it: a rational as a float or a double (TIFFFieldSetGetSize), a SHORT or a LONG.
@@ -424,7 +429,10 @@ ImageHeader readImageHeader(std::istream& stream) {
     case ImageFormat::TiffLittle:
     case ImageFormat::TiffBig:
       header.size = tiffSize(in, header.format == ImageFormat::TiffBig);
-      if (header.size) header.camera = tiffCamera(stream);
+      if (header.size) {
+        header.camera = tiffCamera(stream, header.orientation);
+        if (header.orientation >= 5) header.size = cv::Size(header.size->height, header.size->width);
+      }
       break;
     case ImageFormat::Unknown:
       break;
@@ -778,6 +786,12 @@ cv::Mat decodeTiff(const Encoded& in, const std::string& where, std::vector<uint
   TIFFGetFieldDefaulted(tif.get(), TIFFTAG_SAMPLEFORMAT, &format);
   TIFFGetFieldDefaulted(tif.get(), TIFFTAG_PLANARCONFIG, &planar);
   if (!TIFFGetField(tif.get(), TIFFTAG_PHOTOMETRIC, &photometric)) photometric = samples >= 3 ? 2 : 1;
+  // The orientation (how the stored rows turn to be shown, as for a JPEG's EXIF), applied below to the pixels as
+  // stored: libtiff's RGBA reader would only apply its flips, so it is told the rows are stored as shown.
+  uint16_t orientation = ORIENTATION_TOPLEFT;
+  TIFFGetField(tif.get(), TIFFTAG_ORIENTATION, &orientation);
+  if (orientation < 1 || orientation > 8) orientation = ORIENTATION_TOPLEFT;
+  TIFFSetField(tif.get(), TIFFTAG_ORIENTATION, ORIENTATION_TOPLEFT);
   if (w == 0 || h == 0) throw fail("no pixels");
   checkSize(cv::Size(int(std::min<uint32_t>(w, INT32_MAX)), int(std::min<uint32_t>(h, INT32_MAX))), where);
   if (photometric == PHOTOMETRIC_LOGLUV) {  // high dynamic range (OpenCV writes float RGB so): XYZ floats
@@ -817,7 +831,7 @@ cv::Mat decodeTiff(const Encoded& in, const std::string& where, std::vector<uint
     else if (samples == 3)
       cv::cvtColor(raw, raw, cv::COLOR_RGB2BGR);
     if (samples == 4) cv::cvtColor(raw, raw, cv::COLOR_RGBA2BGRA);
-    return raw;
+    return orient(raw, orientation);
   }
   if (bits > 8 || format == SAMPLEFORMAT_IEEEFP)
     throw fail(std::to_string(bits) + "-bit samples in a layout that is not read (photometric " +
@@ -830,7 +844,7 @@ cv::Mat decodeTiff(const Encoded& in, const std::string& where, std::vector<uint
   uint16_t extra = 0, *kinds = nullptr;
   TIFFGetFieldDefaulted(tif.get(), TIFFTAG_EXTRASAMPLES, &extra, &kinds);
   cv::cvtColor(raw, raw, extra > 0 ? cv::COLOR_RGBA2BGRA : cv::COLOR_RGBA2BGR);
-  return raw;
+  return orient(raw, orientation);
 }
 
 // ---- Encoding ----

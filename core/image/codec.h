@@ -36,10 +36,10 @@ struct ExifCamera {
 // decoding it. Only PNG, JPEG, BMP and TIFF are recognised.
 struct ImageHeader {
   ImageFormat format = ImageFormat::Unknown;
-  std::optional<cv::Size> size;  // as the image is shown: a JPEG's EXIF orientation applied (below)
-  // A JPEG's EXIF orientation (1..8, TIFF tag 274: how the stored rows turn to be shown, as photo apps show them;
-  // 1 when absent). Decoding applies it: the pixels and `size` are the shown image's, which project coordinates,
-  // masks and the editor use.
+  std::optional<cv::Size> size;  // as the image is shown: the orientation applied (below)
+  // A JPEG's EXIF orientation or a TIFF's (1..8, TIFF tag 274: how the stored rows turn to be shown, as photo apps
+  // show them; 1 when absent). Decoding applies it: the pixels and `size` are the shown image's, which project
+  // coordinates, masks and the editor use.
   int orientation = 1;
   ExifCamera camera;        // a JPEG's EXIF (the first APP1 segment), or a TIFF's (its first and EXIF directories)
   bool iccProfile = false;  // a JPEG with an embedded colour profile (APP2), which decoding converts to sRGB

@@ -5,6 +5,7 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -12,6 +13,7 @@
 #include <set>
 #include <sstream>
 
+#include "base/fileio.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
 #include "test_support.h"
@@ -614,8 +616,9 @@ TEST(GltfWriteBack, CopiesAMeshPerInstanceAndRefusesAChangedFile) {
   EXPECT_NE(e.find("is not the mesh the model was made from"), std::string::npos) << e;
 }
 
-// `montage run` on a project whose mesh is the rigged GLB: the run's model.glb is that file with the montage, and it
-// shows the same colours as the run's model.obj (the material reads the right coordinate set).
+// `montage run` on a project whose mesh is the rigged GLB: the run's model.glb is that file with the montage, it
+// shows the same colours as the run's model.obj (the material reads the right coordinate set), and a copy of the
+// project in another folder, its mesh touched, gives the same bytes.
 TEST(GltfWriteBack, MontageRunWritesTheRigBack) {
   const std::string dir = test::tempDir("gltf_write_back_run");
   ASSERT_NO_FATAL_FAILURE(montageRunOnRig(dir));
@@ -653,6 +656,19 @@ TEST(GltfWriteBack, MontageRunWritesTheRigBack) {
   }
   EXPECT_EQ(matched, fromGlb.mesh.numFaces());
   EXPECT_LT(diff / std::max(matched, 1), 0.01);
+
+  // The same bytes from a copy of the project in another folder, its mesh touched.
+  const std::string copy = test::tempDir("gltf_write_back_copy");
+  fs::copy(dir + "/scene", copy + "/scene", fs::copy_options::recursive);
+  fs::copy_file(dir + "/rig.glb", copy + "/rig.glb");
+  fs::last_write_time(copy + "/rig.glb", fs::file_time_type::clock::now() + std::chrono::hours(1));
+  std::string log;
+  ASSERT_EQ(test::runCommand(
+                "'" + test::montageExe() + "' run '" + copy + "/scene/project.json' --out '" + copy + "/out'", &log),
+            0)
+      << log;
+  for (const char* file : {"model.glb", "model.obj"})
+    EXPECT_EQ(readFileBytes(dir + "/out/" + file, "a"), readFileBytes(copy + "/out/" + file, "b")) << file;
 }
 
 // The written-back GLB passes the Khronos validator without errors or warnings.

@@ -1219,11 +1219,18 @@ void exportObj(const TexturedModel& model, const std::string& dir, const std::st
   // vertex, area-weighted as the GLB's (without normals viewers shade every face flat).
   std::vector<std::array<int, 3>> vn(nf);
   if (mesh.cornerNormal.size() == static_cast<size_t>(nf)) {
-    std::map<std::array<float, 3>, int> index;
+    struct Bits {  // a normal's float bits, hashed
+      size_t operator()(const std::array<uint32_t, 3>& b) const {
+        return (size_t(b[0]) * 73856093u) ^ (size_t(b[1]) * 19349663u) ^ (size_t(b[2]) * 83492791u);
+      }
+    };
+    std::unordered_map<std::array<uint32_t, 3>, int, Bits> index;
     for (int f = 0; f < nf; ++f)
       for (int k = 0; k < 3; ++k) {
         const Vec3f& n = mesh.cornerNormal[f][k];
-        const auto [it, inserted] = index.emplace(std::array<float, 3>{n.x(), n.y(), n.z()}, int(index.size()) + 1);
+        std::array<uint32_t, 3> bits;
+        std::memcpy(bits.data(), n.data(), 12);
+        const auto [it, inserted] = index.emplace(bits, int(index.size()) + 1);
         if (inserted) obj += "vn " + number(n.x()) + " " + number(n.y()) + " " + number(n.z()) + "\n";
         vn[f][k] = it->second;
       }

@@ -252,8 +252,14 @@ bool Editor::exportTo(const std::string& path) {
     const bool stale = !resultCurrent();
     const std::string abs = fs::absolute(path).lexically_normal().string();
     const std::string ext = lowerExtension(abs);
+    std::string how;  // what became of the user's own glTF, when the mesh is one
     if (ext == ".glb") {
-      exportResultGlb(*result_, abs);
+      const nlohmann::json glb = exportResultGlb(*result_, abs);
+      if (glb.value("written_into_source", false))
+        how = " (into a copy of " + fs::path(result_->scene->project.mesh).filename().string() +
+              ": its skins, morph targets, normals and UV sets kept)";
+      else if (glb.contains("why"))
+        how = " as a new GLB: the mesh's own file could not take the texture (" + glb["why"].get<std::string>() + ")";
     } else if (ext == ".obj") {
       // The OBJ, its MTL and textures are written beside the user's other files: staged in a hidden
       // folder, then renamed in place textures first and the OBJ last, so a kill never leaves an OBJ
@@ -269,8 +275,8 @@ bool Editor::exportTo(const std::string& path) {
                           "(glTF binary) or .obj (OBJ + MTL + PNG)"));
     }
     operationSucceeded("export");
-    setStatus(stale ? "exported " + abs + " - the result of an earlier state: the document changed since"
-                    : "exported " + abs);
+    setStatus(stale ? "exported " + abs + how + " - the result of an earlier state: the document changed since"
+                    : "exported " + abs + how);
     return true;
   } catch (const Error& e) {
     reportOperationError("export", e.what());

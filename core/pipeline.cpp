@@ -1602,7 +1602,8 @@ nlohmann::json exportResultGlb(const PipelineResult& result, const std::string& 
              {"triangles", w.triangles},
              {"primitives", w.primitives},
              {"copied_meshes", w.copiedMeshes},
-             {"left_out_triangles", w.leftOutTriangles}};
+             {"left_out_triangles", w.leftOutTriangles},
+             {"dropped_images", w.droppedImages}};
     } catch (const Error& e) {
       glb["why"] = e.what();
     }

@@ -509,6 +509,7 @@ TEST(GltfWriteBack, KeepsSkinMorphTargetsNormalsColoursAndEveryUvSet) {
   EXPECT_EQ(w.triangles, nf);
   EXPECT_EQ(w.leftOutTriangles, 0);
   EXPECT_EQ(w.primitives, 1);
+  EXPECT_EQ(w.droppedImages, 1);  // the user's own base colour image, which nothing shows any more
 
   const tinygltf::Model src = readGlb(rig), got = readGlb(out);
   // The rig: nodes, skin, bones, inverse bind matrices, animation, morph weights.
@@ -540,6 +541,8 @@ TEST(GltfWriteBack, KeepsSkinMorphTargetsNormalsColoursAndEveryUvSet) {
   EXPECT_EQ(mat.pbrMetallicRoughness.baseColorTexture.texCoord, 2);
   const int image = got.textures.at(mat.pbrMetallicRoughness.baseColorTexture.index).source;
   EXPECT_EQ(got.images.at(image).width, 8);
+  EXPECT_EQ(got.images.size(), 1u);     // the montage's texture only
+  EXPECT_EQ(got.materials.size(), 1u);  // the file's material, showing it
 
   // Corner by corner (one group: the file's triangle order), every attribute is the file's element's, and
   // TEXCOORD_2 is the model's coordinate of that corner.

@@ -1,6 +1,7 @@
 // The GLB export of a model whose mesh came from a glTF file: the file itself, written back with the montage
 // (io/model.h: exportGlbInto).
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -83,6 +84,61 @@ struct Packer {
     return accessor(like, layout, std::vector<unsigned char>(p, p + count * components * 4), count, target, false);
   }
 };
+
+// Leaves out the materials no primitive uses and the textures, images and samplers no material shows (a material's
+// five texture slots), renumbering what stays; `newImages` (image index first) follows. Returns the images left out.
+int dropUnused(tinygltf::Model& gm, std::vector<std::pair<int, const std::vector<unsigned char>*>>& newImages) {
+  // Keeps the marked entries of `list` in order; returns old index -> new (-1 when left out).
+  const auto compact = [](auto& list, const std::vector<char>& keep) {
+    std::vector<int> map(list.size(), -1);
+    size_t n = 0;
+    for (size_t i = 0; i < list.size(); ++i)
+      if (keep[i]) {
+        map[i] = static_cast<int>(n);
+        if (n != i) list[n] = std::move(list[i]);
+        ++n;
+      }
+    list.resize(n);
+    return map;
+  };
+  const auto inRange = [](int i, size_t n) { return i >= 0 && static_cast<size_t>(i) < n; };
+  std::vector<char> usedMaterial(gm.materials.size(), 0);
+  for (const auto& m : gm.meshes)
+    for (const auto& p : m.primitives)
+      if (inRange(p.material, usedMaterial.size())) usedMaterial[p.material] = 1;
+  const std::vector<int> materialMap = compact(gm.materials, usedMaterial);
+  for (auto& m : gm.meshes)
+    for (auto& p : m.primitives)
+      if (inRange(p.material, materialMap.size())) p.material = materialMap[p.material];
+
+  const auto slots = [](tinygltf::Material& m) {
+    return std::array<int*, 5>{&m.pbrMetallicRoughness.baseColorTexture.index,
+                               &m.pbrMetallicRoughness.metallicRoughnessTexture.index, &m.normalTexture.index,
+                               &m.occlusionTexture.index, &m.emissiveTexture.index};
+  };
+  std::vector<char> usedTexture(gm.textures.size(), 0);
+  for (auto& m : gm.materials)
+    for (int* t : slots(m))
+      if (inRange(*t, usedTexture.size())) usedTexture[*t] = 1;
+  const std::vector<int> textureMap = compact(gm.textures, usedTexture);
+  for (auto& m : gm.materials)
+    for (int* t : slots(m))
+      if (inRange(*t, textureMap.size())) *t = textureMap[*t];
+
+  std::vector<char> usedImage(gm.images.size(), 0), usedSampler(gm.samplers.size(), 0);
+  for (const auto& t : gm.textures) {
+    if (inRange(t.source, usedImage.size())) usedImage[t.source] = 1;
+    if (inRange(t.sampler, usedSampler.size())) usedSampler[t.sampler] = 1;
+  }
+  const size_t images = gm.images.size();
+  const std::vector<int> imageMap = compact(gm.images, usedImage), samplerMap = compact(gm.samplers, usedSampler);
+  for (auto& t : gm.textures) {
+    if (inRange(t.source, imageMap.size())) t.source = imageMap[t.source];
+    if (inRange(t.sampler, samplerMap.size())) t.sampler = samplerMap[t.sampler];
+  }
+  for (auto& [image, png] : newImages) image = imageMap[image];
+  return static_cast<int>(images - gm.images.size());
+}
 
 // Extensions that keep geometry outside the accessors this writer copies.
 constexpr const char* kGeometryExtensions[] = {"KHR_draco_mesh_compression", "EXT_meshopt_compression",
@@ -275,6 +331,13 @@ GltfWriteBack exportGlbInto(const TexturedModel& model, const std::string& sourc
     }
     gm.meshes[target].primitives = std::move(primitives);
     out.primitives += static_cast<int>(gm.meshes[target].primitives.size());
+  }
+
+  // The materials the rewritten primitives replaced, and the textures, images and samplers only they showed (the
+  // file's own base colour images), are left out, so that the file does not carry a texture nothing shows. Only
+  // when the file uses no extension, which might name them where this writer does not look.
+  if (gm.extensionsUsed.empty()) {
+    out.droppedImages = dropUnused(gm, newImages);
   }
 
   // Everything else that names an accessor keeps it, copied into the new buffer.

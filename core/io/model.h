@@ -121,6 +121,7 @@ struct GltfWriteBack {
   int primitives = 0;        // primitives of the scene's meshes after the write (one per file primitive and material)
   int copiedMeshes = 0;      // meshes shown by several nodes, copied so that each instance has its own texture
   int leftOutTriangles = 0;  // triangles the mesh left out on loading (complex edges, repeated vertices): UV (0, 0)
+  int droppedImages = 0;     // the file's images nothing shows any more (its base colour textures), left out
 };
 
 // Writes the model into the glTF file its mesh was read from (`source`, .glb or .gltf; model.mesh as loadGltfMesh
@@ -130,8 +131,9 @@ struct GltfWriteBack {
 // scene's primitives show the montage: split per model material, their vertices split where the model's texture
 // coordinates differ (every attribute and morph target copied along), the model's coordinates added as the next free
 // set TEXCOORD_n, and each material a copy of the file's with the model's texture as its base colour on that set.
-// A mesh shown by several nodes is copied per node. Throws montage::Error when the file no longer holds the model's
-// mesh, or keeps its geometry in an extension (Draco, meshopt, GPU instancing).
+// A mesh shown by several nodes is copied per node. Materials, textures and images nothing shows any more (the
+// file's base colour images) are left out when the file uses no extension. Throws montage::Error when the file no
+// longer holds the model's mesh, or keeps its geometry in an extension (Draco, meshopt, GPU instancing).
 GltfWriteBack exportGlbInto(const TexturedModel& model, const std::string& source, const std::string& path,
                             PngCache* pngs = nullptr);
 

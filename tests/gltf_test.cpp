@@ -619,6 +619,46 @@ TEST(GltfWriteBack, CopiesAMeshPerInstanceAndRefusesAChangedFile) {
   EXPECT_NE(e.find("is not the mesh the model was made from"), std::string::npos) << e;
 }
 
+// A .gltf whose material's normal map is a PNG file beside it: the written GLB embeds that file byte for byte (the
+// normal map stays; the base colour is the montage's).
+TEST(GltfWriteBack, EmbedsTheFilesOtherImagesAsTheyAre) {
+  const std::string dir = test::tempDir("gltf_write_back_external");
+  PngCache pngs;
+  const std::vector<unsigned char>& png = pngs.encode(cv::Mat(4, 4, CV_8UC4, cv::Scalar(128, 128, 255, 255)), "n");
+  writeFileAtomic(dir + "/normal map.png", std::string(png.begin(), png.end()));
+  GltfMaker g;
+  tinygltf::Image image;
+  image.uri = "normal%20map.png";
+  g.m.images.push_back(image);
+  tinygltf::Texture texture;
+  texture.source = 0;
+  g.m.textures.push_back(texture);
+  const int mat = g.material("painted", 0);
+  g.m.materials[mat].normalTexture.index = 0;
+  g.node(addSquare(g, {mat}, {0, 0, 1, 0, 1, 1, 0, 1}));
+  g.m.asset.version = "2.0";
+  tinygltf::TinyGLTF writer;
+  writer.SetImageWriter(nullptr, nullptr);  // the image stays the file it names
+  const std::string path = dir + "/square.gltf";
+  ASSERT_TRUE(writer.WriteGltfSceneToFile(&g.m, path, false, true, true, false));
+  ASSERT_NE(readFileBytes(path, "glTF").find("\"normal%20map.png\""), std::string::npos);  // named, not embedded
+  const LoadedMesh loaded = loadMesh(path);
+  ASSERT_TRUE(loaded.mesh) << loaded.report.summary();
+  TexturedModel model = modelFromMesh(*loaded.mesh, cv::Mat(8, 8, CV_8UC4, cv::Scalar(1, 2, 3, 255)));
+  model.materials[0].name = "painted";
+  exportGlbInto(model, path, dir + "/out.glb");
+  const tinygltf::Model got = readGlb(dir + "/out.glb");
+  const tinygltf::Material& m = got.materials.at(got.meshes[0].primitives[0].material);
+  ASSERT_GE(m.normalTexture.index, 0);
+  const tinygltf::Image& normal = got.images.at(got.textures.at(m.normalTexture.index).source);
+  EXPECT_EQ(normal.mimeType, "image/png");
+  EXPECT_TRUE(normal.uri.empty());
+  const tinygltf::BufferView& v = got.bufferViews.at(normal.bufferView);
+  const auto* bytes = got.buffers[0].data.data() + v.byteOffset;
+  EXPECT_EQ(std::vector<unsigned char>(bytes, bytes + v.byteLength), png);
+  EXPECT_NE(m.pbrMetallicRoughness.baseColorTexture.index, m.normalTexture.index);
+}
+
 // `montage run` on a project whose mesh is the rigged GLB: the run's model.glb is that file with the montage, it
 // shows the same colours as the run's model.obj (the material reads the right coordinate set), and a copy of the
 // project in another folder, its mesh touched, gives the same bytes.

@@ -18,6 +18,10 @@ namespace montage::gltf {
 // inside the model's folder, the JSON's nesting bounded. Throws montage::Error naming the file and the reason.
 tinygltf::Model loadDocument(const std::string& path, bool decodeImages);
 
+// The bytes of an image the file names by URI (a data: URI, or a file inside the model's folder), and their type,
+// which must be PNG or JPEG (what a GLB embeds). Throws montage::Error naming the file and the image.
+std::vector<unsigned char> imageBytes(const tinygltf::Image& image, const std::string& path, std::string& mimeType);
+
 // An accessor's elements as tightly packed bytes of its own component type (count x components x component
 // size), its buffer view's stride removed and its sparse substitution applied. `where` names it for messages.
 struct AccessorBytes {

@@ -149,7 +149,7 @@ constexpr const char* kGeometryExtensions[] = {"KHR_draco_mesh_compression", "EX
 GltfWriteBack exportGlbInto(const TexturedModel& model, const std::string& source, const std::string& path,
                             PngCache* pngs) {
   TM_CHECK(model.textured(), located(path, "the model has no texture coordinates to write back"));
-  tinygltf::Model gm = gltf::loadDocument(source, true);
+  tinygltf::Model gm = gltf::loadDocument(source, false);
   for (const char* ext : kGeometryExtensions)
     TM_CHECK(std::find(gm.extensionsUsed.begin(), gm.extensionsUsed.end(), ext) == gm.extensionsUsed.end(),
              located(source, std::string("uses ") + ext + ": its geometry cannot be written back"));
@@ -375,7 +375,7 @@ GltfWriteBack exportGlbInto(const TexturedModel& model, const std::string& sourc
       carry(s.input, where + ".input", 0);
       carry(s.output, where + ".output", 0);
     }
-  // Images: the file's own bytes where it embedded them, a PNG of the decoded image where it named a file.
+  // Images: the file's own bytes, embedded.
   for (size_t k = 0; k < gm.images.size(); ++k) {
     tinygltf::Image& image = gm.images[k];
     const std::string where = source + ": images[" + std::to_string(k) + "]";
@@ -391,18 +391,11 @@ GltfWriteBack exportGlbInto(const TexturedModel& model, const std::string& sourc
                    v.byteLength <= gm.buffers[v.buffer].data.size() - v.byteOffset,
                located(where, "its bufferView lies outside its buffer"));
       image.bufferView = pack.view(gm.buffers[v.buffer].data.data() + v.byteOffset, v.byteLength, 0);
-    } else {
-      TM_CHECK(image.width > 0 && image.height > 0 && image.component == 4 && image.bits == 8 &&
-                   image.image.size() == size_t(image.width) * image.height * 4,
-               located(where, "could not be decoded to embed it"));
-      const cv::Mat rgba(image.height, image.width, CV_8UC4, image.image.data());
-      const std::vector<unsigned char>& png = cache.encode(rgba.clone(), where);
-      image.bufferView = pack.view(png.data(), png.size(), 0);
-      image.mimeType = "image/png";
+    } else {  // named by URI: its own bytes, embedded
+      const std::vector<unsigned char> bytes = gltf::imageBytes(image, source, image.mimeType);
+      image.bufferView = pack.view(bytes.data(), bytes.size(), 0);
       image.uri.clear();
     }
-    image.image.clear();
-    image.width = image.height = -1;
   }
 
   gm.accessors = std::move(pack.accessors);

@@ -632,6 +632,45 @@ std::string glbJsonChunk(const std::string& bytes, const std::string& path) {
   return bytes.substr(20, size_t(jsonLength));
 }
 
+// The file a relative URI names (percent-decoded, as tinygltf resolves it) in the model's folder.
+fs::path uriFile(const fs::path& modelDir, const std::string& uri) {
+  std::string decoded;
+  for (size_t k = 0; k < uri.size(); ++k) {
+    int value = 0;
+    if (uri[k] == '%' && k + 2 < uri.size() &&
+        std::from_chars(uri.data() + k + 1, uri.data() + k + 3, value, 16).ptr == uri.data() + k + 3) {
+      decoded += char(value);
+      k += 2;
+    } else {
+      decoded += uri[k];
+    }
+  }
+  return (modelDir / decoded).lexically_normal();
+}
+
+std::vector<unsigned char> imageBytes(const tinygltf::Image& image, const std::string& path, std::string& mimeType) {
+  std::vector<unsigned char> bytes;
+  mimeType = image.mimeType;
+  if (tinygltf::IsDataURI(image.uri)) {
+    TM_CHECK(tinygltf::DecodeDataURI(&bytes, mimeType, image.uri, 0, false),
+             located(path, "image " + quote(image.name) + ": its data URI cannot be decoded"));
+  } else {
+    const fs::path modelDir = fs::absolute(path).lexically_normal().parent_path();
+    const fs::path file = uriFile(modelDir, image.uri);
+    requireInsideModelFolder(file, modelDir, path, "image uri " + quote(image.uri));
+    const std::string data = readFileBytes(file.string(), "image", uint64_t(UINT32_MAX));
+    bytes.assign(data.begin(), data.end());
+  }
+  // The type from the bytes: a GLB embeds only PNG and JPEG.
+  if (bytes.size() >= 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' && bytes[3] == 'G')
+    mimeType = "image/png";
+  else if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF)
+    mimeType = "image/jpeg";
+  else
+    throw Error(located(path, "image " + quote(image.uri.substr(0, 64)) + " is neither PNG nor JPEG"));
+  return bytes;
+}
+
 // Checks the JSON of a glTF file before tinygltf reads it: nesting depth (its reader recurses), and that
 // every buffer and image URI that is not a data: URI stays inside the model's folder.
 void checkGltfJson(const std::string& text, const fs::path& modelDir, const std::string& path) {
@@ -665,18 +704,7 @@ void checkGltfJson(const std::string& text, const fs::path& modelDir, const std:
       if (!entry.is_object() || !entry.contains("uri") || !entry["uri"].is_string()) continue;
       const std::string uri = entry["uri"].get<std::string>();
       if (uri.rfind("data:", 0) == 0) continue;
-      std::string decoded;  // percent-decoded, as tinygltf resolves it
-      for (size_t k = 0; k < uri.size(); ++k) {
-        int value = 0;
-        if (uri[k] == '%' && k + 2 < uri.size() &&
-            std::from_chars(uri.data() + k + 1, uri.data() + k + 3, value, 16).ptr == uri.data() + k + 3) {
-          decoded += char(value);
-          k += 2;
-        } else {
-          decoded += uri[k];
-        }
-      }
-      const fs::path file = (modelDir / decoded).lexically_normal();
+      const fs::path file = uriFile(modelDir, uri);
       requireInsideModelFolder(file, modelDir, path,
                                std::string(list) + "[" + std::to_string(i) + "].uri " + quote(uri));
     }

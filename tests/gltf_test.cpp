@@ -465,17 +465,52 @@ Vec2f floats2(const std::vector<unsigned char>& e) {
 }
 
 // `montage synth` (3 views of the rigged cylinder, 40 clicks, its solid pattern) and `montage run` into DIR/out.
-void montageRunOnRig(const std::string& dir) {
-  const std::string rig = riggedCylinder(dir);
+void montageRun(const std::string& dir, const std::string& mesh, int features) {
   const std::string exe = test::montageExe();
   std::string log;
-  ASSERT_EQ(test::runCommand(
-                "'" + exe + "' synth --mesh '" + rig + "' --views 3 --features 40 --size 256 --out '" + dir + "/scene'",
-                &log),
+  ASSERT_EQ(test::runCommand("'" + exe + "' synth --mesh '" + mesh + "' --views 3 --features " +
+                                 std::to_string(features) + " --size 256 --out '" + dir + "/scene'",
+                             &log),
             0)
       << log;
   ASSERT_EQ(test::runCommand("'" + exe + "' run '" + dir + "/scene/project.json' --out '" + dir + "/out'", &log), 0)
       << log;
+}
+void montageRunOnRig(const std::string& dir) {
+  montageRun(dir, riggedCylinder(dir), 40);
+}
+
+// The export stage's word on the GLB in DIR/out/report.json.
+nlohmann::json glbReport(const std::string& dir) {
+  const nlohmann::json report = test::readJson(dir + "/out/report.json");
+  const nlohmann::json stages = report["stages"];
+  for (const auto& stage : stages)
+    if (stage["stage"] == "export") return stage["counts"]["glb"];
+  return {};
+}
+
+// The mean colour difference (sRGB, 0..1) between the run's GLB and OBJ at each face's centre, faces matched by their
+// centroids; every face must match.
+double glbAgainstObj(const std::string& dir) {
+  const TexturedModel fromGlb = loadModel(dir + "/out/model.glb"), fromObj = loadModel(dir + "/out/model.obj");
+  EXPECT_EQ(fromGlb.mesh.numFaces(), fromObj.mesh.numFaces());
+  std::map<std::array<long, 3>, int> objFace;
+  const auto key = [](const Mesh& m, int f) {
+    const auto p = m.facePositions(f);
+    const Vec3 c = (p[0] + p[1] + p[2]) / 3.0;
+    return std::array<long, 3>{std::lround(c.x() * 1e5), std::lround(c.y() * 1e5), std::lround(c.z() * 1e5)};
+  };
+  for (int f = 0; f < fromObj.mesh.numFaces(); ++f) objFace[key(fromObj.mesh, f)] = f;
+  double diff = 0;
+  int matched = 0;
+  for (int f = 0; f < fromGlb.mesh.numFaces(); ++f) {
+    const auto it = objFace.find(key(fromGlb.mesh, f));
+    if (it == objFace.end()) continue;
+    ++matched;
+    diff += (fromGlb.colorAt(f, Vec3(1, 1, 1) / 3.0) - fromObj.colorAt(it->second, Vec3(1, 1, 1) / 3.0)).norm();
+  }
+  EXPECT_EQ(matched, fromGlb.mesh.numFaces());
+  return diff / std::max(matched, 1);
 }
 
 }  // namespace
@@ -665,12 +700,8 @@ TEST(GltfWriteBack, EmbedsTheFilesOtherImagesAsTheyAre) {
 TEST(GltfWriteBack, MontageRunWritesTheRigBack) {
   const std::string dir = test::tempDir("gltf_write_back_run");
   ASSERT_NO_FATAL_FAILURE(montageRunOnRig(dir));
-  const nlohmann::json report = test::readJson(dir + "/out/report.json");
-  const nlohmann::json stages = report["stages"];
-  nlohmann::json glb;
-  for (const auto& stage : stages)
-    if (stage["stage"] == "export") glb = stage["counts"]["glb"];
-  ASSERT_TRUE(glb.is_object()) << report.dump(1);
+  const nlohmann::json glb = glbReport(dir);
+  ASSERT_TRUE(glb.is_object());
   EXPECT_TRUE(glb["written_into_source"].get<bool>()) << glb.dump();
   const tinygltf::Model got = readGlb(dir + "/out/model.glb");
   ASSERT_EQ(got.skins.size(), 1u);
@@ -679,26 +710,7 @@ TEST(GltfWriteBack, MontageRunWritesTheRigBack) {
   EXPECT_TRUE(p.attributes.count("JOINTS_0") && p.attributes.count("WEIGHTS_0") && p.attributes.count("TEXCOORD_1"));
   EXPECT_EQ(p.targets.size(), 1u);
   EXPECT_EQ(got.materials.at(p.material).name, "skin_material");
-  // The same colours as the OBJ, face by face (faces matched by their centroids).
-  const TexturedModel fromGlb = loadModel(dir + "/out/model.glb"), fromObj = loadModel(dir + "/out/model.obj");
-  ASSERT_EQ(fromGlb.mesh.numFaces(), fromObj.mesh.numFaces());
-  std::map<std::array<long, 3>, int> objFace;
-  const auto key = [](const Mesh& m, int f) {
-    const auto p = m.facePositions(f);
-    const Vec3 c = (p[0] + p[1] + p[2]) / 3.0;
-    return std::array<long, 3>{std::lround(c.x() * 1e5), std::lround(c.y() * 1e5), std::lround(c.z() * 1e5)};
-  };
-  for (int f = 0; f < fromObj.mesh.numFaces(); ++f) objFace[key(fromObj.mesh, f)] = f;
-  double diff = 0;
-  int matched = 0;
-  for (int f = 0; f < fromGlb.mesh.numFaces(); ++f) {
-    const auto it = objFace.find(key(fromGlb.mesh, f));
-    if (it == objFace.end()) continue;
-    ++matched;
-    diff += (fromGlb.colorAt(f, Vec3(1, 1, 1) / 3.0) - fromObj.colorAt(it->second, Vec3(1, 1, 1) / 3.0)).norm();
-  }
-  EXPECT_EQ(matched, fromGlb.mesh.numFaces());
-  EXPECT_LT(diff / std::max(matched, 1), 0.01);
+  EXPECT_LT(glbAgainstObj(dir), 0.01);  // the same colours as the OBJ
 
   // The same bytes from a copy of the project in another folder, its mesh touched.
   const std::string copy = test::tempDir("gltf_write_back_copy");
@@ -712,6 +724,26 @@ TEST(GltfWriteBack, MontageRunWritesTheRigBack) {
       << log;
   for (const char* file : {"model.glb", "model.obj"})
     EXPECT_EQ(readFileBytes(dir + "/out/" + file, "a"), readFileBytes(copy + "/out/" + file, "b")) << file;
+}
+
+// A real third-party GLB (the Lee Perry-Smith head of the shared data: a camera and a lamp node beside the mesh, its
+// own UV set) through `montage run`: written back, every node kept, its UV set kept beside the montage's, the same
+// colours as the OBJ.
+TEST(GltfWriteBack, ARealHeadGlbIsWrittenBack) {
+  TM_REQUIRE_SHARED(head, "meshes/leeperrysmith/LeePerrySmith.glb");
+  const std::string dir = test::tempDir("gltf_write_back_head");
+  ASSERT_NO_FATAL_FAILURE(montageRun(dir, head, 60));
+  const nlohmann::json glb = glbReport(dir);
+  ASSERT_TRUE(glb.is_object());
+  EXPECT_TRUE(glb["written_into_source"].get<bool>()) << glb.dump();
+  EXPECT_EQ(glb["left_out_triangles"], 0);
+  const tinygltf::Model src = readGlb(head), got = readGlb(dir + "/out/model.glb");
+  ASSERT_EQ(got.nodes.size(), src.nodes.size());
+  for (size_t n = 0; n < src.nodes.size(); ++n) EXPECT_EQ(got.nodes[n].name, src.nodes[n].name);
+  const tinygltf::Primitive& p = got.meshes.at(0).primitives.at(0);
+  EXPECT_TRUE(p.attributes.count("TEXCOORD_0") && p.attributes.count("TEXCOORD_1") && p.attributes.count("NORMAL"));
+  EXPECT_EQ(got.materials.at(p.material).pbrMetallicRoughness.baseColorTexture.texCoord, 1);
+  EXPECT_LT(glbAgainstObj(dir), 0.01);
 }
 
 // The written-back GLB passes the Khronos validator without errors or warnings.

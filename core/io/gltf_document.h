@@ -69,7 +69,11 @@ struct Soup {
 };
 Soup readSoup(const tinygltf::Model& gm, const std::string& path, bool withTextures);
 
-// Writing: a PNG texture of `mat` (its image in `bufferView`, named after the texture or `name`; -1 to set later)
+// Writing: appends `size` bytes to `bin` (buffer 0's data, 4-byte aligned as the format asks) as a new view in
+// `views` (`stride` 0: tightly packed); returns the view's index.
+int appendView(std::vector<unsigned char>& bin, std::vector<tinygltf::BufferView>& views, const void* data, size_t size,
+               int target, size_t stride = 0);
+// A PNG texture of `mat` (its image in `bufferView`, named after the texture or `name`; -1 to set later)
 // through one linear, repeating sampler (made on first use, kept in `sampler`); returns the texture's index.
 int addTexture(tinygltf::Model& gm, const Material& mat, const std::string& name, int bufferView, int& sampler);
 // Serialises `gm` as a GLB at `path` (its folder made, the file replaced atomically).

@@ -23,16 +23,7 @@ struct Packer {
   std::vector<tinygltf::Accessor> accessors;
 
   int view(const unsigned char* data, size_t size, int target, size_t stride = 0) {
-    while (bin.size() % 4) bin.push_back(0);
-    tinygltf::BufferView v;
-    v.buffer = 0;
-    v.byteOffset = bin.size();
-    v.byteLength = size;
-    v.byteStride = stride;
-    v.target = target;
-    bin.insert(bin.end(), data, data + size);
-    views.push_back(v);
-    return static_cast<int>(views.size()) - 1;
+    return gltf::appendView(bin, views, data, size, target, stride);
   }
 
   // An accessor shaped like `like` (type, component type, normalised, name, extras) over `count` elements packed in

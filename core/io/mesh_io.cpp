@@ -1054,8 +1054,7 @@ LoadedMesh parseMesh(const std::string& bytes, const std::string& ext, const std
       for (int k = 0; k < 3; ++k) {
         int j = 0;
         while (j < 2 && soup.positions[soup.triangles[t][j]] != mesh.position(fv[k])) ++j;
-        const Vec3 n = normals[t][j].squaredNorm() > 0 ? normals[t][j] : mesh.faceNormal(f);  // none: the face's
-        mesh.cornerNormal[f][k] = n.squaredNorm() > 0 ? n.cast<float>() : Vec3f(0, 0, 1);
+        mesh.cornerNormal[f][k] = usableNormal(mesh, f, normals[t][j]);
       }
     }
   }
@@ -1064,6 +1063,11 @@ LoadedMesh parseMesh(const std::string& bytes, const std::string& ext, const std
     for (int f = 0; f < mesh.numFaces(); ++f) mesh.facePolygon[f] = polygons[mesh.faceOrigin[f]];
   }
   return loaded;
+}
+
+Vec3f usableNormal(const Mesh& mesh, int f, const Vec3& normal) {
+  const Vec3 n = normal.squaredNorm() > 0 ? normal : mesh.faceNormal(f);
+  return n.squaredNorm() > 0 ? n.cast<float>() : Vec3f(0, 0, 1);
 }
 
 void saveMeshObj(const Mesh& mesh, const std::string& path) {

@@ -32,4 +32,8 @@ LoadedMesh parseMesh(const std::string& bytes, const std::string& format, const 
 // Writes positions and faces (and UVs, if any) as OBJ. Throws montage::Error on I/O failure.
 void saveMeshObj(const Mesh& mesh, const std::string& path);
 
+// A file's normal at a corner of face f as Mesh::cornerNormal keeps it (the exports write it, so it must be a
+// direction): `normal` (unit length) when it has one, else the face's normal, else +z (a degenerate face).
+Vec3f usableNormal(const Mesh& mesh, int f, const Vec3& normal);
+
 }  // namespace montage

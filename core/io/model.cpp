@@ -926,6 +926,21 @@ Soup readSoup(const tinygltf::Model& gm, const std::string& path, bool withTextu
   return soup;
 }
 
+int appendView(std::vector<unsigned char>& bin, std::vector<tinygltf::BufferView>& views, const void* data, size_t size,
+               int target, size_t stride) {
+  while (bin.size() % 4) bin.push_back(0);
+  tinygltf::BufferView view;
+  view.buffer = 0;
+  view.byteOffset = bin.size();
+  view.byteLength = size;
+  view.byteStride = stride;
+  view.target = target;
+  const auto* p = static_cast<const unsigned char*>(data);
+  bin.insert(bin.end(), p, p + size);
+  views.push_back(view);
+  return static_cast<int>(views.size()) - 1;
+}
+
 int addTexture(tinygltf::Model& gm, const Material& mat, const std::string& name, int bufferView, int& sampler) {
   if (sampler < 0) {
     tinygltf::Sampler s;
@@ -986,19 +1001,9 @@ TexturedModel loadGltfModel(const std::string& path) {
 struct GlbBuilder {
   tinygltf::Model gm;
 
-  // Appends bytes to the single buffer (4-byte aligned) and returns a new buffer view.
+  // Appends bytes to the single buffer and returns a new buffer view.
   int addView(const void* data, size_t size, int target) {
-    auto& bytes = gm.buffers[0].data;
-    while (bytes.size() % 4) bytes.push_back(0);
-    tinygltf::BufferView view;
-    view.buffer = 0;
-    view.byteOffset = bytes.size();
-    view.byteLength = size;
-    view.target = target;
-    const auto* p = static_cast<const unsigned char*>(data);
-    bytes.insert(bytes.end(), p, p + size);
-    gm.bufferViews.push_back(view);
-    return static_cast<int>(gm.bufferViews.size()) - 1;
+    return gltf::appendView(gm.buffers[0].data, gm.bufferViews, data, size, target);
   }
 
   template <int N>
@@ -1071,7 +1076,7 @@ LoadedMesh loadGltfMesh(const std::string& path, const MeshLoadOptions& options)
         const auto fv = mesh.faceVertices(f);
         for (int k = 0; k < 3; ++k) {
           const Vec3& n = soup.normals[mesh.vertexOrigin[fv[k]]];
-          mesh.cornerNormal[f][k] = n.squaredNorm() > 0 ? n.cast<float>() : mesh.faceNormal(f).cast<float>();
+          mesh.cornerNormal[f][k] = usableNormal(mesh, f, n);
         }
       }
     }

@@ -746,13 +746,82 @@ TEST(GltfWriteBack, ARealHeadGlbIsWrittenBack) {
   EXPECT_LT(glbAgainstObj(dir), 0.01);
 }
 
-// The written-back GLB passes the Khronos validator without errors or warnings.
-TEST(GltfValidator, WrittenBackRigHasNoErrors) {
+// The rigged FBX of tests/data (made by tests/blender/make_rig_fbx.py: a cylinder on a two-bone armature, a shape
+// key, a second UV set, an animation of the upper bone) through `montage run`: read in glTF form, so model.glb keeps
+// the armature, the weights, the shape key, both UV sets and the animation, with the montage's texture on a third set.
+void montageRunOnFbxRig(const std::string& dir) {
+  fs::copy_file(test::testDataDir() + "/rig.fbx", dir + "/rig.fbx");
+  montageRun(dir, dir + "/rig.fbx", 40);
+}
+
+TEST(GltfWriteBack, AnFbxRigComesBackInTheGlb) {
+  const std::string dir = test::tempDir("gltf_write_back_fbx");
+  // The mesh the FBX gives in glTF form is the mesh the plain reader gives: the same faces at the same places.
+  const LoadedMesh loaded = loadMesh(test::testDataDir() + "/rig.fbx");
+  ASSERT_TRUE(loaded.mesh);
+  EXPECT_EQ(loaded.report.format, "fbx");
+  EXPECT_EQ(loaded.mesh->numFaces(), 634);
+  Vec3 lo = Vec3::Constant(1e9), hi = -lo;
+  for (int v = 0; v < loaded.mesh->numVertices(); ++v)
+    lo = lo.cwiseMin(loaded.mesh->position(v)), hi = hi.cwiseMax(loaded.mesh->position(v));
+  // Blender's metres as the FBX's centimetres: the cylinder of radius 0.5 and height 2, 100 times.
+  EXPECT_LT((lo - Vec3(-50, 0, -50)).norm(), 1e-3) << lo.transpose();
+  EXPECT_LT((hi - Vec3(50, 200, 50)).norm(), 1e-3) << hi.transpose();
+
+  ASSERT_NO_FATAL_FAILURE(montageRunOnFbxRig(dir));
+  const nlohmann::json glb = glbReport(dir);
+  ASSERT_TRUE(glb.is_object());
+  EXPECT_TRUE(glb["written_into_source"].get<bool>()) << glb.dump();
+  EXPECT_EQ(glb["left_out_triangles"], 0);
+  const tinygltf::Model got = readGlb(dir + "/out/model.glb");
+  ASSERT_EQ(got.skins.size(), 1u);
+  std::set<std::string> joints;
+  for (int j : got.skins[0].joints) joints.insert(got.nodes.at(j).name);
+  EXPECT_EQ(joints, (std::set<std::string>{"root", "tip"}));
+  ASSERT_EQ(got.animations.size(), 1u);
+  EXPECT_FALSE(got.animations[0].channels.empty());
+  ASSERT_EQ(got.meshes.size(), 1u);
+  const tinygltf::Primitive& p = got.meshes[0].primitives.at(0);
+  for (const char* a : {"JOINTS_0", "WEIGHTS_0", "NORMAL", "TEXCOORD_0", "TEXCOORD_1", "TEXCOORD_2"})
+    EXPECT_TRUE(p.attributes.count(a)) << a;
+  ASSERT_EQ(p.targets.size(), 1u);
+  // The shape key's bulge: 0.3 of the radius (0.5 in the mesh's own metres) at the middle ring.
+  const tinygltf::Accessor& bulge = got.accessors.at(p.targets[0].at("POSITION"));
+  ASSERT_EQ(bulge.maxValues.size(), 3u);
+  EXPECT_NEAR(bulge.maxValues[0], 0.15, 1e-3);
+  EXPECT_EQ(got.materials.at(p.material).name, "skin_material");
+  EXPECT_EQ(got.materials.at(p.material).pbrMetallicRoughness.baseColorTexture.texCoord, 2);
+  EXPECT_LT(glbAgainstObj(dir), 0.01);  // the same colours as the OBJ
+}
+
+namespace {
+
+// Why the Khronos validator cannot run here (empty when it can).
+std::string validatorMissing() {
   const std::string nodeDir = TM_GLTF_NODE_DIR;
   if (nodeDir.empty() || !fs::exists(nodeDir + "/.tm_gltf_validator_ready"))
-    GTEST_SKIP() << "the Khronos glTF validator is not installed in '" << nodeDir
-                 << "': the ctest test npm_gltf_validator_setup installs it with npm";
-  if (test::runCommand("command -v node") != 0) GTEST_SKIP() << "node is not installed";
+    return "the Khronos glTF validator is not installed in '" + nodeDir +
+           "': the ctest test npm_gltf_validator_setup installs it with npm";
+  if (test::runCommand("command -v node") != 0) return "node is not installed";
+  return "";
+}
+
+// The validator's summary of FILE ("FILE: errors: E, warnings: W, ...") and its messages; expects it to run.
+std::string validate(const std::string& file) {
+  std::string log;
+  const int rc = test::runCommand("NODE_PATH='" + std::string(TM_GLTF_NODE_DIR) + "/node_modules' node '" +
+                                      TM_GLTF_VALIDATE_JS + "' '" + file + "'",
+                                  &log);
+  std::printf("%s", log.c_str());
+  EXPECT_EQ(rc, 0) << log;
+  return log;
+}
+
+}  // namespace
+
+// The written-back GLB passes the Khronos validator without errors or warnings.
+TEST(GltfValidator, WrittenBackRigHasNoErrors) {
+  if (const std::string why = validatorMissing(); !why.empty()) GTEST_SKIP() << why;
   const std::string dir = test::tempDir("gltf_write_back_validator");
   const std::string rig = riggedCylinder(dir);
   TexturedModel model;
@@ -764,29 +833,33 @@ TEST(GltfValidator, WrittenBackRigHasNoErrors) {
   model.materials = {m};
   const std::string out = dir + "/out.glb";
   exportGlbInto(model, rig, out);
-  std::string log;
-  const int rc = test::runCommand(
-      "NODE_PATH='" + nodeDir + "/node_modules' node '" + TM_GLTF_VALIDATE_JS + "' '" + out + "'", &log);
-  std::printf("%s", log.c_str());
-  EXPECT_EQ(rc, 0) << log;
+  const std::string log = validate(out);
   EXPECT_NE(log.find("errors: 0,"), std::string::npos) << log;
   EXPECT_NE(log.find("warnings: 0,"), std::string::npos) << log;
+}
+
+// The GLB written from the rigged FBX passes the validator without errors. Its two warnings are those of every
+// exporter that keeps an artist's hierarchy (Blender's own too): the skinned mesh's node is a child of the scene's
+// root and has a transform, which viewers ignore for a skinned mesh.
+TEST(GltfValidator, FbxRigWrittenBackHasNoErrors) {
+  if (const std::string why = validatorMissing(); !why.empty()) GTEST_SKIP() << why;
+  const std::string dir = test::tempDir("gltf_fbx_validator");
+  ASSERT_NO_FATAL_FAILURE(montageRunOnFbxRig(dir));
+  const std::string log = validate(dir + "/out/model.glb");
+  EXPECT_NE(log.find("errors: 0,"), std::string::npos) << log;
 }
 
 // Blender (Debian's 3.4, headless) imports the run's GLB and OBJ as an artist would get them: the armature deforms
 // the textured mesh, the shape key, three UV layers with the texture on the montage's, custom normals, vertex
 // colours, the material's name, a rendered frame that shows the texture; the OBJ with its texture and normals
 // (tests/blender/check_import.py). `scripts/test.sh --with-blender` installs Blender; without it this skips.
-TEST(Blender, ImportsTheWrittenBackRigAndTheObj) {
-  if (test::runCommand("command -v blender") != 0)
-    GTEST_SKIP() << "Blender is not installed: `scripts/test.sh --with-blender` installs it (Debian package blender)";
-  const std::string dir = test::tempDir("gltf_blender");
-  ASSERT_NO_FATAL_FAILURE(montageRunOnRig(dir));
+// Runs a Blender check script (tests/blender) on DIR/out/model.glb and model.obj and any further arguments; prints
+// its own lines and expects it to pass.
+void blenderCheck(const std::string& script, const std::string& dir, const std::string& more = "") {
   std::string log;
-  const int rc =
-      test::runCommand("blender -b --factory-startup --python-exit-code 1 -P '" + std::string(TM_BLENDER_CHECK_PY) +
-                           "' -- '" + dir + "/out/model.glb' '" + dir + "/out/model.obj' '" + dir + "/render.png'",
-                       &log);
+  const int rc = test::runCommand("blender -b --factory-startup --python-exit-code 1 -P '" + script + "' -- '" + dir +
+                                      "/out/model.glb' '" + dir + "/out/model.obj' " + more,
+                                  &log);
   std::string checks;  // the script's own lines, not Blender's chatter
   std::istringstream lines(log);
   for (std::string line; std::getline(lines, line);)
@@ -796,4 +869,22 @@ TEST(Blender, ImportsTheWrittenBackRigAndTheObj) {
   std::printf("%s", checks.c_str());
   EXPECT_EQ(rc, 0) << log;
   EXPECT_NE(checks.find("all checks passed"), std::string::npos) << log;
+}
+
+TEST(Blender, ImportsTheWrittenBackRigAndTheObj) {
+  if (test::runCommand("command -v blender") != 0)
+    GTEST_SKIP() << "Blender is not installed: `scripts/test.sh --with-blender` installs it (Debian package blender)";
+  const std::string dir = test::tempDir("gltf_blender");
+  ASSERT_NO_FATAL_FAILURE(montageRunOnRig(dir));
+  blenderCheck(TM_BLENDER_CHECK_PY, dir, "'" + dir + "/render.png'");
+}
+
+// The GLB from the rigged FBX in Blender: the FBX's armature deforms the textured mesh, whose bind pose is where the
+// OBJ has it; the shape key and the three UV layers (tests/blender/check_fbx_rig.py).
+TEST(Blender, TheFbxRigDeformsTheTexturedGlb) {
+  if (test::runCommand("command -v blender") != 0)
+    GTEST_SKIP() << "Blender is not installed: `scripts/test.sh --with-blender` installs it (Debian package blender)";
+  const std::string dir = test::tempDir("gltf_blender_fbx");
+  ASSERT_NO_FATAL_FAILURE(montageRunOnFbxRig(dir));
+  blenderCheck(fs::path(TM_BLENDER_CHECK_PY).parent_path().string() + "/check_fbx_rig.py", dir);
 }

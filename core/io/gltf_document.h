@@ -17,6 +17,11 @@ namespace montage::gltf {
 // Reads a .glb or .gltf file with its buffers (and images, decoded as RGBA8, when `decodeImages`): only files
 // inside the model's folder, the JSON's nesting bounded. Throws montage::Error naming the file and the reason.
 tinygltf::Model loadDocument(const std::string& path, bool decodeImages);
+// The same from a file's bytes (`binary`: a GLB); `path` names it in messages and anchors its relative URIs.
+tinygltf::Model parseDocument(const std::string& bytes, const std::string& path, bool binary, bool decodeImages);
+// The document the mesh of a source file is read from: a .glb / .gltf as it is, and a rigged FBX or Collada scene in
+// the glTF form its reader gives it (io/assimp_gltf.h). Throws montage::Error naming the file when it has neither.
+tinygltf::Model loadSourceDocument(const std::string& path);
 
 // The bytes of an image the file names by URI (a data: URI, or a file inside the model's folder), and their type,
 // which must be PNG or JPEG (what a GLB embeds). Throws montage::Error naming the file and the image.
@@ -68,6 +73,8 @@ struct Soup {
   std::vector<MeshFinding> notes;  // skins and morph targets read in rest pose
 };
 Soup readSoup(const tinygltf::Model& gm, const std::string& path, bool withTextures);
+// The mesh of a document as loadGltfMesh gives it (welded as `options` say, the file's normals per corner).
+LoadedMesh documentMesh(const tinygltf::Model& gm, const std::string& path, const MeshLoadOptions& options);
 
 // Writing: appends `size` bytes to `bin` (buffer 0's data, 4-byte aligned as the format asks) as a new view in
 // `views` (`stride` 0: tightly packed); returns the view's index.

@@ -140,7 +140,7 @@ constexpr const char* kGeometryExtensions[] = {"KHR_draco_mesh_compression", "EX
 GltfWriteBack exportGlbInto(const TexturedModel& model, const std::string& source, const std::string& path,
                             PngCache* pngs) {
   TM_CHECK(model.textured(), located(path, "the model has no texture coordinates to write back"));
-  tinygltf::Model gm = gltf::loadDocument(source, false);
+  tinygltf::Model gm = gltf::loadSourceDocument(source);
   for (const char* ext : kGeometryExtensions)
     TM_CHECK(std::find(gm.extensionsUsed.begin(), gm.extensionsUsed.end(), ext) == gm.extensionsUsed.end(),
              located(source, std::string("uses ") + ext + ": its geometry cannot be written back"));

@@ -2,6 +2,7 @@
 // and the OBJ writer.
 #include "io/mesh_io.h"
 
+#include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
@@ -21,6 +22,8 @@
 
 #include "base/fileio.h"
 #include "base/isolate.h"
+#include "io/assimp_gltf.h"
+#include "io/gltf_document.h"
 #include "io/model.h"
 
 namespace montage {
@@ -802,12 +805,13 @@ void readStl(const std::string& data, Soup& soup) {
 // Every mesh of the scene in world space (its nodes' transforms applied), polygons kept as polygons and fanned
 // as OBJ's are, the first UV set, faces labelled by their material's and their mesh's names. Assimp gives each
 // corner its own vertex where attributes differ; the caller welds identical positions, as for STL. Points and
-// lines are skipped, skins and morph targets are not carried, each with a warning.
-void readAssimpHere(const std::string& data, Soup& soup, const char* format, const char* name) {
+// lines are skipped with a warning. A scene with skins or morph targets is given as a GLB instead (`rigGlb`,
+// io/assimp_gltf.h), so that the export carries the rig.
+void readAssimpHere(const std::string& data, Soup& soup, const char* format, const char* name, std::string& rigGlb) {
   Assimp::Importer importer;
-  const aiScene* scene = importer.ReadFileFromMemory(
-      data.data(), data.size(), aiProcess_PreTransformVertices | aiProcess_ValidateDataStructure, format);
-  if (!scene) {
+  importer.SetPropertyBool(AI_CONFIG_IMPORT_FBX_PRESERVE_PIVOTS, false);  // no "$AssimpFbx$" helper nodes
+  const aiScene* scene = importer.ReadFileFromMemory(data.data(), data.size(), aiProcess_ValidateDataStructure, format);
+  const auto fail = [&] {
     // Assimp names a file read from memory "$$$___magic___$$$.<format>": name the user's instead.
     std::string why = importer.GetErrorString();
     const std::string magic = std::string("$$$___magic___$$$.") + format;
@@ -816,10 +820,24 @@ void readAssimpHere(const std::string& data, Soup& soup, const char* format, con
     if (why == "std::bad_alloc") why = "it asks for more memory than a mesh of its size needs (damaged?)";
     failAt(soup.file, 0,
            "cannot read as " + std::string(name) + (why.empty() ? std::string(" (no reason given)") : ": " + why));
-  }
+  };
+  if (!scene) fail();
   if (!scene->HasMeshes()) failAt(soup.file, 0, "the " + std::string(name) + " file holds no mesh");
+  if (gltf::assimpSceneIsRigged(*scene)) {
+    scene = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                         aiProcess_LimitBoneWeights | aiProcess_SortByPType);
+    if (!scene) fail();
+    try {
+      rigGlb = gltf::assimpSceneAsGlb(*scene);
+    } catch (const Error& e) {
+      failAt(soup.file, 0, e.what());
+    }
+    return;
+  }
+  scene = importer.ApplyPostProcessing(aiProcess_PreTransformVertices);
+  if (!scene) fail();
   soup.binary = true;  // messages name the polygon, counted over the whole scene
-  int points = 0, rigged = 0, morphed = 0, polygon = 0;
+  int points = 0, polygon = 0;
   for (unsigned i = 0; i < scene->mNumMeshes; ++i) {
     const aiMesh& m = *scene->mMeshes[i];
     const int base = static_cast<int>(soup.positions.size()), uvBase = static_cast<int>(soup.texcoords.size()),
@@ -839,7 +857,6 @@ void readAssimpHere(const std::string& data, Soup& soup, const char* format, con
     soup.material.set(material ? material->GetName().C_Str() : "default", soup.triangles.size(), "default");
     soup.group.set(m.mName.length ? m.mName.C_Str() : ("mesh " + std::to_string(i)).c_str(), soup.triangles.size(),
                    "default");
-    rigged += m.HasBones(), morphed += m.mNumAnimMeshes > 0;
     std::vector<int> corner, corneruv, cornerNormal;
     for (unsigned f = 0; f < m.mNumFaces; ++f) {
       const aiFace& face = m.mFaces[f];
@@ -861,8 +878,6 @@ void readAssimpHere(const std::string& data, Soup& soup, const char* format, con
     if (count) soup.notes.push_back({MeshFinding::Severity::Warning, what, {}, count});
   };
   note(points, std::to_string(points) + " points and lines skipped (only faces are textured)");
-  note(rigged, std::to_string(rigged) + " meshes have a skin: the export carries no bones or weights");
-  note(morphed, std::to_string(morphed) + " meshes have morph targets: the export carries none");
 }
 
 // The soup's fields as bytes, to come back from the reader's process.
@@ -887,7 +902,7 @@ class Packer {
 
 class Unpacker {
  public:
-  explicit Unpacker(const std::string& b) : bytes_(b) {}
+  Unpacker(const std::string& b, size_t from) : bytes_(b), at_(from) {}
   uint64_t count() {
     uint64_t n = 0;
     take(&n, sizeof n);
@@ -914,20 +929,23 @@ class Unpacker {
     at_ += n;
   }
   const std::string& bytes_;
-  size_t at_ = 0;
+  size_t at_;
 };
 
 // Assimp's parsers are not ours: a damaged file can make them abort on an assert (3MF's zip reader) or ask for
 // tens of gigabytes (a flipped array length). They run in a child process (base/isolate.h) with a memory budget
 // of 2 GB plus 64 bytes for every byte of the file, and 10 minutes; the soup comes back as bytes.
-void readAssimp(const std::string& data, Soup& soup, const char* format, const char* name) {
+void readAssimp(const std::string& data, Soup& soup, const char* format, const char* name, std::string& rigGlb) {
   const size_t budget = (size_t(2) << 30) + 64 * data.size();
   const std::string packed = runIsolated(
       [&] {
         Soup s;
         s.file = soup.file;
-        readAssimpHere(data, s, format, name);
+        std::string glb;
+        readAssimpHere(data, s, format, name, glb);
+        if (!glb.empty()) return "G" + glb;  // a rig, in glTF form
         Packer p;
+        p.bytes = "S";
         p.put(s.positions), p.put(s.texcoords), p.put(s.triangles), p.put(uint64_t(s.hasUV)), p.put(s.uvIndex);
         p.put(s.source), p.put(s.material.names), p.put(s.material.ids), p.put(s.group.names), p.put(s.group.ids);
         p.put(s.normals), p.put(uint64_t(s.hasNormals)), p.put(s.normalIndex);
@@ -936,7 +954,12 @@ void readAssimp(const std::string& data, Soup& soup, const char* format, const c
         return p.bytes;
       },
       budget, 600, soup.file + ": reading it as " + name);
-  Unpacker u(packed);
+  TM_CHECK(!packed.empty(), "mesh reader: an empty answer from the reader's process");
+  if (packed[0] == 'G') {
+    rigGlb = packed.substr(1);
+    return;
+  }
+  Unpacker u(packed, 1);
   u.get(soup.positions), u.get(soup.texcoords), u.get(soup.triangles);
   soup.hasUV = u.count() != 0;
   u.get(soup.uvIndex), u.get(soup.source), u.get(soup.material.names), u.get(soup.material.ids);
@@ -962,23 +985,25 @@ void appendNumber(std::string& out, double x) {
 
 using Reader = void (*)(const std::string&, Soup&);
 
-// The formats parseMesh reads (glTF has its own loader, io/model.h). `welds`: identical positions are welded,
-// as the format shares no vertex between faces (STL) or the reader gives each corner its own vertex where its
+// The formats parseMesh reads (glTF has its own loader, io/model.h): by a reader of ours, or through Assimp
+// (`assimp`: its format hint, and the format's name for messages). `welds`: identical positions are welded, as
+// the format shares no vertex between faces (STL) or the reader gives each corner its own vertex where its
 // attributes differ (Assimp).
 struct MeshFormat {
   const char* ext;
   Reader read;
   bool welds;
+  const char* assimp = nullptr;
+  const char* name = nullptr;
 };
-const MeshFormat kMeshFormats[] = {
-    {"obj", readObj, false},
-    {"ply", readPly, false},
-    {"off", readOff, false},
-    {"stl", readStl, true},
-    {"fbx", [](const std::string& d, Soup& s) { readAssimp(d, s, "fbx", "FBX"); }, true},
-    {"dae", [](const std::string& d, Soup& s) { readAssimp(d, s, "dae", "Collada"); }, true},
-    {"3ds", [](const std::string& d, Soup& s) { readAssimp(d, s, "3ds", "3DS"); }, true},
-    {"3mf", [](const std::string& d, Soup& s) { readAssimp(d, s, "3mf", "3MF"); }, true}};
+const MeshFormat kMeshFormats[] = {{"obj", readObj, false},
+                                   {"ply", readPly, false},
+                                   {"off", readOff, false},
+                                   {"stl", readStl, true},
+                                   {"fbx", nullptr, true, "fbx", "FBX"},
+                                   {"dae", nullptr, true, "dae", "Collada"},
+                                   {"3ds", nullptr, true, "3ds", "3DS"},
+                                   {"3mf", nullptr, true, "3mf", "3MF"}};
 
 // The format of an extension ("obj"...); throws naming `path` when there is none.
 const MeshFormat& meshFormat(const std::string& ext, const std::string& path) {
@@ -1025,7 +1050,13 @@ LoadedMesh parseMesh(const std::string& bytes, const std::string& ext, const std
   const MeshFormat& format = meshFormat(ext, path);
   Soup soup;
   soup.file = path;
-  format.read(bytes, soup);
+  if (format.assimp) {
+    std::string rigGlb;
+    readAssimp(bytes, soup, format.assimp, format.name, rigGlb);
+    if (!rigGlb.empty()) return gltf::documentMesh(gltf::parseDocument(rigGlb, path, true, false), path, options);
+  } else {
+    format.read(bytes, soup);
+  }
   const std::vector<std::array<Vec2, 3>> uv = soup.finish();
 
   MeshLoadOptions opts = options;
@@ -1063,6 +1094,21 @@ LoadedMesh parseMesh(const std::string& bytes, const std::string& ext, const std
     for (int f = 0; f < mesh.numFaces(); ++f) mesh.facePolygon[f] = polygons[mesh.faceOrigin[f]];
   }
   return loaded;
+}
+
+tinygltf::Model gltf::loadSourceDocument(const std::string& path) {
+  std::string ext = lowerExtension(path);
+  if (ext == ".glb" || ext == ".gltf") return loadDocument(path, false);
+  if (!ext.empty()) ext.erase(0, 1);
+  const MeshFormat& format = meshFormat(ext, path);
+  std::string rigGlb;
+  if (format.assimp) {
+    montage::Soup soup;
+    soup.file = path;
+    readAssimp(readFileBytes(path, "mesh file"), soup, format.assimp, format.name, rigGlb);
+  }
+  TM_CHECK(!rigGlb.empty(), located(path, "holds no skin and no morph targets: there is no rig to write back"));
+  return parseDocument(rigGlb, path, true, false);
 }
 
 Vec3f usableNormal(const Mesh& mesh, int f, const Vec3& normal) {

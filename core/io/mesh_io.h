@@ -17,8 +17,9 @@ bool isMeshExtension(const std::string& ext);
 std::string meshExtensionList(const char* separator = " ");
 
 // Reads OBJ, PLY (ascii, binary), OFF or STL (ascii, binary) with our own parsers, FBX, Collada (.dae), 3DS and
-// 3MF through Assimp, by extension; glTF (.glb, .gltf) through loadGltfMesh (io/model.h). Polygons are fan
-// triangulated. Faces that cannot enter a manifold half-edge mesh are dropped and reported one by
+// 3MF through Assimp, by extension; glTF (.glb, .gltf) through loadGltfMesh (io/model.h). An FBX or Collada scene
+// with skins or morph targets is read in glTF form (io/assimp_gltf.h), so that the GLB export can carry its rig.
+// Polygons are fan triangulated. Faces that cannot enter a manifold half-edge mesh are dropped and reported one by
 // one. Throws montage::Error naming the file, line and reason when the file cannot be read or parsed.
 // A mesh that parses but cannot be processed (no faces, non-finite coordinates) comes back with
 // Error findings; use requireUsable() where processing must not go on.

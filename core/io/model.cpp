@@ -763,15 +763,17 @@ struct GltfFiles {
 };
 
 tinygltf::Model loadDocument(const std::string& path, bool decodeImages) {
-  const std::string ext = lowerExtension(path);
-  const bool binary = ext == ".glb";
+  return parseDocument(readFileBytes(path, "glTF file", uint64_t(UINT32_MAX)), path, lowerExtension(path) == ".glb",
+                       decodeImages);
+}
+
+tinygltf::Model parseDocument(const std::string& bytes, const std::string& path, bool binary, bool decodeImages) {
   tinygltf::TinyGLTF loader;
   tinygltf::Model gm;
   std::string err, warn;
   GltfFiles files{fs::absolute(path).lexically_normal().parent_path(), path, decodeImages};
   loader.SetFsCallbacks({&GltfFiles::exists, &GltfFiles::expand, &GltfFiles::read, &GltfFiles::write, &files});
   loader.SetImageLoader(&GltfFiles::image, &files);
-  const std::string bytes = readFileBytes(path, "glTF file", uint64_t(UINT32_MAX));
   bool ok;
   if (binary) {
     checkGltfJson(glbJsonChunk(bytes, path), files.dir, path);
@@ -1062,9 +1064,15 @@ std::vector<Vec3> vertexNormals(const Mesh& mesh) {
 LoadedMesh loadGltfMesh(const std::string& path, const MeshLoadOptions& options) {
   const std::string ext = lowerExtension(path);
   TM_CHECK(ext == ".glb" || ext == ".gltf", located(path, "not a glTF file (expected .glb or .gltf)"));
-  const gltf::Soup soup = gltf::readSoup(gltf::loadDocument(path, false), path, false);
+  return gltf::documentMesh(gltf::loadDocument(path, false), path, options);
+}
+
+namespace gltf {
+
+LoadedMesh documentMesh(const tinygltf::Model& gm, const std::string& path, const MeshLoadOptions& options) {
+  const Soup soup = readSoup(gm, path, false);
   LoadedMesh loaded = buildMesh(soup.vertices, soup.triangles, soup.uv, options, path);
-  loaded.report.format = ext.substr(1);
+  loaded.report.format = lowerExtension(path).substr(1);
   loaded.report.findings.insert(loaded.report.findings.end(), soup.notes.begin(), soup.notes.end());
   if (loaded.mesh) {
     Mesh& mesh = *loaded.mesh;
@@ -1083,6 +1091,8 @@ LoadedMesh loadGltfMesh(const std::string& path, const MeshLoadOptions& options)
   }
   return loaded;
 }
+
+}  // namespace gltf
 
 std::vector<int> meshFaceValues(const Mesh& mesh, const std::vector<int>& values) {
   const size_t nf = static_cast<size_t>(mesh.numFaces());

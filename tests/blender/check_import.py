@@ -8,22 +8,16 @@ material's image texture on the third (the montage's), custom split normals, ver
 renders a frame with Cycles on the CPU and checks that the texture shows. Then imports the OBJ: faces, a textured
 material, a UV layer and the file's normals. Prints one line per check; any failure raises (exit code 1).
 """
+import os
 import sys
 
 import numpy
 
-# Blender 3.4's glTF importer uses numpy.bool, which numpy 1.24 removed.
-if "bool" not in numpy.__dict__:
-    numpy.bool = bool
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_check import check  # noqa: E402  (also restores numpy.bool for the glTF importer)
 
 import bpy  # noqa: E402
 from mathutils import Euler  # noqa: E402
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        raise SystemExit(1)
 
 
 glb, obj, render = sys.argv[sys.argv.index("--") + 1:][:3]

@@ -1,0 +1,21 @@
+// A rigged scene Assimp read (FBX, Collada) as a GLB document: internal to core/io (mesh_io.cpp converts in the
+// reader's child process; the model reader and the write-back export then read the GLB as any other).
+#pragma once
+
+#include <string>
+
+struct aiScene;
+
+namespace montage::gltf {
+
+// Whether any mesh of the scene has a skin or morph targets.
+bool assimpSceneIsRigged(const aiScene& scene);
+
+// The scene as GLB bytes: its node hierarchy (names, transforms), a mesh per node that shows meshes (a primitive per
+// Assimp mesh of triangles: positions, normals, every UV set, vertex colours, the four largest joint weights,
+// morph targets as displacements, the material), a skin per skinned node with the bones' offset matrices as its
+// inverse bind matrices, materials' names and diffuse colours (not their textures), and node animations. The scene
+// is expected triangulated. Throws montage::Error when nothing of it is a triangle or a bone has no node.
+std::string assimpSceneAsGlb(const aiScene& scene);
+
+}  // namespace montage::gltf

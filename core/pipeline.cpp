@@ -1595,9 +1595,10 @@ nlohmann::json exportResultGlb(const PipelineResult& result, const std::string& 
   TM_CHECK(model, "exportResultGlb: no model to write");
   nlohmann::json glb = {{"written_into_source", false}};
   const std::string meshExt = result.scene ? lowerExtension(result.scene->project.mesh) : "";
-  // A glTF file, or an FBX or Collada file with a rig (read in glTF form: io/assimp_gltf.h).
-  const bool rigCarrier = meshExt == ".glb" || meshExt == ".gltf" || meshExt == ".fbx" || meshExt == ".dae";
-  if (rigCarrier && result.baked && (result.baked->original || result.baked->meshUVs)) {
+  // A glTF file, or an Assimp file that may have been read in glTF form (io/assimp_gltf.h; if it was not, the
+  // write-back says why and the GLB is a new one).
+  const bool gltfForm = meshExt == ".glb" || meshExt == ".gltf" || isAssimpExtension(meshExt);
+  if (gltfForm && result.baked && (result.baked->original || result.baked->meshUVs)) {
     try {
       const GltfWriteBack w = exportGlbInto(*model, result.scene->project.mesh, path, pngs);
       glb = {{"written_into_source", true},

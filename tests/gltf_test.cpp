@@ -747,8 +747,9 @@ TEST(GltfWriteBack, ARealHeadGlbIsWrittenBack) {
 }
 
 // The rigged FBX of tests/data (made by tests/blender/make_rig_fbx.py: a cylinder on a two-bone armature, a shape
-// key, a second UV set, an animation of the upper bone) through `montage run`: read in glTF form, so model.glb keeps
-// the armature, the weights, the shape key, both UV sets and the animation, with the montage's texture on a third set.
+// key, a second UV set, vertex colours, an animation of the upper bone) through `montage run`: read in glTF form, so
+// model.glb keeps the armature, the weights, the shape key, both UV sets, the colours and the animation, with the
+// montage's texture on a third set.
 void montageRunOnFbxRig(const std::string& dir) {
   fs::copy_file(test::testDataDir() + "/rig.fbx", dir + "/rig.fbx");
   montageRun(dir, dir + "/rig.fbx", 40);
@@ -782,7 +783,7 @@ TEST(GltfWriteBack, AnFbxRigComesBackInTheGlb) {
   EXPECT_FALSE(got.animations[0].channels.empty());
   ASSERT_EQ(got.meshes.size(), 1u);
   const tinygltf::Primitive& p = got.meshes[0].primitives.at(0);
-  for (const char* a : {"JOINTS_0", "WEIGHTS_0", "NORMAL", "TEXCOORD_0", "TEXCOORD_1", "TEXCOORD_2"})
+  for (const char* a : {"JOINTS_0", "WEIGHTS_0", "NORMAL", "COLOR_0", "TEXCOORD_0", "TEXCOORD_1", "TEXCOORD_2"})
     EXPECT_TRUE(p.attributes.count(a)) << a;
   ASSERT_EQ(p.targets.size(), 1u);
   // The shape key's bulge: 0.3 of the radius (0.5 in the mesh's own metres) at the middle ring.

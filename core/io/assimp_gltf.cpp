@@ -97,9 +97,11 @@ std::vector<float> inverseBind(const aiMatrix4x4& m) {
 
 }  // namespace
 
-bool assimpSceneIsRigged(const aiScene& scene) {
-  for (unsigned i = 0; i < scene.mNumMeshes; ++i)
-    if (scene.mMeshes[i]->HasBones() || scene.mMeshes[i]->mNumAnimMeshes > 0) return true;
+bool assimpSceneNeedsGltf(const aiScene& scene) {
+  for (unsigned i = 0; i < scene.mNumMeshes; ++i) {
+    const aiMesh& m = *scene.mMeshes[i];
+    if (m.HasBones() || m.mNumAnimMeshes > 0 || m.GetNumUVChannels() > 1 || m.GetNumColorChannels() > 0) return true;
+  }
   return false;
 }
 

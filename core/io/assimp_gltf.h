@@ -8,8 +8,9 @@ struct aiScene;
 
 namespace montage::gltf {
 
-// Whether any mesh of the scene has a skin or morph targets.
-bool assimpSceneIsRigged(const aiScene& scene);
+// Whether the scene holds what only its glTF form carries into the export: a mesh with a skin, morph targets, a
+// second UV set or vertex colours (the plain reader keeps the first UV set and the normals).
+bool assimpSceneNeedsGltf(const aiScene& scene);
 
 // The scene as GLB bytes: its node hierarchy (names, transforms), a mesh per node that shows meshes (a primitive per
 // Assimp mesh of triangles: positions, normals, every UV set, vertex colours, the four largest joint weights,

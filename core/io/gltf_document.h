@@ -19,8 +19,9 @@ namespace montage::gltf {
 tinygltf::Model loadDocument(const std::string& path, bool decodeImages);
 // The same from a file's bytes (`binary`: a GLB); `path` names it in messages and anchors its relative URIs.
 tinygltf::Model parseDocument(const std::string& bytes, const std::string& path, bool binary, bool decodeImages);
-// The document the mesh of a source file is read from: a .glb / .gltf as it is, and a rigged FBX or Collada scene in
-// the glTF form its reader gives it (io/assimp_gltf.h). Throws montage::Error naming the file when it has neither.
+// The document the mesh of a source file is read from: a .glb / .gltf as it is, and an FBX, Collada, 3DS or 3MF scene
+// with a rig, a second UV set or vertex colours in the glTF form its reader gives it (io/assimp_gltf.h). Throws
+// montage::Error naming the file when it is neither.
 tinygltf::Model loadSourceDocument(const std::string& path);
 
 // The bytes of an image the file names by URI (a data: URI, or a file inside the model's folder), and their type,

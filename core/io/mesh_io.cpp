@@ -805,8 +805,8 @@ void readStl(const std::string& data, Soup& soup) {
 // Every mesh of the scene in world space (its nodes' transforms applied), polygons kept as polygons and fanned
 // as OBJ's are, the first UV set, faces labelled by their material's and their mesh's names. Assimp gives each
 // corner its own vertex where attributes differ; the caller welds identical positions, as for STL. Points and
-// lines are skipped with a warning. A scene with skins or morph targets is given as a GLB instead (`rigGlb`,
-// io/assimp_gltf.h), so that the export carries the rig.
+// lines are skipped with a warning. A scene with skins, morph targets, a second UV set or vertex colours is given as
+// a GLB instead (`rigGlb`, io/assimp_gltf.h), so that the export carries them.
 void readAssimpHere(const std::string& data, Soup& soup, const char* format, const char* name, std::string& rigGlb) {
   Assimp::Importer importer;
   importer.SetPropertyBool(AI_CONFIG_IMPORT_FBX_PRESERVE_PIVOTS, false);  // no "$AssimpFbx$" helper nodes
@@ -823,7 +823,7 @@ void readAssimpHere(const std::string& data, Soup& soup, const char* format, con
   };
   if (!scene) fail();
   if (!scene->HasMeshes()) failAt(soup.file, 0, "the " + std::string(name) + " file holds no mesh");
-  if (gltf::assimpSceneIsRigged(*scene)) {
+  if (gltf::assimpSceneNeedsGltf(*scene)) {
     scene = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
                                          aiProcess_LimitBoneWeights | aiProcess_SortByPType);
     if (!scene) fail();
@@ -1026,6 +1026,11 @@ const std::vector<std::string>& meshExtensions() {
   return all;
 }
 
+bool isAssimpExtension(const std::string& ext) {
+  return std::any_of(std::begin(kMeshFormats), std::end(kMeshFormats),
+                     [&](const MeshFormat& f) { return f.assimp && ext == std::string(".") + f.ext; });
+}
+
 bool isMeshExtension(const std::string& ext) {
   const auto& all = meshExtensions();
   return std::find(all.begin(), all.end(), ext) != all.end();
@@ -1107,7 +1112,9 @@ tinygltf::Model gltf::loadSourceDocument(const std::string& path) {
     soup.file = path;
     readAssimp(readFileBytes(path, "mesh file"), soup, format.assimp, format.name, rigGlb);
   }
-  TM_CHECK(!rigGlb.empty(), located(path, "holds no skin and no morph targets: there is no rig to write back"));
+  TM_CHECK(!rigGlb.empty(),
+           located(path,
+                   "holds no skin, morph target, second UV set or vertex colours to write back: the GLB is a new one"));
   return parseDocument(rigGlb, path, true, false);
 }
 

@@ -14,11 +14,13 @@ namespace montage {
 // (".obj .ply ... .3mf" with the default separator).
 const std::vector<std::string>& meshExtensions();
 bool isMeshExtension(const std::string& ext);
+bool isAssimpExtension(const std::string& ext);  // ".fbx", ".dae", ".3ds", ".3mf": read through Assimp
 std::string meshExtensionList(const char* separator = " ");
 
 // Reads OBJ, PLY (ascii, binary), OFF or STL (ascii, binary) with our own parsers, FBX, Collada (.dae), 3DS and
-// 3MF through Assimp, by extension; glTF (.glb, .gltf) through loadGltfMesh (io/model.h). An FBX or Collada scene
-// with skins or morph targets is read in glTF form (io/assimp_gltf.h), so that the GLB export can carry its rig.
+// 3MF through Assimp, by extension; glTF (.glb, .gltf) through loadGltfMesh (io/model.h). An Assimp scene with
+// skins, morph targets, a second UV set or vertex colours is read in glTF form (io/assimp_gltf.h), so that the GLB
+// export can carry them.
 // Polygons are fan triangulated. Faces that cannot enter a manifold half-edge mesh are dropped and reported one by
 // one. Throws montage::Error naming the file, line and reason when the file cannot be read or parsed.
 // A mesh that parses but cannot be processed (no faces, non-finite coordinates) comes back with

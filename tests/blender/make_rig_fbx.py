@@ -1,5 +1,5 @@
 # Makes tests/data/rig.fbx: a cylinder of quads on a two-bone armature (automatic weights), a shape key, a second
-# UV set, a material and a short animation of the upper bone; exported as binary FBX.
+# UV set, vertex colours, a material and a short animation of the upper bone; exported as binary FBX.
 #   blender --background --factory-startup --python tests/blender/make_rig_fbx.py -- tests/data/rig.fbx
 # (Blender 3.4, Debian bookworm).
 import sys
@@ -26,6 +26,10 @@ detail = body.data.uv_layers.new(name="detail")
 for loop in body.data.loops:
     co = body.data.vertices[loop.vertex_index].co
     detail.data[loop.index].uv = (0.5 + 0.4 * co.x, 0.5 + 0.4 * co.y)
+colours = body.data.color_attributes.new("tint", "BYTE_COLOR", "CORNER")
+for loop in body.data.loops:
+    z = body.data.vertices[loop.vertex_index].co.z
+    colours.data[loop.index].color = (0.2 + 0.4 * z, 0.5, 1.0 - 0.4 * z, 1.0)
 material = bpy.data.materials.new("skin_material")
 material.diffuse_color = (0.8, 0.6, 0.5, 1)
 body.data.materials.append(material)

@@ -1073,31 +1073,63 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
     for (size_t p = 0; p < np; ++p)
       if (fits[p].second->fits && !fits[p].second->subject) sameCamera[cameraOf(p)].push_back(p);
   };
-  groupByCamera();
   const double distortionF = cameraFitOptions(project.options).pooledDistortionF;
-  std::vector<size_t> toRefit;
   std::vector<char> pool(np, 0);
-  for (const auto& [camera, photos] : sameCamera) {
-    std::vector<const CameraFit*> group;
-    for (size_t p : photos) group.push_back(fits[p].second.get());
-    const double f = pooledRadialF(group);
-    cameras->pooledRadialF = std::max(cameras->pooledRadialF, f);
-    for (size_t p : photos) {
-      const CameraFit::RadialTrial& t = fits[p].second->radialTrial;
-      pool[p] = f > distortionF && t.terms > 0 && t.agrees && !t.kept;
-      if (bool(pool[p]) == fits[p].second->radialPooled) continue;
-      toRefit.push_back(p);
-      if (std::find(toFit.begin(), toFit.end(), p) == toFit.end()) --cameras->reused;
+  std::set<CameraKey> paying;  // the cameras whose object photos pay for the lens terms together
+  const auto poolLensTerms = [&] {
+    groupByCamera();
+    std::vector<size_t> toRefit;
+    paying.clear();
+    for (const auto& [camera, photos] : sameCamera) {
+      std::vector<const CameraFit*> group;
+      for (size_t p : photos) group.push_back(fits[p].second.get());
+      const double f = pooledRadialF(group);
+      cameras->pooledRadialF = std::max(cameras->pooledRadialF, f);
+      if (f > distortionF) paying.insert(camera);
+      for (size_t p : photos) {
+        const CameraFit::RadialTrial& t = fits[p].second->radialTrial;
+        pool[p] = f > distortionF && t.terms > 0 && t.agrees && !t.kept;
+        if (bool(pool[p]) == fits[p].second->radialPooled) continue;
+        toRefit.push_back(p);
+        if (std::find(toFit.begin(), toFit.end(), p) == toFit.end()) --cameras->reused;
+      }
     }
-  }
-  tbb::parallel_for(size_t(0), toRefit.size(), [&](size_t k) {
-    const size_t p = toRefit[k];
-    fits[p].second = std::make_shared<const CameraFit>(
+    tbb::parallel_for(size_t(0), toRefit.size(), [&](size_t k) {
+      const size_t p = toRefit[k];
+      fits[p].second = std::make_shared<const CameraFit>(
+          fitPhoto(scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), cachedPhotos_[p].contours.get(),
+                   warmStart[p], pool[p], !deferSilhouette[p]));
+      fits[p].first = baseKeys[p] + (pool[p] ? kPooled : "") + (warmStart[p] ? kWarm : "");
+    });
+    job.checkCancel();
+  };
+  poolLensTerms();
+  // An auto photo that its clicks' own fit, without the lens terms (noisy clicks drop them by the photo's own F test),
+  // took for another subject, is decided again with the terms its camera's object photos pay for: the lens's
+  // residuals had counted against it (bob, 4 views, 2 px clicks, k1 -0.25: one photo of four warped to its clicks,
+  // -5.1 dB). When it now fits as the object itself it joins its camera, and the pool is made again with it, as a
+  // later run that finds its fit in the cache makes it.
+  std::vector<size_t> toRedecide;
+  for (size_t p = 0; p < np; ++p)
+    if (project.photos[p].mode == PhotoMode::Auto && fits[p].second->subject && paying.count(cameraOf(p)))
+      toRedecide.push_back(p);
+  std::vector<std::shared_ptr<const CameraFit>> redecided(toRedecide.size());
+  tbb::parallel_for(size_t(0), toRedecide.size(), [&](size_t k) {
+    const size_t p = toRedecide[k];
+    redecided[k] = std::make_shared<const CameraFit>(
         fitPhoto(scene, static_cast<int>(p), cachedPhotos_[p].silhouette.get(), cachedPhotos_[p].contours.get(),
-                 warmStart[p], pool[p], !deferSilhouette[p]));
-    fits[p].first = baseKeys[p] + (pool[p] ? kPooled : "") + (warmStart[p] ? kWarm : "");
+                 warmStart[p], true, !deferSilhouette[p]));
   });
-  job.checkCancel();
+  bool joined = false;
+  for (size_t k = 0; k < toRedecide.size(); ++k) {
+    const size_t p = toRedecide[k];
+    if (redecided[k]->subject) continue;
+    fits[p].second = redecided[k];
+    fits[p].first = baseKeys[p] + kPooled + (warmStart[p] ? kWarm : "");
+    if (std::find(toFit.begin(), toFit.end(), p) == toFit.end()) --cameras->reused;
+    joined = true;
+  }
+  if (joined) poolLensTerms();
   // One camera, many photos (issue 37): the object photos of one camera share their intrinsics when Akaike's
   // criterion says so (fitSharedIntrinsics); then each photo whose silhouette refinement waited is refined, from the
   // shared camera or its own. Cached by the group's fit keys; a photo's refinement on its own camera is reused

@@ -234,8 +234,9 @@ SurfaceColors colorSurface(const Scene& scene, const Mapping& mapping, const Job
 BakeResult bakeModel(const Scene& scene, const Mapping& mapping, const SurfaceColors& colors,
                      const JobControl& job = {});
 
-// What the camera stage decides for photo `photo` of `scene` in auto mode (mapping/subject.h): the object itself or
-// another subject, and why; whatever the photo's mode and the camera option say.
+// What photo `photo` of `scene` shows in auto mode by its own clicks (mapping/subject.h): the object itself or another
+// subject, and why; whatever the photo's mode and the camera option say. (The camera stage decides a photo taken for
+// another subject again with the lens terms its camera's object photos pay for.)
 ModeDecision decideAutoMode(const Scene& scene, int photo);
 
 // The pipeline's stages as declared (stage_graph.h), in the order of StageId: load, camera, partition, map,

@@ -1,6 +1,6 @@
-// A rigged scene read by Assimp (an FBX or Collada character) in glTF form, so that the model reader and the
-// write-back export treat it as they treat a GLB: its node hierarchy, skins, joint weights, morph targets and
-// animations come back out in model.glb with the montage in it.
+// A scene Assimp read (an FBX or Collada character, a mesh with several UV sets or vertex colours) in glTF form, so
+// that the model reader and the write-back export treat it as they treat a GLB: its node hierarchy, skins, joint
+// weights, morph targets, UV sets, colours and animations come back out in model.glb with the montage in it.
 #include "io/assimp_gltf.h"
 
 #include <assimp/scene.h>
@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <string>
@@ -86,13 +87,6 @@ void setTransform(tinygltf::Node& node, const aiMatrix4x4& m) {
   if (!(rotation.x == 0 && rotation.y == 0 && rotation.z == 0))
     node.rotation = {rotation.x, rotation.y, rotation.z, rotation.w};
   if (scale != aiVector3D(1, 1, 1)) node.scale = {scale.x, scale.y, scale.z};
-}
-
-std::vector<float> inverseBind(const aiMatrix4x4& m) {
-  std::vector<float> out(16);
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) out[c * 4 + r] = float(m[r][c]);
-  return out;
 }
 
 }  // namespace
@@ -212,8 +206,7 @@ std::string assimpSceneAsGlb(const aiScene& scene) {
             const auto node = nodeByName.find(name);
             TM_CHECK(node != nodeByName.end(), "the bone '" + name + "' has no node in the scene");
             joints.push_back(node->second);
-            const std::vector<float> ibm = inverseBind(bone.mOffsetMatrix);
-            inverseBinds.insert(inverseBinds.end(), ibm.begin(), ibm.end());
+            for (double x : columnMajor(bone.mOffsetMatrix)) inverseBinds.push_back(float(x));
           }
           for (unsigned i = 0; i < bone.mNumWeights; ++i) {
             const aiVertexWeight& vw = bone.mWeights[i];

@@ -1,4 +1,4 @@
-// A rigged scene Assimp read (FBX, Collada) as a GLB document: internal to core/io (mesh_io.cpp converts in the
+// A scene Assimp read (FBX, Collada, 3DS, 3MF) as a GLB document: internal to core/io (mesh_io.cpp converts in the
 // reader's child process; the model reader and the write-back export then read the GLB as any other).
 #pragma once
 

@@ -806,8 +806,8 @@ void readStl(const std::string& data, Soup& soup) {
 // as OBJ's are, the first UV set, faces labelled by their material's and their mesh's names. Assimp gives each
 // corner its own vertex where attributes differ; the caller welds identical positions, as for STL. Points and
 // lines are skipped with a warning. A scene with skins, morph targets, a second UV set or vertex colours is given as
-// a GLB instead (`rigGlb`, io/assimp_gltf.h), so that the export carries them.
-void readAssimpHere(const std::string& data, Soup& soup, const char* format, const char* name, std::string& rigGlb) {
+// a GLB instead (`asGlb`, io/assimp_gltf.h), so that the export carries them.
+void readAssimpHere(const std::string& data, Soup& soup, const char* format, const char* name, std::string& asGlb) {
   Assimp::Importer importer;
   importer.SetPropertyBool(AI_CONFIG_IMPORT_FBX_PRESERVE_PIVOTS, false);  // no "$AssimpFbx$" helper nodes
   const aiScene* scene = importer.ReadFileFromMemory(data.data(), data.size(), aiProcess_ValidateDataStructure, format);
@@ -828,7 +828,7 @@ void readAssimpHere(const std::string& data, Soup& soup, const char* format, con
                                          aiProcess_LimitBoneWeights | aiProcess_SortByPType);
     if (!scene) fail();
     try {
-      rigGlb = gltf::assimpSceneAsGlb(*scene);
+      asGlb = gltf::assimpSceneAsGlb(*scene);
     } catch (const Error& e) {
       failAt(soup.file, 0, e.what());
     }
@@ -935,7 +935,7 @@ class Unpacker {
 // Assimp's parsers are not ours: a damaged file can make them abort on an assert (3MF's zip reader) or ask for
 // tens of gigabytes (a flipped array length). They run in a child process (base/isolate.h) with a memory budget
 // of 2 GB plus 64 bytes for every byte of the file, and 10 minutes; the soup comes back as bytes.
-void readAssimp(const std::string& data, Soup& soup, const char* format, const char* name, std::string& rigGlb) {
+void readAssimp(const std::string& data, Soup& soup, const char* format, const char* name, std::string& asGlb) {
   const size_t budget = (size_t(2) << 30) + 64 * data.size();
   const std::string packed = runIsolated(
       [&] {
@@ -943,7 +943,7 @@ void readAssimp(const std::string& data, Soup& soup, const char* format, const c
         s.file = soup.file;
         std::string glb;
         readAssimpHere(data, s, format, name, glb);
-        if (!glb.empty()) return "G" + glb;  // a rig, in glTF form
+        if (!glb.empty()) return "G" + glb;  // the scene in glTF form
         Packer p;
         p.bytes = "S";
         p.put(s.positions), p.put(s.texcoords), p.put(s.triangles), p.put(uint64_t(s.hasUV)), p.put(s.uvIndex);
@@ -956,7 +956,7 @@ void readAssimp(const std::string& data, Soup& soup, const char* format, const c
       budget, 600, soup.file + ": reading it as " + name);
   TM_CHECK(!packed.empty(), "mesh reader: an empty answer from the reader's process");
   if (packed[0] == 'G') {
-    rigGlb = packed.substr(1);
+    asGlb = packed.substr(1);
     return;
   }
   Unpacker u(packed, 1);
@@ -1056,9 +1056,9 @@ LoadedMesh parseMesh(const std::string& bytes, const std::string& ext, const std
   Soup soup;
   soup.file = path;
   if (format.assimp) {
-    std::string rigGlb;
-    readAssimp(bytes, soup, format.assimp, format.name, rigGlb);
-    if (!rigGlb.empty()) return gltf::documentMesh(gltf::parseDocument(rigGlb, path, true, false), path, options);
+    std::string asGlb;
+    readAssimp(bytes, soup, format.assimp, format.name, asGlb);
+    if (!asGlb.empty()) return gltf::documentMesh(gltf::parseDocument(asGlb, path, true, false), path, options);
   } else {
     format.read(bytes, soup);
   }
@@ -1106,16 +1106,16 @@ tinygltf::Model gltf::loadSourceDocument(const std::string& path) {
   if (ext == ".glb" || ext == ".gltf") return loadDocument(path, false);
   if (!ext.empty()) ext.erase(0, 1);
   const MeshFormat& format = meshFormat(ext, path);
-  std::string rigGlb;
+  std::string asGlb;
   if (format.assimp) {
     montage::Soup soup;
     soup.file = path;
-    readAssimp(readFileBytes(path, "mesh file"), soup, format.assimp, format.name, rigGlb);
+    readAssimp(readFileBytes(path, "mesh file"), soup, format.assimp, format.name, asGlb);
   }
-  TM_CHECK(!rigGlb.empty(),
+  TM_CHECK(!asGlb.empty(),
            located(path,
                    "holds no skin, morph target, second UV set or vertex colours to write back: the GLB is a new one"));
-  return parseDocument(rigGlb, path, true, false);
+  return parseDocument(asGlb, path, true, false);
 }
 
 Vec3f usableNormal(const Mesh& mesh, int f, const Vec3& normal) {

@@ -175,12 +175,12 @@ constexpr const char* kPooled = "#pooled";  // camera keys of fits whose lens te
 
 // The fit's options; `warm`: the preview's warm start, with one silhouette round instead of the final's four, on
 // kept contours within kPreviewContourPx, stopping at a coarser step (1e-6 moves a point by well under 0.01 px:
-// half the LM iterations of the final's 1e-10).
+// half the LM iterations of the final's 1e-10), and no lens trial on the silhouette (the last camera keeps its terms).
 CameraFitOptions photoFitOptions(const PipelineOptions& o, bool warm) {
   CameraFitOptions options = cameraFitOptions(o);
   if (warm)
     options.silhouetteRounds = 1, options.contourReusePx = kPreviewContourPx, options.silhouetteStep = 1e-6,
-    options.silhouetteSampleStride = 2;
+    options.silhouetteSampleStride = 2, options.silhouetteLens = false;
   return options;
 }
 

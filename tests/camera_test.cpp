@@ -65,6 +65,18 @@ DemoScene demoScene(const std::string& tag, int views, int features, double nois
   return d;
 }
 
+// A synthetic scene of `mesh` (read from `obj`) painted with `truth`'s texture, written into a new temporary folder
+// named after `tag`; returns the folder.
+std::string texturedScene(const Mesh& mesh, const std::string& obj, const TexturedModel& truth, const SynthOptions& o,
+                          const std::string& tag, SynthScene* scene = nullptr) {
+  SynthScene s = synthesize(
+      mesh, obj, [&truth](int f, const Vec3& b) { return truth.colorAt(f, b); }, o);
+  const std::string dir = test::tempDir(tag);
+  writeSynthScene(s, dir);
+  if (scene) *scene = std::move(s);
+  return dir;
+}
+
 PhotoCamera trueCamera(const SynthScene& s, int k) {
   PhotoCamera c;
   c.pinhole = s.cameras[k];
@@ -418,6 +430,39 @@ TEST(CameraPipeline, TheLensTermsOfOneCameraArePaidForByAllItsPhotosTogether) {
     }
 }
 
+TEST(CameraPipeline, TheSilhouetteFindsALensTheNoisyClicksDropped) {
+  // Issue 37: spot, four photos with cut-outs, clicks with 2 px of noise. Through a weak lens (k1 = +0.05) the clicks
+  // do not pay for k1, alone or pooled; the silhouettes' contours, across the frame, bring the camera half again as
+  // near with it, and it is kept. Without a lens the trial brings nothing and every camera stays without.
+  TM_REQUIRE_SHARED(obj, "meshes/spot/spot_triangulated.obj");
+  TM_REQUIRE_SHARED(png, "meshes/spot/spot_texture.png");
+  auto mesh = requireUsable(loadMesh(obj));
+  const TexturedModel truth = modelFromMesh(*mesh, readImageRgba8(png));
+  for (double k1 : {0.05, 0.0}) {
+    SynthOptions o;
+    o.views = 4;
+    o.features = 150;
+    o.size = 1024;
+    o.clickNoisePx = 2;
+    o.k1 = k1;
+    const std::string dir = texturedScene(*mesh, obj, truth, o, "camera_silhouette_lens");
+    const Project project = loadProject(dir + "/project.json");
+    CameraFitOptions clicksOnly;
+    clicksOnly.silhouette = false;
+    const CameraFit alone = fitCamera(*mesh, photoClicks(project, 0), 1024, 1024, clicksOnly);
+    ASSERT_EQ(alone.camera.k1, 0) << "the clicks keep the lens: the scene no longer tests the silhouette's trial";
+    const PipelineResult r = Pipeline().run(project);
+    for (int k = 0; k < 4; ++k) {
+      const CameraFit& fit = r.cameras->fits[k];
+      std::printf("k1 %.2f, photo %d: fitted k1 %.4f\n", k1, k, fit.camera.k1);
+      if (k1 != 0)
+        EXPECT_NEAR(fit.camera.k1, k1, 0.01) << describeFit(fit);
+      else
+        EXPECT_LT(std::abs(fit.camera.k1), 0.005) << describeFit(fit);
+    }
+  }
+}
+
 TEST(CameraPipeline, AnAutoPhotoIsDecidedAgainWithTheLensItsCameraPaysFor) {
   // Issue 37: bob, four photos without a cut-out through one lens (k1 = -0.25), clicks with 2 px of noise. Alone,
   // photo 0's clicks drop the lens terms, and the lens's residuals make its clicks look like another subject's
@@ -432,10 +477,7 @@ TEST(CameraPipeline, AnAutoPhotoIsDecidedAgainWithTheLensItsCameraPaysFor) {
   o.size = 1024;
   o.clickNoisePx = 2;
   o.k1 = -0.25;
-  const SynthScene s = synthesize(
-      *mesh, obj, [&truth](int f, const Vec3& b) { return truth.colorAt(f, b); }, o);
-  const std::string dir = test::tempDir("camera_redecided");
-  writeSynthScene(s, dir);
+  const std::string dir = texturedScene(*mesh, obj, truth, o, "camera_redecided");
   Project project = loadProject(dir + "/project.json");
   for (const PhotoRef& photo : project.photos) {  // laid over white, the alpha dropped: no silhouette to go by
     const cv::Mat rgba = readImageFile(photo.path);
@@ -528,17 +570,20 @@ TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
   }
   // The preview's refinement on kept contours (ContourMemo, contourReusePx): refined again from where it
   // ended (the preview's warm start), a fit finds every contour it needs within half a pixel, extracts
-  // none, and stays within a fraction of a pixel.
+  // none, and stays within a fraction of a pixel. (Without the lens trial, whose rounds extract contours of their
+  // own, as the preview's refits are.)
   {
+    CameraFitOptions noLens;
+    noLens.silhouetteLens = false;
     const Photo photo = loadPhoto(d.dir + "/photo_0.png");
     const CameraFit start = fitCamera(*d.mesh, photoClicks(d.scene.project, 0), 768, 768);
     ContourMemo memo;
     CameraFit first = start;
-    refineOnSilhouette(*d.mesh, photo, first, {}, nullptr, &memo);
+    refineOnSilhouette(*d.mesh, photo, first, noLens, nullptr, &memo);
     ASSERT_GT(first.silhouettePoints, 0);
     ASSERT_FALSE(memo.contours.empty());
     const std::vector<std::pair<Camera, std::vector<Vec3>>> kept = memo.contours;
-    CameraFitOptions preview;
+    CameraFitOptions preview = noLens;
     preview.contourReusePx = 0.5;
     CameraFit second = first;  // nudged: its points move by about 0.3 px at the image's edge
     second.silhouettePoints = 0;
@@ -551,11 +596,11 @@ TEST(CameraFit, SilhouetteRefinementRecoversTheCameraFromNoisyClicks) {
     EXPECT_LT(projectionGap(*d.mesh, first.camera, second.camera), 0.25);
     // Without reuse every round extracts its contour again.
     CameraFit third = start;
-    refineOnSilhouette(*d.mesh, photo, third, {}, nullptr, &memo);
+    refineOnSilhouette(*d.mesh, photo, third, noLens, nullptr, &memo);
     EXPECT_EQ(memo.contours.size(), 4u);
     EXPECT_EQ(projectionGap(*d.mesh, first.camera, third.camera), 0);
     // The preview's coarser LM step (1e-6 instead of 1e-10) ends within a hundredth of a pixel.
-    CameraFitOptions fine, coarse;
+    CameraFitOptions fine = noLens, coarse = noLens;
     fine.silhouetteRounds = coarse.silhouetteRounds = 1;
     coarse.silhouetteStep = 1e-6;
     CameraFit a = start, b = start;
@@ -1253,10 +1298,8 @@ TEST(CameraPipeline, ExactClicksComeWithinOneAndAHalfDecibelsOfTheOracle) {
   o.views = 4;
   o.features = 150;
   o.size = 768;
-  const SynthScene s = synthesize(
-      *mesh, obj, [&truth](int f, const Vec3& b) { return truth.colorAt(f, b); }, o);
-  const std::string dir = test::tempDir("camera_oracle");
-  writeSynthScene(s, dir);
+  SynthScene s;
+  const std::string dir = texturedScene(*mesh, obj, truth, o, "camera_oracle", &s);
   const Project project = loadProject(dir + "/project.json");
   const PipelineResult result = Pipeline().run(project);
   std::vector<PhotoCamera> cameras = readSynthCameras(dir + "/cameras.json");
@@ -1290,10 +1333,7 @@ TEST(CameraPipeline, FacesAPhotoSeesAreMappedNotInpainted) {
     o.views = views;
     o.features = 150;
     o.size = 768;
-    const SynthScene s = synthesize(
-        *mesh, obj, [&truth](int f, const Vec3& b) { return truth.colorAt(f, b); }, o);
-    const std::string dir = test::tempDir("camera_seen_" + std::to_string(views));
-    writeSynthScene(s, dir);
+    const std::string dir = texturedScene(*mesh, obj, truth, o, "camera_seen_" + std::to_string(views));
     const PipelineResult r = Pipeline(Pipeline::Keep::ThisRunOnly).run(loadProject(dir + "/project.json"));
     const Mesh& refined = r.mapping->partition->mesh;
     ASSERT_EQ(r.baked->atlas.faceSource.size(), size_t(refined.numFaces()));

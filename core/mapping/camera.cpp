@@ -861,7 +861,6 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
   const int radial = fit.camera.k2 != 0 ? 2 : fit.camera.k1 != 0 ? 1 : 0;
   const double sigmaClicks = std::max(o.silhouetteMinClickRmsPx, fit.rmsResidual);
   const double weight = std::pow(sigmaClicks / o.silhouetteSigmaPx, 2);
-  CameraFit refined = fit;
   Params p;
   {
     cv::Mat R(3, 3, CV_64F), rvec;
@@ -908,49 +907,59 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
     return n ? sum / n : std::numeric_limits<double>::infinity();
   };
   double before = 0;  // mean distance of the fit's own contour (round 0 extracts it)
-  for (int round = 0; round < o.silhouetteRounds; ++round) {
-    const std::vector<Vec3> contour = contourThrough(refined.camera.pinhole);
-    if (contour.size() < 10) return;
-    std::vector<cv::Point3d> c3;
-    std::vector<double> w;
-    double sum = 0;
-    int n = 0;
-    const int stride = std::max(1, o.silhouetteSampleStride);
-    for (size_t i = 0; i < contour.size(); ++i) {
-      const Vec3& x = contour[i];
-      Vec2 px;
-      if (!refined.camera.project(x, px)) continue;
-      const double d = std::abs(distance.at(px));
-      sum += d, ++n;
-      if (i % stride) continue;
-      c3.emplace_back(x.x(), x.y(), x.z());
-      // Each sample stands for `stride` of the contour's: the silhouette weighs as much against the clicks.
-      w.push_back(stride * weight * (d <= o.silhouetteHuberPx ? 1.0 : o.silhouetteHuberPx / d));
+  // The rounds with `radial` lens terms free, from `p`; the camera and its contour's mean distance, or nothing.
+  struct Attempt {
+    CameraFit refined;
+    double after = kInf;
+    int count = 0;
+  };
+  const auto attempt = [&](int radial, Params p) -> std::optional<Attempt> {
+    CameraFit refined = fit;
+    for (int round = 0; round < o.silhouetteRounds; ++round) {
+      const std::vector<Vec3> contour = contourThrough(refined.camera.pinhole);
+      if (contour.size() < 10) return std::nullopt;
+      std::vector<cv::Point3d> c3;
+      std::vector<double> w;
+      double sum = 0;
+      int n = 0;
+      const int stride = std::max(1, o.silhouetteSampleStride);
+      for (size_t i = 0; i < contour.size(); ++i) {
+        const Vec3& x = contour[i];
+        Vec2 px;
+        if (!refined.camera.project(x, px)) continue;
+        const double d = std::abs(distance.at(px));
+        sum += d, ++n;
+        if (i % stride) continue;
+        c3.emplace_back(x.x(), x.y(), x.z());
+        // Each sample stands for `stride` of the contour's: the silhouette weighs as much against the clicks.
+        w.push_back(stride * weight * (d <= o.silhouetteHuberPx ? 1.0 : o.silhouetteHuberPx / d));
+      }
+      if (round == 0) before = n == 0 ? kInf : sum / n;
+      auto callback = cv::makePtr<SilhouetteFit>(clicks3, clicks2, c3, w, distance, fit.camera.pinhole.cx,
+                                                 fit.camera.pinhole.cy, radial);
+      cv::Mat x = callback->pack(p);
+      try {
+        cv::LMSolver::create(callback, 50, o.silhouetteStep)->run(x);
+      } catch (const cv::Exception&) {
+        return std::nullopt;
+      }
+      const Params q = callback->unpack(x);
+      if (!std::isfinite(q.focal) || q.focal <= 0) return std::nullopt;
+      p = q;
+      cv::Matx33d R;
+      cv::Rodrigues(p.rvec, R);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) refined.camera.pinhole.R(r, c) = R(r, c);
+      refined.camera.pinhole.t = Vec3(p.tvec[0], p.tvec[1], p.tvec[2]);
+      refined.camera.pinhole.fx = refined.camera.pinhole.fy = p.focal;
+      refined.camera.k1 = p.k1;
+      refined.camera.k2 = p.k2;
     }
-    if (round == 0) before = n == 0 ? kInf : sum / n;
-    auto callback = cv::makePtr<SilhouetteFit>(clicks3, clicks2, c3, w, distance, fit.camera.pinhole.cx,
-                                               fit.camera.pinhole.cy, radial);
-    cv::Mat x = callback->pack(p);
-    try {
-      cv::LMSolver::create(callback, 50, o.silhouetteStep)->run(x);
-    } catch (const cv::Exception&) {
-      return;
-    }
-    const Params q = callback->unpack(x);
-    if (!std::isfinite(q.focal) || q.focal <= 0) return;
-    p = q;
-    cv::Matx33d R;
-    cv::Rodrigues(p.rvec, R);
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) refined.camera.pinhole.R(r, c) = R(r, c);
-    refined.camera.pinhole.t = Vec3(p.tvec[0], p.tvec[1], p.tvec[2]);
-    refined.camera.pinhole.fx = refined.camera.pinhole.fy = p.focal;
-    refined.camera.k1 = p.k1;
-    refined.camera.k2 = p.k2;
-  }
-  measureClicks(mesh, refined);
-  int count = 0;
-  const double after = meanDistance(refined.camera.pinhole, refined.camera, &count);
+    measureClicks(mesh, refined);
+    Attempt a{std::move(refined)};
+    a.after = meanDistance(a.refined.camera.pinhole, a.refined.camera, &a.count);
+    return a;
+  };
   // Kept when the silhouette agrees better and the clicks still agree within their noise: as many agree and their
   // RMS rises by at most half, or, by a likelihood-ratio test, the rise of their (truncated) sum of squares stays
   // within chi-square's 99.9% quantile with the camera's degrees of freedom, in units of the clicks' variance per
@@ -962,14 +971,30 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
     for (double r : f.residual) cost += std::min(r * r, fit.thresholdPx * fit.thresholdPx);
     return cost;
   };
-  const int parameters = 7 + radial;
-  const double variance = fit.rmsResidual * fit.rmsResidual * fit.inliers / std::max(1, 2 * fit.inliers - parameters);
-  constexpr double kChi2Quantile999[] = {24.32, 26.12, 27.88};  // 7, 8 and 9 degrees of freedom
-  const bool asManyAgree = refined.inliers >= fit.inliers && refined.rmsResidual <= 1.5 * fit.rmsResidual + 0.05;
-  const bool withinNoise = clickCost(refined) - clickCost(fit) <= kChi2Quantile999[radial] * variance;
-  if (!(after < before) || !(asManyAgree || withinNoise)) return;
-  refined.silhouettePoints = count;
-  refined.silhouetteResidualPx = after;
+  const auto acceptable = [&](const std::optional<Attempt>& a, int radial) {
+    if (!a) return false;
+    const int parameters = 7 + radial;
+    const double variance = fit.rmsResidual * fit.rmsResidual * fit.inliers / std::max(1, 2 * fit.inliers - parameters);
+    constexpr double kChi2Quantile999[] = {24.32, 26.12, 27.88};  // 7, 8 and 9 degrees of freedom
+    const bool asManyAgree =
+        a->refined.inliers >= fit.inliers && a->refined.rmsResidual <= 1.5 * fit.rmsResidual + 0.05;
+    const bool withinNoise = clickCost(a->refined) - clickCost(fit) <= kChi2Quantile999[radial] * variance;
+    return a->after < before && (asManyAgree || withinNoise);
+  };
+  std::optional<Attempt> best = attempt(radial, p);
+  if (!acceptable(best, radial)) best.reset();
+  if (radial == 0 && o.silhouetteLens && o.radialDistortion &&
+      static_cast<int>(clicks3.size()) >= o.minInliersForDistortion) {
+    // The lens the clicks did not pay for (their noise hid it): the contour, hundreds of samples across the frame,
+    // may. Kept when it brings the silhouette nearer by a clear share, and the clicks agree as the rule above asks.
+    std::optional<Attempt> lens = attempt(1, p);
+    if (acceptable(lens, 1) && lens->after < o.silhouetteLensGain * (best ? best->after : before))
+      best = std::move(lens);
+  }
+  if (!best) return;
+  CameraFit refined = std::move(best->refined);
+  refined.silhouettePoints = best->count;
+  refined.silhouetteResidualPx = best->after;
   refined.seconds = fit.seconds + secondsSince(start);
   refined.reason = describeFit(refined);
   fit = std::move(refined);

@@ -89,6 +89,9 @@ struct CameraFitOptions {
   double silhouetteStep = 1e-10;          // a round's LM stops when its step is below this (the parameters:
                                           // rotation in radians, translation in mesh units, focal in pixels)
   int silhouetteSampleStride = 1;         // the LM takes every n-th contour sample (the preview tier: 2)
+  bool silhouetteLens = true;             // a camera without lens terms also tries k1 on its silhouette...
+  double silhouetteLensGain = 0.8;        // ...kept when the contour's mean distance is below this share of the
+                                          // pinhole refinement's
   double contourReusePx = 0;              // > 0 (the preview tier): a ContourMemo's contour serves a camera within
                                           // this many pixels of the one it was extracted through
 };

@@ -239,16 +239,11 @@ TexturedModel mixedSpotModel(const std::string& obj) {
 
 TEST(AtlasExport, GltfValidatorReportsNoErrors) {
   TM_REQUIRE_SHARED(obj, "meshes/spot/spot_triangulated.obj");
-  const std::string nodeDir = TM_GLTF_NODE_DIR;
-  if (nodeDir.empty() || !fs::exists(nodeDir + "/.tm_gltf_validator_ready"))
-    GTEST_SKIP() << "the Khronos glTF validator is not installed in '" << nodeDir
-                 << "': the ctest test npm_gltf_validator_setup installs it";
+  if (const std::string why = test::gltfValidatorMissing(); !why.empty()) GTEST_SKIP() << why;
   const std::string file = test::tempDir("atlas_gltf") + "/model.glb";
   exportGlb(mixedSpotModel(obj), file);
-  std::string out;
-  const int rc = test::runCommand(
-      "NODE_PATH='" + nodeDir + "/node_modules' node '" + TM_GLTF_VALIDATE_JS + "' '" + file + "'", &out);
-  std::printf("%s", out.c_str());
+  int rc = 0;
+  const std::string out = test::runGltfValidator(file, &rc);
   EXPECT_EQ(rc, 0) << out;
   EXPECT_NE(out.find("errors: 0,"), std::string::npos) << out;
 }

@@ -795,34 +795,9 @@ TEST(GltfWriteBack, AnFbxRigComesBackInTheGlb) {
   EXPECT_LT(glbAgainstObj(dir), 0.01);  // the same colours as the OBJ
 }
 
-namespace {
-
-// Why the Khronos validator cannot run here (empty when it can).
-std::string validatorMissing() {
-  const std::string nodeDir = TM_GLTF_NODE_DIR;
-  if (nodeDir.empty() || !fs::exists(nodeDir + "/.tm_gltf_validator_ready"))
-    return "the Khronos glTF validator is not installed in '" + nodeDir +
-           "': the ctest test npm_gltf_validator_setup installs it with npm";
-  if (test::runCommand("command -v node") != 0) return "node is not installed";
-  return "";
-}
-
-// The validator's summary of FILE ("FILE: errors: E, warnings: W, ...") and its messages; expects it to run.
-std::string validate(const std::string& file) {
-  std::string log;
-  const int rc = test::runCommand("NODE_PATH='" + std::string(TM_GLTF_NODE_DIR) + "/node_modules' node '" +
-                                      TM_GLTF_VALIDATE_JS + "' '" + file + "'",
-                                  &log);
-  std::printf("%s", log.c_str());
-  EXPECT_EQ(rc, 0) << log;
-  return log;
-}
-
-}  // namespace
-
 // The written-back GLB passes the Khronos validator without errors or warnings.
 TEST(GltfValidator, WrittenBackRigHasNoErrors) {
-  if (const std::string why = validatorMissing(); !why.empty()) GTEST_SKIP() << why;
+  if (const std::string why = test::gltfValidatorMissing(); !why.empty()) GTEST_SKIP() << why;
   const std::string dir = test::tempDir("gltf_write_back_validator");
   const std::string rig = riggedCylinder(dir);
   TexturedModel model;
@@ -834,7 +809,9 @@ TEST(GltfValidator, WrittenBackRigHasNoErrors) {
   model.materials = {m};
   const std::string out = dir + "/out.glb";
   exportGlbInto(model, rig, out);
-  const std::string log = validate(out);
+  int rc = 0;
+  const std::string log = test::runGltfValidator(out, &rc);
+  EXPECT_EQ(rc, 0) << log;
   EXPECT_NE(log.find("errors: 0,"), std::string::npos) << log;
   EXPECT_NE(log.find("warnings: 0,"), std::string::npos) << log;
 }
@@ -843,10 +820,12 @@ TEST(GltfValidator, WrittenBackRigHasNoErrors) {
 // exporter that keeps an artist's hierarchy (Blender's own too): the skinned mesh's node is a child of the scene's
 // root and has a transform, which viewers ignore for a skinned mesh.
 TEST(GltfValidator, FbxRigWrittenBackHasNoErrors) {
-  if (const std::string why = validatorMissing(); !why.empty()) GTEST_SKIP() << why;
+  if (const std::string why = test::gltfValidatorMissing(); !why.empty()) GTEST_SKIP() << why;
   const std::string dir = test::tempDir("gltf_fbx_validator");
   ASSERT_NO_FATAL_FAILURE(montageRunOnFbxRig(dir));
-  const std::string log = validate(dir + "/out/model.glb");
+  int rc = 0;
+  const std::string log = test::runGltfValidator(dir + "/out/model.glb", &rc);
+  EXPECT_EQ(rc, 0) << log;
   EXPECT_NE(log.find("errors: 0,"), std::string::npos) << log;
 }
 

@@ -720,17 +720,10 @@ TEST(ExportModel, PlyVertexNormalsAreTheCornersNormals) {
 }
 
 TEST(GltfValidator, ExportedGlbsHaveNoErrors) {
-  const std::string nodeDir = TM_GLTF_NODE_DIR;
-  if (nodeDir.empty() || !fs::exists(nodeDir + "/.tm_gltf_validator_ready"))
-    GTEST_SKIP() << "the Khronos glTF validator is not installed in '" << nodeDir
-                 << "': the ctest test npm_gltf_validator_setup installs it with npm (it skips when npm cannot "
-                    "reach its registry)";
-  if (test::runCommand("command -v node") != 0) GTEST_SKIP() << "node is not installed";
+  if (const std::string why = test::gltfValidatorMissing(); !why.empty()) GTEST_SKIP() << why;
   for (const std::string& file : exportedGlbs(test::tempDir("gltf_validator"))) {
-    std::string out;
-    const int rc = test::runCommand(
-        "NODE_PATH='" + nodeDir + "/node_modules' node '" + TM_GLTF_VALIDATE_JS + "' '" + file + "'", &out);
-    std::printf("%s", out.c_str());
+    int rc = 0;
+    const std::string out = test::runGltfValidator(file, &rc);
     ASSERT_NE(rc, 77) << "validator missing although setup reported it ready:\n" << out;
     EXPECT_EQ(rc, 0) << out;
     EXPECT_NE(out.find("errors: 0,"), std::string::npos) << out;

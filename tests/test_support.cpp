@@ -83,6 +83,25 @@ int runCommand(const std::string& command, std::string* output) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+std::string gltfValidatorMissing() {
+  const std::string nodeDir = TM_GLTF_NODE_DIR;
+  if (!fs::exists(nodeDir + "/.tm_gltf_validator_ready"))
+    return "the Khronos glTF validator is not installed in '" + nodeDir +
+           "': the ctest test npm_gltf_validator_setup installs it with npm (it skips when npm cannot reach its "
+           "registry)";
+  if (runCommand("command -v node") != 0) return "node is not installed";
+  return "";
+}
+
+std::string runGltfValidator(const std::string& file, int* status) {
+  std::string out;
+  *status = runCommand(std::string("NODE_PATH='") + TM_GLTF_NODE_DIR + "/node_modules' node '" + TM_GLTF_VALIDATE_JS +
+                           "' '" + file + "'",
+                       &out);
+  std::printf("%s", out.c_str());
+  return out;
+}
+
 bool haveXvfb() {
   return runCommand("command -v xvfb-run >/dev/null 2>&1") == 0;
 }

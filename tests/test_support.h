@@ -33,6 +33,12 @@ std::string montageExe();
 nlohmann::json readJson(const std::string& path);
 // Runs a shell command, returns its exit status; output goes to `output` when given.
 int runCommand(const std::string& command, std::string* output = nullptr);
+// Why the Khronos glTF validator cannot run here, or "" when it can (the ctest test npm_gltf_validator_setup installs
+// it with npm, and skips when npm cannot reach its registry).
+std::string gltfValidatorMissing();
+// The validator's report on a .glb or .gltf file ("FILE: errors: E, warnings: W, ..." and its messages), printed;
+// its exit status in `status` (0: no errors, 77: the validator is missing).
+std::string runGltfValidator(const std::string& file, int* status);
 // True when xvfb-run is installed (the editor tests run the editor on a virtual display).
 bool haveXvfb();
 // The bundled demo project with absolute paths, to be written anywhere (editor tests edit copies).

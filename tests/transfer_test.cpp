@@ -71,19 +71,6 @@ nlohmann::json stageReport(const nlohmann::json& report, const std::string& name
   return nullptr;
 }
 
-bool validatorReady() {
-  const std::string nodeDir = TM_GLTF_NODE_DIR;
-  return !nodeDir.empty() && fs::exists(nodeDir + "/.tm_gltf_validator_ready");
-}
-
-std::string validate(const std::string& file, int* rc) {
-  std::string out;
-  *rc = test::runCommand(std::string("NODE_PATH='") + TM_GLTF_NODE_DIR + "/node_modules' node '" + TM_GLTF_VALIDATE_JS +
-                             "' '" + file + "'",
-                         &out);
-  return out;
-}
-
 }  // namespace
 
 // ------------------------------------------------------------------------------------------------
@@ -253,12 +240,9 @@ TEST(OriginalTopology, PngCompressionLevelTradesSizeForSpeed) {
 }
 
 TEST(OriginalTopology, GltfValidatorReportsNoErrorsOrWarnings) {
-  if (!validatorReady())
-    GTEST_SKIP() << "the Khronos glTF validator is not installed in '" << TM_GLTF_NODE_DIR
-                 << "': the ctest test npm_gltf_validator_setup installs it";
+  if (const std::string why = test::gltfValidatorMissing(); !why.empty()) GTEST_SKIP() << why;
   int rc = 0;
-  const std::string out = validate(demoRun().dir + "/model.glb", &rc);
-  std::printf("%s", out.c_str());
+  const std::string out = test::runGltfValidator(demoRun().dir + "/model.glb", &rc);
   EXPECT_EQ(rc, 0) << out;
   EXPECT_NE(out.find("errors: 0, warnings: 0,"), std::string::npos) << out;
 }
@@ -721,12 +705,9 @@ TEST(MeshUVs, GltfValidatorAndAssimpReadTheTiledExport) {
   } else {
     std::printf("assimp is not installed (Debian package assimp-utils): only the validator runs\n");
   }
-  if (!validatorReady())
-    GTEST_SKIP() << "the Khronos glTF validator is not installed in '" << TM_GLTF_NODE_DIR
-                 << "': the ctest test npm_gltf_validator_setup installs it";
+  if (const std::string why = test::gltfValidatorMissing(); !why.empty()) GTEST_SKIP() << why;
   int rc = 0;
-  const std::string out = validate(dir + "/model.glb", &rc);
-  std::printf("%s", out.c_str());
+  const std::string out = test::runGltfValidator(dir + "/model.glb", &rc);
   EXPECT_EQ(rc, 0) << out;
   EXPECT_NE(out.find("errors: 0, warnings: 0,"), std::string::npos) << out;
 }

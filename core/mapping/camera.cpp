@@ -861,18 +861,7 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
   const int radial = fit.camera.k2 != 0 ? 2 : fit.camera.k1 != 0 ? 1 : 0;
   const double sigmaClicks = std::max(o.silhouetteMinClickRmsPx, fit.rmsResidual);
   const double weight = std::pow(sigmaClicks / o.silhouetteSigmaPx, 2);
-  Params p;
-  {
-    cv::Mat R(3, 3, CV_64F), rvec;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) R.at<double>(r, c) = fit.camera.pinhole.R(r, c);
-    cv::Rodrigues(R, rvec);
-    p.rvec = cv::Vec3d(rvec);
-    p.tvec = cv::Vec3d(fit.camera.pinhole.t.x(), fit.camera.pinhole.t.y(), fit.camera.pinhole.t.z());
-    p.focal = fit.camera.focal();
-    p.k1 = fit.camera.k1;
-    p.k2 = fit.camera.k2;
-  }
+  const Params p = paramsOf(fit.camera, Vec3::Zero());  // the clicks and contour are not centred here
   // Contours through a camera: from the memo when one within contourReusePx is kept (the preview tier).
   std::vector<std::pair<Camera, std::vector<Vec3>>> made;
   auto contourThrough = [&](const Camera& cam) -> std::vector<Vec3> {
@@ -907,6 +896,8 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
     return n ? sum / n : std::numeric_limits<double>::infinity();
   };
   double before = 0;  // mean distance of the fit's own contour (round 0 extracts it)
+  // The fit's own contour, which the first round of every attempt starts from: extracted once.
+  std::optional<std::vector<Vec3>> startContour;
   // The rounds with `radial` lens terms free, from `p`; the camera and its contour's mean distance, or nothing.
   struct Attempt {
     CameraFit refined;
@@ -916,7 +907,8 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
   const auto attempt = [&](int radial, Params p) -> std::optional<Attempt> {
     CameraFit refined = fit;
     for (int round = 0; round < o.silhouetteRounds; ++round) {
-      const std::vector<Vec3> contour = contourThrough(refined.camera.pinhole);
+      if (round == 0 && !startContour) startContour = contourThrough(fit.camera.pinhole);
+      const std::vector<Vec3> contour = round == 0 ? *startContour : contourThrough(refined.camera.pinhole);
       if (contour.size() < 10) return std::nullopt;
       std::vector<cv::Point3d> c3;
       std::vector<double> w;
@@ -946,14 +938,7 @@ void refineOnSilhouette(const Mesh& mesh, const Photo& photo, CameraFit& fit, co
       const Params q = callback->unpack(x);
       if (!std::isfinite(q.focal) || q.focal <= 0) return std::nullopt;
       p = q;
-      cv::Matx33d R;
-      cv::Rodrigues(p.rvec, R);
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) refined.camera.pinhole.R(r, c) = R(r, c);
-      refined.camera.pinhole.t = Vec3(p.tvec[0], p.tvec[1], p.tvec[2]);
-      refined.camera.pinhole.fx = refined.camera.pinhole.fy = p.focal;
-      refined.camera.k1 = p.k1;
-      refined.camera.k2 = p.k2;
+      setCamera(refined.camera, p, Vec3::Zero());  // the clicks and contour are not centred here
     }
     measureClicks(mesh, refined);
     Attempt a{std::move(refined)};

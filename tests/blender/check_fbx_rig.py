@@ -10,7 +10,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from blender_check import check  # noqa: E402  (also restores numpy.bool for the glTF importer)
+from blender_check import check, import_rig  # noqa: E402  (also restores numpy.bool for the glTF importer)
 
 import bpy  # noqa: E402
 from mathutils import Euler, Vector  # noqa: E402
@@ -25,15 +25,7 @@ def world_box(ob):
 
 glb, obj = sys.argv[sys.argv.index("--") + 1:][:2]
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-bpy.ops.import_scene.gltf(filepath=glb)
-armatures = [o for o in bpy.data.objects if o.type == "ARMATURE"]
-meshes = [o for o in bpy.data.objects if o.type == "MESH"]
-check(len(armatures) == 1 and len(meshes) == 1, f"GLB: one armature and one mesh ({len(armatures)}, {len(meshes)})")
-arm, ob = armatures[0], meshes[0]
-bones = sorted(b.name for b in arm.data.bones)
-check(bones == ["root", "tip"], f"GLB: bones {bones}")
-check(any(m.type == "ARMATURE" and m.object == arm for m in ob.modifiers), "GLB: the mesh is skinned to the armature")
+arm, ob = import_rig(glb, ["root", "tip"])
 keys = [k.name for k in ob.data.shape_keys.key_blocks] if ob.data.shape_keys else []
 check("bulge" in keys, f"GLB: the shape key ({keys})")
 check(len(ob.data.uv_layers) == 3, f"GLB: three UV layers ({[u.name for u in ob.data.uv_layers]})")

@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <deque>
 #include <numeric>
@@ -178,6 +179,9 @@ struct Problem {
   std::vector<const SilhouetteDistance*> silhouettes;  // per photo: null without a background
   std::vector<std::vector<Vec3>> contours;             // per photo: the mesh's outer contour (per level)
   std::vector<PhotoCamera> cameras;
+  std::vector<int> focalOf;  // per photo: its focal length's index, one for the photos that came with one camera's
+                             // intrinsics (sharedIntrinsics), numbered from 0
+  int focals = 0;
   std::vector<Vec3> gain, offset;
   // Per level, filled by prepare():
   std::vector<cv::Mat> images;  // the photos blurred by `blurred`, kept while the level stays
@@ -349,28 +353,70 @@ struct Problem {
     return total;
   }
 
-  // Levenberg-Marquardt on photo i's pose with the targets fixed.
-  void stepPose(size_t i, const std::vector<Vec3>& target, double scale) {
+  // Levenberg-Marquardt on the active photos' poses and focal lengths together, the targets fixed: a pose per photo
+  // and a focal length per focalOf, so that the photos of one camera keep sharing theirs.
+  void stepJoint(const std::vector<char>& active, const std::vector<Vec3>& target, double scale) {
+    const size_t n = photos.size();
+    std::vector<std::array<int, kParams>> at(n);  // per active photo: each parameter's index in the joint vector
+    std::vector<int> focalAt(focals, -1);
+    int dim = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (!active[i]) continue;
+      for (int k = 0; k < 6; ++k) at[i][k] = dim++;
+      int& f = focalAt[focalOf[i]];
+      if (f < 0) f = dim++;
+      at[i][6] = f;
+    }
+    // The cost of `cams` over the active photos, and optionally its joint Gauss-Newton system.
+    const auto evaluate = [&](const std::vector<PhotoCamera>& cams, Eigen::MatrixXd* H, Eigen::VectorXd* b) {
+      std::vector<double> part(n, 0);
+      std::vector<MatP> Hs(n);
+      std::vector<VecP> bs(n);
+      tbb::parallel_for(size_t(0), n, [&](size_t i) {
+        if (active[i]) part[i] = cost(i, cams[i], target, scale, H ? &Hs[i] : nullptr, H ? &bs[i] : nullptr);
+      });
+      if (H) {
+        H->setZero(dim, dim);
+        b->setZero(dim);
+        for (size_t i = 0; i < n; ++i)
+          for (int r = 0; active[i] && r < kParams; ++r) {
+            (*b)[at[i][r]] += bs[i][r];
+            for (int c = 0; c < kParams; ++c) (*H)(at[i][r], at[i][c]) += Hs[i](r, c);
+          }
+      }
+      return std::accumulate(part.begin(), part.end(), 0.0);
+    };
+    const auto apply = [&](const Eigen::VectorXd& step) {
+      std::vector<PhotoCamera> out = cameras;
+      for (size_t i = 0; i < n; ++i) {
+        if (!active[i]) continue;
+        VecP s;
+        for (int k = 0; k < kParams; ++k) s[k] = step[at[i][k]];
+        out[i] = moved(cameras[i], s);
+      }
+      return out;
+    };
     double lambda = 1e-4;
-    MatP H;
-    VecP b;
-    double current = cost(i, cameras[i], target, scale, &H, &b);
+    Eigen::MatrixXd H;
+    Eigen::VectorXd b;
+    double current = evaluate(cameras, &H, &b);
     for (int it = 0; it < options->iterations; ++it) {
       bool improved = false;
       for (int tries = 0; tries < 6 && !improved; ++tries) {
-        MatP A = H;
+        Eigen::MatrixXd A = H;
         A.diagonal() += lambda * H.diagonal().cwiseMax(1e-9);
-        const VecP step = A.ldlt().solve(-b);
+        const Eigen::VectorXd step = A.ldlt().solve(-b);
         if (!step.allFinite()) return;
-        const PhotoCamera next = moved(cameras[i], step);
-        const double c =
-            next.focal() > 0 ? cost(i, next, target, scale, nullptr, nullptr) : std::numeric_limits<double>::infinity();
+        const std::vector<PhotoCamera> next = apply(step);
+        bool valid = true;
+        for (size_t i = 0; i < n; ++i) valid = valid && (!active[i] || next[i].focal() > 0);
+        const double c = valid ? evaluate(next, nullptr, nullptr) : std::numeric_limits<double>::infinity();
         if (c < current) {
-          cameras[i] = next;
+          cameras = next;
           lambda = std::max(lambda / 4, 1e-7);
           improved = true;
           if (current - c < 1e-7 * current) return;  // converged
-          current = cost(i, cameras[i], target, scale, &H, &b);
+          current = evaluate(cameras, &H, &b);
         } else {
           lambda *= 8;
         }
@@ -395,9 +441,7 @@ struct Problem {
         target = targets(active, use);
         const double scale = residualScale(active, target);
         if (scale <= 0) return;
-        tbb::parallel_for(size_t(0), photos.size(), [&](size_t i) {
-          if (active[i]) stepPose(i, target, scale);
-        });
+        stepJoint(active, target, scale);
       }
     }
   }
@@ -463,6 +507,20 @@ PhotometricRefinement refineCamerasPhotometric(const Mesh& mesh, const std::vect
     problem.clicks.push_back(std::move(c));
   }
   const size_t n = index.size();
+  // The photos that come with one camera's intrinsics (fitSharedIntrinsics gave them one focal length and lens, and no
+  // silhouette refinement made them their own) keep sharing their focal length; every other photo has its own.
+  for (size_t i = 0; i < n; ++i) {
+    const PhotoCamera& c = problem.cameras[i];
+    int f = -1;
+    for (size_t j = 0; j < i && f < 0 && fits[index[i]]->sharedIntrinsics > 0; ++j) {
+      const PhotoCamera& d = problem.cameras[j];
+      if (fits[index[j]]->sharedIntrinsics > 0 && c.pinhole.width == d.pinhole.width &&
+          c.pinhole.height == d.pinhole.height && c.pinhole.fx == d.pinhole.fx && c.pinhole.fy == d.pinhole.fy &&
+          c.pinhole.cx == d.pinhole.cx && c.pinhole.cy == d.pinhole.cy && c.k1 == d.k1 && c.k2 == d.k2)
+        f = problem.focalOf[j];
+    }
+    problem.focalOf.push_back(f >= 0 ? f : problem.focals++);
+  }
   problem.gain.assign(n, Vec3::Ones());
   problem.offset.assign(n, Vec3::Zero());
   if (n < 2) {

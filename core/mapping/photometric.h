@@ -7,8 +7,9 @@
 // - the clicks as a prior weighted by their noise (CameraFit::noisePx): exact clicks keep the camera where it is;
 // - the photo's silhouette, where it has a background, as refineOnSilhouette has it (camera.h);
 // - coarse to fine over blurred photos, for a wider basin.
-// The unknowns per photo are its pose and focal length (noisy clicks leave the focal a few percent off, which poses
-// alone cannot make up); the lens terms stay as the clicks' fit gives them.
+// The unknowns are each photo's pose and its focal length (noisy clicks leave the focal a few percent off, which poses
+// alone cannot make up), one focal length for the photos that share one camera's intrinsics (fitSharedIntrinsics),
+// all in one Levenberg-Marquardt system; the lens terms stay as the clicks' fit gives them.
 // Acceptance by held-out re-rendering: the cameras are refined on a spatial half of the surface samples (cells of a
 // tenth of the bounding box, in a checkerboard), and each photo is then predicted from the others on the other half;
 // the refinement is kept only when those predictions come closer to the photos than with the clicks' cameras. Then

@@ -262,6 +262,8 @@ nlohmann::json fitJson(const CameraFit& fit, int photo, const Project* project) 
     j["photometric_shift_px"] = fit.photometricShiftPx;
     j["exif_focal_prior"] = fit.focalPrior > 0 ? "taken" : fit.focalPrior < 0 ? "refused by the clicks" : "none";
     j["silhouette_points"] = fit.silhouettePoints;
+    j["silhouette_found"] = fit.silhouetteFound;
+    if (!fit.silhouetteSearch.empty()) j["silhouette_search"] = fit.silhouetteSearch;
     j["silhouette_residual_px"] = fit.silhouetteResidualPx;
     j["outliers"] = outliers;
     j["eye"] = {fit.camera.pinhole.center().x(), fit.camera.pinhole.center().y(), fit.camera.pinhole.center().z()};
@@ -693,7 +695,7 @@ const StageGraph& pipelineStages() {
         0.04);
     add(S::Camera, {S::Load},
         {"/options/cameraMode", "/options/cameraThreshold", "/options/sharedIntrinsics", "/options/photometric",
-         "/options/seed"},
+         "/options/foundSilhouettes", "/options/seed"},
         "per photo: the photo, the mesh, its clicks (vertex and pixel, in point order) and its mode; the preview's "
         "warm-started fits are their own",
         0.06);
@@ -1199,6 +1201,53 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
   job.checkCancel();
   key.clear();
   for (size_t p = 0; p < np; ++p) key += "#fit:" + fits[p].first + sharedKey[p];
+  // Photos of the object itself without a cut-out (issue 37): a silhouette found around the mesh's outline through the
+  // clicks' camera (findSilhouette), the camera refined on it as on a cut-out and, kept, the photometric
+  // refinement's silhouette term. Cached per photo by its fit's key; the final tier searches, the preview takes the
+  // last search while the fit is the same and the clicks' camera otherwise (a few tenths of a second a photo).
+  std::vector<const SilhouetteDistance*> foundDistance(np, nullptr);
+  if (project.options.foundSilhouettes) {
+    decltype(cachedFound_) kept;
+    std::vector<std::string> foundKey(np);
+    std::vector<size_t> toSearch;
+    for (size_t p = 0; p < np; ++p) {
+      if (scene.photos[p]->hasBackground || !given[p]->fits || given[p]->subject) continue;
+      foundKey[p] = fits[p].first + sharedKey[p];
+      if (const auto it = cachedFound_.find(foundKey[p]); it != cachedFound_.end())
+        kept[foundKey[p]] = it->second;
+      else if (!isPreview(tier))
+        toSearch.push_back(p);
+    }
+    std::vector<std::shared_ptr<const FoundCamera>> searched(toSearch.size());
+    tbb::parallel_for(size_t(0), toSearch.size(), [&](size_t k) {
+      const size_t p = toSearch[k];
+      const Photo& photo = *scene.photos[p];
+      auto made = std::make_shared<FoundCamera>();
+      const FoundSilhouette search = findSilhouette(*scene.mesh, photo, given[p]->camera, given[p]->thresholdPx);
+      CameraFit fit = *given[p];
+      fit.silhouetteSearch = search.why;
+      if (search.found) {
+        auto withIt = std::make_shared<const Photo>(withForeground(photo, search.mask));
+        auto distance = std::make_shared<const SilhouetteDistance>(*withIt);
+        refineOnSilhouette(*scene.mesh, *withIt, fit, photoFitOptions(project.options, false), distance.get());
+        fit.silhouetteFound = fit.silhouettePoints > 0;
+        if (fit.silhouetteFound) made->photo = withIt, made->distance = distance;
+        fit.reason = describeFit(fit);
+      }
+      made->fit = std::make_shared<const CameraFit>(std::move(fit));
+      searched[k] = made;
+    });
+    for (size_t k = 0; k < toSearch.size(); ++k) kept[foundKey[toSearch[k]]] = searched[k];
+    for (size_t p = 0; p < np; ++p) {
+      const auto it = foundKey[p].empty() ? kept.end() : kept.find(foundKey[p]);
+      if (it == kept.end()) continue;
+      given[p] = it->second->fit;
+      foundDistance[p] = it->second->distance.get();
+      key += "#found:" + std::to_string(p);
+    }
+    cachedFound_ = std::move(kept);
+    job.checkCancel();
+  }
   // The object photos' cameras refined on what they show where they overlap (issue 37; refineCamerasPhotometric),
   // kept when the photos predict each other better on held-out samples. Cached by the fits' keys. The final tier runs
   // it; the preview takes the last verdict while its fits are the same, and the clicks' cameras otherwise (a second or
@@ -1217,7 +1266,7 @@ std::shared_ptr<const CameraStage> Pipeline::fitCameras(const Scene& scene, cons
       for (size_t p = 0; p < np; ++p) {
         members.push_back(&refined[p]);
         photos.push_back(scene.photos[p].get());
-        silhouettes.push_back(cachedPhotos_[p].silhouette.get());
+        silhouettes.push_back(foundDistance[p] ? foundDistance[p] : cachedPhotos_[p].silhouette.get());
       }
       made->summary = refineCamerasPhotometric(*scene.mesh, photos, members, PhotometricOptions{}, &job, silhouettes);
       for (size_t p = 0; p < np; ++p)

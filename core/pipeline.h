@@ -25,6 +25,7 @@
 #include "mapping/cells.h"
 #include "mapping/coverage.h"
 #include "mapping/fine_map.h"
+#include "mapping/found_silhouette.h"
 #include "mapping/partition.h"
 #include "mapping/photometric.h"
 #include "mapping/projection.h"
@@ -345,6 +346,12 @@ class Pipeline {
     std::vector<std::shared_ptr<const CameraFit>> fits;  // per photo
   };
   std::pair<std::string, std::shared_ptr<const PhotometricCameras>> cachedPhotometric_;  // the fits' keys -> verdict
+  struct FoundCamera {  // a photo without a cut-out: the silhouette found around the mesh's outline, and its fit
+    std::shared_ptr<const Photo> photo;                  // the photo with that silhouette as its foreground
+    std::shared_ptr<const SilhouetteDistance> distance;  // of `photo`: the photometric refinement's silhouette term
+    std::shared_ptr<const CameraFit> fit;                // refined on it (the search's verdict in silhouetteSearch)
+  };
+  std::map<std::string, std::shared_ptr<const FoundCamera>> cachedFound_;  // the photo's fit key -> its search
   // The camera stage: each photo's fit, reused from cachedFits_ while its key (the photo, the mesh, its clicks,
   // `fieldsKey`: the camera's declared fields) stays; the preview refits from the last camera. Sets `key` to
   // the fits' keys.

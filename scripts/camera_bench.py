@@ -14,8 +14,9 @@ Usage: scripts/camera_bench.py [--montage build/bin/montage] [--data ../shared/d
 --k1 lists lens distortions (synth --k1, every view; the fit's k1 and k2 per photo are in results.json).
 --set passes project options to every `montage run` (e.g. --set correction=off); the seen column is the PSNR over
 what the oracle's photos see (eval's psnr_seen), the issue-37 measure.
---flatten lays each photo over white and drops its alpha before the run (photos without a cut-out: no silhouette to
-refine a camera on; the oracle reads the same photos).
+--flatten lays each photo over white and drops its alpha before the run (photos without a cut-out: no silhouette but
+the one the camera stage finds around the mesh's outline; the oracle reads the same photos). --background FILE lays
+them over that image instead (a cluttered background; every other view mirrored).
 --lock runs each command under the machine-wide build lock (flock /tmp/tm-build.lock), as HELPERS.md asks.
 """
 import argparse
@@ -46,13 +47,22 @@ def run(cmd, lock):
     return wall, cpu
 
 
-def flatten(d, views):
+def flatten(d, views, background=None):
+    """Lays each photo over white, or over `background` (an image file, scaled to the photo, mirrored in every other
+    view): a photo without a cut-out, on a plain or a cluttered background."""
     import cv2  # python3-opencv (scripts/setup.sh --with-tools)
     for k in range(views):
         path = os.path.join(d, f"photo_{k}.png")
         rgba = cv2.imread(path, cv2.IMREAD_UNCHANGED)
         alpha = rgba[:, :, 3:4].astype("float32") / 255
-        cv2.imwrite(path, (rgba[:, :, :3] * alpha + 255 * (1 - alpha) + 0.5).astype("uint8"))
+        if background:
+            under = cv2.resize(cv2.imread(background, cv2.IMREAD_COLOR), (rgba.shape[1], rgba.shape[0]),
+                               interpolation=cv2.INTER_AREA).astype("float32")
+            if k % 2:
+                under = under[:, ::-1]
+        else:
+            under = 255
+        cv2.imwrite(path, (rgba[:, :, :3] * alpha + under * (1 - alpha) + 0.5).astype("uint8"))
 
 
 def main():
@@ -67,7 +77,8 @@ def main():
     ap.add_argument("--k1", default="0")
     ap.add_argument("--size", default="1024")
     ap.add_argument("--lock", action="store_true")
-    ap.add_argument("--flatten", action="store_true")
+    ap.add_argument("--flatten", action="store_true", help="photos without a cut-out: laid over white")
+    ap.add_argument("--background", help="photos without a cut-out laid over this image (implies --flatten)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     a = ap.parse_args()
     rows = []
@@ -85,8 +96,8 @@ def main():
                         d = os.path.join(a.out, f"{mesh}_{views}_{features}_{noise}" + (f"_k{k1}" if float(k1) else ""))
                         run([a.montage, "synth", "--mesh", obj, "--texture", tex, "--views", views, "--features", features,
                              "--seed", "1", "--size", a.size, "--click-noise", noise, "--k1", k1, "--out", d], a.lock)
-                        if a.flatten:
-                            flatten(d, int(views))
+                        if a.flatten or a.background:
+                            flatten(d, int(views), a.background)
                         sets = [x for kv in a.set for x in ("--set", kv)]
                         wall, cpu = run([a.montage, "run", d + "/project.json", "--out", d + "/out"] + sets, a.lock)
                         run([a.montage, "eval", "--result", d + "/out/model.obj", "--truth", obj, "--truth-texture", tex,

@@ -23,6 +23,7 @@
 #include "image/photo.h"
 #include "io/mesh_io.h"
 #include "io/model.h"
+#include "mapping/found_silhouette.h"
 #include "mapping/photometric.h"
 #include "mapping/projection.h"
 #include "mapping/proposals.h"
@@ -675,17 +676,28 @@ struct ClickFits {
   }
 };
 
-// Lays a photo over white and drops its background: a photo without a cut-out.
-void flatten(Photo& photo) {
-  cv::Mat a, rgb;
+// `photo` (with its background) laid over `under` (CV_8UC3 RGB of the photo's size), its background dropped: a photo
+// without a cut-out.
+Photo laidOver(const Photo& photo, const cv::Mat& under) {
+  Photo out = photo;
+  cv::Mat a, rgb, back;
   photo.alpha.convertTo(a, CV_32F, 1.0 / 255);
   cv::cvtColor(a, a, cv::COLOR_GRAY2RGB);
   photo.rgb.convertTo(rgb, CV_32FC3);
-  rgb = rgb.mul(a) + (cv::Scalar::all(1) - a) * 255;
-  rgb.convertTo(photo.rgb, CV_8UC3);
-  photo.alpha.release();
-  photo.distance.release();
-  photo.hasBackground = false;
+  under.convertTo(back, CV_32FC3);
+  cv::Mat rest;
+  cv::subtract(cv::Scalar::all(1.0), a, rest);
+  rgb = rgb.mul(a) + back.mul(rest);
+  rgb.convertTo(out.rgb, CV_8UC3);
+  out.alpha.release();
+  out.distance.release();
+  out.hasBackground = false;
+  return out;
+}
+
+// Lays a photo over white and drops its background: a photo without a cut-out.
+void flatten(Photo& photo) {
+  photo = laidOver(photo, cv::Mat(photo.rgb.size(), CV_8UC3, cv::Scalar::all(255)));
 }
 
 // `silhouette`: each fit refined on its photo's silhouette, as the camera stage gives them; `flat`: the photos
@@ -707,6 +719,18 @@ double meanGap(const DemoScene& d, const std::vector<CameraFit>& fits) {
   double sum = 0;
   for (size_t k = 0; k < fits.size(); ++k) sum += projectionGap(*d.mesh, trueCamera(d.scene, int(k)), fits[k].camera);
   return sum / fits.size();
+}
+
+// The scene's photo files laid over white, without alpha: photos without a cut-out.
+void flattenFiles(const DemoScene& d) {
+  for (size_t k = 0; k < d.scene.cameras.size(); ++k) {
+    const std::string path = d.dir + "/photo_" + std::to_string(k) + ".png";
+    const Photo photo = loadPhoto(path);
+    ASSERT_TRUE(photo.hasBackground) << path;
+    cv::Mat bgr;
+    cv::cvtColor(laidOver(photo, cv::Mat(photo.rgb.size(), CV_8UC3, cv::Scalar::all(255))).rgb, bgr, cv::COLOR_RGB2BGR);
+    cv::imwrite(path, bgr);
+  }
 }
 
 }  // namespace
@@ -847,24 +871,13 @@ TEST(Photometric, PhotosOfOneCameraKeepOneFocalLength) {
 // that follows takes that verdict), and closer to the true cameras than with the option off.
 TEST(CameraPipeline, PhotosWithoutACutOutAreAlignedOnTheirOverlaps) {
   DemoScene d = demoScene("camera_pipeline_photometric", 4, 60, 2.0, 640);
-  for (int k = 0; k < 4; ++k) {  // the photos' files laid over white, without alpha
-    const std::string path = d.dir + "/photo_" + std::to_string(k) + ".png";
-    cv::Mat bgra = cv::imread(path, cv::IMREAD_UNCHANGED), bgr, alpha;
-    ASSERT_EQ(bgra.channels(), 4);
-    cv::extractChannel(bgra, alpha, 3);
-    cv::cvtColor(bgra, bgr, cv::COLOR_BGRA2BGR);
-    bgr.setTo(cv::Scalar::all(255), alpha == 0);
-    cv::imwrite(path, bgr);
-  }
+  flattenFiles(d);
   Project project = loadProject(d.dir + "/project.json");
   // 15 clicks a photo with 2 px noise: auto takes one photo for another subject (a camera fitted to all 18 clicks,
   // median residual 1.8 px, max 4.4 px); the user says what they show.
   for (PhotoRef& photo : project.photos) photo.mode = PhotoMode::Object;
-  const auto gaps = [&](const PipelineResult& r) {
-    double sum = 0;
-    for (int k = 0; k < 4; ++k) sum += projectionGap(*d.mesh, trueCamera(d.scene, k), r.cameras->fits[k].camera);
-    return sum / 4;
-  };
+  project.options.foundSilhouettes = false;  // the overlaps alone (the silhouettes found: the tests below)
+  const auto gaps = [&](const PipelineResult& r) { return meanGap(d, r.cameras->fits); };
   Pipeline pipeline;
   const PipelineResult on = pipeline.run(project);
   ASSERT_TRUE(on.cameras);
@@ -891,6 +904,146 @@ TEST(CameraPipeline, PhotosWithoutACutOutAreAlignedOnTheirOverlaps) {
   std::printf("pipeline, photos without a cut-out: gap to the truth %.3f px with the overlaps, %.3f without\n",
               gaps(on), gaps(off));
   EXPECT_LT(gaps(on), 0.5 * gaps(off));
+}
+
+// ---- Silhouettes found without a cut-out (issue 37) ----
+
+namespace {
+
+double maskIoU(const cv::Mat& a, const cv::Mat& b) {
+  return double(cv::countNonZero((a > 127) & (b > 127))) / std::max(1, cv::countNonZero((a > 127) | (b > 127)));
+}
+
+// A real photo's pixels at `size` (RGB), or empty when the Debian package is not installed.
+cv::Mat clutter(cv::Size size) {
+  const std::string path = "/usr/lib/python3/dist-packages/skimage/data/coffee.png";
+  cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR), rgb;
+  if (bgr.empty()) return {};
+  cv::resize(bgr, bgr, size, 0, 0, cv::INTER_AREA);
+  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+  return rgb;
+}
+
+}  // namespace
+
+// Photos without a cut-out, over white and over a real photo of a café table: GrabCut started from the noisy
+// camera's outline finds the object's edge (closer to the truth than the outline), and the camera refined on it
+// lands nearer the true one.
+TEST(FoundSilhouette, FindsTheObjectsEdgeAroundANoisyOutline) {
+  DemoScene d = demoScene("found_silhouette", 2, 90, 2.0, 640);
+  const cv::Size size(640, 640);
+  std::vector<std::pair<std::string, cv::Mat>> backgrounds = {{"white", cv::Mat(size, CV_8UC3, cv::Scalar::all(255))}};
+  if (cv::Mat c = clutter(size); !c.empty())
+    backgrounds.emplace_back("coffee", c);
+  else
+    std::printf("SKIPPED the cluttered background: python3-skimage's coffee.png is not installed\n");
+  for (int k = 0; k < 2; ++k) {
+    const Photo truth = loadPhoto(d.dir + "/photo_" + std::to_string(k) + ".png");
+    ASSERT_TRUE(truth.hasBackground);
+    const CameraFit clicks = fitCamera(*d.mesh, photoClicks(d.scene.project, k), 640, 640);
+    ASSERT_TRUE(clicks.fits) << clicks.reason;
+    const PhotoCamera real = trueCamera(d.scene, k);
+    const double outlineIoU = maskIoU(projectedCoverage(*d.mesh, clicks.camera), truth.alpha);
+    EXPECT_GT(maskIoU(projectedCoverage(*d.mesh, real), truth.alpha), 0.99);  // the coverage is the silhouette
+    for (const auto& [name, under] : backgrounds) {
+      const Photo flat = laidOver(truth, under);
+      const FoundSilhouette found = findSilhouette(*d.mesh, flat, clicks.camera, clicks.thresholdPx);
+      ASSERT_TRUE(found.found) << name << ": " << found.why;
+      const double foundIoU = maskIoU(found.mask, truth.alpha);
+      CameraFit refined = clicks;
+      const Photo withIt = withForeground(flat, found.mask);
+      refineOnSilhouette(*d.mesh, withIt, refined);
+      CameraFit onTruth = clicks;  // the same on the true cut-out
+      refineOnSilhouette(*d.mesh, truth, onTruth);
+      const double before = projectionGap(*d.mesh, real, clicks.camera);
+      const double after = projectionGap(*d.mesh, real, refined.camera);
+      std::printf(
+          "photo %d over %s: IoU with the truth %.4f (the outline %.4f), %.2f s; gap to the true camera %.2f "
+          "-> %.2f px (on the true cut-out %.2f px)\n",
+          k, name.c_str(), foundIoU, outlineIoU, found.seconds, before, after,
+          projectionGap(*d.mesh, real, onTruth.camera));
+      EXPECT_GT(foundIoU, 0.98) << name;
+      EXPECT_GT(foundIoU, outlineIoU) << name;
+      EXPECT_GT(refined.silhouettePoints, 0) << name;
+      EXPECT_LT(after, 0.6 * before) << name;
+    }
+  }
+}
+
+// Where the photo shows more of the object than the mesh has (a head scan's photo with shoulders below it), the edge
+// found runs along the band's limit, and nothing is taken; a photo of noise is refused too.
+TEST(FoundSilhouette, TakesNothingWhereThePhotoShowsMoreThanTheMesh) {
+  DemoScene d = demoScene("found_silhouette_more", 1, 45, 2.0, 640);
+  const Photo truth = loadPhoto(d.dir + "/photo_0.png");
+  const CameraFit clicks = fitCamera(*d.mesh, photoClicks(d.scene.project, 0), 640, 640);
+  ASSERT_TRUE(clicks.fits) << clicks.reason;
+  // The mesh's upper part alone, the photo showing the whole object (a head scan without the shoulders its photo
+  // shows): the cut-out runs on along the object, to the band's limit below the part's outline.
+  const PhotoCamera real = trueCamera(d.scene, 0);
+  std::vector<Vec3> positions;
+  for (int v = 0; v < d.mesh->numVertices(); ++v) positions.push_back(d.mesh->position(v));
+  std::vector<double> heights;
+  for (int f = 0; f < d.mesh->numFaces(); ++f) {
+    Vec2 q;
+    const auto c = d.mesh->facePositions(f);
+    real.project((c[0] + c[1] + c[2]) / 3, q);
+    heights.push_back(q.y());
+  }
+  std::vector<double> sorted = heights;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() * 6 / 10, sorted.end());
+  std::vector<std::array<int, 3>> upper;
+  for (int f = 0; f < d.mesh->numFaces(); ++f)
+    if (heights[f] < sorted[sorted.size() * 6 / 10]) upper.push_back(d.mesh->faceVertices(f));
+  const std::unique_ptr<Mesh> part = requireUsable(buildMesh(positions, upper));
+  const cv::Mat white(truth.rgb.size(), CV_8UC3, cv::Scalar::all(255));
+  const FoundSilhouette more = findSilhouette(*part, laidOver(truth, white), clicks.camera, clicks.thresholdPx);
+  std::printf("more of the object: %s\n", more.why.c_str());
+  EXPECT_FALSE(more.found);
+  EXPECT_GT(more.atLimit, 0.05);
+  EXPECT_TRUE(more.mask.empty());
+  // Nothing of the object at all: a photo of noise.
+  Photo noise = laidOver(truth, white);
+  cv::randu(noise.rgb, cv::Scalar::all(0), cv::Scalar::all(255));
+  const FoundSilhouette none = findSilhouette(*d.mesh, noise, clicks.camera, clicks.thresholdPx);
+  std::printf("a photo of noise: %s\n", none.why.c_str());
+  EXPECT_FALSE(none.found);
+}
+
+// Through the pipeline: two photos 180 degrees apart without a cut-out share nothing to align; their cameras are
+// refined on the silhouettes found around the mesh's outline, land nearer the truth than the clicks' cameras, and
+// the preview that follows keeps them.
+TEST(CameraPipeline, TwoPhotosWithoutACutOutAreRefinedOnTheSilhouettesFound) {
+  DemoScene d = demoScene("camera_pipeline_found", 2, 90, 2.0, 640);
+  flattenFiles(d);
+  Project project = loadProject(d.dir + "/project.json");
+  // Auto takes one of them for another subject from its first 8 clicks (spread 0.5 of the threshold, no silhouette
+  // to compare): the user says what they show.
+  for (PhotoRef& photo : project.photos) photo.mode = PhotoMode::Object;
+  const auto gap = [&](const PipelineResult& r) { return meanGap(d, r.cameras->fits); };
+  Pipeline pipeline;
+  const PipelineResult on = pipeline.run(project);
+  ASSERT_TRUE(on.cameras);
+  const nlohmann::json report = on.report();
+  for (int k = 0; k < 2; ++k) {
+    const CameraFit& f = on.cameras->fits[k];
+    ASSERT_TRUE(f.fits && !f.subject) << f.decision;
+    EXPECT_TRUE(f.silhouetteFound) << f.silhouetteSearch;
+    EXPECT_GT(f.silhouettePoints, 0);
+    EXPECT_NE(f.reason.find("silhouette found around the mesh's outline"), std::string::npos) << f.reason;
+    EXPECT_EQ(report["cameras"][k]["silhouette_found"], true);
+  }
+  const PipelineResult preview = pipeline.run(project, JobControl(), Tier::Preview);
+  for (int k = 0; k < 2; ++k)
+    EXPECT_EQ(projectionGap(*d.mesh, preview.cameras->fits[k].camera, on.cameras->fits[k].camera), 0);
+  project.options.foundSilhouettes = false;
+  Pipeline without;
+  const PipelineResult off = without.run(project);
+  for (const CameraFit& f : off.cameras->fits) EXPECT_FALSE(f.silhouetteFound);
+  std::printf(
+      "pipeline, two photos without a cut-out: gap to the truth %.3f px on the silhouettes found, %.3f "
+      "without\n",
+      gap(on), gap(off));
+  EXPECT_LT(gap(on), 0.6 * gap(off));
 }
 
 // Each view option moves the view the way its doc says (true cameras, photos with a background).

@@ -208,6 +208,33 @@ TEST(Cutout, WarningsForNoBackgroundAndForABorderCoveringForeground) {
   EXPECT_TRUE(foregroundWarnings(loadPhoto(photoPath, maskPath)).empty());
 }
 
+// A trimap (the camera stage's, around a mesh's outline 6 px off the object): GrabCut decides the band between the
+// certain inside and outside, and finds the disc's edge, not the trimap's.
+TEST(Cutout, ATrimapAroundAShiftedOutlineFindsTheObjectsEdge) {
+  cv::Mat truth;
+  const cv::Mat rgb = discScene(truth);
+  cv::Mat outline = cv::Mat::zeros(truth.size(), CV_8U);
+  cv::circle(outline, cv::Point(156, 116), 61, cv::Scalar(255), cv::FILLED);  // the disc 6 px right, 4 up
+  cv::Mat inside, outside;
+  cv::erode(outline, inside, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(25, 25)));
+  cv::dilate(outline, outside, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(25, 25)));
+  cv::Mat labels(truth.size(), CV_8U, cv::Scalar(cv::GC_BGD));
+  labels.setTo(cv::Scalar(cv::GC_PR_BGD), outside);
+  labels.setTo(cv::Scalar(cv::GC_PR_FGD), outline);
+  labels.setTo(cv::Scalar(cv::GC_FGD), inside);
+  Cutout cut(rgb);
+  cut.startFromTrimap(labels);
+  std::printf("trimap: IoU %.4f (the outline's %.4f)\n", iou(cut.binaryMask(), truth), iou(outline, truth));
+  EXPECT_GT(iou(cut.binaryMask(), truth), 0.98);
+  EXPECT_LT(iou(outline, truth), 0.9);
+  EXPECT_NE(errorOf([&] { cut.startFromTrimap(cv::Mat::zeros(10, 10, CV_8U)); }).find("trimap is 10x10"),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] {
+              cut.startFromTrimap(cv::Mat(truth.size(), CV_8U, cv::Scalar(cv::GC_BGD)));
+            }).find("nothing is marked as foreground"),
+            std::string::npos);
+}
+
 TEST(Cutout, BadRequestsAreClearErrors) {
   cv::Mat truth;
   const cv::Mat rgb = discScene(truth);

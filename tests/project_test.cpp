@@ -94,6 +94,7 @@ class ProjectTest : public ::testing::Test {
     p.options.cameraThreshold = 0.01;
     p.options.sharedIntrinsics = false;
     p.options.photometric = false;
+    p.options.foundSilhouettes = false;
     p.options.correction = CorrectionMode::Inliers;
     p.options.viewSmoothness = 2.5;
     p.declinedProposals = {{12, 1}, {7, 0}};
@@ -792,6 +793,8 @@ TEST(ProjectOptions, SetFromTheCommandLine) {
   EXPECT_FALSE(o.sharedIntrinsics);
   setProjectOption(o, "photometric", "false", "--set photometric=false");
   EXPECT_FALSE(o.photometric);
+  setProjectOption(o, "foundSilhouettes", "false", "--set foundSilhouettes=false");
+  EXPECT_FALSE(o.foundSilhouettes);
   EXPECT_EQ(o.atlasSize, 2048);
   EXPECT_EQ(o.inpaintMode, InpaintMode::Synthesis);
   EXPECT_FALSE(o.weldIdenticalPositions);
@@ -807,7 +810,7 @@ TEST(ProjectOptions, SetFromTheCommandLine) {
   EXPECT_NE(message("inpaintMode", "paint").find("'paint' is not an inpainting mode"), std::string::npos);
   EXPECT_NE(message("atlasSize", "100").find("options.atlasSize"), std::string::npos);
   EXPECT_TRUE(o == before) << "a refused value leaves the options as they were";
-  EXPECT_EQ(projectOptionNames().size(), 24u);
+  EXPECT_EQ(projectOptionNames().size(), 25u);
 }
 
 // Issue 35, finding 9: a deletion renumbered the points after it. Ids survive erasePoint, are written (version 5)

@@ -735,6 +735,11 @@ void Editor::pipelineTab() {
           "photos of the object itself: their cameras are refined so that where two photos see the same surface "
           "they show it alike, kept only when that predicts a held-out photo better (final result; a second or "
           "more)");
+    if (ImGui::Checkbox("find silhouettes without a cut-out", &o.foundSilhouettes)) commit = true;
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip(
+          "photos of the object itself without a cut-out: the object's edge is found around the mesh's outline "
+          "and the camera refined on it, as on a cut-out (final result)");
     if (ImGui::Checkbox("weld seams of the mesh", &o.weldIdenticalPositions)) commit = true;
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip(

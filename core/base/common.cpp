@@ -1,5 +1,8 @@
 #include "base/common.h"
 
+#include <algorithm>
+#include <cstdio>
+
 namespace montage {
 
 std::string printable(const std::string& text, bool keepLines) {
@@ -60,6 +63,12 @@ std::string printable(const std::string& text, bool keepLines) {
 
 std::string located(const std::string& where, const std::string& what) {
   return where.empty() ? what : where + ": " + what;
+}
+
+std::string formatFixed(double v, int digits) {
+  char buffer[400];  // the longest double printed in full is 309 digits before the point
+  std::snprintf(buffer, sizeof buffer, "%.*f", std::clamp(digits, 0, 30), v);
+  return buffer;
 }
 
 }  // namespace montage

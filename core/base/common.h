@@ -39,6 +39,9 @@ class Cancelled : public std::exception {
 // Builds "<where>: <what>" with an optional location prefix (file or file:line).
 std::string located(const std::string& where, const std::string& what);
 
+// `v` with `digits` digits after the point ("%.*f"): the figures of reports and messages.
+std::string formatFixed(double v, int digits);
+
 }  // namespace montage
 
 // TM_CHECK(cond, msg): throws montage::Error(msg) when cond is false. msg may be any expression yielding

@@ -167,6 +167,21 @@ void Cutout::startFrom(const cv::Mat& alpha) {
   started_ = true;
 }
 
+void Cutout::startFromTrimap(const cv::Mat& labels) {
+  TM_CHECK(labels.type() == CV_8UC1 && labels.size() == size_,
+           "cut-out: the trimap is " + std::to_string(labels.cols) + "x" + std::to_string(labels.rows) +
+               " but the photo is " + std::to_string(size_.width) + "x" + std::to_string(size_.height));
+  if (labels.size() != image_.size())
+    cv::resize(labels, labels_, image_.size(), 0, 0, cv::INTER_NEAREST);
+  else
+    labels_ = labels.clone();
+  rect_ = cv::boundingRect(labels_ != cv::GC_BGD);
+  roi_ = grown(rect_, image_.size());
+  marks_.clear();
+  modelsReady_ = false;
+  runGrabCut();
+}
+
 void Cutout::paint(cv::Mat& labels, double scale, const CutoutStroke& stroke, int value) const {
   TM_CHECK(std::isfinite(stroke.radius) && stroke.radius > 0, "cut-out: a stroke's radius must be > 0 pixels");
   // Fixed-point drawing (4 fractional bits) so that thin strokes at a reduced working size land where drawn.

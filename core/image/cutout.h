@@ -55,6 +55,11 @@ class Cutout {
   // > 0 = foreground) as
   // GrabCut's probable labels, without running it: strokes then refine it, the brush edits it.
   void startFrom(const cv::Mat& alpha);
+  // Starts over from a trimap (CV_8UC1 of the photo's size, GrabCut's labels: cv::GC_BGD, GC_FGD, GC_PR_BGD,
+  // GC_PR_FGD) and runs GrabCut on the part of the photo around its uncertain pixels (the camera stage's cut-out
+  // found around a mesh's projection). Throws montage::Error when the trimap is not of the photo's size or marks no
+  // foreground or no background.
+  void startFromTrimap(const cv::Mat& labels);
   // Marks a stroke as certain foreground or background and runs GrabCut again from the current state.
   // The region the stroke lies in that the cut gave to the other side, as far as its colour stays near
   // the stroke's, goes over to the stroke's side before the colour models are re-learnt, so that a stroke

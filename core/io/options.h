@@ -135,6 +135,8 @@ struct PipelineOptions {
                                  // prefers it (a bundle adjustment over all their clicks)
   bool photometric = true;       // camera fit: the object photos' poses refined on what they show where they overlap,
                                  // kept when held-out photos are re-rendered better (mapping/photometric.h)
+  bool foundSilhouettes = true;  // camera fit: a photo of the object itself without a cut-out is refined on the
+                                 // silhouette GrabCut finds around the mesh's outline (mapping/found_silhouette.h)
   CorrectionMode correction = CorrectionMode::Noise;  // projection: clicks the correction field keeps exact
   double viewSmoothness = 1.0;                      // projection: seam cost of view selection (0 = best view per face)
   int maxPhotoSide = 0;  // load: working resolution, photos kept at most this many pixels a side (0 = full;
@@ -149,9 +151,9 @@ struct PipelineOptions {
            maxInpaintVertices == o.maxInpaintVertices && atlasSize == o.atlasSize && gutter == o.gutter &&
            seed == o.seed && exportTopology == o.exportTopology && bakeInto == o.bakeInto && bakeSize == o.bakeSize &&
            pngCompression == o.pngCompression && cameraMode == o.cameraMode && cameraThreshold == o.cameraThreshold &&
-           sharedIntrinsics == o.sharedIntrinsics && photometric == o.photometric && correction == o.correction &&
-           viewSmoothness == o.viewSmoothness && maxPhotoSide == o.maxPhotoSide &&
-           weldIdenticalPositions == o.weldIdenticalPositions;
+           sharedIntrinsics == o.sharedIntrinsics && photometric == o.photometric &&
+           foundSilhouettes == o.foundSilhouettes && correction == o.correction && viewSmoothness == o.viewSmoothness &&
+           maxPhotoSide == o.maxPhotoSide && weldIdenticalPositions == o.weldIdenticalPositions;
   }
 };
 

@@ -249,6 +249,7 @@ void forEachOption(Options& o, Visit&& visit) {
   visit("cameraThreshold", o.cameraThreshold, 0.0005, 0.2);
   visit("sharedIntrinsics", o.sharedIntrinsics, false, true);
   visit("photometric", o.photometric, false, true);
+  visit("foundSilhouettes", o.foundSilhouettes, false, true);
   visit("correction", o.correction, CorrectionMode::Off, CorrectionMode::Noise);
   visit("viewSmoothness", o.viewSmoothness, 0.0, 100.0);
   visit("maxPhotoSide", o.maxPhotoSide, 0, 16384);

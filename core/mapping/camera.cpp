@@ -238,14 +238,6 @@ int countOf(const std::vector<char>& v) {
   return static_cast<int>(std::count(v.begin(), v.end(), 1));
 }
 
-std::string fixed(double v, int digits) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
-
 }  // namespace
 
 bool PhotoCamera::project(const Vec3& p, Vec2& pixel, double* depth) const {
@@ -530,14 +522,14 @@ CameraFit fitCamera(const Mesh& mesh, const std::vector<CameraClick>& clicks, in
   const double share = double(fit.inliers) / n;
   if (fit.inliers < o.minInliers)
     return finish("only " + std::to_string(fit.inliers) + " of " + std::to_string(n) + " clicks agree within " +
-                  fixed(tau, 1) + " px (at least " + std::to_string(o.minInliers) +
+                  formatFixed(tau, 1) + " px (at least " + std::to_string(o.minInliers) +
                   " needed): a photo of another subject");
   if (share < o.minInlierRatio)
     return finish("only " + std::to_string(fit.inliers) + " of " + std::to_string(n) + " clicks (" +
-                  fixed(100 * share, 0) + "%) agree within " + fixed(tau, 1) + " px (at least " +
-                  fixed(100 * o.minInlierRatio, 0) + "% needed): a photo of another subject");
+                  formatFixed(100 * share, 0) + "%) agree within " + formatFixed(tau, 1) + " px (at least " +
+                  formatFixed(100 * o.minInlierRatio, 0) + "% needed): a photo of another subject");
   if (!(fov >= o.minFovDeg && fov <= o.maxFovDeg))
-    return finish("implausible field of view " + fixed(fov, 1) + " degrees");
+    return finish("implausible field of view " + formatFixed(fov, 1) + " degrees");
   fit.fits = true;
   return finish(describeFit(fit));
 }
@@ -680,7 +672,8 @@ CameraFit fitCameraToEveryClick(const Mesh& mesh, const std::vector<CameraClick>
   fit.rmsResidual = std::sqrt(ss / n);
   fit.fits = true;
   return finish("another subject: a camera fitted to all " + std::to_string(n) + " clicks (median residual " +
-                fixed(fit.medianResidual, 1) + " px, max " + fixed(fit.maxResidual, 1) + " px), warped to each click");
+                formatFixed(fit.medianResidual, 1) + " px, max " + formatFixed(fit.maxResidual, 1) +
+                " px), warped to each click");
 }
 
 void SilhouetteDistance::make() const {
@@ -1229,8 +1222,8 @@ SharedIntrinsics fitSharedIntrinsics(const Mesh& mesh, const std::vector<CameraF
   out.aicSeparate = n * std::log(std::max(rssSeparate, floor) / n) + 2 * kSeparate;
   out.aicShared = n * std::log(std::max(rss, floor) / n) + 2 * kShared;
   if (!(out.aicShared <= out.aicSeparate))
-    return finish("separate intrinsics explain the clicks better (Akaike " + fixed(out.aicSeparate, 1) + " against " +
-                  fixed(out.aicShared, 1) + " shared)");
+    return finish("separate intrinsics explain the clicks better (Akaike " + formatFixed(out.aicSeparate, 1) +
+                  " against " + formatFixed(out.aicShared, 1) + " shared)");
   for (const CameraFit& f : state) {
     const double fov = f.camera.fovYDeg();
     if (f.inliers < o.minInliers || f.inliers < o.minInlierRatio * double(f.clicks.size()) ||
@@ -1246,29 +1239,32 @@ SharedIntrinsics fitSharedIntrinsics(const Mesh& mesh, const std::vector<CameraF
     *fits[v] = std::move(f);
   }
   out.shared = true;
-  return finish("focal " + fixed(out.focal, 1) + " px" +
-                (radial ? ", k1 " + fixed(out.k1, 4) + (radial > 1 ? ", k2 " + fixed(out.k2, 4) : "") : "") +
-                " shared by " + std::to_string(out.photos) + " photos (Akaike " + fixed(out.aicShared, 1) +
-                " against " + fixed(out.aicSeparate, 1) + " separate)");
+  return finish(
+      "focal " + formatFixed(out.focal, 1) + " px" +
+      (radial ? ", k1 " + formatFixed(out.k1, 4) + (radial > 1 ? ", k2 " + formatFixed(out.k2, 4) : "") : "") +
+      " shared by " + std::to_string(out.photos) + " photos (Akaike " + formatFixed(out.aicShared, 1) + " against " +
+      formatFixed(out.aicSeparate, 1) + " separate)");
 }
 
 std::string describeFit(const CameraFit& fit) {
   std::string s = fit.fits ? "fits: " : "does not fit: ";
   if (!fit.fits) return s + fit.reason;
-  s += "focal " + fixed(fit.camera.focal(), 1) + " px (fov " + fixed(fit.camera.fovYDeg(), 1) + " deg";
+  s += "focal " + formatFixed(fit.camera.focal(), 1) + " px (fov " + formatFixed(fit.camera.fovYDeg(), 1) + " deg";
   if (fit.camera.k1 != 0 || fit.camera.k2 != 0)
-    s += ", k1 " + fixed(fit.camera.k1, 4) + ", k2 " + fixed(fit.camera.k2, 4) +
+    s += ", k1 " + formatFixed(fit.camera.k1, 4) + ", k2 " + formatFixed(fit.camera.k2, 4) +
          (fit.radialPooled ? " (paid for by the photos of its camera together)" : "");
   if (fit.sharedIntrinsics) s += ", shared by " + std::to_string(fit.sharedIntrinsics) + " photos";
   if (fit.focalPrior)
     s += fit.focalPrior > 0 ? ", the EXIF's focal length a prior" : ", the EXIF's focal length refused";
   s += "), " + std::to_string(fit.inliers) + "/" + std::to_string(fit.clicks.size()) + " clicks agree, median " +
-       fixed(fit.medianResidual, 2) + " px, max " + fixed(fit.maxResidual, 2) + " px";
+       formatFixed(fit.medianResidual, 2) + " px, max " + formatFixed(fit.maxResidual, 2) + " px";
   if (fit.silhouettePoints > 0)
-    s += ", on the silhouette: " + std::to_string(fit.silhouettePoints) + " contour samples, mean " +
-         fixed(fit.silhouetteResidualPx, 2) + " px";
+    s += std::string(fit.silhouetteFound ? ", on the silhouette found around the mesh's outline: "
+                                         : ", on the silhouette: ") +
+         std::to_string(fit.silhouettePoints) + " contour samples, mean " + formatFixed(fit.silhouetteResidualPx, 2) +
+         " px";
   if (fit.photometricShiftPx > 0)
-    s += ", aligned with the other photos on their overlaps (moved " + fixed(fit.photometricShiftPx, 2) + " px)";
+    s += ", aligned with the other photos on their overlaps (moved " + formatFixed(fit.photometricShiftPx, 2) + " px)";
   return s;
 }
 

@@ -138,6 +138,9 @@ struct CameraFit {
       decision;  // why the photo is taken for the object itself or another subject (its mode, or auto's evidence)
   int silhouettePoints = 0;         // contour samples of the silhouette refinement (0: not refined)
   double silhouetteResidualPx = 0;  // their mean distance to the photo's silhouette, pixels
+  bool silhouetteFound = false;     // that silhouette was found around the mesh's outline (found_silhouette.h): the
+                                    // photo has no cut-out
+  std::string silhouetteSearch;     // a photo without a cut-out: what that search found, or why it took nothing
   double photometricShiftPx = 0;    // > 0: refined on its overlaps with the other photos (refineCamerasPhotometric),
                                     // which moved its view of the surface by this much (median, pixels)
   double seconds = 0;               // time of the fit

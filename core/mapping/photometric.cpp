@@ -491,13 +491,10 @@ PhotometricRefinement refineCamerasPhotometric(const Mesh& mesh, const std::vect
     index.push_back(static_cast<int>(i));
     problem.photos.push_back(photos[i]);
     problem.cameras.push_back(fit.camera);
-    if (photos[i]->hasBackground) {
-      const SilhouetteDistance* given = i < silhouettes.size() ? silhouettes[i] : nullptr;
-      if (!given) given = &ownSilhouettes.emplace_back(*photos[i]);
-      problem.silhouettes.push_back(given);
-    } else {
-      problem.silhouettes.push_back(nullptr);
-    }
+    // A photo's silhouette: its cut-out's, or the one the camera stage found around the mesh's outline (given).
+    const SilhouetteDistance* given = i < silhouettes.size() ? silhouettes[i] : nullptr;
+    if (!given && photos[i]->hasBackground) given = &ownSilhouettes.emplace_back(*photos[i]);
+    problem.silhouettes.push_back(given);
     Clicks c;
     for (size_t k = 0; k < fit.clicks.size(); ++k)
       if (fit.inlier[k])

@@ -62,7 +62,8 @@ struct PhotometricRefinement {
 // Refines the poses of `fits` (photos[i] is fits[i]'s photo; fits that do not fit, or fit as another subject, are
 // left out) as above. When kept, every refined fit takes its new camera with its clicks re-measured; otherwise the
 // fits are left untouched. `job` (may be null) is checked for cancellation between steps.
-// `silhouettes` (optional, per photo): the callers' SilhouetteDistance of the photos with a background.
+// `silhouettes` (optional, per photo): the callers' SilhouetteDistance of the photos with a background, or of a
+// silhouette found for a photo without one (mapping/found_silhouette.h).
 PhotometricRefinement refineCamerasPhotometric(const Mesh& mesh, const std::vector<const Photo*>& photos,
                                                const std::vector<CameraFit*>& fits,
                                                const PhotometricOptions& options = {}, const JobControl* job = nullptr,

@@ -593,12 +593,6 @@ double normalisedStretch(const Mesh& mesh, const std::vector<char>& use, UV&& uv
   return area3 > 0 ? std::sqrt(sum / area3) * std::sqrt(areaUV / area3) : 0;
 }
 
-std::string fixedText(double v, int digits) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.*f", digits, v);
-  return buffer;
-}
-
 }  // namespace
 
 SubjectChoice chooseSubjectMap(const Mesh& mesh, const TextureMap& paperMap, const PhotoView& view,
@@ -633,27 +627,27 @@ SubjectChoice chooseSubjectMap(const Mesh& mesh, const TextureMap& paperMap, con
     c.heldOutMaxPx = heldOut.back();
   }
   const double foldShare = double(c.warpFolds) / std::max(1, c.warpFaces + c.warpFolds);
-  const std::string figures = " (warp: " + std::to_string(c.warpFaces) + " faces, " + fixedText(100 * c.warpArea, 1) +
-                              "% of the surface, stretch " + fixedText(c.warpStretch, 2) + ", " +
+  const std::string figures = " (warp: " + std::to_string(c.warpFaces) + " faces, " + formatFixed(100 * c.warpArea, 1) +
+                              "% of the surface, stretch " + formatFixed(c.warpStretch, 2) + ", " +
                               std::to_string(c.warpFolds) + " folds; paper: " + std::to_string(c.paperFaces) +
-                              " faces, " + fixedText(100 * c.paperArea, 1) + "%, stretch " +
-                              fixedText(c.paperStretch, 2) + ")";
+                              " faces, " + formatFixed(100 * c.paperArea, 1) + "%, stretch " +
+                              formatFixed(c.paperStretch, 2) + ")";
   if (c.warpFaces == 0) {
     c.why = "the camera and warp map no face inside the photo's outline" + figures;
   } else if (foldShare > o.maxFoldShare) {
-    c.why = "the warp folds " + fixedText(100 * foldShare, 1) + "% of its faces" + figures;
+    c.why = "the warp folds " + formatFixed(100 * foldShare, 1) + "% of its faces" + figures;
   } else if (c.paperFaces > 0 && c.warpStretch > o.stretchRatio * c.paperStretch && c.paperArea >= c.warpArea) {
     c.why = "the paper's map covers as much with less stretch" + figures;
   } else {
     c.warp = true;
     c.why = "camera and warp: " +
             (c.warpFolds == 0 ? std::string("no folds, ")
-                              : fixedText(100 * foldShare, 1) + "% folds (at most " +
-                                    fixedText(100 * o.maxFoldShare, 1) + "% allowed), ") +
+                              : formatFixed(100 * foldShare, 1) + "% folds (at most " +
+                                    formatFixed(100 * o.maxFoldShare, 1) + "% allowed), ") +
             std::string(c.paperFaces == 0                 ? "the paper's map covers nothing"
                         : c.warpStretch <= c.paperStretch ? "less stretch"
                         : c.warpArea >= c.paperArea       ? "it covers more"
-                                                          : "stretch within " + fixedText(o.stretchRatio, 1) + "x") +
+                                                          : "stretch within " + formatFixed(o.stretchRatio, 1) + "x") +
             figures;
   }
   return c;

@@ -26,14 +26,6 @@ std::string percent(double share) {
   return s.str();
 }
 
-std::string number(double v, int digits = 2) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
-
 // `spreadAlone`: the spread bound for a photo without a silhouette to compare.
 bool objectLike(const CameraEvidence& e, double share, double spread, double spreadAlone, double silhouette) {
   return e.clicks > 0 && e.agreeShare >= share && e.spread <= (e.silhouette < 0 ? spreadAlone : spread) &&
@@ -42,7 +34,7 @@ bool objectLike(const CameraEvidence& e, double share, double spread, double spr
 
 std::string evidenceWords(const CameraEvidence& e) {
   std::string s = percent(e.agreeShare) + " of " + std::to_string(e.clicks) + " clicks agree with one camera, spread " +
-                  (std::isfinite(e.spread) ? number(e.spread) : std::string("unbounded")) + " x its threshold";
+                  (std::isfinite(e.spread) ? formatFixed(e.spread, 2) : std::string("unbounded")) + " x its threshold";
   if (e.silhouette >= 0) s += ", silhouette overlap " + percent(e.silhouette);
   return s;
 }

@@ -308,6 +308,10 @@ void Cutout::runGrabCut() {
   // Outside roi_ every label is certain background (outside the rectangle): GrabCut runs on roi_ alone.
   const cv::Mat image = image_(roi_);
   cv::Mat labels = labels_(roi_);
+  // GrabCut seeds its colour models by k-means++ from the calling thread's random state, which every earlier draw on
+  // that thread moves: seeded here, the same photo and labels give the same cut on any thread, at any time (the
+  // camera stage's silhouettes, and with them the final result, are then those of a fresh run).
+  cv::theRNG() = cv::RNG(0x9e3779b9u);
   try {
     if (!modelsReady_) {
       // From the rectangle, or strokes alone: the colour models are learnt from the current labels.

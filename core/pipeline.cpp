@@ -209,7 +209,8 @@ CameraFit fitPhoto(const Scene& scene, int photo, const SilhouetteDistance* silh
   PhotoMode use = mode;
   std::string decision;
   if (mode == PhotoMode::Auto) {
-    const ModeDecision d = decidePhotoMode(*scene.mesh, p, clicks, fit, options);
+    const ModeDecision d =
+        decidePhotoMode(*scene.mesh, p, clicks, fit, options, {}, scene.project.options.foundSilhouettes);
     use = d.mode;
     decision = "auto: " + d.why;
   } else {

@@ -1013,24 +1013,25 @@ TEST(FoundSilhouette, TakesNothingWhereThePhotoShowsMoreThanTheMesh) {
   EXPECT_FALSE(none.found);
 }
 
-// Through the pipeline: two photos 180 degrees apart without a cut-out share nothing to align; their cameras are
-// refined on the silhouettes found around the mesh's outline, land nearer the truth than the clicks' cameras, and
-// the preview that follows keeps them.
+// Through the pipeline: two photos 180 degrees apart without a cut-out share nothing to align; auto takes both for the
+// object itself (one by the silhouette found), their cameras are refined on the silhouettes found around the mesh's
+// outline, land nearer the truth than the clicks' cameras, and the preview that follows keeps them.
 TEST(CameraPipeline, TwoPhotosWithoutACutOutAreRefinedOnTheSilhouettesFound) {
   DemoScene d = demoScene("camera_pipeline_found", 2, 90, 2.0, 640);
   flattenFiles(d);
   Project project = loadProject(d.dir + "/project.json");
-  // Auto takes one of them for another subject from its first 8 clicks (spread 0.5 of the threshold, no silhouette
-  // to compare): the user says what they show.
-  for (PhotoRef& photo : project.photos) photo.mode = PhotoMode::Object;
+  // Auto mode: from their clicks alone the photos are another subject (their first 8 clicks spread 0.5 of the
+  // threshold, more than a photo without a silhouette may); with the silhouettes found they are the object.
   const auto gap = [&](const PipelineResult& r) { return meanGap(d, r.cameras->fits); };
   Pipeline pipeline;
   const PipelineResult on = pipeline.run(project);
   ASSERT_TRUE(on.cameras);
   const nlohmann::json report = on.report();
+  int decidedBySilhouette = 0;
   for (int k = 0; k < 2; ++k) {
     const CameraFit& f = on.cameras->fits[k];
     ASSERT_TRUE(f.fits && !f.subject) << f.decision;
+    decidedBySilhouette += f.decision.find("the silhouette found around the mesh's outline") != std::string::npos;
     EXPECT_TRUE(f.silhouetteFound) << f.silhouetteSearch;
     EXPECT_GT(f.silhouettePoints, 0);
     EXPECT_NE(f.reason.find("silhouette found around the mesh's outline"), std::string::npos) << f.reason;
@@ -1041,6 +1042,11 @@ TEST(CameraPipeline, TwoPhotosWithoutACutOutAreRefinedOnTheSilhouettesFound) {
     EXPECT_EQ(projectionGap(*d.mesh, preview.cameras->fits[k].camera, on.cameras->fits[k].camera), 0);
   project.options.foundSilhouettes = false;
   Pipeline without;
+  const PipelineResult auto_ = without.run(project);
+  for (const CameraFit& f : auto_.cameras->fits) std::printf("without the silhouettes found: %s\n", f.decision.c_str());
+  EXPECT_GE(decidedBySilhouette, 1);
+  EXPECT_EQ(auto_.cameras->subjects, decidedBySilhouette);                // the clicks alone
+  for (PhotoRef& photo : project.photos) photo.mode = PhotoMode::Object;  // the user says what they show
   const PipelineResult off = without.run(project);
   for (const CameraFit& f : off.cameras->fits) EXPECT_FALSE(f.silhouetteFound);
   std::printf(

@@ -33,6 +33,13 @@ cv::Mat projectedCoverage(const Mesh& mesh, const PhotoCamera& camera) {
   return out;
 }
 
+double outlineAgreement(const Mesh& mesh, const PhotoCamera& camera, const cv::Mat& mask) {
+  cv::Mat coverage = projectedCoverage(mesh, camera);
+  if (coverage.size() != mask.size()) cv::resize(coverage, coverage, mask.size(), 0, 0, cv::INTER_AREA);
+  const cv::Mat a = coverage > 127, b = mask > 127;
+  return double(cv::countNonZero(a & b)) / std::max(1, cv::countNonZero(a | b));
+}
+
 namespace {
 
 // A soft edge for a binary cut-out: each pixel on either side of its edge takes the alpha that unmixes its colour

@@ -46,6 +46,10 @@ struct FoundSilhouette {
 // triangle in front of the camera lands.
 cv::Mat projectedCoverage(const Mesh& mesh, const PhotoCamera& camera);
 
+// Intersection over union of the mesh's coverage through `camera` and `mask` (FoundSilhouette::mask, > 127
+// foreground), at the mask's size.
+double outlineAgreement(const Mesh& mesh, const PhotoCamera& camera, const cv::Mat& mask);
+
 // The cut-out of `photo` (which has no background) found around the mesh's outline through `camera`, whose fit
 // agrees within `thresholdPx` (CameraFit::thresholdPx).
 FoundSilhouette findSilhouette(const Mesh& mesh, const Photo& photo, const PhotoCamera& camera, double thresholdPx,

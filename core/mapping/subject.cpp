@@ -11,6 +11,7 @@
 #include "geometry/mesh.h"
 #include "geometry/raster.h"
 #include "image/photo.h"
+#include "mapping/found_silhouette.h"
 
 namespace montage {
 
@@ -114,14 +115,29 @@ ModeDecision decidePhotoMode(const CameraEvidence& first, const CameraEvidence& 
 }
 
 ModeDecision decidePhotoMode(const Mesh& mesh, const Photo& photo, const std::vector<CameraClick>& clicks,
-                             const CameraFit& fit, const CameraFitOptions& fitOptions, const SubjectOptions& o) {
+                             const CameraFit& fit, const CameraFitOptions& fitOptions, const SubjectOptions& o,
+                             bool findSilhouettes) {
   CameraEvidence first;
+  CameraFit early;
   if (static_cast<int>(clicks.size()) >= o.decisionClicks) {
     // The first clicks' own fit (from scratch, so that it does not depend on the preview's start).
-    const std::vector<CameraClick> early(clicks.begin(), clicks.begin() + o.decisionClicks);
-    first = cameraEvidence(fitCamera(mesh, early, photo.width, photo.height, fitOptions), mesh, &photo);
+    early = fitCamera(mesh, {clicks.begin(), clicks.begin() + o.decisionClicks}, photo.width, photo.height, fitOptions);
+    first = cameraEvidence(early, mesh, &photo);
   }
-  return decidePhotoMode(first, cameraEvidence(fit, mesh, &photo), o);
+  CameraEvidence all = cameraEvidence(fit, mesh, &photo);
+  ModeDecision d = decidePhotoMode(first, all, o);
+  if (!findSilhouettes || d.mode == PhotoMode::Object || photo.hasBackground || !fit.fits || !early.fits) return d;
+  // Would a silhouette that agrees decide otherwise? Only then is one looked for (a few tenths of a second).
+  CameraEvidence firstShown = first, allShown = all;
+  firstShown.silhouette = allShown.silhouette = 1;
+  if (decidePhotoMode(firstShown, allShown, o).mode != PhotoMode::Object) return d;
+  const FoundSilhouette found = findSilhouette(mesh, photo, fit.camera, fit.thresholdPx);
+  if (!found.found) return d;
+  first.silhouette = outlineAgreement(mesh, early.camera, found.mask);
+  all.silhouette = outlineAgreement(mesh, fit.camera, found.mask);
+  d = decidePhotoMode(first, all, o);
+  d.why += " (the silhouette found around the mesh's outline; the photo has no cut-out)";
+  return d;
 }
 
 Vec2 ImageWarp::apply(const Vec2& x) const {

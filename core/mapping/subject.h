@@ -80,9 +80,12 @@ ModeDecision decidePhotoMode(const CameraEvidence& first, const CameraEvidence& 
                              const SubjectOptions& options = {});
 // The same from the photo's clicks (in point order) and `fit`, the object fit of all of them: fits a camera to its
 // first decisionClicks clicks and weighs both (what the camera stage does for an auto photo).
+// `findSilhouettes`: a photo without a cut-out that the clicks alone leave for another subject, where a silhouette
+// that agrees would make it the object itself, takes the silhouette found around the mesh's outline through `fit`'s
+// camera (found_silhouette.h) as a cut-out's; when none is found, the clicks alone decide.
 ModeDecision decidePhotoMode(const Mesh& mesh, const Photo& photo, const std::vector<CameraClick>& clicks,
                              const CameraFit& fit, const CameraFitOptions& fitOptions,
-                             const SubjectOptions& options = {});
+                             const SubjectOptions& options = {}, bool findSilhouettes = false);
 
 // A moving-least-squares deformation of the photo plane: handle i moves from `from[i]` to `to[i]`; every point
 // moves by the affine (or similarity) map that best moves the handles, each weighted by 1 / |from[i] - x|^(2

@@ -43,8 +43,8 @@ double outlineAgreement(const Mesh& mesh, const PhotoCamera& camera, const cv::M
 namespace {
 
 // A soft edge for a binary cut-out: each pixel on either side of its edge takes the alpha that unmixes its colour
-// between the foreground's and the background's nearby (the mean colours 2-5 px inside and outside it, in a 9 x 9
-// window), alpha = (c - B).(F - B) / |F - B|^2, where the two differ enough to tell (a plain matting step, after
+// between the foreground's and the background's nearby (the mean colours of the pixels at least 2 px inside and
+// outside the edge, in the 9 x 9 window around it), alpha = (c - B).(F - B) / |F - B|^2, where the two differ enough to tell (a plain matting step, after
 // Chuang et al. 2001's compositing model with the colours known). The silhouette's distance reads the edge where
 // alpha crosses 1/2: within a pixel's fraction, where the binary cut's staircase is half a pixel off either way.
 // `rgb` and `binary` are of one size (the photo's stored pixels).
@@ -53,12 +53,12 @@ cv::Mat softEdge(const cv::Mat& rgb, const cv::Mat& binary) {
   const double unit = rgb.depth() == CV_8U ? 1.0 / 255 : rgb.depth() == CV_16U ? 1.0 / 65535 : 1.0;
   rgb.convertTo(colour, CV_32FC3, unit);
   cv::Mat inner, outer, near;
-  const cv::Mat cross = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3));
-  cv::erode(binary, inner, cross, cv::Point(-1, -1), 2);
-  cv::erode(binary == 0, outer, cross, cv::Point(-1, -1), 2);
+  const cv::Mat square = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3));
+  cv::erode(binary, inner, square, cv::Point(-1, -1), 2);
+  cv::erode(binary == 0, outer, square, cv::Point(-1, -1), 2);
   cv::Mat shrunk, grown;
-  cv::erode(binary, shrunk, cross);
-  cv::dilate(binary, grown, cross);
+  cv::erode(binary, shrunk, square);
+  cv::dilate(binary, grown, square);
   near = grown != shrunk;  // the pixels on either side of the edge
   const auto meanOver = [&](const cv::Mat& where, cv::Mat& mean, cv::Mat& weight) {
     cv::Mat w, masked;

@@ -279,6 +279,8 @@ std::string Editor::cameraCaption(int photo) const {
     std::snprintf(text, sizeof text, ", clicks' noise %.2f px", fit->noisePx);
     caption += text;
   }
+  // A photo without a cut-out whose camera was refined on the silhouette found around the mesh's outline.
+  if (fit->silhouetteFound) caption += ", on the silhouette found";
   return caption;
 }
 

@@ -33,11 +33,20 @@ cv::Mat projectedCoverage(const Mesh& mesh, const PhotoCamera& camera) {
   return out;
 }
 
+namespace {
+
+// Intersection over union of two masks of one size (> 127: inside).
+double overlap(const cv::Mat& a, const cv::Mat& b) {
+  const cv::Mat x = a > 127, y = b > 127;
+  return double(cv::countNonZero(x & y)) / std::max(1, cv::countNonZero(x | y));
+}
+
+}  // namespace
+
 double outlineAgreement(const Mesh& mesh, const PhotoCamera& camera, const cv::Mat& mask) {
   cv::Mat coverage = projectedCoverage(mesh, camera);
   if (coverage.size() != mask.size()) cv::resize(coverage, coverage, mask.size(), 0, 0, cv::INTER_AREA);
-  const cv::Mat a = coverage > 127, b = mask > 127;
-  return double(cv::countNonZero(a & b)) / std::max(1, cv::countNonZero(a | b));
+  return overlap(coverage, mask);
 }
 
 namespace {
@@ -121,8 +130,7 @@ FoundSilhouette findSilhouette(const Mesh& mesh, const Photo& photo, const Photo
   Cutout cut(photo.rgb, o.cutout, cv::Size(photo.width, photo.height));
   cut.startFromTrimap(labels);
   const cv::Mat mask = cut.binaryMask();
-  const int both = cv::countNonZero(mask & coverage), either = cv::countNonZero(mask | coverage);
-  out.iou = either > 0 ? double(both) / either : 0;
+  out.iou = overlap(mask, coverage);
   // The found edge, and how much of it runs along the band's limits.
   cv::Mat shrunk;
   cv::erode(mask, shrunk, cv::Mat());
